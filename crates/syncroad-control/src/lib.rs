@@ -1,0 +1,1 @@
+//! Velocity-synchronization laws for microscopic traffic (placeholder, filled in by the foundation work).

@@ -1,0 +1,1 @@
+//! SUMO co-simulation for syncroad (placeholder).
