@@ -1,1 +1,33 @@
-//! Velocity-synchronization laws for microscopic traffic (placeholder, filled in by the foundation work).
+//! # syncroad-control
+//!
+//! Velocity synchronization of vehicles after Proskurnikov & Mazo, "Simple synchronization
+//! protocols for heterogeneous networks: beyond passivity". Pure Rust, no Python.
+//!
+//! Layers, bottom up:
+//! * [`graph`] — weighted directed interaction graphs `G[A]`, degrees, connectivity, Laplacian;
+//! * [`scenario`] — scenario files and their validation;
+//! * [`delayed_driver`], [`cacc`] — the laws (eq. `chandler+`; eqs. `veh-proto1/2`), one step
+//!   at a time, usable by any backend;
+//! * [`theory`], [`ifp`], [`poly`] — the paper's sufficient conditions and the IFP index;
+//! * [`native`] — the fixed-step simulator; [`metrics`] — the synchronization verdict.
+#![warn(missing_docs)]
+
+pub mod cacc;
+pub mod delayed_driver;
+pub mod graph;
+pub mod ifp;
+pub mod metrics;
+pub mod native;
+pub mod poly;
+pub mod rng;
+pub mod scenario;
+pub mod theory;
+pub mod trajectory;
+
+pub use cacc::{CaccLaw, PlatoonView, PowertrainLag};
+pub use delayed_driver::DelayedDriverLaw;
+pub use graph::{Arc, Graph};
+pub use metrics::{sync_metrics, SyncMetrics, Verdict, VerdictThresholds};
+pub use native::{simulate, NativeOptions, NativeRun, StopReason};
+pub use scenario::{Scenario, ScenarioError, ScenarioFile};
+pub use trajectory::Trajectory;

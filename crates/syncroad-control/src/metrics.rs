@@ -1,0 +1,261 @@
+//! Synchronization metrics and the verdict.
+//!
+//! * `spread(t) = max_ij |v_i(t) − v_j(t)|` without a leader (eq. `sync`), and
+//!   `max_i |v_i(t) − v_0(t)|` with one (eq. `sync1`);
+//! * its L2 norm `(∫ spread² dt)^{1/2}` (eq. `sync+`, trapezoidal rule over the samples);
+//! * the final spread, the time after which the spread stays within the tolerance, and the
+//!   exponential decay rate fitted to `ln spread` over the second half of the run.
+
+use serde::Serialize;
+
+use crate::trajectory::Trajectory;
+
+/// Outcome of a run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    /// The spread stayed within the tolerance over the final window.
+    Synchronized,
+    /// The spread did not decay (or the run diverged).
+    NotSynchronized,
+    /// The spread decays but had not reached the tolerance by the horizon.
+    Inconclusive,
+}
+
+impl std::fmt::Display for Verdict {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Verdict::Synchronized => "synchronized",
+            Verdict::NotSynchronized => "not synchronized",
+            Verdict::Inconclusive => "inconclusive",
+        })
+    }
+}
+
+/// Thresholds of the verdict.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct VerdictThresholds {
+    /// Spread tolerance [m/s].
+    pub tolerance_mps: f64,
+    /// Final window [s].
+    pub window_s: f64,
+}
+
+/// Synchronization metrics of one run.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SyncMetrics {
+    /// Whether the spread is taken against the leader speed v_0.
+    pub against_leader: bool,
+    /// Spread at t = 0 [m/s].
+    pub initial_spread_mps: f64,
+    /// Spread at the last sample [m/s].
+    pub final_spread_mps: f64,
+    /// Largest spread over the final window [m/s].
+    pub window_max_spread_mps: f64,
+    /// Largest spread over the run [m/s].
+    pub max_spread_mps: f64,
+    /// `(∫ spread² dt)^{1/2}` [m/s·√s].
+    pub spread_l2: f64,
+    /// First time after which the spread stays ≤ tolerance [s], if it does.
+    pub time_to_tolerance_s: Option<f64>,
+    /// Fitted exponential rate of `spread ~ e^{rate·t}` over the second half [1/s]
+    /// (negative = decaying), if enough samples lie above round-off.
+    pub decay_rate_per_s: Option<f64>,
+    /// Largest |gap − desired gap| at the last sample [m], for platoons.
+    pub final_gap_error_m: Option<f64>,
+    /// The verdict.
+    pub verdict: Verdict,
+    /// Thresholds used.
+    pub thresholds: VerdictThresholds,
+    /// True when the run stopped before its horizon.
+    pub incomplete: bool,
+}
+
+/// Spread of sample `k`.
+pub fn spread_at(traj: &Trajectory, k: usize) -> f64 {
+    let v = traj.speeds(k);
+    match traj.leader(k) {
+        Some(v0) => v.iter().map(|x| (x - v0).abs()).fold(0.0, f64::max),
+        None => {
+            let (lo, hi) = v
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| {
+                    (lo.min(x), hi.max(x))
+                });
+            hi - lo
+        }
+    }
+}
+
+/// Spread over all samples.
+pub fn spread_series(traj: &Trajectory) -> Vec<f64> {
+    (0..traj.len()).map(|k| spread_at(traj, k)).collect()
+}
+
+/// Least-squares slope of `ln y` against `t` over the samples with `y > floor`.
+pub fn fit_decay_rate(t: &[f64], y: &[f64], floor: f64) -> Option<f64> {
+    let pts: Vec<(f64, f64)> = t
+        .iter()
+        .zip(y)
+        .filter(|(_, &y)| y > floor && y.is_finite())
+        .map(|(&t, &y)| (t, y.ln()))
+        .collect();
+    if pts.len() < 3 {
+        return None;
+    }
+    let m = pts.len() as f64;
+    let (st, sy) = pts.iter().fold((0.0, 0.0), |(a, b), (t, y)| (a + t, b + y));
+    let (mt, my) = (st / m, sy / m);
+    let (mut sxx, mut sxy) = (0.0, 0.0);
+    for (t, y) in &pts {
+        sxx += (t - mt) * (t - mt);
+        sxy += (t - mt) * (y - my);
+    }
+    (sxx > 0.0).then(|| sxy / sxx)
+}
+
+/// Computes the metrics and verdict; `desired_gaps` enables the platoon gap error;
+/// `incomplete` marks runs that stopped early (they are never "synchronized").
+pub fn sync_metrics(
+    traj: &Trajectory,
+    thresholds: VerdictThresholds,
+    desired_gaps: Option<&[f64]>,
+    incomplete: bool,
+) -> SyncMetrics {
+    let s = spread_series(traj);
+    let t = &traj.time_s;
+    let last = s.len().saturating_sub(1);
+    let t_end = t.last().copied().unwrap_or(0.0);
+    let mut l2 = 0.0;
+    for k in 1..s.len() {
+        l2 += 0.5 * (t[k] - t[k - 1]) * (s[k] * s[k] + s[k - 1] * s[k - 1]);
+    }
+    let window_start = t_end - thresholds.window_s;
+    let window_max = t
+        .iter()
+        .zip(&s)
+        .filter(|(&tk, _)| tk >= window_start - 1e-9)
+        .map(|(_, &x)| x)
+        .fold(0.0, f64::max);
+    let max_spread = s.iter().copied().fold(0.0, f64::max);
+    let time_to_tol = match s.iter().rposition(|&x| !(x <= thresholds.tolerance_mps)) {
+        None => Some(0.0),
+        Some(k) if k < last => Some(t[k + 1]),
+        Some(_) => None,
+    };
+    let half = s.len() / 2;
+    // Fit only above a floor well clear of round-off relative to the initial spread.
+    let floor = 1e-10 * s.first().copied().unwrap_or(1.0).max(1e-300);
+    let rate = fit_decay_rate(&t[half..], &s[half..], floor);
+    let final_gap_error = desired_gaps.filter(|_| !traj.is_empty()).map(|d| {
+        traj.gaps(last)
+            .iter()
+            .zip(d)
+            .map(|(g, d)| (g - d).abs())
+            .fold(0.0, f64::max)
+    });
+    let diverged = s.iter().any(|x| !x.is_finite());
+    let verdict = if incomplete || diverged {
+        Verdict::NotSynchronized
+    } else if window_max <= thresholds.tolerance_mps {
+        Verdict::Synchronized
+    } else if rate.is_none_or(|r| r >= -1e-3) {
+        Verdict::NotSynchronized
+    } else {
+        Verdict::Inconclusive
+    };
+    SyncMetrics {
+        against_leader: !traj.leader_speed_mps.is_empty(),
+        initial_spread_mps: s.first().copied().unwrap_or(0.0),
+        final_spread_mps: s.get(last).copied().unwrap_or(0.0),
+        window_max_spread_mps: window_max,
+        max_spread_mps: max_spread,
+        spread_l2: l2.sqrt(),
+        time_to_tolerance_s: time_to_tol,
+        decay_rate_per_s: rate,
+        final_gap_error_m: final_gap_error,
+        verdict,
+        thresholds,
+        incomplete,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    fn traj_from(f: impl Fn(f64) -> f64, t_end: f64, dt: f64) -> Trajectory {
+        let mut tr = Trajectory::new(2);
+        let steps = (t_end / dt).round() as usize;
+        for k in 0..=steps {
+            let t = k as f64 * dt;
+            let d = f(t);
+            tr.push(
+                t,
+                &[10.0 + d / 2.0, 10.0 - d / 2.0],
+                &[0.0, 0.0],
+                &[0.0, 0.0],
+                None,
+            );
+        }
+        tr
+    }
+
+    const TH: VerdictThresholds = VerdictThresholds {
+        tolerance_mps: 0.05,
+        window_s: 5.0,
+    };
+
+    #[test]
+    fn exponential_decay_is_fitted_and_integrated_exactly() {
+        // spread = 2 e^{−0.3 t}: rate −0.3, L2² = 4/(0.6) (1 − e^{−0.6·40}), time to 0.05 = ln(40)/0.3.
+        let tr = traj_from(|t| 2.0 * (-0.3 * t).exp(), 40.0, 0.01);
+        let m = sync_metrics(&tr, TH, None, false);
+        assert_relative_eq!(m.decay_rate_per_s.unwrap(), -0.3, epsilon = 1e-9);
+        assert_relative_eq!(
+            m.spread_l2,
+            (4.0 / 0.6 * (1.0 - (-24.0f64).exp())).sqrt(),
+            max_relative = 1e-4
+        );
+        assert_relative_eq!(
+            m.time_to_tolerance_s.unwrap(),
+            40f64.ln() / 0.3,
+            epsilon = 0.011
+        );
+        assert_eq!(m.verdict, Verdict::Synchronized);
+    }
+
+    #[test]
+    fn growing_oscillation_is_not_synchronized() {
+        let tr = traj_from(
+            |t| 0.1 * (0.05 * t).exp() * (1.0 + 0.5 * (2.0 * t).sin()),
+            60.0,
+            0.05,
+        );
+        let m = sync_metrics(&tr, TH, None, false);
+        assert_eq!(m.verdict, Verdict::NotSynchronized);
+        assert!(m.decay_rate_per_s.unwrap() > 0.0);
+        assert_eq!(m.time_to_tolerance_s, None);
+    }
+
+    #[test]
+    fn slow_decay_is_inconclusive() {
+        let tr = traj_from(|t| 5.0 * (-0.05 * t).exp(), 20.0, 0.05);
+        let m = sync_metrics(&tr, TH, None, false);
+        assert_eq!(m.verdict, Verdict::Inconclusive);
+    }
+
+    #[test]
+    fn incomplete_runs_are_never_synchronized() {
+        let tr = traj_from(|_| 0.0, 10.0, 0.1);
+        assert_eq!(
+            sync_metrics(&tr, TH, None, false).verdict,
+            Verdict::Synchronized
+        );
+        assert_eq!(
+            sync_metrics(&tr, TH, None, true).verdict,
+            Verdict::NotSynchronized
+        );
+    }
+}

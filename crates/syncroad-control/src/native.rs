@@ -1,0 +1,289 @@
+//! The native fixed-step simulator: runs a validated [`Scenario`] with the same law objects
+//! the SUMO loop uses, and records a [`Trajectory`].
+//!
+//! * Delayed drivers: speeds from [`DelayedDriverLaw::step`] (second order on the step grid),
+//!   positions by the trapezoidal rule.
+//! * CACC: the closed loop `q' = v, v' = a, τ a' = a_des(q, v)` integrated by the classical
+//!   fourth-order Runge–Kutta method with the law evaluated at every stage.
+
+use serde::Serialize;
+
+use crate::cacc::{CaccLaw, PlatoonView};
+use crate::delayed_driver::DelayedDriverLaw;
+use crate::scenario::{Model, Scenario};
+use crate::trajectory::Trajectory;
+
+/// Speeds beyond this magnitude [m/s] count as divergence.
+pub const DIVERGENCE_MPS: f64 = 1e6;
+
+/// Why a run stopped.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "reason", rename_all = "snake_case")]
+pub enum StopReason {
+    /// The horizon was reached.
+    Horizon,
+    /// A speed became non-finite or exceeded [`DIVERGENCE_MPS`].
+    Diverged {
+        /// Step index.
+        step: usize,
+        /// Vehicle index.
+        vehicle: usize,
+        /// Time [s].
+        time_s: f64,
+    },
+}
+
+/// Options of a native run.
+#[derive(Debug, Clone, Copy)]
+pub struct NativeOptions {
+    /// Record every k-th step (1 = every step).
+    pub record_every: usize,
+}
+
+impl Default for NativeOptions {
+    fn default() -> Self {
+        Self { record_every: 1 }
+    }
+}
+
+/// Result of a native run.
+#[derive(Debug, Clone)]
+pub struct NativeRun {
+    /// Recorded samples.
+    pub trajectory: Trajectory,
+    /// Why the run stopped.
+    pub stop: StopReason,
+}
+
+/// Initial unwrapped positions (rear bumpers) from the gaps: vehicle 0 at 0 (or behind the
+/// leader at `leader_position_m`), each next vehicle one length plus one gap further back.
+pub fn initial_positions(scenario: &Scenario, leader_position_m: Option<f64>) -> Vec<f64> {
+    let n = scenario.n;
+    let mut q = vec![0.0; n];
+    let (l, g) = (&scenario.length_m, &scenario.initial_gap_m);
+    q[0] = match leader_position_m {
+        Some(q0) => q0 - l[0] - g[0],
+        None => 0.0,
+    };
+    for i in 1..n {
+        q[i] = q[i - 1] - l[i] - g[i];
+    }
+    q
+}
+
+fn gaps_from_positions(
+    q: &[f64],
+    length: &[f64],
+    front: Option<f64>,
+    ring_m: Option<f64>,
+    out: &mut [f64],
+) {
+    let n = q.len();
+    for i in 0..n {
+        out[i] = if i > 0 {
+            q[i - 1] - q[i] - length[i]
+        } else if let Some(f) = front {
+            f - q[0] - length[0]
+        } else if let Some(c) = ring_m {
+            // Vehicle 0 follows vehicle N−1, one lap ahead in unwrapped coordinates.
+            q[n - 1] + c - q[0] - length[0]
+        } else {
+            f64::NAN
+        };
+    }
+}
+
+fn check(v: &[f64], step: usize, dt: f64) -> Option<StopReason> {
+    v.iter()
+        .position(|x| !(x.abs() < DIVERGENCE_MPS))
+        .map(|vehicle| StopReason::Diverged {
+            step,
+            vehicle,
+            time_s: step as f64 * dt,
+        })
+}
+
+/// Runs the scenario on the native simulator.
+pub fn simulate(scenario: &Scenario, opts: NativeOptions) -> NativeRun {
+    match &scenario.model {
+        Model::DelayedDriver(m) => {
+            let b = m.leader.as_ref().map(|(_, b)| b.as_slice());
+            let v0 = m.leader.as_ref().map(|(v0, _)| *v0);
+            let law = DelayedDriverLaw::new(
+                &m.graph,
+                &m.delay_steps,
+                scenario.step_s,
+                b,
+                &scenario.initial_speed_mps,
+                v0,
+                m.history,
+            )
+            .expect("a validated scenario builds its law");
+            simulate_delayed(scenario, law, v0, opts)
+        }
+        Model::Cacc(_) => simulate_cacc(scenario, opts),
+    }
+}
+
+fn ring_length(scenario: &Scenario) -> Option<f64> {
+    match scenario.file.road {
+        crate::scenario::RoadSpec::Ring { length_m } => Some(length_m),
+        crate::scenario::RoadSpec::Straight { .. } => None,
+    }
+}
+
+fn simulate_delayed(
+    scenario: &Scenario,
+    mut law: DelayedDriverLaw,
+    v0: Option<f64>,
+    opts: NativeOptions,
+) -> NativeRun {
+    let n = scenario.n;
+    let dt = scenario.step_s;
+    let ring = ring_length(scenario);
+    // With a leader, the leader starts one gap ahead of vehicle 0 and drives at v_0.
+    let mut leader_q = v0.map(|_| scenario.length_m[0] + scenario.initial_gap_m[0]);
+    let mut q = initial_positions(scenario, leader_q);
+    let mut v = scenario.initial_speed_mps.clone();
+    let mut next = vec![0.0; n];
+    let mut gaps = vec![0.0; n];
+    let mut traj = Trajectory::new(n);
+    let every = opts.record_every.max(1);
+    gaps_from_positions(&q, &scenario.length_m, leader_q, ring, &mut gaps);
+    traj.push(0.0, &v, &q, &gaps, v0);
+    let mut stop = StopReason::Horizon;
+    for step in 0..scenario.steps {
+        law.step(&v, v0.unwrap_or(0.0), &mut next);
+        if let Some(s) = check(&next, step + 1, dt) {
+            stop = s;
+            break;
+        }
+        for i in 0..n {
+            q[i] += 0.5 * dt * (v[i] + next[i]);
+        }
+        if let (Some(lq), Some(s)) = (leader_q.as_mut(), v0) {
+            *lq += s * dt;
+        }
+        std::mem::swap(&mut v, &mut next);
+        if (step + 1) % every == 0 || step + 1 == scenario.steps {
+            gaps_from_positions(&q, &scenario.length_m, leader_q, ring, &mut gaps);
+            traj.push((step + 1) as f64 * dt, &v, &q, &gaps, v0);
+        }
+    }
+    NativeRun {
+        trajectory: traj,
+        stop,
+    }
+}
+
+/// Speed-only fast path for benchmarks: `steps` steps of the law on `v`, nothing recorded.
+pub fn run_speeds_only(law: &mut DelayedDriverLaw, v: &mut Vec<f64>, steps: usize) {
+    let mut next = vec![0.0; v.len()];
+    for _ in 0..steps {
+        law.step(v, 0.0, &mut next);
+        std::mem::swap(v, &mut next);
+    }
+}
+
+fn simulate_cacc(scenario: &Scenario, opts: NativeOptions) -> NativeRun {
+    let Model::Cacc(m) = &scenario.model else {
+        unreachable!("called for CACC models only")
+    };
+    let law = CaccLaw::new(m);
+    let n = scenario.n;
+    let dt = scenario.step_s;
+    let mut q0 = 0.0;
+    // Follower 1 starts one length plus its gap behind the leader's rear bumper.
+    let mut q = initial_positions(scenario, Some(q0));
+    let mut v = scenario.initial_speed_mps.clone();
+    let mut a = vec![0.0; n];
+    let tau = &m.tau_s;
+    let profile = &m.leader;
+    let mut gaps = vec![0.0; n];
+    let mut traj = Trajectory::new(n);
+    gaps_from_positions(&q, &m.length_m, Some(q0), None, &mut gaps);
+    traj.push(0.0, &v, &q, &gaps, Some(profile.speed_at(0.0)));
+    let every = opts.record_every.max(1);
+    let mut ades = vec![0.0; n];
+    // Derivative of (q, v, a) at time t with leader (q0, v0).
+    let deriv = |t: f64,
+                 q0: f64,
+                 q: &[f64],
+                 v: &[f64],
+                 a: &[f64],
+                 dq: &mut [f64],
+                 dv: &mut [f64],
+                 da: &mut [f64],
+                 ades: &mut [f64]| {
+        let view = PlatoonView {
+            leader_position_m: q0,
+            leader_speed_mps: profile.speed_at(t),
+            positions_m: q,
+            speeds_mps: v,
+        };
+        law.desired_accelerations(&view, ades);
+        for i in 0..q.len() {
+            dq[i] = v[i];
+            dv[i] = a[i];
+            da[i] = (ades[i] - a[i]) / tau[i];
+        }
+    };
+    // Leader position by exact integration of its (piecewise-linear) speed over each stage.
+    let leader_pos =
+        |t0: f64, q0: f64, h: f64| q0 + 0.5 * h * (profile.speed_at(t0) + profile.speed_at(t0 + h));
+    let mut k = vec![vec![0.0; 3 * n]; 4];
+    let mut tmp = vec![0.0; 3 * n];
+    let mut stop = StopReason::Horizon;
+    for step in 0..scenario.steps {
+        let t = step as f64 * dt;
+        let stages = [(0.0, 0usize), (0.5, 0), (0.5, 1), (1.0, 2)];
+        for (s, &(c, from)) in stages.iter().enumerate() {
+            for i in 0..n {
+                let (dq, dv, da) = if s == 0 {
+                    (0.0, 0.0, 0.0)
+                } else {
+                    (k[from][i], k[from][n + i], k[from][2 * n + i])
+                };
+                tmp[i] = q[i] + c * dt * dq;
+                tmp[n + i] = v[i] + c * dt * dv;
+                tmp[2 * n + i] = a[i] + c * dt * da;
+            }
+            let lq = leader_pos(t, q0, c * dt);
+            let (kq, rest) = k[s].split_at_mut(n);
+            let (kv, ka) = rest.split_at_mut(n);
+            deriv(
+                t + c * dt,
+                lq,
+                &tmp[..n],
+                &tmp[n..2 * n],
+                &tmp[2 * n..],
+                kq,
+                kv,
+                ka,
+                &mut ades,
+            );
+        }
+        for i in 0..3 * n {
+            let inc = dt / 6.0 * (k[0][i] + 2.0 * k[1][i] + 2.0 * k[2][i] + k[3][i]);
+            match i / n {
+                0 => q[i] += inc,
+                1 => v[i - n] += inc,
+                _ => a[i - 2 * n] += inc,
+            }
+        }
+        q0 = leader_pos(t, q0, dt);
+        if let Some(s) = check(&v, step + 1, dt) {
+            stop = s;
+            break;
+        }
+        if (step + 1) % every == 0 || step + 1 == scenario.steps {
+            gaps_from_positions(&q, &m.length_m, Some(q0), None, &mut gaps);
+            let t1 = (step + 1) as f64 * dt;
+            traj.push(t1, &v, &q, &gaps, Some(profile.speed_at(t1)));
+        }
+    }
+    NativeRun {
+        trajectory: traj,
+        stop,
+    }
+}
