@@ -16,6 +16,7 @@ pub mod cacc;
 pub mod delayed_driver;
 pub mod graph;
 pub mod ifp;
+pub mod lti_network;
 pub mod metrics;
 pub mod native;
 pub mod poly;

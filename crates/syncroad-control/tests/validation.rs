@@ -1,0 +1,155 @@
+//! Bad scenarios are rejected before any simulation, with messages naming field, value and fix.
+
+use syncroad_control::scenario::Scenario;
+
+fn base(model: &str, extra: &str) -> String {
+    format!(
+        r#"{{"seed": 1, "step_s": 0.1, "horizon_s": 10, "vehicles": 4,
+            "road": {{"type": "ring", "length_m": 100}}, "model": {model} {extra}}}"#
+    )
+}
+
+const RING: &str = r#"{"type": "delayed_driver", "graph": {"type": "unidirectional_ring", "gain": 0.5}, "delay_s": 0.3}"#;
+
+fn err(json: &str) -> String {
+    Scenario::from_json(json)
+        .expect_err("scenario must be rejected")
+        .to_string()
+}
+
+#[test]
+fn valid_base_scenario_is_accepted() {
+    let s = Scenario::from_json(&base(RING, "")).unwrap();
+    assert_eq!(s.n, 4);
+    assert_eq!(s.steps, 100);
+    // Even spacing: 100 m ring, 4 vehicles of 5 m → 20 m gaps.
+    assert!(s.initial_gap_m.iter().all(|g| (g - 20.0).abs() < 1e-12));
+}
+
+#[test]
+fn delay_off_the_step_grid() {
+    let e = err(&base(
+        r#"{"type": "delayed_driver", "graph": {"type": "unidirectional_ring", "gain": 0.5}, "delay_s": [0.3, 0.3, 0.35, 0.3]}"#,
+        "",
+    ));
+    assert!(
+        e.starts_with("model.delay_s[2] = 0.35 s is not a whole multiple of step_s = 0.1 s"),
+        "{e}"
+    );
+    assert!(e.contains("(e.g. 0.4 s)"), "{e}");
+}
+
+#[test]
+fn negative_delay_and_nonfinite_gain() {
+    let e = err(&base(
+        r#"{"type": "delayed_driver", "graph": {"type": "unidirectional_ring", "gain": 0.5}, "delay_s": -0.1}"#,
+        "",
+    ));
+    assert_eq!(e, "model.delay_s[0] = -0.1: must be ≥ 0");
+    let e = err(&base(
+        r#"{"type": "delayed_driver", "graph": {"type": "unidirectional_ring", "gain": [0.5, 0.5, -1, 0.5]}, "delay_s": 0.1}"#,
+        "",
+    ));
+    assert_eq!(e, "model.graph.gain[2] = -1: must be > 0");
+}
+
+#[test]
+fn list_length_mismatch() {
+    let e = err(&base(
+        r#"{"type": "delayed_driver", "graph": {"type": "unidirectional_ring", "gain": 0.5}, "delay_s": [0.1, 0.2]}"#,
+        "",
+    ));
+    assert_eq!(e, "model.delay_s has 2 entries but the scenario has 4 vehicles; give one value per vehicle or a single number");
+}
+
+#[test]
+fn self_loop_and_unknown_vehicle_in_edges() {
+    let e = err(&base(
+        r#"{"type": "delayed_driver", "graph": {"type": "edges", "edges": [{"from": 1, "to": 1, "weight": 1}]}, "delay_s": 0.1}"#,
+        "",
+    ));
+    assert_eq!(
+        e,
+        "model.graph.edges[0] = 1 -> 1: self-loops are not allowed (a_ii = 0)"
+    );
+    let e = err(&base(
+        r#"{"type": "delayed_driver", "graph": {"type": "edges", "edges": [{"from": 0, "to": 9, "weight": 1}]}, "delay_s": 0.1}"#,
+        "",
+    ));
+    assert_eq!(
+        e,
+        "model.graph.edges[0] = 0 -> 9: vehicle indices must be in 0..4 (there are 4 vehicles)"
+    );
+    let e = err(&base(
+        r#"{"type": "delayed_driver", "graph": {"type": "matrix", "a": [[1,0,0,0],[0,0,0,0],[0,0,0,0],[0,0,0,0]]}, "delay_s": 0.1}"#,
+        "",
+    ));
+    assert_eq!(
+        e,
+        "model.graph.a[0][0] = 1: diagonal entries must be 0 (no self-loops)"
+    );
+}
+
+#[test]
+fn zero_vehicles_zero_horizon_and_bad_step() {
+    let e = err(&base(RING, "").replace(r#""vehicles": 4"#, r#""vehicles": 0"#));
+    assert_eq!(e, "vehicles = 0: must be ≥ 1");
+    let e = err(&base(RING, "").replace(r#""horizon_s": 10"#, r#""horizon_s": 0"#));
+    assert_eq!(e, "horizon_s = 0: must be a finite number > 0");
+    let e = err(&base(RING, "").replace(r#""step_s": 0.1"#, r#""step_s": -1"#));
+    assert!(
+        e.starts_with("step_s = -1: must be a finite number in (0, 1] s"),
+        "{e}"
+    );
+}
+
+#[test]
+fn unknown_fields_are_rejected_with_position() {
+    let e = err(&base(RING, r#", "horizn_s": 3"#));
+    assert!(e.contains("unknown field `horizn_s`"), "{e}");
+    assert!(e.contains("line"), "{e}");
+}
+
+#[test]
+fn overfull_ring_is_rejected() {
+    // 4 vehicles of 5 m cannot fit on a 15 m ring.
+    let e = err(&base(RING, "").replace(r#""length_m": 100"#, r#""length_m": 15"#));
+    assert!(
+        e.starts_with("initial.gap_m[0] = -1.25: the gap (after perturbation) must be ≥ 0"),
+        "{e}"
+    );
+}
+
+#[test]
+fn cacc_needs_a_straight_road_and_positive_gains() {
+    let cacc = r#"{"type": "cacc", "mu": 1, "eta": 0.1, "nu": 0.1, "desired_gap_m": 10, "tau_s": 0.3, "leader": {"type": "constant", "speed_mps": 20}}"#;
+    let e = err(&base(cacc, ""));
+    assert!(
+        e.starts_with("road.type = ring: a CACC platoon drives behind its leader"),
+        "{e}"
+    );
+    let straight = base(cacc, "").replace(
+        r#"{"type": "ring", "length_m": 100}"#,
+        r#"{"type": "straight"}"#,
+    );
+    assert!(Scenario::from_json(&straight).is_ok());
+    let e = err(&straight.replace(r#""mu": 1"#, r#""mu": 0"#));
+    assert_eq!(e, "model.mu[0] = 0: must be > 0");
+}
+
+#[test]
+fn same_seed_same_initial_state_other_seed_differs() {
+    let j = base(
+        RING,
+        r#", "initial": {"perturbation": {"speed_mps": 1.0, "gap_m": 2.0}}"#,
+    );
+    let a = Scenario::from_json(&j).unwrap();
+    let b = Scenario::from_json(&j).unwrap();
+    assert_eq!(a.initial_speed_mps, b.initial_speed_mps);
+    assert_eq!(a.initial_gap_m, b.initial_gap_m);
+    let c = Scenario::from_json(&j.replace(r#""seed": 1"#, r#""seed": 2"#)).unwrap();
+    assert_ne!(a.initial_speed_mps, c.initial_speed_mps);
+    // Perturbed gaps still close the ring.
+    let total: f64 = a.initial_gap_m.iter().sum::<f64>() + 4.0 * 5.0;
+    assert!((total - 100.0).abs() < 1e-9);
+}
