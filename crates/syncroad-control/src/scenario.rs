@@ -766,7 +766,7 @@ impl ScenarioFile {
                             vehicle: i,
                             delay_s: d,
                             step_s: self.step_s,
-                            nearest: m * self.step_s,
+                            nearest: (m.max(1.0) * self.step_s * 1e9).round() / 1e9,
                         });
                     }
                     delay_steps.push(m as usize);

@@ -36,7 +36,7 @@ fn delay_off_the_step_grid() {
         e.starts_with("model.delay_s[2] = 0.35 s is not a whole multiple of step_s = 0.1 s"),
         "{e}"
     );
-    assert!(e.contains("(e.g. 0.4 s)"), "{e}");
+    assert!(e.contains("(e.g. 0.3 s)"), "{e}");
 }
 
 #[test]
