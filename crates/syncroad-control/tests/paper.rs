@@ -198,12 +198,10 @@ fn native_simulator_is_second_order() {
                 .fold(0.0, f64::max),
         );
     }
+    eprintln!("errors at Δt = 0.1, 0.05, 0.025: {errs:?}");
     for w in errs.windows(2) {
         let order = (w[0] / w[1]).log2();
-        assert!(
-            (1.8..2.3).contains(&order),
-            "errors {errs:?}, observed order {order}"
-        );
+        assert!(order > 1.9, "errors {errs:?}, observed order {order}");
     }
 }
 

@@ -1,0 +1,147 @@
+//! Human-readable tables and the files a run writes (trajectories.csv, metrics.json).
+
+use std::fmt::Write as _;
+use std::io::BufWriter;
+use std::path::Path;
+
+use anyhow::Context;
+use serde_json::json;
+use syncroad_control::metrics::SyncMetrics;
+use syncroad_control::theory::{Binding, TheoryReport};
+use syncroad_control::{Scenario, StopReason, Trajectory};
+
+fn yes(b: bool) -> &'static str {
+    if b {
+        "yes"
+    } else {
+        "NO"
+    }
+}
+
+fn binding_line(out: &mut String, label: &str, b: &Binding) {
+    let _ = writeln!(
+        out,
+        "  {label:<38} vehicle {:>5}: {:.6} < {:.6}  (margin {:+.6})",
+        b.vehicle, b.value, b.bound, b.margin
+    );
+}
+
+/// The `syncroad check` table.
+pub fn theory_table(r: &TheoryReport) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "scenario {}: {} vehicles", r.scenario, r.vehicles);
+    let g = &r.graph;
+    let _ = writeln!(
+        s,
+        "graph: {} arcs, strongly connected: {}, spanning-tree root: {}",
+        g.arcs,
+        yes(g.strongly_connected),
+        g.spanning_tree_root.map_or("none".to_string(), |x| x.to_string())
+    );
+    if let Some(t) = &r.theorem1 {
+        let _ = writeln!(s, "\nTheorem 1 (strongly connected, α_j d_j^+ < 1/2): {}", if t.holds { "HOLDS" } else { "does not hold" });
+        let _ = writeln!(s, "  strongly connected                     {}", yes(t.strongly_connected));
+        binding_line(&mut s, "binding α_j d_j^+", &t.binding);
+        let _ = writeln!(s, "  largest gain scale c keeping it        {:.6}", t.max_gain_scale);
+        if let Some(p) = &t.left_null_vector {
+            let (lo, hi) = p.iter().fold((f64::INFINITY, 0.0f64), |(a, b), &x| (a.min(x), b.max(x)));
+            let _ = writeln!(s, "  left null vector p (Σp = 1)            min {lo:.6}, max {hi:.6}");
+        }
+    }
+    if let Some(t) = &r.theorem1_plus {
+        let _ = writeln!(s, "\nTheorem 1+ (α_j (d_j^+ + 2 b_j) < 1/2, Σ b_j > 0): {}", if t.holds { "HOLDS" } else { "does not hold" });
+        let _ = writeln!(s, "  strongly connected                     {}", yes(t.strongly_connected));
+        let _ = writeln!(s, "  Σ b_j                                  {:.6}", t.pinning_sum);
+        binding_line(&mut s, "binding α_j (d_j^+ + 2 b_j)", &t.binding);
+        let _ = writeln!(s, "  largest gain scale c keeping it        {:.6}", t.max_gain_scale);
+    }
+    if let Some(c) = &r.cacc {
+        let _ = writeln!(s, "\nCACC theorem (μ_i τ_i < 1/2, eq. constants-vehi): {}", if c.holds { "HOLDS" } else { "does not hold" });
+        binding_line(&mut s, "binding μ_i τ_i", &c.lag_binding);
+        binding_line(&mut s, "binding gain sum vs μ_i²/2", &c.gain_binding);
+        let (lo, hi) = c.ifp_index.iter().fold((f64::INFINITY, 0.0f64), |(a, b), &x| (a.min(x), b.max(x)));
+        let _ = writeln!(s, "  IFP index of the agents (Lemma)        min {lo:.6}, max {hi:.6}  (1/μ_i² when μ_i τ_i ≤ 1/2)");
+        if let Some(v) = &c.via_theorem1_plus {
+            let _ = writeln!(s, "  via Theorem 1+ with those indices      {}", yes(v.holds));
+        }
+    }
+    if let Some(c) = &r.chandler {
+        let _ = writeln!(
+            s,
+            "\nChandler (uniform predecessor following): 2αK = {:.6} {} 1  → {}",
+            c.two_alpha_k,
+            if c.holds { "<" } else { "≥" },
+            if c.holds { "holds" } else { "does not hold" }
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\nverdict: synchronization {}",
+        if r.certified {
+            "CERTIFIED by the paper's sufficient conditions"
+        } else {
+            "NOT certified (the conditions are sufficient, not necessary)"
+        }
+    );
+    s
+}
+
+fn opt(x: Option<f64>, unit: &str) -> String {
+    x.map_or("—".to_string(), |v| format!("{v:.6} {unit}"))
+}
+
+/// The summary printed after a run.
+pub fn metrics_table(sc: &Scenario, backend: &str, m: &SyncMetrics, stop: &StopReason, theory: &TheoryReport) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "scenario {} on {backend}: {} vehicles, {} s, Δt = {} s, seed {}", sc.name, sc.n, sc.horizon_s(), sc.step_s, sc.file.seed);
+    let vs = if m.against_leader { "max_i |v_i − v_0|" } else { "max_ij |v_i − v_j|" };
+    let _ = writeln!(s, "  spread {vs}: initial {:.6} m/s, final {:.3e} m/s, max {:.6} m/s", m.initial_spread_mps, m.final_spread_mps, m.max_spread_mps);
+    let _ = writeln!(s, "  spread over the final {} s       ≤ {:.3e} m/s (tolerance {} m/s)", m.thresholds.window_s, m.window_max_spread_mps, m.thresholds.tolerance_mps);
+    let _ = writeln!(s, "  L2 norm of the spread             {:.6} m/s·√s", m.spread_l2);
+    let _ = writeln!(s, "  time to tolerance                 {}", opt(m.time_to_tolerance_s, "s"));
+    let _ = writeln!(s, "  fitted decay rate                 {}", opt(m.decay_rate_per_s, "1/s"));
+    if m.final_gap_error_m.is_some() {
+        let _ = writeln!(s, "  final max |gap − s_i|             {}", opt(m.final_gap_error_m, "m"));
+    }
+    if let StopReason::Diverged { vehicle, time_s, .. } = stop {
+        let _ = writeln!(s, "  stopped early: speed of vehicle {vehicle} diverged at t = {time_s} s");
+    }
+    let _ = writeln!(s, "  certified by the paper's conditions: {}", yes(theory.certified));
+    let _ = writeln!(s, "verdict: {}", m.verdict);
+    s
+}
+
+/// Writes trajectories.csv and metrics.json (stamped with version, seed, scenario hash).
+#[allow(clippy::too_many_arguments)]
+pub fn write_run(
+    dir: &Path,
+    sc: &Scenario,
+    backend: &str,
+    traj: &Trajectory,
+    m: &SyncMetrics,
+    stop: &StopReason,
+    theory: &TheoryReport,
+    extra: Option<serde_json::Value>,
+) -> anyhow::Result<()> {
+    let csv = dir.join("trajectories.csv");
+    let f = std::fs::File::create(&csv).with_context(|| format!("cannot write {}", csv.display()))?;
+    traj.write_csv(BufWriter::new(f)).with_context(|| format!("cannot write {}", csv.display()))?;
+    let doc = json!({
+        "syncroad_version": env!("CARGO_PKG_VERSION"),
+        "scenario": sc.name,
+        "scenario_hash": sc.hash_hex(),
+        "seed": sc.file.seed,
+        "backend": backend,
+        "platform": format!("{}-{}", std::env::consts::ARCH, std::env::consts::OS),
+        "vehicles": sc.n,
+        "step_s": sc.step_s,
+        "horizon_s": sc.horizon_s(),
+        "stop": stop,
+        "certified": theory.certified,
+        "sync": m,
+        "extra": extra,
+    });
+    let path = dir.join("metrics.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&doc)? + "\n").with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(())
+}
