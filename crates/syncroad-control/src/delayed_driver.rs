@@ -200,7 +200,13 @@ impl DelayedDriverLaw {
         let slots = self.slots;
         let hist = &self.history;
         // Row index of u^{n−k} for k ≤ slots − 1.
-        let back = |k: usize| if head >= k { head - k } else { head + slots - k };
+        let back = |k: usize| {
+            if head >= k {
+                head - k
+            } else {
+                head + slots - k
+            }
+        };
         let step_n = self.steps_done;
         self.steps_done += 1;
         // With a jump at t = 0 (no-reaction history) the stencils may not straddle it: the
@@ -209,17 +215,27 @@ impl DelayedDriverLaw {
         for i in 0..n {
             let m = self.delay_steps[i];
             if startup && step_n < m + 2 {
-                next_mps[i] = speeds_mps[i] + h * startup_increment(step_n, m, |k| hist[back(k) * n + i]);
+                next_mps[i] =
+                    speeds_mps[i] + h * startup_increment(step_n, m, |k| hist[back(k) * n + i]);
             } else if m >= 2 {
                 // Rows of u^{n−m−1}, u^{n−m}, u^{n+1−m}, u^{n+2−m}.
                 let r0 = back(m + 1);
                 let r1 = if r0 + 1 == slots { 0 } else { r0 + 1 };
                 let r2 = if r1 + 1 == slots { 0 } else { r1 + 1 };
                 let r3 = if r2 + 1 == slots { 0 } else { r2 + 1 };
-                let (a, b, c, d) = (hist[r0 * n + i], hist[r1 * n + i], hist[r2 * n + i], hist[r3 * n + i]);
+                let (a, b, c, d) = (
+                    hist[r0 * n + i],
+                    hist[r1 * n + i],
+                    hist[r2 * n + i],
+                    hist[r3 * n + i],
+                );
                 next_mps[i] = speeds_mps[i] + h * (13.0 * (b + c) - (a + d)) * (1.0 / 24.0);
             } else if m == 1 {
-                let (a, b, c) = (hist[back(2) * n + i], hist[back(1) * n + i], hist[head * n + i]);
+                let (a, b, c) = (
+                    hist[back(2) * n + i],
+                    hist[back(1) * n + i],
+                    hist[head * n + i],
+                );
                 next_mps[i] = speeds_mps[i] + h * (8.0 * b + 5.0 * c - a) * (1.0 / 12.0);
             }
         }

@@ -138,7 +138,10 @@ pub fn sync_metrics(
         .map(|(_, &x)| x)
         .fold(0.0, f64::max);
     let max_spread = s.iter().copied().fold(0.0, f64::max);
-    let time_to_tol = match s.iter().rposition(|&x| !(x <= thresholds.tolerance_mps)) {
+    let time_to_tol = match s
+        .iter()
+        .rposition(|&x| x.is_nan() || x > thresholds.tolerance_mps)
+    {
         None => Some(0.0),
         Some(k) if k < last => Some(t[k + 1]),
         Some(_) => None,

@@ -95,7 +95,7 @@ fn gaps_from_positions(
 
 fn check(v: &[f64], step: usize, dt: f64) -> Option<StopReason> {
     v.iter()
-        .position(|x| !(x.abs() < DIVERGENCE_MPS))
+        .position(|x| !x.is_finite() || x.abs() >= DIVERGENCE_MPS)
         .map(|vehicle| StopReason::Diverged {
             step,
             vehicle,

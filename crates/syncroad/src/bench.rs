@@ -23,7 +23,9 @@ struct Ring {
 
 fn ring(n: usize) -> Ring {
     let mut rng = SplitMix64::new(2026);
-    let delays_s = (0..n).map(|_| (30 + rng.next_u64() % 21) as f64 * 0.01).collect();
+    let delays_s = (0..n)
+        .map(|_| (30 + rng.next_u64() % 21) as f64 * 0.01)
+        .collect();
     let v0 = (0..n).map(|_| 10.0 + rng.symmetric(1.0)).collect();
     Ring {
         graph: Graph::unidirectional_ring(n, &vec![0.8; n]).expect("n ≥ 1"),
@@ -33,9 +35,21 @@ fn ring(n: usize) -> Ring {
 }
 
 fn timed(r: &Ring, dt: f64, horizon_s: f64) -> (Vec<f64>, f64) {
-    let steps: Vec<usize> = r.delays_s.iter().map(|a| (a / dt).round() as usize).collect();
-    let mut law = DelayedDriverLaw::new(&r.graph, &steps, dt, None, &r.v0, None, HistorySpec::ConstantSpeeds)
-        .expect("consistent sizes");
+    let steps: Vec<usize> = r
+        .delays_s
+        .iter()
+        .map(|a| (a / dt).round() as usize)
+        .collect();
+    let mut law = DelayedDriverLaw::new(
+        &r.graph,
+        &steps,
+        dt,
+        None,
+        &r.v0,
+        None,
+        HistorySpec::ConstantSpeeds,
+    )
+    .expect("consistent sizes");
     let mut v = r.v0.clone();
     let n_steps = (horizon_s / dt).round() as usize;
     let t = Instant::now();
@@ -46,21 +60,34 @@ fn timed(r: &Ring, dt: f64, horizon_s: f64) -> (Vec<f64>, f64) {
 /// Runs the benchmark and prints one line per ring size.
 pub fn run(horizon_s: f64, sizes: &[usize]) -> anyhow::Result<u8> {
     if !(horizon_s.is_finite() && horizon_s > 0.0) {
-        return Err(InputError(format!("--horizon-s = {horizon_s}: must be a finite number > 0")).into());
+        return Err(InputError(format!(
+            "--horizon-s = {horizon_s}: must be a finite number > 0"
+        ))
+        .into());
     }
     if let Some(&bad) = sizes.iter().find(|&&n| n < 2) {
-        return Err(InputError(format!("--sizes contains {bad}: a ring needs at least 2 vehicles")).into());
+        return Err(InputError(format!(
+            "--sizes contains {bad}: a ring needs at least 2 vehicles"
+        ))
+        .into());
     }
     let dt = 0.01;
     println!("native delayed-driver simulator, unidirectional rings, K = 0.8/s, α_i ∈ [0.30, 0.50] s on the grid, Δt = {dt} s, {horizon_s} s simulated");
-    println!("{:>7} {:>14} {:>18} {:>22}", "N", "wall [s]", "vehicle-steps/s", "max |v − v_ref| [m/s]");
+    println!(
+        "{:>7} {:>14} {:>18} {:>22}",
+        "N", "wall [s]", "vehicle-steps/s", "max |v − v_ref| [m/s]"
+    );
     for &n in sizes {
         let r = ring(n);
         let _ = timed(&r, dt, horizon_s.min(1.0)); // warm caches
         let (v, secs) = timed(&r, dt, horizon_s);
         let rate = n as f64 * (horizon_s / dt).round() / secs;
         let (vref, _) = timed(&r, dt / 16.0, horizon_s);
-        let err = v.iter().zip(&vref).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        let err = v
+            .iter()
+            .zip(&vref)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
         println!("{n:>7} {secs:>14.4} {rate:>18.3e} {err:>22.3e}");
     }
     Ok(exit_codes::SUCCESS)

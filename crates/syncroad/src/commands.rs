@@ -57,7 +57,11 @@ pub fn thresholds(sc: &Scenario, out: &OutputArgs) -> anyhow::Result<VerdictThre
         window_s: out.window_s.unwrap_or(sc.file.verdict.window_s),
     };
     if !(t.tolerance_mps.is_finite() && t.tolerance_mps > 0.0) {
-        return Err(InputError(format!("--tolerance-mps = {}: must be a finite number > 0", t.tolerance_mps)).into());
+        return Err(InputError(format!(
+            "--tolerance-mps = {}: must be a finite number > 0",
+            t.tolerance_mps
+        ))
+        .into());
     }
     if !(t.window_s.is_finite() && t.window_s > 0.0 && t.window_s <= sc.horizon_s()) {
         return Err(InputError(format!(
@@ -73,12 +77,18 @@ pub fn thresholds(sc: &Scenario, out: &OutputArgs) -> anyhow::Result<VerdictThre
 fn simulate_cmd(path: &Path, out: &OutputArgs) -> anyhow::Result<u8> {
     let sc = load_scenario(path)?;
     let th = thresholds(&sc, out)?;
-    std::fs::create_dir_all(&out.out).with_context(|| format!("cannot create output folder {}", out.out.display()))?;
+    std::fs::create_dir_all(&out.out)
+        .with_context(|| format!("cannot create output folder {}", out.out.display()))?;
     let every = out.record_every.unwrap_or_else(|| (sc.steps / 2000).max(1));
     if every == 0 {
         return Err(InputError("--record-every = 0: must be ≥ 1".into()).into());
     }
-    let run = simulate(&sc, NativeOptions { record_every: every });
+    let run = simulate(
+        &sc,
+        NativeOptions {
+            record_every: every,
+        },
+    );
     let incomplete = !matches!(run.stop, StopReason::Horizon);
     let desired = match &sc.model {
         Model::Cacc(c) => Some(c.desired_gap_m.as_slice()),
@@ -86,9 +96,25 @@ fn simulate_cmd(path: &Path, out: &OutputArgs) -> anyhow::Result<u8> {
     };
     let metrics = sync_metrics(&run.trajectory, th, desired, incomplete);
     let theory = theory::report(&sc);
-    report::write_run(&out.out, &sc, "native", &run.trajectory, &metrics, &run.stop, &theory, None)?;
-    print!("{}", report::metrics_table(&sc, "native", &metrics, &run.stop, &theory));
-    println!("wrote {}/trajectories.csv and {}/metrics.json", out.out.display(), out.out.display());
+    report::write_run(
+        &out.out,
+        &sc,
+        "native",
+        &run.trajectory,
+        &metrics,
+        &run.stop,
+        &theory,
+        None,
+    )?;
+    print!(
+        "{}",
+        report::metrics_table(&sc, "native", &metrics, &run.stop, &theory)
+    );
+    println!(
+        "wrote {}/trajectories.csv and {}/metrics.json",
+        out.out.display(),
+        out.out.display()
+    );
     Ok(match metrics.verdict {
         Verdict::Synchronized => exit_codes::SUCCESS,
         _ => exit_codes::NOT_SYNCHRONIZED,

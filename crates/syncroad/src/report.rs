@@ -36,33 +36,78 @@ pub fn theory_table(r: &TheoryReport) -> String {
         "graph: {} arcs, strongly connected: {}, spanning-tree root: {}",
         g.arcs,
         yes(g.strongly_connected),
-        g.spanning_tree_root.map_or("none".to_string(), |x| x.to_string())
+        g.spanning_tree_root
+            .map_or("none".to_string(), |x| x.to_string())
     );
     if let Some(t) = &r.theorem1 {
-        let _ = writeln!(s, "\nTheorem 1 (strongly connected, α_j d_j^+ < 1/2): {}", if t.holds { "HOLDS" } else { "does not hold" });
-        let _ = writeln!(s, "  strongly connected                     {}", yes(t.strongly_connected));
+        let _ = writeln!(
+            s,
+            "\nTheorem 1 (strongly connected, α_j d_j^+ < 1/2): {}",
+            if t.holds { "HOLDS" } else { "does not hold" }
+        );
+        let _ = writeln!(
+            s,
+            "  strongly connected                     {}",
+            yes(t.strongly_connected)
+        );
         binding_line(&mut s, "binding α_j d_j^+", &t.binding);
-        let _ = writeln!(s, "  largest gain scale c keeping it        {:.6}", t.max_gain_scale);
+        let _ = writeln!(
+            s,
+            "  largest gain scale c keeping it        {:.6}",
+            t.max_gain_scale
+        );
         if let Some(p) = &t.left_null_vector {
-            let (lo, hi) = p.iter().fold((f64::INFINITY, 0.0f64), |(a, b), &x| (a.min(x), b.max(x)));
-            let _ = writeln!(s, "  left null vector p (Σp = 1)            min {lo:.6}, max {hi:.6}");
+            let (lo, hi) = p
+                .iter()
+                .fold((f64::INFINITY, 0.0f64), |(a, b), &x| (a.min(x), b.max(x)));
+            let _ = writeln!(
+                s,
+                "  left null vector p (Σp = 1)            min {lo:.6}, max {hi:.6}"
+            );
         }
     }
     if let Some(t) = &r.theorem1_plus {
-        let _ = writeln!(s, "\nTheorem 1+ (α_j (d_j^+ + 2 b_j) < 1/2, Σ b_j > 0): {}", if t.holds { "HOLDS" } else { "does not hold" });
-        let _ = writeln!(s, "  strongly connected                     {}", yes(t.strongly_connected));
-        let _ = writeln!(s, "  Σ b_j                                  {:.6}", t.pinning_sum);
+        let _ = writeln!(
+            s,
+            "\nTheorem 1+ (α_j (d_j^+ + 2 b_j) < 1/2, Σ b_j > 0): {}",
+            if t.holds { "HOLDS" } else { "does not hold" }
+        );
+        let _ = writeln!(
+            s,
+            "  strongly connected                     {}",
+            yes(t.strongly_connected)
+        );
+        let _ = writeln!(
+            s,
+            "  Σ b_j                                  {:.6}",
+            t.pinning_sum
+        );
         binding_line(&mut s, "binding α_j (d_j^+ + 2 b_j)", &t.binding);
-        let _ = writeln!(s, "  largest gain scale c keeping it        {:.6}", t.max_gain_scale);
+        let _ = writeln!(
+            s,
+            "  largest gain scale c keeping it        {:.6}",
+            t.max_gain_scale
+        );
     }
     if let Some(c) = &r.cacc {
-        let _ = writeln!(s, "\nCACC theorem (μ_i τ_i < 1/2, eq. constants-vehi): {}", if c.holds { "HOLDS" } else { "does not hold" });
+        let _ = writeln!(
+            s,
+            "\nCACC theorem (μ_i τ_i < 1/2, eq. constants-vehi): {}",
+            if c.holds { "HOLDS" } else { "does not hold" }
+        );
         binding_line(&mut s, "binding μ_i τ_i", &c.lag_binding);
         binding_line(&mut s, "binding gain sum vs μ_i²/2", &c.gain_binding);
-        let (lo, hi) = c.ifp_index.iter().fold((f64::INFINITY, 0.0f64), |(a, b), &x| (a.min(x), b.max(x)));
+        let (lo, hi) = c
+            .ifp_index
+            .iter()
+            .fold((f64::INFINITY, 0.0f64), |(a, b), &x| (a.min(x), b.max(x)));
         let _ = writeln!(s, "  IFP index of the agents (Lemma)        min {lo:.6}, max {hi:.6}  (1/μ_i² when μ_i τ_i ≤ 1/2)");
         if let Some(v) = &c.via_theorem1_plus {
-            let _ = writeln!(s, "  via Theorem 1+ with those indices      {}", yes(v.holds));
+            let _ = writeln!(
+                s,
+                "  via Theorem 1+ with those indices      {}",
+                yes(v.holds)
+            );
         }
     }
     if let Some(c) = &r.chandler {
@@ -91,22 +136,74 @@ fn opt(x: Option<f64>, unit: &str) -> String {
 }
 
 /// The summary printed after a run.
-pub fn metrics_table(sc: &Scenario, backend: &str, m: &SyncMetrics, stop: &StopReason, theory: &TheoryReport) -> String {
+pub fn metrics_table(
+    sc: &Scenario,
+    backend: &str,
+    m: &SyncMetrics,
+    stop: &StopReason,
+    theory: &TheoryReport,
+) -> String {
     let mut s = String::new();
-    let _ = writeln!(s, "scenario {} on {backend}: {} vehicles, {} s, Δt = {} s, seed {}", sc.name, sc.n, sc.horizon_s(), sc.step_s, sc.file.seed);
-    let vs = if m.against_leader { "max_i |v_i − v_0|" } else { "max_ij |v_i − v_j|" };
-    let _ = writeln!(s, "  spread {vs}: initial {:.6} m/s, final {:.3e} m/s, max {:.6} m/s", m.initial_spread_mps, m.final_spread_mps, m.max_spread_mps);
-    let _ = writeln!(s, "  spread over the final {} s       ≤ {:.3e} m/s (tolerance {} m/s)", m.thresholds.window_s, m.window_max_spread_mps, m.thresholds.tolerance_mps);
-    let _ = writeln!(s, "  L2 norm of the spread             {:.6} m/s·√s", m.spread_l2);
-    let _ = writeln!(s, "  time to tolerance                 {}", opt(m.time_to_tolerance_s, "s"));
-    let _ = writeln!(s, "  fitted decay rate                 {}", opt(m.decay_rate_per_s, "1/s"));
+    let _ = writeln!(
+        s,
+        "scenario {} on {backend}: {} vehicles, {} s, Δt = {} s, seed {}",
+        sc.name,
+        sc.n,
+        sc.horizon_s(),
+        sc.step_s,
+        sc.file.seed
+    );
+    let vs = if m.against_leader {
+        "max_i |v_i − v_0|"
+    } else {
+        "max_ij |v_i − v_j|"
+    };
+    let _ = writeln!(
+        s,
+        "  spread {vs}: initial {:.6} m/s, final {:.3e} m/s, max {:.6} m/s",
+        m.initial_spread_mps, m.final_spread_mps, m.max_spread_mps
+    );
+    let _ = writeln!(
+        s,
+        "  spread over the final {} s       ≤ {:.3e} m/s (tolerance {} m/s)",
+        m.thresholds.window_s, m.window_max_spread_mps, m.thresholds.tolerance_mps
+    );
+    let _ = writeln!(
+        s,
+        "  L2 norm of the spread             {:.6} m/s·√s",
+        m.spread_l2
+    );
+    let _ = writeln!(
+        s,
+        "  time to tolerance                 {}",
+        opt(m.time_to_tolerance_s, "s")
+    );
+    let _ = writeln!(
+        s,
+        "  fitted decay rate                 {}",
+        opt(m.decay_rate_per_s, "1/s")
+    );
     if m.final_gap_error_m.is_some() {
-        let _ = writeln!(s, "  final max |gap − s_i|             {}", opt(m.final_gap_error_m, "m"));
+        let _ = writeln!(
+            s,
+            "  final max |gap − s_i|             {}",
+            opt(m.final_gap_error_m, "m")
+        );
     }
-    if let StopReason::Diverged { vehicle, time_s, .. } = stop {
-        let _ = writeln!(s, "  stopped early: speed of vehicle {vehicle} diverged at t = {time_s} s");
+    if let StopReason::Diverged {
+        vehicle, time_s, ..
+    } = stop
+    {
+        let _ = writeln!(
+            s,
+            "  stopped early: speed of vehicle {vehicle} diverged at t = {time_s} s"
+        );
     }
-    let _ = writeln!(s, "  certified by the paper's conditions: {}", yes(theory.certified));
+    let _ = writeln!(
+        s,
+        "  certified by the paper's conditions: {}",
+        yes(theory.certified)
+    );
     let _ = writeln!(s, "verdict: {}", m.verdict);
     s
 }
@@ -124,8 +221,10 @@ pub fn write_run(
     extra: Option<serde_json::Value>,
 ) -> anyhow::Result<()> {
     let csv = dir.join("trajectories.csv");
-    let f = std::fs::File::create(&csv).with_context(|| format!("cannot write {}", csv.display()))?;
-    traj.write_csv(BufWriter::new(f)).with_context(|| format!("cannot write {}", csv.display()))?;
+    let f =
+        std::fs::File::create(&csv).with_context(|| format!("cannot write {}", csv.display()))?;
+    traj.write_csv(BufWriter::new(f))
+        .with_context(|| format!("cannot write {}", csv.display()))?;
     let doc = json!({
         "syncroad_version": env!("CARGO_PKG_VERSION"),
         "scenario": sc.name,
@@ -142,6 +241,7 @@ pub fn write_run(
         "extra": extra,
     });
     let path = dir.join("metrics.json");
-    std::fs::write(&path, serde_json::to_string_pretty(&doc)? + "\n").with_context(|| format!("cannot write {}", path.display()))?;
+    std::fs::write(&path, serde_json::to_string_pretty(&doc)? + "\n")
+        .with_context(|| format!("cannot write {}", path.display()))?;
     Ok(())
 }
