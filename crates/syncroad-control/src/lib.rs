@@ -15,6 +15,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod cacc;
+pub mod congestion;
 pub mod delayed_driver;
 pub mod graph;
 pub mod ifp;
