@@ -1,0 +1,140 @@
+//! End-to-end tests of the `syncroad` binary: exit codes, messages, files written.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_syncroad"))
+}
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("syncroad-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn run(cmd: &mut Command) -> (i32, String, String) {
+    let Output {
+        status,
+        stdout,
+        stderr,
+    } = cmd.output().expect("binary runs");
+    (
+        status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&stdout).into_owned(),
+        String::from_utf8_lossy(&stderr).into_owned(),
+    )
+}
+
+#[test]
+fn check_certifies_the_example_ring_and_names_the_binding_vehicle() {
+    let (code, out, _) = run(bin()
+        .arg("check")
+        .arg(repo().join("scenarios/ring-theorem1.json")));
+    assert_eq!(code, 0, "{out}");
+    assert!(
+        out.contains("Theorem 1 (strongly connected, α_j d_j^+ < 1/2): HOLDS"),
+        "{out}"
+    );
+    // Vehicle 2 has α = 0.7 and d^+ = 0.7: the largest product 0.49.
+    assert!(out.contains("vehicle     2: 0.490000 < 0.500000"), "{out}");
+}
+
+#[test]
+fn check_json_is_machine_readable_and_unstable_ring_exits_1() {
+    let (code, out, _) = run(bin()
+        .args(["check", "--json"])
+        .arg(repo().join("scenarios/ring-unstable.json")));
+    assert_eq!(code, 1);
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["certified"], false);
+    assert_eq!(v["chandler"]["two_alpha_k"], 2.4000000000000004);
+}
+
+#[test]
+fn simulate_writes_trajectories_and_metrics() {
+    let dir = tmpdir("sim");
+    let (code, out, err) = run(bin()
+        .arg("simulate")
+        .arg(repo().join("scenarios/ring-theorem1.json"))
+        .arg("--out")
+        .arg(&dir));
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(out.contains("verdict: synchronized"), "{out}");
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("metrics.json")).unwrap()).unwrap();
+    assert_eq!(m["sync"]["verdict"], "synchronized");
+    assert_eq!(m["seed"], 42);
+    assert_eq!(m["backend"], "native");
+    let csv = std::fs::read_to_string(dir.join("trajectories.csv")).unwrap();
+    assert!(csv.starts_with("time_s,vehicle,speed_mps,position_m,gap_m\n"));
+    // 300 s at 0.1 s recorded every step (3000 steps ≤ 2000 samples → every 1) + initial: 3001 × 22 rows.
+    assert_eq!(csv.lines().count(), 1 + 22 * (3000 / (3000 / 2000) + 1));
+}
+
+#[test]
+fn diverging_run_is_not_synchronized_and_still_writes_results() {
+    let dir = tmpdir("div");
+    let (code, out, _) = run(bin()
+        .arg("simulate")
+        .arg(repo().join("scenarios/ring-unstable.json"))
+        .arg("--out")
+        .arg(&dir));
+    assert_eq!(code, 1);
+    assert!(out.contains("diverged"), "{out}");
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("metrics.json")).unwrap()).unwrap();
+    assert_eq!(m["stop"]["reason"], "diverged");
+    assert_eq!(m["sync"]["incomplete"], true);
+}
+
+#[test]
+fn bad_scenario_exits_2_naming_the_field() {
+    let dir = tmpdir("bad");
+    let p = dir.join("bad.json");
+    std::fs::write(
+        &p,
+        r#"{"seed": 1, "step_s": 0.1, "horizon_s": 10, "vehicles": 3, "road": {"type": "ring", "length_m": 100},
+            "model": {"type": "delayed_driver", "graph": {"type": "unidirectional_ring", "gain": 0.5}, "delay_s": [0.1, 0.25, 0.1]}}"#,
+    )
+    .unwrap();
+    let (code, _, err) = run(bin().arg("check").arg(&p));
+    assert_eq!(code, 2);
+    assert!(
+        err.starts_with(
+            "error: model.delay_s[1] = 0.25 s is not a whole multiple of step_s = 0.1 s"
+        ),
+        "{err}"
+    );
+    let (code, _, err) = run(bin().arg("check").arg(dir.join("missing.json")));
+    assert_eq!(code, 2);
+    assert!(
+        err.contains("cannot read scenario file") && err.contains("missing.json"),
+        "{err}"
+    );
+}
+
+#[test]
+fn simulate_is_deterministic() {
+    let (a, b) = (tmpdir("det-a"), tmpdir("det-b"));
+    for d in [&a, &b] {
+        let (code, _, _) = run(bin()
+            .arg("simulate")
+            .arg(repo().join("scenarios/platoon-cacc.json"))
+            .arg("--out")
+            .arg(d));
+        assert_eq!(code, 0);
+    }
+    for f in ["metrics.json", "trajectories.csv"] {
+        assert_eq!(
+            std::fs::read(a.join(f)).unwrap(),
+            std::fs::read(b.join(f)).unwrap(),
+            "{f} differs"
+        );
+    }
+}
