@@ -1074,4 +1074,12 @@ impl Scenario {
     pub fn is_ring(&self) -> bool {
         matches!(self.file.road, RoadSpec::Ring { .. })
     }
+
+    /// The ring's nominal circumference [m], `None` on a straight road.
+    pub fn ring_length_m(&self) -> Option<f64> {
+        match self.file.road {
+            RoadSpec::Ring { length_m } => Some(length_m),
+            RoadSpec::Straight { .. } => None,
+        }
+    }
 }

@@ -65,6 +65,9 @@ pub struct OutputArgs {
     /// Record every k-th step (default: about 2000 samples over the horizon).
     #[arg(long)]
     pub record_every: Option<usize>,
+    /// Do not draw the plots (time-space diagram, speeds, spread; PNG and SVG).
+    #[arg(long)]
+    pub no_plots: bool,
 }
 
 #[cfg(test)]

@@ -115,6 +115,18 @@ fn simulate_cmd(path: &Path, out: &OutputArgs) -> anyhow::Result<u8> {
         out.out.display(),
         out.out.display()
     );
+    if !out.no_plots {
+        let plots = crate::plots::RunPlots {
+            traj: &run.trajectory,
+            ring_length_m: sc.ring_length_m(),
+            title: format!("{} (native)", sc.name),
+        };
+        let files = plots.write_all(&out.out)?;
+        println!(
+            "wrote {} plots: time_space, speeds, spread (PNG and SVG)",
+            files.len()
+        );
+    }
     Ok(match metrics.verdict {
         Verdict::Synchronized => exit_codes::SUCCESS,
         _ => exit_codes::NOT_SYNCHRONIZED,

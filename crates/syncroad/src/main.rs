@@ -5,6 +5,7 @@ mod bench;
 mod cli;
 mod commands;
 mod exit_codes;
+mod plots;
 mod report;
 
 use std::process::ExitCode;
