@@ -37,6 +37,18 @@ pub enum Command {
         #[command(flatten)]
         out: OutputArgs,
     },
+    /// Compare a fresh run's metrics with a committed baseline (per-metric tolerances); print
+    /// a readable diff; exit 1 on regression. The baseline names its scenario.
+    Regress {
+        /// Baseline file (JSON), e.g. tests/baselines/ring-theorem1.native.json.
+        baseline: PathBuf,
+        /// Rewrite the baseline's metrics and stamps from the fresh run (tolerances are kept).
+        #[arg(long)]
+        update: bool,
+        /// Compare this metrics.json instead of running the baseline's scenario.
+        #[arg(long)]
+        metrics: Option<PathBuf>,
+    },
     /// Measure the native simulator: vehicle-steps per second on rings of 22, 2000 and 20000
     /// vehicles with heterogeneous on-grid delays (Δt = 0.01 s), and its error against a
     /// 16× finer reference.
@@ -65,6 +77,9 @@ pub struct OutputArgs {
     /// Record every k-th step (default: about 2000 samples over the horizon).
     #[arg(long)]
     pub record_every: Option<usize>,
+    /// Warm-up excluded from the congestion metrics [s] (default: a quarter of the horizon).
+    #[arg(long)]
+    pub warmup_s: Option<f64>,
     /// Do not draw the plots (time-space diagram, speeds, spread; PNG and SVG).
     #[arg(long)]
     pub no_plots: bool,

@@ -6,6 +6,7 @@ mod cli;
 mod commands;
 mod exit_codes;
 mod plots;
+mod regress;
 mod report;
 
 use std::process::ExitCode;
