@@ -49,6 +49,19 @@ pub enum Command {
         #[arg(long)]
         metrics: Option<PathBuf>,
     },
+    /// The IFP index α = −inf_ω Re W(iω) of an agent W(λ) = η(λ)/(λ ρ(λ)) (Lemma lem.linear-pass),
+    /// e.g. the CACC agent τ y''' + y'' + μ y' = u is `--eta 1 --rho MU,1,TAU`.
+    Ifp {
+        /// Coefficients of η, ascending (η_0, η_1, ...), comma-separated.
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true, required = true)]
+        eta: Vec<f64>,
+        /// Coefficients of ρ, ascending (ρ_0, ρ_1, ...), comma-separated; ρ must be Hurwitz.
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true, required = true)]
+        rho: Vec<f64>,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
     /// Measure the native simulator: vehicle-steps per second on rings of 22, 2000 and 20000
     /// vehicles with heterogeneous on-grid delays (Δt = 0.01 s), and its error against a
     /// 16× finer reference.

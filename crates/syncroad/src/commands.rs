@@ -34,6 +34,7 @@ pub fn run(cli: Cli) -> anyhow::Result<u8> {
         Command::Check { scenario, json } => check(&scenario, json),
         Command::Simulate { scenario, out } => simulate_cmd(&scenario, &out),
         Command::Bench { horizon_s, sizes } => crate::bench::run(horizon_s, &sizes),
+        Command::Ifp { eta, rho, json } => ifp_cmd(&eta, &rho, json),
         Command::Regress {
             baseline,
             update,
@@ -215,4 +216,16 @@ fn regress_cmd(baseline_path: &Path, update: bool, metrics: Option<&Path>) -> an
     } else {
         exit_codes::NOT_SYNCHRONIZED
     })
+}
+
+fn ifp_cmd(eta: &[f64], rho: &[f64], json: bool) -> anyhow::Result<u8> {
+    let r = syncroad_control::ifp::ifp_index(eta, rho).map_err(|e| InputError(e.to_string()))?;
+    if json {
+        println!("{}", serde_json::to_string_pretty(&r)?);
+    } else {
+        let at = r.omega_at_inf.map_or("approached as ω → ∞".to_string(), |w| format!("attained at ω = {w:.6} rad/s"));
+        println!("IFP index α = {:.9}  ({at})", r.alpha);
+        println!("W(λ) = η(λ)/(λ ρ(λ)) is IFP(α): passive with respect to y + α u (Lemma lem.linear-pass)");
+    }
+    Ok(exit_codes::SUCCESS)
 }

@@ -181,3 +181,15 @@ fn planted_regression_fails_with_a_readable_diff() {
     let (code, out, _) = run(bin().arg("regress").arg(dir.join("baseline.json")));
     assert_eq!(code, 0, "{out}");
 }
+
+#[test]
+fn ifp_command_reproduces_the_cacc_index_and_rejects_non_hurwitz_rho() {
+    // CACC agent with μ = 1.25, τ = 0.2 (μτ < 1/2): α = 1/μ² = 0.64 (proof of Theorem thm.cacc).
+    let (code, out, _) = run(bin().args(["ifp", "--eta", "1", "--rho", "1.25,1,0.2", "--json"]));
+    assert_eq!(code, 0);
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert!((v["alpha"].as_f64().unwrap() - 0.64).abs() < 1e-12, "{out}");
+    let (code, _, err) = run(bin().args(["ifp", "--eta", "1", "--rho", "1,-1,1"]));
+    assert_eq!(code, 2);
+    assert!(err.contains("is not Hurwitz"), "{err}");
+}
