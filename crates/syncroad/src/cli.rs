@@ -53,10 +53,20 @@ pub enum Command {
     /// e.g. the CACC agent τ y''' + y'' + μ y' = u is `--eta 1 --rho MU,1,TAU`.
     Ifp {
         /// Coefficients of η, ascending (η_0, η_1, ...), comma-separated.
-        #[arg(long, value_delimiter = ',', allow_hyphen_values = true, required = true)]
+        #[arg(
+            long,
+            value_delimiter = ',',
+            allow_hyphen_values = true,
+            required = true
+        )]
         eta: Vec<f64>,
         /// Coefficients of ρ, ascending (ρ_0, ρ_1, ...), comma-separated; ρ must be Hurwitz.
-        #[arg(long, value_delimiter = ',', allow_hyphen_values = true, required = true)]
+        #[arg(
+            long,
+            value_delimiter = ',',
+            allow_hyphen_values = true,
+            required = true
+        )]
         rho: Vec<f64>,
         /// Print JSON.
         #[arg(long)]

@@ -223,7 +223,11 @@ fn ifp_cmd(eta: &[f64], rho: &[f64], json: bool) -> anyhow::Result<u8> {
     if json {
         println!("{}", serde_json::to_string_pretty(&r)?);
     } else {
-        let at = r.omega_at_inf.map_or("approached as ω → ∞".to_string(), |w| format!("attained at ω = {w:.6} rad/s"));
+        let at = r
+            .omega_at_inf
+            .map_or("approached as ω → ∞".to_string(), |w| {
+                format!("attained at ω = {w:.6} rad/s")
+            });
         println!("IFP index α = {:.9}  ({at})", r.alpha);
         println!("W(λ) = η(λ)/(λ ρ(λ)) is IFP(α): passive with respect to y + α u (Lemma lem.linear-pass)");
     }
