@@ -27,6 +27,25 @@ fn binding_line(out: &mut String, label: &str, b: &Binding) {
     );
 }
 
+/// Per-vehicle rows `value, margin to 1/2` (and `p_j`) for scenarios of at most 30 vehicles.
+fn per_vehicle(out: &mut String, label: &str, values: &[f64], p: Option<&[f64]>) {
+    if values.len() > 30 {
+        return;
+    }
+    let _ = writeln!(
+        out,
+        "  {:>7}  {:>12}  {:>12}{}",
+        "vehicle",
+        label,
+        "margin",
+        if p.is_some() { "           p_j" } else { "" }
+    );
+    for (j, v) in values.iter().enumerate() {
+        let pj = p.map_or(String::new(), |p| format!("  {:>12.6}", p[j]));
+        let _ = writeln!(out, "  {j:>7}  {v:>12.6}  {:>+12.6}{pj}", 0.5 - v);
+    }
+}
+
 /// The `syncroad check` table.
 pub fn theory_table(r: &TheoryReport) -> String {
     let mut s = String::new();
@@ -66,6 +85,12 @@ pub fn theory_table(r: &TheoryReport) -> String {
                 "  left null vector p (Σp = 1)            min {lo:.6}, max {hi:.6}"
             );
         }
+        per_vehicle(
+            &mut s,
+            "α_j d_j^+",
+            &t.products,
+            t.left_null_vector.as_deref(),
+        );
     }
     if let Some(t) = &r.theorem1_plus {
         let _ = writeln!(
@@ -84,6 +109,7 @@ pub fn theory_table(r: &TheoryReport) -> String {
             t.pinning_sum
         );
         binding_line(&mut s, "binding α_j (d_j^+ + 2 b_j)", &t.binding);
+        per_vehicle(&mut s, "α_j(d+2b)", &t.products, None);
         let _ = writeln!(
             s,
             "  largest gain scale c keeping it        {:.6}",
