@@ -14,7 +14,7 @@ use syncroad_control::Trajectory;
 
 static FONT: Once = Once::new();
 
-fn ensure_font() {
+pub(crate) fn ensure_font() {
     FONT.call_once(|| {
         // The embedded font is a valid TrueType file; failure would be a packaging bug.
         let _ = plotters::style::register_font(
