@@ -97,7 +97,8 @@ pub struct OutputArgs {
     /// Override the scenario's final window for the verdict [s].
     #[arg(long)]
     pub window_s: Option<f64>,
-    /// Record every k-th step (default: about 2000 samples over the horizon).
+    /// Record every k-th step (default: about 2000 samples over the horizon, fewer for fleets
+    /// above 2000 vehicles).
     #[arg(long)]
     pub record_every: Option<usize>,
     /// Warm-up excluded from the congestion metrics [s] (default: a quarter of the horizon).

@@ -110,6 +110,13 @@ impl NativeOutcome {
     }
 }
 
+/// Default sampling stride: about 2000 samples over the horizon, fewer for large fleets so a
+/// trajectory stays within about 4 million vehicle-samples (≈ 100 MB).
+pub fn default_record_every(steps: usize, n: usize) -> usize {
+    let samples = (4_000_000 / n.max(1)).clamp(2, 2000);
+    (steps / samples).max(1)
+}
+
 /// Runs a scenario natively and computes its metrics.
 pub fn run_native(
     sc: &Scenario,
@@ -117,7 +124,7 @@ pub fn run_native(
     warmup_s: Option<f64>,
     record_every: Option<usize>,
 ) -> NativeOutcome {
-    let every = record_every.unwrap_or_else(|| (sc.steps / 2000).max(1));
+    let every = record_every.unwrap_or_else(|| default_record_every(sc.steps, sc.n));
     let run = simulate(
         sc,
         NativeOptions {
