@@ -74,6 +74,16 @@ pub fn lambert_w(branch: i64, z: Complex64) -> Result<Complex64, LambertWError> 
     } else {
         z
     };
+    // On the principal branch cut (−∞, −1/e) the two limits are conjugate; the iteration may
+    // land on either, so the closed side (from above, Im W_0 ∈ (0, π)) is restored afterwards.
+    let on_principal_cut = branch == 0 && z.im == 0.0 && z.re < -1.0 / E;
+    let close_cut = |w: Complex64| {
+        if on_principal_cut && w.im < 0.0 {
+            w.conj()
+        } else {
+            w
+        }
+    };
     let mut w = initial_guess(branch, z);
     let scale = z.norm().max(f64::MIN_POSITIVE);
     for iteration in 0..MAX_HALLEY_STEPS {
@@ -87,17 +97,17 @@ pub fn lambert_w(branch: i64, z: Complex64) -> Result<Complex64, LambertWError> 
         let step = f / denom;
         w -= step;
         if step.norm() <= 4.0 * f64::EPSILON * (1.0 + w.norm()) {
-            return Ok(w);
+            return Ok(close_cut(w));
         }
         // Halley converges cubically; a tiny residual relative to |z| is also accepted.
         if iteration > 3 && (w * w.exp() - z).norm() <= 8.0 * f64::EPSILON * scale {
-            return Ok(w);
+            return Ok(close_cut(w));
         }
     }
     // Accept a result whose residual is at rounding level (happens at the branch point,
     // where the iteration converges only linearly because w + 1 → 0).
     if (w * w.exp() - z).norm() <= 1e-12 * scale.max(1.0) && w.re.is_finite() {
-        return Ok(w);
+        return Ok(close_cut(w));
     }
     Err(LambertWError::NoConvergence {
         branch,
@@ -114,8 +124,10 @@ fn initial_guess(k: i64, z: Complex64) -> Complex64 {
     // Branch 0 takes +p; branch −1 takes −p on the upper half plane (closed side of its cut
     // on the real axis) and branch 1 takes −p on the lower half plane.
     let near_branch_point = branch_point_distance < 0.3;
+    // On the principal cut near the branch point a real start would keep Halley real.
+    let near_principal_cut = z.im == 0.0 && z.re < -1.0 / E && z.re > -3.0;
     let use_series = match k {
-        0 => near_branch_point,
+        0 => near_branch_point || near_principal_cut,
         -1 => near_branch_point && z.im >= 0.0,
         1 => near_branch_point && z.im < 0.0,
         _ => false,
@@ -167,6 +179,10 @@ mod tests {
         let w = lambert_w(-1, Complex64::new(-(2f64.ln()) / 2.0, 0.0)).unwrap();
         assert_relative_eq!(w.re, -2.0 * 2f64.ln(), epsilon = 1e-14);
         assert!(w.im.abs() < 1e-14);
+        // On the cut, from above: W_0(−π/2) = iπ/2 (iπ/2 · e^{iπ/2} = −π/2).
+        let w = lambert_w(0, Complex64::new(-PI / 2.0, 0.0)).unwrap();
+        assert!(w.re.abs() < 1e-15);
+        assert_relative_eq!(w.im, PI / 2.0, epsilon = 1e-15);
         // Tabulated complex values (Corless et al., conjugate pair on branches ±1):
         // W_{±1}(1) = −1.533913319793574... ± 4.375185153061898...i
         let w = lambert_w(1, Complex64::new(1.0, 0.0)).unwrap();

@@ -20,3 +20,31 @@
 #![warn(missing_docs)]
 
 pub mod lambert_w;
+pub mod ring_modes;
+
+pub use lambert_w::{lambert_w, LambertWError};
+pub use ring_modes::{RingError, RingModes, UniformRing};
+
+use num_complex::Complex64;
+use serde::Serialize;
+
+/// A characteristic root `s = re + i·im` [1/s], as a serializable pair.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Root {
+    /// Real part: decay (negative) or growth (positive) rate [1/s].
+    pub re: f64,
+    /// Imaginary part: angular frequency [rad/s].
+    pub im: f64,
+}
+
+impl From<Complex64> for Root {
+    fn from(s: Complex64) -> Self {
+        Root { re: s.re, im: s.im }
+    }
+}
+
+impl From<Root> for Complex64 {
+    fn from(r: Root) -> Self {
+        Complex64::new(r.re, r.im)
+    }
+}
