@@ -19,9 +19,14 @@
 //! as `nalgebra::DMatrix<f64>`, delays as `&[f64]`.
 #![warn(missing_docs)]
 
+pub mod collocation;
 pub mod lambert_w;
 pub mod ring_modes;
 
+pub use collocation::{
+    characteristic_matrix, rightmost_roots, CollocationError, CollocationOptions, RefinedRoot,
+    RootsReport,
+};
 pub use lambert_w::{lambert_w, LambertWError};
 pub use ring_modes::{RingError, RingModes, UniformRing};
 
