@@ -515,14 +515,14 @@ pub fn rightmost_roots(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::super::ring_modes::UniformRing;
     use super::*;
     use approx::assert_relative_eq;
     use std::f64::consts::PI;
 
     /// Deterministic pseudo-random numbers in [0, 1) (xorshift), to keep tests reproducible.
-    pub(crate) struct Lcg(u64);
+    pub(crate) struct Lcg(pub(crate) u64);
     impl Lcg {
         pub(crate) fn next(&mut self) -> f64 {
             self.0 ^= self.0 << 13;

@@ -20,6 +20,7 @@
 #![warn(missing_docs)]
 
 pub mod collocation;
+pub mod critical;
 pub mod lambert_w;
 pub mod ring_modes;
 
@@ -27,6 +28,7 @@ pub use collocation::{
     characteristic_matrix, rightmost_roots, CollocationError, CollocationOptions, RefinedRoot,
     RootsReport,
 };
+pub use critical::{critical_scale, CriticalError, CriticalReport};
 pub use lambert_w::{lambert_w, LambertWError};
 pub use ring_modes::{RingError, RingModes, UniformRing};
 
