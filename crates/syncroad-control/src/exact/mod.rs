@@ -19,11 +19,13 @@
 //! as `nalgebra::DMatrix<f64>`, delays as `&[f64]`.
 #![warn(missing_docs)]
 
+pub mod cacc_modes;
 pub mod collocation;
 pub mod critical;
 pub mod lambert_w;
 pub mod ring_modes;
 
+pub use cacc_modes::{cacc_modes, CaccCondition, CaccError, CaccModes, CaccParams};
 pub use collocation::{
     characteristic_matrix, rightmost_roots, CollocationError, CollocationOptions, RefinedRoot,
     RootsReport,
