@@ -24,6 +24,7 @@ pub mod collocation;
 pub mod critical;
 pub mod lambert_w;
 pub mod ring_modes;
+pub mod string_stability;
 
 pub use cacc_modes::{cacc_modes, CaccCondition, CaccError, CaccModes, CaccParams};
 pub use collocation::{
@@ -33,6 +34,10 @@ pub use collocation::{
 pub use critical::{critical_scale, CriticalError, CriticalReport};
 pub use lambert_w::{lambert_w, LambertWError};
 pub use ring_modes::{RingError, RingModes, UniformRing};
+pub use string_stability::{
+    string_stability, LeaderDisturbance, StringStabilityError, StringStabilityOptions,
+    StringStabilityReport,
+};
 
 use num_complex::Complex64;
 use serde::Serialize;
