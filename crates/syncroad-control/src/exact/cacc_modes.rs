@@ -4,7 +4,7 @@
 //! eqs. `veh-proto1`/`veh-proto2`:
 //! `a_des,i = μ_i(v_0 − v_i) + η_i(q_{i−1} − q_i − s_i) + ν_i(q_{i+1} − q_i + s_{i+1})`,
 //! where vehicle `N` has no `ν` term and the leader `q_0` drives at constant `v_0`.
-//! In the error coordinates `e_i = q_{i−1} − q_i − s_i` (gap error [m]), `ε_i = v_i − v_0`
+//! In the error coordinates `e_i = q_{i−1} − q_i − s_i` (gap error \[m\]), `ε_i = v_i − v_0`
 //! [m/s] and `a_i = q_i''` [m/s²] the platoon is the linear system `x' = A x` with, per
 //! follower,
 //!
@@ -62,7 +62,7 @@ pub enum CaccError {
 /// Parameters of followers `1..N` (index 0 is follower 1).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct CaccParams {
-    /// Powertrain time constants `τ_i` [s] (eq. `veh1`), > 0.
+    /// Powertrain time constants `τ_i` \[s\] (eq. `veh1`), > 0.
     pub tau_s: Vec<f64>,
     /// Speed gains `μ_i` [1/s] on `v_0 − v_i`, > 0.
     pub mu: Vec<f64>,

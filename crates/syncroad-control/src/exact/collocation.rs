@@ -76,7 +76,7 @@ pub enum CollocationError {
     InvalidDelay {
         /// The vehicle.
         vehicle: usize,
-        /// The offending delay [s].
+        /// The offending delay \[s\].
         delay_s: f64,
     },
     /// Without a directed spanning tree the consensus root is multiple and the velocities
@@ -441,7 +441,7 @@ fn relative_residual(l: &DMatrix<f64>, delays_s: &[f64], s: Complex64) -> f64 {
 /// the consensus root, and the spectral abscissa.
 ///
 /// `adjacency` holds `a_ij ≥ 0` (driver `i` reacting to vehicle `j`) with zero diagonal;
-/// `delays_s[i]` is driver `i`'s reaction delay `α_i` [s] (zero allowed).
+/// `delays_s[i]` is driver `i`'s reaction delay `α_i` \[s\] (zero allowed).
 ///
 /// # Errors
 /// [`CollocationError`] for malformed input, a graph without a directed spanning tree, or a

@@ -67,7 +67,7 @@ pub struct CriticalReport {
     pub theorem1_delay_scale: f64,
     /// `r* / r_T1`.
     pub delay_conservatism_ratio: f64,
-    /// Largest delay at the critical delay scale, `r* max_i α_i` [s].
+    /// Largest delay at the critical delay scale, `r* max_i α_i` \[s\].
     pub critical_max_delay_s: f64,
     /// Crossing frequency `ω` [rad/s] of the root reaching the axis at `c*` (0 if real).
     pub crossing_frequency_rad_s: f64,

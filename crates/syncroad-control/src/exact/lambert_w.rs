@@ -166,7 +166,7 @@ mod tests {
     fn real_principal_values_match_known_constants() {
         // Omega constant: W(1) = 0.567143290409783872999...
         let w = lambert_w(0, Complex64::new(1.0, 0.0)).unwrap();
-        assert_relative_eq!(w.re, 0.567_143_290_409_783_9, epsilon = 1e-15);
+        assert_relative_eq!(w.re, 0.567_143_290_409_784, epsilon = 1e-15);
         assert!(w.im.abs() < 1e-15);
         // W(e) = 1, W(−1/e) = −1, W(−ln2/2) = −ln 2 (since −ln2 e^{−ln2} = −ln2/2).
         let w = lambert_w(0, Complex64::new(E, 0.0)).unwrap();

@@ -5,15 +5,15 @@
 //! `α_j d_j^+ < 1/2`. This module computes the *exact* answer, so that the conservatism of
 //! the theorem can be measured:
 //!
-//! * [`lambert_w`] — complex Lambert W on all branches (Halley iteration);
+//! * [`lambert_w`](mod@lambert_w) — complex Lambert W on all branches (Halley iteration);
 //! * [`ring_modes`] — uniform rings: Fourier modes and Lambert W roots, closed-form critical
 //!   gains per mode (the fast path and the test oracle);
 //! * [`collocation`] — any weighted graph with heterogeneous delays: spectral collocation of
 //!   the infinitesimal generator, Newton refinement on the characteristic matrix;
 //! * [`critical`] — critical gain / delay scale and the conservatism ratio against Theorem 1;
-//! * [`cacc_modes`] — CACC platoon (eqs. `veh1`, `veh-proto1`, `veh-proto2`): closed-loop
+//! * [`cacc_modes`](mod@cacc_modes) — CACC platoon (eqs. `veh1`, `veh-proto1`, `veh-proto2`): closed-loop
 //!   eigenvalues next to Theorem `thm.cacc`;
-//! * [`string_stability`] — gap-error transfer peaks and a braking-wave simulation.
+//! * [`string_stability`](mod@string_stability) — gap-error transfer peaks and a braking-wave simulation.
 //!
 //! Inputs are plain data: an adjacency matrix `A = (a_ij)` with `a_ij ≥ 0` and zero diagonal
 //! as `nalgebra::DMatrix<f64>`, delays as `&[f64]`.

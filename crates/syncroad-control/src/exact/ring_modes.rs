@@ -48,7 +48,7 @@ pub enum RingError {
     /// The delay is negative or not finite.
     #[error("ring delay_s = {delay_s} must be finite and ≥ 0")]
     InvalidDelay {
-        /// The offending delay [s].
+        /// The offending delay \[s\].
         delay_s: f64,
     },
     /// Lambert W failed for one mode.
@@ -71,7 +71,7 @@ pub struct UniformRing {
     pub gain_front: f64,
     /// Weight `k_b = a_{i,i+1}` [1/s] on the follower's relative speed.
     pub gain_back: f64,
-    /// Common driver reaction delay α [s].
+    /// Common driver reaction delay α \[s\].
     pub delay_s: f64,
 }
 
@@ -80,7 +80,7 @@ pub struct UniformRing {
 pub struct RingMode {
     /// Fourier index `k` (`0 ≤ k < N`); `k = 0` is consensus.
     pub index: usize,
-    /// Wave number `θ_k = 2πk/N` [rad].
+    /// Wave number `θ_k = 2πk/N` \[rad\].
     pub theta_rad: f64,
     /// Laplacian eigenvalue `λ_k` [1/s].
     pub laplacian_eigenvalue: Root,
@@ -154,7 +154,7 @@ impl UniformRing {
         a
     }
 
-    /// Delays of all drivers, `α_i = α` [s].
+    /// Delays of all drivers, `α_i = α` \[s\].
     pub fn delays(&self) -> Vec<f64> {
         vec![self.delay_s; self.vehicles]
     }

@@ -4,7 +4,7 @@
 //! stability problem"). Here the disturbance is the leader's speed deviation `w(t)` from the
 //! cruise speed `v_0`: it enters the first gap, `e_1' = w − ε_1`, and — if the leader
 //! broadcasts its actual speed — every speed term, `a_des,i += μ_i w`. With the closed loop
-//! `x' = Ax + bw` of [`super::cacc_modes`], the transfer from `w` to gap error `i` is
+//! `x' = Ax + bw` of [`super::cacc_modes`](mod@super::cacc_modes), the transfer from `w` to gap error `i` is
 //! `G_i(s) = e_iᵀ(sI − A)^{−1}b`, and the platoon is called string stable here when
 //!
 //! `max_i sup_ω |G_{i+1}(iω) / G_i(iω)| ≤ 1`,
@@ -67,11 +67,11 @@ pub struct StringStabilityOptions {
     pub frequency_points: usize,
     /// Leader deceleration during the braking pulse [m/s²].
     pub braking_decel_mps2: f64,
-    /// Duration of the deceleration phase (the recovery takes as long) [s].
+    /// Duration of the deceleration phase (the recovery takes as long) \[s\].
     pub braking_duration_s: f64,
-    /// RK4 step [s].
+    /// RK4 step \[s\].
     pub step_s: f64,
-    /// Simulated horizon [s].
+    /// Simulated horizon \[s\].
     pub horizon_s: f64,
 }
 
@@ -97,7 +97,7 @@ pub struct StringStabilityReport {
     pub followers: usize,
     /// Disturbance channel used.
     pub disturbance: LeaderDisturbance,
-    /// `sup_ω |G_i(iω)|` per follower [s] (gap error per unit leader speed deviation).
+    /// `sup_ω |G_i(iω)|` per follower \[s\] (gap error per unit leader speed deviation).
     pub gap_peak_gain_s: Vec<f64>,
     /// `sup_ω |G_{i+1}/G_i|` for `i = 1..N−1`.
     pub successive_peak_ratio: Vec<f64>,
@@ -111,7 +111,7 @@ pub struct StringStabilityReport {
     pub first_to_last_peak_ratio: f64,
     /// `max_successive_ratio ≤ 1` (to 1e-9).
     pub string_stable: bool,
-    /// Simulated peak `|e_i(t)|` per follower for the braking pulse [m].
+    /// Simulated peak `|e_i(t)|` per follower for the braking pulse \[m\].
     pub simulated_peak_gap_error_m: Vec<f64>,
     /// Simulated `peak|e_N| / peak|e_1|`.
     pub simulated_peak_amplification: f64,
