@@ -13,7 +13,8 @@
 //! * [`critical`] — critical gain / delay scale and the conservatism ratio against Theorem 1;
 //! * [`cacc_modes`](mod@cacc_modes) — CACC platoon (eqs. `veh1`, `veh-proto1`, `veh-proto2`): closed-loop
 //!   eigenvalues next to Theorem `thm.cacc`;
-//! * [`string_stability`](mod@string_stability) — gap-error transfer peaks and a braking-wave simulation.
+//! * [`string_stability`](mod@string_stability) — gap-error transfer peaks and a braking-wave simulation;
+//! * [`report`] — combined serializable reports with plain-text tables for a CLI.
 //!
 //! Inputs are plain data: an adjacency matrix `A = (a_ij)` with `a_ij ≥ 0` and zero diagonal
 //! as `nalgebra::DMatrix<f64>`, delays as `&[f64]`.
@@ -23,6 +24,7 @@ pub mod cacc_modes;
 pub mod collocation;
 pub mod critical;
 pub mod lambert_w;
+pub mod report;
 pub mod ring_modes;
 pub mod string_stability;
 
@@ -33,6 +35,7 @@ pub use collocation::{
 };
 pub use critical::{critical_scale, CriticalError, CriticalReport};
 pub use lambert_w::{lambert_w, LambertWError};
+pub use report::{analyse_cacc, analyse_network, CaccReport, NetworkStabilityReport, ReportError};
 pub use ring_modes::{RingError, RingModes, UniformRing};
 pub use string_stability::{
     string_stability, LeaderDisturbance, StringStabilityError, StringStabilityOptions,
