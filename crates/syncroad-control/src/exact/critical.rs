@@ -77,6 +77,9 @@ pub struct CriticalReport {
     pub bracket_abscissae: [f64; 2],
     /// Number of full root computations used.
     pub full_solves: usize,
+    /// Whether the final secant on the tracked root converged (otherwise the answer is the
+    /// midpoint of a bracket bisected to 1e-10 relative).
+    pub secant_converged: bool,
 }
 
 /// Spectral abscissa with all gains scaled by `c`.
@@ -224,6 +227,7 @@ pub fn critical_scale(
     let s_hi: Complex64 = hi_report.roots[0].root.into();
     let mut c_star = 0.5 * (lo + hi);
     let mut s_star = s_hi;
+    let mut secant_converged = false;
     if let Some(s_lo) = track_root(&l, delays_s, lo, s_hi) {
         let (mut c0, mut g0) = (lo, s_lo.re);
         let (mut c1, mut g1, mut z1) = (hi, s_hi.re, s_hi);
@@ -240,12 +244,29 @@ pub fn critical_scale(
             };
             (c0, g0) = (c1, g1);
             (c1, g1, z1) = (c2, z2.re, z2);
-            c_star = c1;
-            s_star = z1;
-            if (c1 - c0).abs() <= 1e-14 * c1 {
+            if (c1 - c0).abs() <= 1e-14 * c1 || g1.abs() <= 1e-15 * z1.norm() {
+                c_star = c1;
+                s_star = z1;
+                secant_converged = true;
                 break;
             }
         }
+    }
+    if !secant_converged {
+        // Fall back to bisection with full solves down to 1e-10 relative.
+        while (hi - lo) > 1e-10 * hi {
+            let mid = 0.5 * (lo + hi);
+            let r = eval(mid)?;
+            if r.is_stable() {
+                lo = mid;
+                lo_report = r;
+            } else {
+                hi = mid;
+                hi_report = r;
+            }
+        }
+        c_star = 0.5 * (lo + hi);
+        s_star = hi_report.roots[0].root.into();
     }
     Ok(CriticalReport {
         vehicles: n,
@@ -261,6 +282,7 @@ pub fn critical_scale(
         bracket: [lo, hi],
         bracket_abscissae: [lo_report.abscissa, hi_report.abscissa],
         full_solves,
+        secant_converged,
     })
 }
 
@@ -335,6 +357,7 @@ mod tests {
                 max_relative = 1e-14
             );
             assert!(r.bracket[0] <= r.critical_gain_scale && r.critical_gain_scale <= r.bracket[1]);
+            assert!(r.secant_converged);
         }
     }
 
