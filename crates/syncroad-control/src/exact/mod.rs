@@ -38,8 +38,8 @@ pub use lambert_w::{lambert_w, LambertWError};
 pub use report::{analyse_cacc, analyse_network, CaccReport, NetworkStabilityReport, ReportError};
 pub use ring_modes::{RingError, RingModes, UniformRing};
 pub use string_stability::{
-    string_stability, LeaderDisturbance, StringStabilityError, StringStabilityOptions,
-    StringStabilityReport,
+    chandler_string_peak, string_stability, LeaderDisturbance, StringStabilityError,
+    StringStabilityOptions, StringStabilityReport,
 };
 
 use num_complex::Complex64;

@@ -327,6 +327,44 @@ pub fn string_stability(
     })
 }
 
+/// String-stability peak of Chandler's straight road (eq. `chandler`): the speed transfer from
+/// one vehicle to its follower, `H(s) = K e^{−sα}/(s + K e^{−sα})`, has
+/// `sup_ω |H(iω)|` depending only on `αK`; it is returned here (by a scan of `ωα ∈ (0, 50]`
+/// refined by golden-section search).
+///
+/// Since `|H(iω)|² = K²/(K² + ω² − 2ωK sin ωα)`, the peak is 1 (attained as `ω → 0`) iff
+/// `2αK ≤ 1` — the bound the paper quotes for the straight road in Section `sec.cacc` — while
+/// asymptotic stability of each follower needs only `αK < π/2` (see
+/// [`super::critical`]). Returns `∞` when `αK ≥ π/2` (a follower is unstable).
+pub fn chandler_string_peak(alpha_k: f64) -> f64 {
+    if !(alpha_k.is_finite() && alpha_k > 0.0) {
+        return f64::NAN;
+    }
+    if alpha_k >= std::f64::consts::FRAC_PI_2 {
+        return f64::INFINITY;
+    }
+    // Work with x = ωα and K α = alpha_k: |H|² = κ²/(κ² + x² − 2xκ sin x).
+    let gain = |x: f64| {
+        let d = alpha_k * alpha_k + x * x - 2.0 * x * alpha_k * x.sin();
+        (alpha_k * alpha_k / d).sqrt()
+    };
+    let points = 5000;
+    let (mut best_x, mut best) = (0.0, 1.0); // ω → 0 limit
+    for k in 1..=points {
+        let x = 50.0 * k as f64 / points as f64;
+        if gain(x) > best {
+            best = gain(x);
+            best_x = x;
+        }
+    }
+    if best_x > 0.0 {
+        let h = 50.0 / points as f64;
+        let (_, v) = golden_max(gain, (best_x - h).max(1e-12), best_x + h);
+        best = best.max(v);
+    }
+    best
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -459,6 +497,22 @@ mod tests {
         for i in 0..4 {
             assert_relative_eq!(amp[i], g[i].norm(), max_relative = 1e-4);
         }
+    }
+
+    #[test]
+    fn chandler_straight_road_is_string_stable_iff_two_alpha_k_at_most_one() {
+        for &ak in &[0.1, 0.3, 0.49, 0.5] {
+            assert!(chandler_string_peak(ak) <= 1.0 + 1e-15, "αK = {ak}");
+        }
+        let mut previous = 1.0;
+        for &ak in &[0.501, 0.55, 0.8, 1.2, 1.5, 1.57] {
+            let peak = chandler_string_peak(ak);
+            assert!(peak > previous, "αK = {ak}: peak {peak} not increasing");
+            previous = peak;
+        }
+        // Near αK = π/2 the follower's root approaches iK, and the peak blows up.
+        assert!(chandler_string_peak(1.5707) > 1e3);
+        assert_eq!(chandler_string_peak(2.0), f64::INFINITY);
     }
 
     #[test]
