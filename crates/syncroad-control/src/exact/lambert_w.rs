@@ -195,7 +195,8 @@ mod tests {
     #[test]
     fn defining_identity_and_branch_logarithm_hold_on_all_branches() {
         // W_k(z) e^{W_k(z)} = z, and off the real axis the branch index is pinned by
-        // ln W_k(z) + W_k(z) = ln z + 2πik (principal logarithms; Corless et al. eq. 4.2 region).
+        // ln W_k(z) + W_k(z) = ln z + 2πik with principal logarithms (Corless et al., §4):
+        // a value from a neighbouring branch would be off by 2πi.
         let mut checked = 0;
         for k in -6i64..=6 {
             for &r in &[1e-6, 0.01, 0.2, 0.367, 0.5, 1.0, 3.0, 10.0, 1e3, 1e8] {
@@ -206,9 +207,6 @@ mod tests {
                     assert!(residual(w, z) < 1e-13, "k={k} z={z} w={w}");
                     let lhs = w.ln() + w;
                     let rhs = z.ln() + Complex64::new(0.0, 2.0 * PI * k as f64);
-                    // The identity holds up to a 2πi ambiguity only where ln W wraps; it
-                    // never does away from the real axis for these branches except k=0,
-                    // |z| < 1/e (W_0 ≈ z, ln W_0 ≈ ln z) — in all cases equality holds.
                     assert!(
                         (lhs - rhs).norm() < 1e-10 * (1.0 + rhs.norm()),
                         "branch identity failed k={k} z={z} w={w}"
@@ -218,6 +216,20 @@ mod tests {
             }
         }
         assert_eq!(checked, 13 * 10 * 24);
+    }
+
+    #[test]
+    fn values_on_the_negative_real_axis_are_limits_from_above() {
+        for k in -3i64..=3 {
+            for &x in &[-0.2, -0.3, -0.5, -1.0, -2.0, -10.0, -1e4] {
+                let on_axis = lambert_w(k, Complex64::new(x, 0.0)).unwrap();
+                let above = lambert_w(k, Complex64::new(x, 1e-12)).unwrap();
+                assert!(
+                    (on_axis - above).norm() < 1e-9,
+                    "k={k} x={x}: {on_axis} vs {above}"
+                );
+            }
+        }
     }
 
     #[test]

@@ -13,8 +13,9 @@
 //! The critical gain of a mode has a closed form. For `λ = |λ| e^{iφ}` with `|φ| < π/2`, a root
 //! `s = iω` of `s + cλ e^{−sα} = 0` requires `ω = c|λ|` and `ωα = φ + π/2 (mod 2π)`; the
 //! smallest such gain is `c_k = (φ_k + π/2)/(α|λ_k|)`. For the unidirectional ring
-//! (`k_b = 0`) this gives `αK_crit = (π/N) / (2 sin(π/N)) → 1/2` as `N → ∞`, the
-//! Theorem-1 bound (eq. `degree1`), and `π/2` (Chandler's straight road) never.
+//! (`k_b = 0`) this gives `αK_crit = (π/N) / (2 sin(π/N)) → 1/2` as `N → ∞`: the
+//! Theorem-1 bound (eq. `degree1`) is asymptotically tight for long unidirectional rings,
+//! whereas a single follower on a straight road is stable up to `αK = π/2`.
 
 use super::lambert_w::{lambert_w, LambertWError};
 use super::Root;
