@@ -7,7 +7,8 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::DMatrix;
 use std::hint::black_box;
 use syncroad_control::exact::{
-    cacc_modes, critical_scale, rightmost_roots, CaccParams, CollocationOptions, UniformRing,
+    cacc_modes, count_roots_right_of, critical_scale, rightmost_roots, CaccParams,
+    CollocationOptions, UniformRing,
 };
 
 /// Deterministic heterogeneous network: ring backbone plus a few extra arcs, delays in
@@ -51,6 +52,10 @@ fn bench_exact(c: &mut Criterion) {
     group.sample_size(10);
     group.bench_function("rightmost_roots_heterogeneous_n50", |b| {
         b.iter(|| rightmost_roots(black_box(&a50), black_box(&d50), &opts).unwrap())
+    });
+    let abscissa = rightmost_roots(&a50, &d50, &opts).unwrap().abscissa;
+    group.bench_function("argument_principle_certificate_n50", |b| {
+        b.iter(|| count_roots_right_of(black_box(&a50), black_box(&d50), abscissa + 1e-6).unwrap())
     });
     let (a10, d10) = heterogeneous(10);
     group.bench_function("critical_scale_heterogeneous_n10", |b| {

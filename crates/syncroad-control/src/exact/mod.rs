@@ -10,6 +10,8 @@
 //!   gains per mode (the fast path and the test oracle);
 //! * [`collocation`] — any weighted graph with heterogeneous delays: spectral collocation of
 //!   the infinitesimal generator, Newton refinement on the characteristic matrix;
+//! * [`argument_principle`] — an independent count of the roots right of a line (certifies
+//!   that the collocation missed nothing);
 //! * [`critical`] — critical gain / delay scale and the conservatism ratio against Theorem 1;
 //! * [`cacc_modes`](mod@cacc_modes) — CACC platoon (eqs. `veh1`, `veh-proto1`, `veh-proto2`): closed-loop
 //!   eigenvalues next to Theorem `thm.cacc`;
@@ -20,6 +22,7 @@
 //! as `nalgebra::DMatrix<f64>`, delays as `&[f64]`.
 #![warn(missing_docs)]
 
+pub mod argument_principle;
 pub mod cacc_modes;
 pub mod collocation;
 pub mod critical;
@@ -28,6 +31,7 @@ pub mod report;
 pub mod ring_modes;
 pub mod string_stability;
 
+pub use argument_principle::{count_roots_right_of, ArgumentPrincipleError, RootCount};
 pub use cacc_modes::{cacc_modes, CaccCondition, CaccError, CaccModes, CaccParams};
 pub use collocation::{
     characteristic_matrix, rightmost_roots, CollocationError, CollocationOptions, RefinedRoot,

@@ -1,6 +1,7 @@
 //! Combined, serializable results for a command-line front end: JSON through `serde`, a plain
 //! text table through `Display`.
 
+use super::argument_principle::{count_roots_right_of, ArgumentPrincipleError, RootCount};
 use super::cacc_modes::{cacc_modes, CaccError, CaccModes, CaccParams};
 use super::collocation::{rightmost_roots, CollocationError, CollocationOptions, RootsReport};
 use super::critical::{critical_scale, CriticalError, CriticalReport};
@@ -20,6 +21,9 @@ pub enum ReportError {
     /// Critical-scale search failed for a reason other than "no delay".
     #[error("critical scale: {0}")]
     Critical(#[from] CriticalError),
+    /// The argument-principle certificate failed.
+    #[error("root-count certificate: {0}")]
+    Certificate(#[from] ArgumentPrincipleError),
     /// Invalid platoon.
     #[error("CACC platoon: {0}")]
     Cacc(#[from] CaccError),
@@ -36,6 +40,9 @@ pub struct NetworkStabilityReport {
     /// Critical gain/delay scales and Theorem-1 conservatism; `None` when no driver is
     /// delayed (stable for every gain).
     pub critical: Option<CriticalReport>,
+    /// Argument-principle count of roots right of `abscissa + 1e-6(1 + |abscissa|)`, if
+    /// requested; `non_consensus() == 0` certifies that no root was missed.
+    pub beyond_abscissa: Option<RootCount>,
 }
 
 /// CACC platoon: eigenvalue verdicts and, if the platoon is stable, string stability.
@@ -47,22 +54,34 @@ pub struct CaccReport {
     pub string_stability: Option<StringStabilityReport>,
 }
 
-/// Roots and critical scales of a delayed-driver network.
+/// Roots and critical scales of a delayed-driver network; with `certify`, also the
+/// argument-principle count of roots beyond the computed abscissa.
 ///
 /// # Errors
-/// [`ReportError`] from the root or critical-scale computation.
+/// [`ReportError`] from the root, critical-scale or certificate computation.
 pub fn analyse_network(
     adjacency: &DMatrix<f64>,
     delays_s: &[f64],
     options: &CollocationOptions,
+    certify: bool,
 ) -> Result<NetworkStabilityReport, ReportError> {
     let roots = rightmost_roots(adjacency, delays_s, options)?;
+    let beyond_abscissa = if certify {
+        let sigma = roots.abscissa + 1e-6 * (1.0 + roots.abscissa.abs());
+        Some(count_roots_right_of(adjacency, delays_s, sigma)?)
+    } else {
+        None
+    };
     let critical = match critical_scale(adjacency, delays_s, options) {
         Ok(c) => Some(c),
         Err(CriticalError::NoDelay) => None,
         Err(e) => return Err(e.into()),
     };
-    Ok(NetworkStabilityReport { roots, critical })
+    Ok(NetworkStabilityReport {
+        roots,
+        critical,
+        beyond_abscissa,
+    })
 }
 
 /// Eigenvalues, both verdicts and string stability of a CACC platoon.
@@ -118,6 +137,19 @@ impl fmt::Display for NetworkStabilityReport {
                 "does not synchronize"
             }
         )?;
+        if let Some(c) = &self.beyond_abscissa {
+            writeln!(
+                f,
+                "argument principle: {} root(s) besides consensus right of {:.6e} ({})",
+                c.non_consensus(),
+                c.sigma,
+                if c.non_consensus() == 0 {
+                    "certified"
+                } else {
+                    "ROOTS MISSED"
+                }
+            )?;
+        }
         match &self.critical {
             Some(c) => {
                 writeln!(
@@ -204,8 +236,10 @@ mod tests {
             &ring.adjacency(),
             &ring.delays(),
             &CollocationOptions::default(),
+            true,
         )
         .unwrap();
+        assert_eq!(r.beyond_abscissa.unwrap().non_consensus(), 0);
         let json = serde_json::to_value(&r).unwrap();
         for key in ["abscissa", "roots", "max_residual"] {
             assert!(json["roots"].get(key).is_some(), "missing roots.{key}");
@@ -224,9 +258,15 @@ mod tests {
         }
         let text = r.to_string();
         assert!(text.contains("critical gain scale") && text.contains("synchronizes"));
+        assert!(text.contains("certified"));
         // Without delays there is no critical scale, and the report says so.
-        let r =
-            analyse_network(&ring.adjacency(), &[0.0; 6], &CollocationOptions::default()).unwrap();
+        let r = analyse_network(
+            &ring.adjacency(),
+            &[0.0; 6],
+            &CollocationOptions::default(),
+            false,
+        )
+        .unwrap();
         assert!(r.critical.is_none());
         assert!(r.to_string().contains("stable for every gain scale"));
     }
