@@ -12,9 +12,11 @@
 //! identity by computing with scaled delays directly.
 //!
 //! Method: bracket `c*` with full root computations ([`rightmost_roots`]), bisect the bracket to
-//! a relative width of `1e-6`, then solve `Re s(c) = 0` by the secant method on the dominant root
-//! tracked by Newton's method (quadratic convergence of the root, superlinear in `c`), keeping
-//! the answer inside the certified bracket.
+//! a relative width of `1e-3`, then solve `Re s(c) = 0` by the secant method on the dominant root
+//! tracked by Newton's method (quadratic convergence of the root, superlinear in `c`). Two more
+//! full computations at `c*(1 ∓ 1e-7)` certify the answer (stable below, unstable above); if
+//! another root crossed first, or the secant stalls, bisection with full computations continues
+//! down to `1e-10` relative.
 
 use super::collocation::{
     laplacian, rightmost_roots, validate_network, CollocationError, CollocationOptions, RootsReport,
@@ -77,8 +79,9 @@ pub struct CriticalReport {
     pub bracket_abscissae: [f64; 2],
     /// Number of full root computations used.
     pub full_solves: usize,
-    /// Whether the final secant on the tracked root converged (otherwise the answer is the
-    /// midpoint of a bracket bisected to 1e-10 relative).
+    /// Whether the secant on the tracked root converged and was certified by full computations
+    /// at `c*(1 ∓ 1e-7)` (otherwise the answer is the midpoint of a bracket bisected to 1e-10
+    /// relative).
     pub secant_converged: bool,
 }
 
@@ -211,8 +214,8 @@ pub fn critical_scale(
         hi *= 2.0;
         hi_report = eval(hi)?;
     }
-    // Bisect with full solves to a 1e-6 relative bracket.
-    while (hi - lo) > 1e-6 * hi {
+    // Bisect with full solves to a 1e-3 relative bracket.
+    while (hi - lo) > 1e-3 * hi {
         let mid = 0.5 * (lo + hi);
         let r = eval(mid)?;
         if r.is_stable() {
@@ -250,6 +253,30 @@ pub fn critical_scale(
                 secant_converged = true;
                 break;
             }
+        }
+    }
+    if secant_converged {
+        // Certify with full computations on both sides; a root that crossed earlier inside the
+        // bracket shows up as instability below c*.
+        let below = c_star * (1.0 - 1e-7);
+        let above = c_star * (1.0 + 1e-7);
+        let r_below = eval(below)?;
+        if r_below.is_stable() {
+            lo = below;
+            lo_report = r_below;
+            let r_above = eval(above)?;
+            if r_above.is_stable() {
+                secant_converged = false; // tracked root did not cross here
+                lo = above;
+                lo_report = r_above;
+            } else {
+                hi = above;
+                hi_report = r_above;
+            }
+        } else {
+            secant_converged = false;
+            hi = below;
+            hi_report = r_below;
         }
     }
     if !secant_converged {
@@ -370,6 +397,9 @@ mod tests {
             let (a, delays) = super::super::collocation::tests::random_network(n, &mut rng);
             let r = critical_scale(&a, &delays, &opts).unwrap();
             assert!(r.strongly_connected);
+            // Certified bracket of relative width 2e-7 around c*.
+            assert!(r.secant_converged, "trial {trial}");
+            assert!(r.bracket[1] - r.bracket[0] <= 2.1e-7 * r.critical_gain_scale);
             assert!(
                 r.conservatism_ratio >= 1.0,
                 "trial {trial}: {}",
