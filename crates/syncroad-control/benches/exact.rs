@@ -1,11 +1,16 @@
 //! Benchmarks of the exact stability analysis (issue 5).
 //!
 //! Targets: all ring modes for N = 1000 through the Lambert W fast path under 10 ms; a full
-//! collocation + Newton solve for N = 50 with heterogeneous delays under 1 s.
+//! collocation + Newton solve for N = 50 with heterogeneous delays under 1 s. Also timed: the
+//! argument-principle certificate and critical-scale searches (N = 10 and N = 50), and the
+//! CACC eigenvalues for 50 followers.
+//!
+//! Run with `cargo bench -p syncroad-control --bench exact`.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::DMatrix;
 use std::hint::black_box;
+use std::time::Duration;
 use syncroad_control::exact::{
     cacc_modes, count_roots_right_of, critical_scale, rightmost_roots, CaccParams,
     CollocationOptions, UniformRing,
@@ -50,6 +55,7 @@ fn bench_exact(c: &mut Criterion) {
     let opts = CollocationOptions::default();
     let mut group = c.benchmark_group("full_solve");
     group.sample_size(10);
+    group.measurement_time(Duration::from_secs(10));
     group.bench_function("rightmost_roots_heterogeneous_n50", |b| {
         b.iter(|| rightmost_roots(black_box(&a50), black_box(&d50), &opts).unwrap())
     });
@@ -62,6 +68,15 @@ fn bench_exact(c: &mut Criterion) {
         b.iter(|| critical_scale(black_box(&a10), black_box(&d10), &opts).unwrap())
     });
     group.finish();
+
+    // One critical-scale search at N = 50 is ~15 full solves; measured with the minimum sample.
+    let mut slow = c.benchmark_group("critical_n50");
+    slow.sample_size(10);
+    slow.measurement_time(Duration::from_secs(60));
+    slow.bench_function("critical_scale_heterogeneous_n50", |b| {
+        b.iter(|| critical_scale(black_box(&a50), black_box(&d50), &opts).unwrap())
+    });
+    slow.finish();
 
     let platoon = CaccParams::homogeneous(50, 0.4, 1.0, 0.2, 0.1);
     c.bench_function("cacc_modes_n50", |b| {
