@@ -11,6 +11,12 @@
 //! delay scale equals `c*` and the Theorem-1 delay scale equals `c_T1`. The tests check this
 //! identity by computing with scaled delays directly.
 //!
+//! For the straight road of eq. `chandler` (one follower per mode, `s + cK e^{−sα} = 0`) the
+//! exact bound is `αK < π/2`, whereas Section `sec.cacc` quotes `2αK < 1` as necessary and
+//! sufficient; `1/2` is rather the string-stability bound of that road
+//! ([`super::string_stability::chandler_string_peak`]) and the long-ring limit
+//! ([`super::ring_modes`]).
+//!
 //! Method: bracket `c*` with full root computations ([`rightmost_roots`]), bisect the bracket to
 //! a relative width of `1e-3`, then solve `Re s(c) = 0` by the secant method on the dominant root
 //! tracked by Newton's method (quadratic convergence of the root, superlinear in `c`). Two more

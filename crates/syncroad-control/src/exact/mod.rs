@@ -13,9 +13,10 @@
 //! * [`argument_principle`] — an independent count of the roots right of a line (certifies
 //!   that the collocation missed nothing);
 //! * [`critical`] — critical gain / delay scale and the conservatism ratio against Theorem 1;
-//! * [`cacc_modes`](mod@cacc_modes) — CACC platoon (eqs. `veh1`, `veh-proto1`, `veh-proto2`): closed-loop
-//!   eigenvalues next to Theorem `thm.cacc`;
-//! * [`string_stability`](mod@string_stability) — gap-error transfer peaks and a braking-wave simulation;
+//! * [`cacc_modes`](mod@cacc_modes) — CACC platoon (eqs. `veh1`, `veh-proto1`,
+//!   `veh-proto2`): closed-loop eigenvalues next to Theorem `thm.cacc`;
+//! * [`string_stability`](mod@string_stability) — gap-error transfer peaks and a
+//!   braking-wave simulation;
 //! * [`report`] — combined serializable reports with plain-text tables for a CLI.
 //!
 //! Inputs are plain data: an adjacency matrix `A = (a_ij)` with `a_ij ≥ 0` and zero diagonal

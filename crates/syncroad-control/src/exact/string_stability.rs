@@ -336,6 +336,10 @@ pub fn string_stability(
 /// `2αK ≤ 1` — the bound the paper quotes for the straight road in Section `sec.cacc` — while
 /// asymptotic stability of each follower needs only `αK < π/2` (see
 /// [`super::critical`]). Returns `∞` when `αK ≥ π/2` (a follower is unstable).
+///
+/// # Reference
+/// R. E. Chandler, R. Herman, E. W. Montroll, "Traffic dynamics: studies in car following",
+/// Operations Research 6 (1958) 165–184.
 pub fn chandler_string_peak(alpha_k: f64) -> f64 {
     if !(alpha_k.is_finite() && alpha_k > 0.0) {
         return f64::NAN;
