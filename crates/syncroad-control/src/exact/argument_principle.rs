@@ -205,6 +205,33 @@ mod tests {
     }
 
     #[test]
+    fn mixed_undelayed_and_delayed_drivers_are_certified_too() {
+        // Drivers with α_i = 0 carry no input history in the collocation; check that the
+        // reduced generator still finds the rightmost roots.
+        let mut rng = Lcg(5);
+        for trial in 0..6 {
+            let n = 4 + trial;
+            let (mut a, mut delays) = random_network(n, &mut rng);
+            for (i, d) in delays.iter_mut().enumerate() {
+                if i % 2 == trial % 2 {
+                    *d = 0.0;
+                }
+            }
+            let worst = (0..n)
+                .map(|i| delays[i] * a.row(i).sum())
+                .fold(0.0, f64::max);
+            a *= 1.2 / worst;
+            let r = rightmost_roots(&a, &delays, &CollocationOptions::default()).unwrap();
+            let margin = 1e-6 * (1.0 + r.abscissa.abs());
+            let right = count_roots_right_of(&a, &delays, r.abscissa + margin).unwrap();
+            assert_eq!(right.non_consensus(), 0, "trial {trial}");
+            let left = count_roots_right_of(&a, &delays, r.abscissa - margin).unwrap();
+            let expected = if r.roots[0].root.im > 0.0 { 2 } else { 1 };
+            assert_eq!(left.non_consensus(), expected, "trial {trial}");
+        }
+    }
+
+    #[test]
     fn errors_are_specific() {
         let a = DMatrix::from_row_slice(2, 2, &[0.0, 1.0, 1.0, 0.0]);
         assert_eq!(
