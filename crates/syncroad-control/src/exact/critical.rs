@@ -183,6 +183,16 @@ pub fn critical_scale(
     delays_s: &[f64],
     options: &CollocationOptions,
 ) -> Result<CriticalReport, CriticalError> {
+    search(adjacency, delays_s, options, true)
+}
+
+/// The search of [`critical_scale`]; `use_secant = false` forces the bisection fallback.
+fn search(
+    adjacency: &DMatrix<f64>,
+    delays_s: &[f64],
+    options: &CollocationOptions,
+    use_secant: bool,
+) -> Result<CriticalReport, CriticalError> {
     let n = validate_network(adjacency, delays_s)?;
     let l = laplacian(adjacency);
     let worst = (0..n).map(|i| delays_s[i] * l[(i, i)]).fold(0.0, f64::max);
@@ -237,7 +247,12 @@ pub fn critical_scale(
     let mut c_star = 0.5 * (lo + hi);
     let mut s_star = s_hi;
     let mut secant_converged = false;
-    if let Some(s_lo) = track_root(&l, delays_s, lo, s_hi) {
+    let tracked_lo = if use_secant {
+        track_root(&l, delays_s, lo, s_hi)
+    } else {
+        None
+    };
+    if let Some(s_lo) = tracked_lo {
         let (mut c0, mut g0) = (lo, s_lo.re);
         let (mut c1, mut g1, mut z1) = (hi, s_hi.re, s_hi);
         for _ in 0..60 {
@@ -425,6 +440,22 @@ mod tests {
             let at = rightmost_roots(&(&a * r.critical_gain_scale), &delays, &opts).unwrap();
             assert!(at.abscissa.abs() < 1e-9, "trial {trial}: {}", at.abscissa);
         }
+    }
+
+    #[test]
+    fn bisection_fallback_reaches_the_closed_form_too() {
+        let ring = UniformRing::new(5, 1.0, 0.25, 0.8).unwrap();
+        let exact = ring.modes().unwrap().critical_gain_scale;
+        let r = search(
+            &ring.adjacency(),
+            &ring.delays(),
+            &CollocationOptions::default(),
+            false,
+        )
+        .unwrap();
+        assert!(!r.secant_converged);
+        assert_relative_eq!(r.critical_gain_scale, exact, max_relative = 1e-9);
+        assert!(r.bracket[1] - r.bracket[0] <= 1e-10 * r.bracket[1]);
     }
 
     #[test]
