@@ -5,6 +5,7 @@ use super::argument_principle::{count_roots_right_of, ArgumentPrincipleError, Ro
 use super::cacc_modes::{cacc_modes, CaccError, CaccModes, CaccParams};
 use super::collocation::{rightmost_roots, CollocationError, CollocationOptions, RootsReport};
 use super::critical::{critical_scale, CriticalError, CriticalReport};
+use super::ring_modes::RingModes;
 use super::string_stability::{
     string_stability, StringStabilityError, StringStabilityOptions, StringStabilityReport,
 };
@@ -172,6 +173,36 @@ impl fmt::Display for NetworkStabilityReport {
     }
 }
 
+impl fmt::Display for RingModes {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let r = &self.ring;
+        writeln!(
+            f,
+            "uniform ring: N = {}, k_f = {} 1/s, k_b = {} 1/s, α = {} s",
+            r.vehicles, r.gain_front, r.gain_back, r.delay_s
+        )?;
+        let dominant = &self.modes[self.dominant_mode];
+        writeln!(
+            f,
+            "spectral abscissa {:.6e} 1/s (mode k = {}, root {:.6e} + {:.6e}i) -> {}",
+            self.abscissa,
+            self.dominant_mode,
+            dominant.root.re,
+            dominant.root.im,
+            if self.abscissa < 0.0 {
+                "synchronizes"
+            } else {
+                "does not synchronize"
+            }
+        )?;
+        writeln!(
+            f,
+            "critical gain scale {:.10}  Theorem-1 {:.10}  ratio {:.6}",
+            self.critical_gain_scale, self.theorem1_gain_scale, self.conservatism_ratio
+        )
+    }
+}
+
 impl fmt::Display for CaccReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let m = &self.modes;
@@ -269,6 +300,18 @@ mod tests {
         .unwrap();
         assert!(r.critical.is_none());
         assert!(r.to_string().contains("stable for every gain scale"));
+    }
+
+    #[test]
+    fn ring_table_names_the_dominant_mode() {
+        let ring = UniformRing::new(8, 1.0, 0.0, 0.5).unwrap();
+        let text = ring.modes().unwrap().to_string();
+        // Real gains: the dominant modes are the conjugate pair k = 1 and k = N − 1.
+        assert!(
+            text.contains("mode k = 1,") || text.contains("mode k = 7,"),
+            "{text}"
+        );
+        assert!(text.contains("synchronizes"));
     }
 
     #[test]
