@@ -84,7 +84,49 @@ pub fn lambert_w(branch: i64, z: Complex64) -> Result<Complex64, LambertWError> 
             w
         }
     };
-    let mut w = initial_guess(branch, z);
+    // Halley's iteration may converge to a neighbouring branch from a poor start (e.g. the
+    // branch-point series far from the branch point). Every result is checked against the
+    // branch identity ln W + W = ln z + 2πik and other starts are tried if it fails.
+    let starts = [
+        initial_guess(branch, z),
+        asymptotic_guess(branch, z),
+        (1.0 + z).ln(),
+        branch_point_guess(branch, z),
+    ];
+    for w0 in starts {
+        if let Some(w) = halley(z, w0).map(close_cut) {
+            if on_branch(w, z, branch) {
+                return Ok(w);
+            }
+        }
+    }
+    Err(LambertWError::NoConvergence {
+        branch,
+        re: z.re,
+        im: z.im,
+        iterations: MAX_HALLEY_STEPS,
+    })
+}
+
+/// True when `w` (a solution of `w e^w = z`) lies on branch `k`: `ln w + w = ln z + 2πik`.
+/// Real solutions of real arguments sit on cuts where that identity cannot tell W_0 from
+/// W_{−1}; there the real branches decide: W_0 ≥ −1, W_{−1} ≤ −1.
+fn on_branch(w: Complex64, z: Complex64, k: i64) -> bool {
+    if w.norm() < 1e-300 {
+        return k == 0;
+    }
+    if w.im == 0.0 && z.im == 0.0 {
+        return match k {
+            0 => w.re >= -1.0,
+            -1 => w.re <= -1.0 && z.re < 0.0,
+            _ => false,
+        };
+    }
+    ((w.ln() + w - z.ln()).im / (2.0 * PI)).round() as i64 == k
+}
+
+/// Halley's iteration for `w e^w = z` from `w`.
+fn halley(z: Complex64, mut w: Complex64) -> Option<Complex64> {
     let scale = z.norm().max(f64::MIN_POSITIVE);
     for iteration in 0..MAX_HALLEY_STEPS {
         let ew = w.exp();
@@ -97,24 +139,32 @@ pub fn lambert_w(branch: i64, z: Complex64) -> Result<Complex64, LambertWError> 
         let step = f / denom;
         w -= step;
         if step.norm() <= 4.0 * f64::EPSILON * (1.0 + w.norm()) {
-            return Ok(close_cut(w));
+            return Some(w);
         }
         // Halley converges cubically; a tiny residual relative to |z| is also accepted.
         if iteration > 3 && (w * w.exp() - z).norm() <= 8.0 * f64::EPSILON * scale {
-            return Ok(close_cut(w));
+            return Some(w);
         }
     }
     // Accept a result whose residual is at rounding level (happens at the branch point,
     // where the iteration converges only linearly because w + 1 → 0).
-    if (w * w.exp() - z).norm() <= 1e-12 * scale.max(1.0) && w.re.is_finite() {
-        return Ok(close_cut(w));
+    ((w * w.exp() - z).norm() <= 1e-12 * scale.max(1.0) && w.re.is_finite()).then_some(w)
+}
+
+/// Asymptotic start `W_k(z) ≈ L1 − L2 + L2/L1`, `L1 = ln z + 2πik`, `L2 = ln L1`.
+fn asymptotic_guess(k: i64, z: Complex64) -> Complex64 {
+    let l1 = z.ln() + Complex64::new(0.0, 2.0 * PI * k as f64);
+    let l2 = l1.ln();
+    l1 - l2 + l2 / l1
+}
+
+/// Branch-point series start `−1 ± p − p²/3 + 11p³/72`, `p = sqrt(2(ez + 1))`.
+fn branch_point_guess(k: i64, z: Complex64) -> Complex64 {
+    let mut p = (2.0 * (E * z + 1.0)).sqrt();
+    if k != 0 {
+        p = -p;
     }
-    Err(LambertWError::NoConvergence {
-        branch,
-        re: z.re,
-        im: z.im,
-        iterations: MAX_HALLEY_STEPS,
-    })
+    -1.0 + p - p * p / 3.0 + 11.0 / 72.0 * p * p * p
 }
 
 /// Starting point for Halley's iteration on branch `k`.
@@ -157,6 +207,31 @@ fn initial_guess(k: i64, z: Complex64) -> Complex64 {
 mod tests {
     use super::*;
     use approx::assert_relative_eq;
+
+    /// Regression: on the principal cut (−∞, −1/e) the branch-point series is a poor start
+    /// far from −1/e and once led Halley to W_1 (at z = −1.584). Along the cut W_0 must be
+    /// continuous, with Im W_0 ∈ (0, π), and pass through W_0(−π/2) = iπ/2.
+    #[test]
+    fn principal_branch_along_the_negative_real_axis() {
+        let mut prev: Option<Complex64> = None;
+        for k in 0..4000 {
+            let x = -1.0 / E - 1e-6 - k as f64 * 2.5e-3;
+            let w = lambert_w(0, Complex64::new(x, 0.0)).unwrap();
+            assert!(w.im > 0.0 && w.im < PI, "x = {x}: {w}");
+            assert!(
+                (w * w.exp() - x).norm() < 1e-13 * x.abs().max(1.0),
+                "x = {x}: {w}"
+            );
+            if let Some(p) = prev {
+                // Neighbouring branches differ by about 2π in Im W; near −1/e W_0 moves like
+                // sqrt(2e|Δx|) ≈ 0.12 per step.
+                assert!((w - p).norm() < 0.5, "jump at x = {x}: {p} → {w}");
+            }
+            prev = Some(w);
+        }
+        let w = lambert_w(0, Complex64::new(-PI / 2.0, 0.0)).unwrap();
+        assert!((w - Complex64::new(0.0, PI / 2.0)).norm() < 1e-14, "{w}");
+    }
 
     fn residual(w: Complex64, z: Complex64) -> f64 {
         (w * w.exp() - z).norm() / z.norm().max(1.0)
