@@ -37,6 +37,38 @@ pub enum Command {
         #[command(flatten)]
         out: OutputArgs,
     },
+    /// Exact stability: rightmost characteristic roots, critical gain and delay scales, the
+    /// conservatism of Theorem 1; for CACC platoons the closed-loop eigenvalues and string
+    /// stability — beside the paper's sufficient conditions.
+    Stability {
+        /// Scenario file (JSON).
+        scenario: PathBuf,
+        /// Print JSON instead of tables.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Sweep a 2-D grid of gain and delay scales of a delayed-driver scenario: the region
+    /// Theorem 1 certifies, the exactly stable region, and native simulations at every point,
+    /// drawn on one plot (map.png, map.svg) with map.csv.
+    Map {
+        /// Scenario file (JSON).
+        scenario: PathBuf,
+        /// x axis as NAME=LO:HI:N, NAME one of gain_scale, delay_scale.
+        #[arg(long, default_value = "gain_scale=0.1:3:30")]
+        x: String,
+        /// y axis as NAME=LO:HI:N.
+        #[arg(long, default_value = "delay_scale=0.1:3:30")]
+        y: String,
+        /// Output folder (created if missing).
+        #[arg(long, short)]
+        out: PathBuf,
+        /// Skip the native simulations (theory and exact regions only).
+        #[arg(long)]
+        no_sim: bool,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        jobs: Option<usize>,
+    },
     /// Compare a fresh run's metrics with a committed baseline (per-metric tolerances); print
     /// a readable diff; exit 1 on regression. The baseline names its scenario.
     Regress {

@@ -35,6 +35,15 @@ pub fn run(cli: Cli) -> anyhow::Result<u8> {
         Command::Simulate { scenario, out } => simulate_cmd(&scenario, &out),
         Command::Bench { horizon_s, sizes } => crate::bench::run(horizon_s, &sizes),
         Command::Ifp { eta, rho, json } => ifp_cmd(&eta, &rho, json),
+        Command::Stability { scenario, json } => stability_cmd(&scenario, json),
+        Command::Map {
+            scenario,
+            x,
+            y,
+            out,
+            no_sim,
+            jobs,
+        } => map_cmd(&scenario, &x, &y, &out, no_sim, jobs),
         Command::Regress {
             baseline,
             update,
@@ -238,5 +247,92 @@ fn ifp_cmd(eta: &[f64], rho: &[f64], json: bool) -> anyhow::Result<u8> {
         println!("IFP index α = {:.9}  ({at})", r.alpha);
         println!("W(λ) = η(λ)/(λ ρ(λ)) is IFP(α): passive with respect to y + α u (Lemma lem.linear-pass)");
     }
+    Ok(exit_codes::SUCCESS)
+}
+
+fn stability_cmd(path: &Path, json: bool) -> anyhow::Result<u8> {
+    let sc = load_scenario(path)?;
+    let r = crate::stability::analyse(&sc)?;
+    if json {
+        println!("{}", serde_json::to_string_pretty(&r)?);
+    } else {
+        print!("{}", crate::stability::table(&r));
+    }
+    Ok(if r.exactly_stable {
+        exit_codes::SUCCESS
+    } else {
+        exit_codes::NOT_SYNCHRONIZED
+    })
+}
+
+fn map_cmd(
+    path: &Path,
+    x: &str,
+    y: &str,
+    out: &Path,
+    no_sim: bool,
+    jobs: Option<usize>,
+) -> anyhow::Result<u8> {
+    let sc = load_scenario(path)?;
+    let xa = crate::map::Axis::parse("--x", x)?;
+    let ya = crate::map::Axis::parse("--y", y)?;
+    if jobs == Some(0) {
+        return Err(InputError("--jobs = 0: must be ≥ 1".into()).into());
+    }
+    let jobs = jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    std::fs::create_dir_all(out)
+        .with_context(|| format!("cannot create output folder {}", out.display()))?;
+    let pts = crate::map::sweep(&sc, xa, ya, !no_sim, jobs)?;
+    crate::map::write_csv(&out.join("map.csv"), &pts)?;
+    let bounds = crate::map::boundaries(&sc);
+    crate::map::plot(
+        out,
+        &format!("{}: Theorem 1 vs exact stability", sc.name),
+        &xa,
+        &ya,
+        &pts,
+        &bounds,
+    )?;
+    println!(
+        "boundaries (gain scale × delay scale): Theorem 1 at {:.6}, exact at {}",
+        bounds.theorem1_product,
+        bounds
+            .exact_product
+            .map_or("— (not computed)".to_string(), |c| format!(
+                "{c:.6} (ratio {:.4})",
+                c / bounds.theorem1_product
+            ))
+    );
+    let certified = pts.iter().filter(|p| p.certified).count();
+    let stable = pts.iter().filter(|p| p.exact_stable == Some(true)).count();
+    let contradictions = pts
+        .iter()
+        .filter(|p| p.certified && p.exact_stable == Some(false))
+        .count();
+    println!(
+        "{} grid points: {certified} certified by Theorem 1, {stable} exactly stable{}",
+        pts.len(),
+        if contradictions > 0 {
+            format!(", {contradictions} CERTIFIED BUT UNSTABLE (please report)")
+        } else {
+            String::new()
+        }
+    );
+    if !no_sim {
+        let sync = pts
+            .iter()
+            .filter(|p| p.simulated == Some(Verdict::Synchronized))
+            .count();
+        let disagree = pts
+            .iter()
+            .filter(|p| {
+                p.simulated.is_some_and(|v| v != Verdict::Inconclusive)
+                    && p.exact_stable
+                        .is_some_and(|e| e != (p.simulated == Some(Verdict::Synchronized)))
+            })
+            .count();
+        println!("simulations: {sync} synchronized; {disagree} disagree with the exact verdict (near the boundary the horizon may be too short)");
+    }
+    println!("wrote {}/map.csv, map.png, map.svg", out.display());
     Ok(exit_codes::SUCCESS)
 }

@@ -5,9 +5,11 @@ mod bench;
 mod cli;
 mod commands;
 mod exit_codes;
+mod map;
 mod plots;
 mod regress;
 mod report;
+mod stability;
 
 use std::process::ExitCode;
 

@@ -193,3 +193,69 @@ fn ifp_command_reproduces_the_cacc_index_and_rejects_non_hurwitz_rho() {
     assert_eq!(code, 2);
     assert!(err.contains("is not Hurwitz"), "{err}");
 }
+
+#[test]
+fn stability_of_the_unstable_ring_matches_the_closed_form_critical_gain() {
+    // Uniform one-way ring: the slowest mode crosses at αKc* = (π/N)/(2 sin(π/N)).
+    let (code, out, err) = run(bin()
+        .args(["stability", "--json"])
+        .arg(repo().join("scenarios/ring-unstable.json")));
+    assert_eq!(code, 1, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["exactly_stable"], false);
+    let n = 22.0f64;
+    let x = std::f64::consts::PI / n;
+    let expect = x / (2.0 * x.sin()) / (0.8 * 1.5);
+    let fast = v["ring"]["critical_gain_scale"].as_f64().unwrap();
+    let full = v["network"]["critical"]["critical_gain_scale"]
+        .as_f64()
+        .unwrap();
+    assert!((fast - expect).abs() < 1e-12 * expect, "{fast} vs {expect}");
+    assert!((full - expect).abs() < 1e-7 * expect, "{full} vs {expect}");
+}
+
+#[test]
+fn stability_of_chandler_chain_is_exact_and_map_draws_both_boundaries() {
+    let (code, out, _) = run(bin()
+        .args(["stability", "--json"])
+        .arg(repo().join("scenarios/straight-chandler.json")));
+    assert_eq!(code, 0);
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    // Every driver: s + K e^{−sα} = 0 with K = 0.6, α = 0.8; critical scale π/(2αK).
+    let c = v["acyclic"]["critical_gain_scale"].as_f64().unwrap();
+    assert!((c - std::f64::consts::FRAC_PI_2 / 0.48).abs() < 1e-12);
+    let re = v["acyclic"]["abscissa"].as_f64().unwrap();
+    let im = v["acyclic"]["drivers"][0]["im"].as_f64().unwrap();
+    let s = (re, im);
+    // Residual of the scalar equation at the reported root.
+    let e = (-s.0 * 0.8f64).exp();
+    let (c1, s1) = ((s.1 * 0.8f64).cos(), (s.1 * 0.8f64).sin());
+    let res = ((s.0 + 0.6 * e * c1).powi(2) + (s.1 - 0.6 * e * s1).powi(2)).sqrt();
+    assert!(res < 1e-12, "{res}");
+
+    let dir = tmpdir("map");
+    let (code, out, err) = run(bin()
+        .args([
+            "map",
+            "--x",
+            "gain_scale=0.5:4:8",
+            "--y",
+            "delay_scale=0.5:4:6",
+            "--no-sim",
+            "--out",
+        ])
+        .arg(&dir)
+        .arg(repo().join("scenarios/straight-chandler.json")));
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(out.contains("48 grid points"), "{out}");
+    let csv = std::fs::read_to_string(dir.join("map.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 49);
+    // Points with c·r below the exact product π/(2·0.48) are exactly stable, above are not.
+    for line in csv.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        let (x, y): (f64, f64) = (f[0].parse().unwrap(), f[1].parse().unwrap());
+        let stable = f[4] == "true";
+        assert_eq!(stable, x * y < std::f64::consts::FRAC_PI_2 / 0.48, "{line}");
+    }
+    assert!(dir.join("map.png").exists() && dir.join("map.svg").exists());
+}

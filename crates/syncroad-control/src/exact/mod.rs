@@ -17,12 +17,15 @@
 //!   `veh-proto2`): closed-loop eigenvalues next to Theorem `thm.cacc`;
 //! * [`string_stability`](mod@string_stability) — gap-error transfer peaks and a
 //!   braking-wave simulation;
+//! * [`acyclic`] — exact roots of acyclic networks (predecessor following behind a leader),
+//!   where identical drivers give roots of high multiplicity;
 //! * [`report`] — combined serializable reports with plain-text tables for a CLI.
 //!
 //! Inputs are plain data: an adjacency matrix `A = (a_ij)` with `a_ij ≥ 0` and zero diagonal
 //! as `nalgebra::DMatrix<f64>`, delays as `&[f64]`.
 #![warn(missing_docs)]
 
+pub mod acyclic;
 pub mod argument_principle;
 pub mod cacc_modes;
 pub mod collocation;
@@ -32,6 +35,7 @@ pub mod report;
 pub mod ring_modes;
 pub mod string_stability;
 
+pub use acyclic::{acyclic_roots, AcyclicError, AcyclicReport, DriverRoot};
 pub use argument_principle::{count_roots_right_of, ArgumentPrincipleError, RootCount};
 pub use cacc_modes::{cacc_modes, CaccCondition, CaccError, CaccModes, CaccParams};
 pub use collocation::{

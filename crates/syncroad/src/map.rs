@@ -1,0 +1,514 @@
+//! `syncroad map`: sweep a 2-D grid of gain and delay scales of a delayed-driver scenario and
+//! draw, on one plot, the region Theorem 1 certifies, the exactly stable region (rightmost
+//! characteristic root), and the verdict of a native simulation at every grid point.
+
+use std::fmt::Write as _;
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+
+use anyhow::{anyhow, Context};
+use plotters::prelude::*;
+use serde::Serialize;
+use syncroad_control::exact::{self, CollocationOptions, UniformRing};
+use syncroad_control::metrics::{sync_metrics, VerdictThresholds};
+use syncroad_control::scenario::{DelayedDriverModel, Model};
+use syncroad_control::{simulate, theory, NativeOptions, Scenario, StopReason, Verdict};
+
+use crate::commands::InputError;
+use crate::stability::{network_matrices, uniform_ring, FULL_SOLVE_LIMIT};
+
+/// Swept quantity.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Param {
+    /// Uniform scale c of all gains a_ij (and pinning gains b_i).
+    GainScale,
+    /// Uniform scale of all delays α_i (rounded to the step grid for the simulation).
+    DelayScale,
+}
+
+impl Param {
+    fn label(self) -> &'static str {
+        match self {
+            Param::GainScale => "gain scale c (A → cA)",
+            Param::DelayScale => "delay scale (α → sα)",
+        }
+    }
+}
+
+/// One axis of the grid: `lo..=hi` in `n` points.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Axis {
+    /// Quantity.
+    pub param: Param,
+    /// First value.
+    pub lo: f64,
+    /// Last value.
+    pub hi: f64,
+    /// Number of points (≥ 2).
+    pub n: usize,
+}
+
+impl Axis {
+    /// Parses `NAME=LO:HI:N`, e.g. `gain_scale=0.2:3:25`.
+    pub fn parse(flag: &str, s: &str) -> Result<Self, InputError> {
+        let bad = |why: &str| {
+            InputError(format!("{flag} = {s:?}: {why}; expected NAME=LO:HI:N with NAME gain_scale or delay_scale, e.g. gain_scale=0.2:3:25"))
+        };
+        let (name, range) = s.split_once('=').ok_or_else(|| bad("missing '='"))?;
+        let param = match name {
+            "gain_scale" => Param::GainScale,
+            "delay_scale" => Param::DelayScale,
+            _ => return Err(bad("unknown parameter")),
+        };
+        let parts: Vec<&str> = range.split(':').collect();
+        if parts.len() != 3 {
+            return Err(bad("need three numbers LO:HI:N"));
+        }
+        let lo: f64 = parts[0].parse().map_err(|_| bad("LO is not a number"))?;
+        let hi: f64 = parts[1].parse().map_err(|_| bad("HI is not a number"))?;
+        let n: usize = parts[2]
+            .parse()
+            .map_err(|_| bad("N is not a whole number"))?;
+        if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && hi > lo) {
+            return Err(bad("need 0 < LO < HI"));
+        }
+        if !(2..=400).contains(&n) {
+            return Err(bad("N must be between 2 and 400"));
+        }
+        Ok(Self { param, lo, hi, n })
+    }
+
+    /// The k-th value.
+    pub fn value(&self, k: usize) -> f64 {
+        self.lo + (self.hi - self.lo) * k as f64 / (self.n - 1) as f64
+    }
+}
+
+/// Outcome at one grid point.
+#[derive(Debug, Clone, Serialize)]
+pub struct Point {
+    /// x value.
+    pub x: f64,
+    /// y value.
+    pub y: f64,
+    /// Theorem 1 (or 1+) certifies synchronization.
+    pub certified: bool,
+    /// Spectral abscissa of the roots other than the consensus root [1/s].
+    pub abscissa_per_s: Option<f64>,
+    /// Exactly stable (abscissa < 0).
+    pub exact_stable: Option<bool>,
+    /// Native simulation verdict (absent with `--no-sim`).
+    pub simulated: Option<Verdict>,
+    /// Delays actually simulated were rounded to the step grid; largest change [s].
+    pub delay_rounding_s: f64,
+}
+
+fn scaled(m: &DelayedDriverModel, gain: f64, delay: f64, step_s: f64) -> (DelayedDriverModel, f64) {
+    let mut s = m.clone();
+    s.graph = m.graph.scaled(gain);
+    if let Some((_, b)) = s.leader.as_mut() {
+        b.iter_mut().for_each(|x| *x *= gain);
+    }
+    let mut worst: f64 = 0.0;
+    for (i, a) in m.delay_s.iter().enumerate() {
+        let exact = a * delay;
+        let steps = (exact / step_s).round();
+        s.delay_steps[i] = steps as usize;
+        s.delay_s[i] = exact;
+        worst = worst.max((steps * step_s - exact).abs());
+    }
+    (s, worst)
+}
+
+fn evaluate(
+    sc: &Scenario,
+    base: &DelayedDriverModel,
+    ring: Option<UniformRing>,
+    x: (Param, f64),
+    y: (Param, f64),
+    simulate_too: bool,
+) -> Point {
+    let scale = |p: Param| {
+        [x, y]
+            .iter()
+            .filter(|(q, _)| *q == p)
+            .map(|(_, v)| *v)
+            .product::<f64>()
+    };
+    let (gain, delay) = (scale(Param::GainScale), scale(Param::DelayScale));
+    let (m, rounding) = scaled(base, gain, delay, sc.step_s);
+    let certified = match &m.leader {
+        None => theory::theorem1(&m.graph, &m.delay_s).holds,
+        Some((_, b)) => theory::theorem1_plus(&m.graph, &m.delay_s, b).holds,
+    };
+    let abscissa = exact_abscissa(&m, ring, gain, delay);
+    let simulated = simulate_too.then(|| {
+        let mut s = sc.clone();
+        // The simulation uses the on-grid delays.
+        let mut mm = m.clone();
+        for (d, k) in mm.delay_s.iter_mut().zip(&mm.delay_steps) {
+            *d = *k as f64 * sc.step_s;
+        }
+        s.model = Model::DelayedDriver(mm);
+        let every = (s.steps / 1000).max(1);
+        let run = simulate(
+            &s,
+            NativeOptions {
+                record_every: every,
+            },
+        );
+        let th = VerdictThresholds {
+            tolerance_mps: sc.file.verdict.tolerance_mps,
+            window_s: sc.file.verdict.window_s,
+        };
+        sync_metrics(
+            &run.trajectory,
+            th,
+            None,
+            !matches!(run.stop, StopReason::Horizon),
+        )
+        .verdict
+    });
+    Point {
+        x: x.1,
+        y: y.1,
+        certified,
+        abscissa_per_s: abscissa,
+        exact_stable: abscissa.map(|a| a < 0.0),
+        simulated,
+        delay_rounding_s: rounding,
+    }
+}
+
+/// Spectral abscissa of the delayed-driver network (roots other than the consensus root):
+/// the Fourier fast path for uniform rings, the full solve otherwise.
+fn exact_abscissa(
+    m: &DelayedDriverModel,
+    ring: Option<UniformRing>,
+    gain: f64,
+    delay: f64,
+) -> Option<f64> {
+    if let Some(r) = ring {
+        let scaled = UniformRing::new(
+            r.vehicles,
+            r.gain_front * gain,
+            r.gain_back * gain,
+            r.delay_s * delay,
+        )
+        .ok()?;
+        return scaled.modes().ok().map(|modes| modes.abscissa);
+    }
+    let (a, d) = network_matrices(m);
+    if let Ok(x) = exact::acyclic_roots(&a, &d) {
+        return Some(x.abscissa);
+    }
+    exact::rightmost_roots(&a, &d, &CollocationOptions::default())
+        .ok()
+        .map(|r| r.abscissa)
+}
+
+/// Runs the sweep in parallel over the cores, with progress on stderr.
+pub fn sweep(
+    sc: &Scenario,
+    xa: Axis,
+    ya: Axis,
+    simulate_too: bool,
+    jobs: usize,
+) -> anyhow::Result<Vec<Point>> {
+    let Model::DelayedDriver(base) = &sc.model else {
+        return Err(InputError("map sweeps delayed-driver scenarios (model.type = \"delayed_driver\"); use `syncroad stability` for CACC platoons".into()).into());
+    };
+    if xa.param == ya.param {
+        return Err(InputError(format!(
+            "--x and --y both sweep {:?}; choose two different parameters",
+            xa.param
+        ))
+        .into());
+    }
+    let size = base.graph.len() + usize::from(base.leader.is_some());
+    let ring = uniform_ring(sc, base);
+    let acyclic = {
+        let (a, d) = network_matrices(base);
+        exact::acyclic_roots(&a, &d).is_ok()
+    };
+    if ring.is_none() && !acyclic && size > FULL_SOLVE_LIMIT {
+        return Err(InputError(format!(
+            "the scenario has {size} vehicles: exact roots at every grid point need a uniform ring (any size) or at most {FULL_SOLVE_LIMIT} vehicles"
+        ))
+        .into());
+    }
+    let tty = std::io::stderr().is_terminal();
+    let total = xa.n * ya.n;
+    let next = AtomicUsize::new(0);
+    let done = AtomicUsize::new(0);
+    let results: Mutex<Vec<Option<Point>>> = Mutex::new(vec![None; total]);
+    std::thread::scope(|scope| {
+        for _ in 0..jobs.max(1) {
+            scope.spawn(|| loop {
+                let k = next.fetch_add(1, Ordering::Relaxed);
+                if k >= total {
+                    break;
+                }
+                let (i, j) = (k % xa.n, k / xa.n);
+                let p = evaluate(
+                    sc,
+                    base,
+                    ring,
+                    (xa.param, xa.value(i)),
+                    (ya.param, ya.value(j)),
+                    simulate_too,
+                );
+                results
+                    .lock()
+                    .expect("no worker panics while holding the lock")[k] = Some(p);
+                let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+                if tty && (d % 10 == 0 || d == total) {
+                    eprint!("\rmap: {d}/{total} grid points");
+                } else if !tty && (d * 10 / total != (d - 1) * 10 / total) {
+                    eprintln!("map: {d}/{total} grid points");
+                }
+            });
+        }
+    });
+    if tty {
+        eprintln!();
+    }
+    results
+        .into_inner()
+        .expect("no worker panicked")
+        .into_iter()
+        .collect::<Option<Vec<_>>>()
+        .ok_or_else(|| anyhow!("a grid point was not evaluated"))
+}
+
+/// The stability boundaries in the (gain scale × delay scale) plane. Scaling gains by c and
+/// delays by r changes `det(sI + diag(e^{−srα}) cL)` into `det(zI + diag(e^{−zα}) crL)/r` with
+/// z = rs, so both boundaries are hyperbolas `c·r = const`.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Boundaries {
+    /// Theorem 1 (1+) holds for `c·r` below this.
+    pub theorem1_product: f64,
+    /// Exact stability for `c·r` below this (critical gain scale of the scenario).
+    pub exact_product: Option<f64>,
+}
+
+/// Computes the two boundaries of the scenario.
+pub fn boundaries(sc: &Scenario) -> Boundaries {
+    let Model::DelayedDriver(m) = &sc.model else {
+        return Boundaries {
+            theorem1_product: f64::NAN,
+            exact_product: None,
+        };
+    };
+    let theorem1_product = match &m.leader {
+        None => theory::theorem1(&m.graph, &m.delay_s).max_gain_scale,
+        Some((_, b)) => theory::theorem1_plus(&m.graph, &m.delay_s, b).max_gain_scale,
+    };
+    let exact_product = match uniform_ring(sc, m) {
+        Some(r) => r.modes().ok().map(|x| x.critical_gain_scale),
+        None => {
+            let (a, d) = network_matrices(m);
+            match exact::acyclic_roots(&a, &d) {
+                Ok(x) => Some(x.critical_gain_scale),
+                Err(_) => exact::critical_scale(&a, &d, &CollocationOptions::default())
+                    .ok()
+                    .map(|c| c.critical_gain_scale),
+            }
+        }
+    };
+    Boundaries {
+        theorem1_product,
+        exact_product,
+    }
+}
+
+/// Writes map.csv.
+pub fn write_csv(path: &Path, pts: &[Point]) -> anyhow::Result<()> {
+    let mut s = String::from(
+        "x,y,certified_theorem1,abscissa_per_s,exact_stable,simulated,delay_rounding_s\n",
+    );
+    for p in pts {
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{},{}",
+            p.x,
+            p.y,
+            p.certified,
+            p.abscissa_per_s.map_or(String::new(), |a| a.to_string()),
+            p.exact_stable.map_or(String::new(), |b| b.to_string()),
+            p.simulated
+                .map_or(String::new(), |v| v.to_string().replace(' ', "_")),
+            p.delay_rounding_s
+        );
+    }
+    std::fs::write(path, s).with_context(|| format!("cannot write {}", path.display()))
+}
+
+fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
+    anyhow!("plotting failed: {e:?}")
+}
+
+macro_rules! draw_map {
+    ($area:expr, $title:expr, $xa:expr, $ya:expr, $pts:expr, $bounds:expr) => {{
+        let (xa, ya, pts, bounds): (&Axis, &Axis, &[Point], &Boundaries) =
+            ($xa, $ya, $pts, $bounds);
+        let dx = (xa.hi - xa.lo) / (xa.n - 1) as f64 / 2.0;
+        let dy = (ya.hi - ya.lo) / (ya.n - 1) as f64 / 2.0;
+        let mut chart = ChartBuilder::on($area)
+            .caption($title, ("sans-serif", 20))
+            .margin(12)
+            .x_label_area_size(45)
+            .y_label_area_size(60)
+            .build_cartesian_2d((xa.lo - dx)..(xa.hi + dx), (ya.lo - dy)..(ya.hi + dy))
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_desc(xa.param.label())
+            .y_desc(ya.param.label())
+            .label_style(("sans-serif", 13))
+            .axis_desc_style(("sans-serif", 15))
+            .draw()
+            .map_err(err)?;
+        let stable = RGBColor(200, 235, 200);
+        let unstable = RGBColor(245, 205, 205);
+        let unknown = RGBColor(225, 225, 225);
+        chart
+            .draw_series(pts.iter().map(|p| {
+                let c = match p.exact_stable {
+                    Some(true) => stable,
+                    Some(false) => unstable,
+                    None => unknown,
+                };
+                Rectangle::new([(p.x - dx, p.y - dy), (p.x + dx, p.y + dy)], c.filled())
+            }))
+            .map_err(err)?
+            .label("exactly stable (green) / unstable (red)")
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 15, y + 5)], stable.filled()));
+        chart
+            .draw_series(pts.iter().filter(|p| p.certified).map(|p| {
+                Rectangle::new(
+                    [
+                        (p.x - dx * 0.25, p.y - dy * 0.25),
+                        (p.x + dx * 0.25, p.y + dy * 0.25),
+                    ],
+                    RGBColor(40, 120, 40).filled(),
+                )
+            }))
+            .map_err(err)?
+            .label("certified by Theorem 1")
+            .legend(|(x, y)| {
+                Rectangle::new(
+                    [(x + 4, y - 3), (x + 10, y + 3)],
+                    RGBColor(40, 120, 40).filled(),
+                )
+            });
+        chart
+            .draw_series(pts.iter().filter(|p| p.simulated.is_some()).map(|p| {
+                let (col, r) = match p.simulated {
+                    Some(Verdict::Synchronized) => (BLUE, 4),
+                    Some(Verdict::NotSynchronized) => (RED, 4),
+                    _ => (RGBColor(120, 120, 120), 3),
+                };
+                Circle::new((p.x, p.y), r, col.stroke_width(1))
+            }))
+            .map_err(err)?
+            .label("simulation: synchronized (blue) / not (red) / inconclusive (grey)")
+            .legend(|(x, y)| Circle::new((x + 7, y), 4, BLUE.stroke_width(1)));
+        // Boundaries c·r = const as curves over the x range.
+        let curve = |product: f64| {
+            (0..=400).filter_map(move |k| {
+                let x = xa.lo + (xa.hi - xa.lo) * k as f64 / 400.0;
+                let y = product / x;
+                (y >= ya.lo - dy && y <= ya.hi + dy).then_some((x, y))
+            })
+        };
+        if bounds.theorem1_product.is_finite() {
+            chart
+                .draw_series(LineSeries::new(
+                    curve(bounds.theorem1_product),
+                    RGBColor(40, 120, 40).stroke_width(2),
+                ))
+                .map_err(err)?
+                .label(format!(
+                    "Theorem 1 boundary c·r = {:.4}",
+                    bounds.theorem1_product
+                ))
+                .legend(|(x, y)| {
+                    PathElement::new(
+                        vec![(x, y), (x + 15, y)],
+                        RGBColor(40, 120, 40).stroke_width(2),
+                    )
+                });
+        }
+        if let Some(c) = bounds.exact_product {
+            chart
+                .draw_series(LineSeries::new(curve(c), BLACK.stroke_width(2)))
+                .map_err(err)?
+                .label(format!("exact boundary c·r = {c:.4}"))
+                .legend(|(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 15, y)], BLACK.stroke_width(2))
+                });
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 12))
+            .draw()
+            .map_err(err)?;
+        anyhow::Ok(())
+    }};
+}
+
+/// Draws map.png and map.svg.
+pub fn plot(
+    dir: &Path,
+    title: &str,
+    xa: &Axis,
+    ya: &Axis,
+    pts: &[Point],
+    bounds: &Boundaries,
+) -> anyhow::Result<Vec<PathBuf>> {
+    crate::plots::ensure_font();
+    let png = dir.join("map.png");
+    let svg = dir.join("map.svg");
+    {
+        let area = BitMapBackend::new(&png, (1000, 800)).into_drawing_area();
+        area.fill(&WHITE).map_err(err)?;
+        draw_map!(&area, title, xa, ya, pts, bounds)?;
+        area.present().map_err(err)?;
+    }
+    {
+        let area = SVGBackend::new(&svg, (1000, 800)).into_drawing_area();
+        area.fill(&WHITE).map_err(err)?;
+        draw_map!(&area, title, xa, ya, pts, bounds)?;
+        area.present().map_err(err)?;
+    }
+    Ok(vec![png, svg])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn axis_parsing_names_the_problem() {
+        let a = Axis::parse("--x", "gain_scale=0.5:2:4").unwrap();
+        assert_eq!(a.param, Param::GainScale);
+        assert_eq!(a.value(3), 2.0);
+        let e = Axis::parse("--x", "speed=1:2:3").unwrap_err().to_string();
+        assert!(
+            e.starts_with("--x = \"speed=1:2:3\": unknown parameter"),
+            "{e}"
+        );
+        let e = Axis::parse("--y", "delay_scale=2:1:3")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("need 0 < LO < HI"), "{e}");
+    }
+}
