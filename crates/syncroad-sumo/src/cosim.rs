@@ -1,0 +1,477 @@
+//! The co-simulation loop that runs inside a worker: libsumo and the Rust law in one process,
+//! no inter-process traffic per step, trajectory rows streamed to the parent in chunks.
+//!
+//! Per step n: the law turns the measured `v^n` into `v^{n+1}` (see [`crate::controller`] for
+//! why no latency is added), non-finite commands stop the run before they reach SUMO, the
+//! commands go out with `vehicle.setSpeed`, SUMO steps, and the new states come back through
+//! one subscription read. Collisions, teleports and overridden commands are counted.
+
+use std::io::Write;
+use std::path::Path;
+use std::time::Instant;
+
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyInt, PyString};
+
+use crate::controller::{controller_for, SpeedController};
+use crate::protocol::{
+    write_msg, write_rows, Control, Event, Finish, Request, RowChunk, StartInfo, StopReason,
+    Totals, WorkerMsg,
+};
+use crate::python::{load_libsumo, py_error, PythonError};
+
+/// libsumo variable ids (traci constants) read through subscriptions.
+const VAR_SPEED: i32 = 0x40;
+const VAR_LANEPOSITION: i32 = 0x56;
+const VAR_DISTANCE: i32 = 0x84;
+/// Speed mode with every safety check off: SUMO realises the command as given.
+const SPEED_MODE_RAW: i32 = 32;
+/// Override events sent to the parent per run (all are counted).
+const MAX_OVERRIDE_EVENTS: usize = 20;
+
+/// Errors inside the worker loop.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CosimError {
+    /// A Python / libsumo call failed.
+    #[error(transparent)]
+    Python(#[from] PythonError),
+    /// SUMO refused to start (the reason is in its log).
+    #[error("SUMO did not start: {reason}\nSUMO log {log}:\n{log_tail}")]
+    StartFailed {
+        /// The exception text.
+        reason: String,
+        /// The log file.
+        log: String,
+        /// Its last lines.
+        log_tail: String,
+    },
+    /// Vehicles were not inserted at t = 0.
+    #[error("{pending} of {expected} vehicles could not be inserted (still pending: {ids}); SUMO log {log}:\n{log_tail}")]
+    NotInserted {
+        /// How many are missing.
+        pending: usize,
+        /// How many were expected.
+        expected: usize,
+        /// Some of their ids.
+        ids: String,
+        /// The log file.
+        log: String,
+        /// Its last lines.
+        log_tail: String,
+    },
+    /// The scenario sent by the parent does not validate in the worker.
+    #[error("scenario rejected in the worker: {0}")]
+    Scenario(String),
+    /// The law could not be built.
+    #[error(transparent)]
+    Controller(#[from] crate::controller::ControllerError),
+    /// The pipe to the parent broke (the parent is gone).
+    #[error("writing to the parent failed: {0}")]
+    Pipe(String),
+}
+
+fn tail(path: &Path, lines: usize) -> String {
+    let text = std::fs::read_to_string(path).unwrap_or_default();
+    let all: Vec<&str> = text.lines().collect();
+    all[all.len().saturating_sub(lines)..].join("\n")
+}
+
+/// Handles to the libsumo functions the loop calls (the SWIG entry points of `_libsumo`, which
+/// skip one Python wrapper layer per call).
+struct Libsumo<'py> {
+    py: Python<'py>,
+    module: Bound<'py, PyModule>,
+    native: Bound<'py, PyModule>,
+    step: Bound<'py, PyAny>,
+    set_speed: Bound<'py, PyAny>,
+    all_subscriptions: Bound<'py, PyAny>,
+    colliding: Bound<'py, PyAny>,
+    teleports: Bound<'py, PyAny>,
+}
+
+impl<'py> Libsumo<'py> {
+    fn new(py: Python<'py>, module: Bound<'py, PyModule>) -> Result<Self, PythonError> {
+        let native = module
+            .getattr("_libsumo")
+            .and_then(|m| m.cast_into::<PyModule>().map_err(PyErr::from))
+            .map_err(|e| py_error(py, "libsumo._libsumo", e))?;
+        let f = |name: &str| {
+            native
+                .getattr(name)
+                .map_err(|e| py_error(py, format!("_libsumo.{name}"), e))
+        };
+        Ok(Self {
+            step: f("simulation_step")?,
+            set_speed: f("vehicle_setSpeed")?,
+            all_subscriptions: f("vehicle_getAllSubscriptionResults")?,
+            colliding: f("simulation_getCollidingVehiclesNumber")?,
+            teleports: f("simulation_getStartingTeleportNumber")?,
+            py,
+            module,
+            native,
+        })
+    }
+
+    fn call(
+        &self,
+        name: &str,
+        args: impl pyo3::call::PyCallArgs<'py>,
+    ) -> Result<Bound<'py, PyAny>, PythonError> {
+        self.native
+            .call_method1(name, args)
+            .map_err(|e| py_error(self.py, format!("_libsumo.{name}"), e))
+    }
+
+    fn simulation_step(&self) -> Result<(), PythonError> {
+        self.step
+            .call1((0.0,))
+            .map(|_| ())
+            .map_err(|e| py_error(self.py, "simulation.step", e))
+    }
+
+    fn count(&self, f: &Bound<'py, PyAny>, what: &str) -> Result<usize, PythonError> {
+        f.call0()
+            .and_then(|x| x.extract::<usize>())
+            .map_err(|e| py_error(self.py, what.to_string(), e))
+    }
+}
+
+/// SUMO's command line for a request.
+pub fn sumo_args(req: &Request) -> Vec<String> {
+    let mut a: Vec<String> = vec![
+        "sumo".into(),
+        "--net-file".into(),
+        req.layout.road.path.display().to_string(),
+        "--route-files".into(),
+        req.routes_file.display().to_string(),
+        "--step-length".into(),
+        format!("{}", req.step_s),
+        "--seed".into(),
+        req.seed.to_string(),
+        "--collision.action".into(),
+        "warn".into(),
+        "--collision.mingap-factor".into(),
+        "0".into(),
+        "--collision.check-junctions".into(),
+        "true".into(),
+        "--time-to-teleport".into(),
+        "-1".into(),
+        "--no-step-log".into(),
+        "true".into(),
+        "--duration-log.disable".into(),
+        "true".into(),
+        "--xml-validation".into(),
+        "never".into(),
+        "--log".into(),
+        req.log_file.display().to_string(),
+    ];
+    if req.ballistic {
+        a.push("--step-method.ballistic".into());
+        a.push("true".into());
+    }
+    a
+}
+
+/// Runs the request; every message goes to `out`. The returned error is also what the worker
+/// reports as [`WorkerMsg::Failed`].
+pub fn run(py: Python<'_>, req: &Request, out: &mut impl Write) -> Result<(), CosimError> {
+    let pipe = |e: std::io::Error| CosimError::Pipe(e.to_string());
+    // Build the law first: a scenario problem must not cost a SUMO start.
+    let controller: Option<Box<dyn SpeedController>> = match &req.control {
+        Control::Law { scenario, base_dir } => {
+            let file: syncroad_control::ScenarioFile = serde_json::from_value(scenario.clone())
+                .map_err(|e| CosimError::Scenario(e.to_string()))?;
+            let sc = file
+                .validate(base_dir)
+                .map_err(|e| CosimError::Scenario(e.to_string()))?;
+            Some(controller_for(&sc, req.layout.leader_vehicle)?)
+        }
+        Control::SumoModel => None,
+    };
+    let (module, python) = load_libsumo(py)?;
+    eprintln!(
+        "syncroad-sumo worker: python {} (sys.prefix {}), libsumo {} ({})",
+        python
+            .python_version
+            .split_whitespace()
+            .next()
+            .unwrap_or("?"),
+        python.sys_prefix,
+        python.libsumo_file,
+        python.sumo_version
+    );
+    let ls = Libsumo::new(py, module)?;
+    let args = sumo_args(req);
+    if let Err(e) = ls.module.call_method1("start", (args.clone(),)) {
+        return Err(CosimError::StartFailed {
+            reason: crate::python::py_error(py, "libsumo.start", e).to_string(),
+            log: req.log_file.display().to_string(),
+            log_tail: tail(&req.log_file, 20),
+        });
+    }
+    let result = run_started(py, &ls, req, controller, python, out);
+    // Close SUMO whatever happened (the worker exits right after).
+    let _ = ls.module.call_method0("close");
+    result?;
+    out.flush().map_err(pipe)
+}
+
+fn run_started(
+    py: Python<'_>,
+    ls: &Libsumo<'_>,
+    req: &Request,
+    mut controller: Option<Box<dyn SpeedController>>,
+    python: crate::python::PythonInfo,
+    out: &mut impl Write,
+) -> Result<(), CosimError> {
+    let pipe = |e: std::io::Error| CosimError::Pipe(e.to_string());
+    let n = req.layout.vehicles.len();
+    let dt = req.step_s;
+    // Insertion happens in the first step; states after it are the initial conditions.
+    ls.simulation_step()?;
+    let pending: Vec<String> = ls
+        .call("simulation_getPendingVehicles", ())?
+        .extract()
+        .map_err(|e| py_error(py, "simulation.getPendingVehicles", e))?;
+    let on_road = ls.count(
+        &ls.native
+            .getattr("vehicle_getIDCount")
+            .map_err(|e| py_error(py, "vehicle_getIDCount", e))?,
+        "vehicle.getIDCount",
+    )?;
+    if !pending.is_empty() || on_road != n {
+        return Err(CosimError::NotInserted {
+            pending: n - on_road.min(n),
+            expected: n,
+            ids: pending
+                .iter()
+                .take(10)
+                .cloned()
+                .collect::<Vec<_>>()
+                .join(", "),
+            log: req.log_file.display().to_string(),
+            log_tail: tail(&req.log_file, 20),
+        });
+    }
+    let mut road_length = 0.0;
+    for seg in &req.layout.road.segments {
+        let l: f64 = ls
+            .call("lane_getLength", (seg.lane.as_str(),))?
+            .extract()
+            .map_err(|e| py_error(py, format!("lane.getLength({})", seg.lane), e))?;
+        road_length += l;
+    }
+    write_msg(
+        out,
+        &WorkerMsg::Started(StartInfo {
+            python,
+            road_length_m: road_length,
+            vehicles: on_road,
+            pid: std::process::id(),
+        }),
+    )
+    .map_err(pipe)?;
+
+    let ids: Vec<Bound<'_, PyString>> = req
+        .layout
+        .vehicles
+        .iter()
+        .map(|v| PyString::intern(py, &v.id))
+        .collect();
+    let controlled = controller.is_some();
+    if req.observe {
+        let vars = vec![VAR_SPEED, VAR_DISTANCE, VAR_LANEPOSITION];
+        for id in &ids {
+            ls.call("vehicle_subscribe", (id.clone(), vars.clone()))?;
+            if controlled {
+                ls.call("vehicle_setSpeedMode", (id.clone(), SPEED_MODE_RAW))?;
+                ls.call("vehicle_setLaneChangeMode", (id.clone(), 0))?;
+            }
+        }
+    }
+    let key_speed = PyInt::new(py, VAR_SPEED);
+    let key_dist = PyInt::new(py, VAR_DISTANCE);
+    let q0: Vec<f64> = req.layout.vehicles.iter().map(|v| v.q0_m).collect();
+    let mut v = vec![0.0; n];
+    let mut dist = vec![0.0; n];
+    let mut q = q0.clone();
+    let mut cmd = vec![f64::NAN; n];
+    let mut trapezoid = vec![0.0; n];
+    let mut totals = Totals::default();
+    let mut rows = RowChunk::new(n);
+    let mut override_events = 0usize;
+
+    // Reads speeds and odometers of all vehicles; Err(Some(id)) when one left the road.
+    let read = |v: &mut [f64], dist: &mut [f64]| -> Result<Option<usize>, PythonError> {
+        let all = ls
+            .all_subscriptions
+            .call0()
+            .map_err(|e| py_error(py, "vehicle.getAllSubscriptionResults", e))?;
+        let all = all
+            .cast::<PyDict>()
+            .map_err(|e| py_error(py, "vehicle.getAllSubscriptionResults", PyErr::from(e)))?;
+        for (i, id) in ids.iter().enumerate() {
+            let Some(entry) = all
+                .get_item(id)
+                .map_err(|e| py_error(py, "subscription lookup", e))?
+            else {
+                return Ok(Some(i));
+            };
+            let entry = entry
+                .cast::<PyDict>()
+                .map_err(|e| py_error(py, "subscription entry", PyErr::from(e)))?;
+            let get = |k: &Bound<'_, PyInt>| -> Result<f64, PythonError> {
+                entry
+                    .get_item(k)
+                    .and_then(|x| match x {
+                        Some(x) => x.extract::<f64>(),
+                        None => Err(pyo3::exceptions::PyKeyError::new_err(
+                            "subscribed variable missing",
+                        )),
+                    })
+                    .map_err(|e| py_error(py, "subscription value", e))
+            };
+            v[i] = get(&key_speed)?;
+            dist[i] = get(&key_dist)?;
+        }
+        Ok(None)
+    };
+
+    let mut stop = StopReason::Horizon;
+    if req.observe {
+        if let Some(i) = read(&mut v, &mut dist)? {
+            return Err(CosimError::NotInserted {
+                pending: 1,
+                expected: n,
+                ids: req.layout.vehicles[i].id.clone(),
+                log: req.log_file.display().to_string(),
+                log_tail: tail(&req.log_file, 20),
+            });
+        }
+        for i in 0..n {
+            q[i] = q0[i] + dist[i];
+        }
+        rows.push(0.0, &v, &q, &cmd);
+    }
+    let mut next = vec![0.0; n];
+    let mut v_prev = vec![0.0; n];
+    let mut steps_done = 0usize;
+    let mut timer = Instant::now();
+    'steps: for step in 0..req.steps {
+        if step == req.untimed_steps {
+            timer = Instant::now();
+        }
+        let t = step as f64 * dt;
+        if let Some(c) = controller.as_deref_mut() {
+            c.step(t, &v, &q, &mut next);
+            for (i, x) in next.iter_mut().enumerate() {
+                if !x.is_finite() {
+                    stop = StopReason::NonFiniteCommand {
+                        vehicle: req.layout.vehicles[i].id.clone(),
+                        step,
+                        value: format!("{x}"),
+                    };
+                    break 'steps;
+                }
+                if *x < 0.0 {
+                    // setSpeed(-1) would hand the vehicle back to SUMO's model.
+                    *x = 0.0;
+                    totals.negative_commands_clamped += 1;
+                }
+            }
+            for (id, x) in ids.iter().zip(&next) {
+                ls.set_speed
+                    .call1((id, *x))
+                    .map_err(|e| py_error(py, format!("vehicle.setSpeed({id}, {x})"), e))?;
+            }
+            cmd.copy_from_slice(&next);
+        }
+        ls.simulation_step()?;
+        steps_done = step + 1;
+        let colliding = ls.count(&ls.colliding, "simulation.getCollidingVehiclesNumber")?;
+        if colliding > 0 {
+            totals.collision_steps += 1;
+            totals.colliding_vehicles += colliding;
+            write_msg(
+                out,
+                &WorkerMsg::Event(Event::Collision {
+                    step: step + 1,
+                    vehicles: colliding,
+                }),
+            )
+            .map_err(pipe)?;
+        }
+        let teleports = ls.count(&ls.teleports, "simulation.getStartingTeleportNumber")?;
+        if teleports > 0 {
+            totals.teleports += teleports;
+            write_msg(
+                out,
+                &WorkerMsg::Event(Event::Teleport {
+                    step: step + 1,
+                    count: teleports,
+                }),
+            )
+            .map_err(pipe)?;
+        }
+        if !req.observe {
+            continue;
+        }
+        v_prev.copy_from_slice(&v);
+        if let Some(i) = read(&mut v, &mut dist)? {
+            stop = StopReason::VehicleLost {
+                vehicle: req.layout.vehicles[i].id.clone(),
+                step: step + 1,
+            };
+            break;
+        }
+        for i in 0..n {
+            q[i] = q0[i] + dist[i];
+            trapezoid[i] += 0.5 * dt * (v_prev[i] + v[i]);
+            let err = (trapezoid[i] - dist[i]).abs();
+            if err > totals.odometer_vs_trapezoid_max_m {
+                totals.odometer_vs_trapezoid_max_m = err;
+            }
+        }
+        if controlled {
+            for i in 0..n {
+                let d = (v[i] - cmd[i]).abs();
+                if d > req.override_tolerance_mps {
+                    totals.overrides += 1;
+                    totals.max_override_mps = totals.max_override_mps.max(d);
+                    if override_events < MAX_OVERRIDE_EVENTS {
+                        override_events += 1;
+                        write_msg(
+                            out,
+                            &WorkerMsg::Event(Event::Override {
+                                step: step + 1,
+                                vehicle: req.layout.vehicles[i].id.clone(),
+                                commanded_mps: cmd[i],
+                                realised_mps: v[i],
+                            }),
+                        )
+                        .map_err(pipe)?;
+                    }
+                }
+            }
+        }
+        if (step + 1) % req.record_every.max(1) == 0 || step + 1 == req.steps {
+            rows.push((step + 1) as f64 * dt, &v, &q, &cmd);
+            if rows.len() >= req.chunk_records.max(1) {
+                write_rows(out, &mut rows).map_err(pipe)?;
+            }
+        }
+    }
+    let loop_wall_s = timer.elapsed().as_secs_f64();
+    write_rows(out, &mut rows).map_err(pipe)?;
+    write_msg(
+        out,
+        &WorkerMsg::Finished(Finish {
+            stop,
+            steps_done,
+            totals,
+            loop_wall_s,
+            timed_steps: steps_done.saturating_sub(req.untimed_steps),
+        }),
+    )
+    .map_err(pipe)
+}
