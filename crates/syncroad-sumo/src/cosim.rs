@@ -3,8 +3,18 @@
 //!
 //! Per step n: the law turns the measured `v^n` into `v^{n+1}` (see [`crate::controller`] for
 //! why no latency is added), non-finite commands stop the run before they reach SUMO, the
-//! commands go out with `vehicle.setSpeed`, SUMO steps, and the new states come back through
-//! one subscription read. Collisions, teleports and overridden commands are counted.
+//! commands go out with `vehicle.setSpeed`, SUMO steps, and the new speeds are read back.
+//! Collisions, teleports and overridden commands are counted.
+//!
+//! # Reading states
+//! [`ReadMode::Getters`] (default) reads `vehicle.getSpeed` of every vehicle every step and
+//! advances positions by SUMO's own update rule (trapezoidal with the ballistic update, else
+//! `Δt v^{n+1}`); SUMO's odometer `vehicle.getDistance` is read every `odometer_every` steps and
+//! at the end, replaces the integrated value, and the largest deviation is reported
+//! (0 up to rounding: the integration is SUMO's own). [`ReadMode::Subscriptions`] subscribes
+//! to speed and odometer. Measured with libsumo 1.28.0 at N = 2000, keeping the subscriptions
+//! up to date costs SUMO about 30 % of a bare step, more than the getters' calls, hence the
+//! default (`syncroad-sumo-worker --bench` measures both).
 
 use std::io::Write;
 use std::path::Path;
@@ -15,14 +25,13 @@ use pyo3::types::{PyDict, PyInt, PyString};
 
 use crate::controller::{controller_for, SpeedController};
 use crate::protocol::{
-    write_msg, write_rows, Control, Event, Finish, Request, RowChunk, StartInfo, StopReason,
-    Totals, WorkerMsg,
+    write_msg, write_rows, Control, Event, Finish, PhaseTimes, ReadMode, Request, RowChunk,
+    StartInfo, StopReason, Totals, WorkerMsg,
 };
 use crate::python::{load_libsumo, py_error, PythonError};
 
 /// libsumo variable ids (traci constants) read through subscriptions.
 const VAR_SPEED: i32 = 0x40;
-const VAR_LANEPOSITION: i32 = 0x56;
 const VAR_DISTANCE: i32 = 0x84;
 /// Speed mode with every safety check off: SUMO realises the command as given.
 const SPEED_MODE_RAW: i32 = 32;
@@ -133,6 +142,139 @@ impl<'py> Libsumo<'py> {
         f.call0()
             .and_then(|x| x.extract::<usize>())
             .map_err(|e| py_error(self.py, what.to_string(), e))
+    }
+}
+
+/// How vehicle states are read each step.
+struct Reader<'a, 'py> {
+    py: Python<'py>,
+    ls: &'a Libsumo<'py>,
+    ids: &'a [Bound<'py, PyString>],
+    /// Subscriptions (speed and odometer every step) instead of direct getters.
+    subscribed: bool,
+    get_speed: Bound<'py, PyAny>,
+    get_distance: Bound<'py, PyAny>,
+    id_count: Bound<'py, PyAny>,
+    key_speed: Bound<'py, PyInt>,
+    key_distance: Bound<'py, PyInt>,
+    /// The subscription results of the current step (read once for speeds and odometers).
+    cache: std::cell::RefCell<Option<Bound<'py, PyDict>>>,
+}
+
+impl<'a, 'py> Reader<'a, 'py> {
+    fn new(
+        py: Python<'py>,
+        ls: &'a Libsumo<'py>,
+        mode: ReadMode,
+        ids: &'a [Bound<'py, PyString>],
+    ) -> Result<Self, PythonError> {
+        let subscribed = mode == ReadMode::Subscriptions;
+        if subscribed {
+            for id in ids {
+                ls.call(
+                    "vehicle_subscribe",
+                    (id.clone(), vec![VAR_SPEED, VAR_DISTANCE]),
+                )?;
+            }
+        }
+        let f = |name: &str| {
+            ls.native
+                .getattr(name)
+                .map_err(|e| py_error(py, format!("_libsumo.{name}"), e))
+        };
+        Ok(Self {
+            py,
+            ls,
+            ids,
+            subscribed,
+            get_speed: f("vehicle_getSpeed")?,
+            get_distance: f("vehicle_getDistance")?,
+            id_count: f("vehicle_getIDCount")?,
+            key_speed: PyInt::new(py, VAR_SPEED),
+            key_distance: PyInt::new(py, VAR_DISTANCE),
+            cache: std::cell::RefCell::new(None),
+        })
+    }
+
+    /// Index of the first vehicle no longer in the simulation, if the count dropped.
+    fn missing(&self) -> Result<Option<usize>, PythonError> {
+        let count = self.ls.count(&self.id_count, "vehicle.getIDCount")?;
+        if count == self.ids.len() {
+            return Ok(None);
+        }
+        let present: Vec<String> = self
+            .ls
+            .call("vehicle_getIDList", ())?
+            .extract()
+            .map_err(|e| py_error(self.py, "vehicle.getIDList", e))?;
+        Ok(self
+            .ids
+            .iter()
+            .position(|id| !present.iter().any(|p| id.to_str().is_ok_and(|s| s == p))))
+    }
+
+    /// Measured speeds into `v`; `Some(i)` when vehicle i left the simulation.
+    fn speeds(&self, v: &mut [f64]) -> Result<Option<usize>, PythonError> {
+        if self.subscribed {
+            let all = self
+                .ls
+                .all_subscriptions
+                .call0()
+                .and_then(|x| x.cast_into::<PyDict>().map_err(PyErr::from))
+                .map_err(|e| py_error(self.py, "vehicle.getAllSubscriptionResults", e))?;
+            *self.cache.borrow_mut() = Some(all);
+            return self.cached(&self.key_speed, v);
+        }
+        for (id, x) in self.ids.iter().zip(v.iter_mut()) {
+            match self.get_speed.call1((id,)).and_then(|r| r.extract::<f64>()) {
+                Ok(speed) => *x = speed,
+                // An unknown vehicle raises: find out whether one left the simulation.
+                Err(e) => match self.missing()? {
+                    Some(i) => return Ok(Some(i)),
+                    None => {
+                        return Err(py_error(self.py, format!("vehicle.getSpeed({id})"), e));
+                    }
+                },
+            }
+        }
+        Ok(None)
+    }
+
+    /// SUMO odometers (`vehicle.getDistance`) into `d`.
+    fn odometers(&self, d: &mut [f64]) -> Result<Option<usize>, PythonError> {
+        if self.subscribed {
+            return self.cached(&self.key_distance, d);
+        }
+        for (id, x) in self.ids.iter().zip(d.iter_mut()) {
+            *x = self
+                .get_distance
+                .call1((id,))
+                .and_then(|r| r.extract::<f64>())
+                .map_err(|e| py_error(self.py, format!("vehicle.getDistance({id})"), e))?;
+        }
+        Ok(None)
+    }
+
+    fn cached(
+        &self,
+        key: &Bound<'py, PyInt>,
+        out: &mut [f64],
+    ) -> Result<Option<usize>, PythonError> {
+        let cache = self.cache.borrow();
+        let all = cache.as_ref().expect("speeds() fills the cache first");
+        for (i, id) in self.ids.iter().enumerate() {
+            let Some(entry) = all
+                .get_item(id)
+                .map_err(|e| py_error(self.py, "subscription lookup", e))?
+            else {
+                return Ok(Some(i));
+            };
+            out[i] = entry
+                .get_item(key)
+                .and_then(|x| x.extract::<f64>())
+                .map_err(|e| py_error(self.py, format!("subscription value of {id}"), e))?;
+        }
+        Ok(None)
     }
 }
 
@@ -279,74 +421,39 @@ fn run_started(
         .map(|v| PyString::intern(py, &v.id))
         .collect();
     let controlled = controller.is_some();
-    if req.observe {
-        let vars = vec![VAR_SPEED, VAR_DISTANCE, VAR_LANEPOSITION];
+    if controlled {
         for id in &ids {
-            ls.call("vehicle_subscribe", (id.clone(), vars.clone()))?;
-            if controlled {
-                ls.call("vehicle_setSpeedMode", (id.clone(), SPEED_MODE_RAW))?;
-                ls.call("vehicle_setLaneChangeMode", (id.clone(), 0))?;
-            }
+            ls.call("vehicle_setSpeedMode", (id.clone(), SPEED_MODE_RAW))?;
+            ls.call("vehicle_setLaneChangeMode", (id.clone(), 0))?;
         }
     }
-    let key_speed = PyInt::new(py, VAR_SPEED);
-    let key_dist = PyInt::new(py, VAR_DISTANCE);
+    let reader = Reader::new(py, ls, req.read, &ids)?;
     let q0: Vec<f64> = req.layout.vehicles.iter().map(|v| v.q0_m).collect();
     let mut v = vec![0.0; n];
     let mut dist = vec![0.0; n];
     let mut q = q0.clone();
     let mut cmd = vec![f64::NAN; n];
-    let mut trapezoid = vec![0.0; n];
     let mut totals = Totals::default();
     let mut rows = RowChunk::new(n);
     let mut override_events = 0usize;
-
-    // Reads speeds and odometers of all vehicles; Err(Some(id)) when one left the road.
-    let read = |v: &mut [f64], dist: &mut [f64]| -> Result<Option<usize>, PythonError> {
-        let all = ls
-            .all_subscriptions
-            .call0()
-            .map_err(|e| py_error(py, "vehicle.getAllSubscriptionResults", e))?;
-        let all = all
-            .cast::<PyDict>()
-            .map_err(|e| py_error(py, "vehicle.getAllSubscriptionResults", PyErr::from(e)))?;
-        for (i, id) in ids.iter().enumerate() {
-            let Some(entry) = all
-                .get_item(id)
-                .map_err(|e| py_error(py, "subscription lookup", e))?
-            else {
-                return Ok(Some(i));
-            };
-            let entry = entry
-                .cast::<PyDict>()
-                .map_err(|e| py_error(py, "subscription entry", PyErr::from(e)))?;
-            let get = |k: &Bound<'_, PyInt>| -> Result<f64, PythonError> {
-                entry
-                    .get_item(k)
-                    .and_then(|x| match x {
-                        Some(x) => x.extract::<f64>(),
-                        None => Err(pyo3::exceptions::PyKeyError::new_err(
-                            "subscribed variable missing",
-                        )),
-                    })
-                    .map_err(|e| py_error(py, "subscription value", e))
-            };
-            v[i] = get(&key_speed)?;
-            dist[i] = get(&key_dist)?;
+    let odometer_every = req.odometer_every.max(1);
+    let lost = |i: usize| -> CosimError {
+        CosimError::NotInserted {
+            pending: 1,
+            expected: n,
+            ids: req.layout.vehicles[i].id.clone(),
+            log: req.log_file.display().to_string(),
+            log_tail: tail(&req.log_file, 20),
         }
-        Ok(None)
     };
 
     let mut stop = StopReason::Horizon;
     if req.observe {
-        if let Some(i) = read(&mut v, &mut dist)? {
-            return Err(CosimError::NotInserted {
-                pending: 1,
-                expected: n,
-                ids: req.layout.vehicles[i].id.clone(),
-                log: req.log_file.display().to_string(),
-                log_tail: tail(&req.log_file, 20),
-            });
+        if let Some(i) = reader.speeds(&mut v)? {
+            return Err(lost(i));
+        }
+        if let Some(i) = reader.odometers(&mut dist)? {
+            return Err(lost(i));
         }
         for i in 0..n {
             q[i] = q0[i] + dist[i];
@@ -356,12 +463,14 @@ fn run_started(
     let mut next = vec![0.0; n];
     let mut v_prev = vec![0.0; n];
     let mut steps_done = 0usize;
+    let mut phases = PhaseTimes::default();
     let mut timer = Instant::now();
     'steps: for step in 0..req.steps {
         if step == req.untimed_steps {
             timer = Instant::now();
         }
         let t = step as f64 * dt;
+        let t_law = Instant::now();
         if let Some(c) = controller.as_deref_mut() {
             c.step(t, &v, &q, &mut next);
             for (i, x) in next.iter_mut().enumerate() {
@@ -386,7 +495,9 @@ fn run_started(
             }
             cmd.copy_from_slice(&next);
         }
+        let t_step = Instant::now();
         ls.simulation_step()?;
+        let t_stepped = Instant::now();
         steps_done = step + 1;
         let colliding = ls.count(&ls.colliding, "simulation.getCollidingVehiclesNumber")?;
         if colliding > 0 {
@@ -413,23 +524,50 @@ fn run_started(
             )
             .map_err(pipe)?;
         }
+        if step >= req.untimed_steps {
+            phases.command_s += (t_step - t_law).as_secs_f64();
+            phases.step_s += (t_stepped - t_step).as_secs_f64();
+        }
         if !req.observe {
             continue;
         }
         v_prev.copy_from_slice(&v);
-        if let Some(i) = read(&mut v, &mut dist)? {
+        let t_read = Instant::now();
+        if let Some(i) = reader.speeds(&mut v)? {
             stop = StopReason::VehicleLost {
                 vehicle: req.layout.vehicles[i].id.clone(),
                 step: step + 1,
             };
             break;
         }
+        if step >= req.untimed_steps {
+            phases.read_speeds_s += t_read.elapsed().as_secs_f64();
+        }
+        // Positions advance by SUMO's own update rule; the odometer is read every
+        // `odometer_every` steps (and at the end) and replaces the integrated value.
         for i in 0..n {
-            q[i] = q0[i] + dist[i];
-            trapezoid[i] += 0.5 * dt * (v_prev[i] + v[i]);
-            let err = (trapezoid[i] - dist[i]).abs();
-            if err > totals.odometer_vs_trapezoid_max_m {
-                totals.odometer_vs_trapezoid_max_m = err;
+            q[i] += if req.ballistic {
+                0.5 * dt * (v_prev[i] + v[i])
+            } else {
+                dt * v[i]
+            };
+        }
+        let last = step + 1 == req.steps;
+        if reader.subscribed || (step + 1) % odometer_every == 0 || last {
+            if let Some(i) = reader.odometers(&mut dist)? {
+                stop = StopReason::VehicleLost {
+                    vehicle: req.layout.vehicles[i].id.clone(),
+                    step: step + 1,
+                };
+                break;
+            }
+            for i in 0..n {
+                let sumo_q = q0[i] + dist[i];
+                let dev = (sumo_q - q[i]).abs();
+                if dev > totals.odometer_deviation_max_m {
+                    totals.odometer_deviation_max_m = dev;
+                }
+                q[i] = sumo_q;
             }
         }
         if controlled {
@@ -454,7 +592,7 @@ fn run_started(
                 }
             }
         }
-        if (step + 1) % req.record_every.max(1) == 0 || step + 1 == req.steps {
+        if (step + 1) % req.record_every.max(1) == 0 || last {
             rows.push((step + 1) as f64 * dt, &v, &q, &cmd);
             if rows.len() >= req.chunk_records.max(1) {
                 write_rows(out, &mut rows).map_err(pipe)?;
@@ -471,6 +609,7 @@ fn run_started(
             totals,
             loop_wall_s,
             timed_steps: steps_done.saturating_sub(req.untimed_steps),
+            phases,
         }),
     )
     .map_err(pipe)

@@ -54,6 +54,22 @@ pub struct Request {
     pub override_tolerance_mps: f64,
     /// Steps at the start that the loop timer leaves out (benchmark warm-up).
     pub untimed_steps: usize,
+    /// How states are read.
+    #[serde(default)]
+    pub read: ReadMode,
+    /// With [`ReadMode::Getters`], read SUMO's odometer every this many steps.
+    pub odometer_every: usize,
+}
+
+/// How the loop reads vehicle states from libsumo.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ReadMode {
+    /// `vehicle.getSpeed` per vehicle per step, odometer every few steps.
+    #[default]
+    Getters,
+    /// Subscriptions to speed and odometer, one `getAllSubscriptionResults` per step.
+    Subscriptions,
 }
 
 /// Who drives the vehicles.
@@ -171,9 +187,9 @@ pub struct Totals {
     pub max_override_mps: f64,
     /// Negative commands sent as 0 (SUMO reads a negative speed as "release control").
     pub negative_commands_clamped: usize,
-    /// Largest difference between SUMO's odometer and the trapezoidal integral of the
-    /// measured speeds [m] (0 up to rounding with the ballistic update).
-    pub odometer_vs_trapezoid_max_m: f64,
+    /// Largest difference between SUMO's odometer and the positions integrated from the
+    /// measured speeds with SUMO's update rule [m] (0 up to rounding).
+    pub odometer_deviation_max_m: f64,
 }
 
 /// The end of a run.
@@ -189,6 +205,20 @@ pub struct Finish {
     pub loop_wall_s: f64,
     /// Steps inside that timing.
     pub timed_steps: usize,
+    /// Where the timed wall time went.
+    pub phases: PhaseTimes,
+}
+
+/// Wall time of the timed steps by phase [s]; the rest of `loop_wall_s` is collision and
+/// teleport counts, odometer reads, override checks and row streaming.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct PhaseTimes {
+    /// The law plus one `setSpeed` per vehicle.
+    pub command_s: f64,
+    /// `simulation.step` (SUMO itself).
+    pub step_s: f64,
+    /// Reading every vehicle's speed.
+    pub read_speeds_s: f64,
 }
 
 /// Rows of consecutive recorded samples for all vehicles: per record the time [s], then the

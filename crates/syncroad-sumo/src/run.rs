@@ -15,11 +15,14 @@ use syncroad_control::Trajectory;
 
 use crate::layout::{ring_layout, straight_layout, Layout, LayoutError, VehicleType};
 use crate::net::{read_ring, read_straight, NetError};
-use crate::protocol::{Control, Event, Finish, Request, StopReason};
+use crate::protocol::{Control, Event, Finish, ReadMode, Request, StopReason};
 use crate::supervisor::{run_worker, Supervision, SupervisorError, WorkerCommand, WorkerRun};
 
 /// Tolerance between commanded and realised speed before a command counts as overridden [m/s].
 pub const OVERRIDE_TOLERANCE_MPS: f64 = 1e-6;
+
+/// Steps between two reads of SUMO's odometer with [`ReadMode::Getters`].
+pub const ODOMETER_EVERY: usize = 10;
 
 /// Errors found before SUMO starts.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -70,6 +73,8 @@ pub struct RunOptions {
     pub timeout: Option<Duration>,
     /// Ctrl-C flag.
     pub interrupt: Option<Arc<AtomicBool>>,
+    /// How the loop reads states.
+    pub read: ReadMode,
 }
 
 impl RunOptions {
@@ -83,6 +88,7 @@ impl RunOptions {
             sumo_model_sigma: None,
             timeout: None,
             interrupt: None,
+            read: ReadMode::Getters,
         }
     }
 }
@@ -202,6 +208,8 @@ pub fn prepare(scenario: &Scenario, opts: &RunOptions) -> Result<Request, Prepar
         chunk_records: chunk_records(scenario.n),
         override_tolerance_mps: OVERRIDE_TOLERANCE_MPS,
         untimed_steps: 0,
+        read: opts.read,
+        odometer_every: ODOMETER_EVERY,
     })
 }
 

@@ -211,7 +211,7 @@ mod ring {
         let run = run_scenario(&sc, &o).unwrap();
         let fin = run.outcome().expect("horizon reached");
         assert_eq!(fin.totals.overrides, 0);
-        assert!(fin.totals.odometer_vs_trapezoid_max_m < 1e-9);
+        assert!(fin.totals.odometer_deviation_max_m < 1e-9);
         let rows = &run.worker.rows;
         let n = rows.n;
         for k in 1..rows.len() {
