@@ -7,3 +7,7 @@ if [ -f python-host/bootstrap.sh ]; then
 fi
 cargo build --release --workspace --all-targets
 cargo test --release --workspace
+# The congestion/synchronization regression check on every committed baseline.
+for b in tests/baselines/*.json; do
+  ./target/release/syncroad regress "$b"
+done

@@ -125,13 +125,6 @@ pub fn simulate(scenario: &Scenario, opts: NativeOptions) -> NativeRun {
     }
 }
 
-fn ring_length(scenario: &Scenario) -> Option<f64> {
-    match scenario.file.road {
-        crate::scenario::RoadSpec::Ring { length_m } => Some(length_m),
-        crate::scenario::RoadSpec::Straight { .. } => None,
-    }
-}
-
 fn simulate_delayed(
     scenario: &Scenario,
     mut law: DelayedDriverLaw,
@@ -140,7 +133,7 @@ fn simulate_delayed(
 ) -> NativeRun {
     let n = scenario.n;
     let dt = scenario.step_s;
-    let ring = ring_length(scenario);
+    let ring = scenario.ring_length_m();
     // With a leader, the leader starts one gap ahead of vehicle 0 and drives at v_0.
     let mut leader_q = v0.map(|_| scenario.length_m[0] + scenario.initial_gap_m[0]);
     let mut q = initial_positions(scenario, leader_q);

@@ -169,8 +169,9 @@ pub struct ScenarioFile {
     pub step_s: f64,
     /// Simulated time [s].
     pub horizon_s: f64,
-    /// Number of vehicles (the controlled vehicles; a platoon's leader is not counted).
-    pub vehicles: usize,
+    /// The vehicles: a count, or one entry per vehicle carrying its own values (a platoon's
+    /// leader is not counted).
+    pub vehicles: VehiclesSpec,
     /// The road.
     pub road: RoadSpec,
     /// The controller and its parameters.
@@ -184,6 +185,105 @@ pub struct ScenarioFile {
     /// SUMO-specific settings (used by the `sumo` backend).
     #[serde(default)]
     pub sumo: SumoSpec,
+}
+
+/// The vehicle set: a count, or one entry per vehicle.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum VehiclesSpec {
+    /// N identical slots; per-vehicle values come from the model and `initial` fields.
+    Count(usize),
+    /// One entry per vehicle.
+    List(Vec<VehicleEntry>),
+}
+
+impl VehiclesSpec {
+    /// Number of vehicles N.
+    pub fn count(&self) -> usize {
+        match self {
+            VehiclesSpec::Count(n) => *n,
+            VehiclesSpec::List(v) => v.len(),
+        }
+    }
+
+    fn entries(&self) -> &[VehicleEntry] {
+        match self {
+            VehiclesSpec::Count(_) => &[],
+            VehiclesSpec::List(v) => v,
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for VehiclesSpec {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        match serde_json::Value::deserialize(d)? {
+            serde_json::Value::Number(x) => x
+                .as_u64()
+                .map(|n| VehiclesSpec::Count(n as usize))
+                .ok_or_else(|| D::Error::custom(format!("vehicles = {x}: must be a whole number ≥ 1 or a list of per-vehicle entries"))),
+            serde_json::Value::Array(items) => items
+                .into_iter()
+                .enumerate()
+                .map(|(i, e)| serde_json::from_value(e).map_err(|err| D::Error::custom(format!("vehicles[{i}]: {err}"))))
+                .collect::<Result<Vec<_>, _>>()
+                .map(VehiclesSpec::List),
+            other => Err(D::Error::custom(format!(
+                "vehicles = {other}: must be a count (e.g. 22) or a list of per-vehicle entries (e.g. [{{\"delay_s\": 0.5}}, ...])"
+            ))),
+        }
+    }
+}
+
+/// Values of one vehicle. Each overrides nothing: a value may be given here or in the
+/// corresponding scenario-wide field, not both.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VehicleEntry {
+    /// Reaction delay α_i [s] (delayed-driver model).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub delay_s: Option<f64>,
+    /// Initial speed [m/s].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub speed_mps: Option<f64>,
+    /// Initial bumper-to-bumper gap to the predecessor [m].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gap_m: Option<f64>,
+}
+
+/// Merges a scenario-wide field with the per-vehicle entries into one [`PerVehicle`].
+fn merge(
+    field: &str,
+    entry_field: &str,
+    wide: Option<&PerVehicle>,
+    entries: &[VehicleEntry],
+    get: impl Fn(&VehicleEntry) -> Option<f64>,
+) -> Result<Option<PerVehicle>, ScenarioError> {
+    let given: Vec<Option<f64>> = entries.iter().map(&get).collect();
+    if given.iter().all(Option::is_none) {
+        return Ok(wide.cloned());
+    }
+    if let Some(i) = given
+        .iter()
+        .position(Option::is_some)
+        .filter(|_| wide.is_some())
+    {
+        return Err(invalid(
+            format!("vehicles[{i}].{entry_field}"),
+            given[i].unwrap_or_default(),
+            format!("{field} is set too; give each value once (either in {field} or in every vehicle entry)"),
+        ));
+    }
+    if let Some(i) = given.iter().position(Option::is_none) {
+        return Err(invalid(
+            format!("vehicles[{i}].{entry_field}"),
+            "missing",
+            format!("other vehicle entries give {entry_field}; give it for every vehicle, or use {field} for all"),
+        ));
+    }
+    Ok(Some(PerVehicle::List(
+        given.into_iter().map(|x| x.unwrap_or_default()).collect(),
+    )))
 }
 
 /// The road the vehicles drive on.
@@ -216,8 +316,9 @@ pub enum ModelSpec {
     DelayedDriver {
         /// Interaction graph with its gains `a_ij` [1/s].
         graph: GraphSpec,
-        /// Reaction delays α_i [s], whole multiples of `step_s`.
-        delay_s: PerVehicle,
+        /// Reaction delays α_i [s], whole multiples of `step_s` (or per vehicle in `vehicles`).
+        #[serde(default)]
+        delay_s: Option<PerVehicle>,
         /// Optional reference: a leader at speed `v_0` seen by pinned drivers (`b_i > 0`).
         #[serde(default)]
         leader: Option<DriverLeaderSpec>,
@@ -478,12 +579,12 @@ impl LeaderProfile {
 }
 
 /// Initial state.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct InitialSpec {
-    /// Initial speeds [m/s] (before the perturbation).
-    #[serde(default = "default_speed")]
-    pub speed_mps: PerVehicle,
+    /// Initial speeds [m/s] (before the perturbation); default 10 m/s.
+    #[serde(default)]
+    pub speed_mps: Option<PerVehicle>,
     /// Initial bumper-to-bumper gaps to the predecessor [m]. Default: even spacing on a ring,
     /// the desired gaps for a platoon, 20 m otherwise.
     #[serde(default)]
@@ -493,19 +594,8 @@ pub struct InitialSpec {
     pub perturbation: PerturbationSpec,
 }
 
-fn default_speed() -> PerVehicle {
-    PerVehicle::Uniform(10.0)
-}
-
-impl Default for InitialSpec {
-    fn default() -> Self {
-        Self {
-            speed_mps: default_speed(),
-            gap_m: None,
-            perturbation: PerturbationSpec::default(),
-        }
-    }
-}
+/// Initial speed when none is given [m/s].
+pub const DEFAULT_SPEED_MPS: f64 = 10.0;
 
 /// Uniform random perturbation, drawn from the scenario seed.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
@@ -694,7 +784,8 @@ impl ScenarioFile {
 
     /// Validates and resolves the scenario; `base_dir` resolves relative paths.
     pub fn validate(self, base_dir: &Path) -> Result<Scenario, ScenarioError> {
-        let n = self.vehicles;
+        let n = self.vehicles.count();
+        let entries = self.vehicles.entries();
         if n == 0 {
             return Err(invalid("vehicles", 0, "must be ≥ 1"));
         }
@@ -757,7 +848,17 @@ impl ScenarioFile {
                 history,
             } => {
                 let graph = build_graph(graph, n)?;
-                let delay_s = delay_s.resolve_nonneg("model.delay_s", n)?;
+                let delay_s = merge("model.delay_s", "delay_s", delay_s.as_ref(), entries, |e| {
+                    e.delay_s
+                })?
+                .ok_or_else(|| {
+                    invalid(
+                        "model.delay_s",
+                        "missing",
+                        "give the reaction delays α_i [s] here or in every vehicle entry",
+                    )
+                })?
+                .resolve_nonneg("model.delay_s", n)?;
                 let mut delay_steps = Vec::with_capacity(n);
                 for (i, &d) in delay_s.iter().enumerate() {
                     let m = (d / self.step_s).round();
@@ -841,14 +942,26 @@ impl ScenarioFile {
                 ));
             }
         }
-        let mut speeds = self
-            .initial
-            .speed_mps
-            .resolve_nonneg("initial.speed_mps", n)?;
+        let mut speeds = merge(
+            "initial.speed_mps",
+            "speed_mps",
+            self.initial.speed_mps.as_ref(),
+            entries,
+            |e| e.speed_mps,
+        )?
+        .unwrap_or(PerVehicle::Uniform(DEFAULT_SPEED_MPS))
+        .resolve_nonneg("initial.speed_mps", n)?;
         for v in speeds.iter_mut() {
             *v = (*v + rng.symmetric(pert.speed_mps)).max(0.0);
         }
-        let mut gaps = match (&self.initial.gap_m, &self.road, &model) {
+        let gap_spec = merge(
+            "initial.gap_m",
+            "gap_m",
+            self.initial.gap_m.as_ref(),
+            entries,
+            |e| e.gap_m,
+        )?;
+        let mut gaps = match (&gap_spec, &self.road, &model) {
             (Some(g), _, _) => g.resolve_nonneg("initial.gap_m", n)?,
             (None, RoadSpec::Ring { length_m: ring }, _) => {
                 let used: f64 = length_m.iter().sum();
@@ -1073,5 +1186,13 @@ impl Scenario {
     /// True when the road is a ring.
     pub fn is_ring(&self) -> bool {
         matches!(self.file.road, RoadSpec::Ring { .. })
+    }
+
+    /// The ring's nominal circumference [m], `None` on a straight road.
+    pub fn ring_length_m(&self) -> Option<f64> {
+        match self.file.road {
+            RoadSpec::Ring { length_m } => Some(length_m),
+            RoadSpec::Straight { .. } => None,
+        }
     }
 }

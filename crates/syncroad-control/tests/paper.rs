@@ -277,3 +277,52 @@ fn cacc_platoon_reaches_gaps_and_leader_speed() {
         assert!((g - 12.0).abs() < 1e-2, "vehicle {i}: gap {g}");
     }
 }
+
+/// Chandler's result for predecessor following behind a leader: a speed disturbance of the
+/// first driver is attenuated along the chain when 2αK < 1 and amplified when 2αK > 1 (even
+/// though every vehicle is individually stable while αK < π/2).
+#[test]
+fn chandler_string_stability_boundary() {
+    for (alpha_k, attenuates) in [(0.4, true), (0.75, false)] {
+        let (n, k) = (40usize, 1.0);
+        let delay = alpha_k / k;
+        let mut speeds = vec![20.0; n];
+        speeds[0] = 18.0;
+        let list = speeds
+            .iter()
+            .map(|v| v.to_string())
+            .collect::<Vec<_>>()
+            .join(",");
+        let mut pin = vec!["0"; n];
+        pin[0] = "1.0";
+        let sc = Scenario::from_json(&format!(
+            r#"{{"seed": 1, "step_s": 0.01, "horizon_s": 120, "vehicles": {n}, "road": {{"type": "straight"}},
+                "model": {{"type": "delayed_driver", "graph": {{"type": "chain", "gain": {k}}}, "delay_s": {delay},
+                          "leader": {{"speed_mps": 20.0, "pinning": [{}]}}, "history": "no_reaction"}},
+                "initial": {{"speed_mps": [{list}], "gap_m": 30}}}}"#,
+            pin.join(",")
+        ))
+        .unwrap();
+        let rep = theory::report(&sc);
+        assert_eq!(rep.chandler.unwrap().holds, attenuates);
+        assert_eq!(rep.certified, attenuates);
+        let run = simulate(&sc, NativeOptions { record_every: 5 });
+        let tr = &run.trajectory;
+        let peak = |i: usize| {
+            (0..tr.len())
+                .map(|k| (tr.speeds(k)[i] - 20.0).abs())
+                .fold(0.0, f64::max)
+        };
+        // Compare a vehicle well down the chain with one near the head.
+        let (near, far) = (peak(5), peak(35));
+        if attenuates {
+            assert!(far < near, "2αK = {}: peak {near} → {far}", 2.0 * alpha_k);
+        } else {
+            assert!(
+                far > 2.0 * near,
+                "2αK = {}: peak {near} → {far}",
+                2.0 * alpha_k
+            );
+        }
+    }
+}

@@ -153,3 +153,47 @@ fn same_seed_same_initial_state_other_seed_differs() {
     let total: f64 = a.initial_gap_m.iter().sum::<f64>() + 4.0 * 5.0;
     assert!((total - 100.0).abs() < 1e-9);
 }
+
+#[test]
+fn vehicles_as_entries_carry_their_own_values() {
+    let j = r#"{"seed": 1, "step_s": 0.1, "horizon_s": 10,
+        "vehicles": [{"delay_s": 0.3, "speed_mps": 9}, {"delay_s": 0.5, "speed_mps": 11}, {"delay_s": 0.4, "speed_mps": 10}],
+        "road": {"type": "ring", "length_m": 90},
+        "model": {"type": "delayed_driver", "graph": {"type": "unidirectional_ring", "gain": 0.5}}}"#;
+    let s = Scenario::from_json(j).unwrap();
+    assert_eq!(s.n, 3);
+    assert_eq!(s.initial_speed_mps, [9.0, 11.0, 10.0]);
+    let syncroad_control::scenario::Model::DelayedDriver(m) = &s.model else {
+        panic!()
+    };
+    assert_eq!(m.delay_steps, [3, 5, 4]);
+}
+
+#[test]
+fn vehicle_entries_conflicting_or_incomplete_are_rejected() {
+    let both = r#"{"seed": 1, "step_s": 0.1, "horizon_s": 10, "vehicles": [{"delay_s": 0.3}, {"delay_s": 0.5}],
+        "road": {"type": "ring", "length_m": 90},
+        "model": {"type": "delayed_driver", "graph": {"type": "unidirectional_ring", "gain": 0.5}, "delay_s": 0.2}}"#;
+    assert_eq!(
+        err(both),
+        "vehicles[0].delay_s = 0.3: model.delay_s is set too; give each value once (either in model.delay_s or in every vehicle entry)"
+    );
+    let partial = both
+        .replace(
+            r#"[{"delay_s": 0.3}, {"delay_s": 0.5}]"#,
+            r#"[{"delay_s": 0.3}, {}]"#,
+        )
+        .replace(r#", "delay_s": 0.2"#, "");
+    assert_eq!(
+        err(&partial),
+        "vehicles[1].delay_s = missing: other vehicle entries give delay_s; give it for every vehicle, or use model.delay_s for all"
+    );
+    let typo = partial.replace(r#"{}"#, r#"{"delay": 0.3}"#);
+    let e = err(&typo);
+    assert!(e.contains("vehicles[1]: unknown field `delay`"), "{e}");
+    let none = partial.replace(r#"[{"delay_s": 0.3}, {}]"#, "2");
+    assert_eq!(
+        err(&none),
+        "model.delay_s = missing: give the reaction delays α_i [s] here or in every vehicle entry"
+    );
+}

@@ -37,6 +37,41 @@ pub enum Command {
         #[command(flatten)]
         out: OutputArgs,
     },
+    /// Compare a fresh run's metrics with a committed baseline (per-metric tolerances); print
+    /// a readable diff; exit 1 on regression. The baseline names its scenario.
+    Regress {
+        /// Baseline file (JSON), e.g. tests/baselines/ring-theorem1.native.json.
+        baseline: PathBuf,
+        /// Rewrite the baseline's metrics and stamps from the fresh run (tolerances are kept).
+        #[arg(long)]
+        update: bool,
+        /// Compare this metrics.json instead of running the baseline's scenario.
+        #[arg(long)]
+        metrics: Option<PathBuf>,
+    },
+    /// The IFP index α = −inf_ω Re W(iω) of an agent W(λ) = η(λ)/(λ ρ(λ)) (Lemma lem.linear-pass),
+    /// e.g. the CACC agent τ y''' + y'' + μ y' = u is `--eta 1 --rho MU,1,TAU`.
+    Ifp {
+        /// Coefficients of η, ascending (η_0, η_1, ...), comma-separated.
+        #[arg(
+            long,
+            value_delimiter = ',',
+            allow_hyphen_values = true,
+            required = true
+        )]
+        eta: Vec<f64>,
+        /// Coefficients of ρ, ascending (ρ_0, ρ_1, ...), comma-separated; ρ must be Hurwitz.
+        #[arg(
+            long,
+            value_delimiter = ',',
+            allow_hyphen_values = true,
+            required = true
+        )]
+        rho: Vec<f64>,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
     /// Measure the native simulator: vehicle-steps per second on rings of 22, 2000 and 20000
     /// vehicles with heterogeneous on-grid delays (Δt = 0.01 s), and its error against a
     /// 16× finer reference.
@@ -62,9 +97,16 @@ pub struct OutputArgs {
     /// Override the scenario's final window for the verdict [s].
     #[arg(long)]
     pub window_s: Option<f64>,
-    /// Record every k-th step (default: about 2000 samples over the horizon).
+    /// Record every k-th step (default: about 2000 samples over the horizon, fewer for fleets
+    /// above 2000 vehicles).
     #[arg(long)]
     pub record_every: Option<usize>,
+    /// Warm-up excluded from the congestion metrics [s] (default: a quarter of the horizon).
+    #[arg(long)]
+    pub warmup_s: Option<f64>,
+    /// Do not draw the plots (time-space diagram, speeds, spread; PNG and SVG).
+    #[arg(long)]
+    pub no_plots: bool,
 }
 
 #[cfg(test)]

@@ -3,12 +3,14 @@
 use std::path::Path;
 
 use anyhow::Context;
+use syncroad_control::congestion::{congestion_metrics, CongestionMetrics};
 use syncroad_control::metrics::{sync_metrics, VerdictThresholds};
 use syncroad_control::scenario::Model;
 use syncroad_control::{simulate, theory, NativeOptions, Scenario, StopReason, Verdict};
 
 use crate::cli::{Cli, Command, OutputArgs};
 use crate::exit_codes;
+use crate::regress;
 use crate::report;
 
 /// Marks errors caused by the user's input (exit code 2).
@@ -32,6 +34,12 @@ pub fn run(cli: Cli) -> anyhow::Result<u8> {
         Command::Check { scenario, json } => check(&scenario, json),
         Command::Simulate { scenario, out } => simulate_cmd(&scenario, &out),
         Command::Bench { horizon_s, sizes } => crate::bench::run(horizon_s, &sizes),
+        Command::Ifp { eta, rho, json } => ifp_cmd(&eta, &rho, json),
+        Command::Regress {
+            baseline,
+            update,
+            metrics,
+        } => regress_cmd(&baseline, update, metrics.as_deref()),
     }
 }
 
@@ -74,17 +82,51 @@ pub fn thresholds(sc: &Scenario, out: &OutputArgs) -> anyhow::Result<VerdictThre
     Ok(t)
 }
 
-fn simulate_cmd(path: &Path, out: &OutputArgs) -> anyhow::Result<u8> {
-    let sc = load_scenario(path)?;
-    let th = thresholds(&sc, out)?;
-    std::fs::create_dir_all(&out.out)
-        .with_context(|| format!("cannot create output folder {}", out.out.display()))?;
-    let every = out.record_every.unwrap_or_else(|| (sc.steps / 2000).max(1));
-    if every == 0 {
-        return Err(InputError("--record-every = 0: must be ≥ 1".into()).into());
+/// A finished native run with everything derived from it.
+pub struct NativeOutcome {
+    /// The run.
+    pub run: syncroad_control::NativeRun,
+    /// Synchronization metrics.
+    pub sync: syncroad_control::SyncMetrics,
+    /// Congestion metrics, or why they were skipped.
+    pub congestion: Result<CongestionMetrics, syncroad_control::congestion::CongestionError>,
+    /// Theory report.
+    pub theory: theory::TheoryReport,
+}
+
+impl NativeOutcome {
+    /// The record to write or compare.
+    pub fn record<'a>(&'a self, sc: &'a Scenario) -> report::RunRecord<'a> {
+        report::RunRecord {
+            scenario: sc,
+            backend: "native",
+            trajectory: &self.run.trajectory,
+            sync: &self.sync,
+            congestion: self.congestion.as_ref().ok(),
+            stop: &self.run.stop,
+            theory: &self.theory,
+            extra: None,
+        }
     }
+}
+
+/// Default sampling stride: about 2000 samples over the horizon, fewer for large fleets so a
+/// trajectory stays within about 4 million vehicle-samples (≈ 100 MB).
+pub fn default_record_every(steps: usize, n: usize) -> usize {
+    let samples = (4_000_000 / n.max(1)).clamp(2, 2000);
+    (steps / samples).max(1)
+}
+
+/// Runs a scenario natively and computes its metrics.
+pub fn run_native(
+    sc: &Scenario,
+    th: VerdictThresholds,
+    warmup_s: Option<f64>,
+    record_every: Option<usize>,
+) -> NativeOutcome {
+    let every = record_every.unwrap_or_else(|| default_record_every(sc.steps, sc.n));
     let run = simulate(
-        &sc,
+        sc,
         NativeOptions {
             record_every: every,
         },
@@ -94,29 +136,107 @@ fn simulate_cmd(path: &Path, out: &OutputArgs) -> anyhow::Result<u8> {
         Model::Cacc(c) => Some(c.desired_gap_m.as_slice()),
         Model::DelayedDriver(_) => None,
     };
-    let metrics = sync_metrics(&run.trajectory, th, desired, incomplete);
-    let theory = theory::report(&sc);
-    report::write_run(
-        &out.out,
-        &sc,
-        "native",
-        &run.trajectory,
-        &metrics,
-        &run.stop,
-        &theory,
-        None,
-    )?;
+    let sync = sync_metrics(&run.trajectory, th, desired, incomplete);
+    let warmup = warmup_s.unwrap_or(0.25 * sc.horizon_s());
+    let congestion = congestion_metrics(&run.trajectory, warmup, sc.ring_length_m());
+    NativeOutcome {
+        run,
+        sync,
+        congestion,
+        theory: theory::report(sc),
+    }
+}
+
+fn simulate_cmd(path: &Path, out: &OutputArgs) -> anyhow::Result<u8> {
+    let sc = load_scenario(path)?;
+    let th = thresholds(&sc, out)?;
+    if out.record_every == Some(0) {
+        return Err(InputError("--record-every = 0: must be ≥ 1".into()).into());
+    }
+    std::fs::create_dir_all(&out.out)
+        .with_context(|| format!("cannot create output folder {}", out.out.display()))?;
+    let o = run_native(&sc, th, out.warmup_s, out.record_every);
+    o.record(&sc).write(&out.out)?;
     print!(
         "{}",
-        report::metrics_table(&sc, "native", &metrics, &run.stop, &theory)
+        report::metrics_table(&sc, "native", &o.sync, &o.run.stop, &o.theory)
     );
+    match &o.congestion {
+        Ok(c) => print!("{}", report::congestion_lines(c)),
+        Err(e) => println!("  congestion metrics skipped: {e}"),
+    }
     println!(
         "wrote {}/trajectories.csv and {}/metrics.json",
         out.out.display(),
         out.out.display()
     );
-    Ok(match metrics.verdict {
+    if !out.no_plots {
+        let plots = crate::plots::RunPlots {
+            traj: &o.run.trajectory,
+            ring_length_m: sc.ring_length_m(),
+            title: format!("{} (native)", sc.name),
+        };
+        let files = plots.write_all(&out.out)?;
+        println!(
+            "wrote {} plots: time_space, speeds, spread (PNG and SVG)",
+            files.len()
+        );
+    }
+    Ok(match o.sync.verdict {
         Verdict::Synchronized => exit_codes::SUCCESS,
         _ => exit_codes::NOT_SYNCHRONIZED,
     })
+}
+
+fn regress_cmd(baseline_path: &Path, update: bool, metrics: Option<&Path>) -> anyhow::Result<u8> {
+    let mut base = regress::load(baseline_path)?;
+    let fresh = match metrics {
+        Some(m) => {
+            let text = std::fs::read_to_string(m)
+                .map_err(|e| InputError(format!("cannot read metrics {}: {e}", m.display())))?;
+            serde_json::from_str(&text)
+                .map_err(|e| InputError(format!("metrics {}: {e}", m.display())))?
+        }
+        None => {
+            let dir = baseline_path.parent().unwrap_or(Path::new("."));
+            let sc = load_scenario(&dir.join(&base.scenario))?;
+            let th = VerdictThresholds {
+                tolerance_mps: sc.file.verdict.tolerance_mps,
+                window_s: sc.file.verdict.window_s,
+            };
+            let o = run_native(&sc, th, None, None);
+            o.record(&sc).metrics_json()
+        }
+    };
+    let (stamps, results) = regress::split_stamps(fresh);
+    if update {
+        base.metrics = results;
+        base.stamp = stamps;
+        regress::save(baseline_path, &base)?;
+        println!("updated {}", baseline_path.display());
+        return Ok(exit_codes::SUCCESS);
+    }
+    let c = regress::compare(&base, &stamps, &results);
+    print!("{}", regress::render(&c, baseline_path));
+    Ok(if c.failures.is_empty() {
+        exit_codes::SUCCESS
+    } else {
+        exit_codes::NOT_SYNCHRONIZED
+    })
+}
+
+fn ifp_cmd(eta: &[f64], rho: &[f64], json: bool) -> anyhow::Result<u8> {
+    let r = syncroad_control::ifp::ifp_index(eta, rho).map_err(|e| InputError(e.to_string()))?;
+    if json {
+        println!("{}", serde_json::to_string_pretty(&r)?);
+    } else {
+        let at = r
+            .omega_at_inf
+            .map_or("approached as ω → ∞".to_string(), |w| {
+                format!("attained at ω = {w:.6} rad/s")
+            });
+        println!("IFP index α = {:.9}  ({at})", r.alpha);
+        println!("W(λ) = η(λ)/(λ ρ(λ)) is IFP(α): passive with respect to y + α u (Lemma lem.linear-pass)");
+    }
+    Ok(exit_codes::SUCCESS)
 }

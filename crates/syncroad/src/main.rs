@@ -5,6 +5,8 @@ mod bench;
 mod cli;
 mod commands;
 mod exit_codes;
+mod plots;
+mod regress;
 mod report;
 
 use std::process::ExitCode;

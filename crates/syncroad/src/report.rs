@@ -6,6 +6,7 @@ use std::path::Path;
 
 use anyhow::Context;
 use serde_json::json;
+use syncroad_control::congestion::CongestionMetrics;
 use syncroad_control::metrics::SyncMetrics;
 use syncroad_control::theory::{Binding, TheoryReport};
 use syncroad_control::{Scenario, StopReason, Trajectory};
@@ -24,6 +25,25 @@ fn binding_line(out: &mut String, label: &str, b: &Binding) {
         "  {label:<38} vehicle {:>5}: {:.6} < {:.6}  (margin {:+.6})",
         b.vehicle, b.value, b.bound, b.margin
     );
+}
+
+/// Per-vehicle rows `value, margin to 1/2` (and `p_j`) for scenarios of at most 30 vehicles.
+fn per_vehicle(out: &mut String, label: &str, values: &[f64], p: Option<&[f64]>) {
+    if values.len() > 30 {
+        return;
+    }
+    let _ = writeln!(
+        out,
+        "  {:>7}  {:>12}  {:>12}{}",
+        "vehicle",
+        label,
+        "margin",
+        if p.is_some() { "           p_j" } else { "" }
+    );
+    for (j, v) in values.iter().enumerate() {
+        let pj = p.map_or(String::new(), |p| format!("  {:>12.6}", p[j]));
+        let _ = writeln!(out, "  {j:>7}  {v:>12.6}  {:>+12.6}{pj}", 0.5 - v);
+    }
 }
 
 /// The `syncroad check` table.
@@ -65,6 +85,12 @@ pub fn theory_table(r: &TheoryReport) -> String {
                 "  left null vector p (Σp = 1)            min {lo:.6}, max {hi:.6}"
             );
         }
+        per_vehicle(
+            &mut s,
+            "α_j d_j^+",
+            &t.products,
+            t.left_null_vector.as_deref(),
+        );
     }
     if let Some(t) = &r.theorem1_plus {
         let _ = writeln!(
@@ -83,6 +109,7 @@ pub fn theory_table(r: &TheoryReport) -> String {
             t.pinning_sum
         );
         binding_line(&mut s, "binding α_j (d_j^+ + 2 b_j)", &t.binding);
+        per_vehicle(&mut s, "α_j(d+2b)", &t.products, None);
         let _ = writeln!(
             s,
             "  largest gain scale c keeping it        {:.6}",
@@ -208,40 +235,88 @@ pub fn metrics_table(
     s
 }
 
-/// Writes trajectories.csv and metrics.json (stamped with version, seed, scenario hash).
-#[allow(clippy::too_many_arguments)]
-pub fn write_run(
-    dir: &Path,
-    sc: &Scenario,
-    backend: &str,
-    traj: &Trajectory,
-    m: &SyncMetrics,
-    stop: &StopReason,
-    theory: &TheoryReport,
-    extra: Option<serde_json::Value>,
-) -> anyhow::Result<()> {
-    let csv = dir.join("trajectories.csv");
-    let f =
-        std::fs::File::create(&csv).with_context(|| format!("cannot write {}", csv.display()))?;
-    traj.write_csv(BufWriter::new(f))
-        .with_context(|| format!("cannot write {}", csv.display()))?;
-    let doc = json!({
-        "syncroad_version": env!("CARGO_PKG_VERSION"),
-        "scenario": sc.name,
-        "scenario_hash": sc.hash_hex(),
-        "seed": sc.file.seed,
-        "backend": backend,
-        "platform": format!("{}-{}", std::env::consts::ARCH, std::env::consts::OS),
-        "vehicles": sc.n,
-        "step_s": sc.step_s,
-        "horizon_s": sc.horizon_s(),
-        "stop": stop,
-        "certified": theory.certified,
-        "sync": m,
-        "extra": extra,
-    });
-    let path = dir.join("metrics.json");
-    std::fs::write(&path, serde_json::to_string_pretty(&doc)? + "\n")
+/// Everything one run produced.
+pub struct RunRecord<'a> {
+    /// The scenario.
+    pub scenario: &'a Scenario,
+    /// `native` or `sumo`.
+    pub backend: &'a str,
+    /// Recorded samples.
+    pub trajectory: &'a Trajectory,
+    /// Synchronization metrics and verdict.
+    pub sync: &'a SyncMetrics,
+    /// Congestion metrics (absent when the warm-up leaves no sample).
+    pub congestion: Option<&'a CongestionMetrics>,
+    /// Why the run stopped.
+    pub stop: &'a StopReason,
+    /// The theory report.
+    pub theory: &'a TheoryReport,
+    /// Backend-specific stamps (SUMO version, safety counts, ...).
+    pub extra: Option<serde_json::Value>,
+}
+
+impl RunRecord<'_> {
+    /// The metrics document (metrics.json).
+    pub fn metrics_json(&self) -> serde_json::Value {
+        let sc = self.scenario;
+        json!({
+            "syncroad_version": env!("CARGO_PKG_VERSION"),
+            "scenario": sc.name,
+            "scenario_hash": sc.hash_hex(),
+            "seed": sc.file.seed,
+            "backend": self.backend,
+            "platform": format!("{}-{}", std::env::consts::ARCH, std::env::consts::OS),
+            "vehicles": sc.n,
+            "step_s": sc.step_s,
+            "horizon_s": sc.horizon_s(),
+            "stop": self.stop,
+            "certified": self.theory.certified,
+            "sync": self.sync,
+            "congestion": self.congestion,
+            "extra": self.extra,
+        })
+    }
+
+    /// Writes trajectories.csv and metrics.json (stamped with version, seed, scenario hash)
+    /// into `dir`.
+    pub fn write(&self, dir: &Path) -> anyhow::Result<()> {
+        let csv = dir.join("trajectories.csv");
+        let f = std::fs::File::create(&csv)
+            .with_context(|| format!("cannot write {}", csv.display()))?;
+        self.trajectory
+            .write_csv(BufWriter::new(f))
+            .with_context(|| format!("cannot write {}", csv.display()))?;
+        let path = dir.join("metrics.json");
+        std::fs::write(
+            &path,
+            serde_json::to_string_pretty(&self.metrics_json())? + "\n",
+        )
         .with_context(|| format!("cannot write {}", path.display()))?;
-    Ok(())
+        Ok(())
+    }
+}
+
+/// Summary lines of the congestion metrics.
+pub fn congestion_lines(c: &CongestionMetrics) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "  congestion after {} s warm-up:", c.warmup_s);
+    let _ = writeln!(
+        s,
+        "    mean speed {:.3} m/s, harmonic mean {:.3} m/s, min {:.3} m/s",
+        c.mean_speed_mps, c.harmonic_mean_speed_mps, c.min_speed_mps
+    );
+    let _ = writeln!(
+        s,
+        "    speed std {:.4} m/s (across vehicles {:.4}, over time {:.4})",
+        c.speed_std_mps, c.speed_std_across_vehicles_mps, c.speed_std_over_time_mps
+    );
+    let _ = writeln!(
+        s,
+        "    stops {} ({:.2} % of vehicle-time), wave amplitude {:.3} m/s, wave speed {}",
+        c.stop_events,
+        100.0 * c.stopped_fraction,
+        c.wave_amplitude_mps,
+        opt(c.wave_speed_mps, "m/s")
+    );
+    s
 }

@@ -73,8 +73,8 @@ fn simulate_writes_trajectories_and_metrics() {
     assert_eq!(m["backend"], "native");
     let csv = std::fs::read_to_string(dir.join("trajectories.csv")).unwrap();
     assert!(csv.starts_with("time_s,vehicle,speed_mps,position_m,gap_m\n"));
-    // 300 s at 0.1 s recorded every step (3000 steps ≤ 2000 samples → every 1) + initial: 3001 × 22 rows.
-    assert_eq!(csv.lines().count(), 1 + 22 * (3000 / (3000 / 2000) + 1));
+    // 300 s at 0.1 s: 3000 steps; the default stride is max(3000 / 2000, 1) = 1, so 3001 samples.
+    assert_eq!(csv.lines().count(), 1 + 22 * 3001);
 }
 
 #[test]
@@ -137,4 +137,59 @@ fn simulate_is_deterministic() {
             "{f} differs"
         );
     }
+}
+
+#[test]
+fn committed_baselines_pass() {
+    for b in ["ring-theorem1.native.json", "platoon-cacc.native.json"] {
+        let (code, out, err) = run(bin()
+            .arg("regress")
+            .arg(repo().join("tests/baselines").join(b)));
+        assert_eq!(code, 0, "{b}: {out}{err}");
+        assert!(out.contains(": PASS ("), "{out}");
+    }
+}
+
+#[test]
+fn planted_regression_fails_with_a_readable_diff() {
+    // The same baseline against a scenario whose predecessor gain dropped from 0.6 to 0.5.
+    let dir = tmpdir("planted");
+    let scenario = std::fs::read_to_string(repo().join("scenarios/ring-theorem1.json")).unwrap();
+    let planted = scenario.replace(r#""gain_pred": 0.6"#, r#""gain_pred": 0.5"#);
+    assert_ne!(planted, scenario, "the planted change must apply");
+    std::fs::write(dir.join("ring.json"), planted).unwrap();
+    let baseline =
+        std::fs::read_to_string(repo().join("tests/baselines/ring-theorem1.native.json")).unwrap();
+    let mut b: serde_json::Value = serde_json::from_str(&baseline).unwrap();
+    b["scenario"] = "ring.json".into();
+    std::fs::write(
+        dir.join("baseline.json"),
+        serde_json::to_string(&b).unwrap(),
+    )
+    .unwrap();
+    let (code, out, err) = run(bin().arg("regress").arg(dir.join("baseline.json")));
+    assert_eq!(code, 1, "{out}{err}");
+    assert!(out.contains(": FAIL ("), "{out}");
+    assert!(out.contains("sync.spread_l2"), "{out}");
+    assert!(out.contains("scenario_hash"), "{out}");
+    // --update accepts the new behaviour, after which it passes.
+    let (code, _, _) = run(bin()
+        .arg("regress")
+        .arg(dir.join("baseline.json"))
+        .arg("--update"));
+    assert_eq!(code, 0);
+    let (code, out, _) = run(bin().arg("regress").arg(dir.join("baseline.json")));
+    assert_eq!(code, 0, "{out}");
+}
+
+#[test]
+fn ifp_command_reproduces_the_cacc_index_and_rejects_non_hurwitz_rho() {
+    // CACC agent with μ = 1.25, τ = 0.2 (μτ < 1/2): α = 1/μ² = 0.64 (proof of Theorem thm.cacc).
+    let (code, out, _) = run(bin().args(["ifp", "--eta", "1", "--rho", "1.25,1,0.2", "--json"]));
+    assert_eq!(code, 0);
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert!((v["alpha"].as_f64().unwrap() - 0.64).abs() < 1e-12, "{out}");
+    let (code, _, err) = run(bin().args(["ifp", "--eta", "1", "--rho", "1,-1,1"]));
+    assert_eq!(code, 2);
+    assert!(err.contains("is not Hurwitz"), "{err}");
 }

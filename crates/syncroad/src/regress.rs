@@ -1,0 +1,391 @@
+//! `syncroad regress`: compare a fresh run's metrics with a committed baseline.
+//!
+//! A baseline file names its scenario (relative to the baseline's folder), carries per-metric
+//! tolerances and the metrics of a reference run:
+//!
+//! ```json
+//! {
+//!   "scenario": "../../scenarios/ring-theorem1.json",
+//!   "tolerances": {"default": {"abs": 1e-9, "rel": 1e-6},
+//!                  "keys": {"sync.spread_l2": {"abs": 0, "rel": 1e-3}}},
+//!   "stamp": {"syncroad_version": "0.1.0", "platform": "x86_64-linux"},
+//!   "metrics": { ...metrics.json of the reference run... }
+//! }
+//! ```
+//!
+//! Metrics are flattened to dotted keys (`sync.final_spread_mps`, `runs[1].congestion.…`).
+//! A number passes when `|fresh − base| ≤ abs + rel·|base|`; strings, booleans and nulls must
+//! be equal; a key missing on either side fails, and so does NaN (written as `null` in JSON)
+//! where the baseline has a number. Stamps (versions, platform) are compared and a mismatch is
+//! reported, but does not fail the check by itself.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::Path;
+
+use anyhow::Context;
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+
+use crate::commands::InputError;
+
+/// Absolute and relative tolerance of one metric.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Tolerance {
+    /// Absolute tolerance.
+    #[serde(default)]
+    pub abs: f64,
+    /// Relative tolerance (fraction of the baseline value).
+    #[serde(default)]
+    pub rel: f64,
+}
+
+/// Tolerances: a default and per-key overrides (exact keys or prefixes ending in `.`/`*`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Tolerances {
+    /// Used for keys without an override.
+    pub default: Tolerance,
+    /// Overrides; a key ending in `*` applies to every key with that prefix.
+    #[serde(default)]
+    pub keys: BTreeMap<String, Tolerance>,
+}
+
+impl Tolerances {
+    fn for_key(&self, key: &str) -> Tolerance {
+        if let Some(t) = self.keys.get(key) {
+            return *t;
+        }
+        self.keys
+            .iter()
+            .filter_map(|(k, t)| {
+                k.strip_suffix('*')
+                    .filter(|p| key.starts_with(p))
+                    .map(|p| (p.len(), *t))
+            })
+            .max_by_key(|(len, _)| *len)
+            .map_or(self.default, |(_, t)| t)
+    }
+}
+
+/// The baseline file.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Baseline {
+    /// What this baseline guards.
+    #[serde(default)]
+    pub about: Option<String>,
+    /// Scenario file, relative to the baseline's folder.
+    pub scenario: String,
+    /// Tolerances.
+    pub tolerances: Tolerances,
+    /// Versions and platform of the reference run.
+    #[serde(default)]
+    pub stamp: BTreeMap<String, Value>,
+    /// The reference metrics.
+    pub metrics: Value,
+}
+
+/// Keys of a metrics document that are stamps, not results.
+pub const STAMP_KEYS: [&str; 3] = ["syncroad_version", "platform", "sumo_version"];
+
+/// Splits a metrics document into (stamps, results).
+pub fn split_stamps(mut doc: Value) -> (BTreeMap<String, Value>, Value) {
+    let mut stamps = BTreeMap::new();
+    if let Value::Object(map) = &mut doc {
+        for k in STAMP_KEYS {
+            if let Some(v) = map.remove(k) {
+                stamps.insert(k.to_string(), v);
+            }
+        }
+    }
+    (stamps, doc)
+}
+
+/// Flattens a JSON value into dotted keys.
+pub fn flatten(v: &Value) -> BTreeMap<String, Value> {
+    fn go(prefix: &str, v: &Value, out: &mut BTreeMap<String, Value>) {
+        match v {
+            Value::Object(m) => {
+                for (k, x) in m {
+                    let key = if prefix.is_empty() {
+                        k.clone()
+                    } else {
+                        format!("{prefix}.{k}")
+                    };
+                    go(&key, x, out);
+                }
+            }
+            Value::Array(a) => {
+                for (i, x) in a.iter().enumerate() {
+                    go(&format!("{prefix}[{i}]"), x, out);
+                }
+            }
+            leaf => {
+                out.insert(prefix.to_string(), leaf.clone());
+            }
+        }
+    }
+    let mut out = BTreeMap::new();
+    go("", v, &mut out);
+    out
+}
+
+/// One failed comparison.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Failure {
+    /// Dotted key.
+    pub key: String,
+    /// Baseline value (or "missing").
+    pub base: String,
+    /// Fresh value (or "missing").
+    pub fresh: String,
+    /// Why it failed.
+    pub why: String,
+}
+
+/// Outcome of a comparison.
+#[derive(Debug, Clone, Default)]
+pub struct Comparison {
+    /// Keys compared.
+    pub compared: usize,
+    /// Failures.
+    pub failures: Vec<Failure>,
+    /// Stamp mismatches (reported, not failing).
+    pub stamp_notes: Vec<String>,
+}
+
+/// Compares fresh results against the baseline.
+pub fn compare(
+    base: &Baseline,
+    fresh_stamps: &BTreeMap<String, Value>,
+    fresh: &Value,
+) -> Comparison {
+    let b = flatten(&base.metrics);
+    let f = flatten(fresh);
+    let mut c = Comparison::default();
+    for (k, bv) in &b {
+        c.compared += 1;
+        let Some(fv) = f.get(k) else {
+            c.failures.push(Failure {
+                key: k.clone(),
+                base: bv.to_string(),
+                fresh: "missing".into(),
+                why: "key missing from the fresh metrics".into(),
+            });
+            continue;
+        };
+        let fail = |why: String| Failure {
+            key: k.clone(),
+            base: bv.to_string(),
+            fresh: fv.to_string(),
+            why,
+        };
+        match (bv.as_f64(), fv.as_f64()) {
+            (Some(x), Some(y)) => {
+                let t = base.tolerances.for_key(k);
+                let allowed = t.abs + t.rel * x.abs();
+                let d = (y - x).abs();
+                if d.is_nan() || d > allowed {
+                    let rel = if x != 0.0 {
+                        format!(" ({:+.3e} relative)", (y - x) / x.abs())
+                    } else {
+                        String::new()
+                    };
+                    c.failures.push(fail(format!(
+                        "differs by {:.3e}{rel}; allowed {:.3e}",
+                        y - x,
+                        allowed
+                    )));
+                }
+            }
+            (Some(_), None) if fv.is_null() => c
+                .failures
+                .push(fail("fresh value is null (NaN or missing number)".into())),
+            _ => {
+                if bv != fv {
+                    c.failures.push(fail("values differ".into()));
+                }
+            }
+        }
+    }
+    for k in f.keys().filter(|k| !b.contains_key(*k)) {
+        c.compared += 1;
+        c.failures.push(Failure {
+            key: k.clone(),
+            base: "missing".into(),
+            fresh: f[k].to_string(),
+            why: "extra key not in the baseline (run with --update to accept it)".into(),
+        });
+    }
+    for (k, v) in &base.stamp {
+        match fresh_stamps.get(k) {
+            Some(w) if w == v => {}
+            Some(w) => c
+                .stamp_notes
+                .push(format!("{k}: baseline {v}, this run {w}")),
+            None => c
+                .stamp_notes
+                .push(format!("{k}: baseline {v}, this run has none")),
+        }
+    }
+    c
+}
+
+/// Renders the comparison as a readable diff.
+pub fn render(c: &Comparison, baseline: &Path) -> String {
+    let mut s = String::new();
+    for n in &c.stamp_notes {
+        let _ = writeln!(
+            s,
+            "note: stamp differs — {n} (results may legitimately differ across versions/platforms)"
+        );
+    }
+    if c.failures.is_empty() {
+        let _ = writeln!(
+            s,
+            "regress {}: PASS ({} metrics within tolerance)",
+            baseline.display(),
+            c.compared
+        );
+    } else {
+        let _ = writeln!(
+            s,
+            "regress {}: FAIL ({} of {} metrics)",
+            baseline.display(),
+            c.failures.len(),
+            c.compared
+        );
+        let w = c.failures.iter().map(|f| f.key.len()).max().unwrap_or(0);
+        for f in &c.failures {
+            let _ = writeln!(
+                s,
+                "  {:<w$}  baseline {:>14}  fresh {:>14}  {}",
+                f.key, f.base, f.fresh, f.why
+            );
+        }
+    }
+    s
+}
+
+/// Reads a baseline file.
+pub fn load(path: &Path) -> anyhow::Result<Baseline> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| InputError(format!("cannot read baseline {}: {e}", path.display())))?;
+    let b: Baseline = serde_json::from_str(&text)
+        .map_err(|e| InputError(format!("baseline {}: {e}", path.display())))?;
+    for (k, t) in std::iter::once(("default".to_string(), b.tolerances.default))
+        .chain(b.tolerances.keys.clone())
+    {
+        if !(t.abs.is_finite() && t.abs >= 0.0 && t.rel.is_finite() && t.rel >= 0.0) {
+            return Err(InputError(format!(
+                "baseline {}: tolerances.{k} = {{abs: {}, rel: {}}}: both must be finite and ≥ 0",
+                path.display(),
+                t.abs,
+                t.rel
+            ))
+            .into());
+        }
+    }
+    Ok(b)
+}
+
+/// Writes a baseline file (pretty JSON, trailing newline).
+pub fn save(path: &Path, b: &Baseline) -> anyhow::Result<()> {
+    std::fs::write(path, serde_json::to_string_pretty(b)? + "\n")
+        .with_context(|| format!("cannot write {}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn base(metrics: Value) -> Baseline {
+        Baseline {
+            about: None,
+            scenario: "x.json".into(),
+            tolerances: Tolerances {
+                default: Tolerance {
+                    abs: 0.0,
+                    rel: 1e-3,
+                },
+                keys: [
+                    ("sync.l2".to_string(), Tolerance { abs: 0.5, rel: 0.0 }),
+                    ("cong.*".to_string(), Tolerance { abs: 1.0, rel: 0.0 }),
+                ]
+                .into_iter()
+                .collect(),
+            },
+            stamp: [("platform".to_string(), json!("x86_64-linux"))]
+                .into_iter()
+                .collect(),
+            metrics,
+        }
+    }
+
+    #[test]
+    fn within_tolerance_passes_beyond_fails() {
+        let b = base(
+            json!({"sync": {"l2": 3.0, "final": 1.0, "verdict": "synchronized"}, "cong": {"mean": 8.0}}),
+        );
+        let stamps = [("platform".to_string(), json!("x86_64-linux"))]
+            .into_iter()
+            .collect();
+        let ok = compare(
+            &b,
+            &stamps,
+            &json!({"sync": {"l2": 3.4, "final": 1.0009, "verdict": "synchronized"}, "cong": {"mean": 8.9}}),
+        );
+        assert!(ok.failures.is_empty(), "{:?}", ok.failures);
+        assert_eq!(ok.compared, 4);
+        let bad = compare(
+            &b,
+            &stamps,
+            &json!({"sync": {"l2": 3.6, "final": 1.0011, "verdict": "not_synchronized"}, "cong": {"mean": 9.1}}),
+        );
+        let keys: Vec<&str> = bad.failures.iter().map(|f| f.key.as_str()).collect();
+        assert_eq!(keys, ["cong.mean", "sync.final", "sync.l2", "sync.verdict"]);
+    }
+
+    #[test]
+    fn nan_missing_and_extra_keys_fail_and_stamps_are_reported() {
+        let b = base(json!({"a": 1.0, "b": 2.0}));
+        let stamps = [("platform".to_string(), json!("aarch64-linux"))]
+            .into_iter()
+            .collect();
+        let c = compare(&b, &stamps, &json!({"a": null, "c": 3.0}));
+        let whys: Vec<(&str, &str)> = c
+            .failures
+            .iter()
+            .map(|f| (f.key.as_str(), f.why.as_str()))
+            .collect();
+        assert_eq!(
+            whys,
+            [
+                ("a", "fresh value is null (NaN or missing number)"),
+                ("b", "key missing from the fresh metrics"),
+                (
+                    "c",
+                    "extra key not in the baseline (run with --update to accept it)"
+                )
+            ]
+        );
+        assert_eq!(
+            c.stamp_notes,
+            ["platform: baseline \"x86_64-linux\", this run \"aarch64-linux\""]
+        );
+        let text = render(&c, Path::new("b.json"));
+        assert!(text.contains("FAIL (3 of 3 metrics)"), "{text}");
+    }
+
+    #[test]
+    fn flatten_names_nested_and_array_keys() {
+        let f = flatten(&json!({"runs": [{"x": 1}, {"x": 2}], "s": {"t": true}}));
+        assert_eq!(
+            f.keys().collect::<Vec<_>>(),
+            ["runs[0].x", "runs[1].x", "s.t"]
+        );
+    }
+}
