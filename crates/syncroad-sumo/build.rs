@@ -21,9 +21,10 @@ fn main() {
                 // Binaries of this crate (worker, tests) and, through the `rustc-link-arg`
                 // of dependents' own build scripts, anything that opts in.
                 println!("cargo:rustc-link-arg=-Wl,-rpath,{libdir}");
+                // Also known to the crate: the supervisor puts it first in the worker's
+                // LD_LIBRARY_PATH, so a worker re-executed from a binary without the rpath
+                // (the `syncroad` CLI) still loads the build interpreter's libpython.
                 println!("cargo:rustc-env=SYNCROAD_PYTHON_LIBDIR={libdir}");
-                // Exposed to dependents' build scripts as DEP_SYNCROAD_SUMO_PYTHON_LIBDIR
-                // (needs `links`); the CLI can also read SYNCROAD_PYTHON_LIBDIR at compile time.
             }
         }
         _ => println!(

@@ -35,6 +35,8 @@ const VAR_SPEED: i32 = 0x40;
 const VAR_DISTANCE: i32 = 0x84;
 /// Speed mode with every safety check off: SUMO realises the command as given.
 const SPEED_MODE_RAW: i32 = 32;
+/// Longest time rows wait in the worker before they are sent.
+const FLUSH_INTERVAL: std::time::Duration = std::time::Duration::from_millis(200);
 /// Override events sent to the parent per run (all are counted).
 const MAX_OVERRIDE_EVENTS: usize = 20;
 
@@ -464,6 +466,7 @@ fn run_started(
     let mut v_prev = vec![0.0; n];
     let mut steps_done = 0usize;
     let mut phases = PhaseTimes::default();
+    let mut last_flush = Instant::now();
     let mut timer = Instant::now();
     'steps: for step in 0..req.steps {
         if step == req.untimed_steps {
@@ -594,8 +597,11 @@ fn run_started(
         }
         if (step + 1) % req.record_every.max(1) == 0 || last {
             rows.push((step + 1) as f64 * dt, &v, &q, &cmd);
-            if rows.len() >= req.chunk_records.max(1) {
+            // A chunk leaves when full or after FLUSH_INTERVAL, so a crash or Ctrl-C loses
+            // at most that much of the run.
+            if rows.len() >= req.chunk_records.max(1) || last_flush.elapsed() >= FLUSH_INTERVAL {
                 write_rows(out, &mut rows).map_err(pipe)?;
+                last_flush = Instant::now();
             }
         }
     }

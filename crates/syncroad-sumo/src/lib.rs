@@ -35,4 +35,5 @@ pub mod worker;
 pub use controller::{controller_for, SpeedController};
 pub use run::{run_scenario, RunError, RunOptions, SumoRun};
 pub use supervisor::{interrupt_flag, run_worker, Supervision, SupervisorError, WorkerCommand};
-pub use worker::{worker_main, WORKER_ARG};
+pub use venv::repo_dir;
+pub use worker::{is_worker_invocation, worker_main, WORKER_ARG};

@@ -56,7 +56,7 @@ pub enum PrepareError {
 }
 
 /// Options of a SUMO run.
-#[derive(Debug, Clone)]
+#[derive(Clone)]
 pub struct RunOptions {
     /// Folder for the routes file and SUMO's log.
     pub work_dir: PathBuf,
@@ -75,6 +75,8 @@ pub struct RunOptions {
     pub interrupt: Option<Arc<AtomicBool>>,
     /// How the loop reads states.
     pub read: ReadMode,
+    /// Called when SUMO runs in the worker.
+    pub on_start: Option<crate::supervisor::StartHook>,
 }
 
 impl RunOptions {
@@ -89,6 +91,7 @@ impl RunOptions {
             timeout: None,
             interrupt: None,
             read: ReadMode::Getters,
+            on_start: None,
         }
     }
 }
@@ -276,6 +279,7 @@ pub fn run_scenario(scenario: &Scenario, opts: &RunOptions) -> Result<SumoRun, P
         &Supervision {
             timeout,
             interrupt: opts.interrupt.clone(),
+            on_start: opts.on_start.clone(),
         },
     );
     Ok(SumoRun { request, worker })

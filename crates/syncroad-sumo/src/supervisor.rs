@@ -50,13 +50,28 @@ impl WorkerCommand {
     }
 }
 
+/// Called once SUMO runs in the worker (e.g. to show progress).
+pub type StartHook = Arc<dyn Fn(&StartInfo) + Send + Sync>;
+
 /// Limits of one supervised run.
-#[derive(Debug, Clone, Default)]
+#[derive(Clone, Default)]
 pub struct Supervision {
     /// Wall-clock limit (none when `None`).
     pub timeout: Option<Duration>,
     /// Set by a Ctrl-C handler ([`interrupt_flag`]); the worker is stopped when it turns true.
     pub interrupt: Option<Arc<AtomicBool>>,
+    /// Called when the worker reports that SUMO started.
+    pub on_start: Option<StartHook>,
+}
+
+impl std::fmt::Debug for Supervision {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Supervision")
+            .field("timeout", &self.timeout)
+            .field("interrupt", &self.interrupt)
+            .field("on_start", &self.on_start.as_ref().map(|_| "hook"))
+            .finish()
+    }
 }
 
 /// The process-wide Ctrl-C flag (installs the handler on first use). Workers run in their own
@@ -188,7 +203,18 @@ pub fn run_worker(cmd: &WorkerCommand, request: &Request, limits: &Supervision) 
         result: Err(SupervisorError::Protocol("no result".into())),
         pid: 0,
     };
-    let mut child = match Command::new(&cmd.program)
+    let mut command = Command::new(&cmd.program);
+    if let Some(libdir) = option_env!("SYNCROAD_PYTHON_LIBDIR") {
+        // The libpython pyo3 was built against comes first (see build.rs).
+        let mut paths = vec![PathBuf::from(libdir)];
+        if let Some(old) = std::env::var_os("LD_LIBRARY_PATH") {
+            paths.extend(std::env::split_paths(&old));
+        }
+        if let Ok(joined) = std::env::join_paths(paths) {
+            command.env("LD_LIBRARY_PATH", joined);
+        }
+    }
+    let mut child = match command
         .args(&cmd.args)
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
@@ -252,7 +278,12 @@ pub fn run_worker(cmd: &WorkerCommand, request: &Request, limits: &Supervision) 
     let mut stopped: Option<SupervisorError> = None;
     let mut handle = |f: Frame, run: &mut WorkerRun| match f {
         Frame::Rows(mut c) => run.rows.append(&mut c),
-        Frame::Msg(WorkerMsg::Started(s)) => run.start = Some(s),
+        Frame::Msg(WorkerMsg::Started(s)) => {
+            if let Some(hook) = &limits.on_start {
+                hook(&s);
+            }
+            run.start = Some(s);
+        }
         Frame::Msg(WorkerMsg::Event(e)) => run.events.push(e),
         Frame::Msg(WorkerMsg::Finished(f)) => finished = Some(f),
         Frame::Msg(WorkerMsg::Failed { message }) => failed = Some(message),

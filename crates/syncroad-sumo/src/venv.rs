@@ -94,6 +94,25 @@ pub fn find_venv_from(
     })
 }
 
+/// The syncroad checkout (holding `sumo-nets/` and `python-host/`): `SYNCROAD_REPO` if set,
+/// else the nearest ancestor of the running executable holding `python-host/requirements.txt`,
+/// else the checkout this crate was compiled from.
+pub fn repo_dir() -> PathBuf {
+    if let Some(p) = std::env::var_os("SYNCROAD_REPO") {
+        return PathBuf::from(p);
+    }
+    if let Ok(exe) = std::env::current_exe() {
+        if let Some(dir) = exe
+            .ancestors()
+            .skip(1)
+            .find(|d| d.join("python-host").join("requirements.txt").is_file())
+        {
+            return dir.to_path_buf();
+        }
+    }
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
 /// `<venv>/lib/python<version>/site-packages`, checked to exist.
 pub fn site_packages(venv: &Path, version: &str) -> Result<PathBuf, VenvError> {
     let sp = venv

@@ -20,6 +20,12 @@ pub const WORKER_ARG: &str = "__sumo-worker";
 /// Exit code of a worker that reported a clean failure ([`WorkerMsg::Failed`]).
 pub const EXIT_FAILED: u8 = 3;
 
+/// True when this process was started as a worker (`<exe> __sumo-worker`): binaries that
+/// embed the worker call [`worker_main`] first thing when this holds.
+pub fn is_worker_invocation() -> bool {
+    std::env::args_os().nth(1).is_some_and(|a| a == WORKER_ARG)
+}
+
 /// Redirects descriptor 1 to stderr and returns the original stdout for the protocol.
 fn take_protocol_channel() -> std::io::Result<File> {
     // SAFETY: dup/dup2 on the process's own standard descriptors; the duplicate is owned by

@@ -111,6 +111,7 @@ mod supervision {
         req.layout.road.path = bad;
         let run = syncroad_sumo::run_worker(&o.worker, &req, &Default::default());
         let err = run.result.unwrap_err();
+        eprintln!("malformed net in the worker: {err}");
         match &err {
             SupervisorError::Crashed { name, records, .. } => {
                 assert_eq!(*name, "SIGSEGV");
@@ -146,6 +147,36 @@ mod supervision {
         assert!(summary.contains("\"complete\": false"), "{summary}");
         let csv = std::fs::read_to_string(o.work_dir.join("trajectory.csv")).unwrap();
         assert_eq!(csv.lines().count(), 1 + 22 * run.worker.rows.len());
+    }
+
+    /// A worker that dies mid-run (here SIGABRT, as libsumo's own assertions would raise)
+    /// becomes a Crashed error; the rows streamed before the crash are kept.
+    #[test]
+    fn crash_mid_run_keeps_the_rows() {
+        let sc = ring_scenario(22, 100_000.0, &nets().join("sugiyama-ring.net.xml"), 1);
+        let mut o = opts("crash-mid-run");
+        o.on_start = Some(Arc::new(|s: &syncroad_sumo::protocol::StartInfo| {
+            let pid = s.pid as i32;
+            std::thread::spawn(move || {
+                std::thread::sleep(Duration::from_secs(2));
+                // SAFETY: signals our own child worker.
+                unsafe { libc::kill(pid, libc::SIGABRT) };
+            });
+        }));
+        let run = run_scenario(&sc, &o).unwrap();
+        let err = run.outcome().unwrap_err();
+        match &err {
+            RunError::Supervisor(SupervisorError::Crashed { name, records, .. }) => {
+                assert_eq!(*name, "SIGABRT");
+                assert_eq!(*records, run.worker.rows.len());
+            }
+            other => panic!("unexpected: {other}"),
+        }
+        assert!(run.worker.rows.len() > 10, "rows streamed before the crash");
+        assert!(
+            err.to_string().contains("crashed with signal 6 (SIGABRT)"),
+            "{err}"
+        );
     }
 
     #[test]

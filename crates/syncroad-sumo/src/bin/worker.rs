@@ -5,7 +5,7 @@
 //! SUMO + controller vs the TraCI reference at N = 22 and N = 2000), starting itself as the
 //! worker of every measurement.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 use syncroad_sumo::bench::{format_table, run_case, standard_cases};
@@ -22,7 +22,7 @@ fn main() -> ExitCode {
         .position(|a| a == "--json")
         .and_then(|i| args.get(i + 1))
         .map(PathBuf::from);
-    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let repo = syncroad_sumo::repo_dir();
     let worker = match std::env::current_exe() {
         Ok(p) => WorkerCommand::binary(p),
         Err(e) => {
