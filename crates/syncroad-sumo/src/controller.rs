@@ -13,6 +13,10 @@
 //! simulator. With `--step-method.ballistic` SUMO advances positions by
 //! `x^{n+1} = x^n + Δt (v^n + v^{n+1}) / 2`, the trapezoidal rule the native simulator uses;
 //! SUMO's default (Euler) update would use `x^{n+1} = x^n + Δt v^{n+1}`.
+//!
+//! Speed mode 32 turns every check off: SUMO realises any non-negative command, even above
+//! the vehicle type's maxSpeed and the lane's limit, and lets vehicles collide (counted by the
+//! loop). The override counter is a safety net for commands SUMO does not realise.
 
 use syncroad_control::cacc::{CaccLaw, PlatoonView, PowertrainLag};
 use syncroad_control::scenario::{LeaderProfile, Model, Scenario};

@@ -147,6 +147,21 @@ impl<'py> Libsumo<'py> {
     }
 }
 
+/// Checks the law's commands before they reach SUMO, which accepts NaN and ∞ silently and
+/// reads a negative speed as "release control": `Err(i)` for the first non-finite command
+/// (nothing is sent), else negatives are set to 0 and their number returned.
+pub fn sanitize_commands(next: &mut [f64]) -> Result<usize, usize> {
+    if let Some(i) = next.iter().position(|x| !x.is_finite()) {
+        return Err(i);
+    }
+    let mut clamped = 0;
+    for x in next.iter_mut().filter(|x| **x < 0.0) {
+        *x = 0.0;
+        clamped += 1;
+    }
+    Ok(clamped)
+}
+
 /// How vehicle states are read each step.
 struct Reader<'a, 'py> {
     py: Python<'py>,
@@ -476,19 +491,15 @@ fn run_started(
         let t_law = Instant::now();
         if let Some(c) = controller.as_deref_mut() {
             c.step(t, &v, &q, &mut next);
-            for (i, x) in next.iter_mut().enumerate() {
-                if !x.is_finite() {
+            match sanitize_commands(&mut next) {
+                Ok(clamped) => totals.negative_commands_clamped += clamped,
+                Err(i) => {
                     stop = StopReason::NonFiniteCommand {
                         vehicle: req.layout.vehicles[i].id.clone(),
                         step,
-                        value: format!("{x}"),
+                        value: format!("{}", next[i]),
                     };
                     break 'steps;
-                }
-                if *x < 0.0 {
-                    // setSpeed(-1) would hand the vehicle back to SUMO's model.
-                    *x = 0.0;
-                    totals.negative_commands_clamped += 1;
                 }
             }
             for (id, x) in ids.iter().zip(&next) {
@@ -619,4 +630,26 @@ fn run_started(
         }),
     )
     .map_err(pipe)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn non_finite_commands_never_reach_sumo() {
+        let mut c = [1.0, -0.5, f64::NAN, 2.0];
+        assert_eq!(sanitize_commands(&mut c), Err(2));
+        // Nothing was changed: the run stops with the command as the law produced it.
+        assert_eq!(c[1], -0.5);
+        let mut c = [1.0, f64::INFINITY];
+        assert_eq!(sanitize_commands(&mut c), Err(1));
+    }
+
+    #[test]
+    fn negative_commands_become_zero() {
+        let mut c = [1.0, -0.5, -0.0, 2.0, -3.0];
+        assert_eq!(sanitize_commands(&mut c), Ok(2));
+        assert_eq!(c, [1.0, 0.0, -0.0, 2.0, 0.0]);
+    }
 }

@@ -147,6 +147,31 @@ impl VehicleType {
     }
 }
 
+/// Departure speeds must not exceed what SUMO accepts at insertion: the vehicle type's
+/// maxSpeed and the road's speed limit.
+fn check_departure_speeds(
+    road: &Road,
+    vtype: &VehicleType,
+    speeds_mps: &[f64],
+) -> Result<(), LayoutError> {
+    let limit = vtype.max_speed_mps.min(road.speed_limit_mps());
+    for (i, v) in speeds_mps.iter().enumerate() {
+        if !(v.is_finite() && *v >= 0.0 && *v <= limit) {
+            return Err(LayoutError::Invalid {
+                field: format!("initial speed of vehicle {i}"),
+                value: *v,
+                expected: format!(
+                    "must lie in [0, {limit}] m/s (sumo.max_speed_mps = {}, speed limit of {} = {} m/s); SUMO refuses faster departures",
+                    vtype.max_speed_mps,
+                    road.path.display(),
+                    road.speed_limit_mps()
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
 /// Checks that `n` vehicles of the given lengths fit on the ring: `Σ (ℓ_i + minGap) ≤ L`.
 pub fn check_ring_capacity(
     road: &Road,
@@ -186,6 +211,7 @@ pub fn ring_layout(
         check_pos(&format!("length_m[{i}]"), *l)?;
     }
     check_ring_capacity(road, lengths_m, vtype.min_gap_m)?;
+    check_departure_speeds(road, &vtype, speeds_mps)?;
     let ring = road.length_m();
     let free = ring - lengths_m.iter().sum::<f64>();
     let gap_sum: f64 = gaps_m.iter().sum();
@@ -234,6 +260,8 @@ pub fn straight_layout(
     horizon_s: f64,
 ) -> Result<Layout, LayoutError> {
     vtype.validate()?;
+    check_departure_speeds(road, &vtype, speeds_mps)?;
+    check_departure_speeds(road, &vtype, &[leader_speed_mps])?;
     let mut all: Vec<(String, f64, f64, f64)> = Vec::new();
     if let Some((q0, len, _)) = leader {
         all.push(("leader".into(), len, q0, leader_speed_mps));
@@ -391,6 +419,16 @@ mod tests {
         );
         assert!(msg.contains("use at most 30 vehicles"), "{msg}");
         assert!(check_ring_capacity(&road, &[5.0; 30], 2.5).is_ok());
+    }
+
+    #[test]
+    fn departure_faster_than_max_speed_is_rejected() {
+        let road = sugiyama();
+        let mut t = vt();
+        t.max_speed_mps = 9.0;
+        let err = ring_layout(&road, t, &[5.0; 3], &[10.0; 3], &[8.0, 9.5, 8.0], 10.0).unwrap_err();
+        let msg = err.to_string();
+        assert!(msg.starts_with("initial speed of vehicle 1 = 9.5 is invalid: must lie in [0, 9] m/s (sumo.max_speed_mps = 9, speed limit of "), "{msg}");
     }
 
     #[test]

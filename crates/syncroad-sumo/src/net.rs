@@ -76,6 +76,8 @@ pub struct Segment {
     pub length_m: f64,
     /// True for a junction-internal lane (vehicles cannot depart there).
     pub internal: bool,
+    /// Speed limit of the lane [m/s].
+    pub speed_mps: f64,
 }
 
 /// A single-lane road: a closed ring or one straight edge.
@@ -94,6 +96,14 @@ impl Road {
     /// internal lanes).
     pub fn length_m(&self) -> f64 {
         self.segments.iter().map(|s| s.length_m).sum()
+    }
+
+    /// Lowest speed limit along the road [m/s].
+    pub fn speed_limit_mps(&self) -> f64 {
+        self.segments
+            .iter()
+            .map(|s| s.speed_mps)
+            .fold(f64::INFINITY, f64::min)
     }
 
     /// Normal edges in driving order.
@@ -130,11 +140,14 @@ impl Road {
     }
 }
 
+/// A lane as parsed: id, length [m], speed limit [m/s].
+type ParsedLane = (String, f64, f64);
+
 struct Parsed {
     /// Normal edges in file order with their lanes.
-    normal: Vec<(String, Vec<(String, f64)>)>,
-    /// Every lane's length.
-    lane_length: HashMap<String, f64>,
+    normal: Vec<(String, Vec<ParsedLane>)>,
+    /// Every lane's length and speed limit.
+    lane_length: HashMap<String, (f64, f64)>,
     /// (from edge, to edge, via lane) of every connection.
     connections: Vec<(String, String, Option<String>)>,
 }
@@ -183,8 +196,15 @@ fn parse(path: &Path) -> Result<Parsed, NetError> {
                         .ok_or_else(|| {
                             invalid(format!("lane `{lid}` has no valid length attribute"))
                         })?;
-                    parsed.lane_length.insert(lid.to_string(), len);
-                    lanes.push((lid.to_string(), len));
+                    let speed: f64 = lane
+                        .attribute("speed")
+                        .and_then(|x| x.parse().ok())
+                        .filter(|x: &f64| x.is_finite() && *x > 0.0)
+                        .ok_or_else(|| {
+                            invalid(format!("lane `{lid}` has no valid speed attribute"))
+                        })?;
+                    parsed.lane_length.insert(lid.to_string(), (len, speed));
+                    lanes.push((lid.to_string(), len, speed));
                 }
                 if lanes.is_empty() {
                     return Err(invalid(format!("edge `{id}` has no <lane>")));
@@ -232,10 +252,10 @@ pub fn read_ring(path: &Path) -> Result<Road, NetError> {
         path: path.to_path_buf(),
         reason,
     };
-    let normal: HashMap<&str, f64> = p
+    let normal: HashMap<&str, (f64, f64)> = p
         .normal
         .iter()
-        .map(|(id, lanes)| (id.as_str(), lanes[0].1))
+        .map(|(id, lanes)| (id.as_str(), (lanes[0].1, lanes[0].2)))
         .collect();
     let mut segments = Vec::new();
     let start = p.normal[0].0.as_str();
@@ -251,8 +271,9 @@ pub fn read_ring(path: &Path) -> Result<Road, NetError> {
                 .1[0]
                 .0
                 .clone(),
-            length_m: normal[current],
+            length_m: normal[current].0,
             internal: false,
+            speed_mps: normal[current].1,
         });
         let outgoing: Vec<_> = p
             .connections
@@ -269,7 +290,7 @@ pub fn read_ring(path: &Path) -> Result<Road, NetError> {
         let mut via = via.clone();
         let mut guard = 0;
         while let Some(lane) = via {
-            let len = *p
+            let (len, speed) = *p
                 .lane_length
                 .get(&lane)
                 .ok_or_else(|| not_ring(format!("connection via unknown lane `{lane}`")))?;
@@ -279,6 +300,7 @@ pub fn read_ring(path: &Path) -> Result<Road, NetError> {
                 lane: lane.clone(),
                 length_m: len,
                 internal: true,
+                speed_mps: speed,
             });
             via = p
                 .connections
@@ -331,6 +353,7 @@ pub fn read_straight(path: &Path) -> Result<Road, NetError> {
             lane: lanes[0].0.clone(),
             length_m: lanes[0].1,
             internal: false,
+            speed_mps: lanes[0].2,
         }],
         ring: false,
     })

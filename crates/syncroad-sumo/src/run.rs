@@ -237,7 +237,7 @@ pub enum RunError {
     #[error(transparent)]
     Supervisor(#[from] SupervisorError),
     /// The law produced a non-finite speed.
-    #[error("the law commanded a non-finite speed {value} m/s to vehicle {vehicle} at step {step}; the run stopped before sending it to SUMO")]
+    #[error("the law commanded a non-finite speed ({value} m/s) to vehicle {vehicle} at step {step}; the run stopped before sending it to SUMO")]
     NonFiniteCommand {
         /// SUMO vehicle id.
         vehicle: String,
@@ -401,5 +401,30 @@ impl SumoRun {
         };
         let text = serde_json::to_string_pretty(&summary).map_err(std::io::Error::other)?;
         std::fs::write(dir.join("sumo-run.json"), text + "\n")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stop_errors_name_vehicle_and_step() {
+        let e = RunError::NonFiniteCommand {
+            vehicle: "v3".into(),
+            step: 41,
+            value: "NaN".into(),
+        };
+        assert_eq!(
+            e.to_string(),
+            "the law commanded a non-finite speed (NaN m/s) to vehicle v3 at step 41; the run stopped before sending it to SUMO"
+        );
+        assert_eq!(e.exit_code(), None);
+        let e = PrepareError::NoNet {
+            example: "../sumo-nets/sugiyama-ring.net.xml".into(),
+        };
+        assert!(e
+            .to_string()
+            .starts_with("sumo.net is not set; the sumo backend needs a network file"));
     }
 }

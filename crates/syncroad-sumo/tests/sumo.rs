@@ -35,6 +35,17 @@ fn opts(name: &str) -> RunOptions {
 
 /// A Sugiyama-ring scenario with delayed drivers (Theorem 1 holds: α_j d_j^+ < 1/2).
 fn ring_scenario(vehicles: usize, horizon_s: f64, net: &Path, seed: u64) -> Scenario {
+    ring_scenario_with(vehicles, horizon_s, net, seed, 8.0, 30.0)
+}
+
+fn ring_scenario_with(
+    vehicles: usize,
+    horizon_s: f64,
+    net: &Path,
+    seed: u64,
+    speed_mps: f64,
+    max_speed_mps: f64,
+) -> Scenario {
     let json = format!(
         r#"{{
         "name": "sumo-ring-test", "backend": "sumo", "seed": {seed}, "step_s": 0.1,
@@ -43,8 +54,8 @@ fn ring_scenario(vehicles: usize, horizon_s: f64, net: &Path, seed: u64) -> Scen
         "model": {{"type": "delayed_driver",
                    "graph": {{"type": "bidirectional_ring", "gain_pred": 0.6, "gain_follow": 0.1}},
                    "delay_s": 0.5}},
-        "initial": {{"speed_mps": 8.0, "perturbation": {{"speed_mps": 1.5}}}},
-        "sumo": {{"net": "{}"}}
+        "initial": {{"speed_mps": {speed_mps}, "perturbation": {{"speed_mps": 1.5}}}},
+        "sumo": {{"net": "{}", "max_speed_mps": {max_speed_mps}}}
     }}"#,
         net.display()
     );
@@ -263,6 +274,40 @@ mod ring {
             let ds = sumo.positions_m[k * n + i] - sumo.positions_m[i];
             assert_relative_eq!(dn, ds, epsilon = 1e-6);
         }
+    }
+
+    /// What SUMO does with commands in speed mode 32, measured: everything is realised, even
+    /// above the vehicle type's maxSpeed (9 m/s here) and the lane limit, so the override
+    /// counter stays at 0; negative commands (which SUMO would read as "release control") are
+    /// sent as 0 and counted; collisions are recorded, not prevented. Predecessor following
+    /// with αK = 1.2 (past Chandler's bound 2αK < 1) drives the oscillation there.
+    #[test]
+    fn speed_mode_32_realises_every_command_and_collisions_are_counted() {
+        let json = format!(
+            r#"{{"name": "unstable", "seed": 7, "step_s": 0.1, "horizon_s": 15, "vehicles": 22,
+            "road": {{"type": "ring", "length_m": 230}},
+            "model": {{"type": "delayed_driver",
+                       "graph": {{"type": "unidirectional_ring", "gain": 1.5}}, "delay_s": 0.8}},
+            "initial": {{"speed_mps": 8.0, "perturbation": {{"speed_mps": 0.5}}}},
+            "sumo": {{"net": "{}", "max_speed_mps": 9.0}}}}"#,
+            nets().join("sugiyama-ring.net.xml").display()
+        );
+        let sc = Scenario::from_json(&json).unwrap();
+        let run = run_scenario(&sc, &opts("mode32")).unwrap();
+        let fin = run.outcome().expect("horizon reached");
+        let rows = &run.worker.rows;
+        let fastest = rows.speeds_mps.iter().copied().fold(0.0, f64::max);
+        assert!(fastest > 9.0, "fastest {fastest}");
+        assert_eq!(fin.totals.overrides, 0, "{:?}", fin.totals);
+        assert!(fin.totals.negative_commands_clamped > 0);
+        assert!(fin.totals.collision_steps > 0);
+        let collisions = run
+            .worker
+            .events
+            .iter()
+            .filter(|e| matches!(e, syncroad_sumo::protocol::Event::Collision { .. }))
+            .count();
+        assert_eq!(collisions, fin.totals.collision_steps);
     }
 
     #[test]
