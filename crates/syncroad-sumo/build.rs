@@ -25,6 +25,9 @@ fn main() {
                 // LD_LIBRARY_PATH, so a worker re-executed from a binary without the rpath
                 // (the `syncroad` CLI) still loads the build interpreter's libpython.
                 println!("cargo:rustc-env=SYNCROAD_PYTHON_LIBDIR={libdir}");
+                // For dependents' build scripts (`links = "syncroad-python"`): the CLI can set
+                // the same rpath with `cargo:rustc-link-arg-bins=-Wl,-rpath,$DEP_SYNCROAD_PYTHON_LIBDIR`.
+                println!("cargo::metadata=libdir={libdir}");
             }
         }
         _ => println!(

@@ -9,8 +9,11 @@
 //!   `sumo` subprocess with the same reads and writes.
 //!
 //! Each measurement is its own process (one SUMO per process); alone and controlled are
-//! alternated `repeats` times and the fastest of each is kept, which filters out the noise of
-//! other work on the machine. The overhead is `controlled / alone − 1`.
+//! alternated `repeats` times and the fastest of each is kept. The overhead is
+//! `controlled / alone − 1`. Because runs in separate processes see different load from other
+//! work on the machine, the controlled runs also time `simulation.step` itself: the in-run
+//! overhead (time outside SUMO's step over time inside it, same process, same seconds) is the
+//! steadier figure.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -94,8 +97,11 @@ pub struct BenchResult {
     pub alone_samples_ms: Vec<f64>,
     /// All controlled samples.
     pub controlled_samples_ms: Vec<f64>,
-    /// `controlled / alone − 1` [%].
+    /// `controlled / alone − 1` [%], best run against best run.
     pub overhead_pct: f64,
+    /// Median over the controlled runs of (loop time outside `simulation.step`) / (time in
+    /// it) [%]: both from the same run, so other load on the machine cancels out.
+    pub in_run_overhead_pct: f64,
     /// Best SUMO + controller time reading through subscriptions.
     pub subscriptions_ms: f64,
     /// All samples of that.
@@ -161,7 +167,7 @@ fn timed(
     work: &Path,
     read: Option<ReadMode>,
     warmup: usize,
-) -> Result<f64, BenchError> {
+) -> Result<Timing, BenchError> {
     let mut opts = RunOptions::new(work, worker.clone());
     let controlled = read.is_some();
     match read {
@@ -180,16 +186,39 @@ fn timed(
         });
     }
     let per = |x: f64| 1e3 * x / fin.timed_steps as f64;
+    let p = &fin.phases;
+    let outside_sumo = fin.loop_wall_s - p.step_s;
     if std::env::var_os("SYNCROAD_BENCH_PHASES").is_some() {
         eprintln!(
             "    phases [ms/step]: law+setSpeed {:.4}, simulation.step {:.4}, read speeds {:.4}, rest {:.4}",
-            per(fin.phases.command_s),
-            per(fin.phases.step_s),
-            per(fin.phases.read_speeds_s),
-            per(fin.loop_wall_s - fin.phases.command_s - fin.phases.step_s - fin.phases.read_speeds_s)
+            per(p.command_s),
+            per(p.step_s),
+            per(p.read_speeds_s),
+            per(outside_sumo - p.command_s - p.read_speeds_s)
         );
     }
-    Ok(per(fin.loop_wall_s))
+    Ok(Timing {
+        ms_per_step: per(fin.loop_wall_s),
+        in_run_overhead_pct: 100.0 * outside_sumo / p.step_s,
+    })
+}
+
+/// One timed worker run.
+struct Timing {
+    ms_per_step: f64,
+    /// Time outside `simulation.step` over time inside it, in the same run [%].
+    in_run_overhead_pct: f64,
+}
+
+fn median(v: &[f64]) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let m = s.len() / 2;
+    if s.len() % 2 == 1 {
+        s[m]
+    } else {
+        0.5 * (s[m - 1] + s[m])
+    }
 }
 
 fn traci_reference(case: &BenchCase, routes: &Path, python_host: &Path) -> Result<f64, BenchError> {
@@ -247,8 +276,9 @@ pub fn run_case(
     let mut alone = Vec::new();
     let mut controlled = Vec::new();
     let mut subscribed = Vec::new();
+    let mut in_run = Vec::new();
     for r in 0..case.repeats {
-        let a = timed(worker, &sc, &work_dir.join("alone"), None, case.warmup)?;
+        let a = timed(worker, &sc, &work_dir.join("alone"), None, case.warmup)?.ms_per_step;
         progress(&format!(
             "{}: SUMO alone                        {a:9.4} ms/step (run {})",
             case.name,
@@ -262,6 +292,8 @@ pub fn run_case(
             Some(ReadMode::Getters),
             case.warmup,
         )?;
+        in_run.push(c.in_run_overhead_pct);
+        let c = c.ms_per_step;
         progress(&format!(
             "{}: SUMO + controller (getters)       {c:9.4} ms/step (run {})",
             case.name,
@@ -274,7 +306,8 @@ pub fn run_case(
             &work_dir.join("subscribed"),
             Some(ReadMode::Subscriptions),
             case.warmup,
-        )?;
+        )?
+        .ms_per_step;
         progress(&format!(
             "{}: SUMO + controller (subscriptions) {s:9.4} ms/step (run {})",
             case.name,
@@ -307,6 +340,7 @@ pub fn run_case(
         alone_samples_ms: alone,
         controlled_samples_ms: controlled,
         overhead_pct: 100.0 * (c / a - 1.0),
+        in_run_overhead_pct: median(&in_run),
         subscriptions_ms: sub,
         subscriptions_samples_ms: subscribed,
         subscriptions_overhead_pct: 100.0 * (sub / a - 1.0),
@@ -318,15 +352,16 @@ pub fn run_case(
 /// A plain-text table of results.
 pub fn format_table(results: &[BenchResult]) -> String {
     let mut s = String::from(
-        "case                   alone ms/step  +controller ms/step  overhead  (subscriptions: ms/step  overhead)  TraCI ms/step  vs TraCI\n",
+        "case                   alone ms/step  +controller ms/step  overhead  in-run overhead  (subscriptions: ms/step  overhead)  TraCI ms/step  vs TraCI\n",
     );
     for r in results {
         s.push_str(&format!(
-            "{:<22} {:>13.4} {:>20.4} {:>8.1}%  {:>24.4} {:>9.1}%  {:>13} {:>9}\n",
+            "{:<22} {:>13.4} {:>20.4} {:>8.1}% {:>15.1}%  {:>24.4} {:>9.1}%  {:>13} {:>9}\n",
             r.name,
             r.alone_ms,
             r.controlled_ms,
             r.overhead_pct,
+            r.in_run_overhead_pct,
             r.subscriptions_ms,
             r.subscriptions_overhead_pct,
             r.traci_ms.map(|t| format!("{t:.4}")).unwrap_or_default(),
