@@ -38,4 +38,5 @@ fi
 sumo_home="$("$venv/bin/python" -c 'import sumo; print(sumo.SUMO_HOME)')"
 echo "bootstrap: SUMO_HOME=$sumo_home"
 echo "bootstrap: sumo=$sumo_home/bin/sumo netconvert=$sumo_home/bin/netconvert"
-echo "bootstrap: build with PYO3_PYTHON=$venv/bin/python (optional; the build script finds the venv itself)"
+echo "bootstrap: python=$("$venv/bin/python" -c 'import sys; print(sys.version.split()[0], sys.base_prefix)')"
+echo "bootstrap: pyo3 builds against PYO3_PYTHON, else python3 on PATH: use the interpreter this venv was made from"
