@@ -691,6 +691,26 @@ mod tests {
     }
 
     #[test]
+    fn insertion_failure_names_the_vehicles_and_the_log() {
+        let e = CosimError::NotInserted {
+            pending: 2,
+            expected: 22,
+            ids: "v3, v4".into(),
+            log: "/w/sumo.log".into(),
+            log_tail: "Warning: ...".into(),
+        };
+        assert_eq!(
+            e.to_string(),
+            "2 of 22 vehicles could not be inserted (still pending: v3, v4); SUMO log /w/sumo.log:\nWarning: ..."
+        );
+        let e = CosimError::from(crate::controller::ControllerError::CaccNeedsLeader);
+        assert_eq!(
+            e.to_string(),
+            "the CACC model needs a leader vehicle: run it on a straight road (road.type = \"straight\")"
+        );
+    }
+
+    #[test]
     fn non_finite_commands_never_reach_sumo() {
         let mut c = [1.0, -0.5, f64::NAN, 2.0];
         assert_eq!(sanitize_commands(&mut c), Err(2));

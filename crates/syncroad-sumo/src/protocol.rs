@@ -299,21 +299,22 @@ impl RowChunk {
     }
 
     /// Inverse of [`RowChunk::encode`].
-    pub fn decode(bytes: &[u8]) -> Result<RowChunk, String> {
-        let word = |i: usize| -> Result<u32, String> {
+    pub fn decode(bytes: &[u8]) -> Result<RowChunk, ProtocolError> {
+        let word = |i: usize| -> usize {
             bytes
                 .get(i..i + 4)
-                .map(|b| u32::from_le_bytes(b.try_into().expect("4 bytes")))
-                .ok_or_else(|| "row chunk shorter than its header".to_string())
+                .map(|b| u32::from_le_bytes(b.try_into().expect("4 bytes")) as usize)
+                .unwrap_or(0)
         };
-        let n = word(0)? as usize;
-        let records = word(4)? as usize;
+        let (n, records) = (word(0), word(4));
         let expected = 8 + records * (1 + 3 * n) * 8;
         if bytes.len() != expected {
-            return Err(format!(
-                "row chunk of {} bytes, expected {expected} for {records} records of {n} vehicles",
-                bytes.len()
-            ));
+            return Err(ProtocolError::RowChunkSize {
+                bytes: bytes.len(),
+                expected,
+                records,
+                n,
+            });
         }
         let mut floats = bytes[8..]
             .chunks_exact(8)
@@ -327,6 +328,45 @@ impl RowChunk {
         }
         Ok(c)
     }
+}
+
+/// Errors decoding the worker's stream.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ProtocolError {
+    /// Reading the pipe failed.
+    #[error("reading from the worker failed: {0}")]
+    Io(String),
+    /// The stream ended inside a frame.
+    #[error("frame of {len} bytes cut short: {reason}")]
+    Truncated {
+        /// Announced payload length (0 while reading the header).
+        len: usize,
+        /// The I/O error.
+        reason: String,
+    },
+    /// A length beyond [`MAX_FRAME`].
+    #[error("frame of {0} bytes exceeds the limit of {MAX_FRAME} bytes")]
+    TooLong(usize),
+    /// An unknown frame kind.
+    #[error("unknown frame kind {0:#04x}")]
+    UnknownKind(u8),
+    /// A JSON frame that does not parse.
+    #[error("bad JSON message: {0}")]
+    Json(String),
+    /// A row chunk whose size does not match its header.
+    #[error(
+        "row chunk of {bytes} bytes, expected {expected} for {records} records of {n} vehicles"
+    )]
+    RowChunkSize {
+        /// Payload size.
+        bytes: usize,
+        /// Size implied by the header.
+        expected: usize,
+        /// Records announced.
+        records: usize,
+        /// Vehicles announced.
+        n: usize,
+    },
 }
 
 /// Writes one frame.
@@ -363,28 +403,34 @@ pub enum Frame {
 }
 
 /// Reads one frame; `Ok(None)` at a clean end of stream.
-pub fn read_frame(r: &mut impl Read) -> Result<Option<Frame>, String> {
+pub fn read_frame(r: &mut impl Read) -> Result<Option<Frame>, ProtocolError> {
     let mut head = [0u8; 5];
     match r.read_exact(&mut head[..1]) {
         Ok(()) => {}
         Err(e) if e.kind() == io::ErrorKind::UnexpectedEof => return Ok(None),
-        Err(e) => return Err(e.to_string()),
+        Err(e) => return Err(ProtocolError::Io(e.to_string())),
     }
     r.read_exact(&mut head[1..])
-        .map_err(|e| format!("frame header cut short: {e}"))?;
+        .map_err(|e| ProtocolError::Truncated {
+            len: 0,
+            reason: e.to_string(),
+        })?;
     let len = u32::from_le_bytes(head[1..5].try_into().expect("4 bytes")) as usize;
     if len > MAX_FRAME {
-        return Err(format!("frame of {len} bytes exceeds the limit"));
+        return Err(ProtocolError::TooLong(len));
     }
     let mut payload = vec![0u8; len];
     r.read_exact(&mut payload)
-        .map_err(|e| format!("frame of {len} bytes cut short: {e}"))?;
+        .map_err(|e| ProtocolError::Truncated {
+            len,
+            reason: e.to_string(),
+        })?;
     match head[0] {
         KIND_JSON => serde_json::from_slice(&payload)
             .map(|m| Some(Frame::Msg(m)))
-            .map_err(|e| format!("bad JSON message: {e}")),
+            .map_err(|e| ProtocolError::Json(e.to_string())),
         KIND_ROWS => RowChunk::decode(&payload).map(|c| Some(Frame::Rows(c))),
-        k => Err(format!("unknown frame kind {k:#04x}")),
+        k => Err(ProtocolError::UnknownKind(k)),
     }
 }
 
@@ -428,11 +474,16 @@ mod tests {
         write_frame(&mut buf, KIND_JSON, b"{\"msg\":").unwrap();
         buf.truncate(buf.len() - 2);
         let err = read_frame(&mut buf.as_slice()).unwrap_err();
-        assert!(err.starts_with("frame of 7 bytes cut short"), "{err}");
+        assert!(
+            err.to_string().starts_with("frame of 7 bytes cut short"),
+            "{err}"
+        );
         let err = RowChunk::decode(&[2, 0, 0, 0, 1, 0, 0, 0]).unwrap_err();
         assert_eq!(
-            err,
+            err.to_string(),
             "row chunk of 8 bytes, expected 64 for 1 records of 2 vehicles"
         );
+        let err = read_frame(&mut [b'X', 0, 0, 0, 0].as_slice()).unwrap_err();
+        assert_eq!(err.to_string(), "unknown frame kind 0x58");
     }
 }

@@ -147,7 +147,10 @@ pub enum SupervisorError {
     Worker(String),
     /// The stream from the worker was corrupted.
     #[error("protocol error talking to the SUMO worker: {0}")]
-    Protocol(String),
+    Protocol(#[from] crate::protocol::ProtocolError),
+    /// Waiting for the worker failed.
+    #[error("waiting for the SUMO worker failed: {0}")]
+    Wait(String),
 }
 
 impl SupervisorError {
@@ -200,7 +203,7 @@ pub fn run_worker(cmd: &WorkerCommand, request: &Request, limits: &Supervision) 
         start: None,
         rows: RowChunk::new(request.layout.vehicles.len()),
         events: Vec::new(),
-        result: Err(SupervisorError::Protocol("no result".into())),
+        result: Err(SupervisorError::Wait("not started".into())),
         pid: 0,
     };
     let mut command = Command::new(&cmd.program);
@@ -274,7 +277,7 @@ pub fn run_worker(cmd: &WorkerCommand, request: &Request, limits: &Supervision) 
     let started = Instant::now();
     let mut finished: Option<Finish> = None;
     let mut failed: Option<String> = None;
-    let mut protocol: Option<String> = None;
+    let mut protocol: Option<crate::protocol::ProtocolError> = None;
     let mut stopped: Option<SupervisorError> = None;
     let mut handle = |f: Frame, run: &mut WorkerRun| match f {
         Frame::Rows(mut c) => run.rows.append(&mut c),
@@ -349,18 +352,16 @@ pub fn run_worker(cmd: &WorkerCommand, request: &Request, limits: &Supervision) 
                     records,
                     stderr_tail: tail_text(&stderr_tail),
                 }),
-                None if protocol.is_some() => {
-                    Err(SupervisorError::Protocol(protocol.unwrap_or_default()))
-                }
-                None => Err(SupervisorError::Exited {
-                    pid: run.pid,
-                    code: st.code().unwrap_or(-1),
-                    stderr_tail: tail_text(&stderr_tail),
-                }),
+                None => match protocol {
+                    Some(p) => Err(SupervisorError::Protocol(p)),
+                    None => Err(SupervisorError::Exited {
+                        pid: run.pid,
+                        code: st.code().unwrap_or(-1),
+                        stderr_tail: tail_text(&stderr_tail),
+                    }),
+                },
             },
-            Err(e) => Err(SupervisorError::Protocol(format!(
-                "waiting for the worker failed: {e}"
-            ))),
+            Err(e) => Err(SupervisorError::Wait(e.to_string())),
         }
     };
     run

@@ -354,3 +354,48 @@ mod ring {
         assert_ne!(ra.worker.rows.speeds_mps, rc.worker.rows.speeds_mps);
     }
 }
+
+mod platoon {
+    use super::*;
+
+    /// The CACC platoon (eqs. `veh-proto1/2`) behind a braking leader on the 20 km straight
+    /// road: the leader is a SUMO vehicle driven along its profile, the followers by the law.
+    /// SUMO holds a_des over each step (exact powertrain lag), the native simulator integrates
+    /// the closed loop with RK4, so the two agree to O(Δt).
+    #[test]
+    fn cacc_platoon_follows_the_native_simulator() {
+        let text = std::fs::read_to_string(
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/platoon-cacc.json"),
+        )
+        .unwrap();
+        let mut file: serde_json::Value = serde_json::from_str(&text).unwrap();
+        file["horizon_s"] = 80.0.into();
+        file["sumo"] = serde_json::json!({"net": nets().join("straight-20km.net.xml")});
+        let sc = Scenario::from_json(&file.to_string()).unwrap();
+        let run = run_scenario(&sc, &opts("platoon")).unwrap();
+        let fin = run.outcome().expect("horizon reached");
+        assert_eq!(run.worker.start.as_ref().unwrap().vehicles, sc.n + 1);
+        assert_eq!(fin.totals.collision_steps, 0);
+        let sumo = run.trajectory(&sc);
+        let native = simulate(&sc, NativeOptions::default()).trajectory;
+        assert_eq!(sumo.len(), native.len());
+        let worst = sumo
+            .speeds_mps
+            .iter()
+            .zip(&native.speeds_mps)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        eprintln!("CACC platoon: largest SUMO-native speed difference {worst:.2e} m/s");
+        assert!(worst < 0.05, "largest speed difference {worst} m/s");
+        // The leader (row column 0) drives its profile exactly.
+        let rows = &run.worker.rows;
+        for k in 0..rows.len() {
+            let t = rows.time_s[k];
+            assert_relative_eq!(
+                rows.speeds_mps[k * rows.n],
+                sc.leader_speed_at(t).unwrap(),
+                epsilon = 1e-9
+            );
+        }
+    }
+}
