@@ -232,7 +232,11 @@ pub fn ring_layout(
             q0_m: q,
         });
     }
-    let laps = horizon_s * vtype.max_speed_mps / ring;
+    // Speed mode 32 lets commands exceed maxSpeed (and the lane limit), so the route is sized
+    // for twice the faster of the two; a vehicle that still reaches its end is reported as
+    // lost, never silently removed.
+    let fastest = vtype.max_speed_mps.max(road.speed_limit_mps());
+    let laps = horizon_s * 2.0 * fastest / ring;
     Ok(Layout {
         road: road.clone(),
         vtype,
@@ -454,7 +458,7 @@ mod tests {
             .contains(r#"<route id="r0" edges="arc0 arc1 arc2 arc3" repeat=""#));
         assert_eq!(
             lay.route_repeats,
-            (60.0 * 30.0 / road.length_m()).ceil() as usize + 2
+            (60.0 * 2.0 * 30.0 / road.length_m()).ceil() as usize + 2
         );
     }
 }

@@ -45,6 +45,16 @@ pub enum PrepareError {
     /// The vehicles do not fit.
     #[error(transparent)]
     Layout(#[from] LayoutError),
+    /// A number SUMO cannot represent.
+    #[error("{field} = {value}: {expected}")]
+    Unrepresentable {
+        /// Scenario field.
+        field: &'static str,
+        /// Its value.
+        value: String,
+        /// What SUMO accepts.
+        expected: &'static str,
+    },
     /// The work folder cannot be written.
     #[error("cannot write {path}: {reason}")]
     Io {
@@ -118,6 +128,27 @@ pub fn net_path(scenario: &Scenario) -> Result<PathBuf, PrepareError> {
     Ok(p)
 }
 
+/// Numbers SUMO itself restricts: its clock counts whole milliseconds and `--seed` is a
+/// 32-bit signed integer.
+pub fn check_sumo_numbers(scenario: &Scenario) -> Result<(), PrepareError> {
+    let ms = scenario.step_s * 1000.0;
+    if (ms - ms.round()).abs() > 1e-9 * ms.max(1.0) || ms.round() < 1.0 {
+        return Err(PrepareError::Unrepresentable {
+            field: "step_s",
+            value: scenario.step_s.to_string(),
+            expected: "SUMO's clock counts whole milliseconds: use a multiple of 0.001 s",
+        });
+    }
+    if scenario.file.seed > i32::MAX as u64 {
+        return Err(PrepareError::Unrepresentable {
+            field: "seed",
+            value: scenario.file.seed.to_string(),
+            expected: "SUMO's --seed takes 0 ..= 2147483647",
+        });
+    }
+    Ok(())
+}
+
 /// The layout of a scenario on its network (all pre-start checks).
 pub fn layout_for(scenario: &Scenario, sigma: f64) -> Result<Layout, PrepareError> {
     let net = net_path(scenario)?;
@@ -182,6 +213,7 @@ pub fn layout_for(scenario: &Scenario, sigma: f64) -> Result<Layout, PrepareErro
 
 /// Builds the worker request of a scenario (writes the routes file into `opts.work_dir`).
 pub fn prepare(scenario: &Scenario, opts: &RunOptions) -> Result<Request, PrepareError> {
+    check_sumo_numbers(scenario)?;
     let layout = layout_for(scenario, opts.sumo_model_sigma.unwrap_or(0.0))?;
     let io = |path: &Path, e: std::io::Error| PrepareError::Io {
         path: path.to_path_buf(),

@@ -90,6 +90,17 @@ mod rejected_before_sumo_starts {
     }
 
     #[test]
+    fn step_and_seed_sumo_cannot_take() {
+        let net = nets().join("sugiyama-ring.net.xml");
+        let sc = ring_scenario(22, 10.0, &net, 4_000_000_000);
+        let err = run_scenario(&sc, &opts("big-seed")).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "seed = 4000000000: SUMO's --seed takes 0 ..= 2147483647"
+        );
+    }
+
+    #[test]
     fn malformed_net_is_caught_by_the_parser() {
         let dir = work("malformed-parse");
         let bad = dir.join("bad.net.xml");
