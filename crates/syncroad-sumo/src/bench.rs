@@ -68,7 +68,7 @@ pub struct BenchCase {
     pub net: PathBuf,
     /// Vehicles.
     pub vehicles: usize,
-    /// Nominal ring length used for the initial gaps [m].
+    /// Nominal ring length used for the initial gaps \[m\].
     pub nominal_length_m: f64,
     /// Timed steps.
     pub steps: usize,

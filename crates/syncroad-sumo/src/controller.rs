@@ -25,7 +25,7 @@ use syncroad_control::DelayedDriverLaw;
 /// A law that commands speeds one step ahead.
 pub trait SpeedController {
     /// From the measured state at time `time_s` = t_n (speeds [m/s] and unwrapped rear-bumper
-    /// positions [m] of all SUMO vehicles, the leader first when it is a SUMO vehicle) writes
+    /// positions \[m\] of all SUMO vehicles, the leader first when it is a SUMO vehicle) writes
     /// the speeds wanted at t_{n+1} into `next_speeds_mps`.
     fn step(
         &mut self,

@@ -20,13 +20,13 @@ pub enum LayoutError {
         net: String,
         /// Number of vehicles.
         vehicles: usize,
-        /// Longest vehicle length [m].
+        /// Longest vehicle length \[m\].
         length_m: f64,
-        /// SUMO minGap [m].
+        /// SUMO minGap \[m\].
         min_gap_m: f64,
-        /// Space needed [m].
+        /// Space needed \[m\].
         needed_m: f64,
-        /// Ring length [m].
+        /// Ring length \[m\].
         ring_m: f64,
         /// How many would fit.
         max_vehicles: usize,
@@ -36,13 +36,13 @@ pub enum LayoutError {
     RoadTooShort {
         /// The network.
         net: String,
-        /// Road length [m].
+        /// Road length \[m\].
         road_m: f64,
-        /// Space needed [m].
+        /// Space needed \[m\].
         needed_m: f64,
-        /// Length of the platoon at the start [m].
+        /// Length of the platoon at the start \[m\].
         platoon_m: f64,
-        /// Horizon [s].
+        /// Horizon \[s\].
         horizon_s: f64,
     },
     /// A per-vehicle number is out of range.
@@ -60,7 +60,7 @@ pub enum LayoutError {
 /// SUMO vehicle-type parameters shared by all vehicles (lengths may differ per vehicle).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct VehicleType {
-    /// minGap [m]: the car-following model's standstill gap.
+    /// minGap \[m\]: the car-following model's standstill gap.
     pub min_gap_m: f64,
     /// accel [m/s²].
     pub accel_mps2: f64,
@@ -80,15 +80,15 @@ pub struct VehicleType {
 pub struct Departure {
     /// SUMO vehicle id.
     pub id: String,
-    /// Vehicle length [m].
+    /// Vehicle length \[m\].
     pub length_m: f64,
     /// Index into [`Road::normal_edges`] of the departure edge.
     pub edge_index: usize,
-    /// departPos (front bumper) on that edge [m].
+    /// departPos (front bumper) on that edge \[m\].
     pub pos_m: f64,
     /// departSpeed [m/s].
     pub speed_mps: f64,
-    /// Unwrapped rear-bumper position at t = 0 in the native simulator's coordinates [m];
+    /// Unwrapped rear-bumper position at t = 0 in the native simulator's coordinates \[m\];
     /// positions during the run are this plus SUMO's odometer.
     pub q0_m: f64,
 }

@@ -16,7 +16,7 @@
 //! * [`controller`] — the seam to the laws of `syncroad-control` and SUMO's actuation timing;
 //! * [`protocol`], [`cosim`], [`worker`] — the worker process and its loop;
 //! * [`supervisor`], [`run`] — the parent: spawning, supervising, results;
-//! * [`bench`] — SUMO alone vs SUMO + controller vs a TraCI-socket reference.
+//! * [`bench`](mod@bench) — SUMO alone vs SUMO + controller vs a TraCI-socket reference.
 #![warn(missing_docs)]
 #![allow(clippy::needless_range_loop)]
 

@@ -72,7 +72,7 @@ pub struct Segment {
     pub edge: String,
     /// Lane id.
     pub lane: String,
-    /// Lane length [m] as SUMO stores it.
+    /// Lane length \[m\] as SUMO stores it.
     pub length_m: f64,
     /// True for a junction-internal lane (vehicles cannot depart there).
     pub internal: bool,
@@ -92,7 +92,7 @@ pub struct Road {
 }
 
 impl Road {
-    /// Total length [m]: for a ring, the circumference as SUMO measures it (normal plus
+    /// Total length \[m\]: for a ring, the circumference as SUMO measures it (normal plus
     /// internal lanes).
     pub fn length_m(&self) -> f64 {
         self.segments.iter().map(|s| s.length_m).sum()
@@ -115,8 +115,8 @@ impl Road {
             .collect()
     }
 
-    /// Where a point `s` [m] along the road lies: (index of the normal edge in
-    /// [`Road::normal_edges`], position on it [m]). A point on a junction-internal lane moves
+    /// Where a point `s` \[m\] along the road lies: (index of the normal edge in
+    /// [`Road::normal_edges`], position on it \[m\]). A point on a junction-internal lane moves
     /// forward to the start of the next edge (at most the internal lane's length, a few cm on
     /// the shipped rings). `s` is wrapped modulo the length on a ring.
     pub fn locate(&self, s: f64) -> (usize, f64) {
@@ -140,7 +140,7 @@ impl Road {
     }
 }
 
-/// A lane as parsed: id, length [m], speed limit [m/s].
+/// A lane as parsed: id, length \[m\], speed limit [m/s].
 type ParsedLane = (String, f64, f64);
 
 struct Parsed {

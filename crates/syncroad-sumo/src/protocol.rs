@@ -21,7 +21,7 @@ use crate::python::PythonInfo;
 pub const KIND_JSON: u8 = b'J';
 /// Frame kind of a row chunk.
 pub const KIND_ROWS: u8 = b'R';
-/// Largest frame accepted [bytes]; a longer length means a corrupted stream.
+/// Largest frame accepted \[bytes\]; a longer length means a corrupted stream.
 pub const MAX_FRAME: usize = 1 << 30;
 
 /// What the worker is asked to do.
@@ -33,7 +33,7 @@ pub struct Request {
     pub routes_file: PathBuf,
     /// SUMO's message log (`--log`).
     pub log_file: PathBuf,
-    /// Step Δt [s].
+    /// Step Δt \[s\].
     pub step_s: f64,
     /// Number of steps after insertion.
     pub steps: usize,
@@ -109,7 +109,7 @@ pub enum WorkerMsg {
 pub struct StartInfo {
     /// The embedded interpreter and libsumo.
     pub python: PythonInfo,
-    /// Road length from libsumo `lane.getLength`, normal plus internal lanes [m].
+    /// Road length from libsumo `lane.getLength`, normal plus internal lanes \[m\].
     pub road_length_m: f64,
     /// Number of vehicles on the road after insertion.
     pub vehicles: usize,
@@ -188,7 +188,7 @@ pub struct Totals {
     /// Negative commands sent as 0 (SUMO reads a negative speed as "release control").
     pub negative_commands_clamped: usize,
     /// Largest difference between SUMO's odometer and the positions integrated from the
-    /// measured speeds with SUMO's update rule [m] (0 up to rounding).
+    /// measured speeds with SUMO's update rule \[m\] (0 up to rounding).
     pub odometer_deviation_max_m: f64,
 }
 
@@ -201,7 +201,7 @@ pub struct Finish {
     pub steps_done: usize,
     /// Counters.
     pub totals: Totals,
-    /// Wall time of the stepping loop after `untimed_steps` [s].
+    /// Wall time of the stepping loop after `untimed_steps` \[s\].
     pub loop_wall_s: f64,
     /// Steps inside that timing.
     pub timed_steps: usize,
@@ -209,7 +209,7 @@ pub struct Finish {
     pub phases: PhaseTimes,
 }
 
-/// Wall time of the timed steps by phase [s]; the rest of `loop_wall_s` is collision and
+/// Wall time of the timed steps by phase \[s\]; the rest of `loop_wall_s` is collision and
 /// teleport counts, odometer reads, override checks and row streaming.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct PhaseTimes {
@@ -221,18 +221,18 @@ pub struct PhaseTimes {
     pub read_speeds_s: f64,
 }
 
-/// Rows of consecutive recorded samples for all vehicles: per record the time [s], then the
+/// Rows of consecutive recorded samples for all vehicles: per record the time \[s\], then the
 /// measured speeds, unwrapped rear-bumper positions and the commands that produced the speeds
 /// (NaN where SUMO's own model drives), each `n` values.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct RowChunk {
     /// Number of vehicles.
     pub n: usize,
-    /// Sample times [s].
+    /// Sample times \[s\].
     pub time_s: Vec<f64>,
     /// Speeds [m/s], time-major.
     pub speeds_mps: Vec<f64>,
-    /// Positions [m], time-major.
+    /// Positions \[m\], time-major.
     pub positions_m: Vec<f64>,
     /// Commands [m/s], time-major.
     pub commands_mps: Vec<f64>,

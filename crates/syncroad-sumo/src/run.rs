@@ -328,7 +328,7 @@ pub struct RunSummary<'a> {
     pub finish: Option<&'a Finish>,
     /// Samples written.
     pub samples: usize,
-    /// SUMO's road length [m] (`lane.getLength`, normal plus internal lanes).
+    /// SUMO's road length \[m\] (`lane.getLength`, normal plus internal lanes).
     pub road_length_m: Option<f64>,
     /// Gap scale applied on a ring.
     pub gap_scale: f64,

@@ -131,7 +131,7 @@ pub enum SupervisorError {
     /// The wall-clock limit was reached.
     #[error("the SUMO run exceeded its time limit of {seconds} s and was stopped after {records} recorded samples (raise sumo.timeout_s)")]
     Timeout {
-        /// The limit [s].
+        /// The limit \[s\].
         seconds: f64,
         /// Samples received.
         records: usize,
