@@ -70,6 +70,16 @@ pub enum CosimError {
         /// Its last lines.
         log_tail: String,
     },
+    /// libsumo's lane lengths disagree with the network file's.
+    #[error("road length of {net}: libsumo reports {sumo_m} m, the file says {file_m} m; rebuild the net with `bash sumo-nets/build.sh`")]
+    LengthMismatch {
+        /// The network.
+        net: String,
+        /// Σ lane.getLength.
+        sumo_m: f64,
+        /// Σ of the file's lane lengths.
+        file_m: f64,
+    },
     /// The scenario sent by the parent does not validate in the worker.
     #[error("scenario rejected in the worker: {0}")]
     Scenario(String),
@@ -449,6 +459,16 @@ fn run_started(
             .extract()
             .map_err(|e| py_error(py, format!("lane.getLength({})", seg.lane), e))?;
         road_length += l;
+    }
+    // The layout placed the vehicles with the lengths read from the file before SUMO started;
+    // SUMO must agree, or the ring coordinate (and every gap) would be off.
+    let parsed = req.layout.road.length_m();
+    if (road_length - parsed).abs() > 1e-6 * parsed.max(1.0) {
+        return Err(CosimError::LengthMismatch {
+            net: req.layout.road.path.display().to_string(),
+            sumo_m: road_length,
+            file_m: parsed,
+        });
     }
     write_msg(
         out,
