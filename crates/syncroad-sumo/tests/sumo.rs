@@ -146,6 +146,23 @@ mod supervision {
         assert!(run.start.is_none());
     }
 
+    /// A start failure SUMO reports itself (here: a routes file that vanished) comes back with
+    /// the Python exception and the tail of SUMO's log.
+    #[test]
+    fn start_failure_reports_the_sumo_log() {
+        let sc = ring_scenario(22, 10.0, &nets().join("sugiyama-ring.net.xml"), 1);
+        let o = opts("start-failure");
+        let mut req = syncroad_sumo::run::prepare(&sc, &o).unwrap();
+        req.routes_file = o.work_dir.join("vanished.rou.xml");
+        let run = syncroad_sumo::run_worker(&o.worker, &req, &Default::default());
+        let msg = run.result.unwrap_err().to_string();
+        assert!(
+            msg.starts_with("SUMO did not start: Python call `libsumo.start` failed"),
+            "{msg}"
+        );
+        assert!(msg.contains("vanished.rou.xml"), "{msg}");
+    }
+
     #[test]
     fn timeout_keeps_rows_and_marks_incomplete() {
         let sc = ring_scenario(22, 100_000.0, &nets().join("sugiyama-ring.net.xml"), 1);
