@@ -1,6 +1,7 @@
 //! The SUMO benchmark: in one command, for a ring of N vehicles,
-//! * **SUMO alone** — a worker that only calls `simulation.step` (no subscriptions, no
-//!   commands; SUMO's own model drives);
+//! * **SUMO alone** — a worker that only calls `simulation.step`: the same vehicles in speed
+//!   mode 32, each commanded once to hold its speed, so SUMO's own work per step is the same
+//!   as under the law, and no per-step calls;
 //! * **SUMO + controller** — the real co-simulation loop: every vehicle's speed read
 //!   (`getSpeed`, odometer every 10 steps), the delayed-driver law (eq. `chandler+`) in Rust,
 //!   one `setSpeed` per vehicle, rows recorded and streamed every step; and the same loop
@@ -21,7 +22,7 @@ use std::process::Command;
 use serde::Serialize;
 use syncroad_control::Scenario;
 
-use crate::protocol::ReadMode;
+use crate::protocol::{Control, ReadMode};
 use crate::run::{prepare, PrepareError, RunOptions};
 use crate::supervisor::{run_worker, Supervision, SupervisorError, WorkerCommand};
 use crate::venv::{find_venv, VenvError};
@@ -114,6 +115,9 @@ pub struct BenchResult {
     pub speedup_vs_traci: Option<f64>,
 }
 
+/// All vehicles start evenly spaced at 10 m/s, so the law's commands stay at 10 m/s and the
+/// baseline's held speeds and the controlled run drive exactly the same traffic.
+///
 /// The two standard cases: the Sugiyama ring (N = 22) and the 20 km ring (N = 2000).
 pub fn standard_cases(nets: &Path, quick: bool) -> Vec<BenchCase> {
     let s = if quick { 5 } else { 1 };
@@ -148,7 +152,7 @@ fn scenario(case: &BenchCase) -> Result<Scenario, BenchError> {
         "road": {{"type": "ring", "length_m": {}}},
         "model": {{"type": "delayed_driver",
                    "graph": {{"type": "unidirectional_ring", "gain": 0.5}}, "delay_s": 0.5}},
-        "initial": {{"speed_mps": 10.0, "perturbation": {{"speed_mps": 0.5}}}},
+        "initial": {{"speed_mps": 10.0}},
         "sumo": {{"net": "{}"}}}}"#,
         (case.steps + case.warmup) as f64 * 0.1,
         case.vehicles,
@@ -170,11 +174,13 @@ fn timed(
 ) -> Result<Timing, BenchError> {
     let mut opts = RunOptions::new(work, worker.clone());
     let controlled = read.is_some();
-    match read {
-        Some(r) => opts.read = r,
-        None => opts.sumo_model_sigma = Some(0.0),
+    if let Some(r) = read {
+        opts.read = r;
     }
     let mut req = prepare(sc, &opts)?;
+    if !controlled {
+        req.control = Control::Hold;
+    }
     req.observe = controlled;
     req.untimed_steps = warmup;
     let run = run_worker(worker, &req, &Supervision::default());

@@ -385,7 +385,7 @@ pub fn run(py: Python<'_>, req: &Request, out: &mut impl Write) -> Result<(), Co
                 .map_err(|e| CosimError::Scenario(e.to_string()))?;
             Some(controller_for(&sc, req.layout.leader_vehicle)?)
         }
-        Control::SumoModel => None,
+        Control::SumoModel | Control::Hold => None,
     };
     let (module, python) = load_libsumo(py)?;
     eprintln!(
@@ -488,10 +488,14 @@ fn run_started(
         .map(|v| PyString::intern(py, &v.id))
         .collect();
     let controlled = controller.is_some();
-    if controlled {
-        for id in &ids {
+    let hold = matches!(req.control, Control::Hold);
+    if controlled || hold {
+        for (id, dep) in ids.iter().zip(&req.layout.vehicles) {
             ls.call("vehicle_setSpeedMode", (id.clone(), SPEED_MODE_RAW))?;
             ls.call("vehicle_setLaneChangeMode", (id.clone(), 0))?;
+            if hold {
+                ls.call("vehicle_setSpeed", (id.clone(), dep.speed_mps))?;
+            }
         }
     }
     let reader = Reader::new(py, ls, req.read, &ids)?;

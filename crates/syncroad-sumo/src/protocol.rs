@@ -85,6 +85,10 @@ pub enum Control {
     },
     /// SUMO's own car-following model (Krauss with the layout's σ); nothing is commanded.
     SumoModel,
+    /// Every vehicle in speed mode 32, commanded once to hold its departure speed (SUMO keeps
+    /// a `setSpeed` until it is changed). The benchmark's baseline: SUMO does the same work per
+    /// step as under the law, without the loop's per-step calls.
+    Hold,
 }
 
 /// A JSON message from the worker.
