@@ -138,7 +138,7 @@ impl VehicleType {
         }
         if !(0.0..=1.0).contains(&self.sigma) {
             return Err(LayoutError::Invalid {
-                field: "sigma".into(),
+                field: "Krauss σ (--krauss-sigma)".into(),
                 value: self.sigma,
                 expected: "must lie in [0, 1]".into(),
             });
