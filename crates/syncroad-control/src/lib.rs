@@ -9,6 +9,8 @@
 //! * [`delayed_driver`], [`cacc`] — the laws (eq. `chandler+`; eqs. `veh-proto1/2`), one step
 //!   at a time, usable by any backend;
 //! * [`theory`], [`ifp`], [`poly`] — the paper's sufficient conditions and the IFP index;
+//! * [`exact`] — exact stability: rightmost characteristic roots, critical gains, CACC modes
+//!   and string stability, to show how conservative the sufficient conditions are;
 //! * [`native`] — the fixed-step simulator; [`metrics`] — the synchronization verdict.
 #![warn(missing_docs)]
 // Numerical loops index several arrays at once; an index reads clearer than zipped iterators.
@@ -17,6 +19,7 @@
 pub mod cacc;
 pub mod congestion;
 pub mod delayed_driver;
+pub mod exact;
 pub mod graph;
 pub mod ifp;
 pub mod lti_network;

@@ -1,0 +1,328 @@
+//! Combined, serializable results for a command-line front end: JSON through `serde`, a plain
+//! text table through `Display`.
+
+use super::argument_principle::{count_roots_right_of, ArgumentPrincipleError, RootCount};
+use super::cacc_modes::{cacc_modes, CaccError, CaccModes, CaccParams};
+use super::collocation::{rightmost_roots, CollocationError, CollocationOptions, RootsReport};
+use super::critical::{critical_scale, CriticalError, CriticalReport};
+use super::ring_modes::RingModes;
+use super::string_stability::{
+    string_stability, StringStabilityError, StringStabilityOptions, StringStabilityReport,
+};
+use nalgebra::DMatrix;
+use serde::Serialize;
+use std::fmt;
+
+/// Failure of a combined analysis.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ReportError {
+    /// Root computation failed or the network is invalid.
+    #[error("characteristic roots: {0}")]
+    Roots(#[from] CollocationError),
+    /// Critical-scale search failed for a reason other than "no delay".
+    #[error("critical scale: {0}")]
+    Critical(#[from] CriticalError),
+    /// The argument-principle certificate failed.
+    #[error("root-count certificate: {0}")]
+    Certificate(#[from] ArgumentPrincipleError),
+    /// Invalid platoon.
+    #[error("CACC platoon: {0}")]
+    Cacc(#[from] CaccError),
+    /// String-stability analysis failed.
+    #[error("string stability: {0}")]
+    StringStability(#[from] StringStabilityError),
+}
+
+/// Exact stability of a delayed-driver network (eq. `chandler+`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NetworkStabilityReport {
+    /// Rightmost roots, abscissa and residuals at the given gains and delays.
+    pub roots: RootsReport,
+    /// Critical gain/delay scales and Theorem-1 conservatism; `None` when no driver is
+    /// delayed (stable for every gain).
+    pub critical: Option<CriticalReport>,
+    /// Argument-principle count of roots right of `abscissa + 1e-6(1 + |abscissa|)`, if
+    /// requested; `non_consensus() == 0` certifies that no root was missed.
+    pub beyond_abscissa: Option<RootCount>,
+}
+
+/// CACC platoon: eigenvalue verdicts and, if the platoon is stable, string stability.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CaccReport {
+    /// Eigenvalues with the exact and the Theorem `thm.cacc` verdicts.
+    pub modes: CaccModes,
+    /// String-stability numbers (`None` for an unstable platoon).
+    pub string_stability: Option<StringStabilityReport>,
+}
+
+/// Roots and critical scales of a delayed-driver network; with `certify`, also the
+/// argument-principle count of roots beyond the computed abscissa.
+///
+/// # Errors
+/// [`ReportError`] from the root, critical-scale or certificate computation.
+pub fn analyse_network(
+    adjacency: &DMatrix<f64>,
+    delays_s: &[f64],
+    options: &CollocationOptions,
+    certify: bool,
+) -> Result<NetworkStabilityReport, ReportError> {
+    let roots = rightmost_roots(adjacency, delays_s, options)?;
+    let beyond_abscissa = if certify {
+        let sigma = roots.abscissa + 1e-6 * (1.0 + roots.abscissa.abs());
+        Some(count_roots_right_of(adjacency, delays_s, sigma)?)
+    } else {
+        None
+    };
+    let critical = match critical_scale(adjacency, delays_s, options) {
+        Ok(c) => Some(c),
+        Err(CriticalError::NoDelay) => None,
+        Err(e) => return Err(e.into()),
+    };
+    Ok(NetworkStabilityReport {
+        roots,
+        critical,
+        beyond_abscissa,
+    })
+}
+
+/// Eigenvalues, both verdicts and string stability of a CACC platoon.
+///
+/// # Errors
+/// [`ReportError`] for invalid parameters or options.
+pub fn analyse_cacc(
+    params: &CaccParams,
+    options: &StringStabilityOptions,
+) -> Result<CaccReport, ReportError> {
+    let modes = cacc_modes(params)?;
+    let string_stability = if modes.exactly_stable {
+        Some(string_stability(params, options)?)
+    } else {
+        None
+    };
+    Ok(CaccReport {
+        modes,
+        string_stability,
+    })
+}
+
+impl fmt::Display for NetworkStabilityReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let r = &self.roots;
+        writeln!(
+            f,
+            "vehicles {}  collocation M = {} (order {})",
+            r.vehicles, r.nodes_per_delay, r.collocation_order
+        )?;
+        writeln!(
+            f,
+            "{:>4} {:>14} {:>14} {:>10}",
+            "#", "Re s [1/s]", "Im s [rad/s]", "residual"
+        )?;
+        for (k, root) in r.roots.iter().enumerate() {
+            writeln!(
+                f,
+                "{:>4} {:>14.6e} {:>14.6e} {:>10.1e}",
+                k + 1,
+                root.root.re,
+                root.root.im,
+                root.residual
+            )?;
+        }
+        writeln!(
+            f,
+            "spectral abscissa {:.6e} 1/s -> {}",
+            r.abscissa,
+            if r.is_stable() {
+                "synchronizes"
+            } else {
+                "does not synchronize"
+            }
+        )?;
+        if let Some(c) = &self.beyond_abscissa {
+            writeln!(
+                f,
+                "argument principle: {} root(s) besides consensus right of {:.6e} ({})",
+                c.non_consensus(),
+                c.sigma,
+                if c.non_consensus() == 0 {
+                    "certified"
+                } else {
+                    "ROOTS MISSED"
+                }
+            )?;
+        }
+        match &self.critical {
+            Some(c) => {
+                writeln!(
+                    f,
+                    "critical gain scale {:.10}  Theorem-1 {:.10}  ratio {:.6}",
+                    c.critical_gain_scale, c.theorem1_gain_scale, c.conservatism_ratio
+                )?;
+                writeln!(
+                    f,
+                    "critical delay scale {:.10}  Theorem-1 {:.10}  ratio {:.6}  (max delay {:.6} s, crossing {:.6} rad/s)",
+                    c.critical_delay_scale,
+                    c.theorem1_delay_scale,
+                    c.delay_conservatism_ratio,
+                    c.critical_max_delay_s,
+                    c.crossing_frequency_rad_s
+                )
+            }
+            None => writeln!(f, "no delays: stable for every gain scale"),
+        }
+    }
+}
+
+impl fmt::Display for RingModes {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let r = &self.ring;
+        writeln!(
+            f,
+            "uniform ring: N = {}, k_f = {} 1/s, k_b = {} 1/s, α = {} s",
+            r.vehicles, r.gain_front, r.gain_back, r.delay_s
+        )?;
+        let dominant = &self.modes[self.dominant_mode];
+        writeln!(
+            f,
+            "spectral abscissa {:.6e} 1/s (mode k = {}, root {:.6e} + {:.6e}i) -> {}",
+            self.abscissa,
+            self.dominant_mode,
+            dominant.root.re,
+            dominant.root.im,
+            if self.abscissa < 0.0 {
+                "synchronizes"
+            } else {
+                "does not synchronize"
+            }
+        )?;
+        writeln!(
+            f,
+            "critical gain scale {:.10}  Theorem-1 {:.10}  ratio {:.6}",
+            self.critical_gain_scale, self.theorem1_gain_scale, self.conservatism_ratio
+        )
+    }
+}
+
+impl fmt::Display for CaccReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let m = &self.modes;
+        writeln!(
+            f,
+            "followers {}  abscissa {:.6e} 1/s  exact: {}  Theorem thm.cacc: {}",
+            m.followers,
+            m.abscissa,
+            if m.exactly_stable {
+                "stable"
+            } else {
+                "unstable"
+            },
+            if m.theorem_holds {
+                "applies (stable)"
+            } else {
+                "does not apply"
+            }
+        )?;
+        writeln!(f, "{:>4} {:>8} {:>14}", "i", "μτ", "μ²/2 − rhs")?;
+        for c in &m.theorem_conditions {
+            writeln!(
+                f,
+                "{:>4} {:>8.4} {:>14.6}",
+                c.vehicle, c.mu_tau, c.degree_margin
+            )?;
+        }
+        if let Some(s) = &self.string_stability {
+            writeln!(
+                f,
+                "max_i sup_ω |G(i+1)/G(i)| = {:.6} (follower {}, ω = {:.4} rad/s) -> {}",
+                s.max_successive_ratio,
+                s.worst_follower,
+                s.worst_frequency_rad_s,
+                if s.string_stable {
+                    "string stable"
+                } else {
+                    "string unstable"
+                }
+            )?;
+            writeln!(
+                f,
+                "braking pulse: peak gap error first {:.4} m, last {:.4} m, amplification {:.4}",
+                s.simulated_peak_gap_error_m[0],
+                s.simulated_peak_gap_error_m[s.followers - 1],
+                s.simulated_peak_amplification
+            )?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::ring_modes::UniformRing;
+    use super::*;
+
+    #[test]
+    fn network_report_serializes_the_documented_fields() {
+        let ring = UniformRing::new(6, 1.0, 0.5, 0.4).unwrap();
+        let r = analyse_network(
+            &ring.adjacency(),
+            &ring.delays(),
+            &CollocationOptions::default(),
+            true,
+        )
+        .unwrap();
+        assert_eq!(r.beyond_abscissa.unwrap().non_consensus(), 0);
+        let json = serde_json::to_value(&r).unwrap();
+        for key in ["abscissa", "roots", "max_residual"] {
+            assert!(json["roots"].get(key).is_some(), "missing roots.{key}");
+        }
+        for key in [
+            "critical_gain_scale",
+            "theorem1_gain_scale",
+            "conservatism_ratio",
+            "critical_delay_scale",
+            "theorem1_delay_scale",
+        ] {
+            assert!(
+                json["critical"].get(key).is_some(),
+                "missing critical.{key}"
+            );
+        }
+        let text = r.to_string();
+        assert!(text.contains("critical gain scale") && text.contains("synchronizes"));
+        assert!(text.contains("certified"));
+        // Without delays there is no critical scale, and the report says so.
+        let r = analyse_network(
+            &ring.adjacency(),
+            &[0.0; 6],
+            &CollocationOptions::default(),
+            false,
+        )
+        .unwrap();
+        assert!(r.critical.is_none());
+        assert!(r.to_string().contains("stable for every gain scale"));
+    }
+
+    #[test]
+    fn ring_table_names_the_dominant_mode() {
+        let ring = UniformRing::new(8, 1.0, 0.0, 0.5).unwrap();
+        let text = ring.modes().unwrap().to_string();
+        // Real gains: the dominant modes are the conjugate pair k = 1 and k = N − 1.
+        assert!(
+            text.contains("mode k = 1,") || text.contains("mode k = 7,"),
+            "{text}"
+        );
+        assert!(text.contains("synchronizes"));
+    }
+
+    #[test]
+    fn cacc_report_skips_string_stability_when_unstable() {
+        let unstable = CaccParams::homogeneous(3, 1.0, 0.1, 2.0, 0.5);
+        let r = analyse_cacc(&unstable, &StringStabilityOptions::default()).unwrap();
+        assert!(!r.modes.exactly_stable && r.string_stability.is_none());
+        let stable = CaccParams::homogeneous(3, 0.4, 1.0, 0.15, 0.1);
+        let r = analyse_cacc(&stable, &StringStabilityOptions::default()).unwrap();
+        let json = serde_json::to_value(&r).unwrap();
+        assert!(json["string_stability"]["max_successive_ratio"].is_number());
+        assert!(r.to_string().contains("Theorem thm.cacc: applies"));
+    }
+}
