@@ -1,0 +1,37 @@
+//! Pins the embedded interpreter: pyo3 links the libpython of the build interpreter
+//! (`PYO3_PYTHON`, else `python3` on PATH). Without an rpath the binary would load whatever
+//! libpython3.11.so the dynamic loader finds first at run time, so the build interpreter's
+//! libdir is recorded as an rpath of every binary and test of this crate.
+
+use std::process::Command;
+
+fn main() {
+    println!("cargo:rerun-if-env-changed=PYO3_PYTHON");
+    let python = std::env::var("PYO3_PYTHON").unwrap_or_else(|_| "python3".to_string());
+    let out = Command::new(&python)
+        .args([
+            "-c",
+            "import sysconfig; print(sysconfig.get_config_var('LIBDIR') or '')",
+        ])
+        .output();
+    match out {
+        Ok(o) if o.status.success() => {
+            let libdir = String::from_utf8_lossy(&o.stdout).trim().to_string();
+            if !libdir.is_empty() {
+                // Binaries of this crate (worker, tests) and, through the `rustc-link-arg`
+                // of dependents' own build scripts, anything that opts in.
+                println!("cargo:rustc-link-arg=-Wl,-rpath,{libdir}");
+                // Also known to the crate: the supervisor puts it first in the worker's
+                // LD_LIBRARY_PATH, so a worker re-executed from a binary without the rpath
+                // (the `syncroad` CLI) still loads the build interpreter's libpython.
+                println!("cargo:rustc-env=SYNCROAD_PYTHON_LIBDIR={libdir}");
+                // For dependents' build scripts (`links = "syncroad-python"`): the CLI can set
+                // the same rpath with `cargo:rustc-link-arg-bins=-Wl,-rpath,$DEP_SYNCROAD_PYTHON_LIBDIR`.
+                println!("cargo::metadata=libdir={libdir}");
+            }
+        }
+        _ => println!(
+            "cargo:warning=could not ask {python} for its libdir; no rpath set (set PYO3_PYTHON)"
+        ),
+    }
+}

@@ -1,0 +1,380 @@
+//! The SUMO benchmark: in one command, for a ring of N vehicles,
+//! * **SUMO alone** — a worker that only calls `simulation.step`: the same vehicles in speed
+//!   mode 32, each commanded once to hold its speed, so SUMO's own work per step is the same
+//!   as under the law, and no per-step calls;
+//! * **SUMO + controller** — the real co-simulation loop: every vehicle's speed read
+//!   (`getSpeed`, odometer every 10 steps), the delayed-driver law (eq. `chandler+`) in Rust,
+//!   one `setSpeed` per vehicle, rows recorded and streamed every step; and the same loop
+//!   reading through subscriptions (speed + odometer every step);
+//! * **TraCI reference** — `python-host/traci_reference.py`: the traci socket client driving a
+//!   `sumo` subprocess with the same reads and writes.
+//!
+//! Each measurement is its own process (one SUMO per process); alone and controlled are
+//! alternated `repeats` times and the fastest of each is kept. The overhead is
+//! `controlled / alone − 1`. Because runs in separate processes see different load from other
+//! work on the machine, the controlled runs also time `simulation.step` itself: the in-run
+//! overhead (time outside SUMO's step over time inside it, same process, same seconds) is the
+//! steadier figure.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use serde::Serialize;
+use syncroad_control::Scenario;
+
+use crate::protocol::{Control, ReadMode};
+use crate::run::{prepare, PrepareError, RunOptions};
+use crate::supervisor::{run_worker, Supervision, SupervisorError, WorkerCommand};
+use crate::venv::{find_venv, VenvError};
+
+/// Errors of the benchmark.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum BenchError {
+    /// The generated scenario did not validate (a bug in the case definition).
+    #[error("benchmark scenario for {name}: {reason}")]
+    Scenario {
+        /// Case name.
+        name: String,
+        /// Validation error.
+        reason: String,
+    },
+    /// Pre-start checks failed.
+    #[error(transparent)]
+    Prepare(#[from] PrepareError),
+    /// A worker failed.
+    #[error(transparent)]
+    Worker(#[from] SupervisorError),
+    /// The run stopped early.
+    #[error("benchmark run {name} stopped early: {reason}")]
+    Stopped {
+        /// Case name.
+        name: String,
+        /// Why.
+        reason: String,
+    },
+    /// The venv is missing.
+    #[error(transparent)]
+    Venv(#[from] VenvError),
+    /// The TraCI reference failed.
+    #[error("TraCI reference failed: {0}")]
+    Traci(String),
+}
+
+/// One benchmark case.
+#[derive(Debug, Clone)]
+pub struct BenchCase {
+    /// Name in the report.
+    pub name: String,
+    /// Ring network.
+    pub net: PathBuf,
+    /// Vehicles.
+    pub vehicles: usize,
+    /// Nominal ring length used for the initial gaps \[m\].
+    pub nominal_length_m: f64,
+    /// Timed steps.
+    pub steps: usize,
+    /// Untimed warm-up steps before them.
+    pub warmup: usize,
+    /// Alternations of alone / controlled.
+    pub repeats: usize,
+    /// Also run the TraCI reference.
+    pub traci: bool,
+}
+
+/// Timings of one case [ms per step].
+#[derive(Debug, Clone, Serialize)]
+pub struct BenchResult {
+    /// Case name.
+    pub name: String,
+    /// Vehicles.
+    pub vehicles: usize,
+    /// Timed steps per run.
+    pub steps: usize,
+    /// Best SUMO-alone time.
+    pub alone_ms: f64,
+    /// Best SUMO + controller time.
+    pub controlled_ms: f64,
+    /// All alone samples.
+    pub alone_samples_ms: Vec<f64>,
+    /// All controlled samples.
+    pub controlled_samples_ms: Vec<f64>,
+    /// `controlled / alone − 1` [%], best run against best run.
+    pub overhead_pct: f64,
+    /// Median over the controlled runs of (loop time outside `simulation.step`) / (time in
+    /// it) [%]: both from the same run, so other load on the machine cancels out.
+    pub in_run_overhead_pct: f64,
+    /// Best SUMO + controller time reading through subscriptions.
+    pub subscriptions_ms: f64,
+    /// All samples of that.
+    pub subscriptions_samples_ms: Vec<f64>,
+    /// Its overhead over SUMO alone [%].
+    pub subscriptions_overhead_pct: f64,
+    /// TraCI reference time.
+    pub traci_ms: Option<f64>,
+    /// `traci / controlled`.
+    pub speedup_vs_traci: Option<f64>,
+}
+
+/// All vehicles start evenly spaced at 10 m/s, so the law's commands stay at 10 m/s and the
+/// baseline's held speeds and the controlled run drive exactly the same traffic.
+///
+/// The two standard cases: the Sugiyama ring (N = 22) and the 20 km ring (N = 2000).
+pub fn standard_cases(nets: &Path, quick: bool) -> Vec<BenchCase> {
+    let s = if quick { 5 } else { 1 };
+    vec![
+        BenchCase {
+            name: "sugiyama-ring N=22".into(),
+            net: nets.join("sugiyama-ring.net.xml"),
+            vehicles: 22,
+            nominal_length_m: 230.0,
+            steps: 20_000 / s,
+            warmup: 500 / s,
+            repeats: if quick { 2 } else { 5 },
+            traci: true,
+        },
+        BenchCase {
+            name: "ring-20km N=2000".into(),
+            net: nets.join("ring-20km.net.xml"),
+            vehicles: 2000,
+            nominal_length_m: 20_000.0,
+            steps: 300 / s,
+            warmup: 30 / s,
+            repeats: if quick { 2 } else { 3 },
+            traci: true,
+        },
+    ]
+}
+
+fn scenario(case: &BenchCase) -> Result<Scenario, BenchError> {
+    let json = format!(
+        r#"{{"name": "bench", "backend": "sumo", "seed": 1, "step_s": 0.1,
+        "horizon_s": {}, "vehicles": {},
+        "road": {{"type": "ring", "length_m": {}}},
+        "model": {{"type": "delayed_driver",
+                   "graph": {{"type": "unidirectional_ring", "gain": 0.5}}, "delay_s": 0.5}},
+        "initial": {{"speed_mps": 10.0}},
+        "sumo": {{"net": "{}"}}}}"#,
+        (case.steps + case.warmup) as f64 * 0.1,
+        case.vehicles,
+        case.nominal_length_m,
+        case.net.display()
+    );
+    Scenario::from_json(&json).map_err(|e| BenchError::Scenario {
+        name: case.name.clone(),
+        reason: e.to_string(),
+    })
+}
+
+fn timed(
+    worker: &WorkerCommand,
+    sc: &Scenario,
+    work: &Path,
+    read: Option<ReadMode>,
+    warmup: usize,
+) -> Result<Timing, BenchError> {
+    let mut opts = RunOptions::new(work, worker.clone());
+    let controlled = read.is_some();
+    if let Some(r) = read {
+        opts.read = r;
+    }
+    let mut req = prepare(sc, &opts)?;
+    if !controlled {
+        req.control = Control::Hold;
+    }
+    req.observe = controlled;
+    req.untimed_steps = warmup;
+    let run = run_worker(worker, &req, &Supervision::default());
+    let fin = run.result?;
+    if fin.steps_done != req.steps {
+        return Err(BenchError::Stopped {
+            name: work.display().to_string(),
+            reason: format!("{:?}", fin.stop),
+        });
+    }
+    let per = |x: f64| 1e3 * x / fin.timed_steps as f64;
+    let p = &fin.phases;
+    let outside_sumo = fin.loop_wall_s - p.step_s;
+    if std::env::var_os("SYNCROAD_BENCH_PHASES").is_some() {
+        eprintln!(
+            "    phases [ms/step]: law+setSpeed {:.4}, simulation.step {:.4}, read speeds {:.4}, rest {:.4}",
+            per(p.command_s),
+            per(p.step_s),
+            per(p.read_speeds_s),
+            per(outside_sumo - p.command_s - p.read_speeds_s)
+        );
+    }
+    Ok(Timing {
+        ms_per_step: per(fin.loop_wall_s),
+        in_run_overhead_pct: 100.0 * outside_sumo / p.step_s,
+    })
+}
+
+/// One timed worker run.
+struct Timing {
+    ms_per_step: f64,
+    /// Time outside `simulation.step` over time inside it, in the same run [%].
+    in_run_overhead_pct: f64,
+}
+
+fn median(v: &[f64]) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let m = s.len() / 2;
+    if s.len() % 2 == 1 {
+        s[m]
+    } else {
+        0.5 * (s[m - 1] + s[m])
+    }
+}
+
+fn traci_reference(case: &BenchCase, routes: &Path, python_host: &Path) -> Result<f64, BenchError> {
+    let venv = find_venv()?;
+    let py = venv.join("bin").join("python");
+    let sumo_home = Command::new(&py)
+        .args(["-c", "import sumo; print(sumo.SUMO_HOME)"])
+        .output()
+        .map_err(|e| BenchError::Traci(format!("{}: {e}", py.display())))?;
+    let sumo = PathBuf::from(String::from_utf8_lossy(&sumo_home.stdout).trim())
+        .join("bin")
+        .join("sumo");
+    let out = Command::new(&py)
+        .arg(python_host.join("traci_reference.py"))
+        .arg(&sumo)
+        .arg(&case.net)
+        .arg(routes)
+        .args([
+            "0.1".to_string(),
+            "1".to_string(),
+            (case.steps + case.warmup).to_string(),
+            case.warmup.to_string(),
+        ])
+        .output()
+        .map_err(|e| BenchError::Traci(e.to_string()))?;
+    if !out.status.success() {
+        return Err(BenchError::Traci(format!(
+            "{}\n{}",
+            out.status,
+            String::from_utf8_lossy(&out.stderr)
+        )));
+    }
+    let text = String::from_utf8_lossy(&out.stdout);
+    let line = text
+        .lines()
+        .rev()
+        .find(|l| l.starts_with('{'))
+        .ok_or_else(|| BenchError::Traci(format!("no JSON line in: {text}")))?;
+    let v: serde_json::Value =
+        serde_json::from_str(line).map_err(|e| BenchError::Traci(e.to_string()))?;
+    v["ms_per_step"]
+        .as_f64()
+        .ok_or_else(|| BenchError::Traci(format!("no ms_per_step in {line}")))
+}
+
+/// Runs one case; `progress` receives a line per measurement.
+pub fn run_case(
+    case: &BenchCase,
+    worker: &WorkerCommand,
+    work_dir: &Path,
+    python_host: &Path,
+    progress: &mut dyn FnMut(&str),
+) -> Result<BenchResult, BenchError> {
+    let sc = scenario(case)?;
+    let mut alone = Vec::new();
+    let mut controlled = Vec::new();
+    let mut subscribed = Vec::new();
+    let mut in_run = Vec::new();
+    for r in 0..case.repeats {
+        let a = timed(worker, &sc, &work_dir.join("alone"), None, case.warmup)?.ms_per_step;
+        progress(&format!(
+            "{}: SUMO alone                        {a:9.4} ms/step (run {})",
+            case.name,
+            r + 1
+        ));
+        alone.push(a);
+        let c = timed(
+            worker,
+            &sc,
+            &work_dir.join("controlled"),
+            Some(ReadMode::Getters),
+            case.warmup,
+        )?;
+        in_run.push(c.in_run_overhead_pct);
+        let c = c.ms_per_step;
+        progress(&format!(
+            "{}: SUMO + controller (getters)       {c:9.4} ms/step (run {})",
+            case.name,
+            r + 1
+        ));
+        controlled.push(c);
+        let s = timed(
+            worker,
+            &sc,
+            &work_dir.join("subscribed"),
+            Some(ReadMode::Subscriptions),
+            case.warmup,
+        )?
+        .ms_per_step;
+        progress(&format!(
+            "{}: SUMO + controller (subscriptions) {s:9.4} ms/step (run {})",
+            case.name,
+            r + 1
+        ));
+        subscribed.push(s);
+    }
+    let best = |v: &[f64]| v.iter().copied().fold(f64::INFINITY, f64::min);
+    let (a, c, sub) = (best(&alone), best(&controlled), best(&subscribed));
+    let traci_ms = if case.traci {
+        let t = traci_reference(
+            case,
+            &work_dir.join("controlled").join("routes.rou.xml"),
+            python_host,
+        )?;
+        progress(&format!(
+            "{}: TraCI reference                   {t:9.4} ms/step",
+            case.name
+        ));
+        Some(t)
+    } else {
+        None
+    };
+    Ok(BenchResult {
+        name: case.name.clone(),
+        vehicles: case.vehicles,
+        steps: case.steps,
+        alone_ms: a,
+        controlled_ms: c,
+        alone_samples_ms: alone,
+        controlled_samples_ms: controlled,
+        overhead_pct: 100.0 * (c / a - 1.0),
+        in_run_overhead_pct: median(&in_run),
+        subscriptions_ms: sub,
+        subscriptions_samples_ms: subscribed,
+        subscriptions_overhead_pct: 100.0 * (sub / a - 1.0),
+        traci_ms,
+        speedup_vs_traci: traci_ms.map(|t| t / c),
+    })
+}
+
+/// A plain-text table of results.
+pub fn format_table(results: &[BenchResult]) -> String {
+    let mut s = String::from(
+        "case                   alone ms/step  +controller ms/step  overhead  in-run overhead  (subscriptions: ms/step  overhead)  TraCI ms/step  vs TraCI\n",
+    );
+    for r in results {
+        s.push_str(&format!(
+            "{:<22} {:>13.4} {:>20.4} {:>8.1}% {:>15.1}%  {:>24.4} {:>9.1}%  {:>13} {:>9}\n",
+            r.name,
+            r.alone_ms,
+            r.controlled_ms,
+            r.overhead_pct,
+            r.in_run_overhead_pct,
+            r.subscriptions_ms,
+            r.subscriptions_overhead_pct,
+            r.traci_ms.map(|t| format!("{t:.4}")).unwrap_or_default(),
+            r.speedup_vs_traci
+                .map(|x| format!("{x:.1}×"))
+                .unwrap_or_default(),
+        ));
+    }
+    s
+}

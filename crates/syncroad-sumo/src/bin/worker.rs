@@ -1,0 +1,61 @@
+//! `syncroad-sumo-worker`: without arguments, runs one SUMO co-simulation request read from
+//! stdin (see `syncroad_sumo::worker_main`; started by the supervisor, never by hand).
+//!
+//! `syncroad-sumo-worker --bench [--quick] [--json FILE]` runs the SUMO benchmark (SUMO alone vs
+//! SUMO + controller vs the TraCI reference at N = 22 and N = 2000), starting itself as the
+//! worker of every measurement.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use syncroad_sumo::bench::{format_table, run_case, standard_cases};
+use syncroad_sumo::WorkerCommand;
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.first().map(String::as_str) != Some("--bench") {
+        return syncroad_sumo::worker_main();
+    }
+    let quick = args.iter().any(|a| a == "--quick");
+    let json = args
+        .iter()
+        .position(|a| a == "--json")
+        .and_then(|i| args.get(i + 1))
+        .map(PathBuf::from);
+    let repo = syncroad_sumo::repo_dir();
+    let worker = match std::env::current_exe() {
+        Ok(p) => WorkerCommand::binary(p),
+        Err(e) => {
+            eprintln!("error: cannot locate this executable: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let work = std::env::temp_dir().join(format!("syncroad-sumo-bench-{}", std::process::id()));
+    let mut results = Vec::new();
+    for case in standard_cases(&repo.join("sumo-nets"), quick) {
+        let mut progress = |l: &str| eprintln!("{l}");
+        match run_case(
+            &case,
+            &worker,
+            &work,
+            &repo.join("python-host"),
+            &mut progress,
+        ) {
+            Ok(r) => results.push(r),
+            Err(e) => {
+                eprintln!("error: {e:#}");
+                return ExitCode::FAILURE;
+            }
+        }
+    }
+    let _ = std::fs::remove_dir_all(&work);
+    print!("{}", format_table(&results));
+    if let Some(path) = json {
+        let text = serde_json::to_string_pretty(&results).expect("results serialise");
+        if let Err(e) = std::fs::write(&path, text + "\n") {
+            eprintln!("error: cannot write {}: {e}", path.display());
+            return ExitCode::FAILURE;
+        }
+    }
+    ExitCode::SUCCESS
+}

@@ -1,0 +1,464 @@
+//! Where the vehicles start: departure edge, position and speed for every SUMO vehicle, the
+//! vehicle types, and the routes file that keeps them driving. Everything here is decided
+//! before SUMO starts, so that impossible layouts (an overfull ring, a road too short for the
+//! horizon) are rejected with numbers instead of vehicles silently left pending.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::net::Road;
+
+/// Errors laying out a run.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LayoutError {
+    /// More vehicles than fit on the ring.
+    #[error("ring {net} is overfull: {vehicles} vehicles × (length {length_m} m + minGap {min_gap_m} m) = {needed_m:.2} m exceed its length {ring_m:.4} m (as SUMO measures it); use at most {max_vehicles} vehicles, a shorter length/minGap, or a longer ring")]
+    RingOverfull {
+        /// The network.
+        net: String,
+        /// Number of vehicles.
+        vehicles: usize,
+        /// Longest vehicle length \[m\].
+        length_m: f64,
+        /// SUMO minGap \[m\].
+        min_gap_m: f64,
+        /// Space needed \[m\].
+        needed_m: f64,
+        /// Ring length \[m\].
+        ring_m: f64,
+        /// How many would fit.
+        max_vehicles: usize,
+    },
+    /// The road ends before the horizon.
+    #[error("straight road {net} is {road_m:.1} m long but the run needs about {needed_m:.1} m (platoon {platoon_m:.1} m + leader travel over {horizon_s} s); use a longer road or a shorter horizon_s")]
+    RoadTooShort {
+        /// The network.
+        net: String,
+        /// Road length \[m\].
+        road_m: f64,
+        /// Space needed \[m\].
+        needed_m: f64,
+        /// Length of the platoon at the start \[m\].
+        platoon_m: f64,
+        /// Horizon \[s\].
+        horizon_s: f64,
+    },
+    /// A per-vehicle number is out of range.
+    #[error("{field} = {value} is invalid: {expected}")]
+    Invalid {
+        /// Field name.
+        field: String,
+        /// The value.
+        value: f64,
+        /// What would be valid.
+        expected: String,
+    },
+}
+
+/// SUMO vehicle-type parameters shared by all vehicles (lengths may differ per vehicle).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct VehicleType {
+    /// minGap \[m\]: the car-following model's standstill gap.
+    pub min_gap_m: f64,
+    /// accel [m/s²].
+    pub accel_mps2: f64,
+    /// decel [m/s²].
+    pub decel_mps2: f64,
+    /// emergencyDecel [m/s²].
+    pub emergency_decel_mps2: f64,
+    /// maxSpeed [m/s].
+    pub max_speed_mps: f64,
+    /// Krauss driver imperfection σ (0 for controlled vehicles; it only acts when SUMO's own
+    /// model drives).
+    pub sigma: f64,
+}
+
+/// One SUMO vehicle's start.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Departure {
+    /// SUMO vehicle id.
+    pub id: String,
+    /// Vehicle length \[m\].
+    pub length_m: f64,
+    /// Index into [`Road::normal_edges`] of the departure edge.
+    pub edge_index: usize,
+    /// departPos (front bumper) on that edge \[m\].
+    pub pos_m: f64,
+    /// departSpeed [m/s].
+    pub speed_mps: f64,
+    /// Unwrapped rear-bumper position at t = 0 in the native simulator's coordinates \[m\];
+    /// positions during the run are this plus SUMO's odometer.
+    pub q0_m: f64,
+}
+
+/// The resolved layout of a run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Layout {
+    /// The road.
+    pub road: Road,
+    /// Vehicle type.
+    pub vtype: VehicleType,
+    /// All SUMO vehicles, the leader (if it is a SUMO vehicle) first.
+    pub vehicles: Vec<Departure>,
+    /// True when `vehicles[0]` is a leader driven by its speed profile.
+    pub leader_vehicle: bool,
+    /// Factor applied to the scenario's gaps on a ring so that lengths plus gaps fill SUMO's
+    /// ring length exactly (1 on straight roads).
+    pub gap_scale: f64,
+    /// How many times the ring route repeats (enough for the horizon at maxSpeed).
+    pub route_repeats: usize,
+}
+
+fn check_pos(field: &str, x: f64) -> Result<(), LayoutError> {
+    if x.is_finite() && x > 0.0 {
+        Ok(())
+    } else {
+        Err(LayoutError::Invalid {
+            field: field.to_string(),
+            value: x,
+            expected: "must be a finite number > 0".into(),
+        })
+    }
+}
+
+impl VehicleType {
+    fn validate(&self) -> Result<(), LayoutError> {
+        check_pos("sumo.accel_mps2", self.accel_mps2)?;
+        check_pos("sumo.decel_mps2", self.decel_mps2)?;
+        check_pos("sumo.emergency_decel_mps2", self.emergency_decel_mps2)?;
+        check_pos("sumo.max_speed_mps", self.max_speed_mps)?;
+        if !(self.min_gap_m.is_finite() && self.min_gap_m >= 0.0) {
+            return Err(LayoutError::Invalid {
+                field: "sumo.min_gap_m".into(),
+                value: self.min_gap_m,
+                expected: "must be a finite number ≥ 0".into(),
+            });
+        }
+        if !(0.0..=1.0).contains(&self.sigma) {
+            return Err(LayoutError::Invalid {
+                field: "Krauss σ (--krauss-sigma)".into(),
+                value: self.sigma,
+                expected: "must lie in [0, 1]".into(),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Departure speeds must not exceed what SUMO accepts at insertion: the vehicle type's
+/// maxSpeed and the road's speed limit.
+fn check_departure_speeds(
+    road: &Road,
+    vtype: &VehicleType,
+    speeds_mps: &[f64],
+) -> Result<(), LayoutError> {
+    let limit = vtype.max_speed_mps.min(road.speed_limit_mps());
+    for (i, v) in speeds_mps.iter().enumerate() {
+        if !(v.is_finite() && *v >= 0.0 && *v <= limit) {
+            return Err(LayoutError::Invalid {
+                field: format!("initial speed of vehicle {i}"),
+                value: *v,
+                expected: format!(
+                    "must lie in [0, {limit}] m/s (sumo.max_speed_mps = {}, speed limit of {} = {} m/s); SUMO refuses faster departures",
+                    vtype.max_speed_mps,
+                    road.path.display(),
+                    road.speed_limit_mps()
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Checks that `n` vehicles of the given lengths fit on the ring: `Σ (ℓ_i + minGap) ≤ L`.
+pub fn check_ring_capacity(
+    road: &Road,
+    lengths_m: &[f64],
+    min_gap_m: f64,
+) -> Result<(), LayoutError> {
+    let ring = road.length_m();
+    let needed: f64 = lengths_m.iter().map(|l| l + min_gap_m).sum();
+    if needed > ring {
+        let longest = lengths_m.iter().copied().fold(0.0, f64::max);
+        return Err(LayoutError::RingOverfull {
+            net: road.path.display().to_string(),
+            vehicles: lengths_m.len(),
+            length_m: longest,
+            min_gap_m,
+            needed_m: needed,
+            ring_m: ring,
+            max_vehicles: (ring / (longest + min_gap_m)).floor() as usize,
+        });
+    }
+    Ok(())
+}
+
+/// Lays out `n` vehicles on a ring: vehicle 0's rear bumper at 0, vehicle i one length plus
+/// its (scaled) gap behind vehicle i−1, as in the native simulator. The scenario's gaps are
+/// scaled by one common factor so that lengths plus gaps equal SUMO's ring length.
+pub fn ring_layout(
+    road: &Road,
+    vtype: VehicleType,
+    lengths_m: &[f64],
+    gaps_m: &[f64],
+    speeds_mps: &[f64],
+    horizon_s: f64,
+) -> Result<Layout, LayoutError> {
+    vtype.validate()?;
+    for (i, l) in lengths_m.iter().enumerate() {
+        check_pos(&format!("length_m[{i}]"), *l)?;
+    }
+    check_ring_capacity(road, lengths_m, vtype.min_gap_m)?;
+    check_departure_speeds(road, &vtype, speeds_mps)?;
+    let ring = road.length_m();
+    let free = ring - lengths_m.iter().sum::<f64>();
+    let gap_sum: f64 = gaps_m.iter().sum();
+    let gap_scale = if gap_sum > 0.0 { free / gap_sum } else { 1.0 };
+    let mut vehicles = Vec::with_capacity(lengths_m.len());
+    let mut q = 0.0;
+    for i in 0..lengths_m.len() {
+        if i > 0 {
+            q -= lengths_m[i] + gaps_m[i] * gap_scale;
+        }
+        let (edge_index, pos_m) = road.locate(q + lengths_m[i]);
+        vehicles.push(Departure {
+            id: format!("v{i}"),
+            length_m: lengths_m[i],
+            edge_index,
+            pos_m,
+            speed_mps: speeds_mps[i],
+            q0_m: q,
+        });
+    }
+    // Speed mode 32 lets commands exceed maxSpeed (and the lane limit), so the route is sized
+    // for twice the faster of the two; a vehicle that still reaches its end is reported as
+    // lost, never silently removed.
+    let fastest = vtype.max_speed_mps.max(road.speed_limit_mps());
+    let laps = horizon_s * 2.0 * fastest / ring;
+    Ok(Layout {
+        road: road.clone(),
+        vtype,
+        vehicles,
+        leader_vehicle: false,
+        gap_scale,
+        route_repeats: laps.ceil() as usize + 2,
+    })
+}
+
+/// Lays out a platoon on a straight road. With `leader = Some((q0, length, travel_m))` a
+/// leader vehicle with rear bumper at `q0` (native coordinates) is placed first; `travel_m`
+/// bounds how far it drives over the horizon. Followers are at the given rear-bumper
+/// positions `q_m`. The whole platoon is shifted so the last rear bumper starts 1 m into the
+/// road.
+#[allow(clippy::too_many_arguments)]
+pub fn straight_layout(
+    road: &Road,
+    vtype: VehicleType,
+    lengths_m: &[f64],
+    q_m: &[f64],
+    speeds_mps: &[f64],
+    leader: Option<(f64, f64, f64)>,
+    leader_speed_mps: f64,
+    horizon_s: f64,
+) -> Result<Layout, LayoutError> {
+    vtype.validate()?;
+    check_departure_speeds(road, &vtype, speeds_mps)?;
+    check_departure_speeds(road, &vtype, &[leader_speed_mps])?;
+    let mut all: Vec<(String, f64, f64, f64)> = Vec::new();
+    if let Some((q0, len, _)) = leader {
+        all.push(("leader".into(), len, q0, leader_speed_mps));
+    }
+    for i in 0..lengths_m.len() {
+        check_pos(&format!("length_m[{i}]"), lengths_m[i])?;
+        all.push((format!("v{i}"), lengths_m[i], q_m[i], speeds_mps[i]));
+    }
+    let rear = all.iter().map(|v| v.2).fold(f64::INFINITY, f64::min);
+    let front = all
+        .iter()
+        .map(|v| v.2 + v.1)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let shift = 1.0 - rear;
+    let platoon = front - rear;
+    let max_speed = all.iter().map(|v| v.3).fold(vtype.max_speed_mps, f64::min);
+    let travel = match leader {
+        Some((_, _, t)) => t,
+        None => horizon_s * max_speed.max(all.iter().map(|v| v.3).fold(0.0, f64::max)),
+    };
+    let needed = 1.0 + platoon + travel;
+    if needed > road.length_m() {
+        return Err(LayoutError::RoadTooShort {
+            net: road.path.display().to_string(),
+            road_m: road.length_m(),
+            needed_m: needed,
+            platoon_m: platoon,
+            horizon_s,
+        });
+    }
+    let vehicles = all
+        .into_iter()
+        .map(|(id, len, q, v)| Departure {
+            id,
+            length_m: len,
+            edge_index: 0,
+            pos_m: q + len + shift,
+            speed_mps: v,
+            q0_m: q,
+        })
+        .collect();
+    Ok(Layout {
+        road: road.clone(),
+        vtype,
+        vehicles,
+        leader_vehicle: leader.is_some(),
+        gap_scale: 1.0,
+        route_repeats: 0,
+    })
+}
+
+impl Layout {
+    /// The SUMO routes file (vehicle types, routes, vehicles) of this layout. Deterministic
+    /// text; vehicles depart at t = 0 at their exact positions and speeds
+    /// (`insertionChecks="none"`: the layout has already been checked).
+    pub fn routes_xml(&self) -> String {
+        let mut s = String::from("<routes>\n");
+        let t = &self.vtype;
+        let mut types: Vec<u64> = Vec::new();
+        for v in &self.vehicles {
+            let bits = v.length_m.to_bits();
+            if !types.contains(&bits) {
+                types.push(bits);
+                let _ = writeln!(
+                    s,
+                    r#"    <vType id="t{}" length="{}" minGap="{}" accel="{}" decel="{}" emergencyDecel="{}" maxSpeed="{}" sigma="{}" speedFactor="1" speedDev="0"/>"#,
+                    types.len() - 1,
+                    v.length_m,
+                    t.min_gap_m,
+                    t.accel_mps2,
+                    t.decel_mps2,
+                    t.emergency_decel_mps2,
+                    t.max_speed_mps,
+                    t.sigma
+                );
+            }
+        }
+        let edges = self.road.normal_edges();
+        let k = edges.len();
+        for start in 0..k {
+            let list: Vec<&str> = (0..k).map(|j| edges[(start + j) % k]).collect();
+            if self.road.ring {
+                let _ = writeln!(
+                    s,
+                    r#"    <route id="r{start}" edges="{}" repeat="{}"/>"#,
+                    list.join(" "),
+                    self.route_repeats
+                );
+            } else {
+                let _ = writeln!(
+                    s,
+                    r#"    <route id="r{start}" edges="{}"/>"#,
+                    list.join(" ")
+                );
+            }
+        }
+        for v in &self.vehicles {
+            let ty = types
+                .iter()
+                .position(|b| *b == v.length_m.to_bits())
+                .expect("type written above");
+            let _ = writeln!(
+                s,
+                r#"    <vehicle id="{}" type="t{ty}" route="r{}" depart="0" departLane="0" departPos="{}" departSpeed="{}" insertionChecks="none"/>"#,
+                v.id, v.edge_index, v.pos_m, v.speed_mps
+            );
+        }
+        s.push_str("</routes>\n");
+        s
+    }
+
+    /// Writes [`Layout::routes_xml`] to `dir/routes.rou.xml` and returns the path.
+    pub fn write_routes(&self, dir: &Path) -> std::io::Result<PathBuf> {
+        std::fs::create_dir_all(dir)?;
+        let p = dir.join("routes.rou.xml");
+        std::fs::write(&p, self.routes_xml())?;
+        Ok(p)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::net::read_ring;
+    use approx::assert_relative_eq;
+
+    fn vt() -> VehicleType {
+        VehicleType {
+            min_gap_m: 2.5,
+            accel_mps2: 2.6,
+            decel_mps2: 4.5,
+            emergency_decel_mps2: 9.0,
+            max_speed_mps: 30.0,
+            sigma: 0.0,
+        }
+    }
+
+    fn sugiyama() -> Road {
+        read_ring(
+            &Path::new(env!("CARGO_MANIFEST_DIR")).join("../../sumo-nets/sugiyama-ring.net.xml"),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn overfull_ring_names_the_numbers() {
+        let road = sugiyama();
+        let err = check_ring_capacity(&road, &[5.0; 31], 2.5).unwrap_err();
+        let msg = err.to_string();
+        assert!(
+            msg.contains(
+                "31 vehicles × (length 5 m + minGap 2.5 m) = 232.50 m exceed its length 230.3592 m"
+            ),
+            "{msg}"
+        );
+        assert!(msg.contains("use at most 30 vehicles"), "{msg}");
+        assert!(check_ring_capacity(&road, &[5.0; 30], 2.5).is_ok());
+    }
+
+    #[test]
+    fn departure_faster_than_max_speed_is_rejected() {
+        let road = sugiyama();
+        let mut t = vt();
+        t.max_speed_mps = 9.0;
+        let err = ring_layout(&road, t, &[5.0; 3], &[10.0; 3], &[8.0, 9.5, 8.0], 10.0).unwrap_err();
+        let msg = err.to_string();
+        assert!(msg.starts_with("initial speed of vehicle 1 = 9.5 is invalid: must lie in [0, 9] m/s (sumo.max_speed_mps = 9, speed limit of "), "{msg}");
+    }
+
+    #[test]
+    fn even_ring_layout_fills_sumo_length() {
+        let road = sugiyama();
+        let n = 22;
+        let gaps = vec![(230.0 - 5.0 * n as f64) / n as f64; n];
+        let lay = ring_layout(&road, vt(), &vec![5.0; n], &gaps, &vec![8.0; n], 60.0).unwrap();
+        assert_relative_eq!(
+            lay.gap_scale * gaps[0] * n as f64 + 5.0 * n as f64,
+            road.length_m(),
+            epsilon = 1e-9
+        );
+        // The last vehicle's gap to vehicle 0 (one lap ahead) equals the others.
+        let q_last = lay.vehicles[n - 1].q0_m;
+        assert_relative_eq!(
+            road.length_m() + q_last - 5.0,
+            lay.gap_scale * gaps[0],
+            epsilon = 1e-9
+        );
+        assert!(lay
+            .routes_xml()
+            .contains(r#"<route id="r0" edges="arc0 arc1 arc2 arc3" repeat=""#));
+        assert_eq!(
+            lay.route_repeats,
+            (60.0 * 2.0 * 30.0 / road.length_m()).ceil() as usize + 2
+        );
+    }
+}

@@ -1,0 +1,493 @@
+//! The pipe protocol between the parent and a worker.
+//!
+//! The parent writes one JSON line, a [`Request`], to the worker's stdin. The worker answers on
+//! its protocol channel (its original stdout; SUMO's own console output is diverted to stderr)
+//! with frames `[kind: u8][len: u32 LE][payload]`:
+//! * kind `J`: a JSON [`WorkerMsg`] (start info, events, the end of the run);
+//! * kind `R`: a binary chunk of trajectory rows, see [`RowChunk`].
+//!
+//! Rows stream in chunks while the control loop runs inside the worker, so the parent holds
+//! every row received so far whatever happens to the worker.
+
+use std::io::{self, Read, Write};
+use std::path::PathBuf;
+
+use serde::{Deserialize, Serialize};
+
+use crate::layout::Layout;
+use crate::python::PythonInfo;
+
+/// Frame kind of a JSON message.
+pub const KIND_JSON: u8 = b'J';
+/// Frame kind of a row chunk.
+pub const KIND_ROWS: u8 = b'R';
+/// Largest frame accepted \[bytes\]; a longer length means a corrupted stream.
+pub const MAX_FRAME: usize = 1 << 30;
+
+/// What the worker is asked to do.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Request {
+    /// The vehicles, the road and the routes.
+    pub layout: Layout,
+    /// The routes file written by the parent from `layout`.
+    pub routes_file: PathBuf,
+    /// SUMO's message log (`--log`).
+    pub log_file: PathBuf,
+    /// Step Δt \[s\].
+    pub step_s: f64,
+    /// Number of steps after insertion.
+    pub steps: usize,
+    /// SUMO's random seed (`--seed`).
+    pub seed: u64,
+    /// `--step-method.ballistic`: positions by the trapezoidal rule (true) or SUMO's default
+    /// semi-implicit Euler `x += v^{n+1} Δt` (false).
+    pub ballistic: bool,
+    /// Who drives.
+    pub control: Control,
+    /// Read states and stream rows (false only for the benchmark's bare-SUMO baseline).
+    pub observe: bool,
+    /// Record every k-th step.
+    pub record_every: usize,
+    /// Records per row chunk.
+    pub chunk_records: usize,
+    /// A realised speed further than this from the command counts as overridden [m/s].
+    pub override_tolerance_mps: f64,
+    /// Steps at the start that the loop timer leaves out (benchmark warm-up).
+    pub untimed_steps: usize,
+    /// How states are read.
+    #[serde(default)]
+    pub read: ReadMode,
+    /// With [`ReadMode::Getters`], read SUMO's odometer every this many steps.
+    pub odometer_every: usize,
+}
+
+/// How the loop reads vehicle states from libsumo.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ReadMode {
+    /// `vehicle.getSpeed` per vehicle per step, odometer every few steps.
+    #[default]
+    Getters,
+    /// Subscriptions to speed and odometer, one `getAllSubscriptionResults` per step.
+    Subscriptions,
+}
+
+/// Who drives the vehicles.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum Control {
+    /// The scenario's law (built in the worker from the same scenario file the parent validated).
+    Law {
+        /// The scenario file's JSON.
+        scenario: serde_json::Value,
+        /// Folder of the scenario file (relative paths).
+        base_dir: PathBuf,
+    },
+    /// SUMO's own car-following model (Krauss with the layout's σ); nothing is commanded.
+    SumoModel,
+    /// Every vehicle in speed mode 32, commanded once to hold its departure speed (SUMO keeps
+    /// a `setSpeed` until it is changed). The benchmark's baseline: SUMO does the same work per
+    /// step as under the law, without the loop's per-step calls.
+    Hold,
+}
+
+/// A JSON message from the worker.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "msg", rename_all = "snake_case")]
+pub enum WorkerMsg {
+    /// SUMO is running and every vehicle is on the road.
+    Started(StartInfo),
+    /// Something happened at a step.
+    Event(Event),
+    /// The run ended (normally or with a typed stop reason).
+    Finished(Finish),
+    /// The worker failed cleanly (Python exception, vehicles left pending, ...).
+    Failed {
+        /// The error, with its Python traceback when there is one.
+        message: String,
+    },
+}
+
+/// What the worker found when SUMO started.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StartInfo {
+    /// The embedded interpreter and libsumo.
+    pub python: PythonInfo,
+    /// Road length from libsumo `lane.getLength`, normal plus internal lanes \[m\].
+    pub road_length_m: f64,
+    /// Number of vehicles on the road after insertion.
+    pub vehicles: usize,
+    /// Process id of the worker.
+    pub pid: u32,
+}
+
+/// A step event.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Event {
+    /// SUMO reported colliding vehicles (`simulation.getCollidingVehiclesNumber`).
+    Collision {
+        /// Step index (after the step).
+        step: usize,
+        /// Vehicles involved.
+        vehicles: usize,
+    },
+    /// Vehicles started teleporting.
+    Teleport {
+        /// Step index.
+        step: usize,
+        /// Number of teleports started.
+        count: usize,
+    },
+    /// SUMO did not realise a command (only the first few per run are sent; all are counted).
+    Override {
+        /// Step index at which the speed was measured.
+        step: usize,
+        /// SUMO vehicle id.
+        vehicle: String,
+        /// Commanded speed [m/s].
+        commanded_mps: f64,
+        /// Realised speed [m/s].
+        realised_mps: f64,
+    },
+}
+
+/// Why the loop stopped.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "reason", rename_all = "snake_case")]
+pub enum StopReason {
+    /// The horizon was reached.
+    Horizon,
+    /// The law produced a non-finite speed; it was not sent to SUMO.
+    NonFiniteCommand {
+        /// SUMO vehicle id.
+        vehicle: String,
+        /// Step index n (the command was for step n+1).
+        step: usize,
+        /// The value (as text: NaN, inf).
+        value: String,
+    },
+    /// A vehicle disappeared from the road (reached the end of a straight road).
+    VehicleLost {
+        /// SUMO vehicle id.
+        vehicle: String,
+        /// Step index.
+        step: usize,
+    },
+}
+
+/// Counters of a run.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Totals {
+    /// Steps with at least one collision.
+    pub collision_steps: usize,
+    /// Sum over steps of colliding vehicles.
+    pub colliding_vehicles: usize,
+    /// Teleports started.
+    pub teleports: usize,
+    /// Commands SUMO did not realise within the tolerance.
+    pub overrides: usize,
+    /// Largest |realised − commanded| [m/s].
+    pub max_override_mps: f64,
+    /// Negative commands sent as 0 (SUMO reads a negative speed as "release control").
+    pub negative_commands_clamped: usize,
+    /// Largest difference between SUMO's odometer and the positions integrated from the
+    /// measured speeds with SUMO's update rule \[m\] (0 up to rounding).
+    pub odometer_deviation_max_m: f64,
+}
+
+/// The end of a run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Finish {
+    /// Why it stopped.
+    pub stop: StopReason,
+    /// Steps completed.
+    pub steps_done: usize,
+    /// Counters.
+    pub totals: Totals,
+    /// Wall time of the stepping loop after `untimed_steps` \[s\].
+    pub loop_wall_s: f64,
+    /// Steps inside that timing.
+    pub timed_steps: usize,
+    /// Where the timed wall time went.
+    pub phases: PhaseTimes,
+}
+
+/// Wall time of the timed steps by phase \[s\]; the rest of `loop_wall_s` is collision and
+/// teleport counts, odometer reads, override checks and row streaming.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct PhaseTimes {
+    /// The law plus one `setSpeed` per vehicle.
+    pub command_s: f64,
+    /// `simulation.step` (SUMO itself).
+    pub step_s: f64,
+    /// Reading every vehicle's speed.
+    pub read_speeds_s: f64,
+}
+
+/// Rows of consecutive recorded samples for all vehicles: per record the time \[s\], then the
+/// measured speeds, unwrapped rear-bumper positions and the commands that produced the speeds
+/// (NaN where SUMO's own model drives), each `n` values.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RowChunk {
+    /// Number of vehicles.
+    pub n: usize,
+    /// Sample times \[s\].
+    pub time_s: Vec<f64>,
+    /// Speeds [m/s], time-major.
+    pub speeds_mps: Vec<f64>,
+    /// Positions \[m\], time-major.
+    pub positions_m: Vec<f64>,
+    /// Commands [m/s], time-major.
+    pub commands_mps: Vec<f64>,
+}
+
+impl RowChunk {
+    /// An empty chunk for `n` vehicles.
+    pub fn new(n: usize) -> Self {
+        Self {
+            n,
+            ..Self::default()
+        }
+    }
+
+    /// Number of records.
+    pub fn len(&self) -> usize {
+        self.time_s.len()
+    }
+
+    /// True without records.
+    pub fn is_empty(&self) -> bool {
+        self.time_s.is_empty()
+    }
+
+    /// Appends a record.
+    pub fn push(&mut self, t: f64, speeds: &[f64], positions: &[f64], commands: &[f64]) {
+        self.time_s.push(t);
+        self.speeds_mps.extend_from_slice(speeds);
+        self.positions_m.extend_from_slice(positions);
+        self.commands_mps.extend_from_slice(commands);
+    }
+
+    /// Moves the records of `other` to the end of `self`.
+    pub fn append(&mut self, other: &mut RowChunk) {
+        self.time_s.append(&mut other.time_s);
+        self.speeds_mps.append(&mut other.speeds_mps);
+        self.positions_m.append(&mut other.positions_m);
+        self.commands_mps.append(&mut other.commands_mps);
+    }
+
+    fn clear(&mut self) {
+        self.time_s.clear();
+        self.speeds_mps.clear();
+        self.positions_m.clear();
+        self.commands_mps.clear();
+    }
+
+    /// Serialises: `n: u32, records: u32`, then per record `t, speeds, positions, commands`
+    /// as little-endian f64.
+    pub fn encode(&self) -> Vec<u8> {
+        let n = self.n;
+        let mut out = Vec::with_capacity(8 + self.len() * (1 + 3 * n) * 8);
+        out.extend_from_slice(&(n as u32).to_le_bytes());
+        out.extend_from_slice(&(self.len() as u32).to_le_bytes());
+        for k in 0..self.len() {
+            out.extend_from_slice(&self.time_s[k].to_le_bytes());
+            for arr in [&self.speeds_mps, &self.positions_m, &self.commands_mps] {
+                for x in &arr[k * n..(k + 1) * n] {
+                    out.extend_from_slice(&x.to_le_bytes());
+                }
+            }
+        }
+        out
+    }
+
+    /// Inverse of [`RowChunk::encode`].
+    pub fn decode(bytes: &[u8]) -> Result<RowChunk, ProtocolError> {
+        let word = |i: usize| -> usize {
+            bytes
+                .get(i..i + 4)
+                .map(|b| u32::from_le_bytes(b.try_into().expect("4 bytes")) as usize)
+                .unwrap_or(0)
+        };
+        let (n, records) = (word(0), word(4));
+        let expected = 8 + records * (1 + 3 * n) * 8;
+        if bytes.len() != expected {
+            return Err(ProtocolError::RowChunkSize {
+                bytes: bytes.len(),
+                expected,
+                records,
+                n,
+            });
+        }
+        let mut floats = bytes[8..]
+            .chunks_exact(8)
+            .map(|b| f64::from_le_bytes(b.try_into().expect("8 bytes")));
+        let mut c = RowChunk::new(n);
+        for _ in 0..records {
+            c.time_s.push(floats.next().expect("sized"));
+            for arr in [&mut c.speeds_mps, &mut c.positions_m, &mut c.commands_mps] {
+                arr.extend((&mut floats).take(n));
+            }
+        }
+        Ok(c)
+    }
+}
+
+/// Errors decoding the worker's stream.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ProtocolError {
+    /// Reading the pipe failed.
+    #[error("reading from the worker failed: {0}")]
+    Io(String),
+    /// The stream ended inside a frame.
+    #[error("frame of {len} bytes cut short: {reason}")]
+    Truncated {
+        /// Announced payload length (0 while reading the header).
+        len: usize,
+        /// The I/O error.
+        reason: String,
+    },
+    /// A length beyond [`MAX_FRAME`].
+    #[error("frame of {0} bytes exceeds the limit of {MAX_FRAME} bytes")]
+    TooLong(usize),
+    /// An unknown frame kind.
+    #[error("unknown frame kind {0:#04x}")]
+    UnknownKind(u8),
+    /// A JSON frame that does not parse.
+    #[error("bad JSON message: {0}")]
+    Json(String),
+    /// A row chunk whose size does not match its header.
+    #[error(
+        "row chunk of {bytes} bytes, expected {expected} for {records} records of {n} vehicles"
+    )]
+    RowChunkSize {
+        /// Payload size.
+        bytes: usize,
+        /// Size implied by the header.
+        expected: usize,
+        /// Records announced.
+        records: usize,
+        /// Vehicles announced.
+        n: usize,
+    },
+}
+
+/// Writes one frame.
+pub fn write_frame(w: &mut impl Write, kind: u8, payload: &[u8]) -> io::Result<()> {
+    w.write_all(&[kind])?;
+    w.write_all(&(payload.len() as u32).to_le_bytes())?;
+    w.write_all(payload)
+}
+
+/// Writes a JSON message frame.
+pub fn write_msg(w: &mut impl Write, msg: &WorkerMsg) -> io::Result<()> {
+    let text = serde_json::to_vec(msg).map_err(io::Error::other)?;
+    write_frame(w, KIND_JSON, &text)?;
+    w.flush()
+}
+
+/// Writes a row chunk frame and empties the chunk.
+pub fn write_rows(w: &mut impl Write, rows: &mut RowChunk) -> io::Result<()> {
+    if rows.is_empty() {
+        return Ok(());
+    }
+    write_frame(w, KIND_ROWS, &rows.encode())?;
+    rows.clear();
+    w.flush()
+}
+
+/// A decoded frame.
+#[derive(Debug)]
+pub enum Frame {
+    /// A JSON message.
+    Msg(WorkerMsg),
+    /// Rows.
+    Rows(RowChunk),
+}
+
+/// Reads one frame; `Ok(None)` at a clean end of stream.
+pub fn read_frame(r: &mut impl Read) -> Result<Option<Frame>, ProtocolError> {
+    let mut head = [0u8; 5];
+    match r.read_exact(&mut head[..1]) {
+        Ok(()) => {}
+        Err(e) if e.kind() == io::ErrorKind::UnexpectedEof => return Ok(None),
+        Err(e) => return Err(ProtocolError::Io(e.to_string())),
+    }
+    r.read_exact(&mut head[1..])
+        .map_err(|e| ProtocolError::Truncated {
+            len: 0,
+            reason: e.to_string(),
+        })?;
+    let len = u32::from_le_bytes(head[1..5].try_into().expect("4 bytes")) as usize;
+    if len > MAX_FRAME {
+        return Err(ProtocolError::TooLong(len));
+    }
+    let mut payload = vec![0u8; len];
+    r.read_exact(&mut payload)
+        .map_err(|e| ProtocolError::Truncated {
+            len,
+            reason: e.to_string(),
+        })?;
+    match head[0] {
+        KIND_JSON => serde_json::from_slice(&payload)
+            .map(|m| Some(Frame::Msg(m)))
+            .map_err(|e| ProtocolError::Json(e.to_string())),
+        KIND_ROWS => RowChunk::decode(&payload).map(|c| Some(Frame::Rows(c))),
+        k => Err(ProtocolError::UnknownKind(k)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rows_round_trip_through_frames() {
+        let mut c = RowChunk::new(2);
+        c.push(0.0, &[1.0, 2.0], &[0.0, -7.5], &[f64::NAN, 2.0]);
+        c.push(0.1, &[1.5, 2.5], &[0.1, -7.3], &[1.5, 2.5]);
+        let copy = c.clone();
+        let mut buf = Vec::new();
+        write_rows(&mut buf, &mut c).unwrap();
+        assert!(c.is_empty());
+        write_msg(
+            &mut buf,
+            &WorkerMsg::Failed {
+                message: "x".into(),
+            },
+        )
+        .unwrap();
+        let mut r = buf.as_slice();
+        let Some(Frame::Rows(d)) = read_frame(&mut r).unwrap() else {
+            panic!("rows expected")
+        };
+        assert_eq!(d.time_s, copy.time_s);
+        assert_eq!(d.speeds_mps, copy.speeds_mps);
+        assert!(d.commands_mps[0].is_nan());
+        assert!(matches!(
+            read_frame(&mut r).unwrap(),
+            Some(Frame::Msg(WorkerMsg::Failed { .. }))
+        ));
+        assert!(read_frame(&mut r).unwrap().is_none());
+    }
+
+    #[test]
+    fn truncated_frames_are_errors() {
+        let mut buf = Vec::new();
+        write_frame(&mut buf, KIND_JSON, b"{\"msg\":").unwrap();
+        buf.truncate(buf.len() - 2);
+        let err = read_frame(&mut buf.as_slice()).unwrap_err();
+        assert!(
+            err.to_string().starts_with("frame of 7 bytes cut short"),
+            "{err}"
+        );
+        let err = RowChunk::decode(&[2, 0, 0, 0, 1, 0, 0, 0]).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "row chunk of 8 bytes, expected 64 for 1 records of 2 vehicles"
+        );
+        let err = read_frame(&mut [b'X', 0, 0, 0, 0].as_slice()).unwrap_err();
+        assert_eq!(err.to_string(), "unknown frame kind 0x58");
+    }
+}

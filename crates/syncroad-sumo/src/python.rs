@@ -1,0 +1,181 @@
+//! The embedded CPython interpreter: loading libsumo from the project's virtualenv, and the one
+//! place where Python exceptions become Rust errors.
+//!
+//! Every `PyErr` goes through [`py_error`], which keeps the Python traceback. No Python call is
+//! ever unwrapped.
+
+use std::path::PathBuf;
+
+use pyo3::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::venv::{self, VenvError, BOOTSTRAP_COMMAND};
+
+/// Errors of the embedded interpreter.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PythonError {
+    /// The virtualenv could not be located.
+    #[error(transparent)]
+    Venv(#[from] VenvError),
+    /// A package is missing from the virtualenv.
+    #[error("Python module `{module}` is not installed in {site_packages} ({detail}); install the pinned SUMO packages with `{BOOTSTRAP_COMMAND}`")]
+    MissingPackage {
+        /// Module name.
+        module: String,
+        /// The site-packages folder that was searched.
+        site_packages: String,
+        /// The ImportError message.
+        detail: String,
+    },
+    /// A Python call raised.
+    #[error("Python call `{call}` failed:\n{traceback}")]
+    Call {
+        /// What was called (with its arguments where they help).
+        call: String,
+        /// The formatted Python traceback and exception.
+        traceback: String,
+    },
+}
+
+/// Converts a Python exception into [`PythonError::Call`], keeping the traceback.
+pub fn py_error(py: Python<'_>, call: impl Into<String>, err: PyErr) -> PythonError {
+    PythonError::Call {
+        call: call.into(),
+        traceback: format_exception(py, &err),
+    }
+}
+
+/// `traceback.format_exception(err)` joined, falling back to the exception's `str`.
+fn format_exception(py: Python<'_>, err: &PyErr) -> String {
+    let formatted = (|| -> PyResult<String> {
+        let tb = py.import("traceback")?;
+        let lines = tb.call_method1(
+            "format_exception",
+            (err.get_type(py), err.value(py), err.traceback(py)),
+        )?;
+        let text: Vec<String> = lines.extract()?;
+        Ok(text.concat())
+    })();
+    match formatted {
+        Ok(s) => s.trim_end().to_string(),
+        Err(_) => err.to_string(),
+    }
+}
+
+/// Where the embedded interpreter found its packages (logged at start, sent to the parent).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PythonInfo {
+    /// `sys.version` of the embedded interpreter.
+    pub python_version: String,
+    /// `sys.prefix` (the base installation: a venv is added with `site.addsitedir`).
+    pub sys_prefix: String,
+    /// The virtualenv's site-packages that was added.
+    pub site_packages: String,
+    /// `libsumo.__file__`.
+    pub libsumo_file: String,
+    /// `libsumo.getVersion()`, e.g. `SUMO 1.28.0`.
+    pub sumo_version: String,
+    /// `sumo.SUMO_HOME` of the eclipse-sumo wheel (holds `bin/sumo`, `bin/netconvert`).
+    pub sumo_home: String,
+}
+
+/// Adds the virtualenv's site-packages to the embedded interpreter and imports libsumo.
+pub fn load_libsumo(py: Python<'_>) -> Result<(Bound<'_, PyModule>, PythonInfo), PythonError> {
+    let sys = py
+        .import("sys")
+        .map_err(|e| py_error(py, "import sys", e))?;
+    let vi = sys
+        .getattr("version_info")
+        .map_err(|e| py_error(py, "sys.version_info", e))?;
+    let (major, minor): (u32, u32) = (
+        vi.getattr("major")
+            .and_then(|x| x.extract())
+            .map_err(|e| py_error(py, "sys.version_info.major", e))?,
+        vi.getattr("minor")
+            .and_then(|x| x.extract())
+            .map_err(|e| py_error(py, "sys.version_info.minor", e))?,
+    );
+    let venv_dir = venv::find_venv()?;
+    let sp = venv::site_packages(&venv_dir, &format!("{major}.{minor}"))?;
+    let site = py
+        .import("site")
+        .map_err(|e| py_error(py, "import site", e))?;
+    site.call_method1("addsitedir", (sp.to_string_lossy().as_ref(),))
+        .map_err(|e| py_error(py, format!("site.addsitedir({})", sp.display()), e))?;
+    let import = |module: &str| -> Result<Bound<'_, PyModule>, PythonError> {
+        py.import(module).map_err(|e| {
+            if e.is_instance_of::<pyo3::exceptions::PyImportError>(py) {
+                PythonError::MissingPackage {
+                    module: module.to_string(),
+                    site_packages: sp.display().to_string(),
+                    detail: e.value(py).to_string(),
+                }
+            } else {
+                py_error(py, format!("import {module}"), e)
+            }
+        })
+    };
+    let sumo = import("sumo")?;
+    let libsumo = import("libsumo")?;
+    let get_str = |obj: &Bound<'_, PyAny>, attr: &str| -> Result<String, PythonError> {
+        obj.getattr(attr)
+            .and_then(|x| x.str())
+            .map(|s| s.to_string())
+            .map_err(|e| py_error(py, attr.to_string(), e))
+    };
+    let version = libsumo
+        .call_method0("getVersion")
+        .and_then(|v| v.get_item(1))
+        .and_then(|v| v.extract::<String>())
+        .map_err(|e| py_error(py, "libsumo.getVersion()", e))?;
+    let info = PythonInfo {
+        python_version: get_str(sys.as_any(), "version")?,
+        sys_prefix: get_str(sys.as_any(), "prefix")?,
+        site_packages: sp.display().to_string(),
+        libsumo_file: get_str(libsumo.as_any(), "__file__")?,
+        sumo_version: version,
+        sumo_home: get_str(sumo.as_any(), "SUMO_HOME")?,
+    };
+    Ok((libsumo, info))
+}
+
+/// The path of a SUMO binary (`sumo`, `netconvert`) inside the wheel's `SUMO_HOME`.
+pub fn sumo_binary(info: &PythonInfo, name: &str) -> PathBuf {
+    PathBuf::from(&info.sumo_home).join("bin").join(name)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn python_errors_keep_the_traceback() {
+        Python::attach(|py| {
+            let code =
+                c"def inner():\n    raise ValueError('bad speed 7')\n\ndef outer():\n    inner()\n";
+            let m = PyModule::from_code(py, code, c"probe.py", c"probe").expect("valid code");
+            let err = m.call_method0("outer").expect_err("raises");
+            let e = py_error(py, "probe.outer()", err);
+            let msg = e.to_string();
+            assert!(
+                msg.starts_with("Python call `probe.outer()` failed:\nTraceback"),
+                "{msg}"
+            );
+            assert!(msg.contains("in inner"), "{msg}");
+            assert!(msg.ends_with("ValueError: bad speed 7"), "{msg}");
+        });
+    }
+
+    #[test]
+    fn missing_package_says_what_to_run() {
+        let e = PythonError::MissingPackage {
+            module: "libsumo".into(),
+            site_packages: "/r/.venv/lib/python3.11/site-packages".into(),
+            detail: "No module named 'libsumo'".into(),
+        };
+        assert_eq!(
+            e.to_string(),
+            "Python module `libsumo` is not installed in /r/.venv/lib/python3.11/site-packages (No module named 'libsumo'); install the pinned SUMO packages with `bash python-host/bootstrap.sh`"
+        );
+    }
+}

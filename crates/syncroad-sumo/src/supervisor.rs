@@ -1,0 +1,399 @@
+//! The parent side: starts a worker process, feeds it a [`Request`], collects the streamed rows
+//! and turns every way a worker can end (finished, failed, crashed on a signal, timed out,
+//! interrupted by Ctrl-C) into a result that still holds every row received.
+
+use std::collections::VecDeque;
+use std::ffi::OsString;
+use std::io::{BufRead, BufReader, Write};
+use std::os::unix::process::{CommandExt, ExitStatusExt};
+use std::path::PathBuf;
+use std::process::{Command, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc;
+use std::sync::{Arc, Mutex, OnceLock};
+use std::time::{Duration, Instant};
+
+use crate::protocol::{read_frame, Event, Finish, Frame, Request, RowChunk, StartInfo, WorkerMsg};
+use crate::worker::WORKER_ARG;
+
+/// Lines of worker stderr kept for error messages.
+const STDERR_LINES: usize = 30;
+
+/// Exit code for a run interrupted by Ctrl-C (128 + SIGINT).
+pub const EXIT_INTERRUPTED: u8 = 130;
+
+/// How to start a worker.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WorkerCommand {
+    /// The executable.
+    pub program: PathBuf,
+    /// Its arguments.
+    pub args: Vec<OsString>,
+}
+
+impl WorkerCommand {
+    /// The running executable re-executed as a worker (`<exe> __sumo-worker`); the binary must
+    /// call [`crate::worker_main`] when it sees [`WORKER_ARG`].
+    pub fn current_exe() -> std::io::Result<Self> {
+        Ok(Self {
+            program: std::env::current_exe()?,
+            args: vec![WORKER_ARG.into()],
+        })
+    }
+
+    /// A given worker binary (e.g. `syncroad-sumo-worker`).
+    pub fn binary(program: impl Into<PathBuf>) -> Self {
+        Self {
+            program: program.into(),
+            args: Vec::new(),
+        }
+    }
+}
+
+/// Called once SUMO runs in the worker (e.g. to show progress).
+pub type StartHook = Arc<dyn Fn(&StartInfo) + Send + Sync>;
+
+/// Limits of one supervised run.
+#[derive(Clone, Default)]
+pub struct Supervision {
+    /// Wall-clock limit (none when `None`).
+    pub timeout: Option<Duration>,
+    /// Set by a Ctrl-C handler ([`interrupt_flag`]); the worker is stopped when it turns true.
+    pub interrupt: Option<Arc<AtomicBool>>,
+    /// Called when the worker reports that SUMO started.
+    pub on_start: Option<StartHook>,
+}
+
+impl std::fmt::Debug for Supervision {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Supervision")
+            .field("timeout", &self.timeout)
+            .field("interrupt", &self.interrupt)
+            .field("on_start", &self.on_start.as_ref().map(|_| "hook"))
+            .finish()
+    }
+}
+
+/// The process-wide Ctrl-C flag (installs the handler on first use). Workers run in their own
+/// process group, so a terminal Ctrl-C reaches only the parent, which stops the worker itself
+/// and keeps what it received.
+pub fn interrupt_flag() -> Result<Arc<AtomicBool>, SupervisorError> {
+    static FLAG: OnceLock<Result<Arc<AtomicBool>, String>> = OnceLock::new();
+    FLAG.get_or_init(|| {
+        let flag = Arc::new(AtomicBool::new(false));
+        let f = flag.clone();
+        ctrlc::set_handler(move || f.store(true, Ordering::SeqCst))
+            .map(|()| flag)
+            .map_err(|e| e.to_string())
+    })
+    .clone()
+    .map_err(SupervisorError::CtrlC)
+}
+
+/// How a supervised run failed. Rows received before the failure stay in [`WorkerRun`].
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SupervisorError {
+    /// The worker could not be started.
+    #[error("cannot start the SUMO worker {program}: {reason}")]
+    Spawn {
+        /// The executable.
+        program: String,
+        /// The OS error.
+        reason: String,
+    },
+    /// The Ctrl-C handler could not be installed.
+    #[error("cannot install the Ctrl-C handler: {0}")]
+    CtrlC(String),
+    /// The worker died on a signal (e.g. SIGSEGV inside libsumo on a malformed net).
+    #[error("the SUMO worker (pid {pid}) crashed with signal {signal} ({name}) after {records} recorded samples; its last output:\n{stderr_tail}")]
+    Crashed {
+        /// Worker pid.
+        pid: u32,
+        /// Signal number.
+        signal: i32,
+        /// Signal name.
+        name: &'static str,
+        /// Samples received before the crash.
+        records: usize,
+        /// Last lines of the worker's stderr (SUMO's console output).
+        stderr_tail: String,
+    },
+    /// The worker exited without reporting a result.
+    #[error("the SUMO worker (pid {pid}) exited with code {code} without a result; its last output:\n{stderr_tail}")]
+    Exited {
+        /// Worker pid.
+        pid: u32,
+        /// Exit code.
+        code: i32,
+        /// Last stderr lines.
+        stderr_tail: String,
+    },
+    /// The wall-clock limit was reached.
+    #[error("the SUMO run exceeded its time limit of {seconds} s and was stopped after {records} recorded samples (raise sumo.timeout_s)")]
+    Timeout {
+        /// The limit \[s\].
+        seconds: f64,
+        /// Samples received.
+        records: usize,
+    },
+    /// Ctrl-C.
+    #[error("interrupted (Ctrl-C) after {records} recorded samples")]
+    Interrupted {
+        /// Samples received.
+        records: usize,
+    },
+    /// The worker reported a clean failure.
+    #[error("{0}")]
+    Worker(String),
+    /// The stream from the worker was corrupted.
+    #[error("protocol error talking to the SUMO worker: {0}")]
+    Protocol(#[from] crate::protocol::ProtocolError),
+    /// Waiting for the worker failed.
+    #[error("waiting for the SUMO worker failed: {0}")]
+    Wait(String),
+}
+
+impl SupervisorError {
+    /// Process exit code the CLI should use: 130 for Ctrl-C, else `None` (the CLI's default).
+    pub fn exit_code(&self) -> Option<u8> {
+        matches!(self, SupervisorError::Interrupted { .. }).then_some(EXIT_INTERRUPTED)
+    }
+}
+
+/// Everything a worker produced.
+#[derive(Debug, Clone)]
+pub struct WorkerRun {
+    /// Start information (absent if SUMO never started).
+    pub start: Option<StartInfo>,
+    /// Every row received.
+    pub rows: RowChunk,
+    /// Every event received.
+    pub events: Vec<Event>,
+    /// The end of the run, or why there is none.
+    pub result: Result<Finish, SupervisorError>,
+    /// Worker pid.
+    pub pid: u32,
+}
+
+impl WorkerRun {
+    /// True when the worker finished the run and reported its end.
+    pub fn complete(&self) -> bool {
+        self.result.is_ok()
+    }
+}
+
+fn signal_name(sig: i32) -> &'static str {
+    match sig {
+        libc::SIGSEGV => "SIGSEGV",
+        libc::SIGABRT => "SIGABRT",
+        libc::SIGBUS => "SIGBUS",
+        libc::SIGFPE => "SIGFPE",
+        libc::SIGILL => "SIGILL",
+        libc::SIGKILL => "SIGKILL",
+        libc::SIGTERM => "SIGTERM",
+        libc::SIGINT => "SIGINT",
+        libc::SIGPIPE => "SIGPIPE",
+        _ => "signal",
+    }
+}
+
+/// Runs `request` in a new worker process started by `cmd`, under `limits`.
+pub fn run_worker(cmd: &WorkerCommand, request: &Request, limits: &Supervision) -> WorkerRun {
+    let mut run = WorkerRun {
+        start: None,
+        rows: RowChunk::new(request.layout.vehicles.len()),
+        events: Vec::new(),
+        result: Err(SupervisorError::Wait("not started".into())),
+        pid: 0,
+    };
+    let mut command = Command::new(&cmd.program);
+    if let Some(libdir) = option_env!("SYNCROAD_PYTHON_LIBDIR") {
+        // The libpython pyo3 was built against comes first (see build.rs).
+        let mut paths = vec![PathBuf::from(libdir)];
+        if let Some(old) = std::env::var_os("LD_LIBRARY_PATH") {
+            paths.extend(std::env::split_paths(&old));
+        }
+        if let Ok(joined) = std::env::join_paths(paths) {
+            command.env("LD_LIBRARY_PATH", joined);
+        }
+    }
+    let mut child = match command
+        .args(&cmd.args)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .process_group(0)
+        .spawn()
+    {
+        Ok(c) => c,
+        Err(e) => {
+            run.result = Err(SupervisorError::Spawn {
+                program: cmd.program.display().to_string(),
+                reason: e.to_string(),
+            });
+            return run;
+        }
+    };
+    run.pid = child.id();
+    let verbose = std::env::var_os("SYNCROAD_SUMO_VERBOSE").is_some();
+    let stderr_tail = Arc::new(Mutex::new(VecDeque::<String>::new()));
+    let stderr_thread = child.stderr.take().map(|err| {
+        let tail = stderr_tail.clone();
+        std::thread::spawn(move || {
+            for line in BufReader::new(err).lines().map_while(Result::ok) {
+                if verbose {
+                    eprintln!("[sumo worker] {line}");
+                }
+                let mut t = tail.lock().expect("stderr tail lock");
+                if t.len() == STDERR_LINES {
+                    t.pop_front();
+                }
+                t.push_back(line);
+            }
+        })
+    });
+    let tail_text = |t: &Arc<Mutex<VecDeque<String>>>| {
+        t.lock()
+            .map(|t| t.iter().cloned().collect::<Vec<_>>().join("\n"))
+            .unwrap_or_default()
+    };
+    // The request, then close stdin.
+    if let Some(mut stdin) = child.stdin.take() {
+        let line = serde_json::to_string(request).expect("a request serialises");
+        let _ = writeln!(stdin, "{line}");
+    }
+    let (tx, rx) = mpsc::channel();
+    let stdout = child.stdout.take().expect("piped stdout");
+    let reader = std::thread::spawn(move || {
+        let mut r = BufReader::with_capacity(1 << 20, stdout);
+        loop {
+            let f = read_frame(&mut r);
+            let end = !matches!(f, Ok(Some(_)));
+            if tx.send(f).is_err() || end {
+                break;
+            }
+        }
+    });
+    let started = Instant::now();
+    let mut finished: Option<Finish> = None;
+    let mut failed: Option<String> = None;
+    let mut protocol: Option<crate::protocol::ProtocolError> = None;
+    let mut stopped: Option<SupervisorError> = None;
+    let mut handle = |f: Frame, run: &mut WorkerRun| match f {
+        Frame::Rows(mut c) => run.rows.append(&mut c),
+        Frame::Msg(WorkerMsg::Started(s)) => {
+            if let Some(hook) = &limits.on_start {
+                hook(&s);
+            }
+            run.start = Some(s);
+        }
+        Frame::Msg(WorkerMsg::Event(e)) => run.events.push(e),
+        Frame::Msg(WorkerMsg::Finished(f)) => finished = Some(f),
+        Frame::Msg(WorkerMsg::Failed { message }) => failed = Some(message),
+    };
+    loop {
+        match rx.recv_timeout(Duration::from_millis(50)) {
+            Ok(Ok(Some(frame))) => handle(frame, &mut run),
+            Ok(Ok(None)) | Err(mpsc::RecvTimeoutError::Disconnected) => break,
+            Ok(Err(e)) => {
+                protocol = Some(e);
+                break;
+            }
+            Err(mpsc::RecvTimeoutError::Timeout) => {}
+        }
+        if stopped.is_none() {
+            let interrupted = limits
+                .interrupt
+                .as_ref()
+                .is_some_and(|f| f.load(Ordering::SeqCst));
+            let timed_out = limits.timeout.is_some_and(|t| started.elapsed() > t);
+            if interrupted || timed_out {
+                let _ = child.kill();
+                stopped = Some(if interrupted {
+                    SupervisorError::Interrupted { records: 0 }
+                } else {
+                    SupervisorError::Timeout {
+                        seconds: limits.timeout.map(|t| t.as_secs_f64()).unwrap_or(0.0),
+                        records: 0,
+                    }
+                });
+            }
+        }
+    }
+    // Drain what the reader got before the pipe closed.
+    while let Ok(Ok(Some(frame))) = rx.try_recv() {
+        handle(frame, &mut run);
+    }
+    let status = child.wait();
+    let _ = reader.join();
+    if let Some(t) = stderr_thread {
+        let _ = t.join();
+    }
+    let records = run.rows.len();
+    run.result = if let Some(s) = stopped {
+        Err(match s {
+            SupervisorError::Interrupted { .. } => SupervisorError::Interrupted { records },
+            SupervisorError::Timeout { seconds, .. } => {
+                SupervisorError::Timeout { seconds, records }
+            }
+            other => other,
+        })
+    } else if let Some(f) = finished {
+        Ok(f)
+    } else if let Some(m) = failed {
+        Err(SupervisorError::Worker(m))
+    } else {
+        match status {
+            Ok(st) => match st.signal() {
+                Some(sig) => Err(SupervisorError::Crashed {
+                    pid: run.pid,
+                    signal: sig,
+                    name: signal_name(sig),
+                    records,
+                    stderr_tail: tail_text(&stderr_tail),
+                }),
+                None => match protocol {
+                    Some(p) => Err(SupervisorError::Protocol(p)),
+                    None => Err(SupervisorError::Exited {
+                        pid: run.pid,
+                        code: st.code().unwrap_or(-1),
+                        stderr_tail: tail_text(&stderr_tail),
+                    }),
+                },
+            },
+            Err(e) => Err(SupervisorError::Wait(e.to_string())),
+        }
+    };
+    run
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn interrupted_maps_to_exit_code_130() {
+        let e = SupervisorError::Interrupted { records: 12 };
+        assert_eq!(e.exit_code(), Some(130));
+        assert_eq!(
+            e.to_string(),
+            "interrupted (Ctrl-C) after 12 recorded samples"
+        );
+        assert_eq!(SupervisorError::Worker("x".into()).exit_code(), None);
+    }
+
+    #[test]
+    fn crash_message_names_signal_and_samples() {
+        let e = SupervisorError::Crashed {
+            pid: 42,
+            signal: 11,
+            name: signal_name(11),
+            records: 3,
+            stderr_tail: "Loading net-file".into(),
+        };
+        assert_eq!(
+            e.to_string(),
+            "the SUMO worker (pid 42) crashed with signal 11 (SIGSEGV) after 3 recorded samples; its last output:\nLoading net-file"
+        );
+    }
+}

@@ -1,0 +1,95 @@
+//! The worker side: one process, one SUMO run.
+//!
+//! [`worker_main`] is the whole program of a worker. Any binary can become a worker by calling
+//! it when started with [`WORKER_ARG`] as its first argument; the `syncroad` CLI re-executes
+//! itself that way, and this crate ships `syncroad-sumo-worker` for tests and benchmarks.
+//!
+//! SUMO and Python print to the C-level stdout, which would corrupt the frames, so the worker
+//! first moves the protocol to a duplicate of stdout and points descriptor 1 at stderr.
+
+use std::fs::File;
+use std::io::{BufRead, BufWriter, Write};
+use std::os::fd::{FromRawFd, OwnedFd};
+use std::process::ExitCode;
+
+use crate::protocol::{write_msg, Request, WorkerMsg};
+
+/// First argument that turns a binary into a worker.
+pub const WORKER_ARG: &str = "__sumo-worker";
+
+/// Exit code of a worker that reported a clean failure ([`WorkerMsg::Failed`]).
+pub const EXIT_FAILED: u8 = 3;
+
+/// True when this process was started as a worker (`<exe> __sumo-worker`): binaries that
+/// embed the worker call [`worker_main`] first thing when this holds.
+pub fn is_worker_invocation() -> bool {
+    std::env::args_os().nth(1).is_some_and(|a| a == WORKER_ARG)
+}
+
+/// Redirects descriptor 1 to stderr and returns the original stdout for the protocol.
+fn take_protocol_channel() -> std::io::Result<File> {
+    // SAFETY: dup/dup2 on the process's own standard descriptors; the duplicate is owned by
+    // the returned File and nothing else holds it.
+    unsafe {
+        let fd = libc::dup(1);
+        if fd < 0 {
+            return Err(std::io::Error::last_os_error());
+        }
+        if libc::dup2(2, 1) < 0 {
+            return Err(std::io::Error::last_os_error());
+        }
+        libc::fcntl(fd, libc::F_SETFD, libc::FD_CLOEXEC);
+        Ok(File::from(OwnedFd::from_raw_fd(fd)))
+    }
+}
+
+/// The worker program: reads one [`Request`] line from stdin, runs it, streams the results.
+pub fn worker_main() -> ExitCode {
+    let proto = match take_protocol_channel() {
+        Ok(f) => f,
+        Err(e) => {
+            eprintln!("syncroad-sumo worker: cannot set up the protocol channel: {e}");
+            return ExitCode::from(EXIT_FAILED);
+        }
+    };
+    let mut out = BufWriter::with_capacity(1 << 20, proto);
+    let mut line = String::new();
+    if let Err(e) = std::io::stdin().lock().read_line(&mut line) {
+        let _ = write_msg(
+            &mut out,
+            &WorkerMsg::Failed {
+                message: format!("cannot read the request from stdin: {e}"),
+            },
+        );
+        return ExitCode::from(EXIT_FAILED);
+    }
+    let req: Request = match serde_json::from_str(&line) {
+        Ok(r) => r,
+        Err(e) => {
+            let _ = write_msg(
+                &mut out,
+                &WorkerMsg::Failed {
+                    message: format!("malformed request: {e}"),
+                },
+            );
+            return ExitCode::from(EXIT_FAILED);
+        }
+    };
+    let result = pyo3::Python::attach(|py| crate::cosim::run(py, &req, &mut out));
+    match result {
+        Ok(()) => {
+            let _ = out.flush();
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            let _ = write_msg(
+                &mut out,
+                &WorkerMsg::Failed {
+                    message: e.to_string(),
+                },
+            );
+            let _ = out.flush();
+            ExitCode::from(EXIT_FAILED)
+        }
+    }
+}

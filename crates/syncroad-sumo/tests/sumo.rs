@@ -1,0 +1,429 @@
+//! Tests with real SUMO (libsumo 1.28.0 from the project's virtualenv: run
+//! `bash python-host/bootstrap.sh` first). Every run goes through a real worker process.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+use approx::assert_relative_eq;
+use syncroad_control::native::{simulate, NativeOptions};
+use syncroad_control::Scenario;
+use syncroad_sumo::run::PrepareError;
+use syncroad_sumo::{run_scenario, RunError, RunOptions, SupervisorError, WorkerCommand};
+
+fn nets() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../sumo-nets")
+        .canonicalize()
+        .unwrap()
+}
+
+fn work(name: &str) -> PathBuf {
+    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn opts(name: &str) -> RunOptions {
+    RunOptions::new(
+        work(name),
+        WorkerCommand::binary(env!("CARGO_BIN_EXE_syncroad-sumo-worker")),
+    )
+}
+
+/// A Sugiyama-ring scenario with delayed drivers (Theorem 1 holds: α_j d_j^+ < 1/2).
+fn ring_scenario(vehicles: usize, horizon_s: f64, net: &Path, seed: u64) -> Scenario {
+    ring_scenario_with(vehicles, horizon_s, net, seed, 8.0, 30.0)
+}
+
+fn ring_scenario_with(
+    vehicles: usize,
+    horizon_s: f64,
+    net: &Path,
+    seed: u64,
+    speed_mps: f64,
+    max_speed_mps: f64,
+) -> Scenario {
+    let json = format!(
+        r#"{{
+        "name": "sumo-ring-test", "backend": "sumo", "seed": {seed}, "step_s": 0.1,
+        "horizon_s": {horizon_s}, "vehicles": {vehicles},
+        "road": {{"type": "ring", "length_m": 230}},
+        "model": {{"type": "delayed_driver",
+                   "graph": {{"type": "bidirectional_ring", "gain_pred": 0.6, "gain_follow": 0.1}},
+                   "delay_s": 0.5}},
+        "initial": {{"speed_mps": {speed_mps}, "perturbation": {{"speed_mps": 1.5}}}},
+        "sumo": {{"net": "{}", "max_speed_mps": {max_speed_mps}}}
+    }}"#,
+        net.display()
+    );
+    Scenario::from_json(&json).expect("valid scenario")
+}
+
+mod rejected_before_sumo_starts {
+    use super::*;
+
+    #[test]
+    fn missing_net_file() {
+        let sc = ring_scenario(22, 10.0, Path::new("/nonexistent/ring.net.xml"), 1);
+        let err = run_scenario(&sc, &opts("missing-net")).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "sumo.net = /nonexistent/ring.net.xml: file not found (checked before starting SUMO)"
+        );
+    }
+
+    #[test]
+    fn overfull_ring() {
+        let sc = ring_scenario(31, 10.0, &nets().join("sugiyama-ring.net.xml"), 1);
+        let err = run_scenario(&sc, &opts("overfull")).unwrap_err();
+        assert!(matches!(err, PrepareError::Layout(_)), "{err}");
+        let msg = err.to_string();
+        assert!(
+            msg.contains(
+                "31 vehicles × (length 5 m + minGap 2.5 m) = 232.50 m exceed its length 230.3592 m"
+            ),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn step_and_seed_sumo_cannot_take() {
+        let net = nets().join("sugiyama-ring.net.xml");
+        let sc = ring_scenario(22, 10.0, &net, 4_000_000_000);
+        let err = run_scenario(&sc, &opts("big-seed")).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "seed = 4000000000: SUMO's --seed takes 0 ..= 2147483647"
+        );
+    }
+
+    #[test]
+    fn malformed_net_is_caught_by_the_parser() {
+        let dir = work("malformed-parse");
+        let bad = dir.join("bad.net.xml");
+        std::fs::write(&bad, "<net><edge id='x'>").unwrap();
+        let sc = ring_scenario(22, 10.0, &bad, 1);
+        let err = run_scenario(&sc, &opts("malformed-parse-run")).unwrap_err();
+        assert!(
+            err.to_string().starts_with(&format!(
+                "SUMO network {} is not well-formed XML",
+                bad.display()
+            )),
+            "{err}"
+        );
+    }
+}
+
+mod supervision {
+    use super::*;
+
+    /// libsumo segfaults on `<net><edge id='x'>`; sent straight to a worker (bypassing the
+    /// pre-start checks) the crash is contained and reported, and this process goes on.
+    #[test]
+    fn malformed_net_crash_is_contained() {
+        let dir = work("malformed-crash");
+        let bad = dir.join("bad.net.xml");
+        std::fs::write(&bad, "<net><edge id='x'>").unwrap();
+        let sc = ring_scenario(22, 10.0, &nets().join("sugiyama-ring.net.xml"), 1);
+        let o = opts("malformed-crash-run");
+        let mut req = syncroad_sumo::run::prepare(&sc, &o).unwrap();
+        req.layout.road.path = bad;
+        let run = syncroad_sumo::run_worker(&o.worker, &req, &Default::default());
+        let err = run.result.unwrap_err();
+        eprintln!("malformed net in the worker: {err}");
+        match &err {
+            SupervisorError::Crashed { name, records, .. } => {
+                assert_eq!(*name, "SIGSEGV");
+                assert_eq!(*records, 0);
+            }
+            // A SUMO build that reports the error instead of crashing is fine too.
+            SupervisorError::Worker(m) => assert!(m.contains("SUMO did not start"), "{m}"),
+            other => panic!("unexpected: {other}"),
+        }
+        assert!(run.start.is_none());
+    }
+
+    /// A start failure SUMO reports itself (here: a routes file that vanished) comes back with
+    /// the Python exception and the tail of SUMO's log.
+    #[test]
+    fn start_failure_reports_the_sumo_log() {
+        let sc = ring_scenario(22, 10.0, &nets().join("sugiyama-ring.net.xml"), 1);
+        let o = opts("start-failure");
+        let mut req = syncroad_sumo::run::prepare(&sc, &o).unwrap();
+        req.routes_file = o.work_dir.join("vanished.rou.xml");
+        let run = syncroad_sumo::run_worker(&o.worker, &req, &Default::default());
+        let msg = run.result.unwrap_err().to_string();
+        assert!(
+            msg.starts_with("SUMO did not start: Python call `libsumo.start` failed"),
+            "{msg}"
+        );
+        assert!(msg.contains("vanished.rou.xml"), "{msg}");
+    }
+
+    #[test]
+    fn timeout_keeps_rows_and_marks_incomplete() {
+        let sc = ring_scenario(22, 100_000.0, &nets().join("sugiyama-ring.net.xml"), 1);
+        let mut o = opts("timeout");
+        o.timeout = Some(Duration::from_secs(3));
+        let run = run_scenario(&sc, &o).unwrap();
+        let err = run.outcome().unwrap_err();
+        assert!(
+            matches!(err, RunError::Supervisor(SupervisorError::Timeout { .. })),
+            "{err}"
+        );
+        assert!(
+            run.worker.rows.len() > 10,
+            "rows streamed before the timeout"
+        );
+        assert!(err
+            .to_string()
+            .starts_with("the SUMO run exceeded its time limit of 3 s"));
+        run.write_outputs(&sc, &o.work_dir).unwrap();
+        let summary = std::fs::read_to_string(o.work_dir.join("sumo-run.json")).unwrap();
+        assert!(summary.contains("\"complete\": false"), "{summary}");
+        let csv = std::fs::read_to_string(o.work_dir.join("trajectory.csv")).unwrap();
+        assert_eq!(csv.lines().count(), 1 + 22 * run.worker.rows.len());
+    }
+
+    /// A worker that dies mid-run (here SIGABRT, as libsumo's own assertions would raise)
+    /// becomes a Crashed error; the rows streamed before the crash are kept.
+    #[test]
+    fn crash_mid_run_keeps_the_rows() {
+        let sc = ring_scenario(22, 100_000.0, &nets().join("sugiyama-ring.net.xml"), 1);
+        let mut o = opts("crash-mid-run");
+        o.on_start = Some(Arc::new(|s: &syncroad_sumo::protocol::StartInfo| {
+            let pid = s.pid as i32;
+            std::thread::spawn(move || {
+                std::thread::sleep(Duration::from_secs(2));
+                // SAFETY: signals our own child worker.
+                unsafe { libc::kill(pid, libc::SIGABRT) };
+            });
+        }));
+        let run = run_scenario(&sc, &o).unwrap();
+        let err = run.outcome().unwrap_err();
+        match &err {
+            RunError::Supervisor(SupervisorError::Crashed { name, records, .. }) => {
+                assert_eq!(*name, "SIGABRT");
+                assert_eq!(*records, run.worker.rows.len());
+            }
+            other => panic!("unexpected: {other}"),
+        }
+        assert!(run.worker.rows.len() > 10, "rows streamed before the crash");
+        assert!(
+            err.to_string().contains("crashed with signal 6 (SIGABRT)"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn interrupt_stops_with_exit_code_130() {
+        let sc = ring_scenario(22, 100_000.0, &nets().join("sugiyama-ring.net.xml"), 1);
+        let mut o = opts("interrupt");
+        let flag = Arc::new(AtomicBool::new(false));
+        o.interrupt = Some(flag.clone());
+        let f = flag.clone();
+        std::thread::spawn(move || {
+            std::thread::sleep(Duration::from_secs(3));
+            f.store(true, Ordering::SeqCst);
+        });
+        let run = run_scenario(&sc, &o).unwrap();
+        let err = run.outcome().unwrap_err();
+        assert_eq!(err.exit_code(), Some(130), "{err}");
+        assert!(run.worker.rows.len() > 10);
+    }
+}
+
+mod ring {
+    use super::*;
+
+    #[test]
+    fn vehicles_keep_circling_past_one_lap() {
+        let sc = ring_scenario(22, 90.0, &nets().join("sugiyama-ring.net.xml"), 1);
+        let o = opts("circling");
+        let run = run_scenario(&sc, &o).unwrap();
+        let fin = run.outcome().expect("horizon reached");
+        let start = run.worker.start.as_ref().unwrap();
+        assert_relative_eq!(
+            start.road_length_m,
+            4.0 * 57.4898 + 4.0 * 0.1,
+            epsilon = 1e-9
+        );
+        assert_eq!(start.vehicles, 22);
+        assert_eq!(run.worker.rows.len(), sc.steps + 1);
+        let traj = run.trajectory(&sc);
+        let k = traj.len() - 1;
+        let n = 22;
+        for i in 0..n {
+            let travelled = traj.positions_m[k * n + i] - traj.positions_m[i];
+            assert!(
+                travelled > 2.5 * start.road_length_m,
+                "vehicle {i} drove {travelled} m"
+            );
+        }
+        // Gaps add up to the ring: lengths + gaps = SUMO's ring length at every sample.
+        let sum: f64 = traj.gaps(k).iter().sum::<f64>() + 5.0 * n as f64;
+        assert_relative_eq!(sum, start.road_length_m, epsilon = 1e-6);
+        assert_eq!(fin.totals.collision_steps, 0);
+        assert_eq!(fin.totals.teleports, 0);
+        assert_eq!(fin.totals.overrides, 0);
+    }
+
+    /// The actuation timing the loop relies on: a command set before a step is the speed
+    /// SUMO reports after it, and with the ballistic update positions advance by the
+    /// trapezoidal rule — so SUMO reproduces the native simulator's speeds exactly.
+    #[test]
+    fn actuation_timing_matches_the_native_simulator() {
+        let sc = ring_scenario(22, 30.0, &nets().join("sugiyama-ring.net.xml"), 1);
+        let o = opts("timing");
+        let run = run_scenario(&sc, &o).unwrap();
+        let fin = run.outcome().expect("horizon reached");
+        assert_eq!(fin.totals.overrides, 0);
+        assert!(fin.totals.odometer_deviation_max_m < 1e-9);
+        let rows = &run.worker.rows;
+        let n = rows.n;
+        for k in 1..rows.len() {
+            for i in 0..n {
+                assert_eq!(rows.speeds_mps[k * n + i], rows.commands_mps[k * n + i]);
+            }
+        }
+        let native = simulate(&sc, NativeOptions::default()).trajectory;
+        let sumo = run.trajectory(&sc);
+        assert_eq!(native.len(), sumo.len());
+        for j in 0..native.speeds_mps.len() {
+            assert_relative_eq!(native.speeds_mps[j], sumo.speeds_mps[j], epsilon = 1e-9);
+        }
+        // Positions: same increments (the ring is 0.36 m longer in SUMO, so gaps differ).
+        let k = native.len() - 1;
+        for i in 0..n {
+            let dn = native.positions_m[k * n + i] - native.positions_m[i];
+            let ds = sumo.positions_m[k * n + i] - sumo.positions_m[i];
+            assert_relative_eq!(dn, ds, epsilon = 1e-6);
+        }
+    }
+
+    /// What SUMO does with commands in speed mode 32, measured: everything is realised, even
+    /// above the vehicle type's maxSpeed (9 m/s here) and the lane limit, so the override
+    /// counter stays at 0; negative commands (which SUMO would read as "release control") are
+    /// sent as 0 and counted; collisions are recorded, not prevented. Predecessor following
+    /// with αK = 1.2 (past Chandler's bound 2αK < 1) drives the oscillation there.
+    #[test]
+    fn speed_mode_32_realises_every_command_and_collisions_are_counted() {
+        let json = format!(
+            r#"{{"name": "unstable", "seed": 7, "step_s": 0.1, "horizon_s": 15, "vehicles": 22,
+            "road": {{"type": "ring", "length_m": 230}},
+            "model": {{"type": "delayed_driver",
+                       "graph": {{"type": "unidirectional_ring", "gain": 1.5}}, "delay_s": 0.8}},
+            "initial": {{"speed_mps": 8.0, "perturbation": {{"speed_mps": 0.5}}}},
+            "sumo": {{"net": "{}", "max_speed_mps": 9.0}}}}"#,
+            nets().join("sugiyama-ring.net.xml").display()
+        );
+        let sc = Scenario::from_json(&json).unwrap();
+        let run = run_scenario(&sc, &opts("mode32")).unwrap();
+        let fin = run.outcome().expect("horizon reached");
+        let rows = &run.worker.rows;
+        let fastest = rows.speeds_mps.iter().copied().fold(0.0, f64::max);
+        assert!(fastest > 9.0, "fastest {fastest}");
+        assert_eq!(fin.totals.overrides, 0, "{:?}", fin.totals);
+        assert!(fin.totals.negative_commands_clamped > 0);
+        assert!(fin.totals.collision_steps > 0);
+        let collisions = run
+            .worker
+            .events
+            .iter()
+            .filter(|e| matches!(e, syncroad_sumo::protocol::Event::Collision { .. }))
+            .count();
+        assert_eq!(collisions, fin.totals.collision_steps);
+    }
+
+    #[test]
+    fn euler_update_is_not_trapezoidal() {
+        let sc = ring_scenario(22, 5.0, &nets().join("sugiyama-ring.net.xml"), 1);
+        let mut o = opts("euler");
+        o.ballistic = false;
+        let run = run_scenario(&sc, &o).unwrap();
+        run.outcome().expect("horizon reached");
+        let rows = &run.worker.rows;
+        let n = rows.n;
+        // x^{n+1} = x^n + Δt v^{n+1}.
+        for k in 1..rows.len() {
+            for i in 0..n {
+                let dx = rows.positions_m[k * n + i] - rows.positions_m[(k - 1) * n + i];
+                assert_relative_eq!(dx, 0.1 * rows.speeds_mps[k * n + i], epsilon = 1e-9);
+            }
+        }
+    }
+
+    #[test]
+    fn same_seed_same_rows_in_separate_workers() {
+        // SUMO's own Krauss model with σ = 0.5 draws random numbers every step.
+        let sc = ring_scenario(22, 30.0, &nets().join("sugiyama-ring.net.xml"), 7);
+        let mut a = opts("seed-a");
+        a.sumo_model_sigma = Some(0.5);
+        let mut b = opts("seed-b");
+        b.sumo_model_sigma = Some(0.5);
+        let ra = run_scenario(&sc, &a).unwrap();
+        let rb = run_scenario(&sc, &b).unwrap();
+        ra.outcome().unwrap();
+        rb.outcome().unwrap();
+        assert_ne!(
+            ra.worker.start.as_ref().unwrap().pid,
+            rb.worker.start.as_ref().unwrap().pid
+        );
+        assert_eq!(ra.worker.rows.speeds_mps, rb.worker.rows.speeds_mps);
+        assert_eq!(ra.worker.rows.positions_m, rb.worker.rows.positions_m);
+        // ... and another seed gives another run (the test can fail).
+        let sc2 = ring_scenario(22, 30.0, &nets().join("sugiyama-ring.net.xml"), 8);
+        let mut c = opts("seed-c");
+        c.sumo_model_sigma = Some(0.5);
+        let rc = run_scenario(&sc2, &c).unwrap();
+        assert_ne!(ra.worker.rows.speeds_mps, rc.worker.rows.speeds_mps);
+    }
+}
+
+mod platoon {
+    use super::*;
+
+    /// The CACC platoon (eqs. `veh-proto1/2`) behind a braking leader on the 20 km straight
+    /// road: the leader is a SUMO vehicle driven along its profile, the followers by the law.
+    /// SUMO holds a_des over each step (exact powertrain lag), the native simulator integrates
+    /// the closed loop with RK4, so the two agree to O(Δt).
+    #[test]
+    fn cacc_platoon_follows_the_native_simulator() {
+        let text = std::fs::read_to_string(
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/platoon-cacc.json"),
+        )
+        .unwrap();
+        let mut file: serde_json::Value = serde_json::from_str(&text).unwrap();
+        file["horizon_s"] = 80.0.into();
+        file["sumo"] = serde_json::json!({"net": nets().join("straight-20km.net.xml")});
+        let sc = Scenario::from_json(&file.to_string()).unwrap();
+        let run = run_scenario(&sc, &opts("platoon")).unwrap();
+        let fin = run.outcome().expect("horizon reached");
+        assert_eq!(run.worker.start.as_ref().unwrap().vehicles, sc.n + 1);
+        assert_eq!(fin.totals.collision_steps, 0);
+        let sumo = run.trajectory(&sc);
+        let native = simulate(&sc, NativeOptions::default()).trajectory;
+        assert_eq!(sumo.len(), native.len());
+        let worst = sumo
+            .speeds_mps
+            .iter()
+            .zip(&native.speeds_mps)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        eprintln!("CACC platoon: largest SUMO-native speed difference {worst:.2e} m/s");
+        assert!(worst < 0.05, "largest speed difference {worst} m/s");
+        // The leader (row column 0) drives its profile exactly.
+        let rows = &run.worker.rows;
+        for k in 0..rows.len() {
+            let t = rows.time_s[k];
+            assert_relative_eq!(
+                rows.speeds_mps[k * rows.n],
+                sc.leader_speed_at(t).unwrap(),
+                epsilon = 1e-9
+            );
+        }
+    }
+}

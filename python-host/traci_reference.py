@@ -1,0 +1,54 @@
+"""TraCI-socket reference loop for syncroad's SUMO benchmark.
+
+Drives a `sumo` subprocess through the pure-Python traci client doing, per step, the same
+reads and writes as syncroad's in-process loop: one subscription read of speed, odometer and
+lane position for every vehicle, a predecessor-following speed law, one setSpeed per
+vehicle (speed mode 32), one simulation step. Prints one JSON line with the timing.
+
+Usage: python traci_reference.py SUMO_BINARY NET ROUTES STEP_S SEED STEPS WARMUP_STEPS
+"""
+
+import json
+import sys
+import time
+
+import traci
+import traci.constants as tc
+
+
+def main():
+    sumo, net, routes, step_s, seed, steps, warmup = sys.argv[1:8]
+    step_s, steps, warmup = float(step_s), int(steps), int(warmup)
+    traci.start([
+        sumo, "--net-file", net, "--route-files", routes, "--step-length", repr(step_s),
+        "--seed", seed, "--collision.action", "warn", "--collision.mingap-factor", "0",
+        "--time-to-teleport", "-1", "--no-step-log", "true", "--duration-log.disable", "true",
+        "--xml-validation", "never", "--step-method.ballistic", "true", "--no-warnings", "true",
+    ])
+    traci.simulationStep()  # insertion
+    ids = sorted(traci.vehicle.getIDList(), key=lambda s: (s[0] != "l", int(s[1:]) if s[1:].isdigit() else 0))
+    for v in ids:
+        traci.vehicle.subscribe(v, [tc.VAR_SPEED, tc.VAR_DISTANCE, tc.VAR_LANEPOSITION])
+        traci.vehicle.setSpeedMode(v, 32)
+        traci.vehicle.setLaneChangeMode(v, 0)
+    n = len(ids)
+    gain = 0.5
+    start = None
+    for k in range(steps):
+        if k == warmup:
+            start = time.perf_counter()
+        res = traci.vehicle.getAllSubscriptionResults()
+        speeds = [res[v][tc.VAR_SPEED] for v in ids]
+        for i, v in enumerate(ids):
+            nxt = speeds[i] + step_s * gain * (speeds[i - 1] - speeds[i])
+            traci.vehicle.setSpeed(v, max(nxt, 0.0))
+        traci.simulationStep()
+    wall = time.perf_counter() - start
+    traci.close()
+    timed = steps - warmup
+    print(json.dumps({"vehicles": n, "timed_steps": timed, "wall_s": wall,
+                      "ms_per_step": 1e3 * wall / timed}))
+
+
+if __name__ == "__main__":
+    main()
