@@ -1,10 +1,9 @@
 #!/usr/bin/env bash
-# Sets everything up and runs the main job: the example ring-road scenario.
+# Sets everything up and runs the main job: the Sugiyama ring (22 vehicles, 230 m) headlessly
+# in SUMO, every driver running the delayed-driver law; prints the verdict and metrics.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-if [ -f python-host/bootstrap.sh ]; then
-  bash python-host/bootstrap.sh
-fi
+bash python-host/bootstrap.sh
 cargo build --release -p syncroad
-./target/release/syncroad check scenarios/ring-theorem1.json || true
-./target/release/syncroad simulate scenarios/ring-theorem1.json --out out/ring-theorem1
+./target/release/syncroad check scenarios/sugiyama-ring.json || true
+./target/release/syncroad run scenarios/sugiyama-ring.json --out out/sugiyama-ring

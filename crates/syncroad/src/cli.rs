@@ -29,6 +29,28 @@ pub enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Run the scenario on its backend (`"backend"` in the file: `sumo`, the default, or
+    /// `native`): SUMO through libsumo in a supervised worker process, the scenario's law
+    /// commanding every vehicle every step. Writes trajectories.csv, metrics.json and plots to
+    /// --out and prints the verdict. Runs `bash python-host/bootstrap.sh` first on a new checkout.
+    Run {
+        /// Scenario file (JSON).
+        scenario: PathBuf,
+        #[command(flatten)]
+        out: OutputArgs,
+        #[command(flatten)]
+        sumo: crate::sumo_cmd::SumoArgs,
+    },
+    /// Measure the SUMO loop in one run: SUMO alone vs SUMO + controller (every vehicle read
+    /// and commanded every step) vs a TraCI-socket loop doing the same, at N = 22 and N = 2000.
+    SumoBench {
+        /// Shorter runs (a smoke test of the benchmark).
+        #[arg(long)]
+        quick: bool,
+        /// Also write the results as JSON to this file.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
     /// Run the scenario on the native fixed-step simulator; write trajectories.csv and
     /// metrics.json to --out and print the verdict.
     Simulate {

@@ -5,7 +5,7 @@ use std::path::Path;
 use anyhow::Context;
 use syncroad_control::congestion::{congestion_metrics, CongestionMetrics};
 use syncroad_control::metrics::{sync_metrics, VerdictThresholds};
-use syncroad_control::scenario::Model;
+use syncroad_control::scenario::{Backend, Model};
 use syncroad_control::{simulate, theory, NativeOptions, Scenario, StopReason, Verdict};
 
 use crate::cli::{Cli, Command, OutputArgs};
@@ -33,6 +33,18 @@ pub fn run(cli: Cli) -> anyhow::Result<u8> {
     match cli.command {
         Command::Check { scenario, json } => check(&scenario, json),
         Command::Simulate { scenario, out } => simulate_cmd(&scenario, &out),
+        Command::Run {
+            scenario,
+            out,
+            sumo,
+        } => {
+            let backend = load_scenario(&scenario)?.file.backend;
+            match backend {
+                Backend::Sumo => crate::sumo_cmd::run(&scenario, &out, &sumo),
+                Backend::Native => simulate_cmd(&scenario, &out),
+            }
+        }
+        Command::SumoBench { quick, json } => crate::sumo_cmd::bench(quick, json.as_ref()),
         Command::Bench { horizon_s, sizes } => crate::bench::run(horizon_s, &sizes),
         Command::Ifp { eta, rho, json } => ifp_cmd(&eta, &rho, json),
         Command::Stability { scenario, json } => stability_cmd(&scenario, json),

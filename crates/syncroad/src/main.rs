@@ -10,12 +10,17 @@ mod plots;
 mod regress;
 mod report;
 mod stability;
+mod sumo_cmd;
 
 use std::process::ExitCode;
 
 use clap::Parser;
 
 fn main() -> ExitCode {
+    // Each SUMO run re-executes this binary as its worker process.
+    if syncroad_sumo::is_worker_invocation() {
+        return syncroad_sumo::worker_main();
+    }
     let cli = cli::Cli::parse();
     match commands::run(cli) {
         Ok(code) => exit_codes::code(code),

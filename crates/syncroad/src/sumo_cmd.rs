@@ -1,13 +1,8 @@
-//! `syncroad sumo` and `syncroad sumo-bench`: the scenario's law on SUMO traffic, through
+//! `syncroad run` (scenarios with `"backend": "sumo"`) and `syncroad sumo-bench`: the scenario's law on SUMO traffic, through
 //! libsumo in a supervised worker process (crate `syncroad-sumo`).
 //!
-//! Wiring into the CLI:
-//! * first thing in `main`: `if syncroad_sumo::is_worker_invocation() { return
-//!   syncroad_sumo::worker_main(); }` — the CLI re-executes itself as the worker of each run;
-//! * `mod sumo_cmd;`, a subcommand `Sumo { scenario: PathBuf, #[command(flatten)] out:
-//!   OutputArgs, #[command(flatten)] sumo: sumo_cmd::SumoArgs }` calling [`run`], and
-//!   `SumoBench { #[arg(long)] quick: bool, #[arg(long)] json: Option<PathBuf> }` calling
-//!   [`bench`].
+//! `main` first checks `syncroad_sumo::is_worker_invocation()`: the CLI re-executes itself as
+//! the worker process of each SUMO run.
 //!
 //! Exit codes: 0 synchronized, 1 not synchronized, 2 bad input (everything checked before SUMO
 //! starts: scenario, network file, ring capacity, road length), 3 the run failed (worker crash,
@@ -167,7 +162,11 @@ pub fn run(path: &Path, out: &OutputArgs, args: &SumoArgs) -> anyhow::Result<u8>
             ring_length_m: ring,
             title: format!("{} (SUMO)", sc.name),
         };
-        plots.write_all(&out.out)?;
+        let files = plots.write_all(&out.out)?;
+        println!(
+            "wrote {} plots: time_space, speeds, spread (PNG and SVG)",
+            files.len()
+        );
     }
     match outcome {
         Err(e) => {
