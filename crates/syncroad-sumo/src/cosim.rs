@@ -25,8 +25,8 @@ use pyo3::types::{PyDict, PyInt, PyString, PyTuple};
 
 use crate::controller::{controller_for, SpeedController};
 use crate::protocol::{
-    write_msg, write_rows, Control, Event, Finish, PhaseTimes, ReadMode, Request, RowChunk,
-    StartInfo, StopReason, Totals, WorkerMsg,
+    write_msg, write_rows, Control, Event, Finish, Measure, Measured, PhaseTimes, ReadMode,
+    Request, RowChunk, StartInfo, StopReason, Totals, WorkerMsg,
 };
 use crate::python::{load_libsumo, py_error, PythonError};
 
@@ -368,7 +368,147 @@ pub fn sumo_args(req: &Request) -> Vec<String> {
         a.push("--step-method.ballistic".into());
         a.push("true".into());
     }
+    if let Some(m) = &req.measure {
+        if let Some(f) = &m.detector_file {
+            a.push("--additional-files".into());
+            a.push(f.display().to_string());
+        }
+        if let Some(f) = &m.tripinfo_file {
+            for x in [
+                "--device.emissions.probability",
+                "1",
+                "--tripinfo-output.write-unfinished",
+                "true",
+                "--tripinfo-output",
+            ] {
+                a.push(x.into());
+            }
+            a.push(f.display().to_string());
+        }
+    }
     a
+}
+
+/// The loop's SUMO-side measurements (see [`Measured`]).
+struct Meter<'py> {
+    req: Measure,
+    fuel: Bound<'py, PyAny>,
+    co2: Bound<'py, PyAny>,
+    time_loss: Bound<'py, PyAny>,
+    loop_ids: Option<Bound<'py, PyAny>>,
+    last_on_loop: Vec<String>,
+    time_loss_at_warmup: f64,
+    out: Measured,
+}
+
+impl<'py> Meter<'py> {
+    fn new(ls: &Libsumo<'py>, req: &Measure) -> Result<Self, PythonError> {
+        let f = |name: &str| {
+            ls.native
+                .getattr(name)
+                .map_err(|e| py_error(ls.py, format!("_libsumo.{name}"), e))
+        };
+        Ok(Self {
+            req: req.clone(),
+            fuel: f("vehicle_getFuelConsumption")?,
+            co2: f("vehicle_getCO2Emission")?,
+            time_loss: f("vehicle_getTimeLoss")?,
+            loop_ids: match req.detector_file {
+                Some(_) => Some(f("inductionloop_getLastStepVehicleIDs")?),
+                None => None,
+            },
+            last_on_loop: Vec::new(),
+            time_loss_at_warmup: 0.0,
+            out: Measured {
+                loop_passages: req.detector_file.as_ref().map(|_| 0),
+                ..Measured::default()
+            },
+        })
+    }
+
+    fn sum(
+        &self,
+        py: Python<'py>,
+        f: &Bound<'py, PyAny>,
+        what: &str,
+        args: &[Bound<'py, PyTuple>],
+    ) -> Result<f64, PythonError> {
+        let mut total = 0.0;
+        for a in args {
+            total += f
+                .call1(a)
+                .and_then(|r| r.extract::<f64>())
+                .map_err(|e| py_error(py, what.to_string(), e))?;
+        }
+        Ok(total)
+    }
+
+    /// After SUMO step `s` (1-based: the state at t = s Δt); `v_prev`, `v` are the measured
+    /// speeds before and after it.
+    #[allow(clippy::too_many_arguments)]
+    fn after_step(
+        &mut self,
+        py: Python<'py>,
+        s: usize,
+        dt: f64,
+        args: &[Bound<'py, PyTuple>],
+        v_prev: &[f64],
+        v: &[f64],
+        decel_mps2: f64,
+    ) -> Result<(), PythonError> {
+        let warm = self.req.warmup_steps;
+        let k = self.req.emission_every.max(1);
+        let measuring = s > warm;
+        if s > 0 && s % k == 0 {
+            let fuel = self.sum(py, &self.fuel, "vehicle.getFuelConsumption", args)?;
+            self.out.fuel_total_mg += fuel * dt * k as f64;
+            if measuring {
+                self.out.fuel_mg += fuel * dt * k as f64;
+                let co2 = self.sum(py, &self.co2, "vehicle.getCO2Emission", args)?;
+                self.out.co2_mg += co2 * dt * k as f64;
+            }
+        }
+        if s == warm {
+            self.time_loss_at_warmup =
+                self.sum(py, &self.time_loss, "vehicle.getTimeLoss", args)?;
+        }
+        if let Some(f) = &self.loop_ids {
+            if s >= warm {
+                let ids: Vec<String> = f
+                    .call1(("loop0",))
+                    .and_then(|r| r.extract())
+                    .map_err(|e| py_error(py, "inductionloop.getLastStepVehicleIDs(loop0)", e))?;
+                if measuring {
+                    let new = ids
+                        .iter()
+                        .filter(|i| !self.last_on_loop.contains(i))
+                        .count();
+                    *self.out.loop_passages.get_or_insert(0) += new;
+                }
+                self.last_on_loop = ids;
+            }
+        }
+        if measuring {
+            self.out.steps += 1;
+            // 1e-9 m/s² above decel: rounding of a braking exactly at decel does not count.
+            self.out.hard_braking_steps += v_prev
+                .iter()
+                .zip(v)
+                .filter(|(a, b)| (*a - *b) / dt > decel_mps2 + 1e-9)
+                .count();
+        }
+        Ok(())
+    }
+
+    fn finish(
+        mut self,
+        py: Python<'py>,
+        args: &[Bound<'py, PyTuple>],
+    ) -> Result<Measured, PythonError> {
+        let end = self.sum(py, &self.time_loss, "vehicle.getTimeLoss", args)?;
+        self.out.time_loss_s = end - self.time_loss_at_warmup;
+        Ok(self.out)
+    }
 }
 
 /// Runs the request; every message goes to `out`. The returned error is also what the worker
@@ -491,7 +631,11 @@ fn run_started(
     let hold = matches!(req.control, Control::Hold);
     if controlled || hold {
         for (id, dep) in ids.iter().zip(&req.layout.vehicles) {
-            ls.call("vehicle_setSpeedMode", (id.clone(), SPEED_MODE_RAW))?;
+            if dep.driver.is_some() {
+                continue;
+            }
+            let mode = if hold { SPEED_MODE_RAW } else { req.speed_mode };
+            ls.call("vehicle_setSpeedMode", (id.clone(), mode))?;
             ls.call("vehicle_setLaneChangeMode", (id.clone(), 0))?;
             if hold {
                 ls.call("vehicle_setSpeed", (id.clone(), dep.speed_mps))?;
@@ -529,6 +673,22 @@ fn run_started(
         }
     };
 
+    let id_args: Vec<Bound<'_, PyTuple>> = ids
+        .iter()
+        .map(|id| PyTuple::new(py, [id]))
+        .collect::<PyResult<_>>()
+        .map_err(|e| py_error(py, "argument tuples", e))?;
+    let decel = req.layout.vtype.decel_mps2;
+    let mut meter = match &req.measure {
+        Some(m) if req.observe => {
+            let mut meter = Meter::new(ls, m)?;
+            if m.warmup_steps == 0 {
+                meter.after_step(py, 0, dt, &id_args, &[], &[], decel)?;
+            }
+            Some(meter)
+        }
+        _ => None,
+    };
     let mut stop = StopReason::Horizon;
     if req.observe {
         if let Some(i) = reader.speeds(&mut v)? {
@@ -567,12 +727,25 @@ fn run_started(
                     break 'steps;
                 }
             }
-            for ((id, args), x) in ids.iter().zip(&speed_args).zip(&next) {
+            for (((id, args), x), _) in ids
+                .iter()
+                .zip(&speed_args)
+                .zip(&next)
+                .zip(&req.layout.vehicles)
+                .filter(|(_, dep)| dep.driver.is_none())
+            {
                 set_item_f64(args, 1, *x)
                     .and_then(|()| ls.set_speed.call1(args))
                     .map_err(|e| py_error(py, format!("vehicle.setSpeed({id}, {x})"), e))?;
             }
-            cmd.copy_from_slice(&next);
+            for (i, c) in cmd.iter_mut().enumerate() {
+                // Rows carry NaN where SUMO's own model drives.
+                *c = if req.layout.vehicles[i].driver.is_none() {
+                    next[i]
+                } else {
+                    f64::NAN
+                };
+            }
         }
         let t_step = Instant::now();
         ls.simulation_step()?;
@@ -649,8 +822,11 @@ fn run_started(
                 q[i] = sumo_q;
             }
         }
+        if let Some(m) = meter.as_mut() {
+            m.after_step(py, step + 1, dt, &id_args, &v_prev, &v, decel)?;
+        }
         if controlled {
-            for i in 0..n {
+            for i in (0..n).filter(|&i| req.layout.vehicles[i].driver.is_none()) {
                 let d = (v[i] - cmd[i]).abs();
                 if d > req.override_tolerance_mps {
                     totals.overrides += 1;
@@ -682,6 +858,10 @@ fn run_started(
         }
     }
     let loop_wall_s = timer.elapsed().as_secs_f64();
+    let measured = match meter {
+        Some(m) => Some(m.finish(py, &id_args)?),
+        None => None,
+    };
     write_rows(out, &mut rows).map_err(pipe)?;
     write_msg(
         out,
@@ -692,6 +872,7 @@ fn run_started(
             loop_wall_s,
             timed_steps: steps_done.saturating_sub(req.untimed_steps),
             phases,
+            measured,
         }),
     )
     .map_err(pipe)

@@ -80,6 +80,9 @@ pub struct VehicleType {
 pub struct Departure {
     /// SUMO vehicle id.
     pub id: String,
+    /// SUMO's car-following model drives this vehicle (`None`: the law commands it).
+    #[serde(default)]
+    pub driver: Option<crate::drivers::SumoDriver>,
     /// Vehicle length \[m\].
     pub length_m: f64,
     /// Index into [`Road::normal_edges`] of the departure edge.
@@ -225,6 +228,7 @@ pub fn ring_layout(
         let (edge_index, pos_m) = road.locate(q + lengths_m[i]);
         vehicles.push(Departure {
             id: format!("v{i}"),
+            driver: None,
             length_m: lengths_m[i],
             edge_index,
             pos_m,
@@ -300,6 +304,7 @@ pub fn straight_layout(
         .into_iter()
         .map(|(id, len, q, v)| Departure {
             id,
+            driver: None,
             length_m: len,
             edge_index: 0,
             pos_m: q + len + shift,
@@ -324,14 +329,19 @@ impl Layout {
     pub fn routes_xml(&self) -> String {
         let mut s = String::from("<routes>\n");
         let t = &self.vtype;
-        let mut types: Vec<u64> = Vec::new();
+        // One vType per (length, driver); law-driven vehicles carry the layout's σ.
+        let mut types: Vec<(u64, Option<crate::drivers::SumoDriver>)> = Vec::new();
         for v in &self.vehicles {
-            let bits = v.length_m.to_bits();
-            if !types.contains(&bits) {
-                types.push(bits);
+            let key = (v.length_m.to_bits(), v.driver);
+            if !types.contains(&key) {
+                types.push(key);
+                let model = match &v.driver {
+                    Some(d) => d.vtype_attributes(),
+                    None => format!(r#"sigma="{}""#, t.sigma),
+                };
                 let _ = writeln!(
                     s,
-                    r#"    <vType id="t{}" length="{}" minGap="{}" accel="{}" decel="{}" emergencyDecel="{}" maxSpeed="{}" sigma="{}" speedFactor="1" speedDev="0"/>"#,
+                    r#"    <vType id="t{}" length="{}" minGap="{}" accel="{}" decel="{}" emergencyDecel="{}" maxSpeed="{}" {model} speedFactor="1" speedDev="0" emissionClass="{}"/>"#,
                     types.len() - 1,
                     v.length_m,
                     t.min_gap_m,
@@ -339,7 +349,7 @@ impl Layout {
                     t.decel_mps2,
                     t.emergency_decel_mps2,
                     t.max_speed_mps,
-                    t.sigma
+                    crate::drivers::EMISSION_CLASS,
                 );
             }
         }
@@ -365,7 +375,7 @@ impl Layout {
         for v in &self.vehicles {
             let ty = types
                 .iter()
-                .position(|b| *b == v.length_m.to_bits())
+                .position(|k| *k == (v.length_m.to_bits(), v.driver))
                 .expect("type written above");
             let _ = writeln!(
                 s,

@@ -13,6 +13,7 @@
 //!   with their tracebacks;
 //! * [`net`], [`layout`] — network files read and checked before SUMO starts, vehicle
 //!   departures, ring capacity, the routes file;
+//! * [`drivers`] — SUMO's own car-following models as baselines;
 //! * [`controller`] — the seam to the laws of `syncroad-control` and SUMO's actuation timing;
 //! * [`protocol`], [`cosim`], [`worker`] — the worker process and its loop;
 //! * [`supervisor`], [`run`] — the parent: spawning, supervising, results;
@@ -23,6 +24,7 @@
 pub mod bench;
 pub mod controller;
 pub mod cosim;
+pub mod drivers;
 pub mod layout;
 pub mod net;
 pub mod protocol;
@@ -33,6 +35,7 @@ pub mod venv;
 pub mod worker;
 
 pub use controller::{controller_for, SpeedController};
+pub use drivers::SumoDriver;
 pub use run::{run_scenario, RunError, RunOptions, SumoRun};
 pub use supervisor::{interrupt_flag, run_worker, Supervision, SupervisorError, WorkerCommand};
 pub use venv::repo_dir;

@@ -59,6 +59,53 @@ pub struct Request {
     pub read: ReadMode,
     /// With [`ReadMode::Getters`], read SUMO's odometer every this many steps.
     pub odometer_every: usize,
+    /// Speed mode of the vehicles the law commands: 32 (every check off) when the law drives
+    /// all of them, [`crate::drivers::MIXED_SPEED_MODE`] when SUMO drivers share the road.
+    #[serde(default = "default_speed_mode")]
+    pub speed_mode: i32,
+    /// What SUMO itself measures during the run (flow, time loss, fuel, CO2, braking).
+    #[serde(default)]
+    pub measure: Option<Measure>,
+}
+
+fn default_speed_mode() -> i32 {
+    32
+}
+
+/// SUMO-side measurements the loop collects after a warm-up (see [`Measured`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Measure {
+    /// Steps after insertion before measuring starts.
+    pub warmup_steps: usize,
+    /// Read fuel and CO2 rates every this many steps and hold each reading for that many
+    /// steps (1 = exact rectangle rule at SUMO's step).
+    pub emission_every: usize,
+    /// Additional file holding the E1 induction loop `loop0`, when the road has one.
+    pub detector_file: Option<PathBuf>,
+    /// SUMO's trip-info output with emission totals of unfinished trips (cross-checks).
+    pub tripinfo_file: Option<PathBuf>,
+}
+
+/// What SUMO measured after the warm-up.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Measured {
+    /// Steps measured (after the warm-up).
+    pub steps: usize,
+    /// Vehicles entering the induction loop `loop0` (new ids in
+    /// `inductionloop.getLastStepVehicleIDs`); `None` without a loop.
+    pub loop_passages: Option<usize>,
+    /// Σ over vehicles of `vehicle.getTimeLoss` at the end minus at the end of the warm-up \[s\].
+    pub time_loss_s: f64,
+    /// Σ over vehicles and sampled steps of `vehicle.getFuelConsumption` [mg/s] × held time,
+    /// after the warm-up \[mg\].
+    pub fuel_mg: f64,
+    /// The same for `vehicle.getCO2Emission` \[mg\].
+    pub co2_mg: f64,
+    /// Fuel over the whole run, warm-up included \[mg\] (cross-check with trip info).
+    pub fuel_total_mg: f64,
+    /// Vehicle-steps after the warm-up whose measured deceleration exceeded the vehicle
+    /// type's `decel` (harder than a SUMO driver brakes by choice).
+    pub hard_braking_steps: usize,
 }
 
 /// How the loop reads vehicle states from libsumo.
@@ -211,6 +258,9 @@ pub struct Finish {
     pub timed_steps: usize,
     /// Where the timed wall time went.
     pub phases: PhaseTimes,
+    /// SUMO-side measurements, when requested.
+    #[serde(default)]
+    pub measured: Option<Measured>,
 }
 
 /// Wall time of the timed steps by phase \[s\]; the rest of `loop_wall_s` is collision and

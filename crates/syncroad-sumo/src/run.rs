@@ -13,9 +13,10 @@ use syncroad_control::native::initial_positions;
 use syncroad_control::scenario::{Model, RoadSpec, Scenario};
 use syncroad_control::Trajectory;
 
+use crate::drivers::{SumoDriver, MIXED_SPEED_MODE};
 use crate::layout::{ring_layout, straight_layout, Layout, LayoutError, VehicleType};
-use crate::net::{read_ring, read_straight, NetError};
-use crate::protocol::{Control, Event, Finish, ReadMode, Request, StopReason};
+use crate::net::{read_ring, read_straight, NetError, Road};
+use crate::protocol::{Control, Event, Finish, Measure, ReadMode, Request, StopReason};
 use crate::supervisor::{run_worker, Supervision, SupervisorError, WorkerCommand, WorkerRun};
 
 /// Tolerance between commanded and realised speed before a command counts as overridden [m/s].
@@ -55,6 +56,24 @@ pub enum PrepareError {
         /// What SUMO accepts.
         expected: &'static str,
     },
+    /// The per-vehicle drivers do not match the scenario.
+    #[error("drivers: {got} given for {expected} vehicles; give one per scenario vehicle (leader excluded)")]
+    Drivers {
+        /// Scenario vehicles.
+        expected: usize,
+        /// Drivers given.
+        got: usize,
+    },
+    /// A measurement option is out of range.
+    #[error("{field} = {value}: {expected}")]
+    Measure {
+        /// Option.
+        field: &'static str,
+        /// Its value.
+        value: String,
+        /// What is valid.
+        expected: &'static str,
+    },
     /// The work folder cannot be written.
     #[error("cannot write {path}: {reason}")]
     Io {
@@ -87,6 +106,39 @@ pub struct RunOptions {
     pub read: ReadMode,
     /// Called when SUMO runs in the worker.
     pub on_start: Option<crate::supervisor::StartHook>,
+    /// Per scenario vehicle (the leader excluded): `Some` lets that SUMO model drive it instead
+    /// of the law. Empty: the law drives every vehicle. The leader always follows its profile.
+    pub drivers: Vec<Option<SumoDriver>>,
+    /// SUMO-side measurements (flow, time loss, fuel, CO2, hard braking).
+    pub measure: Option<MeasureOptions>,
+}
+
+/// What to measure in SUMO during a run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MeasureOptions {
+    /// Warm-up before measuring \[s\] (rounded down to whole steps).
+    pub warmup_s: f64,
+    /// Read fuel and CO2 every this many steps (≥ 1).
+    pub emission_every: usize,
+    /// Also write SUMO's trip info with emission totals (`tripinfo.xml` in the work folder).
+    pub tripinfo: bool,
+}
+
+/// Where the induction loop `loop0` sits on a ring: lane, position on it \[m\] and the ring
+/// coordinate of that point \[m\] (10 m into the first normal lane, or its middle).
+pub fn loop_position(road: &Road) -> Option<(String, f64, f64)> {
+    if !road.ring {
+        return None;
+    }
+    let mut offset = 0.0;
+    for seg in &road.segments {
+        if !seg.internal {
+            let pos = (seg.length_m / 2.0).min(10.0);
+            return Some((seg.lane.clone(), pos, offset + pos));
+        }
+        offset += seg.length_m;
+    }
+    None
 }
 
 impl RunOptions {
@@ -102,6 +154,8 @@ impl RunOptions {
             interrupt: None,
             read: ReadMode::Getters,
             on_start: None,
+            drivers: Vec::new(),
+            measure: None,
         }
     }
 }
@@ -219,6 +273,68 @@ pub fn prepare(scenario: &Scenario, opts: &RunOptions) -> Result<Request, Prepar
         path: path.to_path_buf(),
         reason: e.to_string(),
     };
+    let mut layout = layout;
+    if !opts.drivers.is_empty() {
+        let k0 = usize::from(layout.leader_vehicle);
+        if opts.drivers.len() != layout.vehicles.len() - k0 {
+            return Err(PrepareError::Drivers {
+                expected: layout.vehicles.len() - k0,
+                got: opts.drivers.len(),
+            });
+        }
+        for (dep, d) in layout.vehicles[k0..].iter_mut().zip(&opts.drivers) {
+            dep.driver = *d;
+        }
+    }
+    let sumo_driven = layout
+        .vehicles
+        .iter()
+        .filter(|v| v.driver.is_some())
+        .count();
+    let law_driven = layout.vehicles.len() - sumo_driven - usize::from(layout.leader_vehicle);
+    let speed_mode = if sumo_driven > 0 && law_driven > 0 {
+        MIXED_SPEED_MODE
+    } else {
+        32
+    };
+    let measure = match &opts.measure {
+        None => None,
+        Some(m) => {
+            if !(m.warmup_s.is_finite() && m.warmup_s >= 0.0 && m.warmup_s < scenario.horizon_s()) {
+                return Err(PrepareError::Measure {
+                    field: "--warmup-s",
+                    value: m.warmup_s.to_string(),
+                    expected: "must be ≥ 0 and shorter than the horizon",
+                });
+            }
+            if m.emission_every == 0 {
+                return Err(PrepareError::Measure {
+                    field: "--emission-every",
+                    value: "0".into(),
+                    expected: "must be ≥ 1 (1 = read fuel and CO2 every step)",
+                });
+            }
+            std::fs::create_dir_all(&opts.work_dir).map_err(|e| io(&opts.work_dir, e))?;
+            let detector_file = match loop_position(&layout.road) {
+                Some((lane, pos, _)) => {
+                    let f = opts.work_dir.join("detectors.add.xml");
+                    let text = format!(
+                        "<additional>\n    <inductionLoop id=\"loop0\" lane=\"{lane}\" pos=\"{pos}\" period=\"86400\" file=\"{}\"/>\n</additional>\n",
+                        opts.work_dir.join("e1.xml").display()
+                    );
+                    std::fs::write(&f, text).map_err(|e| io(&f, e))?;
+                    Some(f)
+                }
+                None => None,
+            };
+            Some(Measure {
+                warmup_steps: (m.warmup_s / scenario.step_s + 1e-9).floor() as usize,
+                emission_every: m.emission_every,
+                detector_file,
+                tripinfo_file: m.tripinfo.then(|| opts.work_dir.join("tripinfo.xml")),
+            })
+        }
+    };
     let routes_file = layout
         .write_routes(&opts.work_dir)
         .map_err(|e| io(&opts.work_dir, e))?;
@@ -239,6 +355,8 @@ pub fn prepare(scenario: &Scenario, opts: &RunOptions) -> Result<Request, Prepar
         ballistic: opts.ballistic,
         control,
         observe: true,
+        speed_mode,
+        measure,
         record_every: opts.record_every.max(1),
         chunk_records: chunk_records(scenario.n),
         override_tolerance_mps: OVERRIDE_TOLERANCE_MPS,

@@ -41,6 +41,12 @@ pub enum Command {
         #[command(flatten)]
         sumo: crate::sumo_cmd::SumoArgs,
     },
+    /// Run the scenario with its law and with SUMO's own drivers (Krauss σ 0.5 and 0.9, IDM;
+    /// ACC and CACC for platoons; mixed rings with --mixed) on the same network, vehicles,
+    /// initial state and seed, each run its own SUMO process; print a side-by-side table of
+    /// congestion, flow, time loss, fuel, CO2 and safety; write one folder per run and
+    /// compare.json to --out.
+    Compare(crate::compare::CompareArgs),
     /// Measure the SUMO loop in one run: SUMO alone vs SUMO + controller (every vehicle read
     /// and commanded every step) vs a TraCI-socket loop doing the same, at N = 22 and N = 2000.
     SumoBench {

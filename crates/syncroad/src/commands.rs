@@ -44,6 +44,7 @@ pub fn run(cli: Cli) -> anyhow::Result<u8> {
                 Backend::Native => simulate_cmd(&scenario, &out),
             }
         }
+        Command::Compare(args) => crate::compare::run(&args),
         Command::SumoBench { quick, json } => crate::sumo_cmd::bench(quick, json.as_ref()),
         Command::Bench { horizon_s, sizes } => crate::bench::run(horizon_s, &sizes),
         Command::Ifp { eta, rho, json } => ifp_cmd(&eta, &rho, json),

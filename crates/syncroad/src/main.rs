@@ -4,6 +4,7 @@
 mod bench;
 mod cli;
 mod commands;
+mod compare;
 mod exit_codes;
 mod map;
 mod plots;
