@@ -471,4 +471,28 @@ mod tests {
             (60.0 * 2.0 * 30.0 / road.length_m()).ceil() as usize + 2
         );
     }
+
+    #[test]
+    fn sumo_drivers_get_their_own_vtype_and_every_type_an_emission_class() {
+        let road = sugiyama();
+        let n = 4;
+        let mut lay = ring_layout(&road, vt(), &[5.0; 4], &[20.0; 4], &[8.0; 4], 10.0).unwrap();
+        lay.vehicles[1].driver = Some(crate::drivers::SumoDriver::Idm);
+        lay.vehicles[2].driver = Some(crate::drivers::SumoDriver::Krauss { sigma: 0.9 });
+        let xml = lay.routes_xml();
+        assert_eq!(xml.matches("<vType ").count(), 3, "{xml}");
+        assert_eq!(
+            xml.matches(r#"emissionClass="HBEFA4/PC_petrol_Euro-6ab""#)
+                .count(),
+            3
+        );
+        assert!(xml.contains(r#"carFollowModel="IDM""#), "{xml}");
+        assert!(
+            xml.contains(r#"carFollowModel="Krauss" sigma="0.9""#),
+            "{xml}"
+        );
+        assert!(xml.contains(r#"<vehicle id="v1" type="t1""#), "{xml}");
+        assert!(xml.contains(r#"<vehicle id="v3" type="t0""#), "{xml}");
+        assert_eq!(lay.vehicles.len(), n);
+    }
 }

@@ -219,16 +219,7 @@ fn regress_cmd(baseline_path: &Path, update: bool, metrics: Option<&Path>) -> an
             serde_json::from_str(&text)
                 .map_err(|e| InputError(format!("metrics {}: {e}", m.display())))?
         }
-        None => {
-            let dir = baseline_path.parent().unwrap_or(Path::new("."));
-            let sc = load_scenario(&dir.join(&base.scenario))?;
-            let th = VerdictThresholds {
-                tolerance_mps: sc.file.verdict.tolerance_mps,
-                window_s: sc.file.verdict.window_s,
-            };
-            let o = run_native(&sc, th, None, None);
-            o.record(&sc).metrics_json()
-        }
+        None => regress::fresh_metrics(&base, baseline_path)?,
     };
     let (stamps, results) = regress::split_stamps(fresh);
     if update {

@@ -318,6 +318,8 @@ fn run_one(
             "measured_s": measured_s,
             "flow_veh_per_h": m.loop_passages.map(|p| p as f64 / measured_s * 3600.0),
             "loop_passages": m.loop_passages,
+            "loop_ring_m": loop_position(&run.request.layout.road).map(|l| l.2),
+            "road_length_m": run.road_length_m(),
             "flow_from_speed_veh_per_h": match (ring, &congestion) {
                 (Some(l), Some(c)) => Some(sc.n as f64 * c.mean_speed_mps / l * 3600.0),
                 _ => None,
@@ -325,6 +327,7 @@ fn run_one(
             "time_loss_s": m.time_loss_s,
             "time_loss_per_vehicle_s": m.time_loss_s / sc.n as f64,
             "fuel_mg": m.fuel_mg,
+            "fuel_total_mg": m.fuel_total_mg,
             "co2_mg": m.co2_mg,
             "distance_m": distance_m,
             "fuel_g_per_km": per_km(m.fuel_mg),

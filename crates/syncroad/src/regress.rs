@@ -69,6 +69,23 @@ impl Tolerances {
     }
 }
 
+/// What a baseline re-runs.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Kind {
+    /// The native simulator (`syncroad simulate`); the default, so older baselines stay valid.
+    #[default]
+    Native,
+    /// One SUMO run of the scenario's law: `syncroad compare --baselines protocol`.
+    Sumo,
+    /// `syncroad compare` with the baseline's `runs` and `mixed`.
+    Compare,
+}
+
+fn is_native(k: &Kind) -> bool {
+    *k == Kind::Native
+}
+
 /// The baseline file.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -76,6 +93,15 @@ pub struct Baseline {
     /// What this baseline guards.
     #[serde(default)]
     pub about: Option<String>,
+    /// What to re-run.
+    #[serde(default, skip_serializing_if = "is_native")]
+    pub kind: Kind,
+    /// For `compare`: the runs, as `--baselines` takes them (default: the command's default).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub runs: Option<String>,
+    /// For `compare`: mixed-traffic counts, as `--mixed` takes them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mixed: Option<String>,
     /// Scenario file, relative to the baseline's folder.
     pub scenario: String,
     /// Tolerances.
@@ -291,6 +317,57 @@ pub fn load(path: &Path) -> anyhow::Result<Baseline> {
     Ok(b)
 }
 
+/// Re-runs what the baseline names and returns the fresh metrics document: the native run's
+/// metrics.json, or compare.json of a SUMO comparison (run in a temporary folder, without
+/// plots, removed afterwards).
+pub fn fresh_metrics(base: &Baseline, baseline_path: &Path) -> anyhow::Result<Value> {
+    let dir = baseline_path.parent().unwrap_or(Path::new("."));
+    let scenario = dir.join(&base.scenario);
+    let sc = crate::commands::load_scenario(&scenario)?;
+    if base.kind == Kind::Native {
+        if base.runs.is_some() || base.mixed.is_some() {
+            return Err(InputError(format!(
+                "baseline {}: runs/mixed apply only to \"kind\": \"compare\" (this one is native)",
+                baseline_path.display()
+            ))
+            .into());
+        }
+        let th = syncroad_control::metrics::VerdictThresholds {
+            tolerance_mps: sc.file.verdict.tolerance_mps,
+            window_s: sc.file.verdict.window_s,
+        };
+        let o = crate::commands::run_native(&sc, th, None, None);
+        return Ok(o.record(&sc).metrics_json());
+    }
+    let runs = match base.kind {
+        Kind::Sumo => Some("protocol".to_string()),
+        _ => base.runs.clone(),
+    };
+    let args = crate::compare::CompareArgs {
+        scenario: scenario.clone(),
+        out: std::env::temp_dir().join(format!(
+            "syncroad-regress-{}-{}",
+            std::process::id(),
+            sc.name
+        )),
+        baselines: runs,
+        mixed: base.mixed.clone(),
+        mixed_driver: "krauss-0.9".into(),
+        jobs: None,
+        warmup_s: None,
+        emission_every: 1,
+        record_every: None,
+        timeout_s: None,
+        no_plots: true,
+    };
+    let plan = crate::compare::plan(&sc, &args)
+        .map_err(|e| InputError(format!("baseline {}: {e:#}", baseline_path.display())))?;
+    let flag = syncroad_sumo::interrupt_flag()?;
+    let result = crate::compare::compare_into(&sc, &plan, &args.out, flag);
+    let _ = std::fs::remove_dir_all(&args.out);
+    Ok(result?.0)
+}
+
 /// Writes a baseline file (pretty JSON, trailing newline).
 pub fn save(path: &Path, b: &Baseline) -> anyhow::Result<()> {
     std::fs::write(path, serde_json::to_string_pretty(b)? + "\n")
@@ -305,6 +382,9 @@ mod tests {
     fn base(metrics: Value) -> Baseline {
         Baseline {
             about: None,
+            kind: Kind::Native,
+            runs: None,
+            mixed: None,
             scenario: "x.json".into(),
             tolerances: Tolerances {
                 default: Tolerance {

@@ -1,0 +1,309 @@
+//! `syncroad compare` and SUMO baselines in `syncroad regress`, end to end with real SUMO.
+//!
+//! Every number is checked against something the code under test did not compute: SUMO's own
+//! trip-info totals, the trajectory's kinematics, or a second run.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use serde_json::Value;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_syncroad"))
+}
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("syncroad-compare-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn run(cmd: &mut Command) -> (i32, String, String) {
+    let Output {
+        status,
+        stdout,
+        stderr,
+    } = cmd.output().expect("binary runs");
+    (
+        status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&stdout).into_owned(),
+        String::from_utf8_lossy(&stderr).into_owned(),
+    )
+}
+
+fn json(path: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+fn sugiyama() -> PathBuf {
+    repo().join("scenarios/sugiyama-ring.json")
+}
+
+/// Per vehicle: (time, speed, unwrapped rear-bumper position) rows of trajectories.csv.
+fn trajectories(path: &Path) -> BTreeMap<usize, Vec<(f64, f64, f64)>> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut out: BTreeMap<usize, Vec<(f64, f64, f64)>> = BTreeMap::new();
+    for line in text.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        out.entry(f[1].parse().unwrap()).or_default().push((
+            f[0].parse().unwrap(),
+            f[2].parse().unwrap(),
+            f[3].parse().unwrap(),
+        ));
+    }
+    out
+}
+
+/// Σ over the `<tripinfo>` elements of SUMO's trip-info output of one attribute.
+fn tripinfo_sum(path: &Path, attr: &str) -> (f64, usize) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let key = format!(" {attr}=\"");
+    let mut sum = 0.0;
+    let mut count = 0;
+    for part in text.split(&key).skip(1) {
+        let v: f64 = part[..part.find('"').unwrap()].parse().unwrap();
+        sum += v;
+        count += 1;
+    }
+    (sum, count)
+}
+
+/// With no warm-up, the loop's measurements must reproduce (a) SUMO's own trip-info totals of
+/// fuel and time loss, (b) the induction-loop count of front bumpers crossing the detector in
+/// the recorded trajectory, (c) the time loss Σ Δt (1 − v/v_max) of the recorded speeds, and
+/// the loop flow must agree with N·v̄/L. mixed-0 (every vehicle a Krauss σ 0.9 driver) must
+/// equal the krauss-0.9 run, and the mixed runs must use the stated number of law vehicles.
+#[test]
+fn sumo_measurements_agree_with_sumo_totals_and_kinematics() {
+    let d = tmpdir("measure");
+    let (code, out, err) = run(bin()
+        .arg("compare")
+        .arg(sugiyama())
+        .args(["--baselines", "protocol,krauss-0.9,idm", "--mixed", "0,2"])
+        .args(["--warmup-s", "0", "--no-plots", "--out"])
+        .arg(&d));
+    assert_eq!(code, 0, "{out}\n{err}");
+    assert!(
+        out.contains("| metric | protocol | krauss-0.9 | idm | mixed-0 | mixed-2 |"),
+        "{out}"
+    );
+    assert!(err.contains("[ 5/5 done"), "progress display: {err}");
+    let v_max = 30.0; // sumo.max_speed_mps default; the ring's lanes allow 30 m/s as well
+    let length = 5.0; // the scenario's default vehicle length
+    for name in ["protocol", "krauss-0.9", "idm", "mixed-0", "mixed-2"] {
+        let dir = d.join(name);
+        let m = json(&dir.join("metrics.json"));
+        let s = &m["sumo"];
+        let traj = trajectories(&dir.join("trajectories.csv"));
+        assert_eq!(traj.len(), 22);
+        // (a) SUMO's trip info (values rounded to 0.01 per vehicle).
+        let tripinfo = dir.join("sumo/tripinfo.xml");
+        let (fuel, trips) = tripinfo_sum(&tripinfo, "fuel_abs");
+        assert_eq!(trips, 22, "{name}");
+        let fuel_mg = s["fuel_mg"].as_f64().unwrap();
+        assert!(fuel_mg > 0.0);
+        assert!(
+            (fuel_mg - fuel).abs() <= 0.01 * 22.0,
+            "{name}: {fuel_mg} vs {fuel}"
+        );
+        let (loss, _) = tripinfo_sum(&tripinfo, "timeLoss");
+        let loss_s = s["time_loss_s"].as_f64().unwrap();
+        assert!(
+            (loss_s - loss).abs() <= 0.01 * 22.0,
+            "{name}: {loss_s} vs {loss}"
+        );
+        // (b) crossings of the detector by front bumpers, from the trajectory.
+        let ring = s["road_length_m"].as_f64().unwrap();
+        let x_d = s["loop_ring_m"].as_f64().unwrap();
+        let lap = |q: f64| ((q + length - x_d) / ring).floor() as i64;
+        let crossings: i64 = traj
+            .values()
+            .map(|r| lap(r.last().unwrap().2) - lap(r[0].2))
+            .sum();
+        assert_eq!(
+            s["loop_passages"].as_i64().unwrap(),
+            crossings,
+            "{name}: loop count vs trajectory crossings"
+        );
+        // (c) time loss from the recorded speeds (every step is recorded here).
+        let dt = 0.1;
+        let from_speeds: f64 = traj
+            .values()
+            .map(|r| r[1..].iter().map(|x| dt * (1.0 - x.1 / v_max)).sum::<f64>())
+            .sum();
+        assert!(
+            (loss_s - from_speeds).abs() <= 1e-6 * loss_s,
+            "{name}: {loss_s} vs {from_speeds}"
+        );
+        let flow = s["flow_veh_per_h"].as_f64().unwrap();
+        let kin = s["flow_from_speed_veh_per_h"].as_f64().unwrap();
+        assert!((flow - kin).abs() <= 0.03 * kin, "{name}: {flow} vs {kin}");
+        assert_eq!(m["safety"]["collision_steps"], 0, "{name}");
+    }
+    let c = json(&d.join("compare.json"));
+    assert_eq!(
+        c["runs"]["mixed-0"]["congestion"],
+        c["runs"]["krauss-0.9"]["congestion"]
+    );
+    assert_eq!(
+        c["runs"]["mixed-0"]["sumo"],
+        c["runs"]["krauss-0.9"]["sumo"]
+    );
+    assert_eq!(c["runs"]["mixed-2"]["law_controlled_vehicles"], 2);
+    let drivers = c["runs"]["mixed-2"]["drivers"].as_array().unwrap();
+    assert_eq!(drivers[0], "law");
+    assert_eq!(drivers[11], "law");
+    assert_eq!(drivers[1], "krauss-0.9");
+    assert!(c["mixed_reduction_vs_all_human"]["mixed-2"]["speed_std_reduction"].is_number());
+    // The law synchronizes, SUMO's drivers at this density do not.
+    assert_eq!(c["runs"]["protocol"]["sync"]["verdict"], "synchronized");
+    assert_eq!(
+        c["runs"]["krauss-0.9"]["sync"]["verdict"],
+        "not_synchronized"
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// Same scenario and seed: byte-identical metrics from separate processes, run one at a
+/// time and in parallel.
+#[test]
+fn metrics_are_byte_identical_across_processes_and_parallel_runs() {
+    let runs = "protocol,krauss-0.9,idm";
+    let a = tmpdir("det-a");
+    let b = tmpdir("det-b");
+    for (dir, jobs) in [(&a, "1"), (&b, "3")] {
+        let (code, out, err) = run(bin()
+            .arg("compare")
+            .arg(sugiyama())
+            .args(["--baselines", runs, "--no-plots", "--jobs", jobs, "--out"])
+            .arg(dir));
+        assert_eq!(code, 0, "{out}\n{err}");
+    }
+    for name in runs.split(',') {
+        let x = std::fs::read(a.join(name).join("metrics.json")).unwrap();
+        let y = std::fs::read(b.join(name).join("metrics.json")).unwrap();
+        assert!(x == y, "{name}: metrics.json differs between runs");
+    }
+    assert!(
+        std::fs::read(a.join("compare.json")).unwrap()
+            == std::fs::read(b.join("compare.json")).unwrap()
+    );
+    let _ = std::fs::remove_dir_all(&a);
+    let _ = std::fs::remove_dir_all(&b);
+}
+
+/// A planted regression (the law's predecessor gain 0.6 → 0.5) against the committed
+/// Sugiyama comparison baseline fails with exit 1 and names the changed metrics; the
+/// unchanged scenario passes.
+#[test]
+fn planted_gain_change_fails_the_compare_baseline() {
+    let d = tmpdir("planted");
+    let mut sc = json(&sugiyama());
+    sc["model"]["graph"]["gain_pred"] = 0.5.into();
+    sc["sumo"]["net"] = repo()
+        .join("sumo-nets/sugiyama-ring.net.xml")
+        .display()
+        .to_string()
+        .into();
+    std::fs::write(d.join("planted.json"), sc.to_string()).unwrap();
+    let mut base = json(&repo().join("tests/baselines/sugiyama-ring.compare.json"));
+    base["scenario"] = "planted.json".into();
+    std::fs::write(d.join("baseline.json"), base.to_string()).unwrap();
+    let (code, out, err) = run(bin().arg("regress").arg(d.join("baseline.json")));
+    assert_eq!(code, 1, "{out}\n{err}");
+    assert!(out.contains("FAIL"), "{out}");
+    assert!(
+        out.contains("runs.protocol.congestion.speed_std_mps"),
+        "{out}"
+    );
+    assert!(out.contains("runs.protocol.sumo.fuel_mg"), "{out}");
+    // SUMO's own drivers do not depend on the gain: only the hash names the change there.
+    assert!(!out.contains("runs.idm.congestion"), "{out}");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn bad_compare_input_is_refused_before_sumo_starts() {
+    let d = tmpdir("bad");
+    let cases: [(&[&str], PathBuf, &str); 4] = [
+        (
+            &["--baselines", "protocol,wiedemann"],
+            sugiyama(),
+            "--baselines = wiedemann: unknown driver; use krauss (σ 0.5), krauss-SIGMA",
+        ),
+        (
+            &["--baselines", "krauss-1.4"],
+            sugiyama(),
+            "--baselines = krauss-1.4: Krauss σ = 1.4 must lie in [0, 1]",
+        ),
+        (
+            &["--mixed", "0,30"],
+            sugiyama(),
+            "--mixed = 0,30: 30 controlled vehicles but the scenario has 22",
+        ),
+        (
+            &["--mixed", "1"],
+            repo().join("scenarios/platoon-cacc-sumo.json"),
+            "--mixed = 1: mixed traffic needs a ring of delayed drivers",
+        ),
+    ];
+    for (args, sc, msg) in cases {
+        let out_dir = d.join("never");
+        let (code, out, err) = run(bin()
+            .arg("compare")
+            .arg(&sc)
+            .args(args)
+            .arg("--out")
+            .arg(&out_dir));
+        assert_eq!(code, 2, "{args:?}: {out}\n{err}");
+        assert!(err.contains(msg), "{args:?}: {err}");
+        assert!(!out_dir.exists(), "nothing may be written for bad input");
+    }
+    // A scenario without a SUMO network names the field.
+    let (code, _, err) = run(bin()
+        .arg("compare")
+        .arg(repo().join("scenarios/platoon-cacc.json"))
+        .arg("--out")
+        .arg(d.join("never")));
+    assert_eq!(code, 2);
+    assert!(err.contains("sumo.net is not set"), "{err}");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// A run that fails is marked and keeps its folder; the others still report (here a 0 s
+/// wall-clock limit fails every worker, and the command exits 3 with compare.json written).
+#[test]
+fn failed_runs_are_marked_and_reported() {
+    let d = tmpdir("fail");
+    let (code, out, err) = run(bin()
+        .arg("compare")
+        .arg(sugiyama())
+        .args([
+            "--baselines",
+            "protocol,krauss",
+            "--timeout-s",
+            "0",
+            "--no-plots",
+            "--out",
+        ])
+        .arg(&d));
+    assert_eq!(code, 3, "{out}\n{err}");
+    assert!(out.contains("protocol (FAILED)"), "{out}");
+    assert!(err.contains("error: run krauss failed"), "{err}");
+    let c = json(&d.join("compare.json"));
+    assert_eq!(c["runs"]["protocol"]["complete"], false);
+    assert!(
+        c["runs"]["krauss"]["error"]
+            .as_str()
+            .unwrap()
+            .contains("time"),
+        "{c}"
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}
