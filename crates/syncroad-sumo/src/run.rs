@@ -318,9 +318,9 @@ pub fn prepare(scenario: &Scenario, opts: &RunOptions) -> Result<Request, Prepar
             let detector_file = match loop_position(&layout.road) {
                 Some((lane, pos, _)) => {
                     let f = opts.work_dir.join("detectors.add.xml");
+                    // SUMO resolves `file` relative to the additional file itself.
                     let text = format!(
-                        "<additional>\n    <inductionLoop id=\"loop0\" lane=\"{lane}\" pos=\"{pos}\" period=\"86400\" file=\"{}\"/>\n</additional>\n",
-                        opts.work_dir.join("e1.xml").display()
+                        "<additional>\n    <inductionLoop id=\"loop0\" lane=\"{lane}\" pos=\"{pos}\" period=\"86400\" file=\"e1.xml\"/>\n</additional>\n"
                     );
                     std::fs::write(&f, text).map_err(|e| io(&f, e))?;
                     Some(f)

@@ -307,3 +307,21 @@ fn failed_runs_are_marked_and_reported() {
     );
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// `--out` relative to the working directory (as in scripts/demo.sh): SUMO resolves the
+/// detector's output relative to the additional file, so a relative path must still work.
+#[test]
+fn relative_output_folder_works() {
+    let d = tmpdir("relative");
+    let (code, out, err) = run(bin().current_dir(&d).arg("compare").arg(sugiyama()).args([
+        "--baselines",
+        "krauss",
+        "--no-plots",
+        "--out",
+        "out/cmp",
+    ]));
+    assert_eq!(code, 0, "{out}\n{err}");
+    let m = json(&d.join("out/cmp/krauss/metrics.json"));
+    assert!(m["sumo"]["loop_passages"].as_u64().unwrap() > 0, "{m}");
+    let _ = std::fs::remove_dir_all(&d);
+}
