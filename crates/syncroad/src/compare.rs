@@ -236,6 +236,8 @@ pub struct RunResult {
     pub metrics: Option<Value>,
     /// SUMO version reported by the worker.
     pub sumo_version: Option<String>,
+    /// The speed spread over time `(t, spread)` for the combined plot.
+    pub spread: Vec<(f64, f64)>,
 }
 
 /// Keys of a run's metrics that are stamps, lifted to the top of compare.json.
@@ -388,6 +390,12 @@ fn run_one(
         error: outcome.err().map(|e| e.to_string()),
         metrics: Some(doc),
         sumo_version,
+        spread: traj
+            .time_s
+            .iter()
+            .copied()
+            .zip(syncroad_control::metrics::spread_series(&traj))
+            .collect(),
     })
 }
 
@@ -430,6 +438,7 @@ pub fn run_all(
                     error: Some(format!("{e:#}")),
                     metrics: None,
                     sumo_version: None,
+                    spread: Vec::new(),
                 });
                 let k = done.fetch_add(1, Ordering::SeqCst) + 1;
                 eprintln!(
@@ -602,6 +611,13 @@ pub fn compare_into(
     std::fs::create_dir_all(out)
         .with_context(|| format!("cannot create output folder {}", out.display()))?;
     let results = run_all(sc, plan, out, interrupt)?;
+    if plan.plots {
+        spread_plot(
+            out,
+            &format!("{}: speed spread by driver", sc.name),
+            &results,
+        )?;
+    }
     let mut doc = combined(sc, &results, &plan.mixed);
     doc["order"] = json!(plan.runs.iter().map(|r| r.name.clone()).collect::<Vec<_>>());
     std::fs::write(
@@ -610,6 +626,82 @@ pub fn compare_into(
     )
     .with_context(|| format!("cannot write {}/compare.json", out.display()))?;
     Ok((doc, results))
+}
+
+fn draw_spread<DB: plotters::prelude::DrawingBackend>(
+    root: &plotters::prelude::DrawingArea<DB, plotters::coord::Shift>,
+    title: &str,
+    results: &[RunResult],
+) -> anyhow::Result<()> {
+    use plotters::prelude::*;
+    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow::anyhow!("plotting failed: {e:?}");
+    root.fill(&WHITE).map_err(err)?;
+    let pos = || {
+        results
+            .iter()
+            .flat_map(|r| r.spread.iter())
+            .filter(|(_, y)| y.is_finite() && *y > 0.0)
+    };
+    let t_end = pos().map(|p| p.0).fold(1.0, f64::max);
+    let lo = pos().map(|p| p.1).fold(f64::INFINITY, f64::min).max(1e-12);
+    let hi = pos().map(|p| p.1).fold(0.0, f64::max).max(lo * 10.0);
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, ("sans-serif", 20))
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.0..t_end, (lo * 0.5..hi * 2.0).log_scale())
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc("time [s]")
+        .y_desc("speed spread [m/s]")
+        .y_label_formatter(&|y| format!("{y:.0e}"))
+        .draw()
+        .map_err(err)?;
+    for (k, r) in results.iter().enumerate() {
+        let colour = Palette99::pick(k).to_rgba();
+        chart
+            .draw_series(LineSeries::new(
+                r.spread
+                    .iter()
+                    .copied()
+                    .filter(|(_, y)| y.is_finite() && *y > 0.0),
+                colour.stroke_width(2),
+            ))
+            .map_err(err)?
+            .label(r.name.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .map_err(err)?;
+    root.present().map_err(err)?;
+    Ok(())
+}
+
+/// `compare_spread.png` and `.svg`: every run's speed spread on one log scale.
+fn spread_plot(out: &Path, title: &str, results: &[RunResult]) -> anyhow::Result<()> {
+    use plotters::prelude::*;
+    crate::plots::ensure_font();
+    let png = out.join("compare_spread.png");
+    draw_spread(
+        &BitMapBackend::new(&png, (900, 500)).into_drawing_area(),
+        title,
+        results,
+    )
+    .with_context(|| format!("cannot write {}", png.display()))?;
+    let svg = out.join("compare_spread.svg");
+    draw_spread(
+        &SVGBackend::new(&svg, (900, 500)).into_drawing_area(),
+        title,
+        results,
+    )
+    .with_context(|| format!("cannot write {}", svg.display()))?;
+    Ok(())
 }
 
 /// `syncroad compare`.

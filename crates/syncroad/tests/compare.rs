@@ -325,3 +325,49 @@ fn relative_output_folder_works() {
     assert!(m["sumo"]["loop_passages"].as_u64().unwrap() > 0, "{m}");
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// A baseline of kind `sumo` re-runs the law alone in SUMO: `--update` records it, a rerun
+/// passes, and a planted tolerance violation (a baseline value moved by 1 %) fails with exit 1.
+/// The plots of every run and the combined spread plot are written when asked.
+#[test]
+fn sumo_kind_baseline_and_plots() {
+    let d = tmpdir("sumo-kind");
+    let base = serde_json::json!({
+        "kind": "sumo",
+        "scenario": sugiyama().display().to_string(),
+        "tolerances": {"default": {"abs": 1e-9, "rel": 1e-6}},
+        "metrics": {}
+    });
+    let path = d.join("b.json");
+    std::fs::write(&path, base.to_string()).unwrap();
+    let (code, out, err) = run(bin().arg("regress").arg(&path).arg("--update"));
+    assert_eq!(code, 0, "{out}\n{err}");
+    let mut b = json(&path);
+    let runs: Vec<&String> = b["metrics"]["runs"].as_object().unwrap().keys().collect();
+    assert_eq!(runs, ["protocol"]);
+    let (code, out, _) = run(bin().arg("regress").arg(&path));
+    assert_eq!(code, 0, "{out}");
+    let std = &mut b["metrics"]["runs"]["protocol"]["congestion"]["speed_std_mps"];
+    *std = (std.as_f64().unwrap() * 1.01).into();
+    std::fs::write(&path, b.to_string()).unwrap();
+    let (code, out, _) = run(bin().arg("regress").arg(&path));
+    assert_eq!(code, 1, "{out}");
+    assert!(out.contains("FAIL (1 of"), "{out}");
+
+    let (code, out, err) = run(bin()
+        .arg("compare")
+        .arg(sugiyama())
+        .args(["--baselines", "protocol,krauss", "--out"])
+        .arg(d.join("plots")));
+    assert_eq!(code, 0, "{out}\n{err}");
+    for f in [
+        "compare_spread.png",
+        "compare_spread.svg",
+        "protocol/time_space.png",
+        "krauss/speeds.svg",
+        "krauss/spread.png",
+    ] {
+        assert!(d.join("plots").join(f).is_file(), "{f} missing");
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
