@@ -23,6 +23,7 @@
 pub mod bench;
 pub mod controller;
 pub mod cosim;
+pub mod direct;
 pub mod layout;
 pub mod net;
 pub mod protocol;
