@@ -6,6 +6,13 @@
 use std::process::Command;
 
 fn main() {
+    // The shim for direct batch calls into the loaded libsumo (src/direct.rs).
+    println!("cargo:rerun-if-changed=cpp/direct.cpp");
+    cc::Build::new()
+        .cpp(true)
+        .file("cpp/direct.cpp")
+        .flag_if_supported("-std=c++17")
+        .compile("syncroad_direct");
     println!("cargo:rerun-if-env-changed=PYO3_PYTHON");
     let python = std::env::var("PYO3_PYTHON").unwrap_or_else(|_| "python3".to_string());
     let out = Command::new(&python)

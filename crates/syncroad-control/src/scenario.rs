@@ -92,6 +92,19 @@ pub enum PerVehicle {
 }
 
 impl PerVehicle {
+    /// The common value when every vehicle has the same one (ignoring the first `skip`
+    /// entries of a list, e.g. the unused gain of a chain's head).
+    pub fn uniform_value(&self, skip: usize) -> Option<f64> {
+        match self {
+            PerVehicle::Uniform(x) => Some(*x),
+            PerVehicle::List(v) => {
+                let rest = v.get(skip..)?;
+                let first = *rest.first()?;
+                rest.iter().all(|x| *x == first).then_some(first)
+            }
+        }
+    }
+
     fn resolve(&self, field: &str, n: usize) -> Result<Vec<f64>, ScenarioError> {
         let v = match self {
             PerVehicle::Uniform(x) => vec![*x; n],

@@ -10,9 +10,7 @@ use serde::Serialize;
 
 use crate::graph::{Graph, GraphSummary};
 use crate::ifp::cacc_agent_index;
-use crate::scenario::{
-    CaccModel, DelayedDriverModel, GraphSpec, Model, ModelSpec, PerVehicle, Scenario,
-};
+use crate::scenario::{CaccModel, DelayedDriverModel, GraphSpec, Model, ModelSpec, Scenario};
 
 /// The vehicle closest to violating a per-vehicle inequality `value < bound`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -232,17 +230,6 @@ pub struct Chandler {
     pub holds: bool,
 }
 
-fn uniform(p: &PerVehicle, skip_first: bool) -> Option<f64> {
-    match p {
-        PerVehicle::Uniform(x) => Some(*x),
-        PerVehicle::List(v) => {
-            let v = if skip_first { &v[1..] } else { &v[..] };
-            let first = *v.first()?;
-            v.iter().all(|x| *x == first).then_some(first)
-        }
-    }
-}
-
 /// Chandler's straight-road condition `2αK < 1`, when the scenario is uniform predecessor
 /// following (a chain behind a leader with b_0 = K, or a unidirectional ring).
 pub fn chandler(scenario: &Scenario, m: &DelayedDriverModel) -> Option<Chandler> {
@@ -250,10 +237,10 @@ pub fn chandler(scenario: &Scenario, m: &DelayedDriverModel) -> Option<Chandler>
         return None;
     };
     let k = match graph {
-        GraphSpec::UnidirectionalRing { gain } => uniform(gain, false)?,
+        GraphSpec::UnidirectionalRing { gain } => gain.uniform_value(0)?,
         GraphSpec::Chain { gain } => {
             let k = if scenario.n > 1 {
-                uniform(gain, true)?
+                gain.uniform_value(1)?
             } else {
                 m.leader.as_ref()?.1[0]
             };

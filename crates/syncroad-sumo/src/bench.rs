@@ -4,8 +4,9 @@
 //!   as under the law, and no per-step calls;
 //! * **SUMO + controller** — the real co-simulation loop: every vehicle's speed read
 //!   (`getSpeed`, odometer every 10 steps), the delayed-driver law (eq. `chandler+`) in Rust,
-//!   one `setSpeed` per vehicle, rows recorded and streamed every step; and the same loop
-//!   reading through subscriptions (speed + odometer every step);
+//!   one `setSpeed` per vehicle, rows recorded and streamed every step, the per-vehicle calls
+//!   going straight to libsumo's C++ functions ([`crate::direct`]); and the same loop with
+//!   every per-vehicle call through the Python module;
 //! * **TraCI reference** — `python-host/traci_reference.py`: the traci socket client driving a
 //!   `sumo` subprocess with the same reads and writes.
 //!
@@ -103,12 +104,12 @@ pub struct BenchResult {
     /// Median over the controlled runs of (loop time outside `simulation.step`) / (time in
     /// it) [%]: both from the same run, so other load on the machine cancels out.
     pub in_run_overhead_pct: f64,
-    /// Best SUMO + controller time reading through subscriptions.
-    pub subscriptions_ms: f64,
+    /// Best SUMO + controller time with the per-vehicle calls through Python.
+    pub python_getters_ms: f64,
     /// All samples of that.
-    pub subscriptions_samples_ms: Vec<f64>,
+    pub python_getters_samples_ms: Vec<f64>,
     /// Its overhead over SUMO alone [%].
-    pub subscriptions_overhead_pct: f64,
+    pub python_getters_overhead_pct: f64,
     /// TraCI reference time.
     pub traci_ms: Option<f64>,
     /// `traci / controlled`.
@@ -281,7 +282,7 @@ pub fn run_case(
     let sc = scenario(case)?;
     let mut alone = Vec::new();
     let mut controlled = Vec::new();
-    let mut subscribed = Vec::new();
+    let mut python_getters = Vec::new();
     let mut in_run = Vec::new();
     for r in 0..case.repeats {
         let a = timed(worker, &sc, &work_dir.join("alone"), None, case.warmup)?.ms_per_step;
@@ -295,13 +296,13 @@ pub fn run_case(
             worker,
             &sc,
             &work_dir.join("controlled"),
-            Some(ReadMode::Getters),
+            Some(ReadMode::Direct),
             case.warmup,
         )?;
         in_run.push(c.in_run_overhead_pct);
         let c = c.ms_per_step;
         progress(&format!(
-            "{}: SUMO + controller (getters)       {c:9.4} ms/step (run {})",
+            "{}: SUMO + controller (direct)        {c:9.4} ms/step (run {})",
             case.name,
             r + 1
         ));
@@ -309,20 +310,20 @@ pub fn run_case(
         let s = timed(
             worker,
             &sc,
-            &work_dir.join("subscribed"),
-            Some(ReadMode::Subscriptions),
+            &work_dir.join("python-getters"),
+            Some(ReadMode::Getters),
             case.warmup,
         )?
         .ms_per_step;
         progress(&format!(
-            "{}: SUMO + controller (subscriptions) {s:9.4} ms/step (run {})",
+            "{}: SUMO + controller (Python getters){s:9.4} ms/step (run {})",
             case.name,
             r + 1
         ));
-        subscribed.push(s);
+        python_getters.push(s);
     }
     let best = |v: &[f64]| v.iter().copied().fold(f64::INFINITY, f64::min);
-    let (a, c, sub) = (best(&alone), best(&controlled), best(&subscribed));
+    let (a, c, sub) = (best(&alone), best(&controlled), best(&python_getters));
     let traci_ms = if case.traci {
         let t = traci_reference(
             case,
@@ -347,9 +348,9 @@ pub fn run_case(
         controlled_samples_ms: controlled,
         overhead_pct: 100.0 * (c / a - 1.0),
         in_run_overhead_pct: median(&in_run),
-        subscriptions_ms: sub,
-        subscriptions_samples_ms: subscribed,
-        subscriptions_overhead_pct: 100.0 * (sub / a - 1.0),
+        python_getters_ms: sub,
+        python_getters_samples_ms: python_getters,
+        python_getters_overhead_pct: 100.0 * (sub / a - 1.0),
         traci_ms,
         speedup_vs_traci: traci_ms.map(|t| t / c),
     })
@@ -358,7 +359,7 @@ pub fn run_case(
 /// A plain-text table of results.
 pub fn format_table(results: &[BenchResult]) -> String {
     let mut s = String::from(
-        "case                   alone ms/step  +controller ms/step  overhead  in-run overhead  (subscriptions: ms/step  overhead)  TraCI ms/step  vs TraCI\n",
+        "case                   alone ms/step  +controller ms/step  overhead  in-run overhead  (Python getters: ms/step  overhead)  TraCI ms/step  vs TraCI\n",
     );
     for r in results {
         s.push_str(&format!(
@@ -368,8 +369,8 @@ pub fn format_table(results: &[BenchResult]) -> String {
             r.controlled_ms,
             r.overhead_pct,
             r.in_run_overhead_pct,
-            r.subscriptions_ms,
-            r.subscriptions_overhead_pct,
+            r.python_getters_ms,
+            r.python_getters_overhead_pct,
             r.traci_ms.map(|t| format!("{t:.4}")).unwrap_or_default(),
             r.speedup_vs_traci
                 .map(|x| format!("{x:.1}×"))

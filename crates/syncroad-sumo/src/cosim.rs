@@ -7,14 +7,16 @@
 //! Collisions, teleports and overridden commands are counted.
 //!
 //! # Reading states
-//! [`ReadMode::Getters`] (default) reads `vehicle.getSpeed` of every vehicle every step and
-//! advances positions by SUMO's own update rule (trapezoidal with the ballistic update, else
-//! `Δt v^{n+1}`); SUMO's odometer `vehicle.getDistance` is read every `odometer_every` steps and
-//! at the end, replaces the integrated value, and the largest deviation is reported
-//! (0 up to rounding: the integration is SUMO's own). [`ReadMode::Subscriptions`] subscribes
-//! to speed and odometer. Measured with libsumo 1.28.0 at N = 2000, keeping the subscriptions
-//! up to date costs SUMO about 30 % of a bare step, more than the getters' calls, hence the
-//! default (`syncroad-sumo-worker --bench` measures both).
+//! [`ReadMode::Direct`] (default) reads `getSpeed` of every vehicle every step and sends the
+//! commands with `setSpeed`, each as one batch straight into the C++ functions of the libsumo
+//! Python loaded ([`crate::direct`]), and advances positions by SUMO's own update rule
+//! (trapezoidal with the ballistic update, else `Δt v^{n+1}`); SUMO's odometer `getDistance`
+//! is read every `odometer_every` steps and at the end, replaces the integrated value, and the
+//! largest deviation is reported (0 up to rounding: the integration is SUMO's own).
+//! [`ReadMode::Getters`] makes the same calls through the Python module, one interpreter round
+//! trip per vehicle. [`ReadMode::Subscriptions`] subscribes to speed and odometer; measured with
+//! libsumo 1.28.0 at N = 2000, keeping the subscriptions up to date costs SUMO about 30 % of a
+//! bare step, more than the getters' calls (`syncroad sumo-bench` measures the first two).
 
 use std::io::Write;
 use std::path::Path;
@@ -24,6 +26,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyInt, PyString, PyTuple};
 
 use crate::controller::{controller_for, SpeedController};
+use crate::direct::{Direct, DirectError};
 use crate::protocol::{
     write_msg, write_rows, Control, Event, Finish, Measure, Measured, PhaseTimes, ReadMode,
     Request, RowChunk, StartInfo, StopReason, Totals, WorkerMsg,
@@ -211,6 +214,8 @@ struct Reader<'a, 'py> {
     key_distance: Bound<'py, PyInt>,
     /// The subscription results of the current step (read once for speeds and odometers).
     cache: std::cell::RefCell<Option<Bound<'py, PyDict>>>,
+    /// Batch calls into libsumo's C++ functions ([`ReadMode::Direct`]).
+    direct: Option<Direct>,
 }
 
 impl<'a, 'py> Reader<'a, 'py> {
@@ -234,7 +239,19 @@ impl<'a, 'py> Reader<'a, 'py> {
                 .getattr(name)
                 .map_err(|e| py_error(py, format!("_libsumo.{name}"), e))
         };
+        let direct = if mode == ReadMode::Direct {
+            let file: String = ls
+                .native
+                .getattr("__file__")
+                .and_then(|f| f.extract())
+                .map_err(|e| py_error(py, "libsumo._libsumo.__file__", e))?;
+            let names: Vec<String> = ids.iter().map(|id| id.to_string()).collect();
+            Direct::load(&file, &names)
+        } else {
+            None
+        };
         Ok(Self {
+            direct,
             py,
             ls,
             ids,
@@ -270,8 +287,25 @@ impl<'a, 'py> Reader<'a, 'py> {
             .position(|id| !present.iter().any(|p| id.to_str().is_ok_and(|s| s == p))))
     }
 
+    /// A failed direct call: `Some(i)` if vehicle i left the simulation, else the error.
+    fn direct_failure(&self, call: &str, e: DirectError) -> Result<Option<usize>, PythonError> {
+        match self.missing()? {
+            Some(i) => Ok(Some(i)),
+            None => Err(PythonError::Call {
+                call: format!("libsumo::Vehicle::{call}({}) (direct)", self.ids[e.vehicle]),
+                traceback: format!("C++ exception: {}", e.message),
+            }),
+        }
+    }
+
     /// Measured speeds into `v`; `Some(i)` when vehicle i left the simulation.
     fn speeds(&self, v: &mut [f64]) -> Result<Option<usize>, PythonError> {
+        if let Some(d) = &self.direct {
+            return match d.speeds(v) {
+                Ok(()) => Ok(None),
+                Err(e) => self.direct_failure("getSpeed", e),
+            };
+        }
         if self.subscribed {
             let all = self
                 .ls
@@ -299,6 +333,12 @@ impl<'a, 'py> Reader<'a, 'py> {
 
     /// SUMO odometers (`vehicle.getDistance`) into `d`.
     fn odometers(&self, d: &mut [f64]) -> Result<Option<usize>, PythonError> {
+        if let Some(direct) = &self.direct {
+            return match direct.odometers(d) {
+                Ok(()) => Ok(None),
+                Err(e) => self.direct_failure("getDistance", e),
+            };
+        }
         if self.subscribed {
             return self.cached(&self.key_distance, d);
         }
@@ -628,6 +668,7 @@ fn run_started(
         .map(|v| PyString::intern(py, &v.id))
         .collect();
     let controlled = controller.is_some();
+    let all_law = req.layout.vehicles.iter().all(|v| v.driver.is_none());
     let hold = matches!(req.control, Control::Hold);
     if controlled || hold {
         for (id, dep) in ids.iter().zip(&req.layout.vehicles) {
@@ -659,7 +700,10 @@ fn run_started(
     let mut dist = vec![0.0; n];
     let mut q = q0.clone();
     let mut cmd = vec![f64::NAN; n];
-    let mut totals = Totals::default();
+    let mut totals = Totals {
+        direct_calls: reader.direct.is_some(),
+        ..Totals::default()
+    };
     let mut rows = RowChunk::new(n);
     let mut override_events = 0usize;
     let odometer_every = req.odometer_every.max(1);
@@ -727,16 +771,32 @@ fn run_started(
                     break 'steps;
                 }
             }
-            for (((id, args), x), _) in ids
-                .iter()
-                .zip(&speed_args)
-                .zip(&next)
-                .zip(&req.layout.vehicles)
-                .filter(|(_, dep)| dep.driver.is_none())
-            {
-                set_item_f64(args, 1, *x)
-                    .and_then(|()| ls.set_speed.call1(args))
-                    .map_err(|e| py_error(py, format!("vehicle.setSpeed({id}, {x})"), e))?;
+            // The batch call sets every vehicle; with SUMO drivers on the road only the law's
+            // vehicles are commanded, one call each.
+            let direct = reader.direct.as_ref().filter(|_| all_law);
+            if let Some(d) = direct {
+                if let Err(e) = d.set_speeds(&next) {
+                    return Err(PythonError::Call {
+                        call: format!(
+                            "libsumo::Vehicle::setSpeed({}, {}) (direct)",
+                            ids[e.vehicle], next[e.vehicle]
+                        ),
+                        traceback: format!("C++ exception: {}", e.message),
+                    }
+                    .into());
+                }
+            } else {
+                for (((id, args), x), _) in ids
+                    .iter()
+                    .zip(&speed_args)
+                    .zip(&next)
+                    .zip(&req.layout.vehicles)
+                    .filter(|(_, dep)| dep.driver.is_none())
+                {
+                    set_item_f64(args, 1, *x)
+                        .and_then(|()| ls.set_speed.call1(args))
+                        .map_err(|e| py_error(py, format!("vehicle.setSpeed({id}, {x})"), e))?;
+                }
             }
             for (i, c) in cmd.iter_mut().enumerate() {
                 // Rows carry NaN where SUMO's own model drives.

@@ -24,6 +24,7 @@
 pub mod bench;
 pub mod controller;
 pub mod cosim;
+pub mod direct;
 pub mod drivers;
 pub mod layout;
 pub mod net;

@@ -112,8 +112,12 @@ pub struct Measured {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ReadMode {
-    /// `vehicle.getSpeed` per vehicle per step, odometer every few steps.
+    /// As [`ReadMode::Getters`], but the per-vehicle `getSpeed`/`setSpeed`/`getDistance` go
+    /// straight to the C++ functions of the libsumo Python loaded, one batch per step
+    /// ([`crate::direct`]); falls back to the getters if that library does not export them.
     #[default]
+    Direct,
+    /// `vehicle.getSpeed` per vehicle per step through Python, odometer every few steps.
     Getters,
     /// Subscriptions to speed and odometer, one `getAllSubscriptionResults` per step.
     Subscriptions,
@@ -241,6 +245,9 @@ pub struct Totals {
     /// Largest difference between SUMO's odometer and the positions integrated from the
     /// measured speeds with SUMO's update rule \[m\] (0 up to rounding).
     pub odometer_deviation_max_m: f64,
+    /// The per-vehicle calls went straight to libsumo's C++ functions ([`ReadMode::Direct`]).
+    #[serde(default)]
+    pub direct_calls: bool,
 }
 
 /// The end of a run.

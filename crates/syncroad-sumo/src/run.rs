@@ -152,7 +152,7 @@ impl RunOptions {
             sumo_model_sigma: None,
             timeout: None,
             interrupt: None,
-            read: ReadMode::Getters,
+            read: ReadMode::Direct,
             on_start: None,
             drivers: Vec::new(),
             measure: None,

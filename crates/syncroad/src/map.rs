@@ -17,6 +17,7 @@ use syncroad_control::scenario::{DelayedDriverModel, Model};
 use syncroad_control::{simulate, theory, NativeOptions, Scenario, StopReason, Verdict};
 
 use crate::commands::InputError;
+use crate::plots::err;
 use crate::stability::{network_matrices, uniform_ring, FULL_SOLVE_LIMIT};
 
 /// Swept quantity.
@@ -345,10 +346,6 @@ pub fn write_csv(path: &Path, pts: &[Point]) -> anyhow::Result<()> {
         );
     }
     std::fs::write(path, s).with_context(|| format!("cannot write {}", path.display()))
-}
-
-fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
-    anyhow!("plotting failed: {e:?}")
 }
 
 macro_rules! draw_map {

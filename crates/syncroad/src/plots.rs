@@ -51,7 +51,8 @@ fn speed_colour(v: f64, vmin: f64, vmax: f64) -> RGBColor {
     )
 }
 
-fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
+/// A plotting backend error as an anyhow error.
+pub(crate) fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
     anyhow!("plotting failed: {e:?}")
 }
 

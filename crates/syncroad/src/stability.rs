@@ -17,7 +17,7 @@ use syncroad_control::exact::{
     self, AcyclicReport, CaccParams, CaccReport, CollocationOptions, NetworkStabilityReport,
     RingModes, StringStabilityOptions, UniformRing,
 };
-use syncroad_control::scenario::{DelayedDriverModel, GraphSpec, ModelSpec, PerVehicle};
+use syncroad_control::scenario::{DelayedDriverModel, GraphSpec, ModelSpec};
 use syncroad_control::theory::{self, TheoryReport};
 use syncroad_control::{scenario::Model, Scenario};
 
@@ -47,13 +47,6 @@ pub struct StabilityReport {
     pub certified: bool,
 }
 
-fn uniform(p: &PerVehicle) -> Option<f64> {
-    match p {
-        PerVehicle::Uniform(x) => Some(*x),
-        PerVehicle::List(v) => v.iter().all(|x| *x == v[0]).then(|| v[0]),
-    }
-}
-
 /// The uniform ring described by the scenario, if it is one.
 pub fn uniform_ring(sc: &Scenario, m: &DelayedDriverModel) -> Option<UniformRing> {
     let ModelSpec::DelayedDriver { graph, .. } = &sc.file.model else {
@@ -64,11 +57,11 @@ pub fn uniform_ring(sc: &Scenario, m: &DelayedDriverModel) -> Option<UniformRing
         return None;
     }
     let (kf, kb) = match graph {
-        GraphSpec::UnidirectionalRing { gain } => (uniform(gain)?, 0.0),
+        GraphSpec::UnidirectionalRing { gain } => (gain.uniform_value(0)?, 0.0),
         GraphSpec::BidirectionalRing {
             gain_pred,
             gain_follow,
-        } => (uniform(gain_pred)?, uniform(gain_follow)?),
+        } => (gain_pred.uniform_value(0)?, gain_follow.uniform_value(0)?),
         _ => return None,
     };
     UniformRing::new(sc.n, kf, kb, a).ok()

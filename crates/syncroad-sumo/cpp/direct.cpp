@@ -1,0 +1,83 @@
+// Batch calls into the C++ API of the libsumo that CPython has loaded (syncroad, direct.rs).
+//
+// libsumo's Python module is a SWIG wrapper around the static functions of libsumo::Vehicle;
+// its shared object exports them. Calling them through these shims skips one interpreter
+// round trip per vehicle and step, on the same simulation the Python module started.
+// Every exception stops the batch and is reported with the index of the vehicle.
+
+#include <cstddef>
+#include <cstring>
+#include <exception>
+#include <string>
+#include <vector>
+
+namespace {
+using GetF64 = double (*)(const std::string&);
+using SetF64 = void (*)(const std::string&, double);
+
+void copy_message(const char* what, char* err, std::size_t errlen) {
+    if (err == nullptr || errlen == 0) {
+        return;
+    }
+    std::strncpy(err, what, errlen - 1);
+    err[errlen - 1] = '\0';
+}
+}  // namespace
+
+struct sr_ids {
+    std::vector<std::string> ids;
+};
+
+extern "C" {
+
+sr_ids* sr_ids_new(const char* const* ids, const std::size_t* lens, std::size_t n) {
+    try {
+        auto* v = new sr_ids;
+        v->ids.reserve(n);
+        for (std::size_t i = 0; i < n; ++i) {
+            v->ids.emplace_back(ids[i], lens[i]);
+        }
+        return v;
+    } catch (...) {
+        return nullptr;
+    }
+}
+
+void sr_ids_free(sr_ids* ids) { delete ids; }
+
+// out[i] = fn(ids[i]); returns 0, or 1 + the index of the vehicle whose call threw.
+std::size_t sr_get_f64(void* fn, const sr_ids* ids, double* out, char* err, std::size_t errlen) {
+    auto f = reinterpret_cast<GetF64>(fn);
+    std::size_t i = 0;
+    try {
+        for (; i < ids->ids.size(); ++i) {
+            out[i] = f(ids->ids[i]);
+        }
+    } catch (const std::exception& e) {
+        copy_message(e.what(), err, errlen);
+        return i + 1;
+    } catch (...) {
+        copy_message("unknown C++ exception", err, errlen);
+        return i + 1;
+    }
+    return 0;
+}
+
+// fn(ids[i], in[i]) for every vehicle; returns 0, or 1 + the index of the call that threw.
+std::size_t sr_set_f64(void* fn, const sr_ids* ids, const double* in, char* err, std::size_t errlen) {
+    auto f = reinterpret_cast<SetF64>(fn);
+    std::size_t i = 0;
+    try {
+        for (; i < ids->ids.size(); ++i) {
+            f(ids->ids[i], in[i]);
+        }
+    } catch (const std::exception& e) {
+        copy_message(e.what(), err, errlen);
+        return i + 1;
+    } catch (...) {
+        copy_message("unknown C++ exception", err, errlen);
+        return i + 1;
+    }
+    return 0;
+}
+}

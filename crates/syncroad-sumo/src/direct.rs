@@ -1,0 +1,158 @@
+//! Direct batch calls into the libsumo that CPython has loaded.
+//!
+//! The Python module `libsumo` is a SWIG wrapper around the static functions of
+//! `libsumo::Vehicle`, and its shared object (`libsumo/_libsumo.so`) exports them. Once Python
+//! has imported it and started the simulation, the worker looks the functions up in that very
+//! library (`dlopen` with `RTLD_NOLOAD` returns the loaded copy, so the simulation state is the
+//! one Python started) and calls them through a small C++ shim (`cpp/direct.cpp`) once per
+//! step for all vehicles: one `getSpeed` and one `setSpeed` per vehicle without an interpreter
+//! round trip each. Python still starts, steps and closes SUMO.
+//!
+//! If the library or a symbol is missing (another libsumo build), [`Direct::load`] returns
+//! `None` and the loop keeps the Python getters.
+
+use std::ffi::{c_char, c_void, CStr, CString};
+
+/// Mangled names of the functions used (GCC's C++11 ABI, as in the pinned wheels).
+const GET_SPEED: &str =
+    "_ZN7libsumo7Vehicle8getSpeedERKNSt7__cxx1112basic_stringIcSt11char_traitsIcESaIcEEE";
+const GET_DISTANCE: &str =
+    "_ZN7libsumo7Vehicle11getDistanceERKNSt7__cxx1112basic_stringIcSt11char_traitsIcESaIcEEE";
+const SET_SPEED: &str =
+    "_ZN7libsumo7Vehicle8setSpeedERKNSt7__cxx1112basic_stringIcSt11char_traitsIcESaIcEEEd";
+
+#[repr(C)]
+struct SrIds {
+    _private: [u8; 0],
+}
+
+extern "C" {
+    fn sr_ids_new(ids: *const *const c_char, lens: *const usize, n: usize) -> *mut SrIds;
+    fn sr_ids_free(ids: *mut SrIds);
+    fn sr_get_f64(
+        f: *mut c_void,
+        ids: *const SrIds,
+        out: *mut f64,
+        err: *mut c_char,
+        errlen: usize,
+    ) -> usize;
+    fn sr_set_f64(
+        f: *mut c_void,
+        ids: *const SrIds,
+        input: *const f64,
+        err: *mut c_char,
+        errlen: usize,
+    ) -> usize;
+}
+
+/// A failed call: the vehicle index and the C++ exception's message.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DirectError {
+    /// Index of the vehicle whose call threw.
+    pub vehicle: usize,
+    /// `what()` of the exception.
+    pub message: String,
+}
+
+/// Resolved functions and the vehicle ids as C++ strings.
+pub struct Direct {
+    get_speed: *mut c_void,
+    get_distance: *mut c_void,
+    set_speed: *mut c_void,
+    ids: *mut SrIds,
+    n: usize,
+}
+
+impl Direct {
+    /// Looks the functions up in the already loaded library `so_path` (the `__file__` of
+    /// `libsumo._libsumo`) for vehicles `ids`; `None` if anything is missing.
+    pub fn load(so_path: &str, ids: &[String]) -> Option<Self> {
+        let path = CString::new(so_path).ok()?;
+        // SAFETY: dlopen with RTLD_NOLOAD only returns a handle to a library already loaded in
+        // this process (or NULL); it never runs constructors of a new copy.
+        let handle = unsafe { libc::dlopen(path.as_ptr(), libc::RTLD_NOW | libc::RTLD_NOLOAD) };
+        if handle.is_null() {
+            return None;
+        }
+        let sym = |name: &str| -> Option<*mut c_void> {
+            let c = CString::new(name).ok()?;
+            // SAFETY: `handle` is a live handle from dlopen; dlsym returns NULL if absent.
+            let p = unsafe { libc::dlsym(handle, c.as_ptr()) };
+            (!p.is_null()).then_some(p)
+        };
+        let (get_speed, get_distance, set_speed) =
+            (sym(GET_SPEED)?, sym(GET_DISTANCE)?, sym(SET_SPEED)?);
+        let ptrs: Vec<*const c_char> = ids.iter().map(|s| s.as_ptr().cast()).collect();
+        let lens: Vec<usize> = ids.iter().map(String::len).collect();
+        // SAFETY: `ptrs[i]` points at `lens[i]` bytes of `ids[i]`, alive during the call; the
+        // shim copies them into std::strings.
+        let handle_ids = unsafe { sr_ids_new(ptrs.as_ptr(), lens.as_ptr(), ids.len()) };
+        if handle_ids.is_null() {
+            return None;
+        }
+        Some(Self {
+            get_speed,
+            get_distance,
+            set_speed,
+            ids: handle_ids,
+            n: ids.len(),
+        })
+    }
+
+    fn get(&self, f: *mut c_void, out: &mut [f64]) -> Result<(), DirectError> {
+        assert_eq!(out.len(), self.n, "one value per vehicle");
+        let mut err = [0 as c_char; 512];
+        // SAFETY: `f` is `double(const std::string&)` from the loaded libsumo, `self.ids` holds
+        // `n` strings and `out` has room for `n` values; the shim catches every exception.
+        let r = unsafe { sr_get_f64(f, self.ids, out.as_mut_ptr(), err.as_mut_ptr(), err.len()) };
+        Self::check(r, &err)
+    }
+
+    fn check(r: usize, err: &[c_char]) -> Result<(), DirectError> {
+        if r == 0 {
+            return Ok(());
+        }
+        // SAFETY: the shim always NUL-terminates the buffer when it reports an error.
+        let message = unsafe { CStr::from_ptr(err.as_ptr()) }
+            .to_string_lossy()
+            .into_owned();
+        Err(DirectError {
+            vehicle: r - 1,
+            message,
+        })
+    }
+
+    /// `vehicle.getSpeed` of every vehicle.
+    pub fn speeds(&self, out: &mut [f64]) -> Result<(), DirectError> {
+        self.get(self.get_speed, out)
+    }
+
+    /// `vehicle.getDistance` (odometer) of every vehicle.
+    pub fn odometers(&self, out: &mut [f64]) -> Result<(), DirectError> {
+        self.get(self.get_distance, out)
+    }
+
+    /// `vehicle.setSpeed` of every vehicle.
+    pub fn set_speeds(&self, speeds: &[f64]) -> Result<(), DirectError> {
+        assert_eq!(speeds.len(), self.n, "one command per vehicle");
+        let mut err = [0 as c_char; 512];
+        // SAFETY: as in `get`, with `void(const std::string&, double)`.
+        let r = unsafe {
+            sr_set_f64(
+                self.set_speed,
+                self.ids,
+                speeds.as_ptr(),
+                err.as_mut_ptr(),
+                err.len(),
+            )
+        };
+        Self::check(r, &err)
+    }
+}
+
+impl Drop for Direct {
+    fn drop(&mut self) {
+        // SAFETY: `ids` came from sr_ids_new and is freed once.
+        unsafe { sr_ids_free(self.ids) }
+    }
+}

@@ -1,0 +1,163 @@
+//! `syncroad run` on the SUMO backend, end to end with real SUMO (needs the virtualenv of
+//! `bash python-host/bootstrap.sh`, which scripts/test.sh runs first).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_syncroad"))
+}
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("syncroad-sumo-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn run(args: &[&str], scenario: &Path, out: &Path) -> (i32, String, serde_json::Value) {
+    let o = bin()
+        .args(args)
+        .arg(scenario)
+        .arg("--out")
+        .arg(out)
+        .arg("--no-plots")
+        .output()
+        .unwrap();
+    let stdout =
+        String::from_utf8_lossy(&o.stdout).into_owned() + &String::from_utf8_lossy(&o.stderr);
+    let m = std::fs::read_to_string(out.join("metrics.json"))
+        .map(|t| serde_json::from_str(&t).unwrap())
+        .unwrap_or_default();
+    (o.status.code().unwrap_or(-1), stdout, m)
+}
+
+#[test]
+fn theorem1_ring_synchronizes_in_sumo_like_the_native_simulator() {
+    let (a, b) = (tmpdir("ring-sumo"), tmpdir("ring-native"));
+    let (code, out, sumo) = run(&["run"], &repo().join("scenarios/sugiyama-ring.json"), &a);
+    assert_eq!(code, 0, "{out}");
+    assert_eq!(sumo["backend"], "sumo");
+    assert_eq!(sumo["sync"]["verdict"], "synchronized");
+    assert_eq!(sumo["extra"]["totals"]["collision_steps"], 0);
+    assert!(sumo["extra"]["sumo_version"]
+        .as_str()
+        .unwrap()
+        .contains("1.28.0"));
+    // Same law, same initial state: the SUMO speeds follow the native simulator's.
+    let (code, _, native) = run(
+        &["simulate"],
+        &repo().join("scenarios/sugiyama-ring.json"),
+        &b,
+    );
+    assert_eq!(code, 0);
+    for key in ["final_spread_mps", "spread_l2", "decay_rate_per_s"] {
+        let (x, y) = (
+            sumo["sync"][key].as_f64().unwrap(),
+            native["sync"][key].as_f64().unwrap(),
+        );
+        assert!(
+            (x - y).abs() <= 1e-6 * y.abs().max(1e-3),
+            "{key}: sumo {x} native {y}"
+        );
+    }
+}
+
+#[test]
+fn ring_past_the_exact_boundary_grows_at_the_predicted_rate_in_sumo() {
+    let scenario = repo().join("scenarios/sugiyama-unstable.json");
+    let o = bin()
+        .args(["stability", "--json"])
+        .arg(&scenario)
+        .output()
+        .unwrap();
+    let st: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let abscissa = st["ring"]["abscissa"].as_f64().unwrap();
+    assert!(abscissa > 0.0);
+    let dir = tmpdir("unstable");
+    let (code, out, m) = run(&["run"], &scenario, &dir);
+    assert_eq!(code, 1, "{out}");
+    assert_eq!(m["sync"]["verdict"], "not_synchronized");
+    assert!(
+        m["sync"]["final_spread_mps"].as_f64().unwrap()
+            > 10.0 * m["sync"]["initial_spread_mps"].as_f64().unwrap()
+    );
+    // The spread mixes several modes of nearly the same rate: within 15 % of the rightmost root.
+    let rate = m["sync"]["decay_rate_per_s"].as_f64().unwrap();
+    assert!(
+        (rate - abscissa).abs() < 0.15 * abscissa,
+        "fitted {rate}, predicted {abscissa}"
+    );
+}
+
+#[test]
+fn cacc_platoon_reaches_desired_gaps_and_leader_speed_in_sumo() {
+    let dir = tmpdir("platoon");
+    let scenario = dir.join("platoon.json");
+    std::fs::write(
+        &scenario,
+        format!(
+            r#"{{"name": "platoon", "backend": "sumo", "seed": 4, "step_s": 0.05, "horizon_s": 150, "vehicles": 6,
+                "road": {{"type": "straight"}},
+                "model": {{"type": "cacc", "mu": 1.5, "eta": 0.4, "nu": 0.3, "desired_gap_m": 12.0, "tau_s": 0.3,
+                          "leader": {{"type": "constant", "speed_mps": 20}}}},
+                "initial": {{"speed_mps": 20.0, "perturbation": {{"speed_mps": 1.5, "gap_m": 3.0}}}},
+                "sumo": {{"net": "{}"}}}}"#,
+            repo().join("sumo-nets/straight-20km.net.xml").display()
+        ),
+    )
+    .unwrap();
+    let o = bin().arg("check").arg(&scenario).output().unwrap();
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "the CACC theorem must hold for this platoon"
+    );
+    let (code, out, m) = run(&["run"], &scenario, &dir.join("out"));
+    assert_eq!(code, 0, "{out}");
+    // Slowest closed-loop mode decays at 0.027/s: 3 m gap errors shrink below 0.05 m in 150 s.
+    assert!(
+        m["sync"]["final_gap_error_m"].as_f64().unwrap() < 0.05,
+        "{m}"
+    );
+    assert!(
+        m["sync"]["final_spread_mps"].as_f64().unwrap() < 0.01,
+        "{m}"
+    );
+    assert_eq!(m["extra"]["totals"]["collision_steps"], 0);
+}
+
+#[test]
+fn same_seed_gives_identical_metrics_in_separate_runs() {
+    let (a, b) = (tmpdir("det-a"), tmpdir("det-b"));
+    let scenario = repo().join("scenarios/sugiyama-unstable.json");
+    let (ca, _, _) = run(&["run"], &scenario, &a);
+    let (cb, _, _) = run(&["run"], &scenario, &b);
+    assert_eq!((ca, cb), (1, 1));
+    // metrics.json and trajectories.csv are identical byte for byte.
+    let strip = |p: &Path| std::fs::read_to_string(p.join("metrics.json")).unwrap();
+    assert_eq!(strip(&a), strip(&b));
+    assert_eq!(
+        std::fs::read(a.join("trajectories.csv")).unwrap(),
+        std::fs::read(b.join("trajectories.csv")).unwrap()
+    );
+}
+
+#[test]
+fn missing_net_is_rejected_before_sumo_starts() {
+    let dir = tmpdir("missing-net");
+    let text = std::fs::read_to_string(repo().join("scenarios/sugiyama-ring.json")).unwrap();
+    let scenario = dir.join("s.json");
+    std::fs::write(
+        &scenario,
+        text.replace("sugiyama-ring.net.xml", "no-such.net.xml"),
+    )
+    .unwrap();
+    let (code, out, _) = run(&["run"], &scenario, &dir.join("out"));
+    assert_eq!(code, 2, "{out}");
+    assert!(out.contains("no-such.net.xml"), "{out}");
+}
