@@ -161,6 +161,20 @@ fn sumo_measurements_agree_with_sumo_totals_and_kinematics() {
     assert_eq!(drivers[11], "law");
     assert_eq!(drivers[1], "krauss-0.9");
     assert!(c["mixed_reduction_vs_all_human"]["mixed-2"]["speed_std_reduction"].is_number());
+    // With 20 of 22 vehicles Krauss drivers the humans' headway sets the ring's speed: the
+    // law must command only its two vehicles (commanding all would give the law's 7.8 m/s).
+    let speed = |r: &str| {
+        c["runs"][r]["congestion"]["mean_speed_mps"]
+            .as_f64()
+            .unwrap()
+    };
+    assert!(
+        speed("mixed-2") < 1.5 * speed("mixed-0") && speed("protocol") > 3.0 * speed("mixed-0"),
+        "mixed-2 {} m/s, all human {} m/s, all law {} m/s",
+        speed("mixed-2"),
+        speed("mixed-0"),
+        speed("protocol")
+    );
     // The law synchronizes, SUMO's drivers at this density do not.
     assert_eq!(c["runs"]["protocol"]["sync"]["verdict"], "synchronized");
     assert_eq!(
