@@ -161,8 +161,9 @@ fn sumo_measurements_agree_with_sumo_totals_and_kinematics() {
     assert_eq!(drivers[11], "law");
     assert_eq!(drivers[1], "krauss-0.9");
     assert!(c["mixed_reduction_vs_all_human"]["mixed-2"]["speed_std_reduction"].is_number());
-    // With 20 of 22 vehicles Krauss drivers the humans' headway sets the ring's speed: the
-    // law must command only its two vehicles (commanding all would give the law's 7.8 m/s).
+    // SUMO's drivers keep their headway and crawl far below the law's speed, with or without
+    // two law vehicles among them. A law that also commanded the SUMO drivers (planted: the
+    // batch setSpeed on every vehicle) lifted the all-human ring to 2.8 m/s and failed here.
     let speed = |r: &str| {
         c["runs"][r]["congestion"]["mean_speed_mps"]
             .as_f64()
