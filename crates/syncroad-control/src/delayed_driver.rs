@@ -18,7 +18,7 @@
 //! higher-order stencils cut its constant about tenfold against the trapezoidal rule.
 
 use crate::graph::Graph;
-use crate::scenario::HistorySpec;
+use crate::scenario::{DelayedDriverModel, HistorySpec};
 
 /// Errors raised when building a [`DelayedDriverLaw`].
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -132,6 +132,24 @@ impl DelayedDriverLaw {
         // The first call to `step` writes u^0 into row 0 and reads rows -m_i (prefilled).
         law.head = slots - 1;
         Ok(law)
+    }
+
+    /// The law of a validated delayed-driver model (graph, delays, leader, history), seeded
+    /// with the scenario's initial speeds — what every backend runs.
+    pub fn for_model(
+        m: &DelayedDriverModel,
+        step_s: f64,
+        initial_speeds_mps: &[f64],
+    ) -> Result<Self, LawError> {
+        Self::new(
+            &m.graph,
+            &m.delay_steps,
+            step_s,
+            m.leader.as_ref().map(|(_, b)| b.as_slice()),
+            initial_speeds_mps,
+            m.leader.as_ref().map(|(v0, _)| *v0),
+            m.history,
+        )
     }
 
     /// Number of drivers.

@@ -107,18 +107,9 @@ fn check(v: &[f64], step: usize, dt: f64) -> Option<StopReason> {
 pub fn simulate(scenario: &Scenario, opts: NativeOptions) -> NativeRun {
     match &scenario.model {
         Model::DelayedDriver(m) => {
-            let b = m.leader.as_ref().map(|(_, b)| b.as_slice());
             let v0 = m.leader.as_ref().map(|(v0, _)| *v0);
-            let law = DelayedDriverLaw::new(
-                &m.graph,
-                &m.delay_steps,
-                scenario.step_s,
-                b,
-                &scenario.initial_speed_mps,
-                v0,
-                m.history,
-            )
-            .expect("a validated scenario builds its law");
+            let law = DelayedDriverLaw::for_model(m, scenario.step_s, &scenario.initial_speed_mps)
+                .expect("a validated scenario builds its law");
             simulate_delayed(scenario, law, v0, opts)
         }
         Model::Cacc(_) => simulate_cacc(scenario, opts),

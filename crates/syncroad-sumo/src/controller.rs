@@ -103,17 +103,8 @@ pub fn controller_for(
 ) -> Result<Box<dyn SpeedController>, ControllerError> {
     match &scenario.model {
         Model::DelayedDriver(m) => {
-            let b = m.leader.as_ref().map(|(_, b)| b.as_slice());
             let v0 = m.leader.as_ref().map(|(v0, _)| *v0);
-            let law = DelayedDriverLaw::new(
-                &m.graph,
-                &m.delay_steps,
-                scenario.step_s,
-                b,
-                &scenario.initial_speed_mps,
-                v0,
-                m.history,
-            )?;
+            let law = DelayedDriverLaw::for_model(m, scenario.step_s, &scenario.initial_speed_mps)?;
             Ok(Box::new(DelayedDriverController {
                 law,
                 v0,

@@ -1,25 +1,12 @@
 //! `syncroad run` on the SUMO backend, end to end with real SUMO (needs the virtualenv of
 //! `bash python-host/bootstrap.sh`, which scripts/test.sh runs first).
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::path::Path;
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_syncroad"))
-}
+mod common;
+use common::*;
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("syncroad-sumo-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn run(args: &[&str], scenario: &Path, out: &Path) -> (i32, String, serde_json::Value) {
+fn run_backend(args: &[&str], scenario: &Path, out: &Path) -> (i32, String, serde_json::Value) {
     let o = bin()
         .args(args)
         .arg(scenario)
@@ -39,7 +26,7 @@ fn run(args: &[&str], scenario: &Path, out: &Path) -> (i32, String, serde_json::
 #[test]
 fn theorem1_ring_synchronizes_in_sumo_like_the_native_simulator() {
     let (a, b) = (tmpdir("ring-sumo"), tmpdir("ring-native"));
-    let (code, out, sumo) = run(&["run"], &repo().join("scenarios/sugiyama-ring.json"), &a);
+    let (code, out, sumo) = run_backend(&["run"], &repo().join("scenarios/sugiyama-ring.json"), &a);
     assert_eq!(code, 0, "{out}");
     assert_eq!(sumo["backend"], "sumo");
     assert_eq!(sumo["sync"]["verdict"], "synchronized");
@@ -49,7 +36,7 @@ fn theorem1_ring_synchronizes_in_sumo_like_the_native_simulator() {
         .unwrap()
         .contains("1.28.0"));
     // Same law, same initial state: the SUMO speeds follow the native simulator's.
-    let (code, _, native) = run(
+    let (code, _, native) = run_backend(
         &["simulate"],
         &repo().join("scenarios/sugiyama-ring.json"),
         &b,
@@ -79,7 +66,7 @@ fn ring_past_the_exact_boundary_grows_at_the_predicted_rate_in_sumo() {
     let abscissa = st["ring"]["abscissa"].as_f64().unwrap();
     assert!(abscissa > 0.0);
     let dir = tmpdir("unstable");
-    let (code, out, m) = run(&["run"], &scenario, &dir);
+    let (code, out, m) = run_backend(&["run"], &scenario, &dir);
     assert_eq!(code, 1, "{out}");
     assert_eq!(m["sync"]["verdict"], "not_synchronized");
     assert!(
@@ -117,7 +104,7 @@ fn cacc_platoon_reaches_desired_gaps_and_leader_speed_in_sumo() {
         Some(0),
         "the CACC theorem must hold for this platoon"
     );
-    let (code, out, m) = run(&["run"], &scenario, &dir.join("out"));
+    let (code, out, m) = run_backend(&["run"], &scenario, &dir.join("out"));
     assert_eq!(code, 0, "{out}");
     // Slowest closed-loop mode decays at 0.027/s: 3 m gap errors shrink below 0.05 m in 150 s.
     assert!(
@@ -135,8 +122,8 @@ fn cacc_platoon_reaches_desired_gaps_and_leader_speed_in_sumo() {
 fn same_seed_gives_identical_metrics_in_separate_runs() {
     let (a, b) = (tmpdir("det-a"), tmpdir("det-b"));
     let scenario = repo().join("scenarios/sugiyama-unstable.json");
-    let (ca, _, _) = run(&["run"], &scenario, &a);
-    let (cb, _, _) = run(&["run"], &scenario, &b);
+    let (ca, _, _) = run_backend(&["run"], &scenario, &a);
+    let (cb, _, _) = run_backend(&["run"], &scenario, &b);
     assert_eq!((ca, cb), (1, 1));
     // metrics.json and trajectories.csv are identical byte for byte.
     let strip = |p: &Path| std::fs::read_to_string(p.join("metrics.json")).unwrap();
@@ -157,7 +144,7 @@ fn missing_net_is_rejected_before_sumo_starts() {
         text.replace("sugiyama-ring.net.xml", "no-such.net.xml"),
     )
     .unwrap();
-    let (code, out, _) = run(&["run"], &scenario, &dir.join("out"));
+    let (code, out, _) = run_backend(&["run"], &scenario, &dir.join("out"));
     assert_eq!(code, 2, "{out}");
     assert!(out.contains("no-such.net.xml"), "{out}");
 }
