@@ -55,7 +55,8 @@ pub struct RootCount {
 impl RootCount {
     /// Roots right of `σ` other than consensus.
     pub fn non_consensus(&self) -> usize {
-        self.count - usize::from(self.includes_consensus)
+        self.count
+            .saturating_sub(usize::from(self.includes_consensus))
     }
 }
 
