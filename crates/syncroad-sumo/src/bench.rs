@@ -110,6 +110,11 @@ pub struct BenchResult {
     pub python_getters_samples_ms: Vec<f64>,
     /// Its overhead over SUMO alone [%].
     pub python_getters_overhead_pct: f64,
+    /// Same-process overhead: one run alternating blocks of SUMO alone and the full loop
+    /// (median over the repeats) [%]. Free of the process-to-process variance of SUMO itself.
+    pub interleaved_overhead_pct: f64,
+    /// The per-repeat values of that.
+    pub interleaved_samples_pct: Vec<f64>,
     /// TraCI reference time.
     pub traci_ms: Option<f64>,
     /// `traci / controlled`.
@@ -210,6 +215,36 @@ fn timed(
     })
 }
 
+/// Steps per block of the interleaved run.
+const INTERLEAVE_BLOCK: usize = 25;
+
+/// One run alternating blocks of SUMO alone and the full controller loop in the same process:
+/// `controlled / bare − 1` [%] of the mean wall time per step.
+fn interleaved(
+    worker: &WorkerCommand,
+    sc: &Scenario,
+    work: &Path,
+    warmup: usize,
+) -> Result<f64, BenchError> {
+    let opts = RunOptions::new(work, worker.clone());
+    let mut req = prepare(sc, &opts)?;
+    req.observe = true;
+    req.untimed_steps = warmup;
+    req.interleave_block = INTERLEAVE_BLOCK;
+    let run = run_worker(worker, &req, &Supervision::default());
+    let fin = run.result?;
+    if fin.steps_done != req.steps {
+        return Err(BenchError::Stopped {
+            name: work.display().to_string(),
+            reason: format!("{:?}", fin.stop),
+        });
+    }
+    let p = &fin.phases;
+    let bare = p.bare_wall_s / p.bare_steps.max(1) as f64;
+    let controlled = p.controlled_wall_s / p.controlled_steps.max(1) as f64;
+    Ok(100.0 * (controlled / bare - 1.0))
+}
+
 /// One timed worker run.
 struct Timing {
     ms_per_step: f64,
@@ -283,6 +318,7 @@ pub fn run_case(
     let mut alone = Vec::new();
     let mut controlled = Vec::new();
     let mut python_getters = Vec::new();
+    let mut interleaved_pct = Vec::new();
     let mut in_run = Vec::new();
     for r in 0..case.repeats {
         let a = timed(worker, &sc, &work_dir.join("alone"), None, case.warmup)?.ms_per_step;
@@ -321,6 +357,13 @@ pub fn run_case(
             r + 1
         ));
         python_getters.push(s);
+        let i = interleaved(worker, &sc, &work_dir.join("interleaved"), case.warmup)?;
+        progress(&format!(
+            "{}: same-process overhead (interleaved) {i:7.1} % (run {})",
+            case.name,
+            r + 1
+        ));
+        interleaved_pct.push(i);
     }
     let best = |v: &[f64]| v.iter().copied().fold(f64::INFINITY, f64::min);
     let (a, c, sub) = (best(&alone), best(&controlled), best(&python_getters));
@@ -351,6 +394,8 @@ pub fn run_case(
         python_getters_ms: sub,
         python_getters_samples_ms: python_getters,
         python_getters_overhead_pct: 100.0 * (sub / a - 1.0),
+        interleaved_overhead_pct: median(&interleaved_pct),
+        interleaved_samples_pct: interleaved_pct,
         traci_ms,
         speedup_vs_traci: traci_ms.map(|t| t / c),
     })
@@ -359,16 +404,17 @@ pub fn run_case(
 /// A plain-text table of results.
 pub fn format_table(results: &[BenchResult]) -> String {
     let mut s = String::from(
-        "case                   alone ms/step  +controller ms/step  overhead  in-run overhead  (Python getters: ms/step  overhead)  TraCI ms/step  vs TraCI\n",
+        "case                   alone ms/step  +controller ms/step  overhead  in-run overhead  same-process  (Python getters: ms/step  overhead)  TraCI ms/step  vs TraCI\n",
     );
     for r in results {
         s.push_str(&format!(
-            "{:<22} {:>13.4} {:>20.4} {:>8.1}% {:>15.1}%  {:>24.4} {:>9.1}%  {:>13} {:>9}\n",
+            "{:<22} {:>13.4} {:>20.4} {:>8.1}% {:>15.1}% {:>12.1}%  {:>24.4} {:>9.1}%  {:>13} {:>9}\n",
             r.name,
             r.alone_ms,
             r.controlled_ms,
             r.overhead_pct,
             r.in_run_overhead_pct,
+            r.interleaved_overhead_pct,
             r.python_getters_ms,
             r.python_getters_overhead_pct,
             r.traci_ms.map(|t| format!("{t:.4}")).unwrap_or_default(),

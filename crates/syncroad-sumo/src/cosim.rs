@@ -752,12 +752,29 @@ fn run_started(
     let mut phases = PhaseTimes::default();
     let mut last_flush = Instant::now();
     let mut timer = Instant::now();
+    // Interleaved benchmark: wall time per kind of step, attributed at the next step's start.
+    let mut last_kind: Option<(bool, Instant)> = None;
     'steps: for step in 0..req.steps {
         if step == req.untimed_steps {
             timer = Instant::now();
         }
+        let bare = req.interleave_block > 0 && (step / req.interleave_block) % 2 == 0;
+        if req.interleave_block > 0 {
+            let now = Instant::now();
+            if let Some((was_bare, t0)) = last_kind.take() {
+                phases.add_interleaved(was_bare, (now - t0).as_secs_f64());
+            }
+            if step >= req.untimed_steps {
+                last_kind = Some((bare, now));
+            }
+        }
         let t = step as f64 * dt;
         let t_law = Instant::now();
+        if bare {
+            ls.simulation_step()?;
+            steps_done = step + 1;
+            continue;
+        }
         if let Some(c) = controller.as_deref_mut() {
             c.step(t, &v, &q, &mut next);
             match sanitize_commands(&mut next) {
@@ -916,6 +933,9 @@ fn run_started(
                 last_flush = Instant::now();
             }
         }
+    }
+    if let Some((was_bare, t0)) = last_kind {
+        phases.add_interleaved(was_bare, t0.elapsed().as_secs_f64());
     }
     let loop_wall_s = timer.elapsed().as_secs_f64();
     let measured = match meter {

@@ -66,6 +66,11 @@ pub struct Request {
     /// What SUMO itself measures during the run (flow, time loss, fuel, CO2, braking).
     #[serde(default)]
     pub measure: Option<Measure>,
+    /// Benchmark only: alternate blocks of this many steps with SUMO alone (no law, no reads,
+    /// no commands: vehicles keep their last speed) and with the full loop, timing both in the
+    /// same process (0 = off).
+    #[serde(default)]
+    pub interleave_block: usize,
 }
 
 fn default_speed_mode() -> i32 {
@@ -280,6 +285,32 @@ pub struct PhaseTimes {
     pub step_s: f64,
     /// Reading every vehicle's speed.
     pub read_speeds_s: f64,
+    /// With [`Request::interleave_block`]: wall time of the bare steps (SUMO only) and of the
+    /// controlled steps (law, commands, reads, SUMO) \[s\], over equally many timed steps.
+    #[serde(default)]
+    pub bare_wall_s: f64,
+    /// See `bare_wall_s`.
+    #[serde(default)]
+    pub controlled_wall_s: f64,
+    /// Timed steps of each kind.
+    #[serde(default)]
+    pub bare_steps: usize,
+    /// See `bare_steps`.
+    #[serde(default)]
+    pub controlled_steps: usize,
+}
+
+impl PhaseTimes {
+    /// Adds the wall time of one interleaved step.
+    pub fn add_interleaved(&mut self, bare: bool, seconds: f64) {
+        if bare {
+            self.bare_wall_s += seconds;
+            self.bare_steps += 1;
+        } else {
+            self.controlled_wall_s += seconds;
+            self.controlled_steps += 1;
+        }
+    }
 }
 
 /// Rows of consecutive recorded samples for all vehicles: per record the time \[s\], then the

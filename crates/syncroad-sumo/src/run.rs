@@ -363,6 +363,7 @@ pub fn prepare(scenario: &Scenario, opts: &RunOptions) -> Result<Request, Prepar
         untimed_steps: 0,
         read: opts.read,
         odometer_every: ODOMETER_EVERY,
+        interleave_block: 0,
     })
 }
 
