@@ -23,7 +23,7 @@ use std::process::Command;
 use serde::Serialize;
 use syncroad_control::Scenario;
 
-use crate::protocol::{Control, ReadMode};
+use crate::protocol::{Control, Finish, ReadMode, Request};
 use crate::run::{prepare, PrepareError, RunOptions};
 use crate::supervisor::{run_worker, Supervision, SupervisorError, WorkerCommand};
 use crate::venv::{find_venv, VenvError};
@@ -171,6 +171,18 @@ fn scenario(case: &BenchCase) -> Result<Scenario, BenchError> {
     })
 }
 
+/// Runs a benchmark request in a worker; it must reach its last step.
+fn run_to_end(worker: &WorkerCommand, req: &Request, work: &Path) -> Result<Finish, BenchError> {
+    let fin = run_worker(worker, req, &Supervision::default()).result?;
+    if fin.steps_done != req.steps {
+        return Err(BenchError::Stopped {
+            name: work.display().to_string(),
+            reason: format!("{:?}", fin.stop),
+        });
+    }
+    Ok(fin)
+}
+
 fn timed(
     worker: &WorkerCommand,
     sc: &Scenario,
@@ -189,14 +201,7 @@ fn timed(
     }
     req.observe = controlled;
     req.untimed_steps = warmup;
-    let run = run_worker(worker, &req, &Supervision::default());
-    let fin = run.result?;
-    if fin.steps_done != req.steps {
-        return Err(BenchError::Stopped {
-            name: work.display().to_string(),
-            reason: format!("{:?}", fin.stop),
-        });
-    }
+    let fin = run_to_end(worker, &req, work)?;
     let per = |x: f64| 1e3 * x / fin.timed_steps as f64;
     let p = &fin.phases;
     let outside_sumo = fin.loop_wall_s - p.step_s;
@@ -231,14 +236,7 @@ fn interleaved(
     req.observe = true;
     req.untimed_steps = warmup;
     req.interleave_block = INTERLEAVE_BLOCK;
-    let run = run_worker(worker, &req, &Supervision::default());
-    let fin = run.result?;
-    if fin.steps_done != req.steps {
-        return Err(BenchError::Stopped {
-            name: work.display().to_string(),
-            reason: format!("{:?}", fin.stop),
-        });
-    }
+    let fin = run_to_end(worker, &req, work)?;
     let p = &fin.phases;
     let bare = p.bare_wall_s / p.bare_steps.max(1) as f64;
     let controlled = p.controlled_wall_s / p.controlled_steps.max(1) as f64;
