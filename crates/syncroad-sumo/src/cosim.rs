@@ -815,13 +815,13 @@ fn run_started(
                         .map_err(|e| py_error(py, format!("vehicle.setSpeed({id}, {x})"), e))?;
                 }
             }
-            for (i, c) in cmd.iter_mut().enumerate() {
-                // Rows carry NaN where SUMO's own model drives.
-                *c = if req.layout.vehicles[i].driver.is_none() {
-                    next[i]
-                } else {
-                    f64::NAN
-                };
+            if all_law {
+                cmd.copy_from_slice(&next);
+            } else {
+                for ((c, x), dep) in cmd.iter_mut().zip(&next).zip(&req.layout.vehicles) {
+                    // Rows carry NaN where SUMO's own model drives.
+                    *c = if dep.driver.is_none() { *x } else { f64::NAN };
+                }
             }
         }
         let t_step = Instant::now();

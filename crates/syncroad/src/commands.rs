@@ -125,7 +125,7 @@ impl NativeOutcome {
             trajectory: &self.run.trajectory,
             sync: &self.sync,
             congestion: self.congestion.as_ref().ok(),
-            stop: &self.run.stop,
+            stop: serde_json::to_value(&self.run.stop).expect("a stop reason serializes"),
             theory: &self.theory,
             extra: None,
         }
@@ -181,7 +181,13 @@ fn simulate_cmd(path: &Path, out: &OutputArgs) -> anyhow::Result<u8> {
     o.record(&sc).write(&out.out)?;
     print!(
         "{}",
-        report::metrics_table(&sc, "native", &o.sync, &o.run.stop, &o.theory)
+        report::metrics_table(
+            &sc,
+            "native",
+            &o.sync,
+            report::native_stop_note(&o.run.stop).as_deref(),
+            &o.theory
+        )
     );
     match &o.congestion {
         Ok(c) => print!("{}", report::congestion_lines(c)),

@@ -367,15 +367,7 @@ fn run_one(
             "negative_commands_clamped": t.negative_commands_clamped,
         })),
     });
-    traj.write_csv(std::io::BufWriter::new(
-        std::fs::File::create(dir.join("trajectories.csv"))
-            .with_context(|| format!("cannot write {}/trajectories.csv", dir.display()))?,
-    ))?;
-    std::fs::write(
-        dir.join("metrics.json"),
-        serde_json::to_string_pretty(&doc)? + "\n",
-    )
-    .with_context(|| format!("cannot write {}/metrics.json", dir.display()))?;
+    crate::report::write_run_files(dir, &traj, &doc)?;
     if plan.plots && traj.len() >= 2 {
         crate::plots::RunPlots {
             traj: &traj,

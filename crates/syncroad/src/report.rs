@@ -162,12 +162,24 @@ fn opt(x: Option<f64>, unit: &str) -> String {
     x.map_or("—".to_string(), |v| format!("{v:.6} {unit}"))
 }
 
+/// Why a native run stopped before its horizon, for [`metrics_table`].
+pub fn native_stop_note(stop: &StopReason) -> Option<String> {
+    match stop {
+        StopReason::Horizon => None,
+        StopReason::Diverged {
+            vehicle, time_s, ..
+        } => Some(format!(
+            "speed of vehicle {vehicle} diverged at t = {time_s} s"
+        )),
+    }
+}
+
 /// The summary printed after a run.
 pub fn metrics_table(
     sc: &Scenario,
     backend: &str,
     m: &SyncMetrics,
-    stop: &StopReason,
+    stopped_early: Option<&str>,
     theory: &TheoryReport,
 ) -> String {
     let mut s = String::new();
@@ -217,14 +229,8 @@ pub fn metrics_table(
             opt(m.final_gap_error_m, "m")
         );
     }
-    if let StopReason::Diverged {
-        vehicle, time_s, ..
-    } = stop
-    {
-        let _ = writeln!(
-            s,
-            "  stopped early: speed of vehicle {vehicle} diverged at t = {time_s} s"
-        );
+    if let Some(why) = stopped_early {
+        let _ = writeln!(s, "  stopped early: {why}");
     }
     let _ = writeln!(
         s,
@@ -247,8 +253,9 @@ pub struct RunRecord<'a> {
     pub sync: &'a SyncMetrics,
     /// Congestion metrics (absent when the warm-up leaves no sample).
     pub congestion: Option<&'a CongestionMetrics>,
-    /// Why the run stopped.
-    pub stop: &'a StopReason,
+    /// Why the run stopped, as the backend reports it (native [`StopReason`] or the SUMO
+    /// worker's stop).
+    pub stop: serde_json::Value,
     /// The theory report.
     pub theory: &'a TheoryReport,
     /// Backend-specific stamps (SUMO version, safety counts, ...).
@@ -280,20 +287,26 @@ impl RunRecord<'_> {
     /// Writes trajectories.csv and metrics.json (stamped with version, seed, scenario hash)
     /// into `dir`.
     pub fn write(&self, dir: &Path) -> anyhow::Result<()> {
-        let csv = dir.join("trajectories.csv");
-        let f = std::fs::File::create(&csv)
-            .with_context(|| format!("cannot write {}", csv.display()))?;
-        self.trajectory
-            .write_csv(BufWriter::new(f))
-            .with_context(|| format!("cannot write {}", csv.display()))?;
-        let path = dir.join("metrics.json");
-        std::fs::write(
-            &path,
-            serde_json::to_string_pretty(&self.metrics_json())? + "\n",
-        )
-        .with_context(|| format!("cannot write {}", path.display()))?;
-        Ok(())
+        write_run_files(dir, self.trajectory, &self.metrics_json())
     }
+}
+
+/// Writes a run's `trajectories.csv` and `metrics.json` (pretty JSON, trailing newline) into
+/// `dir`: the one place every backend's outputs are written.
+pub fn write_run_files(
+    dir: &Path,
+    traj: &Trajectory,
+    metrics: &serde_json::Value,
+) -> anyhow::Result<()> {
+    let csv = dir.join("trajectories.csv");
+    let f =
+        std::fs::File::create(&csv).with_context(|| format!("cannot write {}", csv.display()))?;
+    traj.write_csv(BufWriter::new(f))
+        .with_context(|| format!("cannot write {}", csv.display()))?;
+    let path = dir.join("metrics.json");
+    std::fs::write(&path, serde_json::to_string_pretty(metrics)? + "\n")
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(())
 }
 
 /// Summary lines of the congestion metrics.

@@ -17,7 +17,7 @@ use serde_json::json;
 use syncroad_control::congestion::congestion_metrics;
 use syncroad_control::metrics::sync_metrics;
 use syncroad_control::scenario::Model;
-use syncroad_control::{theory, StopReason, Verdict};
+use syncroad_control::{theory, Verdict};
 use syncroad_sumo::bench::{format_table, run_case, standard_cases};
 use syncroad_sumo::protocol::ReadMode;
 use syncroad_sumo::{interrupt_flag, run_scenario, RunOptions, WorkerCommand};
@@ -102,36 +102,35 @@ pub fn run(path: &Path, out: &OutputArgs, args: &SumoArgs) -> anyhow::Result<u8>
         "totals": finish.map(|f| &f.totals),
         "events": &run.worker.events,
     });
-    // The native stop type has no variant for a crashed or interrupted worker: the SUMO
-    // stop replaces it in metrics.json.
-    let placeholder = StopReason::Horizon;
+    let stop = match (&run.worker.result, &outcome) {
+        (Ok(f), _) => serde_json::to_value(&f.stop)?,
+        (Err(_), Err(e)) => json!({"reason": "failed", "error": e.to_string()}),
+        (Err(_), Ok(_)) => unreachable!("an Ok outcome has a finish"),
+    };
     let record = report::RunRecord {
         scenario: &sc,
         backend: "sumo",
         trajectory: &traj,
         sync: &sync,
         congestion: congestion.as_ref().ok(),
-        stop: &placeholder,
+        stop,
         theory: &theory,
         extra: Some(extra),
     };
-    let mut doc = record.metrics_json();
-    doc["stop"] = match (&run.worker.result, &outcome) {
-        (Ok(f), _) => serde_json::to_value(&f.stop)?,
-        (Err(_), Err(e)) => json!({"reason": "failed", "error": e.to_string()}),
-        (Err(_), Ok(_)) => unreachable!("an Ok outcome has a finish"),
-    };
-    let csv = out.out.join("trajectories.csv");
-    let f =
-        std::fs::File::create(&csv).with_context(|| format!("cannot write {}", csv.display()))?;
-    traj.write_csv(std::io::BufWriter::new(f))
-        .with_context(|| format!("cannot write {}", csv.display()))?;
-    let metrics = out.out.join("metrics.json");
-    std::fs::write(&metrics, serde_json::to_string_pretty(&doc)? + "\n")
-        .with_context(|| format!("cannot write {}", metrics.display()))?;
+    record.write(&out.out)?;
+    let (csv, metrics) = (
+        out.out.join("trajectories.csv"),
+        out.out.join("metrics.json"),
+    );
     print!(
         "{}",
-        report::metrics_table(&sc, "sumo", &sync, &placeholder, &theory)
+        report::metrics_table(
+            &sc,
+            "sumo",
+            &sync,
+            outcome.as_ref().err().map(|e| e.to_string()).as_deref(),
+            &theory
+        )
     );
     if let Some(s) = start {
         println!(
