@@ -53,7 +53,7 @@ pub enum GraphError {
 
 /// One arc of the interaction graph: driver `to` reacts to the speed of vehicle `from` with
 /// gain `weight = a_{to,from}`.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Arc {
     /// The observed vehicle `j`.
     pub from: usize,
@@ -64,7 +64,7 @@ pub struct Arc {
 }
 
 /// A weighted directed graph without self-loops, stored as compressed rows of `A`.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Graph {
     n: usize,
     /// `row_start[i]..row_start[i+1]` indexes the in-neighbours of `i` in `cols`/`weights`.

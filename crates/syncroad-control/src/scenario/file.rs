@@ -1,0 +1,421 @@
+//! The scenario file as a user writes it: the JSON schema, unknown fields rejected.
+
+use std::path::PathBuf;
+
+use serde::{Deserialize, Serialize};
+
+use super::{invalid, LeaderProfile, PerVehicle, ScenarioError};
+
+/// Where a run executes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Backend {
+    /// The fixed-step Rust simulator.
+    Native,
+    /// SUMO through libsumo in a worker process.
+    #[default]
+    Sumo,
+}
+
+/// The scenario file as written by the user.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScenarioFile {
+    /// Short name used in reports and output file names.
+    #[serde(default)]
+    pub name: Option<String>,
+    /// Free text.
+    #[serde(default)]
+    pub description: Option<String>,
+    /// Backend for `syncroad run` (default `sumo`).
+    #[serde(default)]
+    pub backend: Backend,
+    /// Seed of every random choice in the run.
+    pub seed: u64,
+    /// Step Δt [s].
+    pub step_s: f64,
+    /// Simulated time [s].
+    pub horizon_s: f64,
+    /// The vehicles: a count, or one entry per vehicle carrying its own values (a platoon's
+    /// leader is not counted).
+    pub vehicles: VehiclesSpec,
+    /// The road.
+    pub road: RoadSpec,
+    /// The controller and its parameters.
+    pub model: ModelSpec,
+    /// Initial speeds and gaps.
+    #[serde(default)]
+    pub initial: InitialSpec,
+    /// Thresholds of the synchronization verdict.
+    #[serde(default)]
+    pub verdict: VerdictSpec,
+    /// SUMO-specific settings (used by the `sumo` backend).
+    #[serde(default)]
+    pub sumo: SumoSpec,
+}
+
+/// The vehicle set: a count, or one entry per vehicle.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum VehiclesSpec {
+    /// N identical slots; per-vehicle values come from the model and `initial` fields.
+    Count(usize),
+    /// One entry per vehicle.
+    List(Vec<VehicleEntry>),
+}
+
+impl VehiclesSpec {
+    /// Number of vehicles N.
+    pub fn count(&self) -> usize {
+        match self {
+            VehiclesSpec::Count(n) => *n,
+            VehiclesSpec::List(v) => v.len(),
+        }
+    }
+
+    pub(crate) fn entries(&self) -> &[VehicleEntry] {
+        match self {
+            VehiclesSpec::Count(_) => &[],
+            VehiclesSpec::List(v) => v,
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for VehiclesSpec {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        match serde_json::Value::deserialize(d)? {
+            serde_json::Value::Number(x) => x
+                .as_u64()
+                .map(|n| VehiclesSpec::Count(n as usize))
+                .ok_or_else(|| D::Error::custom(format!("vehicles = {x}: must be a whole number ≥ 1 or a list of per-vehicle entries"))),
+            serde_json::Value::Array(items) => items
+                .into_iter()
+                .enumerate()
+                .map(|(i, e)| serde_json::from_value(e).map_err(|err| D::Error::custom(format!("vehicles[{i}]: {err}"))))
+                .collect::<Result<Vec<_>, _>>()
+                .map(VehiclesSpec::List),
+            other => Err(D::Error::custom(format!(
+                "vehicles = {other}: must be a count (e.g. 22) or a list of per-vehicle entries (e.g. [{{\"delay_s\": 0.5}}, ...])"
+            ))),
+        }
+    }
+}
+
+/// Values of one vehicle. Each overrides nothing: a value may be given here or in the
+/// corresponding scenario-wide field, not both.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VehicleEntry {
+    /// Reaction delay α_i [s] (delayed-driver model).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub delay_s: Option<f64>,
+    /// Initial speed [m/s].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub speed_mps: Option<f64>,
+    /// Initial bumper-to-bumper gap to the predecessor [m].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gap_m: Option<f64>,
+}
+
+/// Merges a scenario-wide field with the per-vehicle entries into one [`PerVehicle`].
+pub(crate) fn merge(
+    field: &str,
+    entry_field: &str,
+    wide: Option<&PerVehicle>,
+    entries: &[VehicleEntry],
+    get: impl Fn(&VehicleEntry) -> Option<f64>,
+) -> Result<Option<PerVehicle>, ScenarioError> {
+    let given: Vec<Option<f64>> = entries.iter().map(&get).collect();
+    if given.iter().all(Option::is_none) {
+        return Ok(wide.cloned());
+    }
+    if let Some(i) = given
+        .iter()
+        .position(Option::is_some)
+        .filter(|_| wide.is_some())
+    {
+        return Err(invalid(
+            format!("vehicles[{i}].{entry_field}"),
+            given[i].unwrap_or_default(),
+            format!("{field} is set too; give each value once (either in {field} or in every vehicle entry)"),
+        ));
+    }
+    if let Some(i) = given.iter().position(Option::is_none) {
+        return Err(invalid(
+            format!("vehicles[{i}].{entry_field}"),
+            "missing",
+            format!("other vehicle entries give {entry_field}; give it for every vehicle, or use {field} for all"),
+        ));
+    }
+    Ok(Some(PerVehicle::List(
+        given.into_iter().map(|x| x.unwrap_or_default()).collect(),
+    )))
+}
+
+/// The road the vehicles drive on.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum RoadSpec {
+    /// A single-lane ring road of the given length (circular road of eq. `chandler`).
+    Ring {
+        /// Nominal circumference [m]; the SUMO backend uses the length SUMO reports for its net.
+        length_m: f64,
+    },
+    /// A straight single-lane road (platoons, predecessor following behind a leader).
+    Straight {
+        /// Usable length [m].
+        #[serde(default = "default_straight_length")]
+        length_m: f64,
+    },
+}
+
+fn default_straight_length() -> f64 {
+    20_000.0
+}
+
+/// The controller.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum ModelSpec {
+    /// Delayed drivers, eq. `chandler+`: `v_i'(t) = u_i(t − α_i)`, `u_i = Σ_j a_ij (v_j − v_i)`
+    /// (plus `b_i (v_0 − v_i)` with a leader, eq. `proto-lin+`).
+    DelayedDriver {
+        /// Interaction graph with its gains `a_ij` [1/s].
+        graph: GraphSpec,
+        /// Reaction delays α_i [s], whole multiples of `step_s` (or per vehicle in `vehicles`).
+        #[serde(default)]
+        delay_s: Option<PerVehicle>,
+        /// Optional reference: a leader at speed `v_0` seen by pinned drivers (`b_i > 0`).
+        #[serde(default)]
+        leader: Option<DriverLeaderSpec>,
+        /// What drivers had seen before t = 0.
+        #[serde(default)]
+        history: HistorySpec,
+    },
+    /// Bidirectional CACC of eqs. `veh-proto1`/`veh-proto2` behind a leader.
+    Cacc(CaccSpec),
+}
+
+/// Reference for the delayed-driver model (Theorem `thm.1+`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DriverLeaderSpec {
+    /// Leader speed v_0 [m/s].
+    pub speed_mps: f64,
+    /// Pinning gains b_i ≥ 0 [1/s]; at least one positive.
+    pub pinning: PerVehicle,
+}
+
+/// Delay-buffer history before t = 0.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum HistorySpec {
+    /// Speeds were constant at their initial values for t ≤ 0 (the usual DDE initial function):
+    /// drivers react to the initial speed differences from t = 0 on.
+    #[default]
+    ConstantSpeeds,
+    /// No reaction was pending: `u_i(t) = 0` for t < 0, so driver i first reacts at t = α_i.
+    NoReaction,
+}
+
+/// Interaction graph of the delayed-driver model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum GraphSpec {
+    /// Each driver follows its predecessor (vehicle 0 follows vehicle N−1): eq. `chandler` on a ring.
+    UnidirectionalRing {
+        /// Gain K_i on the predecessor [1/s].
+        gain: PerVehicle,
+    },
+    /// Each driver reacts to predecessor and follower.
+    BidirectionalRing {
+        /// Gain on the predecessor [1/s].
+        gain_pred: PerVehicle,
+        /// Gain on the follower [1/s].
+        gain_follow: PerVehicle,
+    },
+    /// Driver i ≥ 1 follows i−1; vehicle 0 follows the leader (pinning) if one is given.
+    Chain {
+        /// Gain on the predecessor [1/s] (entry 0 unused).
+        gain: PerVehicle,
+    },
+    /// Each driver reacts to every other vehicle with gain `gain[i]`.
+    AllToAll {
+        /// Gain per observed vehicle [1/s].
+        gain: PerVehicle,
+    },
+    /// Explicit arcs.
+    Edges {
+        /// The arcs `from → to` with gains `a_{to,from}`.
+        edges: Vec<EdgeSpec>,
+    },
+    /// Explicit adjacency matrix `A`, row i = gains of driver i.
+    Matrix {
+        /// N×N matrix with zero diagonal.
+        a: Vec<Vec<f64>>,
+    },
+}
+
+/// One explicit arc.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EdgeSpec {
+    /// Observed vehicle j.
+    pub from: usize,
+    /// Reacting driver i.
+    pub to: usize,
+    /// Gain a_ij [1/s].
+    pub weight: f64,
+}
+
+/// Bidirectional CACC (eqs. `veh1`, `veh-proto1`, `veh-proto2`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CaccSpec {
+    /// Speed-error gain μ_i [1/s].
+    pub mu: PerVehicle,
+    /// Front-gap gain η_i [1/s²].
+    pub eta: PerVehicle,
+    /// Rear-gap gain ν_i [1/s²] (ignored for the last vehicle).
+    pub nu: PerVehicle,
+    /// Desired bumper-to-bumper gap s_i to the predecessor [m].
+    pub desired_gap_m: PerVehicle,
+    /// Powertrain lag τ_i [s] in τ_i q''' + q'' = a_des.
+    pub tau_s: PerVehicle,
+    /// Vehicle lengths [m] (default 5).
+    #[serde(default = "default_length")]
+    pub length_m: PerVehicle,
+    /// The leader's speed.
+    pub leader: LeaderProfile,
+}
+
+fn default_length() -> PerVehicle {
+    PerVehicle::Uniform(5.0)
+}
+
+/// Initial state.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InitialSpec {
+    /// Initial speeds [m/s] (before the perturbation); default 10 m/s.
+    #[serde(default)]
+    pub speed_mps: Option<PerVehicle>,
+    /// Initial bumper-to-bumper gaps to the predecessor [m]. Default: even spacing on a ring,
+    /// the desired gaps for a platoon, 20 m otherwise.
+    #[serde(default)]
+    pub gap_m: Option<PerVehicle>,
+    /// Seeded uniform perturbation added to the initial state.
+    #[serde(default)]
+    pub perturbation: PerturbationSpec,
+}
+
+/// Initial speed when none is given [m/s].
+pub const DEFAULT_SPEED_MPS: f64 = 10.0;
+
+/// Uniform random perturbation, drawn from the scenario seed.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PerturbationSpec {
+    /// Each speed gets a uniform offset in `[−speed_mps, speed_mps]`.
+    #[serde(default)]
+    pub speed_mps: f64,
+    /// Each gap gets a uniform offset in `[−gap_m, gap_m]`.
+    #[serde(default)]
+    pub gap_m: f64,
+}
+
+/// Thresholds of the synchronization verdict (see [`crate::metrics::Verdict`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VerdictSpec {
+    /// Speeds are synchronized when the spread stays below this over the final window [m/s].
+    #[serde(default = "default_tol")]
+    pub tolerance_mps: f64,
+    /// Length of the final window [s].
+    #[serde(default = "default_window")]
+    pub window_s: f64,
+}
+
+fn default_tol() -> f64 {
+    0.05
+}
+fn default_window() -> f64 {
+    5.0
+}
+
+impl Default for VerdictSpec {
+    fn default() -> Self {
+        Self {
+            tolerance_mps: default_tol(),
+            window_s: default_window(),
+        }
+    }
+}
+
+/// SUMO settings: network and vehicle type.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SumoSpec {
+    /// Network file; relative paths are resolved against the scenario file's folder.
+    #[serde(default)]
+    pub net: Option<PathBuf>,
+    /// Vehicle length [m].
+    #[serde(default = "d_length")]
+    pub length_m: f64,
+    /// SUMO `minGap` [m].
+    #[serde(default = "d_min_gap")]
+    pub min_gap_m: f64,
+    /// Maximum acceleration [m/s²].
+    #[serde(default = "d_accel")]
+    pub accel_mps2: f64,
+    /// Comfortable deceleration [m/s²].
+    #[serde(default = "d_decel")]
+    pub decel_mps2: f64,
+    /// Emergency deceleration [m/s²].
+    #[serde(default = "d_edecel")]
+    pub emergency_decel_mps2: f64,
+    /// Maximum speed [m/s].
+    #[serde(default = "d_vmax")]
+    pub max_speed_mps: f64,
+    /// Wall-clock limit of one SUMO run [s].
+    #[serde(default = "d_timeout")]
+    pub timeout_s: f64,
+}
+
+fn d_length() -> f64 {
+    5.0
+}
+fn d_min_gap() -> f64 {
+    2.5
+}
+fn d_accel() -> f64 {
+    2.6
+}
+fn d_decel() -> f64 {
+    4.5
+}
+fn d_edecel() -> f64 {
+    9.0
+}
+fn d_vmax() -> f64 {
+    30.0
+}
+fn d_timeout() -> f64 {
+    600.0
+}
+
+impl Default for SumoSpec {
+    fn default() -> Self {
+        Self {
+            net: None,
+            length_m: d_length(),
+            min_gap_m: d_min_gap(),
+            accel_mps2: d_accel(),
+            decel_mps2: d_decel(),
+            emergency_decel_mps2: d_edecel(),
+            max_speed_mps: d_vmax(),
+            timeout_s: d_timeout(),
+        }
+    }
+}

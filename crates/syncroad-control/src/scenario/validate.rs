@@ -1,0 +1,279 @@
+//! Validation: every check that can be made before a simulation starts; every error names the
+//! field path, the value and what would be valid.
+
+use std::path::Path;
+
+use super::file::merge;
+use super::graph_spec::build_graph;
+use super::*;
+use crate::rng::SplitMix64;
+
+impl ScenarioFile {
+    /// Parses JSON text; `origin` names the source in error messages.
+    pub fn from_json(text: &str, origin: &str) -> Result<Self, ScenarioError> {
+        serde_json::from_str(text).map_err(|source| ScenarioError::Json {
+            path: origin.to_string(),
+            source,
+        })
+    }
+
+    /// Validates and resolves the scenario; `base_dir` resolves relative paths.
+    pub fn validate(self, base_dir: &Path) -> Result<Scenario, ScenarioError> {
+        let n = self.vehicles.count();
+        let entries = self.vehicles.entries();
+        if n == 0 {
+            return Err(invalid("vehicles", 0, "must be ≥ 1"));
+        }
+        if !(self.step_s.is_finite() && self.step_s > 0.0 && self.step_s <= 1.0) {
+            return Err(invalid(
+                "step_s",
+                self.step_s,
+                "must be a finite number in (0, 1] s; 0.1 or less is usual",
+            ));
+        }
+        if !(self.horizon_s.is_finite() && self.horizon_s > 0.0) {
+            return Err(invalid(
+                "horizon_s",
+                self.horizon_s,
+                "must be a finite number > 0",
+            ));
+        }
+        let steps = (self.horizon_s / self.step_s).round() as usize;
+        if steps == 0 {
+            return Err(invalid(
+                "horizon_s",
+                self.horizon_s,
+                format!("must be at least one step ({} s)", self.step_s),
+            ));
+        }
+        if !(self.verdict.tolerance_mps.is_finite() && self.verdict.tolerance_mps > 0.0) {
+            return Err(invalid(
+                "verdict.tolerance_mps",
+                self.verdict.tolerance_mps,
+                "must be a finite number > 0",
+            ));
+        }
+        if !(self.verdict.window_s.is_finite()
+            && self.verdict.window_s > 0.0
+            && self.verdict.window_s <= self.horizon_s)
+        {
+            return Err(invalid(
+                "verdict.window_s",
+                self.verdict.window_s,
+                format!("must be > 0 and ≤ horizon_s = {}", self.horizon_s),
+            ));
+        }
+        self.validate_sumo()?;
+        let road_len = match self.road {
+            RoadSpec::Ring { length_m } | RoadSpec::Straight { length_m } => length_m,
+        };
+        if !(road_len.is_finite() && road_len > 0.0) {
+            return Err(invalid(
+                "road.length_m",
+                road_len,
+                "must be a finite number > 0",
+            ));
+        }
+
+        let model = match &self.model {
+            ModelSpec::DelayedDriver {
+                graph,
+                delay_s,
+                leader,
+                history,
+            } => {
+                let graph = build_graph(graph, n)?;
+                let delay_s = merge("model.delay_s", "delay_s", delay_s.as_ref(), entries, |e| {
+                    e.delay_s
+                })?
+                .ok_or_else(|| {
+                    invalid(
+                        "model.delay_s",
+                        "missing",
+                        "give the reaction delays α_i [s] here or in every vehicle entry",
+                    )
+                })?
+                .resolve_nonneg("model.delay_s", n)?;
+                let mut delay_steps = Vec::with_capacity(n);
+                for (i, &d) in delay_s.iter().enumerate() {
+                    let m = (d / self.step_s).round();
+                    if (m * self.step_s - d).abs() > 1e-9 * self.step_s.max(d) {
+                        return Err(ScenarioError::DelayNotMultipleOfStep {
+                            vehicle: i,
+                            delay_s: d,
+                            step_s: self.step_s,
+                            nearest: (m.max(1.0) * self.step_s * 1e9).round() / 1e9,
+                        });
+                    }
+                    delay_steps.push(m as usize);
+                }
+                let leader = match leader {
+                    None => None,
+                    Some(l) => {
+                        if !(l.speed_mps.is_finite() && l.speed_mps >= 0.0) {
+                            return Err(invalid(
+                                "model.leader.speed_mps",
+                                l.speed_mps,
+                                "must be a finite number ≥ 0",
+                            ));
+                        }
+                        let b = l.pinning.resolve_nonneg("model.leader.pinning", n)?;
+                        if b.iter().all(|&x| x == 0.0) {
+                            return Err(invalid(
+                                "model.leader.pinning",
+                                "all zero",
+                                "at least one driver must see the leader (some b_i > 0, Theorem thm.1+)",
+                            ));
+                        }
+                        Some((l.speed_mps, b))
+                    }
+                };
+                if matches!(self.road, RoadSpec::Ring { .. }) && leader.is_some() {
+                    return Err(invalid(
+                        "model.leader",
+                        "given",
+                        "a leader needs a straight road (road.type = \"straight\")",
+                    ));
+                }
+                Model::DelayedDriver(DelayedDriverModel {
+                    graph,
+                    delay_s,
+                    delay_steps,
+                    leader,
+                    history: *history,
+                })
+            }
+            ModelSpec::Cacc(c) => {
+                if matches!(self.road, RoadSpec::Ring { .. }) {
+                    return Err(invalid("road.type", "ring", "a CACC platoon drives behind its leader on a straight road: use \"straight\""));
+                }
+                c.leader.validate()?;
+                let mut nu = c.nu.resolve_nonneg("model.nu", n)?;
+                nu[n - 1] = 0.0;
+                Model::Cacc(CaccModel {
+                    mu: c.mu.resolve_pos("model.mu", n)?,
+                    eta: c.eta.resolve_pos("model.eta", n)?,
+                    nu,
+                    desired_gap_m: c.desired_gap_m.resolve_nonneg("model.desired_gap_m", n)?,
+                    tau_s: c.tau_s.resolve_pos("model.tau_s", n)?,
+                    length_m: c.length_m.resolve_pos("model.length_m", n)?,
+                    leader: c.leader.clone(),
+                })
+            }
+        };
+
+        let length_m = match &model {
+            Model::Cacc(c) => c.length_m.clone(),
+            Model::DelayedDriver(_) => vec![self.sumo.length_m; n],
+        };
+        let mut rng = SplitMix64::new(self.seed);
+        let pert = &self.initial.perturbation;
+        for (name, x) in [("speed_mps", pert.speed_mps), ("gap_m", pert.gap_m)] {
+            if !(x.is_finite() && x >= 0.0) {
+                return Err(invalid(
+                    format!("initial.perturbation.{name}"),
+                    x,
+                    "must be a finite amplitude ≥ 0",
+                ));
+            }
+        }
+        let mut speeds = merge(
+            "initial.speed_mps",
+            "speed_mps",
+            self.initial.speed_mps.as_ref(),
+            entries,
+            |e| e.speed_mps,
+        )?
+        .unwrap_or(PerVehicle::Uniform(DEFAULT_SPEED_MPS))
+        .resolve_nonneg("initial.speed_mps", n)?;
+        for v in speeds.iter_mut() {
+            *v = (*v + rng.symmetric(pert.speed_mps)).max(0.0);
+        }
+        let gap_spec = merge(
+            "initial.gap_m",
+            "gap_m",
+            self.initial.gap_m.as_ref(),
+            entries,
+            |e| e.gap_m,
+        )?;
+        let mut gaps = match (&gap_spec, &self.road, &model) {
+            (Some(g), _, _) => g.resolve_nonneg("initial.gap_m", n)?,
+            (None, RoadSpec::Ring { length_m: ring }, _) => {
+                let used: f64 = length_m.iter().sum();
+                vec![(ring - used) / n as f64; n]
+            }
+            (None, RoadSpec::Straight { .. }, Model::Cacc(c)) => c.desired_gap_m.clone(),
+            (None, RoadSpec::Straight { .. }, _) => vec![20.0; n],
+        };
+        let offsets: Vec<f64> = (0..n).map(|_| rng.symmetric(pert.gap_m)).collect();
+        // On a ring the gaps must still close the circle: remove the offsets' mean.
+        let shift = if matches!(self.road, RoadSpec::Ring { .. }) {
+            offsets.iter().sum::<f64>() / n as f64
+        } else {
+            0.0
+        };
+        for (g, o) in gaps.iter_mut().zip(&offsets) {
+            *g += o - shift;
+        }
+        for (i, g) in gaps.iter().enumerate() {
+            if *g < 0.0 {
+                return Err(invalid(
+                    format!("initial.gap_m[{i}]"),
+                    g,
+                    "the gap (after perturbation) must be ≥ 0: vehicles may not overlap; lower initial.perturbation.gap_m or use fewer vehicles",
+                ));
+            }
+        }
+        if let RoadSpec::Ring { length_m: ring } = self.road {
+            let used: f64 = gaps.iter().sum::<f64>() + length_m.iter().sum::<f64>();
+            if (used - ring).abs() > 1e-6 * ring {
+                return Err(invalid(
+                    "initial.gap_m",
+                    format!("{used:.3} m of gaps and vehicle lengths"),
+                    format!("on a ring, gaps plus vehicle lengths must add up to road.length_m = {ring} m (omit initial.gap_m for even spacing)"),
+                ));
+            }
+        }
+        let name = self.name.clone().unwrap_or_else(|| "scenario".to_string());
+        Ok(Scenario {
+            name,
+            n,
+            step_s: self.step_s,
+            steps,
+            model,
+            initial_speed_mps: speeds,
+            initial_gap_m: gaps,
+            length_m,
+            base_dir: base_dir.to_path_buf(),
+            file: self,
+        })
+    }
+
+    fn validate_sumo(&self) -> Result<(), ScenarioError> {
+        let s = &self.sumo;
+        for (name, x) in [
+            ("length_m", s.length_m),
+            ("accel_mps2", s.accel_mps2),
+            ("decel_mps2", s.decel_mps2),
+            ("emergency_decel_mps2", s.emergency_decel_mps2),
+            ("max_speed_mps", s.max_speed_mps),
+            ("timeout_s", s.timeout_s),
+        ] {
+            if !(x.is_finite() && x > 0.0) {
+                return Err(invalid(
+                    format!("sumo.{name}"),
+                    x,
+                    "must be a finite number > 0",
+                ));
+            }
+        }
+        if !(s.min_gap_m.is_finite() && s.min_gap_m >= 0.0) {
+            return Err(invalid(
+                "sumo.min_gap_m",
+                s.min_gap_m,
+                "must be a finite number ≥ 0",
+            ));
+        }
+        Ok(())
+    }
+}
