@@ -11,30 +11,43 @@
 //! * [`theory`], [`ifp`], [`poly`] — the paper's sufficient conditions and the IFP index;
 //! * [`exact`] — exact stability: rightmost characteristic roots, critical gains, CACC modes
 //!   and string stability, to show how conservative the sufficient conditions are;
-//! * [`native`] — the fixed-step simulator; [`metrics`] — the synchronization verdict.
+//! * [`controller`] — the one law object both backends step;
+//! * [`native`] — the fixed-step simulator; [`stop`] — why a run stopped;
+//! * [`metrics`], [`congestion`] — the synchronization verdict and congestion measures;
+//! * [`outcome`], [`record`] — one run, whatever ran it: output → outcome → the `metrics.json`
+//!   record.
 #![warn(missing_docs)]
 // Numerical loops index several arrays at once; an index reads clearer than zipped iterators.
 #![allow(clippy::needless_range_loop)]
 
 pub mod cacc;
 pub mod congestion;
+pub mod controller;
 pub mod delayed_driver;
 pub mod exact;
+pub mod facts;
 pub mod graph;
 pub mod ifp;
 pub mod lti_network;
 pub mod metrics;
 pub mod native;
+pub mod outcome;
 pub mod poly;
+pub mod record;
 pub mod rng;
 pub mod scenario;
+pub mod stop;
 pub mod theory;
 pub mod trajectory;
 
 pub use cacc::{CaccLaw, PlatoonView, PowertrainLag};
+pub use controller::{controller_for, LawSpec, SpeedController};
 pub use delayed_driver::DelayedDriverLaw;
 pub use graph::{Arc, Graph};
 pub use metrics::{sync_metrics, SyncMetrics, Verdict, VerdictThresholds};
-pub use native::{simulate, NativeOptions, NativeRun, StopReason};
+pub use native::{simulate, NativeOptions, NativeRun};
+pub use outcome::{evaluate, EvalOptions, Outcome, RunOutput};
+pub use record::{RunRecord, SumoFacts};
 pub use scenario::{Scenario, ScenarioError, ScenarioFile};
+pub use stop::StopReason;
 pub use trajectory::Trajectory;

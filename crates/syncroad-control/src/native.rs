@@ -1,37 +1,23 @@
-//! The native fixed-step simulator: runs a validated [`Scenario`] with the same law objects
-//! the SUMO loop uses, and records a [`Trajectory`].
+//! The native fixed-step simulator: runs a validated [`Scenario`] with the very law object the
+//! SUMO loop drives ([`controller_for`]) and records a [`Trajectory`].
 //!
-//! * Delayed drivers: speeds from [`DelayedDriverLaw::step`] (second order on the step grid),
-//!   positions by the trapezoidal rule.
-//! * CACC: the closed loop `q' = v, v' = a, τ a' = a_des(q, v)` integrated by the classical
-//!   fourth-order Runge–Kutta method with the law evaluated at every stage.
-
-use serde::Serialize;
+//! Every step the controller turns the state at t_n of every vehicle on the road (the leader
+//! first, when there is one) into the speeds at t_{n+1}; positions advance by the trapezoidal
+//! rule, which is SUMO's ballistic update. So the native and the SUMO run of a scenario
+//! compute the same numbers: delayed drivers (eq. `chandler+`) second order on the step grid,
+//! CACC (eqs. `veh-proto1/2`) with `a_des` held over the step and the powertrain lag
+//! integrated exactly. [`cacc_rk4_reference`] integrates the continuous CACC closed loop by
+//! classical Runge–Kutta; tests use it to check the discrete law converges to it.
 
 use crate::cacc::{CaccLaw, PlatoonView};
+use crate::controller::{controller_for, LawSpec};
 use crate::delayed_driver::DelayedDriverLaw;
 use crate::scenario::{Model, Scenario};
+pub use crate::stop::StopReason;
 use crate::trajectory::Trajectory;
 
 /// Speeds beyond this magnitude [m/s] count as divergence.
 pub const DIVERGENCE_MPS: f64 = 1e6;
-
-/// Why a run stopped.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-#[serde(tag = "reason", rename_all = "snake_case")]
-pub enum StopReason {
-    /// The horizon was reached.
-    Horizon,
-    /// A speed became non-finite or exceeded [`DIVERGENCE_MPS`].
-    Diverged {
-        /// Step index.
-        step: usize,
-        /// Vehicle index.
-        vehicle: usize,
-        /// Time [s].
-        time_s: f64,
-    },
-}
 
 /// Options of a native run.
 #[derive(Debug, Clone, Copy)]
@@ -103,55 +89,59 @@ fn check(v: &[f64], step: usize, dt: f64) -> Option<StopReason> {
         })
 }
 
-/// Runs the scenario on the native simulator.
-pub fn simulate(scenario: &Scenario, opts: NativeOptions) -> NativeRun {
+/// Where the leader vehicle starts and how fast, when the road has one: a delayed-driver
+/// leader one gap ahead of vehicle 0 at `v_0`, a CACC leader at 0 on its profile.
+pub fn leader_start(scenario: &Scenario) -> Option<(f64, f64)> {
     match &scenario.model {
-        Model::DelayedDriver(m) => {
-            let v0 = m.leader.as_ref().map(|(v0, _)| *v0);
-            let law = DelayedDriverLaw::for_model(m, scenario.step_s, &scenario.initial_speed_mps)
-                .expect("a validated scenario builds its law");
-            simulate_delayed(scenario, law, v0, opts)
-        }
-        Model::Cacc(_) => simulate_cacc(scenario, opts),
+        Model::DelayedDriver(m) => m
+            .leader
+            .as_ref()
+            .map(|(v0, _)| (scenario.length_m[0] + scenario.initial_gap_m[0], *v0)),
+        Model::Cacc(m) => Some((0.0, m.leader.initial_speed())),
     }
 }
 
-fn simulate_delayed(
-    scenario: &Scenario,
-    mut law: DelayedDriverLaw,
-    v0: Option<f64>,
-    opts: NativeOptions,
-) -> NativeRun {
+/// Runs the scenario on the native simulator.
+pub fn simulate(scenario: &Scenario, opts: NativeOptions) -> NativeRun {
+    let leader = leader_start(scenario);
+    let k0 = usize::from(leader.is_some());
+    let mut law = controller_for(&LawSpec::of(scenario), leader.is_some())
+        .expect("a validated scenario builds its law");
     let n = scenario.n;
+    let all = n + k0;
     let dt = scenario.step_s;
     let ring = scenario.ring_length_m();
-    // With a leader, the leader starts one gap ahead of vehicle 0 and drives at v_0.
-    let mut leader_q = v0.map(|_| scenario.length_m[0] + scenario.initial_gap_m[0]);
-    let mut q = initial_positions(scenario, leader_q);
-    let mut v = scenario.initial_speed_mps.clone();
-    let mut next = vec![0.0; n];
+    let mut q = Vec::with_capacity(all);
+    let mut v = Vec::with_capacity(all);
+    if let Some((q0, v0)) = leader {
+        q.push(q0);
+        v.push(v0);
+    }
+    q.extend(initial_positions(scenario, leader.map(|l| l.0)));
+    v.extend_from_slice(&scenario.initial_speed_mps);
+    let mut next = vec![0.0; all];
     let mut gaps = vec![0.0; n];
     let mut traj = Trajectory::new(n);
     let every = opts.record_every.max(1);
-    gaps_from_positions(&q, &scenario.length_m, leader_q, ring, &mut gaps);
-    traj.push(0.0, &v, &q, &gaps, v0);
+    let lengths = &scenario.length_m;
+    let mut record = |t: f64, q: &[f64], v: &[f64], traj: &mut Trajectory| {
+        gaps_from_positions(&q[k0..], lengths, leader.map(|_| q[0]), ring, &mut gaps);
+        traj.push(t, &v[k0..], &q[k0..], &gaps, scenario.leader_speed_at(t));
+    };
+    record(0.0, &q, &v, &mut traj);
     let mut stop = StopReason::Horizon;
     for step in 0..scenario.steps {
-        law.step(&v, v0.unwrap_or(0.0), &mut next);
-        if let Some(s) = check(&next, step + 1, dt) {
+        law.step(step as f64 * dt, &v, &q, &mut next);
+        if let Some(s) = check(&next[k0..], step + 1, dt) {
             stop = s;
             break;
         }
-        for i in 0..n {
+        for i in 0..all {
             q[i] += 0.5 * dt * (v[i] + next[i]);
-        }
-        if let (Some(lq), Some(s)) = (leader_q.as_mut(), v0) {
-            *lq += s * dt;
         }
         std::mem::swap(&mut v, &mut next);
         if (step + 1) % every == 0 || step + 1 == scenario.steps {
-            gaps_from_positions(&q, &scenario.length_m, leader_q, ring, &mut gaps);
-            traj.push((step + 1) as f64 * dt, &v, &q, &gaps, v0);
+            record((step + 1) as f64 * dt, &q, &v, &mut traj);
         }
     }
     NativeRun {
@@ -169,9 +159,15 @@ pub fn run_speeds_only(law: &mut DelayedDriverLaw, v: &mut Vec<f64>, steps: usiz
     }
 }
 
-fn simulate_cacc(scenario: &Scenario, opts: NativeOptions) -> NativeRun {
+/// The continuous CACC closed loop `q' = v, v' = a, τ a' = a_des(q, v)` integrated by the
+/// classical fourth-order Runge–Kutta method with the law evaluated at every stage: the
+/// reference the discrete law of [`simulate`] converges to (second order in Δt).
+///
+/// # Panics
+/// When the scenario is not a CACC platoon.
+pub fn cacc_rk4_reference(scenario: &Scenario, opts: NativeOptions) -> NativeRun {
     let Model::Cacc(m) = &scenario.model else {
-        unreachable!("called for CACC models only")
+        panic!("cacc_rk4_reference runs CACC platoons only")
     };
     let law = CaccLaw::new(m);
     let n = scenario.n;

@@ -17,6 +17,9 @@ pub struct Trajectory {
     pub gaps_m: Vec<f64>,
     /// Leader (reference) speed v_0 per sample, when there is a leader.
     pub leader_speed_mps: Vec<f64>,
+    /// Speeds the law commanded for each sample (NaN where another driver drives); empty
+    /// unless the backend records them (the SUMO loop does).
+    pub commands_mps: Vec<f64>,
 }
 
 impl Trajectory {
@@ -54,6 +57,31 @@ impl Trajectory {
         if let Some(v0) = leader {
             self.leader_speed_mps.push(v0);
         }
+    }
+
+    /// Appends one sample of speeds, positions and commands, without gaps (the rows a SUMO
+    /// worker streams, every vehicle on the road).
+    pub fn push_commanded(&mut self, t: f64, speeds: &[f64], positions: &[f64], commands: &[f64]) {
+        self.time_s.push(t);
+        self.speeds_mps.extend_from_slice(speeds);
+        self.positions_m.extend_from_slice(positions);
+        self.commands_mps.extend_from_slice(commands);
+    }
+
+    /// Moves the samples of `other` to the end of `self`.
+    pub fn append(&mut self, other: &mut Trajectory) {
+        self.time_s.append(&mut other.time_s);
+        self.speeds_mps.append(&mut other.speeds_mps);
+        self.positions_m.append(&mut other.positions_m);
+        self.gaps_m.append(&mut other.gaps_m);
+        self.leader_speed_mps.append(&mut other.leader_speed_mps);
+        self.commands_mps.append(&mut other.commands_mps);
+    }
+
+    /// Drops every sample, keeping N.
+    pub fn clear(&mut self) {
+        let n = self.n;
+        *self = Self::new(n);
     }
 
     /// Speeds of sample `k`.

@@ -24,7 +24,7 @@ use serde::Serialize;
 use syncroad_control::Scenario;
 
 use crate::protocol::{Control, Finish, ReadMode, Request};
-use crate::run::{prepare, PrepareError, RunOptions};
+use crate::run::{load_road, prepare, PrepareError, RunOptions};
 use crate::supervisor::{run_worker, Supervision, SupervisorError, WorkerCommand};
 use crate::venv::{find_venv, VenvError};
 
@@ -195,7 +195,7 @@ fn timed(
     if let Some(r) = read {
         opts.read = r;
     }
-    let mut req = prepare(sc, &opts)?;
+    let mut req = prepare(sc, &load_road(sc)?, &opts)?;
     if !controlled {
         req.control = Control::Hold;
     }
@@ -232,7 +232,7 @@ fn interleaved(
     warmup: usize,
 ) -> Result<f64, BenchError> {
     let opts = RunOptions::new(work, worker.clone());
-    let mut req = prepare(sc, &opts)?;
+    let mut req = prepare(sc, &load_road(sc)?, &opts)?;
     req.observe = true;
     req.untimed_steps = warmup;
     req.interleave_block = INTERLEAVE_BLOCK;

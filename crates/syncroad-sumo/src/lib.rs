@@ -8,36 +8,41 @@
 //! every run lives in its own **worker process**; the control loop runs inside the worker (law
 //! and libsumo in one process, no per-step IPC) and streams trajectory rows to the parent.
 //!
-//! Layers, bottom up:
-//! * [`venv`], [`python`] — the project's virtualenv, the embedded interpreter, Python errors
-//!   with their tracebacks;
-//! * [`net`], [`layout`] — network files read and checked before SUMO starts, vehicle
+//! Layers, bottom up (modules are private; the types below are the crate's face):
+//! * `venv`, `python` — the project's virtualenv, the embedded interpreter, Python errors with
+//!   their tracebacks;
+//! * `net`, `layout` — network files read once and checked before SUMO starts, vehicle
 //!   departures, ring capacity, the routes file;
-//! * [`drivers`] — SUMO's own car-following models as baselines;
-//! * [`controller`] — the seam to the laws of `syncroad-control` and SUMO's actuation timing;
-//! * [`protocol`], [`cosim`], [`worker`] — the worker process and its loop;
-//! * [`supervisor`], [`run`] — the parent: spawning, supervising, results;
+//! * `drivers` — SUMO's own car-following models;
+//! * `protocol`, `cosim`, `worker` — the worker process: one step of the co-simulation apart
+//!   from the loop that runs it;
+//! * `supervisor`, `run` — the parent: [`Prepared::new`] checks everything it can before SUMO
+//!   starts, [`Prepared::run`] supervises the worker, [`SumoRun::output`] is the
+//!   [`RunOutput`](syncroad_control::RunOutput) every backend returns;
 //! * [`bench`](mod@bench) — SUMO alone vs SUMO + controller vs a TraCI-socket reference.
 #![warn(missing_docs)]
 #![allow(clippy::needless_range_loop)]
 
 pub mod bench;
-pub mod controller;
-pub mod cosim;
-pub mod direct;
-pub mod drivers;
-pub mod layout;
-pub mod net;
-pub mod protocol;
-pub mod python;
-pub mod run;
-pub mod supervisor;
-pub mod venv;
-pub mod worker;
+mod cosim;
+mod direct;
+mod drivers;
+mod layout;
+mod net;
+mod protocol;
+mod python;
+mod run;
+mod supervisor;
+mod venv;
+mod worker;
 
-pub use controller::{controller_for, SpeedController};
-pub use drivers::SumoDriver;
-pub use run::{run_scenario, RunError, RunOptions, SumoRun};
-pub use supervisor::{interrupt_flag, run_worker, Supervision, SupervisorError, WorkerCommand};
+pub use drivers::{DriverError, SumoDriver, EMISSION_CLASS};
+pub use net::Road;
+pub use protocol::{Event, Finish, ReadMode, Request, StartInfo, Totals};
+pub use run::{
+    check_sumo_numbers, layout_for, load_road, loop_position, run_scenario, MeasureOptions,
+    PrepareError, Prepared, RunOptions, SumoRun,
+};
+pub use supervisor::{interrupt_flag, SupervisorError, WorkerCommand};
 pub use venv::repo_dir;
-pub use worker::{is_worker_invocation, worker_main, WORKER_ARG};
+pub use worker::{is_worker_invocation, worker_main};

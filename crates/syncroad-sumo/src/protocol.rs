@@ -4,7 +4,7 @@
 //! its protocol channel (its original stdout; SUMO's own console output is diverted to stderr)
 //! with frames `[kind: u8][len: u32 LE][payload]`:
 //! * kind `J`: a JSON [`WorkerMsg`] (start info, events, the end of the run);
-//! * kind `R`: a binary chunk of trajectory rows, see [`RowChunk`].
+//! * kind `R`: a binary chunk of trajectory rows, see [`encode_rows`].
 //!
 //! Rows stream in chunks while the control loop runs inside the worker, so the parent holds
 //! every row received so far whatever happens to the worker.
@@ -13,6 +13,9 @@ use std::io::{self, Read, Write};
 use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
+
+use syncroad_control::record::Measured;
+use syncroad_control::{LawSpec, StopReason, Trajectory};
 
 use crate::layout::Layout;
 use crate::python::PythonInfo;
@@ -91,28 +94,6 @@ pub struct Measure {
     pub tripinfo_file: Option<PathBuf>,
 }
 
-/// What SUMO measured after the warm-up.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-pub struct Measured {
-    /// Steps measured (after the warm-up).
-    pub steps: usize,
-    /// Vehicles entering the induction loop `loop0` (new ids in
-    /// `inductionloop.getLastStepVehicleIDs`); `None` without a loop.
-    pub loop_passages: Option<usize>,
-    /// Σ over vehicles of `vehicle.getTimeLoss` at the end minus at the end of the warm-up \[s\].
-    pub time_loss_s: f64,
-    /// Σ over vehicles and sampled steps of `vehicle.getFuelConsumption` [mg/s] × held time,
-    /// after the warm-up \[mg\].
-    pub fuel_mg: f64,
-    /// The same for `vehicle.getCO2Emission` \[mg\].
-    pub co2_mg: f64,
-    /// Fuel over the whole run, warm-up included \[mg\] (cross-check with trip info).
-    pub fuel_total_mg: f64,
-    /// Vehicle-steps after the warm-up whose measured deceleration exceeded the vehicle
-    /// type's `decel` (harder than a SUMO driver brakes by choice).
-    pub hard_braking_steps: usize,
-}
-
 /// How the loop reads vehicle states from libsumo.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -132,12 +113,10 @@ pub enum ReadMode {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case")]
 pub enum Control {
-    /// The scenario's law (built in the worker from the same scenario file the parent validated).
+    /// The scenario's law, resolved by the parent (nothing is validated twice).
     Law {
-        /// The scenario file's JSON.
-        scenario: serde_json::Value,
-        /// Folder of the scenario file (relative paths).
-        base_dir: PathBuf,
+        /// The model, step and initial speeds.
+        law: LawSpec,
     },
     /// SUMO's own car-following model (Krauss with the layout's σ); nothing is commanded.
     SumoModel,
@@ -205,30 +184,6 @@ pub enum Event {
         commanded_mps: f64,
         /// Realised speed [m/s].
         realised_mps: f64,
-    },
-}
-
-/// Why the loop stopped.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "reason", rename_all = "snake_case")]
-pub enum StopReason {
-    /// The horizon was reached.
-    Horizon,
-    /// The law produced a non-finite speed; it was not sent to SUMO.
-    NonFiniteCommand {
-        /// SUMO vehicle id.
-        vehicle: String,
-        /// Step index n (the command was for step n+1).
-        step: usize,
-        /// The value (as text: NaN, inf).
-        value: String,
-    },
-    /// A vehicle disappeared from the road (reached the end of a straight road).
-    VehicleLost {
-        /// SUMO vehicle id.
-        vehicle: String,
-        /// Step index.
-        step: usize,
     },
 }
 
@@ -313,113 +268,54 @@ impl PhaseTimes {
     }
 }
 
-/// Rows of consecutive recorded samples for all vehicles: per record the time \[s\], then the
-/// measured speeds, unwrapped rear-bumper positions and the commands that produced the speeds
-/// (NaN where SUMO's own model drives), each `n` values.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct RowChunk {
-    /// Number of vehicles.
-    pub n: usize,
-    /// Sample times \[s\].
-    pub time_s: Vec<f64>,
-    /// Speeds [m/s], time-major.
-    pub speeds_mps: Vec<f64>,
-    /// Positions \[m\], time-major.
-    pub positions_m: Vec<f64>,
-    /// Commands [m/s], time-major.
-    pub commands_mps: Vec<f64>,
+/// Serialises the speeds, positions and commands of a wire trajectory (every vehicle on the
+/// road, no gaps): `n: u32, records: u32`, then per record `t, speeds, positions, commands` as
+/// little-endian f64.
+pub fn encode_rows(rows: &Trajectory) -> Vec<u8> {
+    let n = rows.n;
+    let mut out = Vec::with_capacity(8 + rows.len() * (1 + 3 * n) * 8);
+    out.extend_from_slice(&(n as u32).to_le_bytes());
+    out.extend_from_slice(&(rows.len() as u32).to_le_bytes());
+    for k in 0..rows.len() {
+        out.extend_from_slice(&rows.time_s[k].to_le_bytes());
+        for arr in [&rows.speeds_mps, &rows.positions_m, &rows.commands_mps] {
+            for x in &arr[k * n..(k + 1) * n] {
+                out.extend_from_slice(&x.to_le_bytes());
+            }
+        }
+    }
+    out
 }
 
-impl RowChunk {
-    /// An empty chunk for `n` vehicles.
-    pub fn new(n: usize) -> Self {
-        Self {
+/// Inverse of [`encode_rows`].
+pub fn decode_rows(bytes: &[u8]) -> Result<Trajectory, ProtocolError> {
+    let word = |i: usize| -> usize {
+        bytes
+            .get(i..i + 4)
+            .map(|b| u32::from_le_bytes(b.try_into().expect("4 bytes")) as usize)
+            .unwrap_or(0)
+    };
+    let (n, records) = (word(0), word(4));
+    let expected = 8 + records * (1 + 3 * n) * 8;
+    if bytes.len() != expected {
+        return Err(ProtocolError::RowChunkSize {
+            bytes: bytes.len(),
+            expected,
+            records,
             n,
-            ..Self::default()
+        });
+    }
+    let mut floats = bytes[8..]
+        .chunks_exact(8)
+        .map(|b| f64::from_le_bytes(b.try_into().expect("8 bytes")));
+    let mut c = Trajectory::new(n);
+    for _ in 0..records {
+        c.time_s.push(floats.next().expect("sized"));
+        for arr in [&mut c.speeds_mps, &mut c.positions_m, &mut c.commands_mps] {
+            arr.extend((&mut floats).take(n));
         }
     }
-
-    /// Number of records.
-    pub fn len(&self) -> usize {
-        self.time_s.len()
-    }
-
-    /// True without records.
-    pub fn is_empty(&self) -> bool {
-        self.time_s.is_empty()
-    }
-
-    /// Appends a record.
-    pub fn push(&mut self, t: f64, speeds: &[f64], positions: &[f64], commands: &[f64]) {
-        self.time_s.push(t);
-        self.speeds_mps.extend_from_slice(speeds);
-        self.positions_m.extend_from_slice(positions);
-        self.commands_mps.extend_from_slice(commands);
-    }
-
-    /// Moves the records of `other` to the end of `self`.
-    pub fn append(&mut self, other: &mut RowChunk) {
-        self.time_s.append(&mut other.time_s);
-        self.speeds_mps.append(&mut other.speeds_mps);
-        self.positions_m.append(&mut other.positions_m);
-        self.commands_mps.append(&mut other.commands_mps);
-    }
-
-    fn clear(&mut self) {
-        self.time_s.clear();
-        self.speeds_mps.clear();
-        self.positions_m.clear();
-        self.commands_mps.clear();
-    }
-
-    /// Serialises: `n: u32, records: u32`, then per record `t, speeds, positions, commands`
-    /// as little-endian f64.
-    pub fn encode(&self) -> Vec<u8> {
-        let n = self.n;
-        let mut out = Vec::with_capacity(8 + self.len() * (1 + 3 * n) * 8);
-        out.extend_from_slice(&(n as u32).to_le_bytes());
-        out.extend_from_slice(&(self.len() as u32).to_le_bytes());
-        for k in 0..self.len() {
-            out.extend_from_slice(&self.time_s[k].to_le_bytes());
-            for arr in [&self.speeds_mps, &self.positions_m, &self.commands_mps] {
-                for x in &arr[k * n..(k + 1) * n] {
-                    out.extend_from_slice(&x.to_le_bytes());
-                }
-            }
-        }
-        out
-    }
-
-    /// Inverse of [`RowChunk::encode`].
-    pub fn decode(bytes: &[u8]) -> Result<RowChunk, ProtocolError> {
-        let word = |i: usize| -> usize {
-            bytes
-                .get(i..i + 4)
-                .map(|b| u32::from_le_bytes(b.try_into().expect("4 bytes")) as usize)
-                .unwrap_or(0)
-        };
-        let (n, records) = (word(0), word(4));
-        let expected = 8 + records * (1 + 3 * n) * 8;
-        if bytes.len() != expected {
-            return Err(ProtocolError::RowChunkSize {
-                bytes: bytes.len(),
-                expected,
-                records,
-                n,
-            });
-        }
-        let mut floats = bytes[8..]
-            .chunks_exact(8)
-            .map(|b| f64::from_le_bytes(b.try_into().expect("8 bytes")));
-        let mut c = RowChunk::new(n);
-        for _ in 0..records {
-            c.time_s.push(floats.next().expect("sized"));
-            for arr in [&mut c.speeds_mps, &mut c.positions_m, &mut c.commands_mps] {
-                arr.extend((&mut floats).take(n));
-            }
-        }
-        Ok(c)
-    }
+    Ok(c)
 }
 
 /// Errors decoding the worker's stream.
@@ -476,11 +372,11 @@ pub fn write_msg(w: &mut impl Write, msg: &WorkerMsg) -> io::Result<()> {
 }
 
 /// Writes a row chunk frame and empties the chunk.
-pub fn write_rows(w: &mut impl Write, rows: &mut RowChunk) -> io::Result<()> {
+pub fn write_rows(w: &mut impl Write, rows: &mut Trajectory) -> io::Result<()> {
     if rows.is_empty() {
         return Ok(());
     }
-    write_frame(w, KIND_ROWS, &rows.encode())?;
+    write_frame(w, KIND_ROWS, &encode_rows(rows))?;
     rows.clear();
     w.flush()
 }
@@ -491,7 +387,7 @@ pub enum Frame {
     /// A JSON message.
     Msg(WorkerMsg),
     /// Rows.
-    Rows(RowChunk),
+    Rows(Trajectory),
 }
 
 /// Reads one frame; `Ok(None)` at a clean end of stream.
@@ -521,7 +417,7 @@ pub fn read_frame(r: &mut impl Read) -> Result<Option<Frame>, ProtocolError> {
         KIND_JSON => serde_json::from_slice(&payload)
             .map(|m| Some(Frame::Msg(m)))
             .map_err(|e| ProtocolError::Json(e.to_string())),
-        KIND_ROWS => RowChunk::decode(&payload).map(|c| Some(Frame::Rows(c))),
+        KIND_ROWS => decode_rows(&payload).map(|c| Some(Frame::Rows(c))),
         k => Err(ProtocolError::UnknownKind(k)),
     }
 }
@@ -532,9 +428,9 @@ mod tests {
 
     #[test]
     fn rows_round_trip_through_frames() {
-        let mut c = RowChunk::new(2);
-        c.push(0.0, &[1.0, 2.0], &[0.0, -7.5], &[f64::NAN, 2.0]);
-        c.push(0.1, &[1.5, 2.5], &[0.1, -7.3], &[1.5, 2.5]);
+        let mut c = Trajectory::new(2);
+        c.push_commanded(0.0, &[1.0, 2.0], &[0.0, -7.5], &[f64::NAN, 2.0]);
+        c.push_commanded(0.1, &[1.5, 2.5], &[0.1, -7.3], &[1.5, 2.5]);
         let copy = c.clone();
         let mut buf = Vec::new();
         write_rows(&mut buf, &mut c).unwrap();
@@ -570,7 +466,7 @@ mod tests {
             err.to_string().starts_with("frame of 7 bytes cut short"),
             "{err}"
         );
-        let err = RowChunk::decode(&[2, 0, 0, 0, 1, 0, 0, 0]).unwrap_err();
+        let err = decode_rows(&[2, 0, 0, 0, 1, 0, 0, 0]).unwrap_err();
         assert_eq!(
             err.to_string(),
             "row chunk of 8 bytes, expected 64 for 1 records of 2 vehicles"

@@ -4,8 +4,6 @@
 //! Every `PyErr` goes through [`py_error`], which keeps the Python traceback. No Python call is
 //! ever unwrapped.
 
-use std::path::PathBuf;
-
 use pyo3::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -137,11 +135,6 @@ pub fn load_libsumo(py: Python<'_>) -> Result<(Bound<'_, PyModule>, PythonInfo),
         sumo_home: get_str(sumo.as_any(), "SUMO_HOME")?,
     };
     Ok((libsumo, info))
-}
-
-/// The path of a SUMO binary (`sumo`, `netconvert`) inside the wheel's `SUMO_HOME`.
-pub fn sumo_binary(info: &PythonInfo, name: &str) -> PathBuf {
-    PathBuf::from(&info.sumo_home).join("bin").join(name)
 }
 
 #[cfg(test)]

@@ -13,7 +13,9 @@ use std::sync::mpsc;
 use std::sync::{Arc, Mutex, OnceLock};
 use std::time::{Duration, Instant};
 
-use crate::protocol::{read_frame, Event, Finish, Frame, Request, RowChunk, StartInfo, WorkerMsg};
+use syncroad_control::Trajectory;
+
+use crate::protocol::{read_frame, Event, Finish, Frame, Request, StartInfo, WorkerMsg};
 use crate::worker::WORKER_ARG;
 
 /// Lines of worker stderr kept for error messages.
@@ -166,7 +168,7 @@ pub struct WorkerRun {
     /// Start information (absent if SUMO never started).
     pub start: Option<StartInfo>,
     /// Every row received.
-    pub rows: RowChunk,
+    pub rows: Trajectory,
     /// Every event received.
     pub events: Vec<Event>,
     /// The end of the run, or why there is none.
@@ -201,7 +203,7 @@ fn signal_name(sig: i32) -> &'static str {
 pub fn run_worker(cmd: &WorkerCommand, request: &Request, limits: &Supervision) -> WorkerRun {
     let mut run = WorkerRun {
         start: None,
-        rows: RowChunk::new(request.layout.vehicles.len()),
+        rows: Trajectory::new(request.layout.vehicles.len()),
         events: Vec::new(),
         result: Err(SupervisorError::Wait("not started".into())),
         pid: 0,

@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use syncroad_control::Scenario;
-use syncroad_sumo::protocol::ReadMode;
+use syncroad_sumo::ReadMode;
 use syncroad_sumo::{run_scenario, RunOptions, WorkerCommand};
 
 fn scenario() -> Scenario {

@@ -39,14 +39,14 @@ pub enum Command {
         #[command(flatten)]
         out: OutputArgs,
         #[command(flatten)]
-        sumo: crate::sumo_cmd::SumoArgs,
+        sumo: SumoArgs,
     },
     /// Run the scenario with its law and with SUMO's own drivers (Krauss σ 0.5 and 0.9, IDM;
     /// ACC and CACC for platoons; mixed rings with --mixed) on the same network, vehicles,
     /// initial state and seed, each run its own SUMO process; print a side-by-side table of
     /// congestion, flow, time loss, fuel, CO2 and safety; write one folder per run and
     /// compare.json to --out.
-    Compare(crate::compare::CompareArgs),
+    Compare(CompareArgs),
     /// Measure the SUMO loop in one run: SUMO alone vs SUMO + controller (every vehicle read
     /// and commanded every step) vs a TraCI-socket loop doing the same, at N = 22 and N = 2000.
     SumoBench {
@@ -165,6 +165,66 @@ pub struct OutputArgs {
     #[arg(long)]
     pub warmup_s: Option<f64>,
     /// Do not draw the plots (time-space diagram, speeds, spread; PNG and SVG).
+    #[arg(long)]
+    pub no_plots: bool,
+}
+
+/// Options of the SUMO backend.
+#[derive(Debug, Clone, clap::Args)]
+pub struct SumoArgs {
+    /// Wall-clock limit of the SUMO run [s] (default: the scenario's sumo.timeout_s).
+    #[arg(long)]
+    pub timeout_s: Option<f64>,
+    /// Baseline: let SUMO's own car-following model (Krauss with this σ, e.g. 0.5) drive
+    /// instead of the scenario's law.
+    #[arg(long)]
+    pub krauss_sigma: Option<f64>,
+    /// Use SUMO's default Euler position update (x += Δt v^{n+1}) instead of the ballistic
+    /// (trapezoidal) one the native simulator shares.
+    #[arg(long)]
+    pub euler: bool,
+    /// Read states through libsumo subscriptions instead of per-vehicle getters.
+    #[arg(long)]
+    pub subscriptions: bool,
+}
+
+/// Options of `syncroad compare`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct CompareArgs {
+    /// Scenario file (JSON) with a SUMO network (`sumo.net`).
+    pub scenario: PathBuf,
+    /// Output folder: one subfolder per run, compare.json (created if missing).
+    #[arg(long, short)]
+    pub out: PathBuf,
+    /// Runs, comma-separated: protocol (the scenario's law), krauss (SUMO's default, σ 0.5),
+    /// krauss-SIGMA (e.g. krauss-0.9), idm, acc, cacc. Default: protocol,krauss,krauss-0.9,idm
+    /// on rings; protocol,krauss,idm,acc,cacc on straight roads.
+    #[arg(long)]
+    pub baselines: Option<String>,
+    /// Mixed traffic on a ring: for each count K, a run where K evenly spaced vehicles run the
+    /// law and the others are --mixed-driver (e.g. 0,1,2,4; 0 is the all-human ring).
+    #[arg(long)]
+    pub mixed: Option<String>,
+    /// The human drivers of --mixed runs.
+    #[arg(long, default_value = "krauss-0.9")]
+    pub mixed_driver: String,
+    /// Runs at once, each its own SUMO process (default: the number of cores).
+    #[arg(long)]
+    pub jobs: Option<usize>,
+    /// Warm-up excluded from every congestion and SUMO metric [s] (default: a quarter of the
+    /// horizon).
+    #[arg(long)]
+    pub warmup_s: Option<f64>,
+    /// Read fuel and CO2 every k steps (1 = every step, exact at SUMO's step).
+    #[arg(long, default_value_t = 1)]
+    pub emission_every: usize,
+    /// Record every k-th step in trajectories.csv (default: about 2000 samples).
+    #[arg(long)]
+    pub record_every: Option<usize>,
+    /// Wall-clock limit of each SUMO run [s] (default: the scenario's sumo.timeout_s).
+    #[arg(long)]
+    pub timeout_s: Option<f64>,
+    /// Do not draw plots.
     #[arg(long)]
     pub no_plots: bool,
 }

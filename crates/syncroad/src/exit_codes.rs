@@ -1,6 +1,9 @@
-//! Documented exit codes of `syncroad`.
+//! Documented exit codes of `syncroad`, chosen in one place from a command's [`Status`] or
+//! error.
 
 use std::process::ExitCode;
+
+use crate::error::{InputError, Status};
 
 /// The run finished and the verdict is "synchronized" (for `check`: certified).
 pub const SUCCESS: u8 = 0;
@@ -12,10 +15,16 @@ pub const BAD_INPUT: u8 = 2;
 /// A run failed while executing (I/O error, SUMO crash, timeout). Partial results are written.
 pub const RUN_FAILED: u8 = 3;
 /// Interrupted by Ctrl-C. Partial results are written.
-#[allow(dead_code)] // used by the SUMO commands
 pub const INTERRUPTED: u8 = 130;
 
-/// Converts a code to [`ExitCode`].
-pub fn code(c: u8) -> ExitCode {
-    ExitCode::from(c)
+/// The exit code of a command's result.
+pub fn of(result: &anyhow::Result<Status>) -> ExitCode {
+    ExitCode::from(match result {
+        Ok(Status::Success) => SUCCESS,
+        Ok(Status::NotSynchronized) => NOT_SYNCHRONIZED,
+        Ok(Status::RunFailed) => RUN_FAILED,
+        Ok(Status::Interrupted) => INTERRUPTED,
+        Err(e) if e.chain().any(|c| c.is::<InputError>()) => BAD_INPUT,
+        Err(_) => RUN_FAILED,
+    })
 }

@@ -1,17 +1,25 @@
 //! `syncroad`: argument definitions plus glue. The work happens in `syncroad-control`
-//! (laws, theory, native simulator) and `syncroad-sumo` (SUMO co-simulation).
+//! (laws, theory, native simulator, the run outcome and record) and `syncroad-sumo` (SUMO
+//! co-simulation).
+//!
+//! * [`cli`] — clap definitions, the help text;
+//! * [`config`] — options validated once, before any work starts;
+//! * [`commands`] — one module per command;
+//! * [`pipeline`] — one run, whatever runs it: backend → outcome → record → files;
+//! * [`output`], [`plots`], [`report`], [`stability`] — files, figures and text tables;
+//! * [`error`], [`exit_codes`] — the one error funnel; only [`main`] picks the exit code.
 
-mod bench;
 mod cli;
 mod commands;
-mod compare;
+mod config;
+mod error;
 mod exit_codes;
-mod map;
+mod output;
+mod pipeline;
 mod plots;
-mod regress;
+mod progress;
 mod report;
 mod stability;
-mod sumo_cmd;
 
 use std::process::ExitCode;
 
@@ -23,16 +31,9 @@ fn main() -> ExitCode {
         return syncroad_sumo::worker_main();
     }
     let cli = cli::Cli::parse();
-    match commands::run(cli) {
-        Ok(code) => exit_codes::code(code),
-        Err(err) => {
-            eprintln!("error: {err:#}");
-            let code = if err.downcast_ref::<commands::InputError>().is_some() {
-                exit_codes::BAD_INPUT
-            } else {
-                exit_codes::RUN_FAILED
-            };
-            exit_codes::code(code)
-        }
+    let result = commands::run(cli);
+    if let Err(err) = &result {
+        eprintln!("error: {err:#}");
     }
+    exit_codes::of(&result)
 }

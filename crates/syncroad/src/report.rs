@@ -1,15 +1,11 @@
-//! Human-readable tables and the files a run writes (trajectories.csv, metrics.json).
+//! Human-readable tables: the theory report, a run's summary, its congestion lines.
 
 use std::fmt::Write as _;
-use std::io::BufWriter;
-use std::path::Path;
 
-use anyhow::Context;
-use serde_json::json;
 use syncroad_control::congestion::CongestionMetrics;
 use syncroad_control::metrics::SyncMetrics;
 use syncroad_control::theory::{Binding, TheoryReport};
-use syncroad_control::{Scenario, StopReason, Trajectory};
+use syncroad_control::Scenario;
 
 fn yes(b: bool) -> &'static str {
     if b {
@@ -162,18 +158,6 @@ fn opt(x: Option<f64>, unit: &str) -> String {
     x.map_or("—".to_string(), |v| format!("{v:.6} {unit}"))
 }
 
-/// Why a native run stopped before its horizon, for [`metrics_table`].
-pub fn native_stop_note(stop: &StopReason) -> Option<String> {
-    match stop {
-        StopReason::Horizon => None,
-        StopReason::Diverged {
-            vehicle, time_s, ..
-        } => Some(format!(
-            "speed of vehicle {vehicle} diverged at t = {time_s} s"
-        )),
-    }
-}
-
 /// The summary printed after a run.
 pub fn metrics_table(
     sc: &Scenario,
@@ -239,74 +223,6 @@ pub fn metrics_table(
     );
     let _ = writeln!(s, "verdict: {}", m.verdict);
     s
-}
-
-/// Everything one run produced.
-pub struct RunRecord<'a> {
-    /// The scenario.
-    pub scenario: &'a Scenario,
-    /// `native` or `sumo`.
-    pub backend: &'a str,
-    /// Recorded samples.
-    pub trajectory: &'a Trajectory,
-    /// Synchronization metrics and verdict.
-    pub sync: &'a SyncMetrics,
-    /// Congestion metrics (absent when the warm-up leaves no sample).
-    pub congestion: Option<&'a CongestionMetrics>,
-    /// Why the run stopped, as the backend reports it (native [`StopReason`] or the SUMO
-    /// worker's stop).
-    pub stop: serde_json::Value,
-    /// The theory report.
-    pub theory: &'a TheoryReport,
-    /// Backend-specific stamps (SUMO version, safety counts, ...).
-    pub extra: Option<serde_json::Value>,
-}
-
-impl RunRecord<'_> {
-    /// The metrics document (metrics.json).
-    pub fn metrics_json(&self) -> serde_json::Value {
-        let sc = self.scenario;
-        json!({
-            "syncroad_version": env!("CARGO_PKG_VERSION"),
-            "scenario": sc.name,
-            "scenario_hash": sc.hash_hex(),
-            "seed": sc.file.seed,
-            "backend": self.backend,
-            "platform": format!("{}-{}", std::env::consts::ARCH, std::env::consts::OS),
-            "vehicles": sc.n,
-            "step_s": sc.step_s,
-            "horizon_s": sc.horizon_s(),
-            "stop": self.stop,
-            "certified": self.theory.certified,
-            "sync": self.sync,
-            "congestion": self.congestion,
-            "extra": self.extra,
-        })
-    }
-
-    /// Writes trajectories.csv and metrics.json (stamped with version, seed, scenario hash)
-    /// into `dir`.
-    pub fn write(&self, dir: &Path) -> anyhow::Result<()> {
-        write_run_files(dir, self.trajectory, &self.metrics_json())
-    }
-}
-
-/// Writes a run's `trajectories.csv` and `metrics.json` (pretty JSON, trailing newline) into
-/// `dir`: the one place every backend's outputs are written.
-pub fn write_run_files(
-    dir: &Path,
-    traj: &Trajectory,
-    metrics: &serde_json::Value,
-) -> anyhow::Result<()> {
-    let csv = dir.join("trajectories.csv");
-    let f =
-        std::fs::File::create(&csv).with_context(|| format!("cannot write {}", csv.display()))?;
-    traj.write_csv(BufWriter::new(f))
-        .with_context(|| format!("cannot write {}", csv.display()))?;
-    let path = dir.join("metrics.json");
-    std::fs::write(&path, serde_json::to_string_pretty(metrics)? + "\n")
-        .with_context(|| format!("cannot write {}", path.display()))?;
-    Ok(())
 }
 
 /// Summary lines of the congestion metrics.

@@ -21,7 +21,7 @@ use syncroad_control::scenario::{DelayedDriverModel, GraphSpec, ModelSpec};
 use syncroad_control::theory::{self, TheoryReport};
 use syncroad_control::{scenario::Model, Scenario};
 
-use crate::commands::InputError;
+use crate::error::InputError;
 
 /// Largest network (vehicles, leader included) for the full root solve.
 pub const FULL_SOLVE_LIMIT: usize = 150;
@@ -108,7 +108,7 @@ pub fn analyse(sc: &Scenario) -> anyhow::Result<StabilityReport> {
                     true,
                 )?)
             } else if ring.is_none() {
-                return Err(InputError(format!(
+                return Err(InputError::new(format!(
                     "the scenario has {size} vehicles: the full root solve is limited to {FULL_SOLVE_LIMIT}; \
                      uniform rings of any size use the Fourier fast path (uniform gains and delays)"
                 ))

@@ -23,11 +23,14 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
-use anyhow::Context;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
-use crate::commands::InputError;
+use crate::config::load_scenario;
+use crate::error::{InputError, Status};
+use crate::output::write_json;
+use crate::pipeline::{self, Finished};
+use syncroad_control::EvalOptions;
 
 /// Absolute and relative tolerance of one metric.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -298,14 +301,14 @@ pub fn render(c: &Comparison, baseline: &Path) -> String {
 /// Reads a baseline file.
 pub fn load(path: &Path) -> anyhow::Result<Baseline> {
     let text = std::fs::read_to_string(path)
-        .map_err(|e| InputError(format!("cannot read baseline {}: {e}", path.display())))?;
+        .map_err(|e| InputError::caused(format!("cannot read baseline {}", path.display()), e))?;
     let b: Baseline = serde_json::from_str(&text)
-        .map_err(|e| InputError(format!("baseline {}: {e}", path.display())))?;
+        .map_err(|e| InputError::caused(format!("baseline {}", path.display()), e))?;
     for (k, t) in std::iter::once(("default".to_string(), b.tolerances.default))
         .chain(b.tolerances.keys.clone())
     {
         if !(t.abs.is_finite() && t.abs >= 0.0 && t.rel.is_finite() && t.rel >= 0.0) {
-            return Err(InputError(format!(
+            return Err(InputError::new(format!(
                 "baseline {}: tolerances.{k} = {{abs: {}, rel: {}}}: both must be finite and ≥ 0",
                 path.display(),
                 t.abs,
@@ -323,27 +326,29 @@ pub fn load(path: &Path) -> anyhow::Result<Baseline> {
 pub fn fresh_metrics(base: &Baseline, baseline_path: &Path) -> anyhow::Result<Value> {
     let dir = baseline_path.parent().unwrap_or(Path::new("."));
     let scenario = dir.join(&base.scenario);
-    let sc = crate::commands::load_scenario(&scenario)?;
+    let sc = load_scenario(&scenario)?;
     if base.kind == Kind::Native {
         if base.runs.is_some() || base.mixed.is_some() {
-            return Err(InputError(format!(
+            return Err(InputError::new(format!(
                 "baseline {}: runs/mixed apply only to \"kind\": \"compare\" (this one is native)",
                 baseline_path.display()
             ))
             .into());
         }
-        let th = syncroad_control::metrics::VerdictThresholds {
-            tolerance_mps: sc.file.verdict.tolerance_mps,
-            window_s: sc.file.verdict.window_s,
-        };
-        let o = crate::commands::run_native(&sc, th, None, None);
-        return Ok(o.record(&sc).metrics_json());
+        let every = crate::config::default_record_every(sc.steps, sc.n);
+        let f = Finished::new(
+            &sc,
+            "law",
+            pipeline::native(&sc, every),
+            EvalOptions::of(&sc),
+        );
+        return Ok(f.record.to_json());
     }
     let runs = match base.kind {
         Kind::Sumo => Some("protocol".to_string()),
         _ => base.runs.clone(),
     };
-    let args = crate::compare::CompareArgs {
+    let args = crate::cli::CompareArgs {
         scenario: scenario.clone(),
         out: std::env::temp_dir().join(format!(
             "syncroad-regress-{}-{}",
@@ -360,18 +365,47 @@ pub fn fresh_metrics(base: &Baseline, baseline_path: &Path) -> anyhow::Result<Va
         timeout_s: None,
         no_plots: true,
     };
-    let plan = crate::compare::plan(&sc, &args)
-        .map_err(|e| InputError(format!("baseline {}: {e:#}", baseline_path.display())))?;
+    let plan = super::compare::plan(&sc, &args).map_err(|e| {
+        e.context(InputError::new(format!(
+            "baseline {}",
+            baseline_path.display()
+        )))
+    })?;
     let flag = syncroad_sumo::interrupt_flag()?;
-    let result = crate::compare::compare_into(&sc, &plan, &args.out, flag);
+    let result = super::compare::compare_into(&sc, &plan, &args.out, flag);
     let _ = std::fs::remove_dir_all(&args.out);
     Ok(result?.0)
 }
 
+/// `syncroad regress`: compare with the baseline, or `--update` it.
+pub fn run(baseline_path: &Path, update: bool, metrics: Option<&Path>) -> anyhow::Result<Status> {
+    let mut base = load(baseline_path)?;
+    let fresh = match metrics {
+        Some(m) => {
+            let text = std::fs::read_to_string(m).map_err(|e| {
+                InputError::caused(format!("cannot read metrics {}", m.display()), e)
+            })?;
+            serde_json::from_str(&text)
+                .map_err(|e| InputError::caused(format!("metrics {}", m.display()), e))?
+        }
+        None => fresh_metrics(&base, baseline_path)?,
+    };
+    let (stamps, results) = split_stamps(fresh);
+    if update {
+        base.metrics = results;
+        base.stamp = stamps;
+        save(baseline_path, &base)?;
+        println!("updated {}", baseline_path.display());
+        return Ok(Status::Success);
+    }
+    let c = compare(&base, &stamps, &results);
+    print!("{}", render(&c, baseline_path));
+    Ok(Status::verdict(c.failures.is_empty()))
+}
+
 /// Writes a baseline file (pretty JSON, trailing newline).
 pub fn save(path: &Path, b: &Baseline) -> anyhow::Result<()> {
-    std::fs::write(path, serde_json::to_string_pretty(b)? + "\n")
-        .with_context(|| format!("cannot write {}", path.display()))
+    write_json(path, &serde_json::to_value(b)?)
 }
 
 #[cfg(test)]

@@ -12,8 +12,8 @@ use syncroad_control::rng::SplitMix64;
 use syncroad_control::scenario::HistorySpec;
 use syncroad_control::{DelayedDriverLaw, Graph};
 
-use crate::commands::InputError;
-use crate::exit_codes;
+use crate::error::InputError;
+use crate::error::Status;
 
 struct Ring {
     graph: Graph,
@@ -58,15 +58,15 @@ fn timed(r: &Ring, dt: f64, horizon_s: f64) -> (Vec<f64>, f64) {
 }
 
 /// Runs the benchmark and prints one line per ring size.
-pub fn run(horizon_s: f64, sizes: &[usize]) -> anyhow::Result<u8> {
+pub fn run(horizon_s: f64, sizes: &[usize]) -> anyhow::Result<Status> {
     if !(horizon_s.is_finite() && horizon_s > 0.0) {
-        return Err(InputError(format!(
+        return Err(InputError::new(format!(
             "--horizon-s = {horizon_s}: must be a finite number > 0"
         ))
         .into());
     }
     if let Some(&bad) = sizes.iter().find(|&&n| n < 2) {
-        return Err(InputError(format!(
+        return Err(InputError::new(format!(
             "--sizes contains {bad}: a ring needs at least 2 vehicles"
         ))
         .into());
@@ -90,5 +90,5 @@ pub fn run(horizon_s: f64, sizes: &[usize]) -> anyhow::Result<u8> {
             .fold(0.0, f64::max);
         println!("{n:>7} {secs:>14.4} {rate:>18.3e} {err:>22.3e}");
     }
-    Ok(exit_codes::SUCCESS)
+    Ok(Status::Success)
 }

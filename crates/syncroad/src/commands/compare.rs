@@ -12,63 +12,28 @@
 //! Exit codes: 0 every run completed, 2 bad input (nothing ran), 3 some run failed (the others'
 //! results are written), 130 interrupted.
 
-use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant};
+use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
 
 use anyhow::Context;
+use rayon::prelude::*;
 use serde_json::{json, Value};
-use syncroad_control::congestion::congestion_metrics;
-use syncroad_control::metrics::{sync_metrics, VerdictThresholds};
 use syncroad_control::scenario::Model;
-use syncroad_control::Scenario;
-use syncroad_sumo::run::{check_sumo_numbers, layout_for, loop_position, MeasureOptions};
-use syncroad_sumo::{interrupt_flag, run_scenario, RunOptions, SumoDriver, WorkerCommand};
+use syncroad_control::{EvalOptions, Scenario};
+use syncroad_sumo::{
+    check_sumo_numbers, interrupt_flag, load_road, loop_position, MeasureOptions, Road, RunOptions,
+    SumoDriver, WorkerCommand, EMISSION_CLASS,
+};
 
-use crate::commands::{default_record_every, load_scenario, InputError};
-use crate::exit_codes;
-
-/// Options of `syncroad compare`.
-#[derive(Debug, Clone, clap::Args)]
-pub struct CompareArgs {
-    /// Scenario file (JSON) with a SUMO network (`sumo.net`).
-    pub scenario: PathBuf,
-    /// Output folder: one subfolder per run, compare.json (created if missing).
-    #[arg(long, short)]
-    pub out: PathBuf,
-    /// Runs, comma-separated: protocol (the scenario's law), krauss (SUMO's default, σ 0.5),
-    /// krauss-SIGMA (e.g. krauss-0.9), idm, acc, cacc. Default: protocol,krauss,krauss-0.9,idm
-    /// on rings; protocol,krauss,idm,acc,cacc on straight roads.
-    #[arg(long)]
-    pub baselines: Option<String>,
-    /// Mixed traffic on a ring: for each count K, a run where K evenly spaced vehicles run the
-    /// law and the others are --mixed-driver (e.g. 0,1,2,4; 0 is the all-human ring).
-    #[arg(long)]
-    pub mixed: Option<String>,
-    /// The human drivers of --mixed runs.
-    #[arg(long, default_value = "krauss-0.9")]
-    pub mixed_driver: String,
-    /// Runs at once, each its own SUMO process (default: the number of cores).
-    #[arg(long)]
-    pub jobs: Option<usize>,
-    /// Warm-up excluded from every congestion and SUMO metric [s] (default: a quarter of the
-    /// horizon).
-    #[arg(long)]
-    pub warmup_s: Option<f64>,
-    /// Read fuel and CO2 every k steps (1 = every step, exact at SUMO's step).
-    #[arg(long, default_value_t = 1)]
-    pub emission_every: usize,
-    /// Record every k-th step in trajectories.csv (default: about 2000 samples).
-    #[arg(long)]
-    pub record_every: Option<usize>,
-    /// Wall-clock limit of each SUMO run [s] (default: the scenario's sumo.timeout_s).
-    #[arg(long)]
-    pub timeout_s: Option<f64>,
-    /// Do not draw plots.
-    #[arg(long)]
-    pub no_plots: bool,
-}
+use crate::cli::CompareArgs;
+use crate::config::{self, load_scenario};
+use crate::error::{InputError, Status};
+use crate::output::write_json;
+use crate::pipeline::{self, Finished};
+use crate::plots::{spread_plot, Spread};
+use crate::progress::Progress;
 
 /// One run of a comparison: a name and who drives each scenario vehicle.
 #[derive(Debug, Clone, PartialEq)]
@@ -98,6 +63,8 @@ pub struct Plan {
     pub plots: bool,
     /// Mixed-run counts, when asked.
     pub mixed: Vec<usize>,
+    /// The scenario's road, read once for every run.
+    pub road: Road,
 }
 
 /// Law-controlled vehicles of a mixed ring with `k` of `n`: `⌊j n / k⌋`, j = 0..k.
@@ -107,7 +74,7 @@ pub fn mixed_controlled(n: usize, k: usize) -> Vec<usize> {
 
 /// Parses and checks every option before anything runs.
 pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
-    let bad = |m: String| anyhow::Error::new(InputError(m));
+    let bad = |m: String| anyhow::Error::new(InputError::new(m));
     let n = sc.n;
     let default = if sc.is_ring() {
         "protocol,krauss,krauss-0.9,idm"
@@ -123,14 +90,15 @@ pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
         let drivers = if name.eq_ignore_ascii_case("protocol") {
             vec![None; n]
         } else {
-            let d = SumoDriver::parse("--baselines", name).map_err(|e| bad(e.to_string()))?;
+            let d = SumoDriver::parse("--baselines", name)
+                .map_err(|e| InputError::caused("--baselines", e))?;
             vec![Some(d); n]
         };
         let name = if name.eq_ignore_ascii_case("protocol") {
             "protocol".to_string()
         } else {
             SumoDriver::parse("--baselines", name)
-                .map_err(|e| bad(e.to_string()))?
+                .map_err(|e| InputError::caused("--baselines", e))?
                 .to_string()
         };
         if runs.iter().any(|r| r.name == name) {
@@ -146,8 +114,8 @@ pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
                 sc.name
             )));
         }
-        let human =
-            SumoDriver::parse("--mixed-driver", &a.mixed_driver).map_err(|e| bad(e.to_string()))?;
+        let human = SumoDriver::parse("--mixed-driver", &a.mixed_driver)
+            .map_err(|e| InputError::caused("--mixed-driver", e))?;
         for x in m.split(',').map(str::trim) {
             let k: usize = x.parse().map_err(|_| {
                 bad(format!(
@@ -179,47 +147,28 @@ pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
                 .into(),
         ));
     }
-    let jobs = match a.jobs {
-        Some(0) => return Err(bad("--jobs = 0: must be ≥ 1".into())),
-        Some(j) => j,
-        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
-    };
-    let warmup_s = a.warmup_s.unwrap_or(0.25 * sc.horizon_s());
-    if !(warmup_s.is_finite() && warmup_s >= 0.0 && warmup_s < sc.horizon_s()) {
-        return Err(bad(format!(
-            "--warmup-s = {warmup_s}: must be ≥ 0 and shorter than the horizon ({} s)",
-            sc.horizon_s()
-        )));
-    }
+    let jobs = config::jobs(a.jobs)?;
+    let warmup_s = config::warmup_s(a.warmup_s, sc)?;
     if a.emission_every == 0 {
         return Err(bad(
             "--emission-every = 0: must be ≥ 1 (1 = read fuel and CO2 every step)".into(),
         ));
     }
-    if a.record_every == Some(0) {
-        return Err(bad("--record-every = 0: must be ≥ 1".into()));
-    }
-    let timeout = match a.timeout_s {
-        Some(t) => Some(
-            Duration::try_from_secs_f64(t)
-                .map_err(|_| bad(format!("--timeout-s = {t}: must be a finite number ≥ 0")))?,
-        ),
-        None => None,
-    };
-    // Everything SUMO would reject, before any worker starts.
-    check_sumo_numbers(sc).map_err(|e| bad(e.to_string()))?;
-    layout_for(sc, 0.0).map_err(|e| bad(e.to_string()))?;
+    // Everything SUMO would reject, before any worker starts; the road is read once.
+    let before = |e| InputError::caused("before starting SUMO", e);
+    check_sumo_numbers(sc).map_err(before)?;
+    let road = load_road(sc).map_err(before)?;
+    syncroad_sumo::layout_for(sc, &road).map_err(before)?;
     Ok(Plan {
         runs,
         jobs,
         warmup_s,
         emission_every: a.emission_every,
-        record_every: a
-            .record_every
-            .unwrap_or_else(|| default_record_every(sc.steps, sc.n)),
-        timeout,
+        record_every: config::record_every(a.record_every, sc)?,
+        timeout: config::timeout(a.timeout_s)?,
         plots: !a.no_plots,
         mixed,
+        road,
     })
 }
 
@@ -232,15 +181,15 @@ pub struct RunResult {
     pub complete: bool,
     /// Why not.
     pub error: Option<String>,
-    /// Its metrics document (stamps included), `None` when SUMO never produced a row.
+    /// Its metrics record (stamps included), `None` when it never ran.
     pub metrics: Option<Value>,
     /// SUMO version reported by the worker.
     pub sumo_version: Option<String>,
-    /// The speed spread over time `(t, spread)` for the combined plot.
-    pub spread: Vec<(f64, f64)>,
+    /// The speed spread over time, for the combined plot.
+    pub spread: Spread,
 }
 
-/// Keys of a run's metrics that are stamps, lifted to the top of compare.json.
+/// Keys of a run's record that are stamps, lifted to the top of compare.json.
 const RUN_STAMPS: [&str; 6] = [
     "syncroad_version",
     "platform",
@@ -250,13 +199,7 @@ const RUN_STAMPS: [&str; 6] = [
     "emission_class",
 ];
 
-/// Occurrences of SUMO's emergency-braking warning in its log.
-fn emergency_braking_warnings(log: &Path) -> usize {
-    std::fs::read_to_string(log)
-        .map(|t| t.matches("performs emergency braking").count())
-        .unwrap_or(0)
-}
-
+/// One run through the pipeline, written into `dir`.
 fn run_one(
     sc: &Scenario,
     spec: &RunSpec,
@@ -276,123 +219,25 @@ fn run_one(
         emission_every: plan.emission_every,
         tripinfo: true,
     });
-    let run = run_scenario(sc, &opts).map_err(|e| InputError(e.to_string()))?;
-    let outcome = run.outcome();
-    let traj = run.trajectory(sc);
-    let th = VerdictThresholds {
-        tolerance_mps: sc.file.verdict.tolerance_mps,
-        window_s: sc.file.verdict.window_s,
-    };
-    let desired = match &sc.model {
-        Model::Cacc(c) => Some(c.desired_gap_m.as_slice()),
-        Model::DelayedDriver(_) => None,
-    };
-    let sync = sync_metrics(&traj, th, desired, outcome.is_err());
-    let ring = sc.is_ring().then(|| run.road_length_m());
-    let congestion = congestion_metrics(&traj, plan.warmup_s, ring).ok();
-    let finish = run.worker.result.as_ref().ok();
-    let start = run.worker.start.as_ref();
-    let sumo_version = start.map(|s| s.python.sumo_version.clone());
-    let measured = finish.and_then(|f| f.measured.as_ref());
-    // Distance driven after the warm-up, from the recorded positions.
-    let first = traj.time_s.partition_point(|&t| t < plan.warmup_s - 1e-9);
-    let distance_m: f64 = if traj.len() > first + 1 {
-        let n = traj.n;
-        let q = |k: usize| &traj.positions_m[k * n..(k + 1) * n];
-        q(traj.len() - 1)
-            .iter()
-            .zip(q(first))
-            .map(|(b, a)| b - a)
-            .sum()
-    } else {
-        0.0
-    };
-    let measured_s = measured.map_or(0.0, |m| m.steps as f64 * sc.step_s);
-    let sumo = measured.map(|m| {
-        let per_km = |mg: f64| {
-            if distance_m > 0.0 {
-                mg / 1000.0 / (distance_m / 1000.0)
-            } else {
-                f64::NAN
-            }
-        };
-        json!({
-            "measured_s": measured_s,
-            "flow_veh_per_h": m.loop_passages.map(|p| p as f64 / measured_s * 3600.0),
-            "loop_passages": m.loop_passages,
-            "loop_ring_m": loop_position(&run.request.layout.road).map(|l| l.2),
-            "road_length_m": run.road_length_m(),
-            "flow_from_speed_veh_per_h": match (ring, &congestion) {
-                (Some(l), Some(c)) => Some(sc.n as f64 * c.mean_speed_mps / l * 3600.0),
-                _ => None,
-            },
-            "time_loss_s": m.time_loss_s,
-            "time_loss_per_vehicle_s": m.time_loss_s / sc.n as f64,
-            "fuel_mg": m.fuel_mg,
-            "fuel_total_mg": m.fuel_total_mg,
-            "co2_mg": m.co2_mg,
-            "distance_m": distance_m,
-            "fuel_g_per_km": per_km(m.fuel_mg),
-            "co2_g_per_km": per_km(m.co2_mg),
-            "hard_braking_steps": m.hard_braking_steps,
-        })
-    });
-    let totals = finish.map(|f| &f.totals);
-    let controlled = spec.drivers.iter().filter(|d| d.is_none()).count();
-    let doc = json!({
-        "syncroad_version": env!("CARGO_PKG_VERSION"),
-        "platform": format!("{}-{}", std::env::consts::ARCH, std::env::consts::OS),
-        "sumo_version": sumo_version,
-        "scenario_hash": sc.hash_hex(),
-        "seed": sc.file.seed,
-        "emission_class": syncroad_sumo::drivers::EMISSION_CLASS,
-        "run": spec.name,
-        "scenario": sc.name,
-        "law_controlled_vehicles": controlled,
-        "drivers": spec.drivers.iter().map(|d| d.map_or("law".to_string(), |d| d.to_string())).collect::<Vec<_>>(),
-        "complete": outcome.is_ok(),
-        "error": outcome.as_ref().err().map(|e| e.to_string()),
-        "stop": finish.map(|f| serde_json::to_value(&f.stop).unwrap_or(Value::Null)),
-        "warmup_s": plan.warmup_s,
-        "emission_every": plan.emission_every,
-        "sync": sync,
-        "congestion": congestion,
-        "sumo": sumo,
-        "safety": totals.map(|t| json!({
-            "collision_steps": t.collision_steps,
-            "colliding_vehicles": t.colliding_vehicles,
-            "teleports": t.teleports,
-            "emergency_braking_warnings": emergency_braking_warnings(&dir.join("sumo").join("sumo.log")),
-            "overridden_commands": t.overrides,
-            "negative_commands_clamped": t.negative_commands_clamped,
-        })),
-    });
-    crate::report::write_run_files(dir, &traj, &doc)?;
-    if plan.plots && traj.len() >= 2 {
-        crate::plots::RunPlots {
-            traj: &traj,
-            ring_length_m: ring,
-            title: format!("{}: {}", sc.name, spec.name),
-        }
-        .write_all(dir)?;
-    }
+    let run = pipeline::sumo(sc, &plan.road, &opts)
+        .map_err(|e| InputError::caused("before starting SUMO", e))?;
+    let mut eval = EvalOptions::of(sc);
+    eval.warmup_s = plan.warmup_s;
+    let f = Finished::new(sc, &spec.name, run.output, eval);
+    let title = plan.plots.then(|| format!("{}: {}", sc.name, spec.name));
+    f.write(dir, title)?;
     Ok(RunResult {
         name: spec.name.clone(),
-        complete: outcome.is_ok(),
-        error: outcome.err().map(|e| e.to_string()),
-        metrics: Some(doc),
-        sumo_version,
-        spread: traj
-            .time_s
-            .iter()
-            .copied()
-            .zip(syncroad_control::metrics::spread_series(&traj))
-            .collect(),
+        complete: f.record.complete,
+        error: f.record.error.clone(),
+        sumo_version: f.record.sumo_version.clone(),
+        metrics: Some(f.record.to_json()),
+        spread: Spread::of(&spec.name, &f.output.trajectory),
     })
 }
 
-/// Runs every run of the plan, `plan.jobs` at a time, with a progress line per start and end
-/// on stderr. A run that fails keeps its place (marked) and never stops the others.
+/// Runs every run of the plan, `plan.jobs` at a time, with a progress bar on stderr. A run
+/// that fails keeps its place (marked) and never stops the others.
 pub fn run_all(
     sc: &Scenario,
     plan: &Plan,
@@ -400,25 +245,14 @@ pub fn run_all(
     interrupt: Arc<AtomicBool>,
 ) -> anyhow::Result<Vec<RunResult>> {
     let worker = WorkerCommand::current_exe().context("cannot locate the syncroad executable")?;
-    let next = AtomicUsize::new(0);
-    let done = AtomicUsize::new(0);
-    let total = plan.runs.len();
-    let results: Mutex<Vec<Option<RunResult>>> = Mutex::new(vec![None; total]);
-    let t0 = Instant::now();
-    std::thread::scope(|s| {
-        for _ in 0..plan.jobs.min(total) {
-            s.spawn(|| loop {
-                let i = next.fetch_add(1, Ordering::SeqCst);
-                if i >= total {
-                    break;
-                }
-                let spec = &plan.runs[i];
-                eprintln!(
-                    "[{:>2}/{total} done, {:6.1} s] {} started",
-                    done.load(Ordering::SeqCst),
-                    t0.elapsed().as_secs_f64(),
-                    spec.name
-                );
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(plan.jobs.min(plan.runs.len()).max(1))
+        .build()?;
+    let progress = Progress::new("compare", plan.runs.len() as u64);
+    let results = pool.install(|| {
+        plan.runs
+            .par_iter()
+            .map(|spec| {
                 let r = if interrupt.load(Ordering::SeqCst) {
                     Err(anyhow::anyhow!("not started: interrupted"))
                 } else {
@@ -430,28 +264,15 @@ pub fn run_all(
                     error: Some(format!("{e:#}")),
                     metrics: None,
                     sumo_version: None,
-                    spread: Vec::new(),
+                    spread: Spread::default(),
                 });
-                let k = done.fetch_add(1, Ordering::SeqCst) + 1;
-                eprintln!(
-                    "[{k:>2}/{total} done, {:6.1} s] {} {}",
-                    t0.elapsed().as_secs_f64(),
-                    spec.name,
-                    match &r.error {
-                        None => "finished".to_string(),
-                        Some(e) => format!("FAILED: {e}"),
-                    }
-                );
-                results.lock().expect("no panic holds the lock")[i] = Some(r);
-            });
-        }
+                progress.finished(&spec.name, r.error.as_deref());
+                r
+            })
+            .collect()
     });
-    Ok(results
-        .into_inner()
-        .expect("no panic holds the lock")
-        .into_iter()
-        .map(|r| r.expect("every run reports"))
-        .collect())
+    progress.done();
+    Ok(results)
 }
 
 /// The combined document: stamps once, each run's metrics without them, and for `--mixed`
@@ -480,7 +301,7 @@ pub fn combined(sc: &Scenario, results: &[RunResult], mixed: &[usize]) -> Value 
         "scenario": sc.name,
         "scenario_hash": sc.hash_hex(),
         "seed": sc.file.seed,
-        "emission_class": syncroad_sumo::drivers::EMISSION_CLASS,
+        "emission_class": EMISSION_CLASS,
         "runs": Value::Object(runs.clone()),
     });
     if mixed.contains(&0) && mixed.len() > 1 {
@@ -604,100 +425,21 @@ pub fn compare_into(
         .with_context(|| format!("cannot create output folder {}", out.display()))?;
     let results = run_all(sc, plan, out, interrupt)?;
     if plan.plots {
+        let spreads: Vec<Spread> = results.iter().map(|r| r.spread.clone()).collect();
         spread_plot(
             out,
             &format!("{}: speed spread by driver", sc.name),
-            &results,
+            &spreads,
         )?;
     }
     let mut doc = combined(sc, &results, &plan.mixed);
     doc["order"] = json!(plan.runs.iter().map(|r| r.name.clone()).collect::<Vec<_>>());
-    std::fs::write(
-        out.join("compare.json"),
-        serde_json::to_string_pretty(&doc)? + "\n",
-    )
-    .with_context(|| format!("cannot write {}/compare.json", out.display()))?;
+    write_json(&out.join("compare.json"), &doc)?;
     Ok((doc, results))
 }
 
-fn draw_spread<DB: plotters::prelude::DrawingBackend>(
-    root: &plotters::prelude::DrawingArea<DB, plotters::coord::Shift>,
-    title: &str,
-    results: &[RunResult],
-) -> anyhow::Result<()> {
-    use plotters::prelude::*;
-    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow::anyhow!("plotting failed: {e:?}");
-    root.fill(&WHITE).map_err(err)?;
-    let pos = || {
-        results
-            .iter()
-            .flat_map(|r| r.spread.iter())
-            .filter(|(_, y)| y.is_finite() && *y > 0.0)
-    };
-    let t_end = pos().map(|p| p.0).fold(1.0, f64::max);
-    let lo = pos().map(|p| p.1).fold(f64::INFINITY, f64::min).max(1e-12);
-    let hi = pos().map(|p| p.1).fold(0.0, f64::max).max(lo * 10.0);
-    let mut chart = ChartBuilder::on(root)
-        .caption(title, ("sans-serif", 20))
-        .margin(10)
-        .x_label_area_size(40)
-        .y_label_area_size(70)
-        .build_cartesian_2d(0.0..t_end, (lo * 0.5..hi * 2.0).log_scale())
-        .map_err(err)?;
-    chart
-        .configure_mesh()
-        .x_desc("time [s]")
-        .y_desc("speed spread [m/s]")
-        .y_label_formatter(&|y| format!("{y:.0e}"))
-        .draw()
-        .map_err(err)?;
-    for (k, r) in results.iter().enumerate() {
-        let colour = Palette99::pick(k).to_rgba();
-        chart
-            .draw_series(LineSeries::new(
-                r.spread
-                    .iter()
-                    .copied()
-                    .filter(|(_, y)| y.is_finite() && *y > 0.0),
-                colour.stroke_width(2),
-            ))
-            .map_err(err)?
-            .label(r.name.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
-    }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(err)?;
-    root.present().map_err(err)?;
-    Ok(())
-}
-
-/// `compare_spread.png` and `.svg`: every run's speed spread on one log scale.
-fn spread_plot(out: &Path, title: &str, results: &[RunResult]) -> anyhow::Result<()> {
-    use plotters::prelude::*;
-    crate::plots::ensure_font();
-    let png = out.join("compare_spread.png");
-    draw_spread(
-        &BitMapBackend::new(&png, (900, 500)).into_drawing_area(),
-        title,
-        results,
-    )
-    .with_context(|| format!("cannot write {}", png.display()))?;
-    let svg = out.join("compare_spread.svg");
-    draw_spread(
-        &SVGBackend::new(&svg, (900, 500)).into_drawing_area(),
-        title,
-        results,
-    )
-    .with_context(|| format!("cannot write {}", svg.display()))?;
-    Ok(())
-}
-
 /// `syncroad compare`.
-pub fn run(a: &CompareArgs) -> anyhow::Result<u8> {
+pub fn run(a: &CompareArgs) -> anyhow::Result<Status> {
     let sc = load_scenario(&a.scenario)?;
     let plan = plan(&sc, a)?;
     let interrupt = interrupt_flag()?;
@@ -709,14 +451,9 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<u8> {
         sc.file.seed,
         plan.warmup_s,
         doc["sumo_version"].as_str().unwrap_or("?"),
-        syncroad_sumo::drivers::EMISSION_CLASS
+        EMISSION_CLASS
     );
-    if let Some((_, _, x)) = sc
-        .is_ring()
-        .then(|| layout_for(&sc, 0.0).ok())
-        .flatten()
-        .and_then(|l| loop_position(&l.road))
-    {
+    if let Some((_, _, x)) = loop_position(&plan.road) {
         println!("induction loop loop0 at ring coordinate {x:.2} m");
     }
     print!("{}", table(&doc));
@@ -746,7 +483,7 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<u8> {
             .join(", ")
     );
     if interrupt.load(Ordering::SeqCst) {
-        return Ok(exit_codes::INTERRUPTED);
+        return Ok(Status::Interrupted);
     }
     let failed: Vec<&RunResult> = results.iter().filter(|r| !r.complete).collect();
     for r in &failed {
@@ -757,9 +494,9 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<u8> {
         );
     }
     Ok(if failed.is_empty() {
-        exit_codes::SUCCESS
+        Status::Success
     } else {
-        exit_codes::RUN_FAILED
+        Status::RunFailed
     })
 }
 

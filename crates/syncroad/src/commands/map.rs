@@ -3,21 +3,21 @@
 //! characteristic root), and the verdict of a native simulation at every grid point.
 
 use std::fmt::Write as _;
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Mutex;
 
-use anyhow::{anyhow, Context};
+use anyhow::Context;
 use plotters::prelude::*;
+use rayon::prelude::*;
 use serde::Serialize;
 use syncroad_control::exact::{self, CollocationOptions, UniformRing};
-use syncroad_control::metrics::{sync_metrics, VerdictThresholds};
 use syncroad_control::scenario::{DelayedDriverModel, Model};
-use syncroad_control::{simulate, theory, NativeOptions, Scenario, StopReason, Verdict};
+use syncroad_control::{evaluate, theory, EvalOptions, Scenario, Verdict};
 
-use crate::commands::InputError;
+use crate::config::{self, load_scenario};
+use crate::error::{InputError, Status};
+use crate::pipeline;
 use crate::plots::err;
+use crate::progress::Progress;
 use crate::stability::{network_matrices, uniform_ring, FULL_SOLVE_LIMIT};
 
 /// Swept quantity.
@@ -56,7 +56,7 @@ impl Axis {
     /// Parses `NAME=LO:HI:N`, e.g. `gain_scale=0.2:3:25`.
     pub fn parse(flag: &str, s: &str) -> Result<Self, InputError> {
         let bad = |why: &str| {
-            InputError(format!("{flag} = {s:?}: {why}; expected NAME=LO:HI:N with NAME gain_scale or delay_scale, e.g. gain_scale=0.2:3:25"))
+            InputError::new(format!("{flag} = {s:?}: {why}; expected NAME=LO:HI:N with NAME gain_scale or delay_scale, e.g. gain_scale=0.2:3:25"))
         };
         let (name, range) = s.split_once('=').ok_or_else(|| bad("missing '='"))?;
         let param = match name {
@@ -124,7 +124,7 @@ fn scaled(m: &DelayedDriverModel, gain: f64, delay: f64, step_s: f64) -> (Delaye
     (s, worst)
 }
 
-fn evaluate(
+fn evaluate_point(
     sc: &Scenario,
     base: &DelayedDriverModel,
     ring: Option<UniformRing>,
@@ -155,23 +155,8 @@ fn evaluate(
         }
         s.model = Model::DelayedDriver(mm);
         let every = (s.steps / 1000).max(1);
-        let run = simulate(
-            &s,
-            NativeOptions {
-                record_every: every,
-            },
-        );
-        let th = VerdictThresholds {
-            tolerance_mps: sc.file.verdict.tolerance_mps,
-            window_s: sc.file.verdict.window_s,
-        };
-        sync_metrics(
-            &run.trajectory,
-            th,
-            None,
-            !matches!(run.stop, StopReason::Horizon),
-        )
-        .verdict
+        let out = pipeline::native(&s, every);
+        evaluate(&s, &out, EvalOptions::of(sc)).sync.verdict
     });
     Point {
         x: x.1,
@@ -220,10 +205,10 @@ pub fn sweep(
     jobs: usize,
 ) -> anyhow::Result<Vec<Point>> {
     let Model::DelayedDriver(base) = &sc.model else {
-        return Err(InputError("map sweeps delayed-driver scenarios (model.type = \"delayed_driver\"); use `syncroad stability` for CACC platoons".into()).into());
+        return Err(InputError::new("map sweeps delayed-driver scenarios (model.type = \"delayed_driver\"); use `syncroad stability` for CACC platoons").into());
     };
     if xa.param == ya.param {
-        return Err(InputError(format!(
+        return Err(InputError::new(format!(
             "--x and --y both sweep {:?}; choose two different parameters",
             xa.param
         ))
@@ -236,25 +221,21 @@ pub fn sweep(
         exact::acyclic_roots(&a, &d).is_ok()
     };
     if ring.is_none() && !acyclic && size > FULL_SOLVE_LIMIT {
-        return Err(InputError(format!(
+        return Err(InputError::new(format!(
             "the scenario has {size} vehicles: exact roots at every grid point need a uniform ring (any size) or at most {FULL_SOLVE_LIMIT} vehicles"
         ))
         .into());
     }
-    let tty = std::io::stderr().is_terminal();
-    let total = xa.n * ya.n;
-    let next = AtomicUsize::new(0);
-    let done = AtomicUsize::new(0);
-    let results: Mutex<Vec<Option<Point>>> = Mutex::new(vec![None; total]);
-    std::thread::scope(|scope| {
-        for _ in 0..jobs.max(1) {
-            scope.spawn(|| loop {
-                let k = next.fetch_add(1, Ordering::Relaxed);
-                if k >= total {
-                    break;
-                }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(jobs.max(1))
+        .build()?;
+    let progress = Progress::new("map", (xa.n * ya.n) as u64);
+    let pts = pool.install(|| {
+        (0..xa.n * ya.n)
+            .into_par_iter()
+            .map(|k| {
                 let (i, j) = (k % xa.n, k / xa.n);
-                let p = evaluate(
+                let p = evaluate_point(
                     sc,
                     base,
                     ring,
@@ -262,27 +243,13 @@ pub fn sweep(
                     (ya.param, ya.value(j)),
                     simulate_too,
                 );
-                results
-                    .lock()
-                    .expect("no worker panics while holding the lock")[k] = Some(p);
-                let d = done.fetch_add(1, Ordering::Relaxed) + 1;
-                if tty && (d % 10 == 0 || d == total) {
-                    eprint!("\rmap: {d}/{total} grid points");
-                } else if !tty && (d * 10 / total != (d - 1) * 10 / total) {
-                    eprintln!("map: {d}/{total} grid points");
-                }
-            });
-        }
+                progress.finished("grid point", None);
+                p
+            })
+            .collect()
     });
-    if tty {
-        eprintln!();
-    }
-    results
-        .into_inner()
-        .expect("no worker panicked")
-        .into_iter()
-        .collect::<Option<Vec<_>>>()
-        .ok_or_else(|| anyhow!("a grid point was not evaluated"))
+    progress.done();
+    Ok(pts)
 }
 
 /// The stability boundaries in the (gain scale × delay scale) plane. Scaling gains by c and
@@ -487,6 +454,76 @@ pub fn plot(
         area.present().map_err(err)?;
     }
     Ok(vec![png, svg])
+}
+
+/// `syncroad map`: the grid, its CSV and its plot.
+pub fn run(
+    path: &Path,
+    x: &str,
+    y: &str,
+    out: &Path,
+    no_sim: bool,
+    jobs: Option<usize>,
+) -> anyhow::Result<Status> {
+    let sc = load_scenario(path)?;
+    let xa = Axis::parse("--x", x)?;
+    let ya = Axis::parse("--y", y)?;
+    let jobs = config::jobs(jobs)?;
+    std::fs::create_dir_all(out)
+        .with_context(|| format!("cannot create output folder {}", out.display()))?;
+    let pts = sweep(&sc, xa, ya, !no_sim, jobs)?;
+    write_csv(&out.join("map.csv"), &pts)?;
+    let bounds = boundaries(&sc);
+    plot(
+        out,
+        &format!("{}: Theorem 1 vs exact stability", sc.name),
+        &xa,
+        &ya,
+        &pts,
+        &bounds,
+    )?;
+    println!(
+        "boundaries (gain scale × delay scale): Theorem 1 at {:.6}, exact at {}",
+        bounds.theorem1_product,
+        bounds
+            .exact_product
+            .map_or("— (not computed)".to_string(), |c| format!(
+                "{c:.6} (ratio {:.4})",
+                c / bounds.theorem1_product
+            ))
+    );
+    let certified = pts.iter().filter(|p| p.certified).count();
+    let stable = pts.iter().filter(|p| p.exact_stable == Some(true)).count();
+    let contradictions = pts
+        .iter()
+        .filter(|p| p.certified && p.exact_stable == Some(false))
+        .count();
+    println!(
+        "{} grid points: {certified} certified by Theorem 1, {stable} exactly stable{}",
+        pts.len(),
+        if contradictions > 0 {
+            format!(", {contradictions} CERTIFIED BUT UNSTABLE (please report)")
+        } else {
+            String::new()
+        }
+    );
+    if !no_sim {
+        let sync = pts
+            .iter()
+            .filter(|p| p.simulated == Some(Verdict::Synchronized))
+            .count();
+        let disagree = pts
+            .iter()
+            .filter(|p| {
+                p.simulated.is_some_and(|v| v != Verdict::Inconclusive)
+                    && p.exact_stable
+                        .is_some_and(|e| e != (p.simulated == Some(Verdict::Synchronized)))
+            })
+            .count();
+        println!("simulations: {sync} synchronized; {disagree} disagree with the exact verdict (near the boundary the horizon may be too short)");
+    }
+    println!("wrote {}/map.csv, map.png, map.svg", out.display());
+    Ok(Status::Success)
 }
 
 #[cfg(test)]

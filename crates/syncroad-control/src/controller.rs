@@ -1,0 +1,153 @@
+//! The one law object every backend drives.
+//!
+//! A [`SpeedController`] sees the state at step n of every vehicle on the road (speeds and
+//! unwrapped rear-bumper positions, the leader first when the road has one) and returns the
+//! speeds wanted at step n+1. The native simulator and the SUMO loop both call
+//! [`controller_for`] and step the result, so a scenario runs the same law code on either
+//! backend; with SUMO's ballistic position update the two agree run against run.
+//!
+//! * Delayed drivers (eq. `chandler+`, pinning `b_i (v_0 − v_i)` of eq. `proto-lin+` when the
+//!   scenario has a leader): [`DelayedDriverLaw`], second order on the step grid.
+//! * CACC (eqs. `veh-proto1`, `veh-proto2`): [`CaccLaw`] gives `a_des` from the measured state,
+//!   held over the step; [`PowertrainLag`] integrates `τ_i a' + a = a_des` exactly over it.
+
+use serde::{Deserialize, Serialize};
+
+use crate::cacc::{CaccLaw, PlatoonView, PowertrainLag};
+use crate::delayed_driver::{DelayedDriverLaw, LawError};
+use crate::scenario::{LeaderProfile, Model, Scenario};
+
+/// A law that commands speeds one step ahead.
+pub trait SpeedController: Send {
+    /// From the state at time `time_s` = t_n (speeds \[m/s\] and unwrapped rear-bumper positions
+    /// \[m\] of every vehicle on the road, the leader first when there is one) writes the
+    /// speeds wanted at t_{n+1} into `next_speeds_mps`.
+    fn step(
+        &mut self,
+        time_s: f64,
+        speeds_mps: &[f64],
+        positions_m: &[f64],
+        next_speeds_mps: &mut [f64],
+    );
+}
+
+/// Errors building a controller.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ControllerError {
+    /// The delayed-driver law rejected its inputs.
+    #[error("delayed-driver law: {0}")]
+    Law(#[from] LawError),
+    /// A CACC platoon needs its leader on the road.
+    #[error("the CACC model needs a leader vehicle: run it on a straight road (road.type = \"straight\")")]
+    CaccNeedsLeader,
+}
+
+/// Everything a backend needs to build the law of a scenario, resolved: what a SUMO worker
+/// receives instead of the scenario file, so nothing is validated twice.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LawSpec {
+    /// The validated model.
+    pub model: Model,
+    /// Step Δt \[s\].
+    pub step_s: f64,
+    /// Initial speeds of the controlled vehicles \[m/s\] (the delay buffers' pre-history).
+    pub initial_speed_mps: Vec<f64>,
+}
+
+impl LawSpec {
+    /// The law of a validated scenario.
+    pub fn of(scenario: &Scenario) -> Self {
+        Self {
+            model: scenario.model.clone(),
+            step_s: scenario.step_s,
+            initial_speed_mps: scenario.initial_speed_mps.clone(),
+        }
+    }
+
+    /// True when the road carries a leader vehicle in front of the controlled ones.
+    pub fn has_leader(&self) -> bool {
+        match &self.model {
+            Model::DelayedDriver(m) => m.leader.is_some(),
+            Model::Cacc(_) => true,
+        }
+    }
+}
+
+/// Delayed drivers. With a leader vehicle, index 0 is the leader driven at `v_0`.
+pub struct DelayedDriverController {
+    law: DelayedDriverLaw,
+    v0: Option<f64>,
+    leader_vehicle: bool,
+    next: Vec<f64>,
+}
+
+impl SpeedController for DelayedDriverController {
+    fn step(&mut self, _t: f64, speeds: &[f64], _positions: &[f64], out: &mut [f64]) {
+        let k = usize::from(self.leader_vehicle);
+        self.law
+            .step(&speeds[k..], self.v0.unwrap_or(0.0), &mut self.next);
+        out[k..].copy_from_slice(&self.next);
+        if self.leader_vehicle {
+            out[0] = self.v0.unwrap_or(speeds[0]);
+        }
+    }
+}
+
+/// The bidirectional CACC law with the powertrain lag `τ_i q''' + q'' = a_des` integrated
+/// exactly over the step for the held `a_des`. Index 0 is the leader, driven along its profile.
+pub struct CaccController {
+    law: CaccLaw,
+    lag: PowertrainLag,
+    profile: LeaderProfile,
+    dt_s: f64,
+    a_des: Vec<f64>,
+    next: Vec<f64>,
+}
+
+impl SpeedController for CaccController {
+    fn step(&mut self, t: f64, speeds: &[f64], positions: &[f64], out: &mut [f64]) {
+        let view = PlatoonView {
+            leader_position_m: positions[0],
+            leader_speed_mps: self.profile.speed_at(t),
+            positions_m: &positions[1..],
+            speeds_mps: &speeds[1..],
+        };
+        self.law.desired_accelerations(&view, &mut self.a_des);
+        self.lag.step(&self.a_des, &speeds[1..], &mut self.next);
+        out[1..].copy_from_slice(&self.next);
+        out[0] = self.profile.speed_at(t + self.dt_s);
+    }
+}
+
+/// Builds the controller of a law; `leader_vehicle` says whether the leader is the first
+/// vehicle on the road.
+pub fn controller_for(
+    law: &LawSpec,
+    leader_vehicle: bool,
+) -> Result<Box<dyn SpeedController>, ControllerError> {
+    let n = law.initial_speed_mps.len();
+    match &law.model {
+        Model::DelayedDriver(m) => {
+            let v0 = m.leader.as_ref().map(|(v0, _)| *v0);
+            Ok(Box::new(DelayedDriverController {
+                law: DelayedDriverLaw::for_model(m, law.step_s, &law.initial_speed_mps)?,
+                v0,
+                leader_vehicle,
+                next: vec![0.0; n],
+            }))
+        }
+        Model::Cacc(m) => {
+            if !leader_vehicle {
+                return Err(ControllerError::CaccNeedsLeader);
+            }
+            Ok(Box::new(CaccController {
+                law: CaccLaw::new(m),
+                lag: PowertrainLag::new(&m.tau_s, law.step_s),
+                profile: m.leader.clone(),
+                dt_s: law.step_s,
+                a_des: vec![0.0; n],
+                next: vec![0.0; n],
+            }))
+        }
+    }
+}

@@ -1,0 +1,72 @@
+//! What a SUMO run reports beside its trajectory: counters, SUMO-side measurements and how
+//! SUMO ran. Plain data, filled by the SUMO backend; the maths never sees SUMO.
+
+use serde::{Deserialize, Serialize};
+
+/// Counters of a SUMO run.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Safety {
+    /// Steps with at least one collision.
+    pub collision_steps: usize,
+    /// Sum over steps of colliding vehicles.
+    pub colliding_vehicles: usize,
+    /// Teleports started.
+    pub teleports: usize,
+    /// SUMO's "performs emergency braking" warnings in its log.
+    pub emergency_braking_warnings: usize,
+    /// Law commands SUMO did not realise within the override tolerance.
+    pub overridden_commands: usize,
+    /// Negative commands sent as 0 (SUMO reads a negative speed as "release control").
+    pub negative_commands_clamped: usize,
+}
+
+/// What SUMO measured after the warm-up.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Measured {
+    /// Steps measured (after the warm-up).
+    pub steps: usize,
+    /// Vehicles entering the induction loop `loop0`; `None` without a loop.
+    pub loop_passages: Option<usize>,
+    /// Σ over vehicles of `vehicle.getTimeLoss` at the end minus at the end of the warm-up \[s\].
+    pub time_loss_s: f64,
+    /// Σ over vehicles and sampled steps of `vehicle.getFuelConsumption` × held time \[mg\].
+    pub fuel_mg: f64,
+    /// The same for `vehicle.getCO2Emission` \[mg\].
+    pub co2_mg: f64,
+    /// Fuel over the whole run, warm-up included \[mg\] (cross-check with trip info).
+    pub fuel_total_mg: f64,
+    /// Vehicle-steps after the warm-up whose deceleration exceeded the vehicle type's `decel`.
+    pub hard_braking_steps: usize,
+}
+
+/// Facts only a SUMO run knows, filled by the SUMO backend.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct SumoFacts {
+    /// SUMO's version, once it started.
+    pub sumo_version: Option<String>,
+    /// The libsumo module that ran (for the summary; not part of the record, it names a path).
+    pub libsumo: Option<String>,
+    /// SUMO's road length \[m\] (normal plus internal lanes).
+    pub road_length_m: f64,
+    /// Gap scale applied to fit the vehicles on SUMO's ring.
+    pub gap_scale: f64,
+    /// `ballistic` (trapezoidal, as the native simulator) or `euler`.
+    pub step_method: String,
+    /// Per scenario vehicle: `law` or the SUMO driver that drives it.
+    pub drivers: Vec<String>,
+    /// Counters; `None` when the worker never reported its end.
+    pub safety: Option<Safety>,
+    /// Largest |realised − commanded| speed \[m/s\].
+    pub max_override_mps: f64,
+    /// Largest odometer deviation from the integrated positions \[m\].
+    pub odometer_deviation_max_m: f64,
+    /// SUMO-side measurements, when asked for.
+    pub measured: Option<Measured>,
+    /// Ring coordinate of the induction loop \[m\].
+    pub loop_ring_m: Option<f64>,
+    /// Emission class set on every vehicle type.
+    pub emission_class: String,
+    /// Fuel and CO2 read every this many steps, when measured.
+    pub emission_every: Option<usize>,
+}
+

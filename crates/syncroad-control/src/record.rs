@@ -1,0 +1,236 @@
+//! The record of one run: the one `metrics.json` schema every command writes
+//! (published as `docs/metrics.schema.json`), and the plain facts a SUMO run reports.
+//!
+//! Stamps (`syncroad_version`, `platform`, `sumo_version`) say what produced the record;
+//! everything else is a result. Every key is always present (`null` where it does not apply),
+//! so tables and regression checks see one shape.
+
+use serde::Serialize;
+
+use crate::congestion::CongestionMetrics;
+pub use crate::facts::{Measured, Safety, SumoFacts};
+use crate::metrics::SyncMetrics;
+use crate::outcome::{Outcome, RunOutput};
+use crate::scenario::{Backend, Scenario};
+use crate::stop::StopReason;
+use crate::trajectory::Trajectory;
+
+/// Version of the record's schema (`docs/metrics.schema.json`).
+pub const SCHEMA_VERSION: u32 = 1;
+
+/// Traffic measured in SUMO, per distance and time.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Traffic {
+    /// Seconds measured after the warm-up.
+    pub measured_s: f64,
+    /// Flow at the induction loop \[veh/h\].
+    pub flow_veh_per_h: Option<f64>,
+    /// Loop passages.
+    pub loop_passages: Option<usize>,
+    /// Ring coordinate of the loop \[m\].
+    pub loop_ring_m: Option<f64>,
+    /// SUMO's road length \[m\].
+    pub road_length_m: f64,
+    /// `N v̄ / L` \[veh/h\] on a ring (cross-check of the loop).
+    pub flow_from_speed_veh_per_h: Option<f64>,
+    /// Time loss after the warm-up \[s\].
+    pub time_loss_s: f64,
+    /// Time loss per vehicle \[s\].
+    pub time_loss_per_vehicle_s: f64,
+    /// Fuel after the warm-up \[mg\].
+    pub fuel_mg: f64,
+    /// Fuel over the whole run \[mg\].
+    pub fuel_total_mg: f64,
+    /// CO2 after the warm-up \[mg\].
+    pub co2_mg: f64,
+    /// Distance driven after the warm-up, from the recorded positions \[m\].
+    pub distance_m: f64,
+    /// Fuel per distance \[g/km\].
+    pub fuel_g_per_km: f64,
+    /// CO2 per distance \[g/km\].
+    pub co2_g_per_km: f64,
+    /// Hard-braking vehicle-steps.
+    pub hard_braking_steps: usize,
+}
+
+/// Distance driven by all vehicles after `warmup_s` \[m\].
+pub fn distance_after(traj: &Trajectory, warmup_s: f64) -> f64 {
+    let first = traj.time_s.partition_point(|&t| t < warmup_s - 1e-9);
+    if traj.len() <= first + 1 {
+        return 0.0;
+    }
+    let n = traj.n;
+    let q = |k: usize| &traj.positions_m[k * n..(k + 1) * n];
+    q(traj.len() - 1)
+        .iter()
+        .zip(q(first))
+        .map(|(b, a)| b - a)
+        .sum()
+}
+
+impl Traffic {
+    fn new(
+        m: &Measured,
+        facts: &SumoFacts,
+        sc: &Scenario,
+        run: &RunOutput,
+        outcome: &Outcome,
+    ) -> Self {
+        let measured_s = m.steps as f64 * sc.step_s;
+        let distance_m = distance_after(&run.trajectory, outcome.warmup_s);
+        let per_km = |mg: f64| {
+            if distance_m > 0.0 {
+                mg / 1000.0 / (distance_m / 1000.0)
+            } else {
+                f64::NAN
+            }
+        };
+        Self {
+            measured_s,
+            flow_veh_per_h: m.loop_passages.map(|p| p as f64 / measured_s * 3600.0),
+            loop_passages: m.loop_passages,
+            loop_ring_m: facts.loop_ring_m,
+            road_length_m: facts.road_length_m,
+            flow_from_speed_veh_per_h: match (run.ring_length_m, &outcome.congestion) {
+                (Some(l), Ok(c)) => Some(sc.n as f64 * c.mean_speed_mps / l * 3600.0),
+                _ => None,
+            },
+            time_loss_s: m.time_loss_s,
+            time_loss_per_vehicle_s: m.time_loss_s / sc.n as f64,
+            fuel_mg: m.fuel_mg,
+            fuel_total_mg: m.fuel_total_mg,
+            co2_mg: m.co2_mg,
+            distance_m,
+            fuel_g_per_km: per_km(m.fuel_mg),
+            co2_g_per_km: per_km(m.co2_mg),
+            hard_braking_steps: m.hard_braking_steps,
+        }
+    }
+}
+
+/// How SUMO ran, beyond the counters.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BackendFacts {
+    /// SUMO's road length \[m\].
+    pub road_length_m: f64,
+    /// Gap scale applied on a ring.
+    pub gap_scale: f64,
+    /// `ballistic` or `euler`.
+    pub step_method: String,
+    /// Largest |realised − commanded| speed \[m/s\].
+    pub max_override_mps: f64,
+    /// Largest odometer deviation \[m\].
+    pub odometer_deviation_max_m: f64,
+}
+
+/// The metrics document of one run (`metrics.json`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RunRecord {
+    /// Stamp: syncroad's version.
+    pub syncroad_version: String,
+    /// Stamp: `arch-os`.
+    pub platform: String,
+    /// Stamp: SUMO's version (`null` for native runs).
+    pub sumo_version: Option<String>,
+    /// Scenario name.
+    pub scenario: String,
+    /// Hash of the scenario as written.
+    pub scenario_hash: String,
+    /// Seed.
+    pub seed: u64,
+    /// `native` or `sumo`.
+    pub backend: Backend,
+    /// The run's name (`law`, `krauss-0.9`, `mixed-2`, ...).
+    pub run: String,
+    /// Controlled vehicles N.
+    pub vehicles: usize,
+    /// Step \[s\].
+    pub step_s: f64,
+    /// Horizon \[s\].
+    pub horizon_s: f64,
+    /// Per vehicle: `law` or the SUMO driver.
+    pub drivers: Vec<String>,
+    /// Vehicles the law drives.
+    pub law_controlled_vehicles: usize,
+    /// Reached the horizon.
+    pub complete: bool,
+    /// Why not.
+    pub error: Option<String>,
+    /// Why the run stopped.
+    pub stop: StopReason,
+    /// Certified by the paper's sufficient conditions.
+    pub certified: bool,
+    /// Warm-up excluded from congestion and SUMO measures \[s\].
+    pub warmup_s: f64,
+    /// Synchronization metrics and verdict.
+    pub sync: SyncMetrics,
+    /// Congestion metrics (`null` when the warm-up leaves no sample).
+    pub congestion: Option<CongestionMetrics>,
+    /// Emission class of SUMO's vehicles (`null` for native runs).
+    pub emission_class: Option<String>,
+    /// Emission sampling stride (`null` unless measured).
+    pub emission_every: Option<usize>,
+    /// SUMO-measured traffic (`null` unless measured).
+    pub sumo: Option<Traffic>,
+    /// SUMO's safety counters (`null` for native runs).
+    pub safety: Option<Safety>,
+    /// How SUMO ran (`null` for native runs).
+    pub backend_facts: Option<BackendFacts>,
+}
+
+impl RunRecord {
+    /// The record of a run named `run`.
+    pub fn new(sc: &Scenario, run_name: &str, run: &RunOutput, outcome: &Outcome) -> Self {
+        let facts = run.sumo.as_ref();
+        let drivers = facts
+            .map(|f| f.drivers.clone())
+            .filter(|d| !d.is_empty())
+            .unwrap_or_else(|| vec!["law".to_string(); sc.n]);
+        Self {
+            syncroad_version: env!("CARGO_PKG_VERSION").to_string(),
+            platform: format!("{}-{}", std::env::consts::ARCH, std::env::consts::OS),
+            sumo_version: facts.and_then(|f| f.sumo_version.clone()),
+            scenario: sc.name.clone(),
+            scenario_hash: sc.hash_hex(),
+            seed: sc.file.seed,
+            backend: if facts.is_some() {
+                Backend::Sumo
+            } else {
+                Backend::Native
+            },
+            run: run_name.to_string(),
+            vehicles: sc.n,
+            step_s: sc.step_s,
+            horizon_s: sc.horizon_s(),
+            law_controlled_vehicles: drivers.iter().filter(|d| *d == "law").count(),
+            drivers,
+            complete: run.stop.is_complete(),
+            error: run.stop.message(),
+            stop: run.stop.clone(),
+            certified: outcome.theory.certified,
+            warmup_s: outcome.warmup_s,
+            sync: outcome.sync.clone(),
+            congestion: outcome.congestion.as_ref().ok().cloned(),
+            emission_class: facts.map(|f| f.emission_class.clone()),
+            emission_every: facts.and_then(|f| f.emission_every),
+            sumo: facts.and_then(|f| {
+                f.measured
+                    .as_ref()
+                    .map(|m| Traffic::new(m, f, sc, run, outcome))
+            }),
+            safety: facts.and_then(|f| f.safety.clone()),
+            backend_facts: facts.map(|f| BackendFacts {
+                road_length_m: f.road_length_m,
+                gap_scale: f.gap_scale,
+                step_method: f.step_method.clone(),
+                max_override_mps: f.max_override_mps,
+                odometer_deviation_max_m: f.odometer_deviation_max_m,
+            }),
+        }
+    }
+
+    /// The record as JSON.
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::to_value(self).expect("a run record serializes")
+    }
+}

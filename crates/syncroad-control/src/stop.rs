@@ -1,0 +1,96 @@
+//! Why a run stopped: one typed reason for every backend.
+
+use serde::{Deserialize, Serialize};
+
+/// Why a run stopped. Serialized with a `reason` tag (`{"reason": "horizon"}`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "reason", rename_all = "snake_case")]
+pub enum StopReason {
+    /// The horizon was reached.
+    Horizon,
+    /// A speed became non-finite or exceeded the divergence bound (native simulator).
+    Diverged {
+        /// Step index.
+        step: usize,
+        /// Vehicle index.
+        vehicle: usize,
+        /// Time \[s\].
+        time_s: f64,
+    },
+    /// The law produced a non-finite speed; it was not sent to SUMO.
+    NonFiniteCommand {
+        /// SUMO vehicle id.
+        vehicle: String,
+        /// Step index n (the command was for step n+1).
+        step: usize,
+        /// The value (as text: NaN, inf).
+        value: String,
+    },
+    /// A vehicle disappeared from the road (reached the end of a straight road).
+    VehicleLost {
+        /// SUMO vehicle id.
+        vehicle: String,
+        /// Step index.
+        step: usize,
+    },
+    /// The run failed: the worker crashed, timed out, was interrupted or SUMO refused to start.
+    Failed {
+        /// What happened, with its cause.
+        error: String,
+    },
+}
+
+impl StopReason {
+    /// True when the run reached its horizon.
+    pub fn is_complete(&self) -> bool {
+        matches!(self, StopReason::Horizon)
+    }
+
+    /// Why the run stopped early, in words; `None` when it reached the horizon.
+    pub fn message(&self) -> Option<String> {
+        match self {
+            StopReason::Horizon => None,
+            StopReason::Diverged {
+                vehicle, time_s, ..
+            } => Some(format!(
+                "speed of vehicle {vehicle} diverged at t = {time_s} s"
+            )),
+            StopReason::NonFiniteCommand {
+                vehicle,
+                step,
+                value,
+            } => Some(format!(
+                "the law commanded a non-finite speed ({value} m/s) to vehicle {vehicle} at step {step}; the run stopped before sending it to SUMO"
+            )),
+            StopReason::VehicleLost { vehicle, step } => Some(format!(
+                "vehicle {vehicle} left the road at step {step} (end of the straight road?)"
+            )),
+            StopReason::Failed { error } => Some(error.clone()),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reasons_serialize_with_a_tag_and_name_vehicle_and_step() {
+        assert_eq!(
+            serde_json::to_string(&StopReason::Horizon).unwrap(),
+            r#"{"reason":"horizon"}"#
+        );
+        let e = StopReason::NonFiniteCommand {
+            vehicle: "v3".into(),
+            step: 41,
+            value: "NaN".into(),
+        };
+        assert_eq!(
+            e.message().unwrap(),
+            "the law commanded a non-finite speed (NaN m/s) to vehicle v3 at step 41; the run stopped before sending it to SUMO"
+        );
+        let back: StopReason = serde_json::from_str(&serde_json::to_string(&e).unwrap()).unwrap();
+        assert_eq!(back, e);
+        assert!(!e.is_complete() && StopReason::Horizon.is_complete());
+    }
+}

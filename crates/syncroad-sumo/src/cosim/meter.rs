@@ -1,0 +1,132 @@
+//! The loop's SUMO-side measurements after the warm-up: induction-loop passages, time loss,
+//! fuel and CO2, hard braking (an observer of the step loop).
+
+use pyo3::prelude::*;
+use pyo3::types::PyTuple;
+use syncroad_control::record::Measured;
+
+use super::libsumo::Libsumo;
+use crate::protocol::Measure;
+use crate::python::{py_error, PythonError};
+
+/// The loop's SUMO-side measurements (see [`Measured`]).
+pub(super) struct Meter<'py> {
+    req: Measure,
+    fuel: Bound<'py, PyAny>,
+    co2: Bound<'py, PyAny>,
+    time_loss: Bound<'py, PyAny>,
+    loop_ids: Option<Bound<'py, PyAny>>,
+    last_on_loop: Vec<String>,
+    time_loss_at_warmup: f64,
+    out: Measured,
+}
+
+impl<'py> Meter<'py> {
+    pub(super) fn new(ls: &Libsumo<'py>, req: &Measure) -> Result<Self, PythonError> {
+        let f = |name: &str| {
+            ls.native
+                .getattr(name)
+                .map_err(|e| py_error(ls.py, format!("_libsumo.{name}"), e))
+        };
+        Ok(Self {
+            req: req.clone(),
+            fuel: f("vehicle_getFuelConsumption")?,
+            co2: f("vehicle_getCO2Emission")?,
+            time_loss: f("vehicle_getTimeLoss")?,
+            loop_ids: match req.detector_file {
+                Some(_) => Some(f("inductionloop_getLastStepVehicleIDs")?),
+                None => None,
+            },
+            last_on_loop: Vec::new(),
+            time_loss_at_warmup: 0.0,
+            out: Measured {
+                loop_passages: req.detector_file.as_ref().map(|_| 0),
+                ..Measured::default()
+            },
+        })
+    }
+
+    fn sum(
+        &self,
+        py: Python<'py>,
+        f: &Bound<'py, PyAny>,
+        what: &str,
+        args: &[Bound<'py, PyTuple>],
+    ) -> Result<f64, PythonError> {
+        let mut total = 0.0;
+        for a in args {
+            total += f
+                .call1(a)
+                .and_then(|r| r.extract::<f64>())
+                .map_err(|e| py_error(py, what.to_string(), e))?;
+        }
+        Ok(total)
+    }
+
+    /// After SUMO step `s` (1-based: the state at t = s Δt); `v_prev`, `v` are the measured
+    /// speeds before and after it.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn after_step(
+        &mut self,
+        py: Python<'py>,
+        s: usize,
+        dt: f64,
+        args: &[Bound<'py, PyTuple>],
+        v_prev: &[f64],
+        v: &[f64],
+        decel_mps2: f64,
+    ) -> Result<(), PythonError> {
+        let warm = self.req.warmup_steps;
+        let k = self.req.emission_every.max(1);
+        let measuring = s > warm;
+        if s > 0 && s % k == 0 {
+            let fuel = self.sum(py, &self.fuel, "vehicle.getFuelConsumption", args)?;
+            self.out.fuel_total_mg += fuel * dt * k as f64;
+            if measuring {
+                self.out.fuel_mg += fuel * dt * k as f64;
+                let co2 = self.sum(py, &self.co2, "vehicle.getCO2Emission", args)?;
+                self.out.co2_mg += co2 * dt * k as f64;
+            }
+        }
+        if s == warm {
+            self.time_loss_at_warmup =
+                self.sum(py, &self.time_loss, "vehicle.getTimeLoss", args)?;
+        }
+        if let Some(f) = &self.loop_ids {
+            if s >= warm {
+                let ids: Vec<String> = f
+                    .call1(("loop0",))
+                    .and_then(|r| r.extract())
+                    .map_err(|e| py_error(py, "inductionloop.getLastStepVehicleIDs(loop0)", e))?;
+                if measuring {
+                    let new = ids
+                        .iter()
+                        .filter(|i| !self.last_on_loop.contains(i))
+                        .count();
+                    *self.out.loop_passages.get_or_insert(0) += new;
+                }
+                self.last_on_loop = ids;
+            }
+        }
+        if measuring {
+            self.out.steps += 1;
+            // 1e-9 m/s² above decel: rounding of a braking exactly at decel does not count.
+            self.out.hard_braking_steps += v_prev
+                .iter()
+                .zip(v)
+                .filter(|(a, b)| (*a - *b) / dt > decel_mps2 + 1e-9)
+                .count();
+        }
+        Ok(())
+    }
+
+    pub(super) fn finish(
+        mut self,
+        py: Python<'py>,
+        args: &[Bound<'py, PyTuple>],
+    ) -> Result<Measured, PythonError> {
+        let end = self.sum(py, &self.time_loss, "vehicle.getTimeLoss", args)?;
+        self.out.time_loss_s = end - self.time_loss_at_warmup;
+        Ok(self.out)
+    }
+}

@@ -1,0 +1,46 @@
+//! One module per command; [`run`] dispatches a parsed command line. Commands return a
+//! [`Status`] or an error, never an exit code.
+
+use crate::cli::{Cli, Command};
+use crate::error::Status;
+
+mod bench;
+mod check;
+mod compare;
+mod ifp;
+mod map;
+mod regress;
+mod run;
+mod stability;
+mod sumo_bench;
+
+/// Runs a parsed command line.
+pub fn run(cli: Cli) -> anyhow::Result<Status> {
+    match cli.command {
+        Command::Check { scenario, json } => check::run(&scenario, json),
+        Command::Simulate { scenario, out } => run::simulate(&scenario, &out),
+        Command::Run {
+            scenario,
+            out,
+            sumo,
+        } => run::run(&scenario, &out, &sumo),
+        Command::Compare(args) => compare::run(&args),
+        Command::SumoBench { quick, json } => sumo_bench::run(quick, json.as_deref()),
+        Command::Bench { horizon_s, sizes } => bench::run(horizon_s, &sizes),
+        Command::Ifp { eta, rho, json } => ifp::run(&eta, &rho, json),
+        Command::Stability { scenario, json } => stability::run(&scenario, json),
+        Command::Map {
+            scenario,
+            x,
+            y,
+            out,
+            no_sim,
+            jobs,
+        } => map::run(&scenario, &x, &y, &out, no_sim, jobs),
+        Command::Regress {
+            baseline,
+            update,
+            metrics,
+        } => regress::run(&baseline, update, metrics.as_deref()),
+    }
+}

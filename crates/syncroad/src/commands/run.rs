@@ -1,0 +1,154 @@
+//! `syncroad run` and `syncroad simulate`: one scenario through the one pipeline, on the
+//! scenario's backend (`run`: SUMO by default) or the native simulator (`simulate`).
+//!
+//! A SUMO run checks everything it can before SUMO starts (scenario, network file, ring
+//! capacity, road length); a run that fails part-way still writes every row received, marked
+//! incomplete.
+
+use std::path::Path;
+
+use anyhow::Context;
+use syncroad_control::scenario::Backend;
+use syncroad_control::{Scenario, Verdict};
+use syncroad_sumo::{interrupt_flag, load_road, ReadMode, RunOptions, SumoDriver, WorkerCommand};
+
+use crate::cli::{OutputArgs, SumoArgs};
+use crate::config::{self, load_scenario, RunConfig};
+use crate::error::{InputError, Status};
+use crate::pipeline::{self, Finished};
+use crate::report;
+
+/// `syncroad run`: the scenario's backend.
+pub fn run(path: &Path, out: &OutputArgs, sumo: &SumoArgs) -> anyhow::Result<Status> {
+    let sc = load_scenario(path)?;
+    match sc.file.backend {
+        Backend::Sumo => run_sumo(&sc, out, sumo),
+        Backend::Native => run_native(&sc, out),
+    }
+}
+
+/// `syncroad simulate`: the native simulator whatever the scenario's backend.
+pub fn simulate(path: &Path, out: &OutputArgs) -> anyhow::Result<Status> {
+    run_native(&load_scenario(path)?, out)
+}
+
+fn create_dir(dir: &Path) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("cannot create output folder {}", dir.display()))
+}
+
+fn verdict_status(f: &Finished) -> Status {
+    Status::verdict(f.outcome.sync.verdict == Verdict::Synchronized)
+}
+
+fn run_native(sc: &Scenario, out: &OutputArgs) -> anyhow::Result<Status> {
+    let cfg = RunConfig::new(sc, out)?;
+    create_dir(&cfg.out)?;
+    let f = Finished::new(sc, "law", pipeline::native(sc, cfg.record_every), cfg.eval);
+    let plots = f.write(&cfg.out, cfg.plots.then(|| format!("{} (native)", sc.name)))?;
+    print!(
+        "{}",
+        report::metrics_table(
+            sc,
+            "native",
+            &f.outcome.sync,
+            f.output.stop.message().as_deref(),
+            &f.outcome.theory
+        )
+    );
+    match &f.outcome.congestion {
+        Ok(c) => print!("{}", report::congestion_lines(c)),
+        Err(e) => println!("  congestion metrics skipped: {e}"),
+    }
+    println!(
+        "wrote {}/trajectories.csv and {}/metrics.json",
+        cfg.out.display(),
+        cfg.out.display()
+    );
+    if plots > 0 {
+        println!("wrote {plots} plots: time_space, speeds, spread (PNG and SVG)");
+    }
+    Ok(verdict_status(&f))
+}
+
+fn run_sumo(sc: &Scenario, out: &OutputArgs, args: &SumoArgs) -> anyhow::Result<Status> {
+    let cfg = RunConfig::new(sc, out)?;
+    let timeout = config::timeout(args.timeout_s)?;
+    let drivers = match args.krauss_sigma {
+        None => Vec::new(),
+        Some(sigma) if (0.0..=1.0).contains(&sigma) => {
+            vec![Some(SumoDriver::Krauss { sigma }); sc.n]
+        }
+        Some(sigma) => {
+            return Err(InputError::new(format!(
+                "--krauss-sigma = {sigma}: Krauss σ must lie in [0, 1]"
+            ))
+            .into())
+        }
+    };
+    let road = load_road(sc).map_err(|e| InputError::caused("before starting SUMO", e))?;
+    create_dir(&cfg.out)?;
+    let worker = WorkerCommand::current_exe().context("cannot locate the syncroad executable")?;
+    let mut opts = RunOptions::new(cfg.out.join("sumo"), worker);
+    opts.record_every = cfg.record_every;
+    opts.ballistic = !args.euler;
+    opts.drivers = drivers;
+    opts.timeout = timeout;
+    opts.interrupt = Some(interrupt_flag()?);
+    if args.subscriptions {
+        opts.read = ReadMode::Subscriptions;
+    }
+    let run = pipeline::sumo(sc, &road, &opts)
+        .map_err(|e| InputError::caused("before starting SUMO", e))?;
+    let name = if args.krauss_sigma.is_some() {
+        "sumo_krauss"
+    } else {
+        "law"
+    };
+    let f = Finished::new(sc, name, run.output, cfg.eval);
+    let complete = f.output.stop.is_complete();
+    let title = (cfg.plots && complete).then(|| format!("{} (SUMO)", sc.name));
+    let plots = f.write(&cfg.out, title)?;
+    print!(
+        "{}",
+        report::metrics_table(
+            sc,
+            "sumo",
+            &f.outcome.sync,
+            f.output.stop.message().as_deref(),
+            &f.outcome.theory
+        )
+    );
+    if let Some(facts) = &f.output.sumo {
+        if let (Some(v), Some(l)) = (&facts.sumo_version, &facts.libsumo) {
+            println!(
+                "  SUMO: {v} (libsumo {l}), ring/road length {:.4} m",
+                facts.road_length_m
+            );
+        }
+        if let Some(t) = &facts.safety {
+            println!(
+                "  SUMO safety: {} collision steps, {} teleports, {} overridden commands (max {:.3} m/s), {} negative commands sent as 0",
+                t.collision_steps, t.teleports, t.overridden_commands, facts.max_override_mps, t.negative_commands_clamped
+            );
+        }
+    }
+    println!(
+        "wrote {} and {}{}",
+        cfg.out.join("trajectories.csv").display(),
+        cfg.out.join("metrics.json").display(),
+        if complete { "" } else { " (incomplete run)" }
+    );
+    if plots > 0 {
+        println!("wrote {plots} plots: time_space, speeds, spread (PNG and SVG)");
+    }
+    if run.interrupted {
+        eprintln!("error: {}", f.output.stop.message().unwrap_or_default());
+        return Ok(Status::Interrupted);
+    }
+    if let Some(why) = f.output.stop.message() {
+        eprintln!("error: {why}");
+        return Ok(Status::RunFailed);
+    }
+    Ok(verdict_status(&f))
+}

@@ -1,0 +1,128 @@
+//! Options validated once, before any work starts: every command turns its clap arguments into
+//! one of these, so a bad value is refused with the flag's name before a run begins.
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use syncroad_control::metrics::VerdictThresholds;
+use syncroad_control::{EvalOptions, Scenario};
+
+use crate::cli::OutputArgs;
+use crate::error::InputError;
+
+/// Loads and validates a scenario; a failure is an [`InputError`] that leads with the
+/// library's message (it names the field, the value and what is valid).
+pub fn load_scenario(path: &Path) -> anyhow::Result<Scenario> {
+    Scenario::load(path).map_err(|e| {
+        InputError::new(format!(
+            "{e}\n  (scenario {}; fix the field named above — `syncroad --help` and README.md describe the format)",
+            path.display()
+        ))
+        .into()
+    })
+}
+
+/// Default sampling stride: about 2000 samples over the horizon, fewer for large fleets so a
+/// trajectory stays within about 4 million vehicle-samples (≈ 100 MB).
+pub fn default_record_every(steps: usize, n: usize) -> usize {
+    let samples = (4_000_000 / n.max(1)).clamp(2, 2000);
+    (steps / samples).max(1)
+}
+
+/// `--jobs`: at least 1; default all cores.
+pub fn jobs(flag: Option<usize>) -> anyhow::Result<usize> {
+    match flag {
+        Some(0) => Err(InputError::new("--jobs = 0: must be ≥ 1").into()),
+        Some(j) => Ok(j),
+        None => Ok(std::thread::available_parallelism().map_or(1, |n| n.get())),
+    }
+}
+
+/// `--timeout-s`: a finite number ≥ 0.
+pub fn timeout(flag: Option<f64>) -> anyhow::Result<Option<Duration>> {
+    flag.map(|t| {
+        Duration::try_from_secs_f64(t).map_err(|_| {
+            InputError::new(format!("--timeout-s = {t}: must be a finite number ≥ 0")).into()
+        })
+    })
+    .transpose()
+}
+
+/// `--warmup-s`: ≥ 0 and shorter than the horizon; default a quarter of it.
+pub fn warmup_s(flag: Option<f64>, sc: &Scenario) -> anyhow::Result<f64> {
+    let w = flag.unwrap_or(0.25 * sc.horizon_s());
+    if !(w.is_finite() && w >= 0.0 && w < sc.horizon_s()) {
+        return Err(InputError::new(format!(
+            "--warmup-s = {w}: must be ≥ 0 and shorter than the horizon ({} s)",
+            sc.horizon_s()
+        ))
+        .into());
+    }
+    Ok(w)
+}
+
+/// `--record-every`: at least 1; default about 2000 samples.
+pub fn record_every(flag: Option<usize>, sc: &Scenario) -> anyhow::Result<usize> {
+    match flag {
+        Some(0) => Err(InputError::new("--record-every = 0: must be ≥ 1").into()),
+        Some(k) => Ok(k),
+        None => Ok(default_record_every(sc.steps, sc.n)),
+    }
+}
+
+/// The validated output options of a command that runs one scenario.
+#[derive(Debug, Clone)]
+pub struct RunConfig {
+    /// Output folder.
+    pub out: PathBuf,
+    /// Verdict thresholds and warm-up.
+    pub eval: EvalOptions,
+    /// Recording stride.
+    pub record_every: usize,
+    /// Draw plots.
+    pub plots: bool,
+}
+
+impl RunConfig {
+    /// Validates `--tolerance-mps`, `--window-s`, `--record-every` and `--warmup-s` against the
+    /// scenario.
+    pub fn new(sc: &Scenario, a: &OutputArgs) -> anyhow::Result<Self> {
+        let mut eval = EvalOptions::of(sc);
+        let t = VerdictThresholds {
+            tolerance_mps: a.tolerance_mps.unwrap_or(eval.thresholds.tolerance_mps),
+            window_s: a.window_s.unwrap_or(eval.thresholds.window_s),
+        };
+        if !(t.tolerance_mps.is_finite() && t.tolerance_mps > 0.0) {
+            return Err(InputError::new(format!(
+                "--tolerance-mps = {}: must be a finite number > 0",
+                t.tolerance_mps
+            ))
+            .into());
+        }
+        if !(t.window_s.is_finite() && t.window_s > 0.0 && t.window_s <= sc.horizon_s()) {
+            return Err(InputError::new(format!(
+                "--window-s = {}: must be > 0 and ≤ the horizon ({} s)",
+                t.window_s,
+                sc.horizon_s()
+            ))
+            .into());
+        }
+        eval.thresholds = t;
+        if let Some(w) = a.warmup_s {
+            // The congestion metrics need a sample after the warm-up; a NaN is never valid.
+            if !(w.is_finite() && w >= 0.0) {
+                return Err(InputError::new(format!(
+                    "--warmup-s = {w}: must be a finite number ≥ 0"
+                ))
+                .into());
+            }
+            eval.warmup_s = w;
+        }
+        Ok(Self {
+            out: a.out.clone(),
+            eval,
+            record_every: record_every(a.record_every, sc)?,
+            plots: !a.no_plots,
+        })
+    }
+}

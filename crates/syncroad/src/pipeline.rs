@@ -1,0 +1,86 @@
+//! One run, whatever runs it:
+//!
+//! ```text
+//! validated Scenario ─► backend: native simulator | SUMO worker ─► RunOutput
+//!                   ─► evaluate ─► Outcome ─► RunRecord ─► metrics.json + CSV + plots
+//! ```
+//! `run`, `simulate`, every `compare` run, every `map` point and `regress` go through
+//! [`native`] or [`sumo`] and then [`Finished::new`]; nothing else computes metrics.
+
+use std::path::Path;
+
+use syncroad_control::{
+    evaluate, simulate, EvalOptions, NativeOptions, Outcome, RunOutput, RunRecord, Scenario,
+};
+use syncroad_sumo::{PrepareError, Prepared, Road, RunOptions, SupervisorError};
+
+use crate::output;
+use crate::plots::RunPlots;
+
+/// Runs a scenario on the native simulator, recording every `record_every`-th step.
+pub fn native(sc: &Scenario, record_every: usize) -> RunOutput {
+    let run = simulate(sc, NativeOptions { record_every });
+    RunOutput {
+        trajectory: run.trajectory,
+        stop: run.stop,
+        ring_length_m: sc.ring_length_m(),
+        sumo: None,
+    }
+}
+
+/// A SUMO run's output, and whether the user interrupted it.
+pub struct SumoOutput {
+    /// The output.
+    pub output: RunOutput,
+    /// Ctrl-C (or a signal) stopped it.
+    pub interrupted: bool,
+}
+
+/// Runs a scenario in one supervised SUMO worker on a road read once. Errors are the checks
+/// made before SUMO starts; a run that fails part-way returns its rows with a failed stop.
+pub fn sumo(sc: &Scenario, road: &Road, opts: &RunOptions) -> Result<SumoOutput, PrepareError> {
+    let run = Prepared::new(sc, road, opts)?.run();
+    Ok(SumoOutput {
+        output: run.output(sc),
+        interrupted: matches!(run.failure(), Some(SupervisorError::Interrupted { .. })),
+    })
+}
+
+/// A run with everything derived from it.
+pub struct Finished {
+    /// What the backend returned.
+    pub output: RunOutput,
+    /// Metrics, congestion, theory.
+    pub outcome: Outcome,
+    /// The `metrics.json` record.
+    pub record: RunRecord,
+}
+
+impl Finished {
+    /// Evaluates the run named `name`.
+    pub fn new(sc: &Scenario, name: &str, output: RunOutput, eval: EvalOptions) -> Self {
+        let outcome = evaluate(sc, &output, eval);
+        let record = RunRecord::new(sc, name, &output, &outcome);
+        Self {
+            output,
+            outcome,
+            record,
+        }
+    }
+
+    /// Writes `trajectories.csv` and `metrics.json` into `dir`, and the plots under `title`
+    /// when given and the run has at least two samples. Returns the plot files.
+    pub fn write(&self, dir: &Path, plots: Option<String>) -> anyhow::Result<usize> {
+        output::write_run_files(dir, &self.output.trajectory, &self.record)?;
+        match plots {
+            Some(title) if self.output.trajectory.len() >= 2 => Ok(RunPlots {
+                traj: &self.output.trajectory,
+                ring_length_m: self.output.ring_length_m,
+                title,
+            }
+            .write_all(dir)?
+            .len()),
+            _ => Ok(0),
+        }
+    }
+}
