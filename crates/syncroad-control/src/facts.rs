@@ -69,4 +69,3 @@ pub struct SumoFacts {
     /// Fuel and CO2 read every this many steps, when measured.
     pub emission_every: Option<usize>,
 }
-

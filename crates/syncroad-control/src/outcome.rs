@@ -7,8 +7,8 @@
 //! [`evaluate`], so the same trajectory always gives the same metrics and verdict.
 
 use crate::congestion::{congestion_metrics, CongestionError, CongestionMetrics};
-use crate::metrics::{sync_metrics, SyncMetrics, VerdictThresholds};
 use crate::facts::SumoFacts;
+use crate::metrics::{sync_metrics, SyncMetrics, VerdictThresholds};
 use crate::scenario::{Model, Scenario};
 use crate::stop::StopReason;
 use crate::theory::{self, TheoryReport};

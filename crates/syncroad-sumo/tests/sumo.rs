@@ -415,15 +415,18 @@ mod platoon {
             .fold(0.0, f64::max);
         eprintln!("CACC platoon: largest SUMO-native speed difference {worst:.2e} m/s");
         assert!(worst < 1e-9, "largest speed difference {worst} m/s");
-        let rk4 = syncroad_control::native::cacc_rk4_reference(&sc, NativeOptions::default())
-            .trajectory;
+        let rk4 =
+            syncroad_control::native::cacc_rk4_reference(&sc, NativeOptions::default()).trajectory;
         let to_rk4 = native
             .speeds_mps
             .iter()
             .zip(&rk4.speeds_mps)
             .map(|(a, b)| (a - b).abs())
             .fold(0.0, f64::max);
-        assert!(to_rk4 < 0.05, "discrete law vs continuous loop: {to_rk4} m/s");
+        assert!(
+            to_rk4 < 0.05,
+            "discrete law vs continuous loop: {to_rk4} m/s"
+        );
         // The leader (row column 0) drives its profile exactly.
         let rows = &run.worker.rows;
         for k in 0..rows.len() {

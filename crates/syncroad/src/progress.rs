@@ -1,8 +1,9 @@
-//! Progress of long work on stderr: a bar with an ETA on a terminal, a line per tenth of the
-//! work otherwise (logs of batch jobs stay short).
+//! Progress of long work on stderr: a bar with an ETA on a terminal, otherwise one line per
+//! finished item with the elapsed time (what a batch job's log should show).
 
 use std::io::IsTerminal;
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -12,6 +13,7 @@ pub struct Progress {
     total: u64,
     done: AtomicU64,
     bar: Option<ProgressBar>,
+    start: Instant,
 }
 
 impl Progress {
@@ -32,6 +34,7 @@ impl Progress {
             total,
             done: AtomicU64::new(0),
             bar,
+            start: Instant::now(),
         }
     }
 
@@ -45,15 +48,13 @@ impl Progress {
                     b.println(format!("{}: {item} FAILED: {e}", self.label));
                 }
             }
-            None => {
-                if let Some(e) = error {
-                    eprintln!("{}: {item} FAILED: {e}", self.label);
-                }
-                let t = self.total.max(1);
-                if d == t || d * 10 / t != (d - 1) * 10 / t {
-                    eprintln!("{}: {d}/{t} done ({item} finished)", self.label);
-                }
-            }
+            None => eprintln!(
+                "{}: [{d:>2}/{} done, {:6.1} s] {item} {}",
+                self.label,
+                self.total,
+                self.start.elapsed().as_secs_f64(),
+                error.map_or("finished".to_string(), |e| format!("FAILED: {e}"))
+            ),
         }
     }
 

@@ -30,11 +30,8 @@ fn theorem1_ring_synchronizes_in_sumo_like_the_native_simulator() {
     assert_eq!(code, 0, "{out}");
     assert_eq!(sumo["backend"], "sumo");
     assert_eq!(sumo["sync"]["verdict"], "synchronized");
-    assert_eq!(sumo["extra"]["totals"]["collision_steps"], 0);
-    assert!(sumo["extra"]["sumo_version"]
-        .as_str()
-        .unwrap()
-        .contains("1.28.0"));
+    assert_eq!(sumo["safety"]["collision_steps"], 0);
+    assert!(sumo["sumo_version"].as_str().unwrap().contains("1.28.0"));
     // Same law, same initial state: the SUMO speeds follow the native simulator's.
     let (code, _, native) = run_backend(
         &["simulate"],
@@ -115,7 +112,7 @@ fn cacc_platoon_reaches_desired_gaps_and_leader_speed_in_sumo() {
         m["sync"]["final_spread_mps"].as_f64().unwrap() < 0.01,
         "{m}"
     );
-    assert_eq!(m["extra"]["totals"]["collision_steps"], 0);
+    assert_eq!(m["safety"]["collision_steps"], 0);
 }
 
 #[test]
