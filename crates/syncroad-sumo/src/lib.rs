@@ -13,7 +13,8 @@
 //!   with their tracebacks;
 //! * [`net`], [`layout`] — network files read and checked before SUMO starts, vehicle
 //!   departures, ring capacity, the routes file;
-//! * [`drivers`] — SUMO's own car-following models as baselines;
+//! * [`car_following`], [`drivers`] — SUMO's car-following models with all their parameters,
+//!   validated before SUMO starts, named presets, and the short baseline names;
 //! * [`controller`] — the seam to the laws of `syncroad-control` and SUMO's actuation timing;
 //! * [`protocol`], [`cosim`], [`worker`] — the worker process and its loop;
 //! * [`supervisor`], [`run`] — the parent: spawning, supervising, results;
@@ -22,6 +23,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod bench;
+pub mod car_following;
 pub mod controller;
 pub mod cosim;
 pub mod direct;
@@ -35,6 +37,7 @@ pub mod supervisor;
 pub mod venv;
 pub mod worker;
 
+pub use car_following::{CarFollowing, CarFollowingError, CfModel};
 pub use controller::{controller_for, SpeedController};
 pub use drivers::SumoDriver;
 pub use run::{run_scenario, RunError, RunOptions, SumoRun};
