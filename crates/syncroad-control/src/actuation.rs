@@ -31,9 +31,9 @@ pub enum ActuationError {
 /// Bounds on the acceleration that tracks a commanded speed.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AccelLimits {
-    /// Largest acceleration a_max [m/s²] (> 0, may be ∞).
+    /// Largest acceleration a_max \[m/s²\] (> 0, may be ∞).
     pub accel_mps2: f64,
-    /// Largest deceleration b [m/s²] (> 0, may be ∞), applied as `a ≥ −b`.
+    /// Largest deceleration b \[m/s²\] (> 0, may be ∞), applied as `a ≥ −b`.
     pub decel_mps2: f64,
 }
 

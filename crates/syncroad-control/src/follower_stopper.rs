@@ -71,11 +71,11 @@ pub enum FollowerStopperError {
 /// Parameters of the FollowerStopper.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FollowerStopperParams {
-    /// Desired speed U [m/s] (chosen per experiment in Stern et al.; Flow's default is 15).
+    /// Desired speed U \[m/s\] (chosen per experiment in Stern et al.; Flow's default is 15).
     pub desired_speed_mps: f64,
-    /// Band intercepts Δx⁰_1, Δx⁰_2, Δx⁰_3 [m], strictly increasing.
+    /// Band intercepts Δx⁰_1, Δx⁰_2, Δx⁰_3 \[m\], strictly increasing.
     pub dx0_m: [f64; 3],
-    /// Deceleration rates d_1 ≥ d_2 ≥ d_3 > 0 [m/s²] that widen the bands when closing in.
+    /// Deceleration rates d_1 ≥ d_2 ≥ d_3 > 0 \[m/s²\] that widen the bands when closing in.
     pub decel_mps2: [f64; 3],
 }
 
@@ -131,7 +131,7 @@ impl FollowerStopperParams {
         Ok(())
     }
 
-    /// Band edges `Δx_k = Δx⁰_k + (Δv⁻)²/(2 d_k)` [m] for the relative speed
+    /// Band edges `Δx_k = Δx⁰_k + (Δv⁻)²/(2 d_k)` \[m\] for the relative speed
     /// `dv_mps = v_lead − v`.
     pub fn band_edges_m(&self, dv_mps: f64) -> [f64; 3] {
         let closing = dv_mps.min(0.0);
@@ -139,7 +139,7 @@ impl FollowerStopperParams {
     }
 }
 
-/// The FollowerStopper's command velocity [m/s] for one vehicle driving at `speed_mps` with
+/// The FollowerStopper's command velocity \[m/s\] for one vehicle driving at `speed_mps` with
 /// bumper-to-bumper gap `gap_m` behind a leader driving at `leader_speed_mps`
 /// (Stern et al. 2018; see the module documentation).
 pub fn follower_stopper_command_mps(

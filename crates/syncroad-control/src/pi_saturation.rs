@@ -73,19 +73,19 @@ pub enum PiSaturationError {
 /// Parameters of the PI controller with saturation.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PiSaturationParams {
-    /// Averaging window of the vehicle's own speed, giving U [s] (38 s).
+    /// Averaging window of the vehicle's own speed, giving U \[s\] (38 s).
     pub window_s: f64,
-    /// Gap g_l below which no catch-up speed is added [m] (7 m).
+    /// Gap g_l below which no catch-up speed is added \[m\] (7 m).
     pub gap_lower_m: f64,
-    /// Gap g_u above which the full catch-up speed is added [m] (30 m).
+    /// Gap g_u above which the full catch-up speed is added \[m\] (30 m).
     pub gap_upper_m: f64,
-    /// Catch-up speed v_catch added to U at large gaps [m/s] (1 m/s).
+    /// Catch-up speed v_catch added to U at large gaps \[m/s\] (1 m/s).
     pub catch_up_speed_mps: f64,
-    /// Width γ of the gap band over which α rises from 0 to 1 [m] (2 m).
+    /// Width γ of the gap band over which α rises from 0 to 1 \[m\] (2 m).
     pub blend_width_m: f64,
-    /// Gain k_s of the safe gap Δx_s = max(k_s Δv, s_min) [s] (2 s).
+    /// Gain k_s of the safe gap Δx_s = max(k_s Δv, s_min) \[s\] (2 s).
     pub safe_gap_gain_s: f64,
-    /// Floor s_min of the safe gap [m] (4 m).
+    /// Floor s_min of the safe gap \[m\] (4 m).
     pub safe_gap_min_m: f64,
 }
 
@@ -140,7 +140,7 @@ impl PiSaturationParams {
         Ok(())
     }
 
-    /// Target speed `v_target = U + v_catch · min(max((Δx − g_l)/(g_u − g_l), 0), 1)` [m/s]
+    /// Target speed `v_target = U + v_catch · min(max((Δx − g_l)/(g_u − g_l), 0), 1)` \[m/s\]
     /// for the mean own speed `mean_speed_mps` (U) and the gap `gap_m`.
     pub fn target_speed_mps(&self, mean_speed_mps: f64, gap_m: f64) -> f64 {
         let ramp = (gap_m - self.gap_lower_m) / (self.gap_upper_m - self.gap_lower_m);
@@ -156,7 +156,7 @@ impl PiSaturationParams {
     }
 }
 
-/// The next command velocity [m/s] of one vehicle:
+/// The next command velocity \[m/s\] of one vehicle:
 /// `β (α v_target + (1 − α) v_lead) + (1 − β) v_cmd`, from the mean own speed U
 /// (`mean_speed_mps`), the vehicle's speed, its gap, the leader's speed and the previous
 /// command (Stern et al. 2018).
@@ -246,7 +246,7 @@ impl PiSaturation {
         self.window_len
     }
 
-    /// Mean own speed U of vehicle `i` over the samples stored so far [m/s] (NaN before the
+    /// Mean own speed U of vehicle `i` over the samples stored so far \[m/s\] (NaN before the
     /// first step).
     pub fn mean_speed_mps(&self, i: usize) -> f64 {
         let row = &self.history[i * self.window_len..(i + 1) * self.window_len];
