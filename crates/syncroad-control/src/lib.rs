@@ -8,6 +8,8 @@
 //! * [`scenario`] — scenario files and their validation;
 //! * [`delayed_driver`], [`cacc`] — the laws (eq. `chandler+`; eqs. `veh-proto1/2`), one step
 //!   at a time, usable by any backend;
+//! * [`follower_stopper`], [`pi_saturation`] — the field's wave dampers of Stern et al. (2018)
+//!   as references, with [`actuation`] turning their command velocity into the next speed;
 //! * [`theory`], [`ifp`], [`poly`] — the paper's sufficient conditions and the IFP index;
 //! * [`exact`] — exact stability: rightmost characteristic roots, critical gains, CACC modes
 //!   and string stability, to show how conservative the sufficient conditions are;
@@ -20,18 +22,21 @@
 // Numerical loops index several arrays at once; an index reads clearer than zipped iterators.
 #![allow(clippy::needless_range_loop)]
 
+pub mod actuation;
 pub mod cacc;
 pub mod congestion;
 pub mod controller;
 pub mod delayed_driver;
 pub mod exact;
 pub mod facts;
+pub mod follower_stopper;
 pub mod graph;
 pub mod ifp;
 pub mod lti_network;
 pub mod metrics;
 pub mod native;
 pub mod outcome;
+pub mod pi_saturation;
 pub mod poly;
 pub mod record;
 pub mod rng;
@@ -40,13 +45,20 @@ pub mod stop;
 pub mod theory;
 pub mod trajectory;
 
+pub use actuation::{AccelLimits, ActuationError};
 pub use cacc::{CaccLaw, PlatoonView, PowertrainLag};
 pub use controller::{controller_for, LawSpec, SpeedController};
 pub use delayed_driver::DelayedDriverLaw;
+pub use follower_stopper::{
+    follower_stopper_command_mps, FollowerStopper, FollowerStopperError, FollowerStopperParams,
+};
 pub use graph::{Arc, Graph};
 pub use metrics::{sync_metrics, SyncMetrics, Verdict, VerdictThresholds};
 pub use native::{simulate, NativeOptions, NativeRun};
 pub use outcome::{evaluate, EvalOptions, Outcome, RunOutput};
+pub use pi_saturation::{
+    pi_saturation_command_mps, PiSaturation, PiSaturationError, PiSaturationParams,
+};
 pub use record::{RunRecord, SumoFacts};
 pub use scenario::{Scenario, ScenarioError, ScenarioFile};
 pub use stop::StopReason;

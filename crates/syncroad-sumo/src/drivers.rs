@@ -9,6 +9,8 @@ use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
+use crate::car_following::{CarFollowing, CfModel};
+
 /// Speed mode of law-commanded vehicles when SUMO drivers share the road: bit 0 only, SUMO's
 /// safe speed towards the leader is kept (accelerations are not limited). With every check off
 /// a commanded vehicle would drive into a SUMO driver that brakes.
@@ -99,6 +101,21 @@ impl SumoDriver {
             SumoDriver::Idm => r#"carFollowModel="IDM""#.into(),
             SumoDriver::Acc => r#"carFollowModel="ACC""#.into(),
             SumoDriver::Cacc => r#"carFollowModel="CACC""#.into(),
+        }
+    }
+}
+
+impl SumoDriver {
+    /// The same driver as a fully parameterized [`CarFollowing`]; it renders the same
+    /// `vType` attributes as [`vtype_attributes`](Self::vtype_attributes).
+    pub fn car_following(&self) -> CarFollowing {
+        match *self {
+            SumoDriver::Krauss { sigma } => {
+                CarFollowing::with(CfModel::Krauss, &[("sigma", sigma)])
+            }
+            SumoDriver::Idm => CarFollowing::new(CfModel::Idm),
+            SumoDriver::Acc => CarFollowing::new(CfModel::Acc),
+            SumoDriver::Cacc => CarFollowing::new(CfModel::Cacc),
         }
     }
 }

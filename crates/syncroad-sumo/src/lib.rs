@@ -13,7 +13,8 @@
 //!   their tracebacks;
 //! * `net`, `layout` — network files read once and checked before SUMO starts, vehicle
 //!   departures, ring capacity, the routes file;
-//! * `drivers` — SUMO's own car-following models;
+//! * `car_following`, `drivers` — SUMO's car-following models with all their parameters,
+//!   validated before SUMO starts, named presets, and the short baseline names;
 //! * `protocol`, `cosim`, `worker` — the worker process: one step of the co-simulation apart
 //!   from the loop that runs it;
 //! * `supervisor`, `run` — the parent: [`Prepared::new`] checks everything it can before SUMO
@@ -24,6 +25,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod bench;
+mod car_following;
 mod cosim;
 mod direct;
 mod drivers;
@@ -36,6 +38,7 @@ mod supervisor;
 mod venv;
 mod worker;
 
+pub use car_following::{CarFollowing, CarFollowingError, CfModel};
 pub use drivers::{DriverError, SumoDriver, EMISSION_CLASS};
 pub use net::Road;
 pub use protocol::{Event, Finish, ReadMode, Request, StartInfo, Totals};
