@@ -116,7 +116,7 @@ pub enum Control {
     /// The scenario's law, resolved by the parent (nothing is validated twice).
     Law {
         /// The model, step and initial speeds.
-        law: LawSpec,
+        law: Box<LawSpec>,
     },
     /// SUMO's own car-following model (Krauss with the layout's σ); nothing is commanded.
     SumoModel,

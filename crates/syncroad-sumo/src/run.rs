@@ -342,7 +342,7 @@ pub(crate) fn prepare(
         Control::SumoModel
     } else {
         Control::Law {
-            law: LawSpec::of(scenario),
+            law: Box::new(LawSpec::of(scenario)),
         }
     };
     Ok(Request {
