@@ -140,6 +140,28 @@ fn phase_and_log_derivative(
     (g.re.is_finite() && g.im.is_finite()).then_some((phase, g))
 }
 
+/// `d/ds log det M(s) = tr(M(s)⁻¹M'(s))` for `M(s) = sI + diag(e^{−sα_i})L`, or `None` at a
+/// root. Newton's step `s − m/g(s)` converges quadratically to a root of multiplicity `m`.
+pub(crate) fn log_det_derivative(
+    l: &DMatrix<f64>,
+    delays_s: &[f64],
+    s: Complex64,
+) -> Option<Complex64> {
+    let n = l.nrows();
+    let mut m = DMatrix::from_fn(n, n, |i, j| {
+        Complex64::new(l[(i, j)], 0.0) * (-s * delays_s[i]).exp()
+    });
+    for i in 0..n {
+        m[(i, i)] += s;
+    }
+    let inv = m.try_inverse()?;
+    let mut g = Complex64::new(0.0, 0.0);
+    for i in 0..n {
+        g += (1.0 + s * delays_s[i]) * inv[(i, i)] - delays_s[i];
+    }
+    (g.re.is_finite() && g.im.is_finite()).then_some(g)
+}
+
 /// [`count_roots_right_of`] for a validated Laplacian.
 pub(crate) fn count_with_laplacian(
     l: &DMatrix<f64>,

@@ -4,7 +4,7 @@
 use super::argument_principle::{count_roots_right_of, ArgumentPrincipleError, RootCount};
 use super::cacc_modes::{cacc_modes, CaccError, CaccModes, CaccParams};
 use super::collocation::{rightmost_roots, CollocationError, CollocationOptions, RootsReport};
-use super::critical::{critical_scale, CriticalError, CriticalReport};
+use super::critical::{critical_scale_from, CriticalError, CriticalReport};
 use super::ring_modes::RingModes;
 use super::string_stability::{
     string_stability, StringStabilityError, StringStabilityOptions, StringStabilityReport,
@@ -73,7 +73,7 @@ pub fn analyse_network(
     } else {
         None
     };
-    let critical = match critical_scale(adjacency, delays_s, options) {
+    let critical = match critical_scale_from(adjacency, delays_s, &roots, options) {
         Ok(c) => Some(c),
         Err(CriticalError::NoDelay) => None,
         Err(e) => return Err(e.into()),
@@ -155,8 +155,11 @@ impl fmt::Display for NetworkStabilityReport {
             Some(c) => {
                 writeln!(
                     f,
-                    "critical gain scale {:.10}  Theorem-1 {:.10}  ratio {:.6}",
-                    c.critical_gain_scale, c.theorem1_gain_scale, c.conservatism_ratio
+                    "critical gain scale {:.10}  Theorem-1 {:.10}  ratio {:.6}  (crossing {:.6} rad/s)",
+                    c.critical_gain_scale,
+                    c.theorem1_gain_scale,
+                    c.conservatism_ratio,
+                    c.crossing_frequency_rad_s
                 )?;
                 writeln!(
                     f,
@@ -165,7 +168,7 @@ impl fmt::Display for NetworkStabilityReport {
                     c.theorem1_delay_scale,
                     c.delay_conservatism_ratio,
                     c.critical_max_delay_s,
-                    c.crossing_frequency_rad_s
+                    c.delay_crossing_frequency_rad_s
                 )
             }
             None => writeln!(f, "no delays: stable for every gain scale"),
@@ -324,5 +327,25 @@ mod tests {
         let json = serde_json::to_value(&r).unwrap();
         assert!(json["string_stability"]["max_successive_ratio"].is_number());
         assert!(r.to_string().contains("Theorem thm.cacc: applies"));
+    }
+
+    #[test]
+    fn delay_line_prints_the_delay_scaled_crossing_frequency() {
+        // Bidirectional ring N = 22, K = 1, α = 0.2: with the delays scaled the crossing is
+        // at ω = λ_max = 4 rad/s (with the gains scaled at c*·4 = 5π/2).
+        let ring = UniformRing::new(22, 1.0, 1.0, 0.2).unwrap();
+        let r = analyse_network(
+            &ring.adjacency(),
+            &ring.delays(),
+            &CollocationOptions::default(),
+            false,
+        )
+        .unwrap();
+        let text = r.to_string();
+        let line = text
+            .lines()
+            .find(|l| l.starts_with("critical delay scale"))
+            .unwrap();
+        assert!(line.contains("crossing 4.000000 rad/s"), "{line}");
     }
 }
