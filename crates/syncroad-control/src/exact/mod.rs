@@ -17,6 +17,8 @@
 //!   `veh-proto2`): closed-loop eigenvalues next to Theorem `thm.cacc`;
 //! * [`string_stability`](mod@string_stability) — gap-error transfer peaks and a
 //!   braking-wave simulation;
+//! * [`platoon_scaling`](mod@platoon_scaling) — least-stable eigenvalue of bidirectional
+//!   platoons against their size, with the fitted exponent (Barooah, Mehta & Hespanha);
 //! * [`acyclic`] — exact roots of acyclic networks (predecessor following behind a leader),
 //!   where identical drivers give roots of high multiplicity;
 //! * [`report`] — combined serializable reports with plain-text tables for a CLI.
@@ -31,6 +33,7 @@ pub mod cacc_modes;
 pub mod collocation;
 pub mod critical;
 pub mod lambert_w;
+pub mod platoon_scaling;
 pub mod report;
 pub mod ring_modes;
 pub mod string_stability;
@@ -44,6 +47,7 @@ pub use collocation::{
 };
 pub use critical::{critical_scale, CriticalError, CriticalReport};
 pub use lambert_w::{lambert_w, LambertWError};
+pub use platoon_scaling::{platoon_scaling, PlatoonLaw, PlatoonScaling, PlatoonScalingError};
 pub use report::{analyse_cacc, analyse_network, CaccReport, NetworkStabilityReport, ReportError};
 pub use ring_modes::{RingError, RingModes, UniformRing};
 pub use string_stability::{

@@ -10,6 +10,7 @@ use super::string_stability::{
     string_stability, StringStabilityError, StringStabilityOptions, StringStabilityReport,
 };
 use nalgebra::DMatrix;
+use num_complex::Complex64;
 use serde::Serialize;
 use std::fmt;
 
@@ -41,9 +42,90 @@ pub struct NetworkStabilityReport {
     /// Critical gain/delay scales and Theorem-1 conservatism; `None` when no driver is
     /// delayed (stable for every gain).
     pub critical: Option<CriticalReport>,
-    /// Argument-principle count of roots right of `abscissa + 1e-6(1 + |abscissa|)`, if
-    /// requested; `non_consensus() == 0` certifies that no root was missed.
-    pub beyond_abscissa: Option<RootCount>,
+    /// Argument-principle certificate of the rightmost roots, if requested.
+    pub certificate: Option<RootsCertificate>,
+}
+
+/// Argument-principle counts on both sides of the computed abscissa `a`: right of `a + δ`
+/// nothing (but consensus, if `a + δ < 0`), right of `a − δ` exactly the reported roots with
+/// real part above `a − δ`, with their multiplicities and conjugates. `δ` is a quarter of the
+/// gap to the next reported root (at most `0.05(1 + |a|)`, and at most `|a|/2`, so that
+/// neither line meets the consensus root).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct RootsCertificate {
+    /// `δ` [1/s].
+    pub margin: f64,
+    /// Count right of `a − δ`.
+    pub left: RootCount,
+    /// Count right of `a + δ`.
+    pub right: RootCount,
+    /// Expected `left.count` from the reported roots.
+    pub expected_left: usize,
+    /// Expected `right.count` (1 when the consensus root lies right of `a + δ`).
+    pub expected_right: usize,
+    /// Both counts as expected: no root was missed and the multiplicities are right.
+    pub certified: bool,
+}
+
+impl NetworkStabilityReport {
+    /// `Some(true)` synchronizes, `Some(false)` does not, `None` when the certificate was
+    /// requested and failed (roots may have been missed).
+    pub fn certified_stability(&self) -> Option<bool> {
+        match &self.certificate {
+            Some(c) if !c.certified => None,
+            _ => Some(self.roots.is_stable()),
+        }
+    }
+}
+
+/// Counts roots on both sides of the computed abscissa (see [`RootsCertificate`]).
+///
+/// # Errors
+/// [`ArgumentPrincipleError`] if a count fails.
+pub fn certify_roots(
+    adjacency: &DMatrix<f64>,
+    delays_s: &[f64],
+    roots: &RootsReport,
+) -> Result<RootsCertificate, ArgumentPrincipleError> {
+    let a = roots.abscissa;
+    let scale = 1.0 + a.abs();
+    let gap = roots
+        .roots
+        .iter()
+        .map(|r| a - r.root.re)
+        .filter(|g| *g > 1e-9 * scale)
+        .fold(f64::INFINITY, f64::min);
+    let mut margin = if gap.is_finite() {
+        (0.25 * gap).min(0.05 * scale)
+    } else {
+        1e-3 * scale
+    };
+    if a != 0.0 {
+        margin = margin.min(0.5 * a.abs());
+    }
+    let (lo, hi) = (a - margin, a + margin);
+    let left = count_roots_right_of(adjacency, delays_s, lo)?;
+    let right = count_roots_right_of(adjacency, delays_s, hi)?;
+    let in_strip: usize = roots
+        .roots
+        .iter()
+        .filter(|r| r.root.re > lo)
+        .map(|r| {
+            let s = Complex64::from(r.root);
+            let real = s.im.abs() <= 1e-12 * (1.0 + s.norm());
+            r.multiplicity * if real { 1 } else { 2 }
+        })
+        .sum();
+    let expected_left = in_strip + usize::from(lo < 0.0);
+    let expected_right = usize::from(hi < 0.0);
+    Ok(RootsCertificate {
+        margin,
+        left,
+        right,
+        expected_left,
+        expected_right,
+        certified: left.count == expected_left && right.count == expected_right,
+    })
 }
 
 /// CACC platoon: eigenvalue verdicts and, if the platoon is stable, string stability.
@@ -67,9 +149,8 @@ pub fn analyse_network(
     certify: bool,
 ) -> Result<NetworkStabilityReport, ReportError> {
     let roots = rightmost_roots(adjacency, delays_s, options)?;
-    let beyond_abscissa = if certify {
-        let sigma = roots.abscissa + 1e-6 * (1.0 + roots.abscissa.abs());
-        Some(count_roots_right_of(adjacency, delays_s, sigma)?)
+    let certificate = if certify {
+        Some(certify_roots(adjacency, delays_s, &roots)?)
     } else {
         None
     };
@@ -81,7 +162,7 @@ pub fn analyse_network(
     Ok(NetworkStabilityReport {
         roots,
         critical,
-        beyond_abscissa,
+        certificate,
     })
 }
 
@@ -138,16 +219,20 @@ impl fmt::Display for NetworkStabilityReport {
                 "does not synchronize"
             }
         )?;
-        if let Some(c) = &self.beyond_abscissa {
+        if let Some(c) = &self.certificate {
             writeln!(
                 f,
-                "argument principle: {} root(s) besides consensus right of {:.6e} ({})",
-                c.non_consensus(),
-                c.sigma,
-                if c.non_consensus() == 0 {
+                "argument principle: {} root(s) right of {:.6e} (expected {}), {} right of {:.6e} (expected {}), with multiplicity -> {}",
+                c.left.count,
+                c.left.sigma,
+                c.expected_left,
+                c.right.count,
+                c.right.sigma,
+                c.expected_right,
+                if c.certified {
                     "certified"
                 } else {
-                    "ROOTS MISSED"
+                    "NOT CERTIFIED: roots may have been missed"
                 }
             )?;
         }
@@ -273,7 +358,7 @@ mod tests {
             true,
         )
         .unwrap();
-        assert_eq!(r.beyond_abscissa.unwrap().non_consensus(), 0);
+        assert!(r.certificate.unwrap().certified);
         let json = serde_json::to_value(&r).unwrap();
         for key in ["abscissa", "roots", "max_residual"] {
             assert!(json["roots"].get(key).is_some(), "missing roots.{key}");
