@@ -48,7 +48,11 @@ pub fn run(cli: Cli) -> anyhow::Result<u8> {
         Command::SumoBench { quick, json } => crate::sumo_cmd::bench(quick, json.as_ref()),
         Command::Bench { horizon_s, sizes } => crate::bench::run(horizon_s, &sizes),
         Command::Ifp { eta, rho, json } => ifp_cmd(&eta, &rho, json),
-        Command::Stability { scenario, json } => stability_cmd(&scenario, json),
+        Command::Stability {
+            scenario,
+            json,
+            platoon_scaling,
+        } => stability_cmd(&scenario, json, platoon_scaling),
         Command::Map {
             scenario,
             x,
@@ -260,15 +264,46 @@ fn ifp_cmd(eta: &[f64], rho: &[f64], json: bool) -> anyhow::Result<u8> {
     Ok(exit_codes::SUCCESS)
 }
 
-fn stability_cmd(path: &Path, json: bool) -> anyhow::Result<u8> {
+fn stability_cmd(path: &Path, json: bool, platoon_scaling: bool) -> anyhow::Result<u8> {
+    use syncroad_control::exact::analysis::{self, AnalysisError, ExactVerdict};
     let sc = load_scenario(path)?;
-    let r = crate::stability::analyse(&sc)?;
+    let r = analysis::analyse(&sc).map_err(|e| match e {
+        AnalysisError::TooLargeForFullSolve { .. } => {
+            anyhow::Error::new(e).context(InputError(format!("scenario {}", path.display())))
+        }
+        e => anyhow::Error::new(e),
+    })?;
+    let scaling = if platoon_scaling {
+        Some(
+            analysis::platoon_scaling_study(
+                &sc,
+                &syncroad_control::exact::platoon_scaling::DEFAULT_SIZES,
+            )
+            .map_err(|e| match e {
+                AnalysisError::PlatoonScalingNeedsCacc => {
+                    anyhow::Error::new(e).context(InputError("--platoon-scaling".into()))
+                }
+                e => anyhow::Error::new(e),
+            })?,
+        )
+    } else {
+        None
+    };
     if json {
-        println!("{}", serde_json::to_string_pretty(&r)?);
+        let v = serde_json::json!({"report": r, "platoon_scaling": scaling});
+        let v = if scaling.is_some() {
+            v
+        } else {
+            serde_json::to_value(&r)?
+        };
+        println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
         print!("{}", crate::stability::table(&r));
+        if let Some(s) = &scaling {
+            print!("{}", crate::stability::scaling_table(s));
+        }
     }
-    Ok(if r.exactly_stable {
+    Ok(if r.verdict == ExactVerdict::Synchronizes {
         exit_codes::SUCCESS
     } else {
         exit_codes::NOT_SYNCHRONIZED

@@ -11,6 +11,7 @@ use std::sync::Mutex;
 use anyhow::{anyhow, Context};
 use plotters::prelude::*;
 use serde::Serialize;
+use syncroad_control::exact::analysis::{network_matrices, uniform_ring, FULL_SOLVE_LIMIT};
 use syncroad_control::exact::{self, CollocationOptions, UniformRing};
 use syncroad_control::metrics::{sync_metrics, VerdictThresholds};
 use syncroad_control::scenario::{DelayedDriverModel, Model};
@@ -18,7 +19,6 @@ use syncroad_control::{simulate, theory, NativeOptions, Scenario, StopReason, Ve
 
 use crate::commands::InputError;
 use crate::plots::err;
-use crate::stability::{network_matrices, uniform_ring, FULL_SOLVE_LIMIT};
 
 /// Swept quantity.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]

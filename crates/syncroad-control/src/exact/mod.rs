@@ -21,6 +21,7 @@
 //!   platoons against their size, with the fitted exponent (Barooah, Mehta & Hespanha);
 //! * [`acyclic`] — exact roots of acyclic networks (predecessor following behind a leader),
 //!   where identical drivers give roots of high multiplicity;
+//! * [`analysis`] — a whole scenario: the method chosen for its structure and one verdict;
 //! * [`report`] — combined serializable reports with plain-text tables for a CLI.
 //!
 //! Inputs are plain data: an adjacency matrix `A = (a_ij)` with `a_ij ≥ 0` and zero diagonal
@@ -28,6 +29,7 @@
 #![warn(missing_docs)]
 
 pub mod acyclic;
+pub mod analysis;
 pub mod argument_principle;
 pub mod cacc_modes;
 pub mod collocation;
@@ -39,6 +41,7 @@ pub mod ring_modes;
 pub mod string_stability;
 
 pub use acyclic::{acyclic_roots, AcyclicError, AcyclicReport, DriverRoot};
+pub use analysis::{analyse, AnalysisError, ExactVerdict, StabilityReport};
 pub use argument_principle::{count_roots_right_of, ArgumentPrincipleError, RootCount};
 pub use cacc_modes::{cacc_modes, CaccCondition, CaccError, CaccModes, CaccParams};
 pub use collocation::{
@@ -48,7 +51,10 @@ pub use collocation::{
 pub use critical::{critical_scale, CriticalError, CriticalReport};
 pub use lambert_w::{lambert_w, LambertWError};
 pub use platoon_scaling::{platoon_scaling, PlatoonLaw, PlatoonScaling, PlatoonScalingError};
-pub use report::{analyse_cacc, analyse_network, CaccReport, NetworkStabilityReport, ReportError};
+pub use report::{
+    analyse_cacc, analyse_network, certify_roots, CaccReport, NetworkStabilityReport, ReportError,
+    RootsCertificate,
+};
 pub use ring_modes::{RingError, RingModes, UniformRing};
 pub use string_stability::{
     chandler_string_peak, string_stability, LeaderDisturbance, StringStabilityError,

@@ -196,17 +196,18 @@ impl fmt::Display for NetworkStabilityReport {
         )?;
         writeln!(
             f,
-            "{:>4} {:>14} {:>14} {:>10}",
-            "#", "Re s [1/s]", "Im s [rad/s]", "residual"
+            "{:>4} {:>14} {:>14} {:>10} {:>5}",
+            "#", "Re s [1/s]", "Im s [rad/s]", "residual", "mult"
         )?;
         for (k, root) in r.roots.iter().enumerate() {
             writeln!(
                 f,
-                "{:>4} {:>14.6e} {:>14.6e} {:>10.1e}",
+                "{:>4} {:>14.6e} {:>14.6e} {:>10.1e} {:>5}",
                 k + 1,
                 root.root.re,
                 root.root.im,
-                root.residual
+                root.residual,
+                root.multiplicity
             )?;
         }
         writeln!(
@@ -432,5 +433,26 @@ mod tests {
             .find(|l| l.starts_with("critical delay scale"))
             .unwrap();
         assert!(line.contains("crossing 4.000000 rad/s"), "{line}");
+    }
+
+    #[test]
+    fn a_missing_root_fails_the_certificate_and_withholds_the_verdict() {
+        // Drop the dominant root from a correct report: the count right of a − δ then finds
+        // more roots than reported, and the verdict is withheld.
+        let ring = UniformRing::new(7, 1.0, 0.3, 0.5).unwrap();
+        let (a, d) = (ring.adjacency(), ring.delays());
+        let mut roots = rightmost_roots(&a, &d, &CollocationOptions::default()).unwrap();
+        assert!(certify_roots(&a, &d, &roots).unwrap().certified);
+        roots.roots.remove(0);
+        roots.abscissa = roots.roots[0].root.re;
+        let c = certify_roots(&a, &d, &roots).unwrap();
+        assert!(!c.certified);
+        let report = NetworkStabilityReport {
+            roots,
+            critical: None,
+            certificate: Some(c),
+        };
+        assert_eq!(report.certified_stability(), None);
+        assert!(report.to_string().contains("NOT CERTIFIED"));
     }
 }
