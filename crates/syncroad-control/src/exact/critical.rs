@@ -252,18 +252,46 @@ pub fn critical_scale_from(
         return Err(CriticalError::NoDelay);
     }
     let l = laplacian(adjacency);
-    let tracked: Vec<(Complex64, usize)> = roots
-        .roots
-        .iter()
-        .map(|r| (Complex64::from(r.root), r.multiplicity))
-        .collect();
-    let Some(x) = continuation(&l, delays_s, &tracked) else {
-        return fallback(adjacency, delays_s, options);
-    };
-    let certificate = certify_crossing(&l, delays_s, &x);
-    if !certificate.as_ref().is_some_and(|c| c.certified) {
-        return fallback(adjacency, delays_s, options);
+    // Follow the rightmost roots from c = 1. On long rings the first root to cross need not
+    // be among the rightmost at c = 1; then the count right of the axis at the tracked
+    // crossing is positive, and one full solve there gives the roots that crossed earlier,
+    // which are followed back down (at most three restarts before bisection).
+    let mut start = 1.0f64;
+    let mut start_roots = roots.clone();
+    let mut full_solves = 1;
+    let mut found = None;
+    for _ in 0..3 {
+        let tracked: Vec<(Complex64, usize)> = start_roots
+            .roots
+            .iter()
+            .map(|r| (Complex64::from(r.root), r.multiplicity))
+            .collect();
+        let ls = &l * start;
+        let Some(mut x) = continuation(&ls, delays_s, &tracked) else {
+            break;
+        };
+        let certificate = certify_crossing(&ls, delays_s, &x);
+        x.scale *= start;
+        x.bracket = x.bracket.map(|b| b * start);
+        match certificate {
+            Some(c) if c.certified => {
+                found = Some((x, c));
+                break;
+            }
+            Some(c) if c.right.non_consensus() > 0 => {
+                start = x.scale;
+                full_solves += 1;
+                start_roots = rightmost_roots(&(adjacency * start), delays_s, options)?;
+            }
+            _ => break,
+        }
     }
+    let Some((x, certificate)) = found else {
+        let mut r = fallback(adjacency, delays_s, options)?;
+        r.full_solves += full_solves - 1;
+        return Ok(r);
+    };
+    let certificate = Some(certificate);
     let worst = (0..n).map(|i| delays_s[i] * l[(i, i)]).fold(0.0, f64::max);
     let theorem1 = 1.0 / (2.0 * worst);
     let c_star = x.scale;
@@ -283,7 +311,7 @@ pub fn critical_scale_from(
         crossing_multiplicity: x.multiplicity,
         bracket: x.bracket,
         bracket_abscissae: x.bracket_re,
-        full_solves: 1,
+        full_solves,
         method: CriticalMethod::Continuation,
         certificate,
     })
