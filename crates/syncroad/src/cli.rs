@@ -7,7 +7,8 @@ use clap::{Parser, Subcommand};
 /// Velocity-synchronization experiments on ring roads and platoons (Proskurnikov & Mazo's
 /// delayed-driver and bidirectional CACC protocols), natively and in SUMO.
 ///
-/// Exit codes: 0 synchronized / certified, 1 not synchronized / inconclusive / not certified,
+/// Exit codes: 0 synchronized / certified, 1 not synchronized / inconclusive / not certified
+/// (for `stability`: also when the root count cannot certify the computed roots),
 /// 2 bad input, 3 run failed (partial results written), 130 interrupted.
 #[derive(Debug, Parser)]
 #[command(name = "syncroad", version, about, long_about)]
@@ -74,6 +75,12 @@ pub enum Command {
         /// Print JSON instead of tables.
         #[arg(long)]
         json: bool,
+        /// CACC platoons: also the least-stable eigenvalue against platoon size
+        /// (N = 10 … 200) with the fitted exponent, for the scenario's mean gains, symmetric
+        /// gap gains, and Barooah–Mehta–Hespanha's relative-velocity law (symmetric and with
+        /// mistuned velocity gains).
+        #[arg(long)]
+        platoon_scaling: bool,
     },
     /// Sweep a 2-D grid of gain and delay scales of a delayed-driver scenario: the region
     /// Theorem 1 certifies, the exactly stable region, and native simulations at every point,

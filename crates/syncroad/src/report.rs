@@ -16,9 +16,11 @@ fn yes(b: bool) -> &'static str {
 }
 
 fn binding_line(out: &mut String, label: &str, b: &Binding) {
+    // The relation as it holds, not as required: "0.96 ≥ 0.5" when the bound is violated.
+    let relation = if b.margin > 0.0 { "<" } else { "≥" };
     let _ = writeln!(
         out,
-        "  {label:<38} vehicle {:>5}: {:.6} < {:.6}  (margin {:+.6})",
+        "  {label:<38} vehicle {:>5}: {:.6} {relation} {:.6}  (margin {:+.6})",
         b.vehicle, b.value, b.bound, b.margin
     );
 }

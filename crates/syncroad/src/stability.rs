@@ -1,4 +1,5 @@
-//! `syncroad stability`: exact stability next to the paper's sufficient conditions.
+//! `syncroad stability`: the tables. The analysis itself is
+//! `syncroad_control::exact::analysis`.
 //!
 //! * Delayed drivers: rightmost characteristic roots of `det(sI + diag(e^{−sα_i}) L) = 0`
 //!   (roots other than consensus), the critical scale of all gains and of all delays, and the
@@ -11,149 +12,8 @@
 
 use std::fmt::Write as _;
 
-use nalgebra::DMatrix;
-use serde::Serialize;
-use syncroad_control::exact::{
-    self, AcyclicReport, CaccParams, CaccReport, CollocationOptions, NetworkStabilityReport,
-    RingModes, StringStabilityOptions, UniformRing,
-};
-use syncroad_control::scenario::{DelayedDriverModel, GraphSpec, ModelSpec};
-use syncroad_control::theory::{self, TheoryReport};
-use syncroad_control::{scenario::Model, Scenario};
-
-use crate::error::InputError;
-
-/// Largest network (vehicles, leader included) for the full root solve.
-pub const FULL_SOLVE_LIMIT: usize = 150;
-
-/// Everything `syncroad stability` reports.
-#[derive(Debug, Clone, Serialize)]
-pub struct StabilityReport {
-    /// Scenario name.
-    pub scenario: String,
-    /// The paper's conditions.
-    pub paper: TheoryReport,
-    /// Uniform-ring fast path, when the scenario is a uniform ring.
-    pub ring: Option<RingModes>,
-    /// Exact per-driver roots, when the network is acyclic (a chain behind a leader).
-    pub acyclic: Option<AcyclicReport>,
-    /// Full solve of the network, when small enough and not acyclic.
-    pub network: Option<NetworkStabilityReport>,
-    /// CACC platoon analysis.
-    pub cacc: Option<CaccReport>,
-    /// Exact verdict: synchronization (all non-consensus roots in Re s < 0).
-    pub exactly_stable: bool,
-    /// The paper's conditions certify it.
-    pub certified: bool,
-}
-
-/// The uniform ring described by the scenario, if it is one.
-pub fn uniform_ring(sc: &Scenario, m: &DelayedDriverModel) -> Option<UniformRing> {
-    let ModelSpec::DelayedDriver { graph, .. } = &sc.file.model else {
-        return None;
-    };
-    let a = m.delay_s[0];
-    if m.leader.is_some() || m.delay_s.iter().any(|x| *x != a) {
-        return None;
-    }
-    let (kf, kb) = match graph {
-        GraphSpec::UnidirectionalRing { gain } => (gain.uniform_value(0)?, 0.0),
-        GraphSpec::BidirectionalRing {
-            gain_pred,
-            gain_follow,
-        } => (gain_pred.uniform_value(0)?, gain_follow.uniform_value(0)?),
-        _ => return None,
-    };
-    UniformRing::new(sc.n, kf, kb, a).ok()
-}
-
-/// Adjacency and delays of the network, the leader appended as an undelayed vertex.
-pub fn network_matrices(m: &DelayedDriverModel) -> (DMatrix<f64>, Vec<f64>) {
-    let n = m.graph.len();
-    match &m.leader {
-        None => (m.graph.adjacency_dense(), m.delay_s.clone()),
-        Some((_, b)) => {
-            let mut a = DMatrix::zeros(n + 1, n + 1);
-            a.view_mut((0, 0), (n, n))
-                .copy_from(&m.graph.adjacency_dense());
-            for (i, bi) in b.iter().enumerate() {
-                a[(i, n)] = *bi;
-            }
-            let mut d = m.delay_s.clone();
-            d.push(0.0);
-            (a, d)
-        }
-    }
-}
-
-/// Runs the analysis.
-pub fn analyse(sc: &Scenario) -> anyhow::Result<StabilityReport> {
-    let paper = theory::report(sc);
-    match &sc.model {
-        Model::DelayedDriver(m) => {
-            let ring = match uniform_ring(sc, m) {
-                Some(r) => Some(r.modes()?),
-                None => None,
-            };
-            let size = m.graph.len() + usize::from(m.leader.is_some());
-            let (a, d) = network_matrices(m);
-            let acyclic = exact::acyclic_roots(&a, &d).ok();
-            let network = if acyclic.is_some() {
-                None
-            } else if size <= FULL_SOLVE_LIMIT {
-                Some(exact::analyse_network(
-                    &a,
-                    &d,
-                    &CollocationOptions::default(),
-                    true,
-                )?)
-            } else if ring.is_none() {
-                return Err(InputError::new(format!(
-                    "the scenario has {size} vehicles: the full root solve is limited to {FULL_SOLVE_LIMIT}; \
-                     uniform rings of any size use the Fourier fast path (uniform gains and delays)"
-                ))
-                .into());
-            } else {
-                None
-            };
-            let exactly_stable = match (&acyclic, &network, &ring) {
-                (Some(x), _, _) => x.abscissa < 0.0,
-                (None, Some(n), _) => n.roots.is_stable(),
-                (None, None, Some(r)) => r.abscissa < 0.0,
-                (None, None, None) => unreachable!("one of the three is computed"),
-            };
-            Ok(StabilityReport {
-                scenario: sc.name.clone(),
-                certified: paper.certified,
-                paper,
-                ring,
-                acyclic,
-                network,
-                cacc: None,
-                exactly_stable,
-            })
-        }
-        Model::Cacc(c) => {
-            let params = CaccParams {
-                tau_s: c.tau_s.clone(),
-                mu: c.mu.clone(),
-                eta: c.eta.clone(),
-                nu: c.nu[..c.nu.len().saturating_sub(1)].to_vec(),
-            };
-            let r = exact::analyse_cacc(&params, &StringStabilityOptions::default())?;
-            Ok(StabilityReport {
-                scenario: sc.name.clone(),
-                certified: paper.certified,
-                paper,
-                ring: None,
-                acyclic: None,
-                network: None,
-                exactly_stable: r.modes.exactly_stable,
-                cacc: Some(r),
-            })
-        }
-    }
-}
+use syncroad_control::exact::analysis::{ExactVerdict, StabilityReport};
+use syncroad_control::exact::PlatoonScaling;
 
 /// The table printed by `syncroad stability`.
 pub fn table(r: &StabilityReport) -> String {
@@ -194,9 +54,23 @@ pub fn table(r: &StabilityReport) -> String {
             "critical gain scale {:.10} (min_i π/(2 α_i d_i)){}",
             x.critical_gain_scale,
             t1.map_or(String::new(), |t| format!(
-                "  Theorem-1+ {t:.10}  ratio {:.6}",
+                "  ratio {:.6} to Theorem 1+ ({t:.10}, α_j(d_j^+ + 2b_j) < 1/2)",
                 x.critical_gain_scale / t
             ))
+        );
+    }
+    if let Some(c) = &r.chain_string_stability {
+        let _ = writeln!(
+            s,
+            "string stability: worst predecessor-to-follower peak sup_ω|H_i(iω)| = {:.6} (driver {}), max 2α_i d_i = {:.6} (Chandler: string stable iff ≤ 1) -> {}",
+            c.worst_peak,
+            c.worst_driver,
+            c.max_two_alpha_d,
+            if c.string_stable {
+                "string stable"
+            } else {
+                "string UNSTABLE: speed disturbances grow along the chain"
+            }
         );
     }
     if let Some(n) = &r.network {
@@ -210,10 +84,11 @@ pub fn table(r: &StabilityReport) -> String {
     let _ = writeln!(
         s,
         "\nexact: {}   paper's conditions: {}",
-        if r.exactly_stable {
-            "SYNCHRONIZES"
-        } else {
-            "does NOT synchronize"
+        match r.verdict {
+            ExactVerdict::Synchronizes => "SYNCHRONIZES",
+            ExactVerdict::DoesNotSynchronize => "does NOT synchronize",
+            ExactVerdict::Uncertified =>
+                "UNCERTIFIED (the root count disagrees with the computed roots; roots may have been missed)",
         },
         if r.certified {
             "certified"
@@ -221,8 +96,29 @@ pub fn table(r: &StabilityReport) -> String {
             "not certified"
         }
     );
-    if r.certified && !r.exactly_stable {
+    if r.certified && r.verdict == ExactVerdict::DoesNotSynchronize {
         let _ = writeln!(s, "WARNING: the sufficient conditions certify a network the exact analysis finds unstable; please report this scenario.");
+    }
+    s
+}
+
+/// The table printed by `syncroad stability --platoon-scaling`.
+pub fn scaling_table(studies: &[PlatoonScaling]) -> String {
+    let mut s = String::from(
+        "\nplatoon scaling: least-stable eigenvalue Re λ [1/s] against platoon size N\n",
+    );
+    for st in studies {
+        let _ = writeln!(s, "{}", serde_json::to_string(&st.law).unwrap_or_default());
+        let mut line = String::from("  ");
+        for p in &st.points {
+            let _ = write!(line, " N={}: {:.3e}", p.vehicles, p.least_stable_re);
+        }
+        let _ = writeln!(s, "{line}");
+        let _ = writeln!(
+            s,
+            "   fitted |Re λ| ≈ {:.4} N^{:.3}",
+            st.prefactor, st.exponent
+        );
     }
     s
 }

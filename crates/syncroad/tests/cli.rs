@@ -236,3 +236,65 @@ fn stability_of_chandler_chain_is_exact_and_map_draws_both_boundaries() {
     }
     assert!(dir.join("map.png").exists() && dir.join("map.svg").exists());
 }
+
+#[test]
+fn check_prints_a_violated_bound_as_violated() {
+    // straight-chandler: driver 0 has α(d + 2b) = 0.8 · (0 + 2 · 0.6) = 0.96 > 1/2.
+    let (_, out, _) = run(bin()
+        .arg("check")
+        .arg(repo().join("scenarios/straight-chandler.json")));
+    assert!(out.contains("0.960000 ≥ 0.500000"), "{out}");
+    assert!(!out.contains("0.960000 < 0.500000"), "{out}");
+}
+
+#[test]
+fn stability_of_an_all_to_all_graph_has_the_lambert_w_root_of_multiplicity_four() {
+    // all_to_all, N = 5, k = 0.1, α = 0.5: det M = s (s + 0.5 e^{−0.5 s})⁴; the root is
+    // W_0(−0.25)/0.5, W_0(−0.25) solving w e^w = −0.25 (Newton here).
+    let dir = tmpdir("a2a");
+    let p = dir.join("a2a.json");
+    std::fs::write(
+        &p,
+        r#"{"name": "a2a5", "seed": 1, "step_s": 0.1, "horizon_s": 10, "vehicles": 5,
+            "road": {"type": "ring", "length_m": 200},
+            "model": {"type": "delayed_driver", "graph": {"type": "all_to_all", "gain": 0.1},
+                      "delay_s": [0.5, 0.5, 0.5, 0.5, 0.6]}}"#,
+    )
+    .unwrap();
+    let (code, out, err) = run(bin().args(["stability", "--json"]).arg(&p));
+    assert_eq!(code, 0, "{out}{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let mut w = -0.3f64;
+    for _ in 0..50 {
+        w -= (w * w.exp() + 0.25) / ((1.0 + w) * w.exp());
+    }
+    let root = &v["network"]["roots"]["roots"][0];
+    assert!(
+        (root["root"]["re"].as_f64().unwrap() - w / 0.5).abs() < 1e-10,
+        "{root}"
+    );
+    // Four vehicles share the delay 0.5: the root has multiplicity 3 here (x_5 = 0, Σx = 0).
+    assert_eq!(root["multiplicity"], 3, "{root}");
+    assert_eq!(v["verdict"], "synchronizes");
+    assert_eq!(v["network"]["certificate"]["certified"], true);
+}
+
+#[test]
+fn platoon_scaling_option_fits_the_exponents() {
+    let (code, out, err) = run(bin()
+        .args(["stability", "--json", "--platoon-scaling"])
+        .arg(repo().join("scenarios/platoon-cacc.json")));
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let fits: Vec<f64> = v["platoon_scaling"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["exponent"].as_f64().unwrap())
+        .collect();
+    // Symmetric gap gains (paper's law) and symmetric relative-velocity law: −2; mistuned
+    // relative-velocity law: −1 (Barooah, Mehta & Hespanha).
+    assert!((fits[1] + 2.0).abs() < 0.1, "{fits:?}");
+    assert!((fits[2] + 2.0).abs() < 0.1, "{fits:?}");
+    assert!((fits[3] + 1.0).abs() < 0.1, "{fits:?}");
+}

@@ -1,14 +1,31 @@
 //! Independent certificate for the rightmost roots: counting characteristic roots to the right
 //! of a vertical line by the argument principle.
 //!
-//! Every root `s` of `det(sI + diag(e^{−sα_i})L) = 0` (eq. `chandler+`) is an eigenvalue of
-//! `−diag(e^{−sα_i})L`, so by Gershgorin a root with `Re s ≥ σ` satisfies
-//! `|s| ≤ B(σ) = max_i 2 d_i^+ e^{−σα_i}`. The number of roots in `{Re s > σ}` is therefore the
-//! winding number of `det M(s)` (an entire function) around the rectangle
-//! `[σ, B + 1] × [−(B + 1), B + 1]`, which is computed by following `arg det M(s)` along the
-//! boundary with an adaptive step (the phase may change by at most 0.5 rad between samples).
-//! This uses neither the collocation nor Newton's method, so it can certify them: no root
-//! lies right of the computed abscissa, and the reported rightmost roots are all there are.
+//! Every root `s` of `det M(s) = det(sI + diag(e^{−sα_i})L) = 0` (eq. `chandler+`) is an
+//! eigenvalue of `−diag(e^{−sα_i})L`, so by Gershgorin a root with `Re s ≥ σ` satisfies
+//! `|s| ≤ B(σ) = max_i 2 d_i^+ e^{−σα_i}`. The number of roots in `{Re s > σ}`, counted with
+//! multiplicity, is therefore the winding number around the rectangle
+//! `[σ, R] × [−R, R]` of
+//!
+//! `f(s) = det M(s) / (s + ρ)^N`,  `ρ = max(0, −σ) + 1` (the pole `−ρ` lies left of `σ`),
+//!
+//! with `R = 2(B + ρ) + |σ| + 1`: on the top, bottom and right sides
+//! `f = det(I + X)` with `‖X‖ = ‖(diag(e^{−sα})L − ρI)/(s + ρ)‖ ≤ 1/2`, so `f` turns little
+//! there and the walk is cheap; near the line `Re s = σ` it follows `arg f` closely.
+//!
+//! **Step control.** Each step from `a` to `b = a + h·e` is accepted only if
+//! 1. the wrapped phase change `Δ = arg(f(b)/f(a))` satisfies `|Δ| ≤ 0.5`;
+//! 2. `h · max(|g(a)|, |g(b)|) ≤ 1`, where `g = f'/f = tr(M⁻¹M') − N/(s + ρ)` is the exact
+//!    logarithmic derivative (`tr(M⁻¹M') = Σ_i (1 + sα_i)(M⁻¹)_ii − Σ_i α_i`, since
+//!    `M' = I + s·D_α − D_α M`); a root at distance `d` from an end point gives `|g| ≳ 1/d`,
+//!    so this keeps every step shorter than the distance to the nearest root;
+//! 3. `Δ` agrees within `0.1` with the trapezoid prediction `Im((g(a) + g(b))/2 · h e)`: a
+//!    full turn hidden inside the step would make them differ by about `2π`;
+//!
+//! otherwise the step is halved. The accumulated phase must be within `0.05` of a multiple of
+//! `2π`. This is a floating-point computation, not interval arithmetic, but no root can hide
+//! without violating one of the three tests at every scale the step halving visits.
+//! The count uses neither the collocation nor Newton's method, so it certifies them.
 
 use super::collocation::{laplacian, validate_network, CollocationError};
 use nalgebra::DMatrix;
@@ -35,6 +52,14 @@ pub enum ArgumentPrincipleError {
         /// Imaginary part of the contour point.
         im: f64,
     },
+    /// The accumulated phase is not a whole number of turns.
+    #[error("the phase of det M(s) around the contour right of σ = {sigma} adds up to {winding} turns, not a whole number")]
+    NonIntegerWinding {
+        /// The line.
+        sigma: f64,
+        /// The accumulated winding number.
+        winding: f64,
+    },
 }
 
 /// Number of characteristic roots with `Re s > σ`, counted with multiplicity.
@@ -46,10 +71,12 @@ pub struct RootCount {
     pub count: usize,
     /// Whether the count includes the consensus root (`σ < 0`).
     pub includes_consensus: bool,
-    /// Half-width `B + 1` of the enclosing rectangle [1/s].
+    /// Half-width `R` of the enclosing rectangle [1/s].
     pub radius: f64,
     /// Determinant evaluations used.
     pub evaluations: usize,
+    /// Steps rejected by the step control (halved and retried).
+    pub rejected_steps: usize,
 }
 
 impl RootCount {
@@ -63,60 +90,125 @@ impl RootCount {
 /// Counts the characteristic roots of eq. `chandler+` with `Re s > σ` by the argument principle.
 ///
 /// # Errors
-/// [`ArgumentPrincipleError`] for invalid input or a root on the contour.
+/// [`ArgumentPrincipleError`] for invalid input, a root on the contour or a phase that does
+/// not close.
 pub fn count_roots_right_of(
     adjacency: &DMatrix<f64>,
     delays_s: &[f64],
     sigma: f64,
 ) -> Result<RootCount, ArgumentPrincipleError> {
-    let n = validate_network(adjacency, delays_s)?;
+    validate_network(adjacency, delays_s)?;
+    count_with_laplacian(&laplacian(adjacency), delays_s, sigma)
+}
+
+/// `f(s)/|f(s)|` and the logarithmic derivative `g(s) = f'(s)/f(s)` (module documentation).
+fn phase_and_log_derivative(
+    l: &DMatrix<f64>,
+    delays_s: &[f64],
+    rho: f64,
+    s: Complex64,
+) -> Option<(Complex64, Complex64)> {
+    let n = l.nrows();
+    let mut m = DMatrix::from_fn(n, n, |i, j| {
+        Complex64::new(l[(i, j)], 0.0) * (-s * delays_s[i]).exp()
+    });
+    for i in 0..n {
+        m[(i, i)] += s;
+    }
+    let lu = m.lu();
+    // det f = det M / (s + ρ)^N, normalized factor by factor to avoid overflow.
+    let shift = s + rho;
+    let u = lu.u();
+    let mut phase = Complex64::new(1.0, 0.0);
+    for i in 0..n {
+        let z = u[(i, i)] / shift;
+        let norm = z.norm();
+        if !(norm.is_finite() && norm > 0.0) {
+            return None;
+        }
+        phase *= z / norm;
+    }
+    if lu.p().determinant::<f64>() < 0.0 {
+        phase = -phase;
+    }
+    let inv = lu.try_inverse()?;
+    let mut g = Complex64::new(0.0, 0.0);
+    for i in 0..n {
+        g += (1.0 + s * delays_s[i]) * inv[(i, i)] - delays_s[i];
+    }
+    g -= n as f64 / shift;
+    (g.re.is_finite() && g.im.is_finite()).then_some((phase, g))
+}
+
+/// `d/ds log det M(s) = tr(M(s)⁻¹M'(s))` for `M(s) = sI + diag(e^{−sα_i})L`, or `None` at a
+/// root. Newton's step `s − m/g(s)` converges quadratically to a root of multiplicity `m`.
+pub(crate) fn log_det_derivative(
+    l: &DMatrix<f64>,
+    delays_s: &[f64],
+    s: Complex64,
+) -> Option<Complex64> {
+    let n = l.nrows();
+    let mut m = DMatrix::from_fn(n, n, |i, j| {
+        Complex64::new(l[(i, j)], 0.0) * (-s * delays_s[i]).exp()
+    });
+    for i in 0..n {
+        m[(i, i)] += s;
+    }
+    let inv = m.try_inverse()?;
+    let mut g = Complex64::new(0.0, 0.0);
+    for i in 0..n {
+        g += (1.0 + s * delays_s[i]) * inv[(i, i)] - delays_s[i];
+    }
+    (g.re.is_finite() && g.im.is_finite()).then_some(g)
+}
+
+/// [`count_roots_right_of`] for a validated Laplacian.
+pub(crate) fn count_with_laplacian(
+    l: &DMatrix<f64>,
+    delays_s: &[f64],
+    sigma: f64,
+) -> Result<RootCount, ArgumentPrincipleError> {
     if !sigma.is_finite() {
         return Err(ArgumentPrincipleError::NonFiniteLine { sigma });
     }
-    let l = laplacian(adjacency);
+    let n = l.nrows();
     let bound = (0..n)
         .map(|i| 2.0 * l[(i, i)] * (-sigma * delays_s[i]).exp())
         .fold(0.0, f64::max);
-    let r = bound + 1.0;
+    let rho = (-sigma).max(0.0) + 1.0;
+    let r = 2.0 * (bound + rho) + sigma.abs() + 1.0;
     let right = r.max(sigma + 1.0);
-    // Counter-clockwise rectangle.
+    // Counter-clockwise rectangle, starting on the line Re s = σ at its lowest point.
     let corners = [
         Complex64::new(sigma, -r),
         Complex64::new(right, -r),
         Complex64::new(right, r),
         Complex64::new(sigma, r),
     ];
-    let phase = |s: Complex64| -> Option<Complex64> {
-        let mut m = DMatrix::from_fn(n, n, |i, j| {
-            Complex64::new(l[(i, j)], 0.0) * (-s * delays_s[i]).exp()
-        });
-        for i in 0..n {
-            m[(i, i)] += s;
-        }
-        let d = m.lu().determinant();
-        let norm = d.norm();
-        (norm.is_finite() && norm > 0.0).then(|| d / norm)
-    };
     let scale = r + sigma.abs();
+    let on_contour = |s: Complex64| ArgumentPrincipleError::RootOnContour { re: s.re, im: s.im };
+    let eval = |s: Complex64| phase_and_log_derivative(l, delays_s, rho, s).ok_or(on_contour(s));
     let mut evaluations = 0;
+    let mut rejected_steps = 0;
     let mut total_angle = 0.0;
     for side in 0..4 {
         let (a, b) = (corners[side], corners[(side + 1) % 4]);
         let length = (b - a).norm();
         let dir = (b - a) / length;
         let mut t = 0.0;
-        let mut h = length / 200.0;
-        let on_contour =
-            |s: Complex64| ArgumentPrincipleError::RootOnContour { re: s.re, im: s.im };
-        let mut p = phase(a).ok_or_else(|| on_contour(a))?;
+        let (mut p, mut g) = eval(a)?;
         evaluations += 1;
+        let mut h = (1.0 / g.norm().max(1e-300)).min(length / 8.0);
         while t < length {
             let step = h.min(length - t);
             let s_next = a + dir * (t + step);
             evaluations += 1;
-            let q = phase(s_next).ok_or_else(|| on_contour(s_next))?;
+            let (q, g_next) = eval(s_next)?;
             let delta = (q / p).arg();
-            if delta.abs() > 0.5 {
+            let predicted = ((g + g_next) * 0.5 * dir * step).im;
+            let stiffness = step * g.norm().max(g_next.norm());
+            if delta.abs() > 0.5 || stiffness > 1.0 || (delta - predicted).abs() > 0.1 {
+                rejected_steps += 1;
                 h = step / 2.0;
                 if h < 1e-13 * scale {
                     return Err(on_contour(s_next));
@@ -125,16 +217,17 @@ pub fn count_roots_right_of(
             }
             total_angle += delta;
             p = q;
+            g = g_next;
             t += step;
-            if delta.abs() < 0.1 {
-                h = (2.0 * step).min(length / 20.0);
+            if delta.abs() < 0.2 && stiffness < 0.4 {
+                h = (2.0 * step).min(length / 8.0);
             }
         }
     }
     let winding = total_angle / (2.0 * std::f64::consts::PI);
     let count = winding.round();
     if (winding - count).abs() > 1e-6 || count < 0.0 {
-        return Err(ArgumentPrincipleError::RootOnContour { re: sigma, im: 0.0 });
+        return Err(ArgumentPrincipleError::NonIntegerWinding { sigma, winding });
     }
     Ok(RootCount {
         sigma,
@@ -142,6 +235,7 @@ pub fn count_roots_right_of(
         includes_consensus: sigma < 0.0,
         radius: r,
         evaluations,
+        rejected_steps,
     })
 }
 
@@ -248,5 +342,66 @@ mod tests {
                 .starts_with("a characteristic root lies on the contour"),
             "{e}"
         );
+    }
+
+    /// Roots of a uniform ring right of `σ` with multiplicity, from Lambert W on branches
+    /// `|b| ≤ 8` of every Fourier mode (the oracle).
+    fn lambert_count(ring: &UniformRing, sigma: f64) -> usize {
+        let mut count = 0;
+        for k in 0..ring.vehicles {
+            for b in -8i64..=8 {
+                if k == 0 && b != 0 {
+                    continue;
+                }
+                if ring.mode_root(k, b).unwrap().re > sigma {
+                    count += 1;
+                }
+            }
+        }
+        count
+    }
+
+    #[test]
+    fn lines_next_to_double_and_nearly_real_roots_count_them_all() {
+        // Symmetric rings have λ_k = λ_{N−k} real: every root is double. With α·λ_max just
+        // above 1/e the dominant pair W_{0,−1}(−αλ)/α is nearly real (Im ≈ 0.05).
+        let e_inv = (-1.0f64).exp();
+        for &(n, k, alpha) in &[
+            (8usize, 0.5, 0.9),
+            (12, 1.0, 0.4),
+            (10, e_inv / 4.0 * 1.0005, 1.0),
+            (9, 0.3, 1.1),
+        ] {
+            let ring = UniformRing::new(n, k, k, alpha).unwrap();
+            let modes = ring.modes().unwrap();
+            let a = modes.abscissa;
+            for &offset in &[1e-6, -1e-6, 1e-3, -1e-3] {
+                let sigma = a + offset * (1.0 + a.abs());
+                let c = count_roots_right_of(&ring.adjacency(), &ring.delays(), sigma).unwrap();
+                assert_eq!(
+                    c.count,
+                    lambert_count(&ring, sigma),
+                    "N={n} k={k} α={alpha} σ = abscissa {offset:+e}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn all_to_all_three_counts_the_double_root() {
+        // L = 3kI − k11ᵀ: det M = s (s + 3k e^{−sα})², every non-consensus root double.
+        let (k, alpha) = (0.4, 0.7);
+        let a = DMatrix::from_fn(3, 3, |i, j| if i == j { 0.0 } else { k });
+        let w = |b: i64| {
+            super::super::lambert_w::lambert_w(b, Complex64::new(-3.0 * k * alpha, 0.0)).unwrap()
+                / alpha
+        };
+        let abscissa = w(0).re;
+        for &offset in &[1e-6, -1e-6, 0.2] {
+            let sigma = abscissa + offset;
+            let expected = 1 + 2 * (-8i64..=8).filter(|&b| w(b).re > sigma).count();
+            let c = count_roots_right_of(&a, &[alpha; 3], sigma).unwrap();
+            assert_eq!(c.count, expected, "σ = abscissa {offset:+e}");
+        }
     }
 }

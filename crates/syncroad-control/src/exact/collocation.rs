@@ -137,6 +137,8 @@ pub struct RefinedRoot {
     pub newton_steps: usize,
     /// Whether Newton met its tolerance.
     pub converged: bool,
+    /// Multiplicity of the root as a zero of `det M(s)`.
+    pub multiplicity: usize,
 }
 
 /// Rightmost roots of `det(sI + diag(e^{−sα_i})L) = 0` other than consensus.
@@ -425,6 +427,7 @@ fn newton_refine(
         null_vector_residual,
         newton_steps: steps,
         converged,
+        multiplicity: 1,
     }
 }
 
@@ -436,6 +439,62 @@ fn relative_residual(l: &DMatrix<f64>, delays_s: &[f64], s: Complex64) -> f64 {
         sv.min() / max
     } else {
         0.0
+    }
+}
+
+/// Eigenvalues of a real matrix by the real Schur form.
+///
+/// nalgebra's Francis iteration has no exceptional shifts, and it can stagnate on clusters of
+/// (exactly) repeated eigenvalues, which symmetric graphs produce: an all-to-all graph with
+/// equal delays has every collocated non-consensus root `N − 1` times. When it stalls, the
+/// deflation threshold is relaxed step by step (`10⁻¹⁴ … 10⁻¹¹` relative to the neighbouring
+/// diagonal entries), which lets a converged cluster split off; the eigenvalues then carry an
+/// error of that order, well inside Newton's basin, and Newton refines them on `M(s)`.
+pub(crate) fn eigenvalues(a: DMatrix<f64>) -> Result<Vec<Complex64>, CollocationError> {
+    let order = a.nrows();
+    // LAPACK's iteration budget (dlahqr: 30 sweeps per eigenvalue).
+    let max_iter = 30 * order.max(10);
+    for eps in [f64::EPSILON, 1e-14, 1e-13, 1e-12, 1e-11] {
+        if let Some(schur) = Schur::try_new(a.clone(), eps, max_iter) {
+            return Ok(schur.complex_eigenvalues().iter().copied().collect());
+        }
+    }
+    Err(CollocationError::EigenvaluesFailed { order })
+}
+
+/// Multiplicity of each refined root as a zero of `det M(s)`: the larger of the number of
+/// collocation eigenvalues in a small cluster around it (algebraic multiplicity, which the
+/// collocation reproduces) and the dimension of the numerical null space of `M(s)`
+/// (geometric multiplicity). The cluster radius stays below half the distance to any other
+/// refined root.
+fn assign_multiplicities(
+    l: &DMatrix<f64>,
+    delays_s: &[f64],
+    eigenvalues: &[Complex64],
+    roots: &mut [RefinedRoot],
+) {
+    let centres: Vec<Complex64> = roots.iter().map(|r| Complex64::from(r.root)).collect();
+    for (k, r) in roots.iter_mut().enumerate() {
+        let s = centres[k];
+        let mut radius = 1e-4 * (1.0 + s.norm());
+        for (j, &z) in centres.iter().enumerate() {
+            if j != k {
+                radius = radius
+                    .min(0.5 * (z - s).norm())
+                    .min(0.5 * (z.conj() - s).norm());
+            }
+        }
+        if s.im != 0.0 {
+            radius = radius.min(s.im.abs());
+        }
+        let cluster = eigenvalues
+            .iter()
+            .filter(|&&z| (z - s).norm() < radius)
+            .count();
+        let sv = char_matrix_from_laplacian(l, delays_s, s).singular_values();
+        let max = sv.max();
+        let null = sv.iter().filter(|&&x| x <= 1e-8 * max).count();
+        r.multiplicity = cluster.max(null).max(1);
     }
 }
 
@@ -461,9 +520,8 @@ pub fn rightmost_roots(
         .max(2);
     let a = generator_matrix(&l, delays_s, m);
     let order = a.nrows();
-    let schur = Schur::try_new(a, f64::EPSILON, 10_000 * order.max(1))
-        .ok_or(CollocationError::EigenvaluesFailed { order })?;
-    let mut eig: Vec<Complex64> = schur.complex_eigenvalues().iter().copied().collect();
+    let all = eigenvalues(a)?;
+    let mut eig = all.clone();
     // Discard the consensus eigenvalue (the one closest to 0).
     if let Some(pos) = eig
         .iter()
@@ -504,6 +562,7 @@ pub fn rightmost_roots(
     }
     refined.sort_by(|a, b| b.root.re.total_cmp(&a.root.re));
     refined.truncate(options.roots.max(1));
+    assign_multiplicities(&l, delays_s, &all, &mut refined);
     let abscissa = refined[0].root.re;
     let max_residual = refined.iter().map(|r| r.residual).fold(0.0, f64::max);
     Ok(RootsReport {
@@ -788,5 +847,66 @@ pub(crate) mod tests {
             m.starts_with("the interaction graph has no directed spanning tree (vehicle"),
             "{m}"
         );
+    }
+}
+
+#[cfg(test)]
+mod repeated_roots {
+    use super::super::lambert_w::lambert_w;
+    use super::*;
+    use approx::assert_relative_eq;
+
+    /// All-to-all coupling with gain `k`: `L = kN I − k 11ᵀ`, eigenvalues 0 and `Nk`
+    /// (multiplicity `N − 1`).
+    fn all_to_all(n: usize, k: f64) -> DMatrix<f64> {
+        DMatrix::from_fn(n, n, |i, j| if i == j { 0.0 } else { k })
+    }
+
+    #[test]
+    fn all_to_all_uniform_delay_roots_are_the_lambert_w_roots_with_multiplicity() {
+        // det(sI + e^{−sα}L) = s · (s + Nk e^{−sα})^{N−1}: the non-consensus roots are
+        // W_b(−Nkα)/α, each of multiplicity N − 1.
+        for &n in &[3usize, 4, 5, 10] {
+            for &k in &[0.1, 0.3] {
+                let alpha = 0.5;
+                let a = all_to_all(n, k);
+                let r = rightmost_roots(&a, &vec![alpha; n], &CollocationOptions::default())
+                    .unwrap_or_else(|e| panic!("N={n} k={k}: {e}"));
+                let w0 =
+                    lambert_w(0, Complex64::new(-(n as f64) * k * alpha, 0.0)).unwrap() / alpha;
+                assert_relative_eq!(r.abscissa, w0.re, epsilon = 1e-10);
+                assert_relative_eq!(r.roots[0].root.im, w0.im.abs(), epsilon = 1e-10);
+                assert_eq!(r.roots[0].multiplicity, n - 1, "N={n} k={k}");
+            }
+        }
+    }
+
+    #[test]
+    fn one_slower_driver_in_an_all_to_all_five_keeps_a_triple_root() {
+        // Delays (0.5, 0.5, 0.5, 0.5, 0.6), gain 0.1: on {x : x_5 = 0, Σx = 0} (dimension 3)
+        // L acts as 5k, so s + 5k e^{−0.5 s} = 0 gives a root of multiplicity 3. On the
+        // symmetric vectors (a, a, a, a, b) the 2×2 reduction L_red = k[[1, −1], [−4, 4]]
+        // gives s = −k(e^{−0.5 s} + 4 e^{−0.6 s}) (besides consensus).
+        let k = 0.1;
+        let a = all_to_all(5, k);
+        let delays = [0.5, 0.5, 0.5, 0.5, 0.6];
+        let r = rightmost_roots(&a, &delays, &CollocationOptions::default()).unwrap();
+        let triple = lambert_w(0, Complex64::new(-5.0 * k * 0.5, 0.0)).unwrap() / 0.5;
+        // Scalar Newton on the reduced equation from the real axis.
+        let f = |s: f64| s + k * ((-0.5 * s).exp() + 4.0 * (-0.6 * s).exp());
+        let df = |s: f64| 1.0 - k * (0.5 * (-0.5 * s).exp() + 2.4 * (-0.6 * s).exp());
+        let mut s = -0.5;
+        for _ in 0..50 {
+            s -= f(s) / df(s);
+        }
+        let found = |z: Complex64| {
+            r.roots
+                .iter()
+                .find(|q| (Complex64::from(q.root) - z).norm() < 1e-9)
+                .map(|q| q.multiplicity)
+        };
+        assert_eq!(found(triple), Some(3), "{:?}", r.roots);
+        assert_eq!(found(Complex64::new(s, 0.0)), Some(1), "{:?}", r.roots);
+        assert_relative_eq!(r.abscissa, triple.re.max(s), epsilon = 1e-10);
     }
 }

@@ -17,8 +17,11 @@
 //!   `veh-proto2`): closed-loop eigenvalues next to Theorem `thm.cacc`;
 //! * [`string_stability`](mod@string_stability) — gap-error transfer peaks and a
 //!   braking-wave simulation;
+//! * [`platoon_scaling`](mod@platoon_scaling) — least-stable eigenvalue of bidirectional
+//!   platoons against their size, with the fitted exponent (Barooah, Mehta & Hespanha);
 //! * [`acyclic`] — exact roots of acyclic networks (predecessor following behind a leader),
 //!   where identical drivers give roots of high multiplicity;
+//! * [`analysis`] — a whole scenario: the method chosen for its structure and one verdict;
 //! * [`report`] — combined serializable reports with plain-text tables for a CLI.
 //!
 //! Inputs are plain data: an adjacency matrix `A = (a_ij)` with `a_ij ≥ 0` and zero diagonal
@@ -26,16 +29,19 @@
 #![warn(missing_docs)]
 
 pub mod acyclic;
+pub mod analysis;
 pub mod argument_principle;
 pub mod cacc_modes;
 pub mod collocation;
 pub mod critical;
 pub mod lambert_w;
+pub mod platoon_scaling;
 pub mod report;
 pub mod ring_modes;
 pub mod string_stability;
 
 pub use acyclic::{acyclic_roots, AcyclicError, AcyclicReport, DriverRoot};
+pub use analysis::{analyse, AnalysisError, ExactVerdict, StabilityReport};
 pub use argument_principle::{count_roots_right_of, ArgumentPrincipleError, RootCount};
 pub use cacc_modes::{cacc_modes, CaccCondition, CaccError, CaccModes, CaccParams};
 pub use collocation::{
@@ -44,7 +50,11 @@ pub use collocation::{
 };
 pub use critical::{critical_scale, CriticalError, CriticalReport};
 pub use lambert_w::{lambert_w, LambertWError};
-pub use report::{analyse_cacc, analyse_network, CaccReport, NetworkStabilityReport, ReportError};
+pub use platoon_scaling::{platoon_scaling, PlatoonLaw, PlatoonScaling, PlatoonScalingError};
+pub use report::{
+    analyse_cacc, analyse_network, certify_roots, CaccReport, NetworkStabilityReport, ReportError,
+    RootsCertificate,
+};
 pub use ring_modes::{RingError, RingModes, UniformRing};
 pub use string_stability::{
     chandler_string_peak, string_stability, LeaderDisturbance, StringStabilityError,

@@ -4,12 +4,13 @@
 use super::argument_principle::{count_roots_right_of, ArgumentPrincipleError, RootCount};
 use super::cacc_modes::{cacc_modes, CaccError, CaccModes, CaccParams};
 use super::collocation::{rightmost_roots, CollocationError, CollocationOptions, RootsReport};
-use super::critical::{critical_scale, CriticalError, CriticalReport};
+use super::critical::{critical_scale_from, CriticalError, CriticalReport};
 use super::ring_modes::RingModes;
 use super::string_stability::{
     string_stability, StringStabilityError, StringStabilityOptions, StringStabilityReport,
 };
 use nalgebra::DMatrix;
+use num_complex::Complex64;
 use serde::Serialize;
 use std::fmt;
 
@@ -41,9 +42,90 @@ pub struct NetworkStabilityReport {
     /// Critical gain/delay scales and Theorem-1 conservatism; `None` when no driver is
     /// delayed (stable for every gain).
     pub critical: Option<CriticalReport>,
-    /// Argument-principle count of roots right of `abscissa + 1e-6(1 + |abscissa|)`, if
-    /// requested; `non_consensus() == 0` certifies that no root was missed.
-    pub beyond_abscissa: Option<RootCount>,
+    /// Argument-principle certificate of the rightmost roots, if requested.
+    pub certificate: Option<RootsCertificate>,
+}
+
+/// Argument-principle counts on both sides of the computed abscissa `a`: right of `a + δ`
+/// nothing (but consensus, if `a + δ < 0`), right of `a − δ` exactly the reported roots with
+/// real part above `a − δ`, with their multiplicities and conjugates. `δ` is a quarter of the
+/// gap to the next reported root (at most `0.05(1 + |a|)`, and at most `|a|/2`, so that
+/// neither line meets the consensus root).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct RootsCertificate {
+    /// `δ` [1/s].
+    pub margin: f64,
+    /// Count right of `a − δ`.
+    pub left: RootCount,
+    /// Count right of `a + δ`.
+    pub right: RootCount,
+    /// Expected `left.count` from the reported roots.
+    pub expected_left: usize,
+    /// Expected `right.count` (1 when the consensus root lies right of `a + δ`).
+    pub expected_right: usize,
+    /// Both counts as expected: no root was missed and the multiplicities are right.
+    pub certified: bool,
+}
+
+impl NetworkStabilityReport {
+    /// `Some(true)` synchronizes, `Some(false)` does not, `None` when the certificate was
+    /// requested and failed (roots may have been missed).
+    pub fn certified_stability(&self) -> Option<bool> {
+        match &self.certificate {
+            Some(c) if !c.certified => None,
+            _ => Some(self.roots.is_stable()),
+        }
+    }
+}
+
+/// Counts roots on both sides of the computed abscissa (see [`RootsCertificate`]).
+///
+/// # Errors
+/// [`ArgumentPrincipleError`] if a count fails.
+pub fn certify_roots(
+    adjacency: &DMatrix<f64>,
+    delays_s: &[f64],
+    roots: &RootsReport,
+) -> Result<RootsCertificate, ArgumentPrincipleError> {
+    let a = roots.abscissa;
+    let scale = 1.0 + a.abs();
+    let gap = roots
+        .roots
+        .iter()
+        .map(|r| a - r.root.re)
+        .filter(|g| *g > 1e-9 * scale)
+        .fold(f64::INFINITY, f64::min);
+    let mut margin = if gap.is_finite() {
+        (0.25 * gap).min(0.05 * scale)
+    } else {
+        1e-3 * scale
+    };
+    if a != 0.0 {
+        margin = margin.min(0.5 * a.abs());
+    }
+    let (lo, hi) = (a - margin, a + margin);
+    let left = count_roots_right_of(adjacency, delays_s, lo)?;
+    let right = count_roots_right_of(adjacency, delays_s, hi)?;
+    let in_strip: usize = roots
+        .roots
+        .iter()
+        .filter(|r| r.root.re > lo)
+        .map(|r| {
+            let s = Complex64::from(r.root);
+            let real = s.im.abs() <= 1e-12 * (1.0 + s.norm());
+            r.multiplicity * if real { 1 } else { 2 }
+        })
+        .sum();
+    let expected_left = in_strip + usize::from(lo < 0.0);
+    let expected_right = usize::from(hi < 0.0);
+    Ok(RootsCertificate {
+        margin,
+        left,
+        right,
+        expected_left,
+        expected_right,
+        certified: left.count == expected_left && right.count == expected_right,
+    })
 }
 
 /// CACC platoon: eigenvalue verdicts and, if the platoon is stable, string stability.
@@ -67,13 +149,12 @@ pub fn analyse_network(
     certify: bool,
 ) -> Result<NetworkStabilityReport, ReportError> {
     let roots = rightmost_roots(adjacency, delays_s, options)?;
-    let beyond_abscissa = if certify {
-        let sigma = roots.abscissa + 1e-6 * (1.0 + roots.abscissa.abs());
-        Some(count_roots_right_of(adjacency, delays_s, sigma)?)
+    let certificate = if certify {
+        Some(certify_roots(adjacency, delays_s, &roots)?)
     } else {
         None
     };
-    let critical = match critical_scale(adjacency, delays_s, options) {
+    let critical = match critical_scale_from(adjacency, delays_s, &roots, options) {
         Ok(c) => Some(c),
         Err(CriticalError::NoDelay) => None,
         Err(e) => return Err(e.into()),
@@ -81,7 +162,7 @@ pub fn analyse_network(
     Ok(NetworkStabilityReport {
         roots,
         critical,
-        beyond_abscissa,
+        certificate,
     })
 }
 
@@ -115,17 +196,18 @@ impl fmt::Display for NetworkStabilityReport {
         )?;
         writeln!(
             f,
-            "{:>4} {:>14} {:>14} {:>10}",
-            "#", "Re s [1/s]", "Im s [rad/s]", "residual"
+            "{:>4} {:>14} {:>14} {:>10} {:>5}",
+            "#", "Re s [1/s]", "Im s [rad/s]", "residual", "mult"
         )?;
         for (k, root) in r.roots.iter().enumerate() {
             writeln!(
                 f,
-                "{:>4} {:>14.6e} {:>14.6e} {:>10.1e}",
+                "{:>4} {:>14.6e} {:>14.6e} {:>10.1e} {:>5}",
                 k + 1,
                 root.root.re,
                 root.root.im,
-                root.residual
+                root.residual,
+                root.multiplicity
             )?;
         }
         writeln!(
@@ -138,16 +220,20 @@ impl fmt::Display for NetworkStabilityReport {
                 "does not synchronize"
             }
         )?;
-        if let Some(c) = &self.beyond_abscissa {
+        if let Some(c) = &self.certificate {
             writeln!(
                 f,
-                "argument principle: {} root(s) besides consensus right of {:.6e} ({})",
-                c.non_consensus(),
-                c.sigma,
-                if c.non_consensus() == 0 {
+                "argument principle: {} root(s) right of {:.6e} (expected {}), {} right of {:.6e} (expected {}), with multiplicity -> {}",
+                c.left.count,
+                c.left.sigma,
+                c.expected_left,
+                c.right.count,
+                c.right.sigma,
+                c.expected_right,
+                if c.certified {
                     "certified"
                 } else {
-                    "ROOTS MISSED"
+                    "NOT CERTIFIED: roots may have been missed"
                 }
             )?;
         }
@@ -155,8 +241,11 @@ impl fmt::Display for NetworkStabilityReport {
             Some(c) => {
                 writeln!(
                     f,
-                    "critical gain scale {:.10}  Theorem-1 {:.10}  ratio {:.6}",
-                    c.critical_gain_scale, c.theorem1_gain_scale, c.conservatism_ratio
+                    "critical gain scale {:.10}  Theorem-1 {:.10}  ratio {:.6}  (crossing {:.6} rad/s)",
+                    c.critical_gain_scale,
+                    c.theorem1_gain_scale,
+                    c.conservatism_ratio,
+                    c.crossing_frequency_rad_s
                 )?;
                 writeln!(
                     f,
@@ -165,7 +254,7 @@ impl fmt::Display for NetworkStabilityReport {
                     c.theorem1_delay_scale,
                     c.delay_conservatism_ratio,
                     c.critical_max_delay_s,
-                    c.crossing_frequency_rad_s
+                    c.delay_crossing_frequency_rad_s
                 )
             }
             None => writeln!(f, "no delays: stable for every gain scale"),
@@ -270,7 +359,7 @@ mod tests {
             true,
         )
         .unwrap();
-        assert_eq!(r.beyond_abscissa.unwrap().non_consensus(), 0);
+        assert!(r.certificate.unwrap().certified);
         let json = serde_json::to_value(&r).unwrap();
         for key in ["abscissa", "roots", "max_residual"] {
             assert!(json["roots"].get(key).is_some(), "missing roots.{key}");
@@ -324,5 +413,46 @@ mod tests {
         let json = serde_json::to_value(&r).unwrap();
         assert!(json["string_stability"]["max_successive_ratio"].is_number());
         assert!(r.to_string().contains("Theorem thm.cacc: applies"));
+    }
+
+    #[test]
+    fn delay_line_prints_the_delay_scaled_crossing_frequency() {
+        // Bidirectional ring N = 22, K = 1, α = 0.2: with the delays scaled the crossing is
+        // at ω = λ_max = 4 rad/s (with the gains scaled at c*·4 = 5π/2).
+        let ring = UniformRing::new(22, 1.0, 1.0, 0.2).unwrap();
+        let r = analyse_network(
+            &ring.adjacency(),
+            &ring.delays(),
+            &CollocationOptions::default(),
+            false,
+        )
+        .unwrap();
+        let text = r.to_string();
+        let line = text
+            .lines()
+            .find(|l| l.starts_with("critical delay scale"))
+            .unwrap();
+        assert!(line.contains("crossing 4.000000 rad/s"), "{line}");
+    }
+
+    #[test]
+    fn a_missing_root_fails_the_certificate_and_withholds_the_verdict() {
+        // Drop the dominant root from a correct report: the count right of a − δ then finds
+        // more roots than reported, and the verdict is withheld.
+        let ring = UniformRing::new(7, 1.0, 0.3, 0.5).unwrap();
+        let (a, d) = (ring.adjacency(), ring.delays());
+        let mut roots = rightmost_roots(&a, &d, &CollocationOptions::default()).unwrap();
+        assert!(certify_roots(&a, &d, &roots).unwrap().certified);
+        roots.roots.remove(0);
+        roots.abscissa = roots.roots[0].root.re;
+        let c = certify_roots(&a, &d, &roots).unwrap();
+        assert!(!c.certified);
+        let report = NetworkStabilityReport {
+            roots,
+            critical: None,
+            certificate: Some(c),
+        };
+        assert_eq!(report.certified_stability(), None);
+        assert!(report.to_string().contains("NOT CERTIFIED"));
     }
 }

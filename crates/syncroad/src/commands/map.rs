@@ -9,6 +9,7 @@ use anyhow::Context;
 use plotters::prelude::*;
 use rayon::prelude::*;
 use serde::Serialize;
+use syncroad_control::exact::analysis::{network_matrices, uniform_ring, FULL_SOLVE_LIMIT};
 use syncroad_control::exact::{self, CollocationOptions, UniformRing};
 use syncroad_control::scenario::{DelayedDriverModel, Model};
 use syncroad_control::{evaluate, theory, EvalOptions, Scenario, Verdict};
@@ -18,7 +19,6 @@ use crate::error::{InputError, Status};
 use crate::pipeline;
 use crate::plots::err;
 use crate::progress::Progress;
-use crate::stability::{network_matrices, uniform_ring, FULL_SOLVE_LIMIT};
 
 /// Swept quantity.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]

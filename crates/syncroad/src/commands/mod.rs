@@ -28,7 +28,11 @@ pub fn run(cli: Cli) -> anyhow::Result<Status> {
         Command::SumoBench { quick, json } => sumo_bench::run(quick, json.as_deref()),
         Command::Bench { horizon_s, sizes } => bench::run(horizon_s, &sizes),
         Command::Ifp { eta, rho, json } => ifp::run(&eta, &rho, json),
-        Command::Stability { scenario, json } => stability::run(&scenario, json),
+        Command::Stability {
+            scenario,
+            json,
+            platoon_scaling,
+        } => stability::run(&scenario, json, platoon_scaling),
         Command::Map {
             scenario,
             x,

@@ -1,18 +1,50 @@
-//! `syncroad stability`: exact stability beside the paper's conditions.
+//! `syncroad stability`: exact stability beside the paper's conditions; with
+//! `--platoon-scaling`, the least-stable eigenvalue of the CACC platoon against its size.
 
 use std::path::Path;
 
-use crate::config::load_scenario;
-use crate::error::Status;
+use syncroad_control::exact::analysis::{self, AnalysisError, ExactVerdict};
 
-/// Prints the exact report (tables or JSON); success when exactly stable.
-pub fn run(path: &Path, json: bool) -> anyhow::Result<Status> {
+use crate::config::load_scenario;
+use crate::error::{InputError, Status};
+
+/// Prints the exact report (tables or JSON); success when the certified verdict is
+/// "synchronizes".
+pub fn run(path: &Path, json: bool, platoon_scaling: bool) -> anyhow::Result<Status> {
     let sc = load_scenario(path)?;
-    let r = crate::stability::analyse(&sc)?;
+    let r = analysis::analyse(&sc).map_err(|e| match e {
+        AnalysisError::TooLargeForFullSolve { .. } => {
+            anyhow::Error::new(e).context(InputError::new(format!("scenario {}", path.display())))
+        }
+        e => anyhow::Error::new(e),
+    })?;
+    let scaling = if platoon_scaling {
+        Some(
+            analysis::platoon_scaling_study(
+                &sc,
+                &syncroad_control::exact::platoon_scaling::DEFAULT_SIZES,
+            )
+            .map_err(|e| match e {
+                AnalysisError::PlatoonScalingNeedsCacc => {
+                    anyhow::Error::new(e).context(InputError::new("--platoon-scaling"))
+                }
+                e => anyhow::Error::new(e),
+            })?,
+        )
+    } else {
+        None
+    };
     if json {
-        println!("{}", serde_json::to_string_pretty(&r)?);
+        let v = match &scaling {
+            Some(_) => serde_json::json!({"report": r, "platoon_scaling": scaling}),
+            None => serde_json::to_value(&r)?,
+        };
+        println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
         print!("{}", crate::stability::table(&r));
+        if let Some(s) = &scaling {
+            print!("{}", crate::stability::scaling_table(s));
+        }
     }
-    Ok(Status::verdict(r.exactly_stable))
+    Ok(Status::verdict(r.verdict == ExactVerdict::Synchronizes))
 }

@@ -1,0 +1,343 @@
+//! Exact stability of a whole scenario: the method chosen for its structure, and one verdict.
+//!
+//! * Uniform rings (equal gains and delays, no leader): Fourier modes and Lambert W, any `N`
+//!   ([`super::ring_modes`]).
+//! * Acyclic networks (chains behind a leader): exact per-driver roots ([`super::acyclic`]),
+//!   and the string-stability peak of every predecessor-to-follower transfer
+//!   ([`super::string_stability::chandler_string_peak`]).
+//! * Any other graph up to [`FULL_SOLVE_LIMIT`] vehicles: collocation and Newton, certified
+//!   by the argument principle, and the critical scale by continuation
+//!   ([`super::report::analyse_network`]).
+//! * CACC platoons: closed-loop eigenvalues and string stability ([`super::report::analyse_cacc`]).
+//!
+//! A leader with pinning gains enters as an extra, undelayed vertex whose speed never changes,
+//! so the consensus root is the leader's own mode.
+
+use nalgebra::DMatrix;
+use serde::Serialize;
+
+use super::acyclic::{acyclic_roots, AcyclicReport};
+use super::cacc_modes::CaccParams;
+use super::collocation::CollocationOptions;
+use super::platoon_scaling::{platoon_scaling, PlatoonLaw, PlatoonScaling, PlatoonScalingError};
+use super::report::{
+    analyse_cacc, analyse_network, CaccReport, NetworkStabilityReport, ReportError,
+};
+use super::ring_modes::{RingError, RingModes, UniformRing};
+use super::string_stability::{chandler_string_peak, StringStabilityOptions};
+use crate::scenario::{CaccModel, DelayedDriverModel, GraphSpec, Model, ModelSpec};
+use crate::theory::{self, TheoryReport};
+use crate::Scenario;
+
+/// Largest network (vehicles, leader included) for the full root solve.
+pub const FULL_SOLVE_LIMIT: usize = 150;
+
+/// Failure of the scenario analysis.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum AnalysisError {
+    /// Too many vehicles for the full solve, and no fast path applies.
+    #[error("the scenario has {vehicles} vehicles (field `vehicles`, leader included): the full root solve is limited to {limit}; uniform rings of any size use the Fourier fast path (one value for every gain in `model.graph` and for `model.delay_s`), chains behind a leader the exact per-driver roots")]
+    TooLargeForFullSolve {
+        /// Vehicles, leader included.
+        vehicles: usize,
+        /// [`FULL_SOLVE_LIMIT`].
+        limit: usize,
+    },
+    /// The uniform-ring fast path failed.
+    #[error("uniform ring (Fourier modes)")]
+    Ring(#[source] RingError),
+    /// The full solve of the delayed-driver network failed.
+    #[error("delayed-driver network (model.graph, model.delay_s)")]
+    Network(#[source] ReportError),
+    /// The CACC analysis failed.
+    #[error("CACC platoon (model.mu, model.eta, model.nu, model.tau_s)")]
+    Cacc(#[source] ReportError),
+    /// The platoon-scaling study failed.
+    #[error("platoon scaling")]
+    PlatoonScaling(#[source] PlatoonScalingError),
+    /// Platoon scaling was asked for a model that is not a CACC platoon.
+    #[error("platoon scaling needs a CACC platoon (model.type = \"cacc\")")]
+    PlatoonScalingNeedsCacc,
+}
+
+/// The exact verdict.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ExactVerdict {
+    /// Every non-consensus root has `Re s < 0` (certified where a certificate applies).
+    Synchronizes,
+    /// Some non-consensus root has `Re s ≥ 0`.
+    DoesNotSynchronize,
+    /// The argument-principle count disagrees with the computed roots: roots may have been
+    /// missed, so no verdict is given.
+    Uncertified,
+}
+
+/// String stability of a chain behind a leader (acyclic network).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ChainStringStability {
+    /// Per driver with a single predecessor: `sup_ω |H_i(iω)|` of
+    /// `H_i = d_i e^{−sα_i}/(s + d_i e^{−sα_i})` (∞ if the driver is unstable).
+    pub peaks: Vec<DriverPeak>,
+    /// The largest peak: the worst amplification from one vehicle to the next.
+    pub worst_peak: f64,
+    /// The driver attaining it.
+    pub worst_driver: usize,
+    /// Chandler's boundary: `max_i 2 α_i d_i` (string stable iff ≤ 1).
+    pub max_two_alpha_d: f64,
+    /// Every peak ≤ 1 (to 1e-12).
+    pub string_stable: bool,
+}
+
+/// String-stability peak of one driver.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct DriverPeak {
+    /// Driver index.
+    pub driver: usize,
+    /// `2 α_i d_i` (Chandler's `2αK`).
+    pub two_alpha_d: f64,
+    /// `sup_ω |H_i(iω)|`.
+    pub peak: f64,
+}
+
+/// Everything `syncroad stability` reports.
+#[derive(Debug, Clone, Serialize)]
+pub struct StabilityReport {
+    /// Scenario name.
+    pub scenario: String,
+    /// The paper's conditions.
+    pub paper: TheoryReport,
+    /// Uniform-ring fast path, when the scenario is a uniform ring.
+    pub ring: Option<RingModes>,
+    /// Exact per-driver roots, when the network is acyclic (a chain behind a leader).
+    pub acyclic: Option<AcyclicReport>,
+    /// String stability of an acyclic chain.
+    pub chain_string_stability: Option<ChainStringStability>,
+    /// Full solve of the network, when small enough and not acyclic.
+    pub network: Option<NetworkStabilityReport>,
+    /// CACC platoon analysis.
+    pub cacc: Option<CaccReport>,
+    /// The exact verdict.
+    pub verdict: ExactVerdict,
+    /// `verdict == Synchronizes`.
+    pub exactly_stable: bool,
+    /// The paper's conditions certify it.
+    pub certified: bool,
+}
+
+/// The uniform ring described by the scenario, if it is one.
+pub fn uniform_ring(sc: &Scenario, m: &DelayedDriverModel) -> Option<UniformRing> {
+    let ModelSpec::DelayedDriver { graph, .. } = &sc.file.model else {
+        return None;
+    };
+    let a = m.delay_s[0];
+    if m.leader.is_some() || m.delay_s.iter().any(|x| *x != a) {
+        return None;
+    }
+    let (kf, kb) = match graph {
+        GraphSpec::UnidirectionalRing { gain } => (gain.uniform_value(0)?, 0.0),
+        GraphSpec::BidirectionalRing {
+            gain_pred,
+            gain_follow,
+        } => (gain_pred.uniform_value(0)?, gain_follow.uniform_value(0)?),
+        _ => return None,
+    };
+    UniformRing::new(sc.n, kf, kb, a).ok()
+}
+
+/// Adjacency and delays of the network, the leader appended as an undelayed vertex.
+pub fn network_matrices(m: &DelayedDriverModel) -> (DMatrix<f64>, Vec<f64>) {
+    let n = m.graph.len();
+    match &m.leader {
+        None => (m.graph.adjacency_dense(), m.delay_s.clone()),
+        Some((_, b)) => {
+            let mut a = DMatrix::zeros(n + 1, n + 1);
+            a.view_mut((0, 0), (n, n))
+                .copy_from(&m.graph.adjacency_dense());
+            for (i, bi) in b.iter().enumerate() {
+                a[(i, n)] = *bi;
+            }
+            let mut d = m.delay_s.clone();
+            d.push(0.0);
+            (a, d)
+        }
+    }
+}
+
+/// Peaks of the predecessor-to-follower transfers of an acyclic network: for each driver that
+/// observes exactly one vehicle, `chandler_string_peak(α_i d_i)`.
+fn chain_string_stability(a: &DMatrix<f64>, d: &[f64]) -> Option<ChainStringStability> {
+    let n = a.nrows();
+    let mut peaks = Vec::new();
+    for i in 0..n {
+        let arcs = (0..n).filter(|&j| a[(i, j)] > 0.0).count();
+        if arcs != 1 || d[i] == 0.0 {
+            continue;
+        }
+        let di: f64 = a.row(i).sum();
+        peaks.push(DriverPeak {
+            driver: i,
+            two_alpha_d: 2.0 * d[i] * di,
+            peak: chandler_string_peak(d[i] * di),
+        });
+    }
+    let worst = peaks.iter().max_by(|x, y| x.peak.total_cmp(&y.peak))?;
+    Some(ChainStringStability {
+        worst_peak: worst.peak,
+        worst_driver: worst.driver,
+        max_two_alpha_d: peaks.iter().map(|p| p.two_alpha_d).fold(0.0, f64::max),
+        string_stable: peaks.iter().all(|p| p.peak <= 1.0 + 1e-12),
+        peaks,
+    })
+}
+
+/// Runs the exact analysis of a scenario.
+///
+/// # Errors
+/// [`AnalysisError`]: a network too large for the full solve without a fast path, or a
+/// failed computation (with its cause).
+pub fn analyse(sc: &Scenario) -> Result<StabilityReport, AnalysisError> {
+    let paper = theory::report(sc);
+    match &sc.model {
+        Model::DelayedDriver(m) => {
+            let ring = match uniform_ring(sc, m) {
+                Some(r) => Some(r.modes().map_err(AnalysisError::Ring)?),
+                None => None,
+            };
+            let size = m.graph.len() + usize::from(m.leader.is_some());
+            let (a, d) = network_matrices(m);
+            let acyclic = acyclic_roots(&a, &d).ok();
+            let network = if acyclic.is_some() {
+                None
+            } else if size <= FULL_SOLVE_LIMIT {
+                Some(
+                    analyse_network(&a, &d, &CollocationOptions::default(), true)
+                        .map_err(AnalysisError::Network)?,
+                )
+            } else if ring.is_none() {
+                return Err(AnalysisError::TooLargeForFullSolve {
+                    vehicles: size,
+                    limit: FULL_SOLVE_LIMIT,
+                });
+            } else {
+                None
+            };
+            let stable = |s: bool| {
+                if s {
+                    ExactVerdict::Synchronizes
+                } else {
+                    ExactVerdict::DoesNotSynchronize
+                }
+            };
+            let verdict = match (&acyclic, &network, &ring) {
+                (Some(x), _, _) => stable(x.abscissa < 0.0),
+                (None, Some(n), _) => match n.certified_stability() {
+                    Some(s) => stable(s),
+                    None => ExactVerdict::Uncertified,
+                },
+                (None, None, Some(r)) => stable(r.abscissa < 0.0),
+                (None, None, None) => unreachable!("one of the three is computed"),
+            };
+            let chain_string_stability = acyclic
+                .as_ref()
+                .and_then(|_| chain_string_stability(&a, &d));
+            Ok(StabilityReport {
+                scenario: sc.name.clone(),
+                certified: paper.certified,
+                paper,
+                ring,
+                acyclic,
+                chain_string_stability,
+                network,
+                cacc: None,
+                exactly_stable: verdict == ExactVerdict::Synchronizes,
+                verdict,
+            })
+        }
+        Model::Cacc(c) => {
+            let params = cacc_params(c);
+            let r = analyse_cacc(&params, &StringStabilityOptions::default())
+                .map_err(AnalysisError::Cacc)?;
+            let verdict = if r.modes.exactly_stable {
+                ExactVerdict::Synchronizes
+            } else {
+                ExactVerdict::DoesNotSynchronize
+            };
+            Ok(StabilityReport {
+                scenario: sc.name.clone(),
+                certified: paper.certified,
+                paper,
+                ring: None,
+                acyclic: None,
+                chain_string_stability: None,
+                network: None,
+                exactly_stable: verdict == ExactVerdict::Synchronizes,
+                verdict,
+                cacc: Some(r),
+            })
+        }
+    }
+}
+
+fn cacc_params(c: &CaccModel) -> CaccParams {
+    CaccParams {
+        tau_s: c.tau_s.clone(),
+        mu: c.mu.clone(),
+        eta: c.eta.clone(),
+        nu: c.nu[..c.nu.len().saturating_sub(1)].to_vec(),
+    }
+}
+
+/// Platoon-scaling study of a CACC scenario: the paper's law with the scenario's mean gains
+/// (homogeneous), the same with symmetric gap gains `η = ν = (η̄ + ν̄)/2`, and the
+/// relative-velocity law of Barooah et al. with `k = (η̄ + ν̄)/2`, `b = μ̄`, symmetric and
+/// with the velocity gains mistuned by ±50 %.
+///
+/// # Errors
+/// [`AnalysisError::PlatoonScalingNeedsCacc`] for other models; a failed study.
+pub fn platoon_scaling_study(
+    sc: &Scenario,
+    sizes: &[usize],
+) -> Result<Vec<PlatoonScaling>, AnalysisError> {
+    let Model::Cacc(c) = &sc.model else {
+        return Err(AnalysisError::PlatoonScalingNeedsCacc);
+    };
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    let inner_nu = &c.nu[..c.nu.len().saturating_sub(1)];
+    let (tau, mu, eta) = (mean(&c.tau_s), mean(&c.mu), mean(&c.eta));
+    let nu = if inner_nu.is_empty() {
+        eta
+    } else {
+        mean(inner_nu)
+    };
+    let k = 0.5 * (eta + nu);
+    let laws = [
+        PlatoonLaw::Cacc {
+            tau_s: tau,
+            mu,
+            eta,
+            nu,
+        },
+        PlatoonLaw::Cacc {
+            tau_s: tau,
+            mu,
+            eta: k,
+            nu: k,
+        },
+        PlatoonLaw::RelativeVelocity {
+            k_front: k,
+            k_back: k,
+            b_front: mu,
+            b_back: mu,
+        },
+        PlatoonLaw::RelativeVelocity {
+            k_front: k,
+            k_back: k,
+            b_front: 1.5 * mu,
+            b_back: 0.5 * mu,
+        },
+    ];
+    laws.iter()
+        .map(|&law| platoon_scaling(law, sizes).map_err(AnalysisError::PlatoonScaling))
+        .collect()
+}
