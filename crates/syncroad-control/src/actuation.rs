@@ -74,6 +74,15 @@ pub(crate) fn check_step(dt_s: f64) -> Result<(), ActuationError> {
     }
 }
 
+/// The first of a fleet controller's slices whose length is not the fleet size `n`, as
+/// `(name, length)`.
+pub fn mismatched_slice<const K: usize>(
+    n: usize,
+    slices: [(&'static str, usize); K],
+) -> Option<(&'static str, usize)> {
+    slices.into_iter().find(|&(_, len)| len != n)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

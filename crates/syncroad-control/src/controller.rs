@@ -63,14 +63,6 @@ impl LawSpec {
             initial_speed_mps: scenario.initial_speed_mps.clone(),
         }
     }
-
-    /// True when the road carries a leader vehicle in front of the controlled ones.
-    pub fn has_leader(&self) -> bool {
-        match &self.model {
-            Model::DelayedDriver(m) => m.leader.is_some(),
-            Model::Cacc(_) => true,
-        }
-    }
 }
 
 /// Delayed drivers. With a leader vehicle, index 0 is the leader driven at `v_0`.

@@ -37,7 +37,7 @@
 //! D. B. Work, "Dissipation of stop-and-go waves via control of autonomous vehicles: Field
 //! experiments", Transp. Res. C 89 (2018) 205–221, arXiv:1705.01693: the FollowerStopper.
 
-use crate::actuation::{check_step, AccelLimits, ActuationError};
+use crate::actuation::{check_step, mismatched_slice, AccelLimits, ActuationError};
 
 /// Errors of the FollowerStopper: a bad parameter (named, with its value and the valid range)
 /// or inputs of the wrong length.
@@ -216,19 +216,18 @@ impl FollowerStopper {
         leader_speeds_mps: &[f64],
         next_speeds_mps: &mut [f64],
     ) -> Result<(), FollowerStopperError> {
-        for (what, len) in [
+        let lengths = [
             ("speeds_mps", speeds_mps.len()),
             ("gaps_m", gaps_m.len()),
             ("leader_speeds_mps", leader_speeds_mps.len()),
             ("next_speeds_mps", next_speeds_mps.len()),
-        ] {
-            if len != self.n {
-                return Err(FollowerStopperError::LengthMismatch {
-                    what,
-                    len,
-                    n: self.n,
-                });
-            }
+        ];
+        if let Some((what, len)) = mismatched_slice(self.n, lengths) {
+            return Err(FollowerStopperError::LengthMismatch {
+                what,
+                len,
+                n: self.n,
+            });
         }
         for i in 0..self.n {
             let cmd = follower_stopper_command_mps(

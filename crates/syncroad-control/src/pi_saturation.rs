@@ -40,7 +40,7 @@
 //! Field experiments", Transp. Res. C 89 (2018) 205–221, arXiv:1705.01693: the
 //! proportional-integral controller with saturation.
 
-use crate::actuation::{check_step, AccelLimits, ActuationError};
+use crate::actuation::{check_step, mismatched_slice, AccelLimits, ActuationError};
 
 /// Errors of the PI controller with saturation.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -268,19 +268,18 @@ impl PiSaturation {
         leader_speeds_mps: &[f64],
         next_speeds_mps: &mut [f64],
     ) -> Result<(), PiSaturationError> {
-        for (what, len) in [
+        let lengths = [
             ("speeds_mps", speeds_mps.len()),
             ("gaps_m", gaps_m.len()),
             ("leader_speeds_mps", leader_speeds_mps.len()),
             ("next_speeds_mps", next_speeds_mps.len()),
-        ] {
-            if len != self.n {
-                return Err(PiSaturationError::LengthMismatch {
-                    what,
-                    len,
-                    n: self.n,
-                });
-            }
+        ];
+        if let Some((what, len)) = mismatched_slice(self.n, lengths) {
+            return Err(PiSaturationError::LengthMismatch {
+                what,
+                len,
+                n: self.n,
+            });
         }
         for i in 0..self.n {
             self.history[i * self.window_len + self.head] = speeds_mps[i];

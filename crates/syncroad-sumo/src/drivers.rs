@@ -76,22 +76,30 @@ impl SumoDriver {
             "cacc" => return Ok(Self::Cacc),
             _ => {}
         }
-        if let Some(x) = low.strip_prefix("krauss-") {
-            if let Ok(sigma) = x.parse::<f64>() {
-                if (0.0..=1.0).contains(&sigma) {
-                    return Ok(Self::Krauss { sigma });
-                }
-                return Err(DriverError::Sigma {
-                    flag: flag.into(),
-                    value: s.into(),
-                    sigma,
-                });
-            }
+        if let Some(sigma) = low
+            .strip_prefix("krauss-")
+            .and_then(|x| x.parse::<f64>().ok())
+        {
+            return Self::krauss(flag, s, sigma);
         }
         Err(DriverError::Unknown {
             flag: flag.into(),
             value: s.into(),
         })
+    }
+
+    /// Krauss with driver imperfection `sigma`, checked to lie in \[0, 1\]; `flag` and
+    /// `value` name where it was given in the error.
+    pub fn krauss(flag: &str, value: &str, sigma: f64) -> Result<Self, DriverError> {
+        if (0.0..=1.0).contains(&sigma) {
+            Ok(Self::Krauss { sigma })
+        } else {
+            Err(DriverError::Sigma {
+                flag: flag.into(),
+                value: value.into(),
+                sigma,
+            })
+        }
     }
 
     /// The `carFollowModel` (and σ) attributes of a `vType`.

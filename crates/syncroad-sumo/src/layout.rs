@@ -70,9 +70,6 @@ pub struct VehicleType {
     pub emergency_decel_mps2: f64,
     /// maxSpeed [m/s].
     pub max_speed_mps: f64,
-    /// Krauss driver imperfection σ (0 for controlled vehicles; it only acts when SUMO's own
-    /// model drives).
-    pub sigma: f64,
 }
 
 /// One SUMO vehicle's start.
@@ -137,13 +134,6 @@ impl VehicleType {
                 field: "sumo.min_gap_m".into(),
                 value: self.min_gap_m,
                 expected: "must be a finite number ≥ 0".into(),
-            });
-        }
-        if !(0.0..=1.0).contains(&self.sigma) {
-            return Err(LayoutError::Invalid {
-                field: "Krauss σ (--krauss-sigma)".into(),
-                value: self.sigma,
-                expected: "must lie in [0, 1]".into(),
             });
         }
         Ok(())
@@ -329,7 +319,8 @@ impl Layout {
     pub fn routes_xml(&self) -> String {
         let mut s = String::from("<routes>\n");
         let t = &self.vtype;
-        // One vType per (length, driver); law-driven vehicles carry the layout's σ.
+        // One vType per (length, driver). Law-driven vehicles get σ = 0: SUMO's own model only
+        // acts on them when the law does not command them, and then without randomness.
         let mut types: Vec<(u64, Option<crate::drivers::SumoDriver>)> = Vec::new();
         for v in &self.vehicles {
             let key = (v.length_m.to_bits(), v.driver);
@@ -337,7 +328,7 @@ impl Layout {
                 types.push(key);
                 let model = match &v.driver {
                     Some(d) => d.vtype_attributes(),
-                    None => format!(r#"sigma="{}""#, t.sigma),
+                    None => r#"sigma="0""#.to_string(),
                 };
                 let _ = writeln!(
                     s,
@@ -409,7 +400,6 @@ mod tests {
             decel_mps2: 4.5,
             emergency_decel_mps2: 9.0,
             max_speed_mps: 30.0,
-            sigma: 0.0,
         }
     }
 

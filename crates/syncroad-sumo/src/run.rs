@@ -219,7 +219,6 @@ pub fn layout_for(scenario: &Scenario, road: &Road) -> Result<Layout, PrepareErr
         decel_mps2: s.decel_mps2,
         emergency_decel_mps2: s.emergency_decel_mps2,
         max_speed_mps: s.max_speed_mps,
-        sigma: 0.0,
     };
     let horizon = scenario.horizon_s();
     let layout = match scenario.file.road {

@@ -85,7 +85,7 @@ pub struct RunConfig {
 
 impl RunConfig {
     /// Validates `--tolerance-mps`, `--window-s`, `--record-every` and `--warmup-s` against the
-    /// scenario.
+    /// scenario (the same rules `compare` applies).
     pub fn new(sc: &Scenario, a: &OutputArgs) -> anyhow::Result<Self> {
         let mut eval = EvalOptions::of(sc);
         let t = VerdictThresholds {
@@ -108,16 +108,7 @@ impl RunConfig {
             .into());
         }
         eval.thresholds = t;
-        if let Some(w) = a.warmup_s {
-            // The congestion metrics need a sample after the warm-up; a NaN is never valid.
-            if !(w.is_finite() && w >= 0.0) {
-                return Err(InputError::new(format!(
-                    "--warmup-s = {w}: must be a finite number ≥ 0"
-                ))
-                .into());
-            }
-            eval.warmup_s = w;
-        }
+        eval.warmup_s = warmup_s(a.warmup_s, sc)?;
         Ok(Self {
             out: a.out.clone(),
             eval,

@@ -1,6 +1,7 @@
 //! The files a run writes: `trajectories.csv` (long format, one row per vehicle and sample)
 //! and `metrics.json` (the [`RunRecord`], pretty JSON with a trailing newline).
 
+use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::Context;
@@ -15,20 +16,26 @@ pub fn write_trajectory_csv(path: &Path, traj: &Trajectory) -> anyhow::Result<()
     w.write_record(["time_s", "vehicle", "speed_mps", "position_m", "gap_m"])
         .map_err(io)?;
     let n = traj.n;
-    let fmt = |x: f64| x.to_string();
+    // One buffer per field, reused: a large fleet writes millions of rows.
+    let mut t = String::new();
+    let mut field = String::new();
+    let mut put = |w: &mut csv::Writer<std::fs::File>, x: &dyn std::fmt::Display| {
+        field.clear();
+        let _ = write!(field, "{x}");
+        w.write_field(&field)
+    };
     for k in 0..traj.len() {
-        let t = fmt(traj.time_s[k]);
+        t.clear();
+        let _ = write!(t, "{}", traj.time_s[k]);
         for i in 0..n {
             let j = k * n + i;
             let gap = traj.gaps_m.get(j).copied().unwrap_or(f64::NAN);
-            w.write_record([
-                t.clone(),
-                i.to_string(),
-                fmt(traj.speeds_mps[j]),
-                fmt(traj.positions_m[j]),
-                fmt(gap),
-            ])
-            .map_err(io)?;
+            w.write_field(&t).map_err(io)?;
+            put(&mut w, &i).map_err(io)?;
+            put(&mut w, &traj.speeds_mps[j]).map_err(io)?;
+            put(&mut w, &traj.positions_m[j]).map_err(io)?;
+            put(&mut w, &gap).map_err(io)?;
+            w.write_record(None::<&[u8]>).map_err(io)?;
         }
     }
     w.flush()

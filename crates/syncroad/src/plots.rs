@@ -359,14 +359,8 @@ impl Spread {
     }
 }
 
-fn draw_spread<DB: plotters::prelude::DrawingBackend>(
-    root: &plotters::prelude::DrawingArea<DB, plotters::coord::Shift>,
-    title: &str,
-    results: &[Spread],
-) -> anyhow::Result<()> {
-    use plotters::prelude::*;
-    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow::anyhow!("plotting failed: {e:?}");
-    root.fill(&WHITE).map_err(err)?;
+/// `compare_spread.png` and `.svg`: every run's speed spread on one log scale.
+pub fn spread_plot(out: &Path, title: &str, results: &[Spread]) -> anyhow::Result<Vec<PathBuf>> {
     let pos = || {
         results
             .iter()
@@ -376,61 +370,41 @@ fn draw_spread<DB: plotters::prelude::DrawingBackend>(
     let t_end = pos().map(|p| p.0).fold(1.0, f64::max);
     let lo = pos().map(|p| p.1).fold(f64::INFINITY, f64::min).max(1e-12);
     let hi = pos().map(|p| p.1).fold(0.0, f64::max).max(lo * 10.0);
-    let mut chart = ChartBuilder::on(root)
-        .caption(title, ("sans-serif", 20))
-        .margin(10)
-        .x_label_area_size(40)
-        .y_label_area_size(70)
-        .build_cartesian_2d(0.0..t_end, (lo * 0.5..hi * 2.0).log_scale())
-        .map_err(err)?;
-    chart
-        .configure_mesh()
-        .x_desc("time [s]")
-        .y_desc("speed spread [m/s]")
-        .y_label_formatter(&|y| format!("{y:.0e}"))
-        .draw()
-        .map_err(err)?;
-    for (k, r) in results.iter().enumerate() {
-        let colour = Palette99::pick(k).to_rgba();
+    render_both!(out, "compare_spread", (900, 500), |root| {
+        let mut chart = ChartBuilder::on(root)
+            .caption(title, ("sans-serif", 20))
+            .margin(10)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d(0.0..t_end, (lo * 0.5..hi * 2.0).log_scale())
+            .map_err(err)?;
         chart
-            .draw_series(LineSeries::new(
-                r.points
-                    .iter()
-                    .copied()
-                    .filter(|(_, y)| y.is_finite() && *y > 0.0),
-                colour.stroke_width(2),
-            ))
-            .map_err(err)?
-            .label(r.name.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
-    }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(err)?;
-    root.present().map_err(err)?;
-    Ok(())
-}
-
-/// `compare_spread.png` and `.svg`: every run's speed spread on one log scale.
-pub fn spread_plot(out: &Path, title: &str, results: &[Spread]) -> anyhow::Result<()> {
-    use plotters::prelude::*;
-    ensure_font();
-    let png = out.join("compare_spread.png");
-    draw_spread(
-        &BitMapBackend::new(&png, (900, 500)).into_drawing_area(),
-        title,
-        results,
-    )
-    .with_context(|| format!("cannot write {}", png.display()))?;
-    let svg = out.join("compare_spread.svg");
-    draw_spread(
-        &SVGBackend::new(&svg, (900, 500)).into_drawing_area(),
-        title,
-        results,
-    )
-    .with_context(|| format!("cannot write {}", svg.display()))?;
-    Ok(())
+            .configure_mesh()
+            .x_desc("time [s]")
+            .y_desc("speed spread [m/s]")
+            .y_label_formatter(&|y| format!("{y:.0e}"))
+            .draw()
+            .map_err(err)?;
+        for (k, r) in results.iter().enumerate() {
+            let colour = Palette99::pick(k).to_rgba();
+            chart
+                .draw_series(LineSeries::new(
+                    r.points
+                        .iter()
+                        .copied()
+                        .filter(|(_, y)| y.is_finite() && *y > 0.0),
+                    colour.stroke_width(2),
+                ))
+                .map_err(err)?
+                .label(r.name.clone())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(err)?;
+        Ok(())
+    })
 }

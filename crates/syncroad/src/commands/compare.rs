@@ -21,7 +21,7 @@ use anyhow::Context;
 use rayon::prelude::*;
 use serde_json::{json, Value};
 use syncroad_control::scenario::Model;
-use syncroad_control::{EvalOptions, Scenario};
+use syncroad_control::{EvalOptions, RunRecord, Scenario};
 use syncroad_sumo::{
     check_sumo_numbers, interrupt_flag, load_road, loop_position, MeasureOptions, Road, RunOptions,
     SumoDriver, WorkerCommand, EMISSION_CLASS,
@@ -177,16 +177,25 @@ pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
 pub struct RunResult {
     /// The run's name.
     pub name: String,
-    /// Reached the horizon.
-    pub complete: bool,
-    /// Why not.
-    pub error: Option<String>,
-    /// Its metrics record (stamps included), `None` when it never ran.
-    pub metrics: Option<Value>,
-    /// SUMO version reported by the worker.
-    pub sumo_version: Option<String>,
+    /// Its record (stamps included), or why it never produced one.
+    pub record: Result<RunRecord, String>,
     /// The speed spread over time, for the combined plot.
     pub spread: Spread,
+}
+
+impl RunResult {
+    /// Reached the horizon.
+    pub fn complete(&self) -> bool {
+        self.record.as_ref().is_ok_and(|r| r.complete)
+    }
+
+    /// Why not.
+    pub fn error(&self) -> Option<&str> {
+        match &self.record {
+            Ok(r) => r.error.as_deref(),
+            Err(e) => Some(e),
+        }
+    }
 }
 
 /// Keys of a run's record that are stamps, lifted to the top of compare.json.
@@ -228,11 +237,8 @@ fn run_one(
     f.write(dir, title)?;
     Ok(RunResult {
         name: spec.name.clone(),
-        complete: f.record.complete,
-        error: f.record.error.clone(),
-        sumo_version: f.record.sumo_version.clone(),
-        metrics: Some(f.record.to_json()),
         spread: Spread::of(&spec.name, &f.output.trajectory),
+        record: Ok(f.record),
     })
 }
 
@@ -260,13 +266,10 @@ pub fn run_all(
                 };
                 let r = r.unwrap_or_else(|e| RunResult {
                     name: spec.name.clone(),
-                    complete: false,
-                    error: Some(format!("{e:#}")),
-                    metrics: None,
-                    sumo_version: None,
+                    record: Err(format!("{e:#}")),
                     spread: Spread::default(),
                 });
-                progress.finished(&spec.name, r.error.as_deref());
+                progress.finished(&spec.name, r.error());
                 r
             })
             .collect()
@@ -279,17 +282,14 @@ pub fn run_all(
 /// the reductions against the all-human ring.
 pub fn combined(sc: &Scenario, results: &[RunResult], mixed: &[usize]) -> Value {
     let mut runs = serde_json::Map::new();
-    let mut stamps = serde_json::Map::new();
     for r in results {
-        let mut m = r
-            .metrics
-            .clone()
-            .unwrap_or_else(|| json!({"run": r.name, "complete": false, "error": r.error}));
+        let mut m = match &r.record {
+            Ok(rec) => rec.to_json(),
+            Err(e) => json!({"run": r.name, "complete": false, "error": e}),
+        };
         if let Value::Object(o) = &mut m {
             for k in RUN_STAMPS {
-                if let Some(v) = o.remove(k) {
-                    stamps.entry(k.to_string()).or_insert(v);
-                }
+                o.remove(k);
             }
         }
         runs.insert(r.name.clone(), m);
@@ -297,7 +297,9 @@ pub fn combined(sc: &Scenario, results: &[RunResult], mixed: &[usize]) -> Value 
     let mut doc = json!({
         "syncroad_version": env!("CARGO_PKG_VERSION"),
         "platform": format!("{}-{}", std::env::consts::ARCH, std::env::consts::OS),
-        "sumo_version": results.iter().find_map(|r| r.sumo_version.clone()),
+        "sumo_version": results
+            .iter()
+            .find_map(|r| r.record.as_ref().ok()?.sumo_version.clone()),
         "scenario": sc.name,
         "scenario_hash": sc.hash_hex(),
         "seed": sc.file.seed,
@@ -485,13 +487,9 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<Status> {
     if interrupt.load(Ordering::SeqCst) {
         return Ok(Status::Interrupted);
     }
-    let failed: Vec<&RunResult> = results.iter().filter(|r| !r.complete).collect();
+    let failed: Vec<&RunResult> = results.iter().filter(|r| !r.complete()).collect();
     for r in &failed {
-        eprintln!(
-            "error: run {} failed: {}",
-            r.name,
-            r.error.as_deref().unwrap_or("?")
-        );
+        eprintln!("error: run {} failed: {}", r.name, r.error().unwrap_or("?"));
     }
     Ok(if failed.is_empty() {
         Status::Success

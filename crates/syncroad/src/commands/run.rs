@@ -76,14 +76,10 @@ fn run_sumo(sc: &Scenario, out: &OutputArgs, args: &SumoArgs) -> anyhow::Result<
     let timeout = config::timeout(args.timeout_s)?;
     let drivers = match args.krauss_sigma {
         None => Vec::new(),
-        Some(sigma) if (0.0..=1.0).contains(&sigma) => {
-            vec![Some(SumoDriver::Krauss { sigma }); sc.n]
-        }
         Some(sigma) => {
-            return Err(InputError::new(format!(
-                "--krauss-sigma = {sigma}: Krauss σ must lie in [0, 1]"
-            ))
-            .into())
+            let d = SumoDriver::krauss("--krauss-sigma", &sigma.to_string(), sigma)
+                .map_err(|e| InputError::caused("--krauss-sigma", e))?;
+            vec![Some(d); sc.n]
         }
     };
     let road = load_road(sc).map_err(|e| InputError::caused("before starting SUMO", e))?;
