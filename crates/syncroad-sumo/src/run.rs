@@ -94,8 +94,8 @@ pub struct RunOptions {
     pub worker: WorkerCommand,
     /// Record every k-th step.
     pub record_every: usize,
-    /// Ballistic position update (trapezoidal, as the native simulator); see
-    /// [`crate::controller`].
+    /// Ballistic position update (trapezoidal, as the native simulator; see the timing notes
+    /// of the co-simulation step).
     pub ballistic: bool,
     /// Wall-clock limit; `None` takes `sumo.timeout_s` of the scenario.
     pub timeout: Option<Duration>,

@@ -1,6 +1,16 @@
 //! One step of the co-simulation, apart from the loop that runs it: read → law → command →
 //! `simulationStep` → read back. [`CoSim`] holds the state between steps; the runner
 //! (`super::runner`) owns the horizon, the observers and the stop reason.
+//!
+//! # Timing (measured with libsumo 1.28.0, see `tests/sumo.rs::actuation_timing`)
+//! A speed set with `setSpeed` (speed mode 32) before `simulationStep` is the speed `getSpeed`
+//! reports right after that step, exactly. So the loop adds no latency of its own: the law's
+//! `v^{n+1}` computed from `v^n` is realised at step n+1, and the driver delay α_i = m_i Δt of
+//! eq. `chandler+` lives only in the law's delay buffer, as in the native simulator. With
+//! `--step-method.ballistic` SUMO advances positions by `x^{n+1} = x^n + Δt (v^n + v^{n+1}) / 2`,
+//! the native simulator's trapezoidal rule; SUMO's default (Euler) update would use
+//! `x^{n+1} = x^n + Δt v^{n+1}`. Speed mode 32 turns every check off: SUMO realises any
+//! non-negative command and lets vehicles collide (counted by the runner).
 
 use std::time::Instant;
 
