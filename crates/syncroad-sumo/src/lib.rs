@@ -46,6 +46,6 @@ pub use run::{
     check_sumo_numbers, layout_for, load_road, loop_position, run_scenario, MeasureOptions,
     PrepareError, Prepared, RunOptions, SumoRun,
 };
-pub use supervisor::{interrupt_flag, SupervisorError, WorkerCommand};
+pub use supervisor::{interrupt_flag, SupervisorError, WorkerCommand, WorkerPool};
 pub use venv::repo_dir;
 pub use worker::{is_worker_invocation, worker_main};
