@@ -21,11 +21,13 @@ pub mod file;
 mod graph_spec;
 pub mod leader;
 pub mod per_vehicle;
+mod scale;
 mod validate;
 
 pub use file::*;
 pub use leader::LeaderProfile;
 pub use per_vehicle::PerVehicle;
+pub use scale::Scaled;
 
 /// Errors raised while reading or validating a scenario.
 #[derive(Debug, thiserror::Error)]

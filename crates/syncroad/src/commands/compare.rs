@@ -34,15 +34,7 @@ use crate::output::write_json;
 use crate::pipeline::{self, Finished};
 use crate::plots::{spread_plot, Spread};
 use crate::progress::Progress;
-
-/// One run of a comparison: a name and who drives each scenario vehicle.
-#[derive(Debug, Clone, PartialEq)]
-pub struct RunSpec {
-    /// Folder and column name (`protocol`, `krauss-0.9`, `mixed-2`, ...).
-    pub name: String,
-    /// Per scenario vehicle: `None` = the law, `Some` = that SUMO model.
-    pub drivers: Vec<Option<SumoDriver>>,
-}
+use crate::runs::RunSpec;
 
 /// A validated comparison.
 #[derive(Debug, Clone)]
@@ -67,11 +59,6 @@ pub struct Plan {
     pub road: Road,
 }
 
-/// Law-controlled vehicles of a mixed ring with `k` of `n`: `⌊j n / k⌋`, j = 0..k.
-pub fn mixed_controlled(n: usize, k: usize) -> Vec<usize> {
-    (0..k).map(|j| j * n / k).collect()
-}
-
 /// Parses and checks every option before anything runs.
 pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
     let bad = |m: String| anyhow::Error::new(InputError::new(m));
@@ -87,24 +74,12 @@ pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
         .unwrap_or(if a.mixed.is_some() { "" } else { default });
     let mut runs: Vec<RunSpec> = Vec::new();
     for name in list.split(',').map(str::trim).filter(|s| !s.is_empty()) {
-        let drivers = if name.eq_ignore_ascii_case("protocol") {
-            vec![None; n]
-        } else {
-            let d = SumoDriver::parse("--baselines", name)
-                .map_err(|e| InputError::caused("--baselines", e))?;
-            vec![Some(d); n]
-        };
-        let name = if name.eq_ignore_ascii_case("protocol") {
-            "protocol".to_string()
-        } else {
-            SumoDriver::parse("--baselines", name)
-                .map_err(|e| InputError::caused("--baselines", e))?
-                .to_string()
-        };
+        let spec = RunSpec::parse("--baselines", name, n)?;
+        let name = spec.name.clone();
         if runs.iter().any(|r| r.name == name) {
             return Err(bad(format!("--baselines: {name} is listed twice")));
         }
-        runs.push(RunSpec { name, drivers });
+        runs.push(spec);
     }
     let mut mixed = Vec::new();
     if let Some(m) = &a.mixed {
@@ -131,14 +106,7 @@ pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
                 return Err(bad(format!("--mixed = {m}: {k} is listed twice")));
             }
             mixed.push(k);
-            let mut drivers = vec![Some(human); n];
-            for i in mixed_controlled(n, k) {
-                drivers[i] = None;
-            }
-            runs.push(RunSpec {
-                name: format!("mixed-{k}"),
-                drivers,
-            });
+            runs.push(RunSpec::mixed(format!("mixed-{k}"), n, k, human));
         }
     }
     if runs.is_empty() {
@@ -501,6 +469,7 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<Status> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::runs::mixed_controlled;
 
     #[test]
     fn mixed_vehicles_are_evenly_spaced() {
