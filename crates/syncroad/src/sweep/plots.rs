@@ -302,7 +302,7 @@ fn grid_plots(
                 format!("heat-{}-{}", file_stem(&metric), file_stem(run))
             };
             let title = format!(
-                "{}: {} ({run}; mean over seeds, {} … {}{})",
+                "{}: {} ({run}; mean over seeds {} … {}{})",
                 sweep.name,
                 label(&metric),
                 fmt(lo),
@@ -312,7 +312,7 @@ fn grid_plots(
             let drawn: anyhow::Result<Vec<PathBuf>> =
                 render_both!(dir, stem, (1000, 800), |root| {
                     let mut chart = ChartBuilder::on(root)
-                        .caption(&title, ("sans-serif", 17))
+                        .caption(&title, ("sans-serif", 14))
                         .margin(12)
                         .x_label_area_size(45)
                         .y_label_area_size(60)
