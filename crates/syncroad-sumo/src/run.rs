@@ -15,7 +15,7 @@ use syncroad_control::scenario::{RoadSpec, Scenario};
 use syncroad_control::{LawSpec, RunOutput, StopReason, Trajectory};
 
 use crate::drivers::{SumoDriver, MIXED_SPEED_MODE};
-use crate::layout::{ring_layout, straight_layout, Layout, LayoutError, VehicleType};
+use crate::layout::{ring_layout, straight_layout, Layout, LayoutError};
 use crate::net::{read_ring, read_straight, NetError, Road};
 use crate::protocol::{Control, Finish, Measure, ReadMode, Request};
 use crate::supervisor::{run_worker, Supervision, SupervisorError, WorkerCommand, WorkerRun};
@@ -158,9 +158,9 @@ impl RunOptions {
     }
 }
 
-/// The network file of a scenario, resolved and checked to exist.
+/// The network file of a scenario (resolved when the scenario was validated), checked to exist.
 pub fn net_path(scenario: &Scenario) -> Result<PathBuf, PrepareError> {
-    let Some(net) = &scenario.file.sumo.net else {
+    let Some(net) = scenario.sumo().net() else {
         return Err(PrepareError::NoNet {
             example: if scenario.is_ring() {
                 "../sumo-nets/sugiyama-ring.net.xml".into()
@@ -169,15 +169,12 @@ pub fn net_path(scenario: &Scenario) -> Result<PathBuf, PrepareError> {
             },
         });
     };
-    let p = if net.is_absolute() {
-        net.clone()
-    } else {
-        scenario.base_dir.join(net)
-    };
-    if !p.is_file() {
-        return Err(PrepareError::NetNotFound { path: p });
+    if !net.is_file() {
+        return Err(PrepareError::NetNotFound {
+            path: net.to_path_buf(),
+        });
     }
-    Ok(p)
+    Ok(net.to_path_buf())
 }
 
 /// Numbers SUMO itself restricts: its clock counts whole milliseconds and `--seed` is a
@@ -212,14 +209,7 @@ pub fn load_road(scenario: &Scenario) -> Result<Road, PrepareError> {
 
 /// The layout of a scenario on its road (capacity and road length for the horizon).
 pub fn layout_for(scenario: &Scenario, road: &Road) -> Result<Layout, PrepareError> {
-    let s = &scenario.file.sumo;
-    let vtype = VehicleType {
-        min_gap_m: s.min_gap_m,
-        accel_mps2: s.accel_mps2,
-        decel_mps2: s.decel_mps2,
-        emergency_decel_mps2: s.emergency_decel_mps2,
-        max_speed_mps: s.max_speed_mps,
-    };
+    let vtype = *scenario.sumo().vehicle_type();
     let horizon = scenario.horizon_s();
     let layout = match scenario.file.road {
         RoadSpec::Ring { .. } => ring_layout(
@@ -384,9 +374,7 @@ impl Prepared {
     /// [`load_road`]; errors here mean SUMO never started.
     pub fn new(scenario: &Scenario, road: &Road, opts: &RunOptions) -> Result<Self, PrepareError> {
         let request = prepare(scenario, road, opts)?;
-        let timeout = opts
-            .timeout
-            .or_else(|| Duration::try_from_secs_f64(scenario.file.sumo.timeout_s).ok());
+        let timeout = Some(opts.timeout.unwrap_or(scenario.sumo().timeout()));
         Ok(Self {
             request,
             supervision: Supervision {

@@ -8,7 +8,7 @@
 //!
 //! The folder holds one concept per file: [`file`] (the schema a user writes), [`per_vehicle`]
 //! (values given once or per vehicle), [`leader`] (leader speed profiles), `validate` (every
-//! check, with field paths), `graph_spec` (building the interaction graph) and this file, the
+//! check, with field paths), `sumo` (the validated `sumo` section), `graph_spec` (building the interaction graph) and this file, the
 //! sealed [`Scenario`] every backend runs.
 
 use std::path::{Path, PathBuf};
@@ -21,11 +21,13 @@ pub mod file;
 mod graph_spec;
 pub mod leader;
 pub mod per_vehicle;
+mod sumo;
 mod validate;
 
 pub use file::*;
 pub use leader::LeaderProfile;
 pub use per_vehicle::PerVehicle;
+pub use sumo::{SumoSettings, SumoVehicleType};
 
 /// Errors raised while reading or validating a scenario.
 #[derive(Debug, thiserror::Error)]
@@ -162,6 +164,8 @@ pub struct Scenario {
     pub length_m: Vec<f64>,
     /// Folder of the scenario file (for relative paths).
     pub base_dir: PathBuf,
+    /// The validated `sumo` section.
+    sumo: SumoSettings,
 }
 
 impl Scenario {
@@ -190,6 +194,11 @@ impl Scenario {
             h = h.wrapping_mul(0x0100_0000_01b3);
         }
         format!("{h:016x}")
+    }
+
+    /// The validated `sumo` section (network, vehicle type, time limit).
+    pub fn sumo(&self) -> &SumoSettings {
+        &self.sumo
     }
 
     /// Simulated time [s].

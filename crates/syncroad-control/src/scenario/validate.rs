@@ -63,7 +63,7 @@ impl ScenarioFile {
                 format!("must be > 0 and ≤ horizon_s = {}", self.horizon_s),
             ));
         }
-        self.validate_sumo()?;
+        let sumo = self.sumo.validate(base_dir)?;
         let road_len = match self.road {
             RoadSpec::Ring { length_m } | RoadSpec::Straight { length_m } => length_m,
         };
@@ -245,35 +245,8 @@ impl ScenarioFile {
             initial_gap_m: gaps,
             length_m,
             base_dir: base_dir.to_path_buf(),
+            sumo,
             file: self,
         })
-    }
-
-    fn validate_sumo(&self) -> Result<(), ScenarioError> {
-        let s = &self.sumo;
-        for (name, x) in [
-            ("length_m", s.length_m),
-            ("accel_mps2", s.accel_mps2),
-            ("decel_mps2", s.decel_mps2),
-            ("emergency_decel_mps2", s.emergency_decel_mps2),
-            ("max_speed_mps", s.max_speed_mps),
-            ("timeout_s", s.timeout_s),
-        ] {
-            if !(x.is_finite() && x > 0.0) {
-                return Err(invalid(
-                    format!("sumo.{name}"),
-                    x,
-                    "must be a finite number > 0",
-                ));
-            }
-        }
-        if !(s.min_gap_m.is_finite() && s.min_gap_m >= 0.0) {
-            return Err(invalid(
-                "sumo.min_gap_m",
-                s.min_gap_m,
-                "must be a finite number ≥ 0",
-            ));
-        }
-        Ok(())
     }
 }
