@@ -58,9 +58,9 @@ impl LawSpec {
     /// The law of a validated scenario.
     pub fn of(scenario: &Scenario) -> Self {
         Self {
-            model: scenario.model.clone(),
-            step_s: scenario.step_s,
-            initial_speed_mps: scenario.initial_speed_mps.clone(),
+            model: scenario.model().clone(),
+            step_s: scenario.step_s(),
+            initial_speed_mps: scenario.initial_speed_mps().to_vec(),
         }
     }
 }

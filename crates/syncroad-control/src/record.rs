@@ -76,7 +76,7 @@ impl Traffic {
         run: &RunOutput,
         outcome: &Outcome,
     ) -> Self {
-        let measured_s = m.steps as f64 * sc.step_s;
+        let measured_s = m.steps as f64 * sc.step_s();
         let distance_m = distance_after(&run.trajectory, outcome.warmup_s);
         let per_km = |mg: f64| {
             if distance_m > 0.0 {
@@ -92,11 +92,11 @@ impl Traffic {
             loop_ring_m: facts.loop_ring_m,
             road_length_m: facts.road_length_m,
             flow_from_speed_veh_per_h: match (run.ring_length_m, &outcome.congestion) {
-                (Some(l), Ok(c)) => Some(sc.n as f64 * c.mean_speed_mps / l * 3600.0),
+                (Some(l), Ok(c)) => Some(sc.vehicles() as f64 * c.mean_speed_mps / l * 3600.0),
                 _ => None,
             },
             time_loss_s: m.time_loss_s,
-            time_loss_per_vehicle_s: m.time_loss_s / sc.n as f64,
+            time_loss_per_vehicle_s: m.time_loss_s / sc.vehicles() as f64,
             fuel_mg: m.fuel_mg,
             fuel_total_mg: m.fuel_total_mg,
             co2_mg: m.co2_mg,
@@ -185,22 +185,22 @@ impl RunRecord {
         let drivers = facts
             .map(|f| f.drivers.clone())
             .filter(|d| !d.is_empty())
-            .unwrap_or_else(|| vec!["law".to_string(); sc.n]);
+            .unwrap_or_else(|| vec!["law".to_string(); sc.vehicles()]);
         Self {
             syncroad_version: env!("CARGO_PKG_VERSION").to_string(),
             platform: format!("{}-{}", std::env::consts::ARCH, std::env::consts::OS),
             sumo_version: facts.and_then(|f| f.sumo_version.clone()),
-            scenario: sc.name.clone(),
-            scenario_hash: sc.hash_hex(),
-            seed: sc.file.seed,
+            scenario: sc.name().to_string(),
+            scenario_hash: sc.hash_hex().to_string(),
+            seed: sc.seed(),
             backend: if facts.is_some() {
                 Backend::Sumo
             } else {
                 Backend::Native
             },
             run: run_name.to_string(),
-            vehicles: sc.n,
-            step_s: sc.step_s,
+            vehicles: sc.vehicles(),
+            step_s: sc.step_s(),
             horizon_s: sc.horizon_s(),
             law_controlled_vehicles: drivers.iter().filter(|d| *d == "law").count(),
             drivers,

@@ -7,6 +7,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
+use syncroad_control::scenario::SumoVehicleType;
 
 use crate::net::Road;
 
@@ -57,21 +58,6 @@ pub enum LayoutError {
     },
 }
 
-/// SUMO vehicle-type parameters shared by all vehicles (lengths may differ per vehicle).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct VehicleType {
-    /// minGap \[m\]: the car-following model's standstill gap.
-    pub min_gap_m: f64,
-    /// accel [m/s²].
-    pub accel_mps2: f64,
-    /// decel [m/s²].
-    pub decel_mps2: f64,
-    /// emergencyDecel [m/s²].
-    pub emergency_decel_mps2: f64,
-    /// maxSpeed [m/s].
-    pub max_speed_mps: f64,
-}
-
 /// One SUMO vehicle's start.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Departure {
@@ -99,7 +85,7 @@ pub struct Layout {
     /// The road.
     pub road: Road,
     /// Vehicle type.
-    pub vtype: VehicleType,
+    pub vtype: SumoVehicleType,
     /// All SUMO vehicles, the leader (if it is a SUMO vehicle) first.
     pub vehicles: Vec<Departure>,
     /// True when `vehicles[0]` is a leader driven by its speed profile.
@@ -123,28 +109,11 @@ fn check_pos(field: &str, x: f64) -> Result<(), LayoutError> {
     }
 }
 
-impl VehicleType {
-    fn validate(&self) -> Result<(), LayoutError> {
-        check_pos("sumo.accel_mps2", self.accel_mps2)?;
-        check_pos("sumo.decel_mps2", self.decel_mps2)?;
-        check_pos("sumo.emergency_decel_mps2", self.emergency_decel_mps2)?;
-        check_pos("sumo.max_speed_mps", self.max_speed_mps)?;
-        if !(self.min_gap_m.is_finite() && self.min_gap_m >= 0.0) {
-            return Err(LayoutError::Invalid {
-                field: "sumo.min_gap_m".into(),
-                value: self.min_gap_m,
-                expected: "must be a finite number ≥ 0".into(),
-            });
-        }
-        Ok(())
-    }
-}
-
 /// Departure speeds must not exceed what SUMO accepts at insertion: the vehicle type's
 /// maxSpeed and the road's speed limit.
 fn check_departure_speeds(
     road: &Road,
-    vtype: &VehicleType,
+    vtype: &SumoVehicleType,
     speeds_mps: &[f64],
 ) -> Result<(), LayoutError> {
     let limit = vtype.max_speed_mps.min(road.speed_limit_mps());
@@ -193,13 +162,12 @@ pub fn check_ring_capacity(
 /// scaled by one common factor so that lengths plus gaps equal SUMO's ring length.
 pub fn ring_layout(
     road: &Road,
-    vtype: VehicleType,
+    vtype: SumoVehicleType,
     lengths_m: &[f64],
     gaps_m: &[f64],
     speeds_mps: &[f64],
     horizon_s: f64,
 ) -> Result<Layout, LayoutError> {
-    vtype.validate()?;
     for (i, l) in lengths_m.iter().enumerate() {
         check_pos(&format!("length_m[{i}]"), *l)?;
     }
@@ -249,7 +217,7 @@ pub fn ring_layout(
 #[allow(clippy::too_many_arguments)]
 pub fn straight_layout(
     road: &Road,
-    vtype: VehicleType,
+    vtype: SumoVehicleType,
     lengths_m: &[f64],
     q_m: &[f64],
     speeds_mps: &[f64],
@@ -257,7 +225,6 @@ pub fn straight_layout(
     leader_speed_mps: f64,
     horizon_s: f64,
 ) -> Result<Layout, LayoutError> {
-    vtype.validate()?;
     check_departure_speeds(road, &vtype, speeds_mps)?;
     check_departure_speeds(road, &vtype, &[leader_speed_mps])?;
     let mut all: Vec<(String, f64, f64, f64)> = Vec::new();
@@ -393,8 +360,8 @@ mod tests {
     use crate::net::read_ring;
     use approx::assert_relative_eq;
 
-    fn vt() -> VehicleType {
-        VehicleType {
+    fn vt() -> SumoVehicleType {
+        SumoVehicleType {
             min_gap_m: 2.5,
             accel_mps2: 2.6,
             decel_mps2: 4.5,

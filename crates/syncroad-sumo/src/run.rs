@@ -11,11 +11,11 @@ use std::time::Duration;
 
 use syncroad_control::native::{initial_positions, leader_start};
 use syncroad_control::record::{Safety, SumoFacts};
-use syncroad_control::scenario::{RoadSpec, Scenario};
+use syncroad_control::scenario::Scenario;
 use syncroad_control::{LawSpec, RunOutput, StopReason, Trajectory};
 
 use crate::drivers::{SumoDriver, MIXED_SPEED_MODE};
-use crate::layout::{ring_layout, straight_layout, Layout, LayoutError, VehicleType};
+use crate::layout::{ring_layout, straight_layout, Layout, LayoutError};
 use crate::net::{read_ring, read_straight, NetError, Road};
 use crate::protocol::{Control, Finish, Measure, ReadMode, Request};
 use crate::supervisor::{run_worker, Supervision, SupervisorError, WorkerCommand, WorkerRun};
@@ -158,9 +158,9 @@ impl RunOptions {
     }
 }
 
-/// The network file of a scenario, resolved and checked to exist.
+/// The network file of a scenario (resolved when the scenario was validated), checked to exist.
 pub fn net_path(scenario: &Scenario) -> Result<PathBuf, PrepareError> {
-    let Some(net) = &scenario.file.sumo.net else {
+    let Some(net) = scenario.sumo().net() else {
         return Err(PrepareError::NoNet {
             example: if scenario.is_ring() {
                 "../sumo-nets/sugiyama-ring.net.xml".into()
@@ -169,32 +169,29 @@ pub fn net_path(scenario: &Scenario) -> Result<PathBuf, PrepareError> {
             },
         });
     };
-    let p = if net.is_absolute() {
-        net.clone()
-    } else {
-        scenario.base_dir.join(net)
-    };
-    if !p.is_file() {
-        return Err(PrepareError::NetNotFound { path: p });
+    if !net.is_file() {
+        return Err(PrepareError::NetNotFound {
+            path: net.to_path_buf(),
+        });
     }
-    Ok(p)
+    Ok(net.to_path_buf())
 }
 
 /// Numbers SUMO itself restricts: its clock counts whole milliseconds and `--seed` is a
 /// 32-bit signed integer.
 pub fn check_sumo_numbers(scenario: &Scenario) -> Result<(), PrepareError> {
-    let ms = scenario.step_s * 1000.0;
+    let ms = scenario.step_s() * 1000.0;
     if (ms - ms.round()).abs() > 1e-9 * ms.max(1.0) || ms.round() < 1.0 {
         return Err(PrepareError::Unrepresentable {
             field: "step_s",
-            value: scenario.step_s.to_string(),
+            value: scenario.step_s().to_string(),
             expected: "SUMO's clock counts whole milliseconds: use a multiple of 0.001 s",
         });
     }
-    if scenario.file.seed > i32::MAX as u64 {
+    if scenario.seed() > i32::MAX as u64 {
         return Err(PrepareError::Unrepresentable {
             field: "seed",
-            value: scenario.file.seed.to_string(),
+            value: scenario.seed().to_string(),
             expected: "SUMO's --seed takes 0 ..= 2147483647",
         });
     }
@@ -204,56 +201,49 @@ pub fn check_sumo_numbers(scenario: &Scenario) -> Result<(), PrepareError> {
 /// Reads the scenario's network file once (every pre-start check of the road).
 pub fn load_road(scenario: &Scenario) -> Result<Road, PrepareError> {
     let net = net_path(scenario)?;
-    Ok(match scenario.file.road {
-        RoadSpec::Ring { .. } => read_ring(&net)?,
-        RoadSpec::Straight { .. } => read_straight(&net)?,
+    Ok(if scenario.is_ring() {
+        read_ring(&net)?
+    } else {
+        read_straight(&net)?
     })
 }
 
 /// The layout of a scenario on its road (capacity and road length for the horizon).
 pub fn layout_for(scenario: &Scenario, road: &Road) -> Result<Layout, PrepareError> {
-    let s = &scenario.file.sumo;
-    let vtype = VehicleType {
-        min_gap_m: s.min_gap_m,
-        accel_mps2: s.accel_mps2,
-        decel_mps2: s.decel_mps2,
-        emergency_decel_mps2: s.emergency_decel_mps2,
-        max_speed_mps: s.max_speed_mps,
-    };
+    let vtype = *scenario.sumo().vehicle_type();
     let horizon = scenario.horizon_s();
-    let layout = match scenario.file.road {
-        RoadSpec::Ring { .. } => ring_layout(
+    let layout = if scenario.is_ring() {
+        ring_layout(
             road,
             vtype,
-            &scenario.length_m,
-            &scenario.initial_gap_m,
-            &scenario.initial_speed_mps,
+            scenario.length_m(),
+            scenario.initial_gap_m(),
+            scenario.initial_speed_mps(),
             horizon,
-        )?,
-        RoadSpec::Straight { .. } => {
-            let dt = scenario.step_s;
-            let travel = |f: &dyn Fn(f64) -> f64| -> f64 {
-                (0..scenario.steps)
-                    .map(|k| 0.5 * dt * (f(k as f64 * dt) + f((k + 1) as f64 * dt)))
-                    .sum()
-            };
-            let start = leader_start(scenario);
-            let leader = start.map(|(q0, _)| {
-                let dist = travel(&|t| scenario.leader_speed_at(t).unwrap_or(0.0));
-                (q0, scenario.length_m[0], dist)
-            });
-            let q = initial_positions(scenario, start.map(|l| l.0));
-            straight_layout(
-                road,
-                vtype,
-                &scenario.length_m,
-                &q,
-                &scenario.initial_speed_mps,
-                leader,
-                start.map_or(0.0, |l| l.1),
-                horizon,
-            )?
-        }
+        )?
+    } else {
+        let dt = scenario.step_s();
+        let travel = |f: &dyn Fn(f64) -> f64| -> f64 {
+            (0..scenario.steps())
+                .map(|k| 0.5 * dt * (f(k as f64 * dt) + f((k + 1) as f64 * dt)))
+                .sum()
+        };
+        let start = leader_start(scenario);
+        let leader = start.map(|(q0, _)| {
+            let dist = travel(&|t| scenario.leader_speed_at(t).unwrap_or(0.0));
+            (q0, scenario.length_m()[0], dist)
+        });
+        let q = initial_positions(scenario, start.map(|l| l.0));
+        straight_layout(
+            road,
+            vtype,
+            scenario.length_m(),
+            &q,
+            scenario.initial_speed_mps(),
+            leader,
+            start.map_or(0.0, |l| l.1),
+            horizon,
+        )?
     };
     Ok(layout)
 }
@@ -326,7 +316,7 @@ pub(crate) fn prepare(
                 None => None,
             };
             Some(Measure {
-                warmup_steps: (m.warmup_s / scenario.step_s + 1e-9).floor() as usize,
+                warmup_steps: (m.warmup_s / scenario.step_s() + 1e-9).floor() as usize,
                 emission_every: m.emission_every,
                 detector_file,
                 tripinfo_file: m.tripinfo.then(|| opts.work_dir.join("tripinfo.xml")),
@@ -348,16 +338,16 @@ pub(crate) fn prepare(
         layout,
         routes_file,
         log_file: opts.work_dir.join("sumo.log"),
-        step_s: scenario.step_s,
-        steps: scenario.steps,
-        seed: scenario.file.seed,
+        step_s: scenario.step_s(),
+        steps: scenario.steps(),
+        seed: scenario.seed(),
         ballistic: opts.ballistic,
         control,
         observe: true,
         speed_mode,
         measure,
         record_every: opts.record_every.max(1),
-        chunk_records: chunk_records(scenario.n),
+        chunk_records: chunk_records(scenario.vehicles()),
         override_tolerance_mps: OVERRIDE_TOLERANCE_MPS,
         untimed_steps: 0,
         read: opts.read,
@@ -384,9 +374,7 @@ impl Prepared {
     /// [`load_road`]; errors here mean SUMO never started.
     pub fn new(scenario: &Scenario, road: &Road, opts: &RunOptions) -> Result<Self, PrepareError> {
         let request = prepare(scenario, road, opts)?;
-        let timeout = opts
-            .timeout
-            .or_else(|| Duration::try_from_secs_f64(scenario.file.sumo.timeout_s).ok());
+        let timeout = Some(opts.timeout.unwrap_or(scenario.sumo().timeout()));
         Ok(Self {
             request,
             supervision: Supervision {

@@ -251,7 +251,7 @@ mod ring {
             epsilon = 1e-9
         );
         assert_eq!(start.vehicles, 22);
-        assert_eq!(run.worker.rows.len(), sc.steps + 1);
+        assert_eq!(run.worker.rows.len(), sc.steps() + 1);
         let traj = run.trajectory(&sc);
         let k = traj.len() - 1;
         let n = 22;
@@ -402,7 +402,10 @@ mod platoon {
         let sc = Scenario::from_json(&file.to_string()).unwrap();
         let run = run_scenario(&sc, &opts("platoon")).unwrap();
         let fin = run.outcome().expect("horizon reached");
-        assert_eq!(run.worker.start.as_ref().unwrap().vehicles, sc.n + 1);
+        assert_eq!(
+            run.worker.start.as_ref().unwrap().vehicles,
+            sc.vehicles() + 1
+        );
         assert_eq!(fin.totals.collision_steps, 0);
         let sumo = run.trajectory(&sc);
         let native = simulate(&sc, NativeOptions::default()).trajectory;

@@ -75,7 +75,7 @@ pub fn mixed_controlled(n: usize, k: usize) -> Vec<usize> {
 /// Parses and checks every option before anything runs.
 pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
     let bad = |m: String| anyhow::Error::new(InputError::new(m));
-    let n = sc.n;
+    let n = sc.vehicles();
     let default = if sc.is_ring() {
         "protocol,krauss,krauss-0.9,idm"
     } else {
@@ -108,10 +108,10 @@ pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
     }
     let mut mixed = Vec::new();
     if let Some(m) = &a.mixed {
-        if !sc.is_ring() || !matches!(sc.model, Model::DelayedDriver(_)) {
+        if !sc.is_ring() || !matches!(sc.model(), Model::DelayedDriver(_)) {
             return Err(bad(format!(
                 "--mixed = {m}: mixed traffic needs a ring of delayed drivers (scenario {} is not one)",
-                sc.name
+                sc.name()
             )));
         }
         let human = SumoDriver::parse("--mixed-driver", &a.mixed_driver)
@@ -233,7 +233,7 @@ fn run_one(
     let mut eval = EvalOptions::of(sc);
     eval.warmup_s = plan.warmup_s;
     let f = Finished::new(sc, &spec.name, run.output, eval);
-    let title = plan.plots.then(|| format!("{}: {}", sc.name, spec.name));
+    let title = plan.plots.then(|| format!("{}: {}", sc.name(), spec.name));
     f.write(dir, title)?;
     Ok(RunResult {
         name: spec.name.clone(),
@@ -300,9 +300,9 @@ pub fn combined(sc: &Scenario, results: &[RunResult], mixed: &[usize]) -> Value 
         "sumo_version": results
             .iter()
             .find_map(|r| r.record.as_ref().ok()?.sumo_version.clone()),
-        "scenario": sc.name,
+        "scenario": sc.name(),
         "scenario_hash": sc.hash_hex(),
-        "seed": sc.file.seed,
+        "seed": sc.seed(),
         "emission_class": EMISSION_CLASS,
         "runs": Value::Object(runs.clone()),
     });
@@ -430,7 +430,7 @@ pub fn compare_into(
         let spreads: Vec<Spread> = results.iter().map(|r| r.spread.clone()).collect();
         spread_plot(
             out,
-            &format!("{}: speed spread by driver", sc.name),
+            &format!("{}: speed spread by driver", sc.name()),
             &spreads,
         )?;
     }
@@ -448,9 +448,9 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<Status> {
     let (doc, results) = compare_into(&sc, &plan, &a.out, interrupt.clone())?;
     println!(
         "{}: {} vehicles, seed {}, warm-up {} s, {}, emission class {}",
-        sc.name,
-        sc.n,
-        sc.file.seed,
+        sc.name(),
+        sc.vehicles(),
+        sc.seed(),
         plan.warmup_s,
         doc["sumo_version"].as_str().unwrap_or("?"),
         EMISSION_CLASS
