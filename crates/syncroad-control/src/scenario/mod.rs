@@ -7,7 +7,8 @@
 //! field path, the value and what would be valid.
 //!
 //! The folder holds one concept per file: [`file`] (the schema a user writes), [`per_vehicle`]
-//! (values given once or per vehicle), [`leader`] (leader speed profiles), `validate` (every
+//! (values given once or per vehicle), [`leader`] (leader speed profiles), [`mixed`] (mixed
+//! traffic: which vehicles are automated), `validate` (every
 //! check, with field paths), `graph_spec` (building the interaction graph) and this file, the
 //! sealed [`Scenario`] every backend runs.
 
@@ -20,11 +21,13 @@ use crate::graph::{Graph, GraphError};
 pub mod file;
 mod graph_spec;
 pub mod leader;
+pub mod mixed;
 pub mod per_vehicle;
 mod validate;
 
 pub use file::*;
 pub use leader::LeaderProfile;
+pub use mixed::{automated_vehicles, MixedSpec};
 pub use per_vehicle::PerVehicle;
 
 /// Errors raised while reading or validating a scenario.

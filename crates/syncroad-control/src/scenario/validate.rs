@@ -64,6 +64,9 @@ impl ScenarioFile {
             ));
         }
         self.validate_sumo()?;
+        if let Some(m) = &self.mixed {
+            m.validate(matches!(self.road, RoadSpec::Ring { .. }))?;
+        }
         let road_len = match self.road {
             RoadSpec::Ring { length_m } | RoadSpec::Straight { length_m } => length_m,
         };
