@@ -9,6 +9,7 @@ use serde::Serialize;
 
 use crate::congestion::CongestionMetrics;
 pub use crate::facts::{Measured, Safety, SumoFacts};
+use crate::margins::SafetyMargins;
 use crate::metrics::SyncMetrics;
 use crate::outcome::{Outcome, RunOutput};
 use crate::scenario::{Backend, Scenario};
@@ -176,6 +177,10 @@ pub struct RunRecord {
     pub safety: Option<Safety>,
     /// How SUMO ran (`null` for native runs).
     pub backend_facts: Option<BackendFacts>,
+    /// Time headway, gaps, SUMO's surrogate safety measures and the safe-speed label; present
+    /// only when the run measured SSM (records of runs that did not keep their earlier shape).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub safety_margins: Option<SafetyMargins>,
 }
 
 impl RunRecord {
@@ -226,6 +231,8 @@ impl RunRecord {
                 max_override_mps: f.max_override_mps,
                 odometer_deviation_max_m: f.odometer_deviation_max_m,
             }),
+            safety_margins: facts
+                .and_then(|f| SafetyMargins::of(&run.trajectory, outcome.warmup_s, f)),
         }
     }
 

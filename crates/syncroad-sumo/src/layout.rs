@@ -279,6 +279,17 @@ pub fn straight_layout(
     })
 }
 
+/// vType attributes written for every vehicle type; a driver's own value replaces the
+/// scenario's (`length` is the layout's).
+const BASE: [&str; 6] = [
+    "length",
+    "minGap",
+    "accel",
+    "decel",
+    "emergencyDecel",
+    "maxSpeed",
+];
+
 impl Layout {
     /// The SUMO routes file (vehicle types, routes, vehicles) of this layout. Deterministic
     /// text; vehicles depart at t = 0 at their exact positions and speeds
@@ -293,8 +304,25 @@ impl Layout {
             let key = (v.length_m.to_bits(), v.driver);
             if !types.contains(&key) {
                 types.push(key);
-                let model = match &v.driver {
-                    Some(d) => d.vtype_attributes(),
+                // A driver's own values (a preset's accel, decel, minGap, maxSpeed) replace
+                // the scenario's; its other parameters follow its carFollowModel. Lengths are
+                // the layout's (a preset's length is checked to match before SUMO starts).
+                let cf = v.driver.map(|d| d.car_following());
+                let own = |name: &str, x: f64| {
+                    cf.as_ref()
+                        .and_then(|c| c.params.get(name).copied())
+                        .unwrap_or(x)
+                };
+                let model = match &cf {
+                    Some(c) => {
+                        let mut m = format!(r#"carFollowModel="{}""#, c.model.sumo_name());
+                        for (name, x) in
+                            c.params.iter().filter(|(k, _)| !BASE.contains(&k.as_str()))
+                        {
+                            let _ = write!(m, r#" {name}="{x}""#);
+                        }
+                        m
+                    }
                     None => r#"sigma="0""#.to_string(),
                 };
                 let _ = writeln!(
@@ -302,11 +330,11 @@ impl Layout {
                     r#"    <vType id="t{}" length="{}" minGap="{}" accel="{}" decel="{}" emergencyDecel="{}" maxSpeed="{}" {model} speedFactor="1" speedDev="0" emissionClass="{}"/>"#,
                     types.len() - 1,
                     v.length_m,
-                    t.min_gap_m,
-                    t.accel_mps2,
-                    t.decel_mps2,
-                    t.emergency_decel_mps2,
-                    t.max_speed_mps,
+                    own("minGap", t.min_gap_m),
+                    own("accel", t.accel_mps2),
+                    own("decel", t.decel_mps2),
+                    own("emergencyDecel", t.emergency_decel_mps2),
+                    own("maxSpeed", t.max_speed_mps),
                     crate::drivers::EMISSION_CLASS,
                 );
             }
@@ -451,5 +479,12 @@ mod tests {
         assert!(xml.contains(r#"<vehicle id="v1" type="t1""#), "{xml}");
         assert!(xml.contains(r#"<vehicle id="v3" type="t0""#), "{xml}");
         assert_eq!(lay.vehicles.len(), n);
+        // A preset's own values replace the scenario's, each attribute written once.
+        lay.vehicles[3].driver = Some(crate::drivers::SumoDriver::Human);
+        let xml = lay.routes_xml();
+        assert!(
+            xml.contains(r#"length="5" minGap="2" accel="1.3" decel="1.5" emergencyDecel="9" maxSpeed="30" carFollowModel="IDM" delta="4" tau="0.8" speedFactor="1""#),
+            "{xml}"
+        );
     }
 }

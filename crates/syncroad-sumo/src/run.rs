@@ -12,9 +12,9 @@ use std::time::Duration;
 use syncroad_control::native::{initial_positions, leader_start};
 use syncroad_control::record::{Safety, SumoFacts};
 use syncroad_control::scenario::Scenario;
-use syncroad_control::{LawSpec, RunOutput, StopReason, Trajectory};
+use syncroad_control::{DamperSetup, DamperSpec, LawSpec, RunOutput, StopReason, Trajectory};
 
-use crate::drivers::{SumoDriver, MIXED_SPEED_MODE};
+use crate::drivers::{DriverError, SumoDriver, MIXED_SPEED_MODE};
 use crate::layout::{ring_layout, straight_layout, Layout, LayoutError};
 use crate::net::{read_ring, read_straight, NetError, Road};
 use crate::protocol::{Control, Finish, Measure, ReadMode, Request};
@@ -75,6 +75,30 @@ pub enum PrepareError {
         /// What is valid.
         expected: &'static str,
     },
+    /// A driver named in the scenario is unknown.
+    #[error(transparent)]
+    Driver(#[from] DriverError),
+    /// A driver preset's length differs from the scenario's vehicle, so the run would not start
+    /// from the scenario's positions.
+    #[error("{driver}: its length {preset_m} m differs from vehicle {vehicle}'s length {length_m} m in the scenario; every run starts from the scenario's positions, so give the vehicles the preset's length (sumo.length_m)")]
+    DriverLength {
+        /// The driver.
+        driver: String,
+        /// Vehicle index.
+        vehicle: usize,
+        /// The preset's length \[m\].
+        preset_m: f64,
+        /// The scenario's length \[m\].
+        length_m: f64,
+    },
+    /// The wave dampers follow a predecessor around a ring.
+    #[error("{damper}: the wave dampers drive on a ring (each vehicle follows its predecessor); scenario {scenario} is a straight road")]
+    DamperNeedsRing {
+        /// The damper.
+        damper: String,
+        /// The scenario.
+        scenario: String,
+    },
     /// The work folder cannot be written.
     #[error("cannot write {path}: {reason}")]
     Io {
@@ -110,6 +134,9 @@ pub struct RunOptions {
     pub drivers: Vec<Option<SumoDriver>>,
     /// SUMO-side measurements (flow, time loss, fuel, CO2, hard braking).
     pub measure: Option<MeasureOptions>,
+    /// A wave damper drives the vehicles the law would drive (rings only); `None`: the
+    /// scenario's law, or the damper its `mixed.controller` names.
+    pub damper: Option<DamperSpec>,
 }
 
 /// What to measure in SUMO during a run.
@@ -121,6 +148,9 @@ pub struct MeasureOptions {
     pub emission_every: usize,
     /// Also write SUMO's trip info with emission totals (`tripinfo.xml` in the work folder).
     pub tripinfo: bool,
+    /// Also log SUMO's surrogate safety measures (`ssm.xml` in the work folder) and report
+    /// time headway, gaps, TTC, DRAC and the safe-speed label in the record.
+    pub ssm: bool,
 }
 
 /// Where the induction loop `loop0` sits on a ring: lane, position on it \[m\] and the ring
@@ -154,6 +184,7 @@ impl RunOptions {
             on_start: None,
             drivers: Vec::new(),
             measure: None,
+            damper: None,
         }
     }
 }
@@ -262,17 +293,37 @@ pub(crate) fn prepare(
         reason: e.to_string(),
     };
     let mut layout = layout;
-    if !opts.drivers.is_empty() {
+    let (drivers, damper) = drivers_of(scenario, opts)?;
+    if !drivers.is_empty() {
         let k0 = usize::from(layout.leader_vehicle);
-        if opts.drivers.len() != layout.vehicles.len() - k0 {
+        if drivers.len() != layout.vehicles.len() - k0 {
             return Err(PrepareError::Drivers {
                 expected: layout.vehicles.len() - k0,
-                got: opts.drivers.len(),
+                got: drivers.len(),
             });
         }
-        for (dep, d) in layout.vehicles[k0..].iter_mut().zip(&opts.drivers) {
+        for (i, (dep, d)) in layout.vehicles[k0..].iter_mut().zip(&drivers).enumerate() {
+            if let Some(&preset_m) = d
+                .and_then(|d| d.car_following().params.get("length").copied())
+                .as_ref()
+            {
+                if preset_m != dep.length_m {
+                    return Err(PrepareError::DriverLength {
+                        driver: d.map(|d| d.to_string()).unwrap_or_default(),
+                        vehicle: i,
+                        preset_m,
+                        length_m: dep.length_m,
+                    });
+                }
+            }
             dep.driver = *d;
         }
+    }
+    if let (Some(d), false) = (damper, layout.road.ring) {
+        return Err(PrepareError::DamperNeedsRing {
+            damper: d.to_string(),
+            scenario: scenario.name().to_string(),
+        });
     }
     let sumo_driven = layout
         .vehicles
@@ -320,6 +371,7 @@ pub(crate) fn prepare(
                 emission_every: m.emission_every,
                 detector_file,
                 tripinfo_file: m.tripinfo.then(|| opts.work_dir.join("tripinfo.xml")),
+                ssm_file: m.ssm.then(|| opts.work_dir.join("ssm.xml")),
             })
         }
     };
@@ -330,9 +382,15 @@ pub(crate) fn prepare(
     let control = if law_driven == 0 && sumo_driven > 0 && !layout.leader_vehicle {
         Control::SumoModel
     } else {
-        Control::Law {
-            law: Box::new(LawSpec::of(scenario)),
-        }
+        let mut law = LawSpec::of(scenario);
+        law.damper = damper.map(|spec| DamperSetup {
+            spec,
+            ring_length_m: layout.road.length_m(),
+            length_m: layout.vehicles.iter().map(|v| v.length_m).collect(),
+            accel_mps2: layout.vtype.accel_mps2,
+            decel_mps2: layout.vtype.decel_mps2,
+        });
+        Control::Law { law: Box::new(law) }
     };
     Ok(Request {
         layout,
@@ -354,6 +412,27 @@ pub(crate) fn prepare(
         odometer_every: ODOMETER_EVERY,
         interleave_block: 0,
     })
+}
+
+/// Who drives each scenario vehicle and which damper commands the law's vehicles: the run
+/// options when they name drivers or a damper, else the scenario's `mixed` section (the
+/// automated vehicles drawn from the seed, the others its `human` driver), else the law alone.
+pub fn drivers_of(
+    scenario: &Scenario,
+    opts: &RunOptions,
+) -> Result<(Vec<Option<SumoDriver>>, Option<DamperSpec>), PrepareError> {
+    let mixed = scenario.mixed().filter(|_| opts.drivers.is_empty());
+    let Some(m) = mixed else {
+        return Ok((opts.drivers.clone(), opts.damper));
+    };
+    let human = SumoDriver::parse("mixed.human", &m.human)?;
+    let mut drivers = vec![Some(human); scenario.vehicles()];
+    for i in m.automated(scenario.vehicles(), scenario.seed()) {
+        drivers[i] = None;
+    }
+    // Validated with the scenario: the name parses.
+    let damper = opts.damper.or(m.damper().ok().flatten());
+    Ok((drivers, damper))
 }
 
 /// Records per chunk: about 256 KiB of rows, at least one record.
@@ -468,6 +547,35 @@ impl SumoRun {
         let k0 = usize::from(self.request.layout.leader_vehicle);
         let finish = self.worker.result.as_ref().ok();
         let start = self.worker.start.as_ref();
+        // Law-commanded vehicles are labelled `law`, or with the damper that drives them.
+        let damper = match &self.request.control {
+            Control::Law { law } => law.damper.as_ref().map(|d| d.spec.to_string()),
+            _ => None,
+        };
+        let commanded = damper.unwrap_or_else(|| "law".to_string());
+        let law_driven = matches!(self.request.control, Control::Law { .. })
+            && self.request.layout.vehicles[k0..]
+                .iter()
+                .any(|v| v.driver.is_none());
+        let warmup_s = self
+            .request
+            .measure
+            .as_ref()
+            .map_or(0.0, |m| m.warmup_steps as f64 * self.request.step_s);
+        let ssm = self
+            .request
+            .measure
+            .as_ref()
+            .and_then(|m| m.ssm_file.as_ref())
+            .filter(|_| finish.is_some())
+            .and_then(|f| match crate::ssm::read(f, warmup_s) {
+                Ok(s) => Some(s),
+                Err(e) => {
+                    // The run itself is fine; its record says no SSM was measured.
+                    eprintln!("warning: {e}; the record has no safety margins");
+                    None
+                }
+            });
         let facts = SumoFacts {
             sumo_version: start.map(|s| s.python.sumo_version.clone()),
             libsumo: start.map(|s| s.python.libsumo_file.clone()),
@@ -481,7 +589,10 @@ impl SumoRun {
             .into(),
             drivers: self.request.layout.vehicles[k0..]
                 .iter()
-                .map(|v| v.driver.map_or("law".to_string(), |d| d.to_string()))
+                .map(|v| {
+                    v.driver
+                        .map_or_else(|| commanded.clone(), |d| d.to_string())
+                })
                 .collect(),
             safety: finish.map(|f| Safety {
                 collision_steps: f.totals.collision_steps,
@@ -501,6 +612,8 @@ impl SumoRun {
                 .and_then(|_| loop_position(&self.request.layout.road).map(|l| l.2)),
             emission_class: crate::drivers::EMISSION_CLASS.to_string(),
             emission_every: self.request.measure.as_ref().map(|m| m.emission_every),
+            law_speed_mode: law_driven.then_some(self.request.speed_mode),
+            ssm,
         };
         RunOutput {
             trajectory: self.trajectory(scenario),

@@ -7,11 +7,11 @@
 //! field path, the value and what would be valid.
 //!
 //! The folder holds one concept per file: [`file`] (the schema a user writes), [`per_vehicle`]
-//! (values given once or per vehicle), [`leader`] (leader speed profiles), `validate` (every
-//! check, with field paths), `sumo` (the `sumo` section as typed [`SumoSettings`]),
-//! `graph_spec` (building the interaction graph) and this file, the sealed [`Scenario`] every
-//! backend runs: private fields read through accessors, made only by validation, so no code
-//! reads the raw file after it.
+//! (values given once or per vehicle), [`leader`] (leader speed profiles), [`mixed`] (mixed
+//! traffic: which vehicles are automated), `validate` (every check, with field paths), `sumo`
+//! (the `sumo` section as typed [`SumoSettings`]), `graph_spec` (building the interaction
+//! graph) and this file, the sealed [`Scenario`] every backend runs: private fields read
+//! through accessors, made only by validation, so no code reads the raw file after it.
 
 use std::path::{Path, PathBuf};
 
@@ -23,12 +23,14 @@ use crate::metrics::VerdictThresholds;
 pub mod file;
 mod graph_spec;
 pub mod leader;
+pub mod mixed;
 pub mod per_vehicle;
 mod sumo;
 mod validate;
 
 pub use file::*;
 pub use leader::LeaderProfile;
+pub use mixed::{automated_vehicles, MixedSpec};
 pub use per_vehicle::PerVehicle;
 pub use sumo::{SumoSettings, SumoVehicleType};
 
@@ -191,6 +193,7 @@ pub struct Scenario {
     length_m: Vec<f64>,
     verdict: VerdictThresholds,
     sumo: SumoSettings,
+    mixed: Option<MixedSpec>,
 }
 
 impl Scenario {
@@ -208,6 +211,12 @@ impl Scenario {
     /// Parses and validates scenario JSON text (relative paths resolve against the current folder).
     pub fn from_json(text: &str) -> Result<Self, ScenarioError> {
         ScenarioFile::from_json(text, "<string>")?.validate(Path::new("."))
+    }
+
+    /// Mixed traffic: which vehicles are automated and who drives the others (`None`: every
+    /// vehicle runs the model).
+    pub fn mixed(&self) -> Option<&MixedSpec> {
+        self.mixed.as_ref()
     }
 
     /// Name used in reports and output file names (`"scenario"` when the file gives none).

@@ -65,6 +65,9 @@ impl ScenarioFile {
             ));
         }
         let sumo = self.sumo.validate(base_dir)?;
+        if let Some(m) = &self.mixed {
+            m.validate(matches!(self.road, RoadSpec::Ring { .. }))?;
+        }
         let road_len = match self.road {
             RoadSpec::Ring { length_m } | RoadSpec::Straight { length_m } => length_m,
         };
@@ -256,6 +259,7 @@ impl ScenarioFile {
                 window_s: self.verdict.window_s,
             },
             sumo,
+            mixed: self.mixed.clone(),
         })
     }
 

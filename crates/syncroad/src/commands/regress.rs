@@ -358,6 +358,8 @@ pub fn fresh_metrics(base: &Baseline, baseline_path: &Path) -> anyhow::Result<Va
         baselines: runs,
         mixed: base.mixed.clone(),
         mixed_driver: "krauss-0.9".into(),
+        mixed_controller: "law".into(),
+        ssm: false,
         jobs: None,
         warmup_s: None,
         emission_every: 1,
