@@ -12,3 +12,12 @@ cargo build --release -p syncroad
 ./target/release/syncroad compare scenarios/sugiyama-ring.json --out out/compare
 # Mixed traffic: 0, 1, 2, 4 law-driven vehicles among Krauss σ 0.9 drivers.
 ./target/release/syncroad compare scenarios/sugiyama-ring.json --mixed 0,1,2,4 --out out/compare-mixed
+# The ring experiments a traffic researcher trusts: SUMO's calibrated human drivers (IDM,
+# docs/human-preset.md) form Sugiyama's jam on the same ring within 600 s; beside them the law
+# and the wave dampers of Stern et al. (2018) on every vehicle, and each damper (and the law)
+# as 1, 2 or 4 automated vehicles among the humans, with SUMO's surrogate safety measures.
+# FollowerStopper's desired speed U = 4.3 m/s is the humans' uniform-flow speed on this ring.
+./target/release/syncroad compare scenarios/sugiyama-human.json --warmup-s 400 --ssm \
+  --baselines protocol,human,follower-stopper-4.3,pi-saturation \
+  --mixed 0,1,2,4 --mixed-driver human --mixed-controller law,follower-stopper-4.3,pi-saturation \
+  --out out/compare-human

@@ -14,6 +14,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::cacc::{CaccLaw, PlatoonView, PowertrainLag};
+use crate::damper::{DamperController, DamperError, DamperSetup};
 use crate::delayed_driver::{DelayedDriverLaw, LawError};
 use crate::scenario::{LeaderProfile, Model, Scenario};
 
@@ -40,6 +41,9 @@ pub enum ControllerError {
     /// A CACC platoon needs its leader on the road.
     #[error("the CACC model needs a leader vehicle: run it on a straight road (road.type = \"straight\")")]
     CaccNeedsLeader,
+    /// A wave damper rejected its setup.
+    #[error(transparent)]
+    Damper(#[from] DamperError),
 }
 
 /// Everything a backend needs to build the law of a scenario, resolved: what a SUMO worker
@@ -52,15 +56,20 @@ pub struct LawSpec {
     pub step_s: f64,
     /// Initial speeds of the controlled vehicles \[m/s\] (the delay buffers' pre-history).
     pub initial_speed_mps: Vec<f64>,
+    /// A wave damper that drives the vehicles instead of the model's law (a ring resolved by
+    /// the backend); `None`: the model's law.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub damper: Option<DamperSetup>,
 }
 
 impl LawSpec {
     /// The law of a validated scenario.
     pub fn of(scenario: &Scenario) -> Self {
         Self {
-            model: scenario.model.clone(),
-            step_s: scenario.step_s,
-            initial_speed_mps: scenario.initial_speed_mps.clone(),
+            model: scenario.model().clone(),
+            step_s: scenario.step_s(),
+            initial_speed_mps: scenario.initial_speed_mps().to_vec(),
+            damper: None,
         }
     }
 }
@@ -118,6 +127,12 @@ pub fn controller_for(
     leader_vehicle: bool,
 ) -> Result<Box<dyn SpeedController>, ControllerError> {
     let n = law.initial_speed_mps.len();
+    if let Some(d) = &law.damper {
+        if leader_vehicle {
+            return Err(DamperError::NotARing.into());
+        }
+        return Ok(Box::new(DamperController::new(d, law.step_s)?));
+    }
     match &law.model {
         Model::DelayedDriver(m) => {
             let v0 = m.leader.as_ref().map(|(v0, _)| *v0);

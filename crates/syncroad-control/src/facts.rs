@@ -68,4 +68,31 @@ pub struct SumoFacts {
     pub emission_class: String,
     /// Fuel and CO2 read every this many steps, when measured.
     pub emission_every: Option<usize>,
+    /// Speed mode of the law-commanded vehicles (32: every check off; 1: SUMO's safe speed
+    /// kept), when some vehicle takes commands.
+    #[serde(default)]
+    pub law_speed_mode: Option<i32>,
+    /// SUMO's surrogate safety measures, when measured.
+    #[serde(default)]
+    pub ssm: Option<SsmSummary>,
+}
+
+/// What SUMO's SSM device logged after the warm-up: conflicts (one `<conflict>` record per
+/// encounter of an ego vehicle with a foe; every vehicle carries a device, so one encounter can
+/// be logged from both sides) whose time to collision fell below the TTC threshold or whose
+/// deceleration rate to avoid a crash rose above the DRAC threshold.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct SsmSummary {
+    /// TTC threshold of the device \[s\] (SUMO's default 3 s).
+    pub ttc_threshold_s: f64,
+    /// DRAC threshold of the device \[m/s²\] (SUMO's default 3 m/s²).
+    pub drac_threshold_mps2: f64,
+    /// Conflicts with a TTC below the threshold after the warm-up.
+    pub ttc_conflicts: usize,
+    /// Smallest TTC among them \[s\] (`null`: none).
+    pub ttc_min_s: Option<f64>,
+    /// Conflicts with a DRAC above the threshold after the warm-up.
+    pub drac_conflicts: usize,
+    /// Largest DRAC among them \[m/s²\] (`null`: none).
+    pub drac_max_mps2: Option<f64>,
 }

@@ -9,13 +9,15 @@
 //! * [`delayed_driver`], [`cacc`] — the laws (eq. `chandler+`; eqs. `veh-proto1/2`), one step
 //!   at a time, usable by any backend;
 //! * [`follower_stopper`], [`pi_saturation`] — the field's wave dampers of Stern et al. (2018)
-//!   as references, with [`actuation`] turning their command velocity into the next speed;
+//!   as references, with [`actuation`] turning their command velocity into the next speed,
+//!   and [`damper`] running them on a ring as a controller;
 //! * [`theory`], [`ifp`], [`poly`] — the paper's sufficient conditions and the IFP index;
 //! * [`exact`] — exact stability: rightmost characteristic roots, critical gains, CACC modes
 //!   and string stability, to show how conservative the sufficient conditions are;
 //! * [`controller`] — the one law object both backends step;
 //! * [`native`] — the fixed-step simulator; [`stop`] — why a run stopped;
-//! * [`metrics`], [`congestion`] — the synchronization verdict and congestion measures;
+//! * [`metrics`], [`congestion`], [`margins`] — the synchronization verdict, congestion
+//!   measures and safety margins (time headway, gaps, SUMO's surrogate safety measures);
 //! * [`outcome`], [`record`] — one run, whatever ran it: output → outcome → the `metrics.json`
 //!   record.
 #![warn(missing_docs)]
@@ -26,6 +28,7 @@ pub mod actuation;
 pub mod cacc;
 pub mod congestion;
 pub mod controller;
+pub mod damper;
 pub mod delayed_driver;
 pub mod exact;
 pub mod facts;
@@ -33,6 +36,7 @@ pub mod follower_stopper;
 pub mod graph;
 pub mod ifp;
 pub mod lti_network;
+pub mod margins;
 pub mod metrics;
 pub mod native;
 pub mod outcome;
@@ -48,6 +52,7 @@ pub mod trajectory;
 pub use actuation::{AccelLimits, ActuationError};
 pub use cacc::{CaccLaw, PlatoonView, PowertrainLag};
 pub use controller::{controller_for, LawSpec, SpeedController};
+pub use damper::{DamperSetup, DamperSpec};
 pub use delayed_driver::DelayedDriverLaw;
 pub use follower_stopper::{
     follower_stopper_command_mps, FollowerStopper, FollowerStopperError, FollowerStopperParams,

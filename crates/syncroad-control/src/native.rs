@@ -44,9 +44,9 @@ pub struct NativeRun {
 /// Initial unwrapped positions (rear bumpers) from the gaps: vehicle 0 at 0 (or behind the
 /// leader at `leader_position_m`), each next vehicle one length plus one gap further back.
 pub fn initial_positions(scenario: &Scenario, leader_position_m: Option<f64>) -> Vec<f64> {
-    let n = scenario.n;
+    let n = scenario.vehicles();
     let mut q = vec![0.0; n];
-    let (l, g) = (&scenario.length_m, &scenario.initial_gap_m);
+    let (l, g) = (scenario.length_m(), scenario.initial_gap_m());
     q[0] = match leader_position_m {
         Some(q0) => q0 - l[0] - g[0],
         None => 0.0,
@@ -92,11 +92,11 @@ fn check(v: &[f64], step: usize, dt: f64) -> Option<StopReason> {
 /// Where the leader vehicle starts and how fast, when the road has one: a delayed-driver
 /// leader one gap ahead of vehicle 0 at `v_0`, a CACC leader at 0 on its profile.
 pub fn leader_start(scenario: &Scenario) -> Option<(f64, f64)> {
-    match &scenario.model {
+    match scenario.model() {
         Model::DelayedDriver(m) => m
             .leader
             .as_ref()
-            .map(|(v0, _)| (scenario.length_m[0] + scenario.initial_gap_m[0], *v0)),
+            .map(|(v0, _)| (scenario.length_m()[0] + scenario.initial_gap_m()[0], *v0)),
         Model::Cacc(m) => Some((0.0, m.leader.initial_speed())),
     }
 }
@@ -107,9 +107,9 @@ pub fn simulate(scenario: &Scenario, opts: NativeOptions) -> NativeRun {
     let k0 = usize::from(leader.is_some());
     let mut law = controller_for(&LawSpec::of(scenario), leader.is_some())
         .expect("a validated scenario builds its law");
-    let n = scenario.n;
+    let n = scenario.vehicles();
     let all = n + k0;
-    let dt = scenario.step_s;
+    let dt = scenario.step_s();
     let ring = scenario.ring_length_m();
     let mut q = Vec::with_capacity(all);
     let mut v = Vec::with_capacity(all);
@@ -118,19 +118,19 @@ pub fn simulate(scenario: &Scenario, opts: NativeOptions) -> NativeRun {
         v.push(v0);
     }
     q.extend(initial_positions(scenario, leader.map(|l| l.0)));
-    v.extend_from_slice(&scenario.initial_speed_mps);
+    v.extend_from_slice(scenario.initial_speed_mps());
     let mut next = vec![0.0; all];
     let mut gaps = vec![0.0; n];
     let mut traj = Trajectory::new(n);
     let every = opts.record_every.max(1);
-    let lengths = &scenario.length_m;
+    let lengths = scenario.length_m();
     let mut record = |t: f64, q: &[f64], v: &[f64], traj: &mut Trajectory| {
         gaps_from_positions(&q[k0..], lengths, leader.map(|_| q[0]), ring, &mut gaps);
         traj.push(t, &v[k0..], &q[k0..], &gaps, scenario.leader_speed_at(t));
     };
     record(0.0, &q, &v, &mut traj);
     let mut stop = StopReason::Horizon;
-    for step in 0..scenario.steps {
+    for step in 0..scenario.steps() {
         law.step(step as f64 * dt, &v, &q, &mut next);
         if let Some(s) = check(&next[k0..], step + 1, dt) {
             stop = s;
@@ -140,7 +140,7 @@ pub fn simulate(scenario: &Scenario, opts: NativeOptions) -> NativeRun {
             q[i] += 0.5 * dt * (v[i] + next[i]);
         }
         std::mem::swap(&mut v, &mut next);
-        if (step + 1) % every == 0 || step + 1 == scenario.steps {
+        if (step + 1) % every == 0 || step + 1 == scenario.steps() {
             record((step + 1) as f64 * dt, &q, &v, &mut traj);
         }
     }
@@ -166,16 +166,16 @@ pub fn run_speeds_only(law: &mut DelayedDriverLaw, v: &mut Vec<f64>, steps: usiz
 /// # Panics
 /// When the scenario is not a CACC platoon.
 pub fn cacc_rk4_reference(scenario: &Scenario, opts: NativeOptions) -> NativeRun {
-    let Model::Cacc(m) = &scenario.model else {
+    let Model::Cacc(m) = scenario.model() else {
         panic!("cacc_rk4_reference runs CACC platoons only")
     };
     let law = CaccLaw::new(m);
-    let n = scenario.n;
-    let dt = scenario.step_s;
+    let n = scenario.vehicles();
+    let dt = scenario.step_s();
     let mut q0 = 0.0;
     // Follower 1 starts one length plus its gap behind the leader's rear bumper.
     let mut q = initial_positions(scenario, Some(q0));
-    let mut v = scenario.initial_speed_mps.clone();
+    let mut v = scenario.initial_speed_mps().to_vec();
     let mut a = vec![0.0; n];
     let tau = &m.tau_s;
     let profile = &m.leader;
@@ -214,7 +214,7 @@ pub fn cacc_rk4_reference(scenario: &Scenario, opts: NativeOptions) -> NativeRun
     let mut k = vec![vec![0.0; 3 * n]; 4];
     let mut tmp = vec![0.0; 3 * n];
     let mut stop = StopReason::Horizon;
-    for step in 0..scenario.steps {
+    for step in 0..scenario.steps() {
         let t = step as f64 * dt;
         let stages = [(0.0, 0usize), (0.5, 0), (0.5, 1), (1.0, 2)];
         for (s, &(c, from)) in stages.iter().enumerate() {
@@ -256,7 +256,7 @@ pub fn cacc_rk4_reference(scenario: &Scenario, opts: NativeOptions) -> NativeRun
             stop = s;
             break;
         }
-        if (step + 1) % every == 0 || step + 1 == scenario.steps {
+        if (step + 1) % every == 0 || step + 1 == scenario.steps() {
             gaps_from_positions(&q, &m.length_m, Some(q0), None, &mut gaps);
             let t1 = (step + 1) as f64 * dt;
             traj.push(t1, &v, &q, &gaps, Some(profile.speed_at(t1)));

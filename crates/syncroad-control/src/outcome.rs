@@ -41,12 +41,8 @@ pub struct EvalOptions {
 impl EvalOptions {
     /// The scenario's verdict thresholds and a warm-up of a quarter of the horizon.
     pub fn of(scenario: &Scenario) -> Self {
-        let v = &scenario.file.verdict;
         Self {
-            thresholds: VerdictThresholds {
-                tolerance_mps: v.tolerance_mps,
-                window_s: v.window_s,
-            },
+            thresholds: scenario.verdict_thresholds(),
             warmup_s: 0.25 * scenario.horizon_s(),
         }
     }
@@ -68,7 +64,7 @@ pub struct Outcome {
 /// Derives the metrics and the verdict of a run. A run that stopped early is never
 /// "synchronized".
 pub fn evaluate(scenario: &Scenario, run: &RunOutput, opts: EvalOptions) -> Outcome {
-    let desired = match &scenario.model {
+    let desired = match scenario.model() {
         Model::Cacc(c) => Some(c.desired_gap_m.as_slice()),
         Model::DelayedDriver(_) => None,
     };

@@ -9,6 +9,7 @@ use serde::Serialize;
 
 use crate::congestion::CongestionMetrics;
 pub use crate::facts::{Measured, Safety, SumoFacts};
+use crate::margins::SafetyMargins;
 use crate::metrics::SyncMetrics;
 use crate::outcome::{Outcome, RunOutput};
 use crate::scenario::{Backend, Scenario};
@@ -76,7 +77,7 @@ impl Traffic {
         run: &RunOutput,
         outcome: &Outcome,
     ) -> Self {
-        let measured_s = m.steps as f64 * sc.step_s;
+        let measured_s = m.steps as f64 * sc.step_s();
         let distance_m = distance_after(&run.trajectory, outcome.warmup_s);
         let per_km = |mg: f64| {
             if distance_m > 0.0 {
@@ -92,11 +93,11 @@ impl Traffic {
             loop_ring_m: facts.loop_ring_m,
             road_length_m: facts.road_length_m,
             flow_from_speed_veh_per_h: match (run.ring_length_m, &outcome.congestion) {
-                (Some(l), Ok(c)) => Some(sc.n as f64 * c.mean_speed_mps / l * 3600.0),
+                (Some(l), Ok(c)) => Some(sc.vehicles() as f64 * c.mean_speed_mps / l * 3600.0),
                 _ => None,
             },
             time_loss_s: m.time_loss_s,
-            time_loss_per_vehicle_s: m.time_loss_s / sc.n as f64,
+            time_loss_per_vehicle_s: m.time_loss_s / sc.vehicles() as f64,
             fuel_mg: m.fuel_mg,
             fuel_total_mg: m.fuel_total_mg,
             co2_mg: m.co2_mg,
@@ -176,6 +177,10 @@ pub struct RunRecord {
     pub safety: Option<Safety>,
     /// How SUMO ran (`null` for native runs).
     pub backend_facts: Option<BackendFacts>,
+    /// Time headway, gaps, SUMO's surrogate safety measures and the safe-speed label; present
+    /// only when the run measured SSM (records of runs that did not keep their earlier shape).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub safety_margins: Option<SafetyMargins>,
 }
 
 impl RunRecord {
@@ -185,22 +190,22 @@ impl RunRecord {
         let drivers = facts
             .map(|f| f.drivers.clone())
             .filter(|d| !d.is_empty())
-            .unwrap_or_else(|| vec!["law".to_string(); sc.n]);
+            .unwrap_or_else(|| vec!["law".to_string(); sc.vehicles()]);
         Self {
             syncroad_version: env!("CARGO_PKG_VERSION").to_string(),
             platform: format!("{}-{}", std::env::consts::ARCH, std::env::consts::OS),
             sumo_version: facts.and_then(|f| f.sumo_version.clone()),
-            scenario: sc.name.clone(),
-            scenario_hash: sc.hash_hex(),
-            seed: sc.file.seed,
+            scenario: sc.name().to_string(),
+            scenario_hash: sc.hash_hex().to_string(),
+            seed: sc.seed(),
             backend: if facts.is_some() {
                 Backend::Sumo
             } else {
                 Backend::Native
             },
             run: run_name.to_string(),
-            vehicles: sc.n,
-            step_s: sc.step_s,
+            vehicles: sc.vehicles(),
+            step_s: sc.step_s(),
             horizon_s: sc.horizon_s(),
             law_controlled_vehicles: drivers.iter().filter(|d| *d == "law").count(),
             drivers,
@@ -226,6 +231,8 @@ impl RunRecord {
                 max_override_mps: f.max_override_mps,
                 odometer_deviation_max_m: f.odometer_deviation_max_m,
             }),
+            safety_margins: facts
+                .and_then(|f| SafetyMargins::of(&run.trajectory, outcome.warmup_s, f)),
         }
     }
 

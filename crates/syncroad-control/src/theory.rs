@@ -10,7 +10,7 @@ use serde::Serialize;
 
 use crate::graph::{Graph, GraphSummary};
 use crate::ifp::cacc_agent_index;
-use crate::scenario::{CaccModel, DelayedDriverModel, GraphSpec, Model, ModelSpec, Scenario};
+use crate::scenario::{CaccModel, DelayedDriverModel, GraphShape, Model, Scenario};
 
 /// The vehicle closest to violating a per-vehicle inequality `value < bound`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -233,14 +233,11 @@ pub struct Chandler {
 /// Chandler's straight-road condition `2αK < 1`, when the scenario is uniform predecessor
 /// following (a chain behind a leader with b_0 = K, or a unidirectional ring).
 pub fn chandler(scenario: &Scenario, m: &DelayedDriverModel) -> Option<Chandler> {
-    let ModelSpec::DelayedDriver { graph, .. } = &scenario.file.model else {
-        return None;
-    };
-    let k = match graph {
-        GraphSpec::UnidirectionalRing { gain } => gain.uniform_value(0)?,
-        GraphSpec::Chain { gain } => {
-            let k = if scenario.n > 1 {
-                gain.uniform_value(1)?
+    let k = match m.shape {
+        GraphShape::UnidirectionalRing { gain } => gain?,
+        GraphShape::Chain { follower_gain } => {
+            let k = if scenario.vehicles() > 1 {
+                follower_gain?
             } else {
                 m.leader.as_ref()?.1[0]
             };
@@ -287,7 +284,7 @@ pub struct TheoryReport {
 
 /// Evaluates every condition that applies to the scenario.
 pub fn report(scenario: &Scenario) -> TheoryReport {
-    match &scenario.model {
+    match scenario.model() {
         Model::DelayedDriver(m) => {
             let (t1, t1p) = match &m.leader {
                 None => (Some(theorem1(&m.graph, &m.delay_s)), None),
@@ -300,8 +297,8 @@ pub fn report(scenario: &Scenario) -> TheoryReport {
                 || t1p.as_ref().is_some_and(|t| t.holds)
                 || ch.is_some_and(|c| c.holds);
             TheoryReport {
-                scenario: scenario.name.clone(),
-                vehicles: scenario.n,
+                scenario: scenario.name().to_string(),
+                vehicles: scenario.vehicles(),
                 graph: GraphSummary::from(&m.graph),
                 theorem1: t1,
                 theorem1_plus: t1p,
@@ -313,8 +310,8 @@ pub fn report(scenario: &Scenario) -> TheoryReport {
         Model::Cacc(c) => {
             let t = cacc_theorem(c);
             TheoryReport {
-                scenario: scenario.name.clone(),
-                vehicles: scenario.n,
+                scenario: scenario.name().to_string(),
+                vehicles: scenario.vehicles(),
                 graph: GraphSummary::from(&cacc_graph(c).0),
                 theorem1: None,
                 theorem1_plus: None,

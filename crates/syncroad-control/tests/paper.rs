@@ -341,7 +341,7 @@ fn native_decay_rate_matches_exact_abscissa_on_heterogeneous_network() {
             "initial": {"speed_mps": 10.0, "perturbation": {"speed_mps": 1.0}}}"#,
     )
     .unwrap();
-    let syncroad_control::scenario::Model::DelayedDriver(m) = &sc.model else {
+    let syncroad_control::scenario::Model::DelayedDriver(m) = sc.model() else {
         unreachable!()
     };
     let exact = syncroad_control::exact::rightmost_roots(

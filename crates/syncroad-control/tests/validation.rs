@@ -20,10 +20,10 @@ fn err(json: &str) -> String {
 #[test]
 fn valid_base_scenario_is_accepted() {
     let s = Scenario::from_json(&base(RING, "")).unwrap();
-    assert_eq!(s.n, 4);
-    assert_eq!(s.steps, 100);
+    assert_eq!(s.vehicles(), 4);
+    assert_eq!(s.steps(), 100);
     // Even spacing: 100 m ring, 4 vehicles of 5 m → 20 m gaps.
-    assert!(s.initial_gap_m.iter().all(|g| (g - 20.0).abs() < 1e-12));
+    assert!(s.initial_gap_m().iter().all(|g| (g - 20.0).abs() < 1e-12));
 }
 
 #[test]
@@ -145,12 +145,12 @@ fn same_seed_same_initial_state_other_seed_differs() {
     );
     let a = Scenario::from_json(&j).unwrap();
     let b = Scenario::from_json(&j).unwrap();
-    assert_eq!(a.initial_speed_mps, b.initial_speed_mps);
-    assert_eq!(a.initial_gap_m, b.initial_gap_m);
+    assert_eq!(a.initial_speed_mps(), b.initial_speed_mps());
+    assert_eq!(a.initial_gap_m(), b.initial_gap_m());
     let c = Scenario::from_json(&j.replace(r#""seed": 1"#, r#""seed": 2"#)).unwrap();
-    assert_ne!(a.initial_speed_mps, c.initial_speed_mps);
+    assert_ne!(a.initial_speed_mps(), c.initial_speed_mps());
     // Perturbed gaps still close the ring.
-    let total: f64 = a.initial_gap_m.iter().sum::<f64>() + 4.0 * 5.0;
+    let total: f64 = a.initial_gap_m().iter().sum::<f64>() + 4.0 * 5.0;
     assert!((total - 100.0).abs() < 1e-9);
 }
 
@@ -161,9 +161,9 @@ fn vehicles_as_entries_carry_their_own_values() {
         "road": {"type": "ring", "length_m": 90},
         "model": {"type": "delayed_driver", "graph": {"type": "unidirectional_ring", "gain": 0.5}}}"#;
     let s = Scenario::from_json(j).unwrap();
-    assert_eq!(s.n, 3);
-    assert_eq!(s.initial_speed_mps, [9.0, 11.0, 10.0]);
-    let syncroad_control::scenario::Model::DelayedDriver(m) = &s.model else {
+    assert_eq!(s.vehicles(), 3);
+    assert_eq!(s.initial_speed_mps(), [9.0, 11.0, 10.0]);
+    let syncroad_control::scenario::Model::DelayedDriver(m) = s.model() else {
         panic!()
     };
     assert_eq!(m.delay_steps, [3, 5, 4]);
@@ -195,5 +195,78 @@ fn vehicle_entries_conflicting_or_incomplete_are_rejected() {
     assert_eq!(
         err(&none),
         "model.delay_s = missing: give the reaction delays α_i [s] here or in every vehicle entry"
+    );
+}
+
+#[test]
+fn graph_shape_keeps_the_uniform_gains_the_closed_forms_need() {
+    use syncroad_control::scenario::{GraphShape, Model};
+    let s = Scenario::from_json(&base(RING, "")).unwrap();
+    let Model::DelayedDriver(m) = s.model() else {
+        panic!("delayed-driver scenario")
+    };
+    assert_eq!(m.shape, GraphShape::UnidirectionalRing { gain: Some(0.5) });
+    let s = Scenario::from_json(&base(
+        r#"{"type": "delayed_driver", "graph": {"type": "bidirectional_ring", "gain_pred": [0.5, 0.5, 0.6, 0.5], "gain_follow": 0.2}, "delay_s": 0.3}"#,
+        "",
+    ))
+    .unwrap();
+    let Model::DelayedDriver(m) = s.model() else {
+        panic!("delayed-driver scenario")
+    };
+    assert_eq!(
+        m.shape,
+        GraphShape::BidirectionalRing {
+            gain_pred: None,
+            gain_follow: Some(0.2)
+        }
+    );
+}
+
+#[test]
+fn a_replacement_model_must_fit_the_scenario() {
+    use syncroad_control::scenario::Model;
+    let s = Scenario::from_json(&base(RING, "")).unwrap();
+    let Model::DelayedDriver(m) = s.model() else {
+        panic!("delayed-driver scenario")
+    };
+    // Doubled delays on the grid are accepted and change nothing else.
+    let mut doubled = m.clone();
+    for (d, k) in doubled
+        .delay_s
+        .iter_mut()
+        .zip(doubled.delay_steps.iter_mut())
+    {
+        *d *= 2.0;
+        *k *= 2;
+    }
+    let t = s.with_model(Model::DelayedDriver(doubled.clone())).unwrap();
+    assert_eq!(t.initial_speed_mps(), s.initial_speed_mps());
+    assert_eq!(t.hash_hex(), s.hash_hex());
+    let Model::DelayedDriver(tm) = t.model() else {
+        panic!("delayed-driver scenario")
+    };
+    assert_eq!(tm.delay_steps, [6; 4]);
+    // Off the grid.
+    let mut off = doubled.clone();
+    off.delay_s[1] = 0.65;
+    let e = s
+        .with_model(Model::DelayedDriver(off))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("model.delay_s[1] = 0.65 s is not a whole multiple of step_s = 0.1 s"),
+        "{e}"
+    );
+    // One value too few.
+    let mut short = doubled;
+    short.delay_s.pop();
+    let e = s
+        .with_model(Model::DelayedDriver(short))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("model.delay_s has 3 entries but the scenario has 4 vehicles"),
+        "{e}"
     );
 }

@@ -36,13 +36,17 @@ pub enum SumoDriver {
     /// SUMO's CACC model (Milanés & Shladover); without a CACC-equipped leader it falls back
     /// to ACC.
     Cacc,
+    /// The `human` preset: IDM calibrated on the Sugiyama ring ([`CarFollowing::preset`]).
+    Human,
+    /// The `flow-idm` preset: Flow's `IDMController` defaults ([`CarFollowing::preset`]).
+    FlowIdm,
 }
 
 /// Errors naming a driver.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum DriverError {
     /// Unknown name.
-    #[error("{flag} = {value}: unknown driver; use krauss (σ 0.5), krauss-SIGMA with SIGMA in [0, 1] (e.g. krauss-0.9), idm, acc or cacc")]
+    #[error("{flag} = {value}: unknown driver; use krauss (σ 0.5), krauss-SIGMA with SIGMA in [0, 1] (e.g. krauss-0.9), idm, acc, cacc, or a preset: human (IDM calibrated on the Sugiyama ring), flow-idm")]
     Unknown {
         /// Flag or field.
         flag: String,
@@ -65,7 +69,8 @@ impl SumoDriver {
     /// SUMO's default driver: Krauss with σ = 0.5.
     pub const DEFAULT_KRAUSS: SumoDriver = SumoDriver::Krauss { sigma: 0.5 };
 
-    /// Parses `krauss`, `krauss-0.9`, `idm`, `acc`, `cacc` (case-insensitive); `flag` names
+    /// Parses `krauss`, `krauss-0.9`, `idm`, `acc`, `cacc`, and the presets `human` and
+    /// `flow-idm` (case-insensitive); `flag` names
     /// the flag or field in the error.
     pub fn parse(flag: &str, s: &str) -> Result<Self, DriverError> {
         let low = s.trim().to_ascii_lowercase();
@@ -74,6 +79,8 @@ impl SumoDriver {
             "idm" => return Ok(Self::Idm),
             "acc" => return Ok(Self::Acc),
             "cacc" => return Ok(Self::Cacc),
+            "human" => return Ok(Self::Human),
+            "flow-idm" => return Ok(Self::FlowIdm),
             _ => {}
         }
         if let Some(sigma) = low
@@ -109,6 +116,7 @@ impl SumoDriver {
             SumoDriver::Idm => r#"carFollowModel="IDM""#.into(),
             SumoDriver::Acc => r#"carFollowModel="ACC""#.into(),
             SumoDriver::Cacc => r#"carFollowModel="CACC""#.into(),
+            SumoDriver::Human | SumoDriver::FlowIdm => self.car_following().vtype_attributes(),
         }
     }
 }
@@ -124,6 +132,12 @@ impl SumoDriver {
             SumoDriver::Idm => CarFollowing::new(CfModel::Idm),
             SumoDriver::Acc => CarFollowing::new(CfModel::Acc),
             SumoDriver::Cacc => CarFollowing::new(CfModel::Cacc),
+            SumoDriver::Human => {
+                CarFollowing::preset("driver", "human").expect("the human preset exists")
+            }
+            SumoDriver::FlowIdm => {
+                CarFollowing::preset("driver", "flow-idm").expect("the flow-idm preset exists")
+            }
         }
     }
 }
@@ -136,6 +150,8 @@ impl fmt::Display for SumoDriver {
             SumoDriver::Idm => write!(f, "idm"),
             SumoDriver::Acc => write!(f, "acc"),
             SumoDriver::Cacc => write!(f, "cacc"),
+            SumoDriver::Human => write!(f, "human"),
+            SumoDriver::FlowIdm => write!(f, "flow-idm"),
         }
     }
 }
@@ -146,7 +162,15 @@ mod tests {
 
     #[test]
     fn names_round_trip_and_errors_name_the_flag() {
-        for name in ["krauss", "krauss-0.9", "idm", "acc", "cacc"] {
+        for name in [
+            "krauss",
+            "krauss-0.9",
+            "idm",
+            "acc",
+            "cacc",
+            "human",
+            "flow-idm",
+        ] {
             assert_eq!(
                 SumoDriver::parse("--baselines", name).unwrap().to_string(),
                 name

@@ -7,6 +7,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
+use syncroad_control::scenario::SumoVehicleType;
 
 use crate::net::Road;
 
@@ -57,21 +58,6 @@ pub enum LayoutError {
     },
 }
 
-/// SUMO vehicle-type parameters shared by all vehicles (lengths may differ per vehicle).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct VehicleType {
-    /// minGap \[m\]: the car-following model's standstill gap.
-    pub min_gap_m: f64,
-    /// accel [m/s²].
-    pub accel_mps2: f64,
-    /// decel [m/s²].
-    pub decel_mps2: f64,
-    /// emergencyDecel [m/s²].
-    pub emergency_decel_mps2: f64,
-    /// maxSpeed [m/s].
-    pub max_speed_mps: f64,
-}
-
 /// One SUMO vehicle's start.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Departure {
@@ -99,7 +85,7 @@ pub struct Layout {
     /// The road.
     pub road: Road,
     /// Vehicle type.
-    pub vtype: VehicleType,
+    pub vtype: SumoVehicleType,
     /// All SUMO vehicles, the leader (if it is a SUMO vehicle) first.
     pub vehicles: Vec<Departure>,
     /// True when `vehicles[0]` is a leader driven by its speed profile.
@@ -123,28 +109,11 @@ fn check_pos(field: &str, x: f64) -> Result<(), LayoutError> {
     }
 }
 
-impl VehicleType {
-    fn validate(&self) -> Result<(), LayoutError> {
-        check_pos("sumo.accel_mps2", self.accel_mps2)?;
-        check_pos("sumo.decel_mps2", self.decel_mps2)?;
-        check_pos("sumo.emergency_decel_mps2", self.emergency_decel_mps2)?;
-        check_pos("sumo.max_speed_mps", self.max_speed_mps)?;
-        if !(self.min_gap_m.is_finite() && self.min_gap_m >= 0.0) {
-            return Err(LayoutError::Invalid {
-                field: "sumo.min_gap_m".into(),
-                value: self.min_gap_m,
-                expected: "must be a finite number ≥ 0".into(),
-            });
-        }
-        Ok(())
-    }
-}
-
 /// Departure speeds must not exceed what SUMO accepts at insertion: the vehicle type's
 /// maxSpeed and the road's speed limit.
 fn check_departure_speeds(
     road: &Road,
-    vtype: &VehicleType,
+    vtype: &SumoVehicleType,
     speeds_mps: &[f64],
 ) -> Result<(), LayoutError> {
     let limit = vtype.max_speed_mps.min(road.speed_limit_mps());
@@ -193,13 +162,12 @@ pub fn check_ring_capacity(
 /// scaled by one common factor so that lengths plus gaps equal SUMO's ring length.
 pub fn ring_layout(
     road: &Road,
-    vtype: VehicleType,
+    vtype: SumoVehicleType,
     lengths_m: &[f64],
     gaps_m: &[f64],
     speeds_mps: &[f64],
     horizon_s: f64,
 ) -> Result<Layout, LayoutError> {
-    vtype.validate()?;
     for (i, l) in lengths_m.iter().enumerate() {
         check_pos(&format!("length_m[{i}]"), *l)?;
     }
@@ -249,7 +217,7 @@ pub fn ring_layout(
 #[allow(clippy::too_many_arguments)]
 pub fn straight_layout(
     road: &Road,
-    vtype: VehicleType,
+    vtype: SumoVehicleType,
     lengths_m: &[f64],
     q_m: &[f64],
     speeds_mps: &[f64],
@@ -257,7 +225,6 @@ pub fn straight_layout(
     leader_speed_mps: f64,
     horizon_s: f64,
 ) -> Result<Layout, LayoutError> {
-    vtype.validate()?;
     check_departure_speeds(road, &vtype, speeds_mps)?;
     check_departure_speeds(road, &vtype, &[leader_speed_mps])?;
     let mut all: Vec<(String, f64, f64, f64)> = Vec::new();
@@ -312,6 +279,17 @@ pub fn straight_layout(
     })
 }
 
+/// vType attributes written for every vehicle type; a driver's own value replaces the
+/// scenario's (`length` is the layout's).
+const BASE: [&str; 6] = [
+    "length",
+    "minGap",
+    "accel",
+    "decel",
+    "emergencyDecel",
+    "maxSpeed",
+];
+
 impl Layout {
     /// The SUMO routes file (vehicle types, routes, vehicles) of this layout. Deterministic
     /// text; vehicles depart at t = 0 at their exact positions and speeds
@@ -326,8 +304,25 @@ impl Layout {
             let key = (v.length_m.to_bits(), v.driver);
             if !types.contains(&key) {
                 types.push(key);
-                let model = match &v.driver {
-                    Some(d) => d.vtype_attributes(),
+                // A driver's own values (a preset's accel, decel, minGap, maxSpeed) replace
+                // the scenario's; its other parameters follow its carFollowModel. Lengths are
+                // the layout's (a preset's length is checked to match before SUMO starts).
+                let cf = v.driver.map(|d| d.car_following());
+                let own = |name: &str, x: f64| {
+                    cf.as_ref()
+                        .and_then(|c| c.params.get(name).copied())
+                        .unwrap_or(x)
+                };
+                let model = match &cf {
+                    Some(c) => {
+                        let mut m = format!(r#"carFollowModel="{}""#, c.model.sumo_name());
+                        for (name, x) in
+                            c.params.iter().filter(|(k, _)| !BASE.contains(&k.as_str()))
+                        {
+                            let _ = write!(m, r#" {name}="{x}""#);
+                        }
+                        m
+                    }
                     None => r#"sigma="0""#.to_string(),
                 };
                 let _ = writeln!(
@@ -335,11 +330,11 @@ impl Layout {
                     r#"    <vType id="t{}" length="{}" minGap="{}" accel="{}" decel="{}" emergencyDecel="{}" maxSpeed="{}" {model} speedFactor="1" speedDev="0" emissionClass="{}"/>"#,
                     types.len() - 1,
                     v.length_m,
-                    t.min_gap_m,
-                    t.accel_mps2,
-                    t.decel_mps2,
-                    t.emergency_decel_mps2,
-                    t.max_speed_mps,
+                    own("minGap", t.min_gap_m),
+                    own("accel", t.accel_mps2),
+                    own("decel", t.decel_mps2),
+                    own("emergencyDecel", t.emergency_decel_mps2),
+                    own("maxSpeed", t.max_speed_mps),
                     crate::drivers::EMISSION_CLASS,
                 );
             }
@@ -393,8 +388,8 @@ mod tests {
     use crate::net::read_ring;
     use approx::assert_relative_eq;
 
-    fn vt() -> VehicleType {
-        VehicleType {
+    fn vt() -> SumoVehicleType {
+        SumoVehicleType {
             min_gap_m: 2.5,
             accel_mps2: 2.6,
             decel_mps2: 4.5,
@@ -484,5 +479,12 @@ mod tests {
         assert!(xml.contains(r#"<vehicle id="v1" type="t1""#), "{xml}");
         assert!(xml.contains(r#"<vehicle id="v3" type="t0""#), "{xml}");
         assert_eq!(lay.vehicles.len(), n);
+        // A preset's own values replace the scenario's, each attribute written once.
+        lay.vehicles[3].driver = Some(crate::drivers::SumoDriver::Human);
+        let xml = lay.routes_xml();
+        assert!(
+            xml.contains(r#"length="5" minGap="2" accel="1.3" decel="1.5" emergencyDecel="9" maxSpeed="30" carFollowModel="IDM" delta="4" tau="0.8" speedFactor="1""#),
+            "{xml}"
+        );
     }
 }

@@ -15,6 +15,7 @@
 //!   departures, ring capacity, the routes file;
 //! * `car_following`, `drivers` — SUMO's car-following models with all their parameters,
 //!   validated before SUMO starts, named presets, and the short baseline names;
+//! * `ssm` — SUMO's surrogate-safety device: its options and a summary of its log;
 //! * `protocol`, `cosim`, `worker` — the worker process: one step of the co-simulation apart
 //!   from the loop that runs it;
 //! * `supervisor`, `run` — the parent: [`Prepared::new`] checks everything it can before SUMO
@@ -34,6 +35,7 @@ mod net;
 mod protocol;
 mod python;
 mod run;
+mod ssm;
 mod supervisor;
 mod venv;
 mod worker;

@@ -92,6 +92,9 @@ pub struct Measure {
     pub detector_file: Option<PathBuf>,
     /// SUMO's trip-info output with emission totals of unfinished trips (cross-checks).
     pub tripinfo_file: Option<PathBuf>,
+    /// Log of SUMO's SSM device (TTC and DRAC conflicts of every vehicle), when asked for.
+    #[serde(default)]
+    pub ssm_file: Option<PathBuf>,
 }
 
 /// How the loop reads vehicle states from libsumo.

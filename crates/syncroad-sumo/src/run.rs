@@ -11,11 +11,11 @@ use std::time::Duration;
 
 use syncroad_control::native::{initial_positions, leader_start};
 use syncroad_control::record::{Safety, SumoFacts};
-use syncroad_control::scenario::{RoadSpec, Scenario};
-use syncroad_control::{LawSpec, RunOutput, StopReason, Trajectory};
+use syncroad_control::scenario::Scenario;
+use syncroad_control::{DamperSetup, DamperSpec, LawSpec, RunOutput, StopReason, Trajectory};
 
-use crate::drivers::{SumoDriver, MIXED_SPEED_MODE};
-use crate::layout::{ring_layout, straight_layout, Layout, LayoutError, VehicleType};
+use crate::drivers::{DriverError, SumoDriver, MIXED_SPEED_MODE};
+use crate::layout::{ring_layout, straight_layout, Layout, LayoutError};
 use crate::net::{read_ring, read_straight, NetError, Road};
 use crate::protocol::{Control, Finish, Measure, ReadMode, Request};
 use crate::supervisor::{
@@ -77,6 +77,30 @@ pub enum PrepareError {
         /// What is valid.
         expected: &'static str,
     },
+    /// A driver named in the scenario is unknown.
+    #[error(transparent)]
+    Driver(#[from] DriverError),
+    /// A driver preset's length differs from the scenario's vehicle, so the run would not start
+    /// from the scenario's positions.
+    #[error("{driver}: its length {preset_m} m differs from vehicle {vehicle}'s length {length_m} m in the scenario; every run starts from the scenario's positions, so give the vehicles the preset's length (sumo.length_m)")]
+    DriverLength {
+        /// The driver.
+        driver: String,
+        /// Vehicle index.
+        vehicle: usize,
+        /// The preset's length \[m\].
+        preset_m: f64,
+        /// The scenario's length \[m\].
+        length_m: f64,
+    },
+    /// The wave dampers follow a predecessor around a ring.
+    #[error("{damper}: the wave dampers drive on a ring (each vehicle follows its predecessor); scenario {scenario} is a straight road")]
+    DamperNeedsRing {
+        /// The damper.
+        damper: String,
+        /// The scenario.
+        scenario: String,
+    },
     /// The work folder cannot be written.
     #[error("cannot write {path}: {reason}")]
     Io {
@@ -112,6 +136,9 @@ pub struct RunOptions {
     pub drivers: Vec<Option<SumoDriver>>,
     /// SUMO-side measurements (flow, time loss, fuel, CO2, hard braking).
     pub measure: Option<MeasureOptions>,
+    /// A wave damper drives the vehicles the law would drive (rings only); `None`: the
+    /// scenario's law, or the damper its `mixed.controller` names.
+    pub damper: Option<DamperSpec>,
 }
 
 /// What to measure in SUMO during a run.
@@ -123,6 +150,9 @@ pub struct MeasureOptions {
     pub emission_every: usize,
     /// Also write SUMO's trip info with emission totals (`tripinfo.xml` in the work folder).
     pub tripinfo: bool,
+    /// Also log SUMO's surrogate safety measures (`ssm.xml` in the work folder) and report
+    /// time headway, gaps, TTC, DRAC and the safe-speed label in the record.
+    pub ssm: bool,
 }
 
 /// Where the induction loop `loop0` sits on a ring: lane, position on it \[m\] and the ring
@@ -156,13 +186,14 @@ impl RunOptions {
             on_start: None,
             drivers: Vec::new(),
             measure: None,
+            damper: None,
         }
     }
 }
 
-/// The network file of a scenario, resolved and checked to exist.
+/// The network file of a scenario (resolved when the scenario was validated), checked to exist.
 pub fn net_path(scenario: &Scenario) -> Result<PathBuf, PrepareError> {
-    let Some(net) = &scenario.file.sumo.net else {
+    let Some(net) = scenario.sumo().net() else {
         return Err(PrepareError::NoNet {
             example: if scenario.is_ring() {
                 "../sumo-nets/sugiyama-ring.net.xml".into()
@@ -171,32 +202,29 @@ pub fn net_path(scenario: &Scenario) -> Result<PathBuf, PrepareError> {
             },
         });
     };
-    let p = if net.is_absolute() {
-        net.clone()
-    } else {
-        scenario.base_dir.join(net)
-    };
-    if !p.is_file() {
-        return Err(PrepareError::NetNotFound { path: p });
+    if !net.is_file() {
+        return Err(PrepareError::NetNotFound {
+            path: net.to_path_buf(),
+        });
     }
-    Ok(p)
+    Ok(net.to_path_buf())
 }
 
 /// Numbers SUMO itself restricts: its clock counts whole milliseconds and `--seed` is a
 /// 32-bit signed integer.
 pub fn check_sumo_numbers(scenario: &Scenario) -> Result<(), PrepareError> {
-    let ms = scenario.step_s * 1000.0;
+    let ms = scenario.step_s() * 1000.0;
     if (ms - ms.round()).abs() > 1e-9 * ms.max(1.0) || ms.round() < 1.0 {
         return Err(PrepareError::Unrepresentable {
             field: "step_s",
-            value: scenario.step_s.to_string(),
+            value: scenario.step_s().to_string(),
             expected: "SUMO's clock counts whole milliseconds: use a multiple of 0.001 s",
         });
     }
-    if scenario.file.seed > i32::MAX as u64 {
+    if scenario.seed() > i32::MAX as u64 {
         return Err(PrepareError::Unrepresentable {
             field: "seed",
-            value: scenario.file.seed.to_string(),
+            value: scenario.seed().to_string(),
             expected: "SUMO's --seed takes 0 ..= 2147483647",
         });
     }
@@ -206,56 +234,49 @@ pub fn check_sumo_numbers(scenario: &Scenario) -> Result<(), PrepareError> {
 /// Reads the scenario's network file once (every pre-start check of the road).
 pub fn load_road(scenario: &Scenario) -> Result<Road, PrepareError> {
     let net = net_path(scenario)?;
-    Ok(match scenario.file.road {
-        RoadSpec::Ring { .. } => read_ring(&net)?,
-        RoadSpec::Straight { .. } => read_straight(&net)?,
+    Ok(if scenario.is_ring() {
+        read_ring(&net)?
+    } else {
+        read_straight(&net)?
     })
 }
 
 /// The layout of a scenario on its road (capacity and road length for the horizon).
 pub fn layout_for(scenario: &Scenario, road: &Road) -> Result<Layout, PrepareError> {
-    let s = &scenario.file.sumo;
-    let vtype = VehicleType {
-        min_gap_m: s.min_gap_m,
-        accel_mps2: s.accel_mps2,
-        decel_mps2: s.decel_mps2,
-        emergency_decel_mps2: s.emergency_decel_mps2,
-        max_speed_mps: s.max_speed_mps,
-    };
+    let vtype = *scenario.sumo().vehicle_type();
     let horizon = scenario.horizon_s();
-    let layout = match scenario.file.road {
-        RoadSpec::Ring { .. } => ring_layout(
+    let layout = if scenario.is_ring() {
+        ring_layout(
             road,
             vtype,
-            &scenario.length_m,
-            &scenario.initial_gap_m,
-            &scenario.initial_speed_mps,
+            scenario.length_m(),
+            scenario.initial_gap_m(),
+            scenario.initial_speed_mps(),
             horizon,
-        )?,
-        RoadSpec::Straight { .. } => {
-            let dt = scenario.step_s;
-            let travel = |f: &dyn Fn(f64) -> f64| -> f64 {
-                (0..scenario.steps)
-                    .map(|k| 0.5 * dt * (f(k as f64 * dt) + f((k + 1) as f64 * dt)))
-                    .sum()
-            };
-            let start = leader_start(scenario);
-            let leader = start.map(|(q0, _)| {
-                let dist = travel(&|t| scenario.leader_speed_at(t).unwrap_or(0.0));
-                (q0, scenario.length_m[0], dist)
-            });
-            let q = initial_positions(scenario, start.map(|l| l.0));
-            straight_layout(
-                road,
-                vtype,
-                &scenario.length_m,
-                &q,
-                &scenario.initial_speed_mps,
-                leader,
-                start.map_or(0.0, |l| l.1),
-                horizon,
-            )?
-        }
+        )?
+    } else {
+        let dt = scenario.step_s();
+        let travel = |f: &dyn Fn(f64) -> f64| -> f64 {
+            (0..scenario.steps())
+                .map(|k| 0.5 * dt * (f(k as f64 * dt) + f((k + 1) as f64 * dt)))
+                .sum()
+        };
+        let start = leader_start(scenario);
+        let leader = start.map(|(q0, _)| {
+            let dist = travel(&|t| scenario.leader_speed_at(t).unwrap_or(0.0));
+            (q0, scenario.length_m()[0], dist)
+        });
+        let q = initial_positions(scenario, start.map(|l| l.0));
+        straight_layout(
+            road,
+            vtype,
+            scenario.length_m(),
+            &q,
+            scenario.initial_speed_mps(),
+            leader,
+            start.map_or(0.0, |l| l.1),
+            horizon,
+        )?
     };
     Ok(layout)
 }
@@ -274,17 +295,37 @@ pub(crate) fn prepare(
         reason: e.to_string(),
     };
     let mut layout = layout;
-    if !opts.drivers.is_empty() {
+    let (drivers, damper) = drivers_of(scenario, opts)?;
+    if !drivers.is_empty() {
         let k0 = usize::from(layout.leader_vehicle);
-        if opts.drivers.len() != layout.vehicles.len() - k0 {
+        if drivers.len() != layout.vehicles.len() - k0 {
             return Err(PrepareError::Drivers {
                 expected: layout.vehicles.len() - k0,
-                got: opts.drivers.len(),
+                got: drivers.len(),
             });
         }
-        for (dep, d) in layout.vehicles[k0..].iter_mut().zip(&opts.drivers) {
+        for (i, (dep, d)) in layout.vehicles[k0..].iter_mut().zip(&drivers).enumerate() {
+            if let Some(&preset_m) = d
+                .and_then(|d| d.car_following().params.get("length").copied())
+                .as_ref()
+            {
+                if preset_m != dep.length_m {
+                    return Err(PrepareError::DriverLength {
+                        driver: d.map(|d| d.to_string()).unwrap_or_default(),
+                        vehicle: i,
+                        preset_m,
+                        length_m: dep.length_m,
+                    });
+                }
+            }
             dep.driver = *d;
         }
+    }
+    if let (Some(d), false) = (damper, layout.road.ring) {
+        return Err(PrepareError::DamperNeedsRing {
+            damper: d.to_string(),
+            scenario: scenario.name().to_string(),
+        });
     }
     let sumo_driven = layout
         .vehicles
@@ -328,10 +369,11 @@ pub(crate) fn prepare(
                 None => None,
             };
             Some(Measure {
-                warmup_steps: (m.warmup_s / scenario.step_s + 1e-9).floor() as usize,
+                warmup_steps: (m.warmup_s / scenario.step_s() + 1e-9).floor() as usize,
                 emission_every: m.emission_every,
                 detector_file,
                 tripinfo_file: m.tripinfo.then(|| opts.work_dir.join("tripinfo.xml")),
+                ssm_file: m.ssm.then(|| opts.work_dir.join("ssm.xml")),
             })
         }
     };
@@ -342,30 +384,57 @@ pub(crate) fn prepare(
     let control = if law_driven == 0 && sumo_driven > 0 && !layout.leader_vehicle {
         Control::SumoModel
     } else {
-        Control::Law {
-            law: Box::new(LawSpec::of(scenario)),
-        }
+        let mut law = LawSpec::of(scenario);
+        law.damper = damper.map(|spec| DamperSetup {
+            spec,
+            ring_length_m: layout.road.length_m(),
+            length_m: layout.vehicles.iter().map(|v| v.length_m).collect(),
+            accel_mps2: layout.vtype.accel_mps2,
+            decel_mps2: layout.vtype.decel_mps2,
+        });
+        Control::Law { law: Box::new(law) }
     };
     Ok(Request {
         layout,
         routes_file,
         log_file: opts.work_dir.join("sumo.log"),
-        step_s: scenario.step_s,
-        steps: scenario.steps,
-        seed: scenario.file.seed,
+        step_s: scenario.step_s(),
+        steps: scenario.steps(),
+        seed: scenario.seed(),
         ballistic: opts.ballistic,
         control,
         observe: true,
         speed_mode,
         measure,
         record_every: opts.record_every.max(1),
-        chunk_records: chunk_records(scenario.n),
+        chunk_records: chunk_records(scenario.vehicles()),
         override_tolerance_mps: OVERRIDE_TOLERANCE_MPS,
         untimed_steps: 0,
         read: opts.read,
         odometer_every: ODOMETER_EVERY,
         interleave_block: 0,
     })
+}
+
+/// Who drives each scenario vehicle and which damper commands the law's vehicles: the run
+/// options when they name drivers or a damper, else the scenario's `mixed` section (the
+/// automated vehicles drawn from the seed, the others its `human` driver), else the law alone.
+pub fn drivers_of(
+    scenario: &Scenario,
+    opts: &RunOptions,
+) -> Result<(Vec<Option<SumoDriver>>, Option<DamperSpec>), PrepareError> {
+    let mixed = scenario.mixed().filter(|_| opts.drivers.is_empty());
+    let Some(m) = mixed else {
+        return Ok((opts.drivers.clone(), opts.damper));
+    };
+    let human = SumoDriver::parse("mixed.human", &m.human)?;
+    let mut drivers = vec![Some(human); scenario.vehicles()];
+    for i in m.automated(scenario.vehicles(), scenario.seed()) {
+        drivers[i] = None;
+    }
+    // Validated with the scenario: the name parses.
+    let damper = opts.damper.or(m.damper().ok().flatten());
+    Ok((drivers, damper))
 }
 
 /// Records per chunk: about 256 KiB of rows, at least one record.
@@ -386,9 +455,7 @@ impl Prepared {
     /// [`load_road`]; errors here mean SUMO never started.
     pub fn new(scenario: &Scenario, road: &Road, opts: &RunOptions) -> Result<Self, PrepareError> {
         let request = prepare(scenario, road, opts)?;
-        let timeout = opts
-            .timeout
-            .or_else(|| Duration::try_from_secs_f64(scenario.file.sumo.timeout_s).ok());
+        let timeout = Some(opts.timeout.unwrap_or(scenario.sumo().timeout()));
         Ok(Self {
             request,
             supervision: Supervision {
@@ -492,6 +559,35 @@ impl SumoRun {
         let k0 = usize::from(self.request.layout.leader_vehicle);
         let finish = self.worker.result.as_ref().ok();
         let start = self.worker.start.as_ref();
+        // Law-commanded vehicles are labelled `law`, or with the damper that drives them.
+        let damper = match &self.request.control {
+            Control::Law { law } => law.damper.as_ref().map(|d| d.spec.to_string()),
+            _ => None,
+        };
+        let commanded = damper.unwrap_or_else(|| "law".to_string());
+        let law_driven = matches!(self.request.control, Control::Law { .. })
+            && self.request.layout.vehicles[k0..]
+                .iter()
+                .any(|v| v.driver.is_none());
+        let warmup_s = self
+            .request
+            .measure
+            .as_ref()
+            .map_or(0.0, |m| m.warmup_steps as f64 * self.request.step_s);
+        let ssm = self
+            .request
+            .measure
+            .as_ref()
+            .and_then(|m| m.ssm_file.as_ref())
+            .filter(|_| finish.is_some())
+            .and_then(|f| match crate::ssm::read(f, warmup_s) {
+                Ok(s) => Some(s),
+                Err(e) => {
+                    // The run itself is fine; its record says no SSM was measured.
+                    eprintln!("warning: {e}; the record has no safety margins");
+                    None
+                }
+            });
         let facts = SumoFacts {
             sumo_version: start.map(|s| s.python.sumo_version.clone()),
             libsumo: start.map(|s| s.python.libsumo_file.clone()),
@@ -505,7 +601,10 @@ impl SumoRun {
             .into(),
             drivers: self.request.layout.vehicles[k0..]
                 .iter()
-                .map(|v| v.driver.map_or("law".to_string(), |d| d.to_string()))
+                .map(|v| {
+                    v.driver
+                        .map_or_else(|| commanded.clone(), |d| d.to_string())
+                })
                 .collect(),
             safety: finish.map(|f| Safety {
                 collision_steps: f.totals.collision_steps,
@@ -525,6 +624,8 @@ impl SumoRun {
                 .and_then(|_| loop_position(&self.request.layout.road).map(|l| l.2)),
             emission_class: crate::drivers::EMISSION_CLASS.to_string(),
             emission_every: self.request.measure.as_ref().map(|m| m.emission_every),
+            law_speed_mode: law_driven.then_some(self.request.speed_mode),
+            ssm,
         };
         RunOutput {
             trajectory: self.trajectory(scenario),

@@ -224,10 +224,15 @@ mod supervision {
         let flag = Arc::new(AtomicBool::new(false));
         o.interrupt = Some(flag.clone());
         let f = flag.clone();
-        std::thread::spawn(move || {
-            std::thread::sleep(Duration::from_secs(3));
-            f.store(true, Ordering::SeqCst);
-        });
+        // Ctrl-C two seconds after SUMO started (not after the worker was spawned: on a busy
+        // machine starting Python alone can take seconds).
+        o.on_start = Some(Arc::new(move |_: &syncroad_sumo::StartInfo| {
+            let f = f.clone();
+            std::thread::spawn(move || {
+                std::thread::sleep(Duration::from_secs(2));
+                f.store(true, Ordering::SeqCst);
+            });
+        }));
         let run = run_scenario(&sc, &o).unwrap();
         let err = run.failure().unwrap();
         assert_eq!(err.exit_code(), Some(130), "{err}");
@@ -251,7 +256,7 @@ mod ring {
             epsilon = 1e-9
         );
         assert_eq!(start.vehicles, 22);
-        assert_eq!(run.worker.rows.len(), sc.steps + 1);
+        assert_eq!(run.worker.rows.len(), sc.steps() + 1);
         let traj = run.trajectory(&sc);
         let k = traj.len() - 1;
         let n = 22;
@@ -402,7 +407,10 @@ mod platoon {
         let sc = Scenario::from_json(&file.to_string()).unwrap();
         let run = run_scenario(&sc, &opts("platoon")).unwrap();
         let fin = run.outcome().expect("horizon reached");
-        assert_eq!(run.worker.start.as_ref().unwrap().vehicles, sc.n + 1);
+        assert_eq!(
+            run.worker.start.as_ref().unwrap().vehicles,
+            sc.vehicles() + 1
+        );
         assert_eq!(fin.totals.collision_steps, 0);
         let sumo = run.trajectory(&sc);
         let native = simulate(&sc, NativeOptions::default()).trajectory;

@@ -207,18 +207,31 @@ pub struct CompareArgs {
     /// Output folder: one subfolder per run, compare.json (created if missing).
     #[arg(long, short)]
     pub out: PathBuf,
-    /// Runs, comma-separated: protocol (the scenario's law), krauss (SUMO's default, σ 0.5),
-    /// krauss-SIGMA (e.g. krauss-0.9), idm, acc, cacc. Default: protocol,krauss,krauss-0.9,idm
-    /// on rings; protocol,krauss,idm,acc,cacc on straight roads.
+    /// Runs, comma-separated: protocol (the scenario as written: its law, or its mixed ring),
+    /// SUMO drivers krauss (SUMO's default, σ 0.5), krauss-SIGMA (e.g. krauss-0.9), idm, acc,
+    /// cacc, the presets human (IDM calibrated on the Sugiyama ring) and flow-idm, and on rings
+    /// the wave dampers of Stern et al. (2018) on every vehicle: follower-stopper-U (desired
+    /// speed U in m/s, e.g. follower-stopper-4.3) and pi-saturation. Default:
+    /// protocol,krauss,krauss-0.9,idm on rings; protocol,krauss,idm,acc,cacc on straight roads.
     #[arg(long)]
     pub baselines: Option<String>,
     /// Mixed traffic on a ring: for each count K, a run where K evenly spaced vehicles run the
     /// law and the others are --mixed-driver (e.g. 0,1,2,4; 0 is the all-human ring).
     #[arg(long)]
     pub mixed: Option<String>,
-    /// The human drivers of --mixed runs.
+    /// The human drivers of --mixed runs (any --baselines driver, e.g. human).
     #[arg(long, default_value = "krauss-0.9")]
     pub mixed_driver: String,
+    /// What drives the K automated vehicles of --mixed runs, comma-separated: law (the
+    /// scenario's), follower-stopper-U, pi-saturation. One run per controller and K > 0, named
+    /// mixed-K for the law and CONTROLLER-mixed-K otherwise; mixed-0 runs once.
+    #[arg(long, default_value = "law")]
+    pub mixed_controller: String,
+    /// Also measure safety margins in every run: time headway (min, mean), minimum gap, SUMO's
+    /// surrogate safety measures (TTC, DRAC conflicts from its SSM device) and whether the
+    /// law's vehicles ignore SUMO's safe speed.
+    #[arg(long)]
+    pub ssm: bool,
     /// Runs at once, each its own SUMO process (default: the number of cores).
     #[arg(long)]
     pub jobs: Option<usize>,

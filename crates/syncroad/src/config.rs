@@ -66,7 +66,7 @@ pub fn record_every(flag: Option<usize>, sc: &Scenario) -> anyhow::Result<usize>
     match flag {
         Some(0) => Err(InputError::new("--record-every = 0: must be ≥ 1").into()),
         Some(k) => Ok(k),
-        None => Ok(default_record_every(sc.steps, sc.n)),
+        None => Ok(default_record_every(sc.steps(), sc.vehicles())),
     }
 }
 

@@ -172,11 +172,11 @@ pub fn metrics_table(
     let _ = writeln!(
         s,
         "scenario {} on {backend}: {} vehicles, {} s, Δt = {} s, seed {}",
-        sc.name,
-        sc.n,
+        sc.name(),
+        sc.vehicles(),
         sc.horizon_s(),
-        sc.step_s,
-        sc.file.seed
+        sc.step_s(),
+        sc.seed()
     );
     let vs = if m.against_leader {
         "max_i |v_i − v_0|"

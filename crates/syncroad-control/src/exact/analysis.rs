@@ -25,7 +25,7 @@ use super::report::{
 };
 use super::ring_modes::{RingError, RingModes, UniformRing};
 use super::string_stability::{chandler_string_peak, StringStabilityOptions};
-use crate::scenario::{CaccModel, DelayedDriverModel, GraphSpec, Model, ModelSpec};
+use crate::scenario::{CaccModel, DelayedDriverModel, GraphShape, Model};
 use crate::theory::{self, TheoryReport};
 use crate::Scenario;
 
@@ -127,22 +127,19 @@ pub struct StabilityReport {
 
 /// The uniform ring described by the scenario, if it is one.
 pub fn uniform_ring(sc: &Scenario, m: &DelayedDriverModel) -> Option<UniformRing> {
-    let ModelSpec::DelayedDriver { graph, .. } = &sc.file.model else {
-        return None;
-    };
     let a = m.delay_s[0];
     if m.leader.is_some() || m.delay_s.iter().any(|x| *x != a) {
         return None;
     }
-    let (kf, kb) = match graph {
-        GraphSpec::UnidirectionalRing { gain } => (gain.uniform_value(0)?, 0.0),
-        GraphSpec::BidirectionalRing {
+    let (kf, kb) = match m.shape {
+        GraphShape::UnidirectionalRing { gain } => (gain?, 0.0),
+        GraphShape::BidirectionalRing {
             gain_pred,
             gain_follow,
-        } => (gain_pred.uniform_value(0)?, gain_follow.uniform_value(0)?),
+        } => (gain_pred?, gain_follow?),
         _ => return None,
     };
-    UniformRing::new(sc.n, kf, kb, a).ok()
+    UniformRing::new(sc.vehicles(), kf, kb, a).ok()
 }
 
 /// Adjacency and delays of the network, the leader appended as an undelayed vertex.
@@ -198,7 +195,7 @@ fn chain_string_stability(a: &DMatrix<f64>, d: &[f64]) -> Option<ChainStringStab
 /// failed computation (with its cause).
 pub fn analyse(sc: &Scenario) -> Result<StabilityReport, AnalysisError> {
     let paper = theory::report(sc);
-    match &sc.model {
+    match sc.model() {
         Model::DelayedDriver(m) => {
             let ring = match uniform_ring(sc, m) {
                 Some(r) => Some(r.modes().map_err(AnalysisError::Ring)?),
@@ -242,7 +239,7 @@ pub fn analyse(sc: &Scenario) -> Result<StabilityReport, AnalysisError> {
                 .as_ref()
                 .and_then(|_| chain_string_stability(&a, &d));
             Ok(StabilityReport {
-                scenario: sc.name.clone(),
+                scenario: sc.name().to_string(),
                 certified: paper.certified,
                 paper,
                 ring,
@@ -264,7 +261,7 @@ pub fn analyse(sc: &Scenario) -> Result<StabilityReport, AnalysisError> {
                 ExactVerdict::DoesNotSynchronize
             };
             Ok(StabilityReport {
-                scenario: sc.name.clone(),
+                scenario: sc.name().to_string(),
                 certified: paper.certified,
                 paper,
                 ring: None,
@@ -299,7 +296,7 @@ pub fn platoon_scaling_study(
     sc: &Scenario,
     sizes: &[usize],
 ) -> Result<Vec<PlatoonScaling>, AnalysisError> {
-    let Model::Cacc(c) = &sc.model else {
+    let Model::Cacc(c) = sc.model() else {
         return Err(AnalysisError::PlatoonScalingNeedsCacc);
     };
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;

@@ -22,7 +22,7 @@ pub struct Boundaries {
 
 /// The boundaries of a delayed-driver scenario (`None` for other models).
 pub fn gain_delay_boundaries(sc: &Scenario) -> Option<Boundaries> {
-    let Model::DelayedDriver(m) = &sc.model else {
+    let Model::DelayedDriver(m) = sc.model() else {
         return None;
     };
     let theorem1_product = match &m.leader {

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
-use super::{invalid, LeaderProfile, PerVehicle, ScenarioError};
+use super::{invalid, LeaderProfile, MixedSpec, PerVehicle, ScenarioError};
 
 /// Where a run executes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -52,6 +52,10 @@ pub struct ScenarioFile {
     /// SUMO-specific settings (used by the `sumo` backend).
     #[serde(default)]
     pub sumo: SumoSpec,
+    /// Mixed traffic: a fraction of the vehicles runs the law or a wave damper, the others are
+    /// SUMO drivers ([`MixedSpec`]; SUMO backend, rings only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mixed: Option<MixedSpec>,
 }
 
 /// The vehicle set: a count, or one entry per vehicle.

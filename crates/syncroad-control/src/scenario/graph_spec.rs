@@ -1,7 +1,29 @@
 //! Building the interaction graph `G[A]` from its spec.
 
-use super::{invalid, GraphSpec, ScenarioError};
+use super::{invalid, GraphShape, GraphSpec, ScenarioError};
 use crate::graph::{Arc, Graph};
+
+/// How the graph was given, with the gains that are uniform.
+pub(super) fn graph_shape(spec: &GraphSpec) -> GraphShape {
+    match spec {
+        GraphSpec::UnidirectionalRing { gain } => GraphShape::UnidirectionalRing {
+            gain: gain.uniform_value(0),
+        },
+        GraphSpec::BidirectionalRing {
+            gain_pred,
+            gain_follow,
+        } => GraphShape::BidirectionalRing {
+            gain_pred: gain_pred.uniform_value(0),
+            gain_follow: gain_follow.uniform_value(0),
+        },
+        GraphSpec::Chain { gain } => GraphShape::Chain {
+            follower_gain: gain.uniform_value(1),
+        },
+        GraphSpec::AllToAll { .. } | GraphSpec::Edges { .. } | GraphSpec::Matrix { .. } => {
+            GraphShape::Other
+        }
+    }
+}
 
 pub(super) fn build_graph(spec: &GraphSpec, n: usize) -> Result<Graph, ScenarioError> {
     let g = match spec {

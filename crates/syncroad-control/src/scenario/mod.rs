@@ -7,27 +7,34 @@
 //! field path, the value and what would be valid.
 //!
 //! The folder holds one concept per file: [`file`] (the schema a user writes), [`per_vehicle`]
-//! (values given once or per vehicle), [`leader`] (leader speed profiles), `validate` (every
-//! check, with field paths), `graph_spec` (building the interaction graph) and this file, the
-//! sealed [`Scenario`] every backend runs.
+//! (values given once or per vehicle), [`leader`] (leader speed profiles), [`mixed`] (mixed
+//! traffic: which vehicles are automated), `validate` (every check, with field paths), `sumo`
+//! (the `sumo` section as typed [`SumoSettings`]), `graph_spec` (building the interaction
+//! graph) and this file, the sealed [`Scenario`] every backend runs: private fields read
+//! through accessors, made only by validation, so no code reads the raw file after it.
 
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
 use crate::graph::{Graph, GraphError};
+use crate::metrics::VerdictThresholds;
 
 pub mod file;
 mod graph_spec;
 pub mod leader;
+pub mod mixed;
 pub mod per_vehicle;
 mod scale;
+mod sumo;
 mod validate;
 
 pub use file::*;
 pub use leader::LeaderProfile;
+pub use mixed::{automated_vehicles, MixedSpec};
 pub use per_vehicle::PerVehicle;
 pub use scale::Scaled;
+pub use sumo::{SumoSettings, SumoVehicleType};
 
 /// Errors raised while reading or validating a scenario.
 #[derive(Debug, thiserror::Error)]
@@ -110,6 +117,9 @@ pub struct DelayedDriverModel {
     pub leader: Option<(f64, Vec<f64>)>,
     /// Pre-history convention.
     pub history: HistorySpec,
+    /// How the graph was given in the scenario file, with its uniform gains (for the closed
+    /// forms); a scaled copy of the model keeps the shape of the scenario it came from.
+    pub shape: GraphShape,
 }
 
 /// The validated CACC model.
@@ -140,30 +150,52 @@ pub enum Model {
     Cacc(CaccModel),
 }
 
-/// A validated scenario: every per-vehicle value resolved, every number checked.
+/// How the interaction graph was given, with its gain where one number holds for every driver
+/// it concerns: the closed forms (Chandler's condition, the uniform ring's modes) apply only
+/// then.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum GraphShape {
+    /// Each driver follows its predecessor on a ring.
+    UnidirectionalRing {
+        /// The gain K, when every driver has the same.
+        gain: Option<f64>,
+    },
+    /// Each driver reacts to predecessor and follower on a ring.
+    BidirectionalRing {
+        /// The predecessor gain, when every driver has the same.
+        gain_pred: Option<f64>,
+        /// The follower gain, when every driver has the same.
+        gain_follow: Option<f64>,
+    },
+    /// A chain behind vehicle 0.
+    Chain {
+        /// The predecessor gain of vehicles 1.., when they all have the same.
+        follower_gain: Option<f64>,
+    },
+    /// All-to-all, explicit arcs or an explicit matrix.
+    Other,
+}
+
+/// A validated scenario: every per-vehicle value resolved, every number checked. Only
+/// [`ScenarioFile::validate`] (or [`Scenario::load`], [`Scenario::from_json`]) makes one; its
+/// values are read through accessors.
 #[derive(Debug, Clone)]
 pub struct Scenario {
-    /// The file as written (for hashing and reports).
-    pub file: ScenarioFile,
-    /// Name used in reports.
-    pub name: String,
-    /// Number of (controlled) vehicles N.
-    pub n: usize,
-    /// Step Δt [s].
-    pub step_s: f64,
-    /// Number of steps.
-    pub steps: usize,
-    /// The model.
-    pub model: Model,
-    /// Initial speeds v_i(0) [m/s], perturbation included.
-    pub initial_speed_mps: Vec<f64>,
-    /// Initial bumper-to-bumper gaps to the predecessor [m], perturbation included. On a ring
-    /// `gap[0]` is the gap from vehicle 0 to vehicle N−1.
-    pub initial_gap_m: Vec<f64>,
-    /// Vehicle lengths [m].
-    pub length_m: Vec<f64>,
-    /// Folder of the scenario file (for relative paths).
-    pub base_dir: PathBuf,
+    name: String,
+    hash_hex: String,
+    seed: u64,
+    backend: Backend,
+    n: usize,
+    step_s: f64,
+    steps: usize,
+    model: Model,
+    road: RoadSpec,
+    initial_speed_mps: Vec<f64>,
+    initial_gap_m: Vec<f64>,
+    length_m: Vec<f64>,
+    verdict: VerdictThresholds,
+    sumo: SumoSettings,
+    mixed: Option<MixedSpec>,
 }
 
 impl Scenario {
@@ -183,20 +215,81 @@ impl Scenario {
         ScenarioFile::from_json(text, "<string>")?.validate(Path::new("."))
     }
 
+    /// Mixed traffic: which vehicles are automated and who drives the others (`None`: every
+    /// vehicle runs the model).
+    pub fn mixed(&self) -> Option<&MixedSpec> {
+        self.mixed.as_ref()
+    }
+
+    /// Name used in reports and output file names (`"scenario"` when the file gives none).
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
     /// Stable hash of the scenario as written (FNV-1a over its canonical JSON), for stamping results.
-    pub fn hash_hex(&self) -> String {
-        let json = serde_json::to_string(&self.file).expect("a scenario always serializes");
-        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-        for b in json.bytes() {
-            h ^= u64::from(b);
-            h = h.wrapping_mul(0x0100_0000_01b3);
-        }
-        format!("{h:016x}")
+    pub fn hash_hex(&self) -> &str {
+        &self.hash_hex
+    }
+
+    /// Seed of every random choice in the run.
+    pub fn seed(&self) -> u64 {
+        self.seed
+    }
+
+    /// Backend `syncroad run` uses.
+    pub fn backend(&self) -> Backend {
+        self.backend
+    }
+
+    /// Number of (controlled) vehicles N; a platoon's leader is not counted.
+    pub fn vehicles(&self) -> usize {
+        self.n
+    }
+
+    /// Step Δt [s].
+    pub fn step_s(&self) -> f64 {
+        self.step_s
+    }
+
+    /// Number of steps.
+    pub fn steps(&self) -> usize {
+        self.steps
     }
 
     /// Simulated time [s].
     pub fn horizon_s(&self) -> f64 {
         self.steps as f64 * self.step_s
+    }
+
+    /// The validated model.
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    /// Initial speeds v_i(0) [m/s], perturbation included.
+    pub fn initial_speed_mps(&self) -> &[f64] {
+        &self.initial_speed_mps
+    }
+
+    /// Initial bumper-to-bumper gaps to the predecessor [m], perturbation included. On a ring
+    /// `gap[0]` is the gap from vehicle 0 to vehicle N−1.
+    pub fn initial_gap_m(&self) -> &[f64] {
+        &self.initial_gap_m
+    }
+
+    /// Vehicle lengths [m].
+    pub fn length_m(&self) -> &[f64] {
+        &self.length_m
+    }
+
+    /// Thresholds of the synchronization verdict.
+    pub fn verdict_thresholds(&self) -> VerdictThresholds {
+        self.verdict
+    }
+
+    /// The validated `sumo` section (network, vehicle type, time limit).
+    pub fn sumo(&self) -> &SumoSettings {
+        &self.sumo
     }
 
     /// The leader's speed at `t`, if the model has a leader.
@@ -209,12 +302,12 @@ impl Scenario {
 
     /// True when the road is a ring.
     pub fn is_ring(&self) -> bool {
-        matches!(self.file.road, RoadSpec::Ring { .. })
+        matches!(self.road, RoadSpec::Ring { .. })
     }
 
     /// The ring's nominal circumference [m], `None` on a straight road.
     pub fn ring_length_m(&self) -> Option<f64> {
-        match self.file.road {
+        match self.road {
             RoadSpec::Ring { length_m } => Some(length_m),
             RoadSpec::Straight { .. } => None,
         }

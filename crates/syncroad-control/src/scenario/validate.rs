@@ -4,8 +4,9 @@
 use std::path::Path;
 
 use super::file::merge;
-use super::graph_spec::build_graph;
+use super::graph_spec::{build_graph, graph_shape};
 use super::*;
+use crate::metrics::VerdictThresholds;
 use crate::rng::SplitMix64;
 
 impl ScenarioFile {
@@ -63,7 +64,10 @@ impl ScenarioFile {
                 format!("must be > 0 and ≤ horizon_s = {}", self.horizon_s),
             ));
         }
-        self.validate_sumo()?;
+        let sumo = self.sumo.validate(base_dir)?;
+        if let Some(m) = &self.mixed {
+            m.validate(matches!(self.road, RoadSpec::Ring { .. }))?;
+        }
         let road_len = match self.road {
             RoadSpec::Ring { length_m } | RoadSpec::Straight { length_m } => length_m,
         };
@@ -82,6 +86,7 @@ impl ScenarioFile {
                 leader,
                 history,
             } => {
+                let shape = graph_shape(graph);
                 let graph = build_graph(graph, n)?;
                 let delay_s = merge("model.delay_s", "delay_s", delay_s.as_ref(), entries, |e| {
                     e.delay_s
@@ -141,6 +146,7 @@ impl ScenarioFile {
                     delay_steps,
                     leader,
                     history: *history,
+                    shape,
                 })
             }
             ModelSpec::Cacc(c) => {
@@ -237,43 +243,114 @@ impl ScenarioFile {
         let name = self.name.clone().unwrap_or_else(|| "scenario".to_string());
         Ok(Scenario {
             name,
+            hash_hex: self.hash_hex(),
+            seed: self.seed,
+            backend: self.backend,
             n,
             step_s: self.step_s,
             steps,
             model,
+            road: self.road,
             initial_speed_mps: speeds,
             initial_gap_m: gaps,
             length_m,
-            base_dir: base_dir.to_path_buf(),
-            file: self,
+            verdict: VerdictThresholds {
+                tolerance_mps: self.verdict.tolerance_mps,
+                window_s: self.verdict.window_s,
+            },
+            sumo,
+            mixed: self.mixed.clone(),
         })
     }
 
-    fn validate_sumo(&self) -> Result<(), ScenarioError> {
-        let s = &self.sumo;
-        for (name, x) in [
-            ("length_m", s.length_m),
-            ("accel_mps2", s.accel_mps2),
-            ("decel_mps2", s.decel_mps2),
-            ("emergency_decel_mps2", s.emergency_decel_mps2),
-            ("max_speed_mps", s.max_speed_mps),
-            ("timeout_s", s.timeout_s),
-        ] {
-            if !(x.is_finite() && x > 0.0) {
+    /// Stable hash of the file as written: FNV-1a over its canonical JSON.
+    fn hash_hex(&self) -> String {
+        let json = serde_json::to_string(self).expect("a scenario always serializes");
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        for b in json.bytes() {
+            h ^= u64::from(b);
+            h = h.wrapping_mul(0x0100_0000_01b3);
+        }
+        format!("{h:016x}")
+    }
+}
+
+impl Scenario {
+    /// The same scenario with another model of the same type (a gain- or delay-scaled copy, for
+    /// instance), checked to fit it: one value per vehicle, delays on the step grid, and for a
+    /// platoon the same vehicle lengths.
+    pub fn with_model(&self, model: Model) -> Result<Scenario, ScenarioError> {
+        let n = self.n;
+        let per_vehicle = |field: &str, len: usize| {
+            if len == n {
+                Ok(())
+            } else {
+                Err(ScenarioError::LengthMismatch {
+                    field: field.to_string(),
+                    len,
+                    vehicles: n,
+                })
+            }
+        };
+        match (&self.model, &model) {
+            (Model::DelayedDriver(_), Model::DelayedDriver(m)) => {
+                per_vehicle("model.graph", m.graph.len())?;
+                per_vehicle("model.delay_s", m.delay_s.len())?;
+                per_vehicle("model.delay_s (steps)", m.delay_steps.len())?;
+                if let Some((_, b)) = &m.leader {
+                    per_vehicle("model.leader.pinning", b.len())?;
+                }
+                for (i, (&d, &k)) in m.delay_s.iter().zip(&m.delay_steps).enumerate() {
+                    let on_grid = k as f64 * self.step_s;
+                    if !(d.is_finite() && (on_grid - d).abs() <= 1e-9 * self.step_s.max(d)) {
+                        return Err(ScenarioError::DelayNotMultipleOfStep {
+                            vehicle: i,
+                            delay_s: d,
+                            step_s: self.step_s,
+                            nearest: (on_grid * 1e9).round() / 1e9,
+                        });
+                    }
+                }
+            }
+            (Model::Cacc(_), Model::Cacc(c)) => {
+                for (field, len) in [
+                    ("model.mu", c.mu.len()),
+                    ("model.eta", c.eta.len()),
+                    ("model.nu", c.nu.len()),
+                    ("model.desired_gap_m", c.desired_gap_m.len()),
+                    ("model.tau_s", c.tau_s.len()),
+                ] {
+                    per_vehicle(field, len)?;
+                }
+                if c.length_m != self.length_m {
+                    return Err(invalid(
+                        "model.length_m",
+                        format!("{:?}", c.length_m),
+                        format!(
+                            "the scenario's vehicles are {:?} m long; a replacement model keeps them",
+                            self.length_m
+                        ),
+                    ));
+                }
+            }
+            (_, Model::DelayedDriver(_)) => {
                 return Err(invalid(
-                    format!("sumo.{name}"),
-                    x,
-                    "must be a finite number > 0",
-                ));
+                    "model.type",
+                    "delayed_driver",
+                    "a replacement model keeps the scenario's model type (cacc)",
+                ))
+            }
+            (_, Model::Cacc(_)) => {
+                return Err(invalid(
+                    "model.type",
+                    "cacc",
+                    "a replacement model keeps the scenario's model type (delayed_driver)",
+                ))
             }
         }
-        if !(s.min_gap_m.is_finite() && s.min_gap_m >= 0.0) {
-            return Err(invalid(
-                "sumo.min_gap_m",
-                s.min_gap_m,
-                "must be a finite number ≥ 0",
-            ));
-        }
-        Ok(())
+        Ok(Scenario {
+            model,
+            ..self.clone()
+        })
     }
 }

@@ -345,6 +345,9 @@ pub fn sumo_args(req: &Request) -> Vec<String> {
             }
             a.push(f.display().to_string());
         }
+        if let Some(f) = &m.ssm_file {
+            a.extend(crate::ssm::ssm_args(f));
+        }
     }
     a
 }

@@ -21,7 +21,7 @@ use anyhow::Context;
 use rayon::prelude::*;
 use serde_json::{json, Value};
 use syncroad_control::scenario::Model;
-use syncroad_control::{EvalOptions, RunRecord, Scenario};
+use syncroad_control::{DamperSpec, EvalOptions, RunRecord, Scenario};
 use syncroad_sumo::{
     check_sumo_numbers, interrupt_flag, load_road, loop_position, MeasureOptions, Road, RunOptions,
     SumoDriver, WorkerCommand, EMISSION_CLASS,
@@ -53,8 +53,10 @@ pub struct Plan {
     pub timeout: Option<Duration>,
     /// Draw plots.
     pub plots: bool,
-    /// Mixed-run counts, when asked.
-    pub mixed: Vec<usize>,
+    /// Mixed runs: name and count of automated vehicles.
+    pub mixed_runs: Vec<(String, usize)>,
+    /// Measure safety margins (SUMO's SSM device) in every run.
+    pub ssm: bool,
     /// The scenario's road, read once for every run.
     pub road: Road,
 }
@@ -62,7 +64,7 @@ pub struct Plan {
 /// Parses and checks every option before anything runs.
 pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
     let bad = |m: String| anyhow::Error::new(InputError::new(m));
-    let n = sc.n;
+    let n = sc.vehicles();
     let default = if sc.is_ring() {
         "protocol,krauss,krauss-0.9,idm"
     } else {
@@ -75,18 +77,43 @@ pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
     let mut runs: Vec<RunSpec> = Vec::new();
     for name in list.split(',').map(str::trim).filter(|s| !s.is_empty()) {
         let spec = RunSpec::parse("--baselines", name, n)?;
-        let name = spec.name.clone();
-        if runs.iter().any(|r| r.name == name) {
-            return Err(bad(format!("--baselines: {name} is listed twice")));
+        if spec.damper.is_some() && !sc.is_ring() {
+            return Err(bad(format!(
+                "--baselines = {name}: the wave dampers drive on a ring (each vehicle follows its predecessor); scenario {} is a straight road",
+                sc.name()
+            )));
+        }
+        if runs.iter().any(|r| r.name == spec.name) {
+            return Err(bad(format!("--baselines: {} is listed twice", spec.name)));
         }
         runs.push(spec);
     }
     let mut mixed = Vec::new();
+    let mut mixed_runs = Vec::new();
     if let Some(m) = &a.mixed {
-        if !sc.is_ring() || !matches!(sc.model, Model::DelayedDriver(_)) {
+        let mut controllers: Vec<Option<DamperSpec>> = Vec::new();
+        for c in a.mixed_controller.split(',').map(str::trim) {
+            let d = DamperSpec::parse("--mixed-controller", c)
+                .map_err(|e| InputError::caused("--mixed-controller", e))?;
+            if controllers.contains(&d) {
+                return Err(bad(format!(
+                    "--mixed-controller = {}: {c} is listed twice",
+                    a.mixed_controller
+                )));
+            }
+            controllers.push(d);
+        }
+        let law = controllers.contains(&None);
+        if law && (!sc.is_ring() || !matches!(sc.model(), Model::DelayedDriver(_))) {
             return Err(bad(format!(
                 "--mixed = {m}: mixed traffic needs a ring of delayed drivers (scenario {} is not one)",
-                sc.name
+                sc.name()
+            )));
+        }
+        if !sc.is_ring() {
+            return Err(bad(format!(
+                "--mixed = {m}: the wave dampers drive on a ring (scenario {} is a straight road)",
+                sc.name()
             )));
         }
         let human = SumoDriver::parse("--mixed-driver", &a.mixed_driver)
@@ -106,7 +133,20 @@ pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
                 return Err(bad(format!("--mixed = {m}: {k} is listed twice")));
             }
             mixed.push(k);
-            runs.push(RunSpec::mixed(format!("mixed-{k}"), n, k, human));
+            // The all-human ring is the same whatever would control: it runs once.
+            let with = if k == 0 {
+                &controllers[..1]
+            } else {
+                &controllers[..]
+            };
+            for d in with {
+                let name = match d {
+                    Some(d) if k > 0 => format!("{d}-mixed-{k}"),
+                    _ => format!("mixed-{k}"),
+                };
+                mixed_runs.push((name.clone(), k));
+                runs.push(RunSpec::mixed(name, n, k, human, *d));
+            }
         }
     }
     if runs.is_empty() {
@@ -135,7 +175,8 @@ pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
         record_every: config::record_every(a.record_every, sc)?,
         timeout: config::timeout(a.timeout_s)?,
         plots: !a.no_plots,
-        mixed,
+        mixed_runs,
+        ssm: a.ssm,
         road,
     })
 }
@@ -191,17 +232,19 @@ fn run_one(
     opts.timeout = plan.timeout;
     opts.interrupt = Some(interrupt.clone());
     opts.drivers = spec.drivers.clone();
+    opts.damper = spec.damper;
     opts.measure = Some(MeasureOptions {
         warmup_s: plan.warmup_s,
         emission_every: plan.emission_every,
         tripinfo: true,
+        ssm: plan.ssm,
     });
     let run = pipeline::sumo(sc, &plan.road, &opts)
         .map_err(|e| InputError::caused("before starting SUMO", e))?;
     let mut eval = EvalOptions::of(sc);
     eval.warmup_s = plan.warmup_s;
     let f = Finished::new(sc, &spec.name, run.output, eval);
-    let title = plan.plots.then(|| format!("{}: {}", sc.name, spec.name));
+    let title = plan.plots.then(|| format!("{}: {}", sc.name(), spec.name));
     f.write(dir, title)?;
     Ok(RunResult {
         name: spec.name.clone(),
@@ -247,8 +290,8 @@ pub fn run_all(
 }
 
 /// The combined document: stamps once, each run's metrics without them, and for `--mixed`
-/// the reductions against the all-human ring.
-pub fn combined(sc: &Scenario, results: &[RunResult], mixed: &[usize]) -> Value {
+/// the reductions of every mixed run (name, automated vehicles) against the all-human ring.
+pub fn combined(sc: &Scenario, results: &[RunResult], mixed: &[(String, usize)]) -> Value {
     let mut runs = serde_json::Map::new();
     for r in results {
         let mut m = match &r.record {
@@ -268,15 +311,15 @@ pub fn combined(sc: &Scenario, results: &[RunResult], mixed: &[usize]) -> Value 
         "sumo_version": results
             .iter()
             .find_map(|r| r.record.as_ref().ok()?.sumo_version.clone()),
-        "scenario": sc.name,
+        "scenario": sc.name(),
         "scenario_hash": sc.hash_hex(),
-        "seed": sc.file.seed,
+        "seed": sc.seed(),
         "emission_class": EMISSION_CLASS,
         "runs": Value::Object(runs.clone()),
     });
-    if mixed.contains(&0) && mixed.len() > 1 {
-        let get = |k: usize, path: &[&str]| -> Option<f64> {
-            let mut v = runs.get(&format!("mixed-{k}"))?;
+    if mixed.iter().any(|m| m.1 == 0) && mixed.iter().any(|m| m.1 > 0) {
+        let get = |name: &str, path: &[&str]| -> Option<f64> {
+            let mut v = runs.get(name)?;
             for p in path {
                 v = v.get(p)?;
             }
@@ -285,13 +328,13 @@ pub fn combined(sc: &Scenario, results: &[RunResult], mixed: &[usize]) -> Value 
         let std_path = ["congestion", "speed_std_mps"];
         let fuel_path = ["sumo", "fuel_g_per_km"];
         let mut red = serde_json::Map::new();
-        for &k in mixed.iter().filter(|&&k| k > 0) {
-            let rel = |p: &[&str]| match (get(0, p), get(k, p)) {
+        for (name, _) in mixed.iter().filter(|m| m.1 > 0) {
+            let rel = |p: &[&str]| match (get("mixed-0", p), get(name, p)) {
                 (Some(h), Some(x)) if h != 0.0 => Some(1.0 - x / h),
                 _ => None,
             };
             red.insert(
-                format!("mixed-{k}"),
+                name.clone(),
                 json!({"speed_std_reduction": rel(&std_path), "fuel_per_km_reduction": rel(&fuel_path)}),
             );
         }
@@ -332,6 +375,34 @@ const ROWS: [(&str, &str, usize); 20] = [
     ("overridden commands", "safety.overridden_commands", 0),
 ];
 
+/// Rows added when the runs measured safety margins (`--ssm`).
+const MARGIN_ROWS: [(&str, &str, usize); 8] = [
+    (
+        "time headway min [s]",
+        "safety_margins.time_headway_min_s",
+        2,
+    ),
+    (
+        "time headway mean [s]",
+        "safety_margins.time_headway_mean_s",
+        2,
+    ),
+    ("min gap [m]", "safety_margins.min_gap_m", 2),
+    ("TTC < 3 s conflicts", "safety_margins.ssm.ttc_conflicts", 0),
+    ("min TTC [s]", "safety_margins.ssm.ttc_min_s", 2),
+    (
+        "DRAC > 3 m/s² conflicts",
+        "safety_margins.ssm.drac_conflicts",
+        0,
+    ),
+    ("max DRAC [m/s²]", "safety_margins.ssm.drac_max_mps2", 2),
+    (
+        "ignores SUMO's safe speed",
+        "safety_margins.ignores_safe_speed",
+        0,
+    ),
+];
+
 fn cell(m: Option<&Value>, path: &str, decimals: usize) -> String {
     let mut v = match m {
         Some(v) => v,
@@ -349,6 +420,7 @@ fn cell(m: Option<&Value>, path: &str, decimals: usize) -> String {
             .replace("_synchronized", "_sync")
             .replace("not_sync", "not sync"),
         Value::Null => "—".into(),
+        Value::Bool(b) => if *b { "yes" } else { "no" }.into(),
         other => other.to_string(),
     }
 }
@@ -374,7 +446,11 @@ pub fn table(doc: &Value) -> String {
     s.push_str("\n|---|");
     s.push_str(&"---:|".repeat(order.len()));
     s.push('\n');
-    for (label, path, d) in ROWS {
+    let margins = order
+        .iter()
+        .any(|(_, m)| m.is_some_and(|m| m.get("safety_margins").is_some()));
+    let extra: &[(&str, &str, usize)] = if margins { &MARGIN_ROWS } else { &[] };
+    for &(label, path, d) in ROWS.iter().chain(extra) {
         s.push_str(&format!("| {label} |"));
         for (_, m) in &order {
             s.push_str(&format!(" {} |", cell(*m, path, d)));
@@ -398,11 +474,11 @@ pub fn compare_into(
         let spreads: Vec<Spread> = results.iter().map(|r| r.spread.clone()).collect();
         spread_plot(
             out,
-            &format!("{}: speed spread by driver", sc.name),
+            &format!("{}: speed spread by driver", sc.name()),
             &spreads,
         )?;
     }
-    let mut doc = combined(sc, &results, &plan.mixed);
+    let mut doc = combined(sc, &results, &plan.mixed_runs);
     doc["order"] = json!(plan.runs.iter().map(|r| r.name.clone()).collect::<Vec<_>>());
     write_json(&out.join("compare.json"), &doc)?;
     Ok((doc, results))
@@ -416,9 +492,9 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<Status> {
     let (doc, results) = compare_into(&sc, &plan, &a.out, interrupt.clone())?;
     println!(
         "{}: {} vehicles, seed {}, warm-up {} s, {}, emission class {}",
-        sc.name,
-        sc.n,
-        sc.file.seed,
+        sc.name(),
+        sc.vehicles(),
+        sc.seed(),
         plan.warmup_s,
         doc["sumo_version"].as_str().unwrap_or("?"),
         EMISSION_CLASS
@@ -464,18 +540,4 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<Status> {
     } else {
         Status::RunFailed
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::runs::mixed_controlled;
-
-    #[test]
-    fn mixed_vehicles_are_evenly_spaced() {
-        assert_eq!(mixed_controlled(22, 0), Vec::<usize>::new());
-        assert_eq!(mixed_controlled(22, 1), [0]);
-        assert_eq!(mixed_controlled(22, 2), [0, 11]);
-        assert_eq!(mixed_controlled(22, 4), [0, 5, 11, 16]);
-    }
 }

@@ -140,21 +140,22 @@ fn evaluate_point(
             .product::<f64>()
     };
     let (gain, delay) = (scale(Param::GainScale), scale(Param::DelayScale));
-    let (m, rounding) = scaled(base, gain, delay, sc.step_s);
+    let (m, rounding) = scaled(base, gain, delay, sc.step_s());
     let certified = match &m.leader {
         None => theory::theorem1(&m.graph, &m.delay_s).holds,
         Some((_, b)) => theory::theorem1_plus(&m.graph, &m.delay_s, b).holds,
     };
     let abscissa = exact_abscissa(&m, ring, gain, delay);
     let simulated = simulate_too.then(|| {
-        let mut s = sc.clone();
         // The simulation uses the on-grid delays.
         let mut mm = m.clone();
         for (d, k) in mm.delay_s.iter_mut().zip(&mm.delay_steps) {
-            *d = *k as f64 * sc.step_s;
+            *d = *k as f64 * sc.step_s();
         }
-        s.model = Model::DelayedDriver(mm);
-        let every = (s.steps / 1000).max(1);
+        let s = sc
+            .with_model(Model::DelayedDriver(mm))
+            .expect("a scaled model keeps the scenario's vehicles and step grid");
+        let every = (s.steps() / 1000).max(1);
         let out = pipeline::native(&s, every);
         evaluate(&s, &out, EvalOptions::of(sc)).sync.verdict
     });
@@ -204,7 +205,7 @@ pub fn sweep(
     simulate_too: bool,
     jobs: usize,
 ) -> anyhow::Result<Vec<Point>> {
-    let Model::DelayedDriver(base) = &sc.model else {
+    let Model::DelayedDriver(base) = sc.model() else {
         return Err(InputError::new("map sweeps delayed-driver scenarios (model.type = \"delayed_driver\"); use `syncroad stability` for CACC platoons").into());
     };
     if xa.param == ya.param {
@@ -443,7 +444,7 @@ pub fn run(
     let bounds = boundaries(&sc);
     plot(
         out,
-        &format!("{}: Theorem 1 vs exact stability", sc.name),
+        &format!("{}: Theorem 1 vs exact stability", sc.name()),
         &xa,
         &ya,
         &pts,

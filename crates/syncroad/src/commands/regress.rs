@@ -335,7 +335,7 @@ pub fn fresh_metrics(base: &Baseline, baseline_path: &Path) -> anyhow::Result<Va
             ))
             .into());
         }
-        let every = crate::config::default_record_every(sc.steps, sc.n);
+        let every = crate::config::default_record_every(sc.steps(), sc.vehicles());
         let f = Finished::new(
             &sc,
             "law",
@@ -353,11 +353,13 @@ pub fn fresh_metrics(base: &Baseline, baseline_path: &Path) -> anyhow::Result<Va
         out: std::env::temp_dir().join(format!(
             "syncroad-regress-{}-{}",
             std::process::id(),
-            sc.name
+            sc.name()
         )),
         baselines: runs,
         mixed: base.mixed.clone(),
         mixed_driver: "krauss-0.9".into(),
+        mixed_controller: "law".into(),
+        ssm: false,
         jobs: None,
         warmup_s: None,
         emission_every: 1,

@@ -21,7 +21,7 @@ use crate::report;
 /// `syncroad run`: the scenario's backend.
 pub fn run(path: &Path, out: &OutputArgs, sumo: &SumoArgs) -> anyhow::Result<Status> {
     let sc = load_scenario(path)?;
-    match sc.file.backend {
+    match sc.backend() {
         Backend::Sumo => run_sumo(&sc, out, sumo),
         Backend::Native => run_native(&sc, out),
     }
@@ -45,7 +45,10 @@ fn run_native(sc: &Scenario, out: &OutputArgs) -> anyhow::Result<Status> {
     let cfg = RunConfig::new(sc, out)?;
     create_dir(&cfg.out)?;
     let f = Finished::new(sc, "law", pipeline::native(sc, cfg.record_every), cfg.eval);
-    let plots = f.write(&cfg.out, cfg.plots.then(|| format!("{} (native)", sc.name)))?;
+    let plots = f.write(
+        &cfg.out,
+        cfg.plots.then(|| format!("{} (native)", sc.name())),
+    )?;
     print!(
         "{}",
         report::metrics_table(
@@ -79,7 +82,7 @@ fn run_sumo(sc: &Scenario, out: &OutputArgs, args: &SumoArgs) -> anyhow::Result<
         Some(sigma) => {
             let d = SumoDriver::krauss("--krauss-sigma", &sigma.to_string(), sigma)
                 .map_err(|e| InputError::caused("--krauss-sigma", e))?;
-            vec![Some(d); sc.n]
+            vec![Some(d); sc.vehicles()]
         }
     };
     let road = load_road(sc).map_err(|e| InputError::caused("before starting SUMO", e))?;
@@ -103,7 +106,7 @@ fn run_sumo(sc: &Scenario, out: &OutputArgs, args: &SumoArgs) -> anyhow::Result<
     };
     let f = Finished::new(sc, name, run.output, cfg.eval);
     let complete = f.output.stop.is_complete();
-    let title = (cfg.plots && complete).then(|| format!("{} (SUMO)", sc.name));
+    let title = (cfg.plots && complete).then(|| format!("{} (SUMO)", sc.name()));
     let plots = f.write(&cfg.out, title)?;
     print!(
         "{}",

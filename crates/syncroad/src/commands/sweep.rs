@@ -68,7 +68,7 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<Status> {
         sweep.name, summary.points, summary.ran, summary.failed, summary.skipped, summary.interrupted
     );
     if summary.ran > 0 {
-        let veh_s = sweep.base.n as f64 * sweep.base.horizon_s() * summary.ran as f64;
+        let veh_s = sweep.base.vehicles() as f64 * sweep.base.horizon_s() * summary.ran as f64;
         println!(
             "  {:.2} runs/s, {:.0} simulated vehicle-seconds per second ({} jobs{})",
             summary.ran as f64 / wall,

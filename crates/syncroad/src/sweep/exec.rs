@@ -355,10 +355,12 @@ impl Shared<'_> {
                     .timeout_s
                     .and_then(|t| std::time::Duration::try_from_secs_f64(t).ok());
                 o.drivers = choice.spec.drivers.clone();
+                o.damper = choice.spec.damper;
                 o.measure = Some(MeasureOptions {
                     warmup_s,
                     emission_every: 1,
                     tripinfo: false,
+                    ssm: false,
                 });
                 let pool = self.pool.as_ref().expect("a SUMO sweep has a worker pool");
                 let r = pipeline::sumo_pooled(&sc, &road, &o, pool)

@@ -14,6 +14,7 @@
 //!   "runs": ["protocol", "krauss-0.9"],
 //!   "penetrations": [0.0, 0.25, 0.5],
 //!   "mixed_driver": "krauss-0.9",
+//!   "mixed_controller": "law",
 //!   "metrics": ["sync.verdict", "congestion.speed_std_mps"]
 //! }
 //! ```
@@ -22,9 +23,10 @@
 //! each of its values; `scale.gain` and `scale.delay` scale every gain and every delay of a
 //! delayed-driver scenario. `linspace` is `[first, last, count]` evenly spaced, `logspace`
 //! `[first, last, count]` geometrically spaced (both ends included). `runs` names who drives:
-//! `protocol` (the scenario's law) or one of SUMO's drivers as `compare --baselines` names
-//! them; each `penetrations` entry p adds a run where round(p·n) vehicles run the law, spread
-//! evenly, among `mixed_driver` humans. Points are the product axes × runs × seeds, numbered in
+//! `protocol` (the scenario's law), a wave damper (`follower-stopper-U`, `pi-saturation`) or
+//! one of SUMO's drivers, as `compare --baselines` names them; each `penetrations` entry p adds
+//! a run where round(p·n) vehicles run `mixed_controller` (the law by default), spread evenly,
+//! among `mixed_driver` humans. Points are the product axes × runs × seeds, numbered in
 //! that order (seeds fastest); the numbering is what shards and resumption rely on.
 
 use std::collections::BTreeSet;
@@ -34,7 +36,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use sha2::{Digest, Sha256};
 use syncroad_control::scenario::{Backend, Model, ScenarioFile};
-use syncroad_control::Scenario;
+use syncroad_control::{DamperSpec, Scenario};
 use syncroad_sumo::SumoDriver;
 
 use crate::error::InputError;
@@ -68,6 +70,10 @@ pub struct SpecFile {
     /// The human driver of mixed runs (default `krauss-0.9`, which forms waves at ring density).
     #[serde(default)]
     pub mixed_driver: Option<String>,
+    /// Who drives the automated vehicles of mixed runs: `law` (default), `follower-stopper-U`
+    /// or `pi-saturation`.
+    #[serde(default)]
+    pub mixed_controller: Option<String>,
     /// Metric paths of `metrics.json` to keep (default: [`DEFAULT_METRICS`]).
     #[serde(default)]
     pub metrics: Option<Vec<String>>,
@@ -398,7 +404,7 @@ impl Sweep {
             .parent()
             .map(Path::to_path_buf)
             .unwrap_or_default();
-        let backend = file.backend.unwrap_or(base.file.backend);
+        let backend = file.backend.unwrap_or(base.backend());
         let axes = file
             .axes
             .iter()
@@ -411,7 +417,7 @@ impl Sweep {
             }
         }
         let seeds = match &file.seeds {
-            None => vec![base.file.seed],
+            None => vec![base.seed()],
             Some(SeedsFile::List(v)) if v.is_empty() => {
                 return Err(bad("seeds = []: give at least one seed").into())
             }
@@ -429,7 +435,7 @@ impl Sweep {
         if seeds.iter().collect::<BTreeSet<_>>().len() != seeds.len() {
             return Err(bad(format!("seeds = {seeds:?}: a seed is listed twice")).into());
         }
-        let n = base.n;
+        let n = base.vehicles();
         let mut runs = Vec::new();
         let names = file.runs.clone().unwrap_or_else(|| {
             if file.penetrations.is_empty() {
@@ -443,9 +449,8 @@ impl Sweep {
             if runs.iter().any(|r: &RunChoice| r.spec.name == spec.name) {
                 return Err(bad(format!("runs: {} is listed twice", spec.name)).into());
             }
-            let law = spec.drivers.iter().filter(|d| d.is_none()).count();
             runs.push(RunChoice {
-                penetration: law as f64 / n.max(1) as f64,
+                penetration: spec.penetration(n),
                 spec,
             });
         }
@@ -453,6 +458,11 @@ impl Sweep {
             let human_name = file.mixed_driver.as_deref().unwrap_or("krauss-0.9");
             let human = SumoDriver::parse("mixed_driver", human_name)
                 .map_err(|e| InputError::caused("mixed_driver", e))?;
+            let controller = DamperSpec::parse(
+                "mixed_controller",
+                file.mixed_controller.as_deref().unwrap_or("law"),
+            )
+            .map_err(|e| InputError::caused("mixed_controller", e))?;
             for &p in &file.penetrations {
                 if !(0.0..=1.0).contains(&p) {
                     return Err(
@@ -460,7 +470,11 @@ impl Sweep {
                     );
                 }
                 let k = (p * n as f64).round() as usize;
-                let spec = RunSpec::mixed(format!("mixed-{p}"), n, k, human);
+                let name = match controller {
+                    Some(d) if k > 0 => format!("{d}-mixed-{p}"),
+                    _ => format!("mixed-{p}"),
+                };
+                let spec = RunSpec::mixed(name, n, k, human, controller);
                 if runs.iter().any(|r| r.spec.name == spec.name) {
                     return Err(bad(format!("penetrations: {p} is listed twice")).into());
                 }
@@ -608,10 +622,10 @@ impl Sweep {
         if gain == 1.0 && delay == 1.0 {
             return Ok(sc);
         }
-        if !matches!(sc.model, Model::DelayedDriver(_)) {
+        if !matches!(sc.model(), Model::DelayedDriver(_)) {
             return Err(bad(format!(
                 "axes[scale.*]: scale.gain and scale.delay need a delayed-driver scenario; {} is a CACC platoon",
-                self.base.name
+                self.base.name()
             ))
             .into());
         }
@@ -647,8 +661,8 @@ mod tests {
         assert_eq!((p.at.clone(), p.run, p.seed), (vec![1, 1], 0, 11));
         assert_eq!(s.axes[0].numbers().unwrap(), vec![0.5, 1.0, 1.5]);
         let sc = s.scenario(&p).unwrap();
-        assert_eq!(sc.file.seed, 11);
-        assert_eq!(sc.initial_speed_mps[0], 8.0);
+        assert_eq!(sc.seed(), 11);
+        assert_eq!(sc.initial_speed_mps()[0], 8.0);
         let ids: Vec<usize> = s.points().map(|p| p.id).collect();
         assert_eq!(ids, (0..12).collect::<Vec<_>>());
     }

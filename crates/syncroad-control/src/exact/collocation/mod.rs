@@ -18,15 +18,31 @@
 //! 2. **Newton refinement** of the rightmost candidates on `[M(s)x = 0, cᴴx = 1]`, the accuracy
 //!    being certified by `σ_min(M(s))/σ_max(M(s))`.
 //!
+//! The method's steps live in their own files: `network` (checking the input, the Laplacian),
+//! `generator` (the collocation matrix and its eigenvalues), `refine` (the characteristic
+//! matrix, Newton refinement and multiplicities); this file holds the reports and
+//! [`rightmost_roots`], which runs the steps in order.
+//!
 //! # Reference
 //! D. Breda, S. Maset, R. Vermiglio, "Pseudospectral differencing methods for characteristic
 //! roots of delay differential equations", SIAM J. Sci. Comput. 27 (2005) 482–495.
 //! L. N. Trefethen, *Spectral Methods in MATLAB*, SIAM 2000, ch. 6 (Chebyshev differentiation).
 
-use super::Root;
-use nalgebra::{DMatrix, DVector, Schur};
+use nalgebra::DMatrix;
 use num_complex::Complex64;
 use serde::Serialize;
+
+use super::Root;
+
+mod generator;
+mod network;
+mod refine;
+
+pub(crate) use generator::eigenvalues;
+use generator::{default_nodes, generator_matrix};
+pub(crate) use network::{laplacian, validate_network};
+pub use refine::characteristic_matrix;
+use refine::{assign_multiplicities, newton_refine};
 
 /// Invalid network data or a failed root computation.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -166,338 +182,6 @@ impl RootsReport {
     }
 }
 
-/// Checks the plain-data network description and returns `N`.
-pub(crate) fn validate_network(
-    adjacency: &DMatrix<f64>,
-    delays_s: &[f64],
-) -> Result<usize, CollocationError> {
-    let (rows, cols) = adjacency.shape();
-    if rows != cols {
-        return Err(CollocationError::AdjacencyNotSquare { rows, cols });
-    }
-    let n = rows;
-    if n < 2 {
-        return Err(CollocationError::TooFewVehicles { vehicles: n });
-    }
-    if delays_s.len() != n {
-        return Err(CollocationError::DelayCountMismatch {
-            delays: delays_s.len(),
-            vehicles: n,
-        });
-    }
-    for i in 0..n {
-        for j in 0..n {
-            let value = adjacency[(i, j)];
-            if i == j {
-                if value != 0.0 {
-                    return Err(CollocationError::NonZeroDiagonal { vehicle: i, value });
-                }
-            } else if !value.is_finite() || value < 0.0 {
-                return Err(CollocationError::InvalidGain {
-                    row: i,
-                    col: j,
-                    value,
-                });
-            }
-        }
-    }
-    for (vehicle, &delay_s) in delays_s.iter().enumerate() {
-        if !delay_s.is_finite() || delay_s < 0.0 {
-            return Err(CollocationError::InvalidDelay { vehicle, delay_s });
-        }
-    }
-    if let Some(unreached) = spanning_tree_gap(adjacency) {
-        return Err(CollocationError::NoSpanningTree { unreached });
-    }
-    Ok(n)
-}
-
-/// `None` if the graph (arc `j → i` when `a_ij > 0`) has a directed spanning tree, otherwise
-/// a vehicle that the best root candidate does not reach. The candidate is the last vertex
-/// to finish a depth-first search over all vertices (it reaches everyone if anyone does).
-fn spanning_tree_gap(adjacency: &DMatrix<f64>) -> Option<usize> {
-    let n = adjacency.nrows();
-    let mut visited = vec![false; n];
-    let mut last_finished = 0;
-    for start in 0..n {
-        if visited[start] {
-            continue;
-        }
-        // Iterative DFS; a stack frame is (vertex, next successor to try).
-        let mut stack = vec![(start, 0usize)];
-        visited[start] = true;
-        while let Some(&mut (v, ref mut next)) = stack.last_mut() {
-            let mut pushed = false;
-            while *next < n {
-                let w = *next;
-                *next += 1;
-                if !visited[w] && adjacency[(w, v)] > 0.0 {
-                    visited[w] = true;
-                    stack.push((w, 0));
-                    pushed = true;
-                    break;
-                }
-            }
-            if !pushed {
-                last_finished = v;
-                stack.pop();
-            }
-        }
-    }
-    let mut reached = vec![false; n];
-    let mut queue = vec![last_finished];
-    reached[last_finished] = true;
-    while let Some(v) = queue.pop() {
-        for w in 0..n {
-            if !reached[w] && adjacency[(w, v)] > 0.0 {
-                reached[w] = true;
-                queue.push(w);
-            }
-        }
-    }
-    reached.iter().position(|&r| !r)
-}
-
-/// Weighted Laplacian `L = D − A` with `D = diag(d_i^+)`, `d_i^+ = Σ_j a_ij`.
-pub(crate) fn laplacian(adjacency: &DMatrix<f64>) -> DMatrix<f64> {
-    let n = adjacency.nrows();
-    let mut l = -adjacency.clone();
-    for i in 0..n {
-        l[(i, i)] = adjacency.row(i).iter().sum::<f64>();
-    }
-    l
-}
-
-/// Characteristic matrix `M(s) = sI + diag(e^{−sα_i}) L` of eq. `chandler+`.
-pub fn characteristic_matrix(
-    adjacency: &DMatrix<f64>,
-    delays_s: &[f64],
-    s: Complex64,
-) -> DMatrix<Complex64> {
-    char_matrix_from_laplacian(&laplacian(adjacency), delays_s, s)
-}
-
-fn char_matrix_from_laplacian(
-    l: &DMatrix<f64>,
-    delays_s: &[f64],
-    s: Complex64,
-) -> DMatrix<Complex64> {
-    let n = l.nrows();
-    let mut m = DMatrix::from_fn(n, n, |i, j| {
-        Complex64::new(l[(i, j)], 0.0) * (-s * delays_s[i]).exp()
-    });
-    for i in 0..n {
-        m[(i, i)] += s;
-    }
-    m
-}
-
-/// Derivative `M'(s) = I − diag(α_i e^{−sα_i}) L`.
-fn char_matrix_derivative(l: &DMatrix<f64>, delays_s: &[f64], s: Complex64) -> DMatrix<Complex64> {
-    let n = l.nrows();
-    let mut m = DMatrix::from_fn(n, n, |i, j| {
-        -Complex64::new(l[(i, j)], 0.0) * delays_s[i] * (-s * delays_s[i]).exp()
-    });
-    for i in 0..n {
-        m[(i, i)] += 1.0;
-    }
-    m
-}
-
-/// Chebyshev points `x_k = cos(kπ/M)` and differentiation matrix (Trefethen, `cheb`).
-fn chebyshev(m: usize) -> (Vec<f64>, DMatrix<f64>) {
-    let x: Vec<f64> = (0..=m)
-        .map(|k| (std::f64::consts::PI * k as f64 / m as f64).cos())
-        .collect();
-    let c = |k: usize| {
-        let w = if k == 0 || k == m { 2.0 } else { 1.0 };
-        if k % 2 == 0 {
-            w
-        } else {
-            -w
-        }
-    };
-    let mut d = DMatrix::zeros(m + 1, m + 1);
-    for i in 0..=m {
-        for j in 0..=m {
-            if i != j {
-                d[(i, j)] = c(i) / c(j) / (x[i] - x[j]);
-            }
-        }
-    }
-    for i in 0..=m {
-        let row_sum: f64 = (0..=m).filter(|&j| j != i).map(|j| d[(i, j)]).sum();
-        d[(i, i)] = -row_sum;
-    }
-    (x, d)
-}
-
-/// Default number of Chebyshev intervals from the dimensionless loop gain `max 2 d_i α_i`.
-fn default_nodes(l: &DMatrix<f64>, delays_s: &[f64]) -> usize {
-    let rho = (0..l.nrows())
-        .map(|i| 2.0 * l[(i, i)] * delays_s[i])
-        .fold(0.0, f64::max);
-    (8 + (2.0 * rho).ceil() as usize).clamp(8, 40)
-}
-
-/// Collocation matrix of the infinitesimal generator (see the module documentation).
-fn generator_matrix(l: &DMatrix<f64>, delays_s: &[f64], m: usize) -> DMatrix<f64> {
-    let n = l.nrows();
-    let delayed: Vec<usize> = (0..n).filter(|&i| delays_s[i] > 0.0).collect();
-    let order = n + m * delayed.len();
-    let (_, d) = chebyshev(m);
-    let mut a = DMatrix::zeros(order, order);
-    for i in 0..n {
-        if delays_s[i] == 0.0 {
-            for j in 0..n {
-                a[(i, j)] = -l[(i, j)];
-            }
-        }
-    }
-    for (slot, &i) in delayed.iter().enumerate() {
-        let base = n + slot * m; // φ_{i,k} for k = 1..=m sits at base + k − 1
-        let scale = 2.0 / delays_s[i];
-        a[(i, base + m - 1)] = 1.0; // λ v_i = φ_i(−α_i) = φ_{i,M}
-        for k in 1..=m {
-            let row = base + k - 1;
-            for l_idx in 1..=m {
-                a[(row, base + l_idx - 1)] = scale * d[(k, l_idx)];
-            }
-            // Boundary node φ_{i,0} = −(Lv)_i.
-            for j in 0..n {
-                a[(row, j)] = -scale * d[(k, 0)] * l[(i, j)];
-            }
-        }
-    }
-    a
-}
-
-/// Newton refinement of a root of `det M(s) = 0` on `[M(s)x = 0, cᴴx = 1]`.
-fn newton_refine(
-    l: &DMatrix<f64>,
-    delays_s: &[f64],
-    s0: Complex64,
-    options: &CollocationOptions,
-) -> RefinedRoot {
-    let n = l.nrows();
-    let mut s = s0;
-    // Two steps of inverse iteration give the approximate null vector.
-    let mut x = DVector::from_fn(n, |i, _| Complex64::new(1.0, 0.1 * i as f64));
-    for _ in 0..2 {
-        let m = char_matrix_from_laplacian(l, delays_s, s);
-        if let Some(y) = m.lu().solve(&x) {
-            let norm = y.norm();
-            if norm.is_finite() && norm > 0.0 {
-                x = y / Complex64::new(norm, 0.0);
-            }
-        }
-    }
-    let c = x.clone();
-    let mut steps = 0;
-    let mut converged = false;
-    while steps < options.max_newton_steps {
-        steps += 1;
-        let m = char_matrix_from_laplacian(l, delays_s, s);
-        let dm = char_matrix_derivative(l, delays_s, s);
-        let mut j = DMatrix::zeros(n + 1, n + 1);
-        j.view_mut((0, 0), (n, n)).copy_from(&m);
-        let dmx = &dm * &x;
-        for i in 0..n {
-            j[(i, n)] = dmx[i];
-            j[(n, i)] = c[i].conj();
-        }
-        let mut f = DVector::zeros(n + 1);
-        f.rows_mut(0, n).copy_from(&(&m * &x));
-        f[n] = c.dotc(&x) - 1.0;
-        let Some(delta) = j.lu().solve(&(-f)) else {
-            break;
-        };
-        x += delta.rows(0, n);
-        s += delta[n];
-        if delta[n].norm() <= options.newton_tolerance * (1.0 + s.norm()) {
-            converged = true;
-            break;
-        }
-    }
-    let m = char_matrix_from_laplacian(l, delays_s, s);
-    let null_vector_residual = (&m * &x).norm() / (m.norm() * x.norm()).max(f64::MIN_POSITIVE);
-    RefinedRoot {
-        root: s.into(),
-        residual: relative_residual(l, delays_s, s),
-        null_vector_residual,
-        newton_steps: steps,
-        converged,
-        multiplicity: 1,
-    }
-}
-
-/// `σ_min(M(s)) / σ_max(M(s))`.
-fn relative_residual(l: &DMatrix<f64>, delays_s: &[f64], s: Complex64) -> f64 {
-    let sv = char_matrix_from_laplacian(l, delays_s, s).singular_values();
-    let max = sv.max();
-    if max > 0.0 {
-        sv.min() / max
-    } else {
-        0.0
-    }
-}
-
-/// Eigenvalues of a real matrix by the real Schur form.
-///
-/// nalgebra's Francis iteration has no exceptional shifts, and it can stagnate on clusters of
-/// (exactly) repeated eigenvalues, which symmetric graphs produce: an all-to-all graph with
-/// equal delays has every collocated non-consensus root `N − 1` times. When it stalls, the
-/// deflation threshold is relaxed step by step (`10⁻¹⁴ … 10⁻¹¹` relative to the neighbouring
-/// diagonal entries), which lets a converged cluster split off; the eigenvalues then carry an
-/// error of that order, well inside Newton's basin, and Newton refines them on `M(s)`.
-pub(crate) fn eigenvalues(a: DMatrix<f64>) -> Result<Vec<Complex64>, CollocationError> {
-    let order = a.nrows();
-    // LAPACK's iteration budget (dlahqr: 30 sweeps per eigenvalue).
-    let max_iter = 30 * order.max(10);
-    for eps in [f64::EPSILON, 1e-14, 1e-13, 1e-12, 1e-11] {
-        if let Some(schur) = Schur::try_new(a.clone(), eps, max_iter) {
-            return Ok(schur.complex_eigenvalues().iter().copied().collect());
-        }
-    }
-    Err(CollocationError::EigenvaluesFailed { order })
-}
-
-/// Multiplicity of each refined root as a zero of `det M(s)`: the larger of the number of
-/// collocation eigenvalues in a small cluster around it (algebraic multiplicity, which the
-/// collocation reproduces) and the dimension of the numerical null space of `M(s)`
-/// (geometric multiplicity). The cluster radius stays below half the distance to any other
-/// refined root.
-fn assign_multiplicities(
-    l: &DMatrix<f64>,
-    delays_s: &[f64],
-    eigenvalues: &[Complex64],
-    roots: &mut [RefinedRoot],
-) {
-    let centres: Vec<Complex64> = roots.iter().map(|r| Complex64::from(r.root)).collect();
-    for (k, r) in roots.iter_mut().enumerate() {
-        let s = centres[k];
-        let mut radius = 1e-4 * (1.0 + s.norm());
-        for (j, &z) in centres.iter().enumerate() {
-            if j != k {
-                radius = radius
-                    .min(0.5 * (z - s).norm())
-                    .min(0.5 * (z.conj() - s).norm());
-            }
-        }
-        if s.im != 0.0 {
-            radius = radius.min(s.im.abs());
-        }
-        let cluster = eigenvalues
-            .iter()
-            .filter(|&&z| (z - s).norm() < radius)
-            .count();
-        let sv = char_matrix_from_laplacian(l, delays_s, s).singular_values();
-        let max = sv.max();
-        let null = sv.iter().filter(|&&x| x <= 1e-8 * max).count();
-        r.multiplicity = cluster.max(null).max(1);
-    }
-}
-
 /// Rightmost characteristic roots of the delayed-driver network (eq. `chandler+`) other than
 /// the consensus root, and the spectral abscissa.
 ///
@@ -580,6 +264,7 @@ pub(crate) mod tests {
     use super::super::ring_modes::UniformRing;
     use super::*;
     use approx::assert_relative_eq;
+    use nalgebra::DVector;
     use std::f64::consts::PI;
 
     /// Deterministic pseudo-random numbers in [0, 1) (xorshift), to keep tests reproducible.
@@ -802,111 +487,5 @@ pub(crate) mod tests {
         let window = 2.0 * PI / r.roots[0].root.im.max(0.1) + 0.75;
         let rate = simulated_decay_rate(&a, &delays, 1.0 / 400.0, t_end, window);
         assert_relative_eq!(rate, r.abscissa, max_relative = 0.01);
-    }
-
-    #[test]
-    fn errors_name_field_and_value() {
-        let opts = CollocationOptions::default();
-        let a = DMatrix::from_row_slice(2, 2, &[0.0, 1.0, 1.0, 0.0]);
-        let msg = |r: Result<RootsReport, CollocationError>| r.unwrap_err().to_string();
-        assert_eq!(
-            msg(rightmost_roots(&DMatrix::zeros(2, 3), &[0.1, 0.1], &opts)),
-            "adjacency matrix must be square, got 2×3"
-        );
-        assert_eq!(
-            msg(rightmost_roots(&a, &[0.1], &opts)),
-            "1 delays given for 2 vehicles"
-        );
-        assert_eq!(
-            msg(rightmost_roots(&a, &[0.1, -0.2], &opts)),
-            "delay α[1] = -0.2 s must be finite and ≥ 0"
-        );
-        let mut bad = a.clone();
-        bad[(0, 1)] = -1.0;
-        assert_eq!(
-            msg(rightmost_roots(&bad, &[0.1, 0.1], &opts)),
-            "coupling gain a[0][1] = -1 must be finite and ≥ 0"
-        );
-        let mut bad = a.clone();
-        bad[(1, 1)] = 2.0;
-        assert_eq!(
-            msg(rightmost_roots(&bad, &[0.1, 0.1], &opts)),
-            "adjacency diagonal a[1][1] = 2 must be 0"
-        );
-        // Two vehicles both following a third one that follows nobody is fine (tree rooted
-        // at 2); two separate pairs are not.
-        let tree = DMatrix::from_row_slice(3, 3, &[0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]);
-        assert!(rightmost_roots(&tree, &[0.1; 3], &opts).is_ok());
-        let mut split = DMatrix::zeros(4, 4);
-        split[(0, 1)] = 1.0;
-        split[(1, 0)] = 1.0;
-        split[(2, 3)] = 1.0;
-        split[(3, 2)] = 1.0;
-        let m = msg(rightmost_roots(&split, &[0.1; 4], &opts));
-        assert!(
-            m.starts_with("the interaction graph has no directed spanning tree (vehicle"),
-            "{m}"
-        );
-    }
-}
-
-#[cfg(test)]
-mod repeated_roots {
-    use super::super::lambert_w::lambert_w;
-    use super::*;
-    use approx::assert_relative_eq;
-
-    /// All-to-all coupling with gain `k`: `L = kN I − k 11ᵀ`, eigenvalues 0 and `Nk`
-    /// (multiplicity `N − 1`).
-    fn all_to_all(n: usize, k: f64) -> DMatrix<f64> {
-        DMatrix::from_fn(n, n, |i, j| if i == j { 0.0 } else { k })
-    }
-
-    #[test]
-    fn all_to_all_uniform_delay_roots_are_the_lambert_w_roots_with_multiplicity() {
-        // det(sI + e^{−sα}L) = s · (s + Nk e^{−sα})^{N−1}: the non-consensus roots are
-        // W_b(−Nkα)/α, each of multiplicity N − 1.
-        for &n in &[3usize, 4, 5, 10] {
-            for &k in &[0.1, 0.3] {
-                let alpha = 0.5;
-                let a = all_to_all(n, k);
-                let r = rightmost_roots(&a, &vec![alpha; n], &CollocationOptions::default())
-                    .unwrap_or_else(|e| panic!("N={n} k={k}: {e}"));
-                let w0 =
-                    lambert_w(0, Complex64::new(-(n as f64) * k * alpha, 0.0)).unwrap() / alpha;
-                assert_relative_eq!(r.abscissa, w0.re, epsilon = 1e-10);
-                assert_relative_eq!(r.roots[0].root.im, w0.im.abs(), epsilon = 1e-10);
-                assert_eq!(r.roots[0].multiplicity, n - 1, "N={n} k={k}");
-            }
-        }
-    }
-
-    #[test]
-    fn one_slower_driver_in_an_all_to_all_five_keeps_a_triple_root() {
-        // Delays (0.5, 0.5, 0.5, 0.5, 0.6), gain 0.1: on {x : x_5 = 0, Σx = 0} (dimension 3)
-        // L acts as 5k, so s + 5k e^{−0.5 s} = 0 gives a root of multiplicity 3. On the
-        // symmetric vectors (a, a, a, a, b) the 2×2 reduction L_red = k[[1, −1], [−4, 4]]
-        // gives s = −k(e^{−0.5 s} + 4 e^{−0.6 s}) (besides consensus).
-        let k = 0.1;
-        let a = all_to_all(5, k);
-        let delays = [0.5, 0.5, 0.5, 0.5, 0.6];
-        let r = rightmost_roots(&a, &delays, &CollocationOptions::default()).unwrap();
-        let triple = lambert_w(0, Complex64::new(-5.0 * k * 0.5, 0.0)).unwrap() / 0.5;
-        // Scalar Newton on the reduced equation from the real axis.
-        let f = |s: f64| s + k * ((-0.5 * s).exp() + 4.0 * (-0.6 * s).exp());
-        let df = |s: f64| 1.0 - k * (0.5 * (-0.5 * s).exp() + 2.4 * (-0.6 * s).exp());
-        let mut s = -0.5;
-        for _ in 0..50 {
-            s -= f(s) / df(s);
-        }
-        let found = |z: Complex64| {
-            r.roots
-                .iter()
-                .find(|q| (Complex64::from(q.root) - z).norm() < 1e-9)
-                .map(|q| q.multiplicity)
-        };
-        assert_eq!(found(triple), Some(3), "{:?}", r.roots);
-        assert_eq!(found(Complex64::new(s, 0.0)), Some(1), "{:?}", r.roots);
-        assert_relative_eq!(r.abscissa, triple.re.max(s), epsilon = 1e-10);
     }
 }

@@ -1,0 +1,213 @@
+//! Step 2 of the method: the characteristic matrix `M(s)`, Newton refinement of a root on
+//! `[M(s)x = 0, cᴴx = 1]` with its residual certificate, and the multiplicity of each root.
+
+use nalgebra::{DMatrix, DVector};
+use num_complex::Complex64;
+
+use super::network::laplacian;
+use super::{CollocationOptions, RefinedRoot};
+
+/// Characteristic matrix `M(s) = sI + diag(e^{−sα_i}) L` of eq. `chandler+`.
+pub fn characteristic_matrix(
+    adjacency: &DMatrix<f64>,
+    delays_s: &[f64],
+    s: Complex64,
+) -> DMatrix<Complex64> {
+    char_matrix_from_laplacian(&laplacian(adjacency), delays_s, s)
+}
+
+fn char_matrix_from_laplacian(
+    l: &DMatrix<f64>,
+    delays_s: &[f64],
+    s: Complex64,
+) -> DMatrix<Complex64> {
+    let n = l.nrows();
+    let mut m = DMatrix::from_fn(n, n, |i, j| {
+        Complex64::new(l[(i, j)], 0.0) * (-s * delays_s[i]).exp()
+    });
+    for i in 0..n {
+        m[(i, i)] += s;
+    }
+    m
+}
+
+/// Derivative `M'(s) = I − diag(α_i e^{−sα_i}) L`.
+fn char_matrix_derivative(l: &DMatrix<f64>, delays_s: &[f64], s: Complex64) -> DMatrix<Complex64> {
+    let n = l.nrows();
+    let mut m = DMatrix::from_fn(n, n, |i, j| {
+        -Complex64::new(l[(i, j)], 0.0) * delays_s[i] * (-s * delays_s[i]).exp()
+    });
+    for i in 0..n {
+        m[(i, i)] += 1.0;
+    }
+    m
+}
+
+/// Newton refinement of a root of `det M(s) = 0` on `[M(s)x = 0, cᴴx = 1]`.
+pub(super) fn newton_refine(
+    l: &DMatrix<f64>,
+    delays_s: &[f64],
+    s0: Complex64,
+    options: &CollocationOptions,
+) -> RefinedRoot {
+    let n = l.nrows();
+    let mut s = s0;
+    // Two steps of inverse iteration give the approximate null vector.
+    let mut x = DVector::from_fn(n, |i, _| Complex64::new(1.0, 0.1 * i as f64));
+    for _ in 0..2 {
+        let m = char_matrix_from_laplacian(l, delays_s, s);
+        if let Some(y) = m.lu().solve(&x) {
+            let norm = y.norm();
+            if norm.is_finite() && norm > 0.0 {
+                x = y / Complex64::new(norm, 0.0);
+            }
+        }
+    }
+    let c = x.clone();
+    let mut steps = 0;
+    let mut converged = false;
+    while steps < options.max_newton_steps {
+        steps += 1;
+        let m = char_matrix_from_laplacian(l, delays_s, s);
+        let dm = char_matrix_derivative(l, delays_s, s);
+        let mut j = DMatrix::zeros(n + 1, n + 1);
+        j.view_mut((0, 0), (n, n)).copy_from(&m);
+        let dmx = &dm * &x;
+        for i in 0..n {
+            j[(i, n)] = dmx[i];
+            j[(n, i)] = c[i].conj();
+        }
+        let mut f = DVector::zeros(n + 1);
+        f.rows_mut(0, n).copy_from(&(&m * &x));
+        f[n] = c.dotc(&x) - 1.0;
+        let Some(delta) = j.lu().solve(&(-f)) else {
+            break;
+        };
+        x += delta.rows(0, n);
+        s += delta[n];
+        if delta[n].norm() <= options.newton_tolerance * (1.0 + s.norm()) {
+            converged = true;
+            break;
+        }
+    }
+    let m = char_matrix_from_laplacian(l, delays_s, s);
+    let null_vector_residual = (&m * &x).norm() / (m.norm() * x.norm()).max(f64::MIN_POSITIVE);
+    RefinedRoot {
+        root: s.into(),
+        residual: relative_residual(l, delays_s, s),
+        null_vector_residual,
+        newton_steps: steps,
+        converged,
+        multiplicity: 1,
+    }
+}
+
+/// `σ_min(M(s)) / σ_max(M(s))`.
+fn relative_residual(l: &DMatrix<f64>, delays_s: &[f64], s: Complex64) -> f64 {
+    let sv = char_matrix_from_laplacian(l, delays_s, s).singular_values();
+    let max = sv.max();
+    if max > 0.0 {
+        sv.min() / max
+    } else {
+        0.0
+    }
+}
+
+/// Multiplicity of each refined root as a zero of `det M(s)`: the larger of the number of
+/// collocation eigenvalues in a small cluster around it (algebraic multiplicity, which the
+/// collocation reproduces) and the dimension of the numerical null space of `M(s)`
+/// (geometric multiplicity). The cluster radius stays below half the distance to any other
+/// refined root.
+pub(super) fn assign_multiplicities(
+    l: &DMatrix<f64>,
+    delays_s: &[f64],
+    eigenvalues: &[Complex64],
+    roots: &mut [RefinedRoot],
+) {
+    let centres: Vec<Complex64> = roots.iter().map(|r| Complex64::from(r.root)).collect();
+    for (k, r) in roots.iter_mut().enumerate() {
+        let s = centres[k];
+        let mut radius = 1e-4 * (1.0 + s.norm());
+        for (j, &z) in centres.iter().enumerate() {
+            if j != k {
+                radius = radius
+                    .min(0.5 * (z - s).norm())
+                    .min(0.5 * (z.conj() - s).norm());
+            }
+        }
+        if s.im != 0.0 {
+            radius = radius.min(s.im.abs());
+        }
+        let cluster = eigenvalues
+            .iter()
+            .filter(|&&z| (z - s).norm() < radius)
+            .count();
+        let sv = char_matrix_from_laplacian(l, delays_s, s).singular_values();
+        let max = sv.max();
+        let null = sv.iter().filter(|&&x| x <= 1e-8 * max).count();
+        r.multiplicity = cluster.max(null).max(1);
+    }
+}
+
+#[cfg(test)]
+mod repeated_roots {
+    use super::super::super::lambert_w::lambert_w;
+    use super::super::{rightmost_roots, CollocationOptions};
+    use approx::assert_relative_eq;
+    use nalgebra::DMatrix;
+    use num_complex::Complex64;
+
+    /// All-to-all coupling with gain `k`: `L = kN I − k 11ᵀ`, eigenvalues 0 and `Nk`
+    /// (multiplicity `N − 1`).
+    fn all_to_all(n: usize, k: f64) -> DMatrix<f64> {
+        DMatrix::from_fn(n, n, |i, j| if i == j { 0.0 } else { k })
+    }
+
+    #[test]
+    fn all_to_all_uniform_delay_roots_are_the_lambert_w_roots_with_multiplicity() {
+        // det(sI + e^{−sα}L) = s · (s + Nk e^{−sα})^{N−1}: the non-consensus roots are
+        // W_b(−Nkα)/α, each of multiplicity N − 1.
+        for &n in &[3usize, 4, 5, 10] {
+            for &k in &[0.1, 0.3] {
+                let alpha = 0.5;
+                let a = all_to_all(n, k);
+                let r = rightmost_roots(&a, &vec![alpha; n], &CollocationOptions::default())
+                    .unwrap_or_else(|e| panic!("N={n} k={k}: {e}"));
+                let w0 =
+                    lambert_w(0, Complex64::new(-(n as f64) * k * alpha, 0.0)).unwrap() / alpha;
+                assert_relative_eq!(r.abscissa, w0.re, epsilon = 1e-10);
+                assert_relative_eq!(r.roots[0].root.im, w0.im.abs(), epsilon = 1e-10);
+                assert_eq!(r.roots[0].multiplicity, n - 1, "N={n} k={k}");
+            }
+        }
+    }
+
+    #[test]
+    fn one_slower_driver_in_an_all_to_all_five_keeps_a_triple_root() {
+        // Delays (0.5, 0.5, 0.5, 0.5, 0.6), gain 0.1: on {x : x_5 = 0, Σx = 0} (dimension 3)
+        // L acts as 5k, so s + 5k e^{−0.5 s} = 0 gives a root of multiplicity 3. On the
+        // symmetric vectors (a, a, a, a, b) the 2×2 reduction L_red = k[[1, −1], [−4, 4]]
+        // gives s = −k(e^{−0.5 s} + 4 e^{−0.6 s}) (besides consensus).
+        let k = 0.1;
+        let a = all_to_all(5, k);
+        let delays = [0.5, 0.5, 0.5, 0.5, 0.6];
+        let r = rightmost_roots(&a, &delays, &CollocationOptions::default()).unwrap();
+        let triple = lambert_w(0, Complex64::new(-5.0 * k * 0.5, 0.0)).unwrap() / 0.5;
+        // Scalar Newton on the reduced equation from the real axis.
+        let f = |s: f64| s + k * ((-0.5 * s).exp() + 4.0 * (-0.6 * s).exp());
+        let df = |s: f64| 1.0 - k * (0.5 * (-0.5 * s).exp() + 2.4 * (-0.6 * s).exp());
+        let mut s = -0.5;
+        for _ in 0..50 {
+            s -= f(s) / df(s);
+        }
+        let found = |z: Complex64| {
+            r.roots
+                .iter()
+                .find(|q| (Complex64::from(q.root) - z).norm() < 1e-9)
+                .map(|q| q.multiplicity)
+        };
+        assert_eq!(found(triple), Some(3), "{:?}", r.roots);
+        assert_eq!(found(Complex64::new(s, 0.0)), Some(1), "{:?}", r.roots);
+        assert_relative_eq!(r.abscissa, triple.re.max(s), epsilon = 1e-10);
+    }
+}

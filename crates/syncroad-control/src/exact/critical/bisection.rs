@@ -1,0 +1,241 @@
+//! The first version's search for the critical scale: bracket the abscissa's sign change and
+//! bisect with full solves, a secant on the tracked root inside the bracket. The fallback of
+//! the continuation and its reference in tests.
+
+use nalgebra::{DMatrix, DVector};
+use num_complex::Complex64;
+
+use super::super::collocation::{
+    laplacian, rightmost_roots, validate_network, CollocationError, CollocationOptions, RootsReport,
+};
+use super::{strongly_connected, CriticalError, CriticalMethod, CriticalReport};
+
+/// Spectral abscissa with all gains scaled by `c`.
+fn abscissa_at(
+    adjacency: &DMatrix<f64>,
+    delays_s: &[f64],
+    c: f64,
+    options: &CollocationOptions,
+) -> Result<RootsReport, CollocationError> {
+    rightmost_roots(&(adjacency * c), delays_s, options)
+}
+
+/// Newton on `[M(s)x = 0, cᴴx = 1]` for gains scaled by `scale`, from `(s, x)`.
+fn track_root(l: &DMatrix<f64>, delays_s: &[f64], scale: f64, s0: Complex64) -> Option<Complex64> {
+    let n = l.nrows();
+    let build = |s: Complex64| {
+        let mut m = DMatrix::from_fn(n, n, |i, j| {
+            Complex64::new(scale * l[(i, j)], 0.0) * (-s * delays_s[i]).exp()
+        });
+        let mut dm = DMatrix::from_fn(n, n, |i, j| {
+            -Complex64::new(scale * l[(i, j)], 0.0) * delays_s[i] * (-s * delays_s[i]).exp()
+        });
+        for i in 0..n {
+            m[(i, i)] += s;
+            dm[(i, i)] += 1.0;
+        }
+        (m, dm)
+    };
+    let mut s = s0;
+    let mut x = DVector::from_fn(n, |i, _| Complex64::new(1.0, 0.1 * i as f64));
+    for _ in 0..2 {
+        let y = build(s).0.lu().solve(&x)?;
+        x = &y / Complex64::new(y.norm(), 0.0);
+    }
+    let c = x.clone();
+    for _ in 0..50 {
+        let (m, dm) = build(s);
+        let mut j = DMatrix::zeros(n + 1, n + 1);
+        j.view_mut((0, 0), (n, n)).copy_from(&m);
+        let dmx = &dm * &x;
+        for i in 0..n {
+            j[(i, n)] = dmx[i];
+            j[(n, i)] = c[i].conj();
+        }
+        let mut f = DVector::zeros(n + 1);
+        f.rows_mut(0, n).copy_from(&(&m * &x));
+        f[n] = c.dotc(&x) - 1.0;
+        let delta = j.lu().solve(&(-f))?;
+        x += delta.rows(0, n);
+        s += delta[n];
+        if delta[n].norm() <= 1e-15 * (1.0 + s.norm()) {
+            return Some(s);
+        }
+    }
+    None
+}
+
+/// The first version's search: bracket and bisect with full solves, a secant on the tracked
+/// root when `use_secant`; the fallback of [`critical_scale_from`] and its reference in tests.
+pub(crate) fn bisection_search(
+    adjacency: &DMatrix<f64>,
+    delays_s: &[f64],
+    options: &CollocationOptions,
+    use_secant: bool,
+) -> Result<CriticalReport, CriticalError> {
+    let n = validate_network(adjacency, delays_s)?;
+    let l = laplacian(adjacency);
+    let worst = (0..n).map(|i| delays_s[i] * l[(i, i)]).fold(0.0, f64::max);
+    if worst == 0.0 {
+        return Err(CriticalError::NoDelay);
+    }
+    let theorem1 = 1.0 / (2.0 * worst);
+    let mut full_solves = 0;
+    let mut eval = |c: f64| {
+        full_solves += 1;
+        abscissa_at(adjacency, delays_s, c, options)
+    };
+    // Bracket.
+    let mut lo = theorem1;
+    let mut lo_report = eval(lo)?;
+    let mut halvings = 0;
+    while !lo_report.is_stable() {
+        halvings += 1;
+        if halvings > 60 {
+            return Err(CriticalError::UnstableAtSmallGain { scale: lo });
+        }
+        lo /= 2.0;
+        lo_report = eval(lo)?;
+    }
+    let mut hi = 2.0 * lo;
+    let mut hi_report = eval(hi)?;
+    let mut doublings = 0;
+    while hi_report.is_stable() {
+        doublings += 1;
+        if doublings > 40 {
+            return Err(CriticalError::NoCrossing { scale: hi });
+        }
+        lo = hi;
+        lo_report = hi_report;
+        hi *= 2.0;
+        hi_report = eval(hi)?;
+    }
+    // Bisect with full solves to a 1e-3 relative bracket.
+    while (hi - lo) > 1e-3 * hi {
+        let mid = 0.5 * (lo + hi);
+        let r = eval(mid)?;
+        if r.is_stable() {
+            lo = mid;
+            lo_report = r;
+        } else {
+            hi = mid;
+            hi_report = r;
+        }
+    }
+    // Secant on the real part of the dominant root, tracked by Newton inside the bracket.
+    let s_hi: Complex64 = hi_report.roots[0].root.into();
+    let mut c_star = 0.5 * (lo + hi);
+    let mut s_star = s_hi;
+    let mut secant_converged = false;
+    let tracked_lo = if use_secant {
+        track_root(&l, delays_s, lo, s_hi)
+    } else {
+        None
+    };
+    if let Some(s_lo) = tracked_lo {
+        let (mut c0, mut g0) = (lo, s_lo.re);
+        let (mut c1, mut g1, mut z1) = (hi, s_hi.re, s_hi);
+        for _ in 0..60 {
+            if g1 == g0 {
+                break;
+            }
+            let c2 = c1 - g1 * (c1 - c0) / (g1 - g0);
+            if !(lo..=hi).contains(&c2) {
+                break;
+            }
+            let Some(z2) = track_root(&l, delays_s, c2, z1) else {
+                break;
+            };
+            (c0, g0) = (c1, g1);
+            (c1, g1, z1) = (c2, z2.re, z2);
+            if (c1 - c0).abs() <= 1e-14 * c1 || g1.abs() <= 1e-15 * z1.norm() {
+                c_star = c1;
+                s_star = z1;
+                secant_converged = true;
+                break;
+            }
+        }
+    }
+    if secant_converged {
+        // Certify with full computations on both sides; a root that crossed earlier inside the
+        // bracket shows up as instability below c*.
+        let below = c_star * (1.0 - 1e-7);
+        let above = c_star * (1.0 + 1e-7);
+        let r_below = eval(below)?;
+        if r_below.is_stable() {
+            lo = below;
+            lo_report = r_below;
+            let r_above = eval(above)?;
+            if r_above.is_stable() {
+                secant_converged = false; // tracked root did not cross here
+                lo = above;
+                lo_report = r_above;
+            } else {
+                hi = above;
+                hi_report = r_above;
+            }
+        } else {
+            secant_converged = false;
+            hi = below;
+            hi_report = r_below;
+        }
+    }
+    if !secant_converged {
+        // Fall back to bisection with full solves down to 1e-10 relative.
+        while (hi - lo) > 1e-10 * hi {
+            let mid = 0.5 * (lo + hi);
+            let r = eval(mid)?;
+            if r.is_stable() {
+                lo = mid;
+                lo_report = r;
+            } else {
+                hi = mid;
+                hi_report = r;
+            }
+        }
+        c_star = 0.5 * (lo + hi);
+        s_star = hi_report.roots[0].root.into();
+    }
+    Ok(CriticalReport {
+        vehicles: n,
+        strongly_connected: strongly_connected(adjacency),
+        critical_gain_scale: c_star,
+        theorem1_gain_scale: theorem1,
+        conservatism_ratio: c_star / theorem1,
+        critical_delay_scale: c_star,
+        theorem1_delay_scale: theorem1,
+        delay_conservatism_ratio: c_star / theorem1,
+        critical_max_delay_s: c_star * delays_s.iter().cloned().fold(0.0, f64::max),
+        crossing_frequency_rad_s: s_star.im.abs(),
+        delay_crossing_frequency_rad_s: s_star.im.abs() / c_star,
+        crossing_multiplicity: hi_report.roots[0].multiplicity,
+        bracket: [lo, hi],
+        bracket_abscissae: [lo_report.abscissa, hi_report.abscissa],
+        full_solves,
+        method: CriticalMethod::Bisection,
+        certificate: None,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::super::ring_modes::UniformRing;
+    use super::*;
+    use approx::assert_relative_eq;
+
+    #[test]
+    fn bisection_fallback_reaches_the_closed_form_too() {
+        let ring = UniformRing::new(5, 1.0, 0.25, 0.8).unwrap();
+        let exact = ring.modes().unwrap().critical_gain_scale;
+        let r = bisection_search(
+            &ring.adjacency(),
+            &ring.delays(),
+            &CollocationOptions::default(),
+            false,
+        )
+        .unwrap();
+        assert_eq!(r.method, CriticalMethod::Bisection);
+        assert_relative_eq!(r.critical_gain_scale, exact, max_relative = 1e-9);
+        assert!(r.bracket[1] - r.bracket[0] <= 1e-10 * r.bracket[1]);
+    }
+}

@@ -1,0 +1,324 @@
+//! Continuation of the rightmost roots in the gain scale `c` until one crosses the imaginary
+//! axis, regula falsi on the crossing, and the argument-principle certificate at `c*` (the
+//! method of the parent module's documentation).
+
+use nalgebra::DMatrix;
+use num_complex::Complex64;
+
+use super::super::argument_principle::{count_with_laplacian, log_det_derivative};
+use super::CrossingCertificate;
+
+/// A root crossing the imaginary axis at gain scale `scale`.
+pub(super) struct Crossing {
+    pub(super) scale: f64,
+    pub(super) root: Complex64,
+    pub(super) multiplicity: usize,
+    pub(super) bracket: [f64; 2],
+    pub(super) bracket_re: [f64; 2],
+    /// The other tracked roots at `scale`.
+    others: Vec<Complex64>,
+}
+
+/// Newton's step `s − m/(log det M)'(s)` for gains scaled by `c`, from `s0`.
+fn newton_track(
+    l: &DMatrix<f64>,
+    delays_s: &[f64],
+    c: f64,
+    s0: Complex64,
+    m: usize,
+) -> Option<Complex64> {
+    let lc = l * c;
+    let mut s = s0;
+    let mut last = f64::INFINITY;
+    for _ in 0..40 {
+        let g = log_det_derivative(&lc, delays_s, s)?;
+        let step = m as f64 / g;
+        if !(step.re.is_finite() && step.im.is_finite()) {
+            return None;
+        }
+        s -= step;
+        if s.im < 0.0 {
+            s = s.conj();
+        }
+        last = step.norm();
+        if last <= 1e-15 * (1.0 + s.norm()) {
+            return Some(s);
+        }
+    }
+    (last <= 1e-11 * (1.0 + s.norm())).then_some(s)
+}
+
+/// Follows the tracked roots in `c` from 1 until one crosses the axis (module documentation).
+pub(super) fn continuation(
+    l: &DMatrix<f64>,
+    delays_s: &[f64],
+    tracked: &[(Complex64, usize)],
+) -> Option<Crossing> {
+    if tracked.is_empty() {
+        return None;
+    }
+    let increasing = tracked.iter().all(|(s, _)| s.re < 0.0);
+    let sign = if increasing { 1.0 } else { -1.0 };
+    let mut c = 1.0f64;
+    let mut mult: Vec<usize> = tracked.iter().map(|t| t.1).collect();
+    let mut cur: Vec<Complex64> = tracked.iter().map(|t| t.0).collect();
+    let mut prev: Option<(f64, Vec<Complex64>)> = None;
+    let mut dlog = 0.05f64;
+    for _ in 0..2000 {
+        if !(1e-18..=1e12).contains(&c) {
+            return None;
+        }
+        let c_next = c * (sign * dlog).exp();
+        let correct = |j: usize| -> Option<Complex64> {
+            let pred = match &prev {
+                Some((cp, sp)) if sp.len() == cur.len() => {
+                    cur[j] + (cur[j] - sp[j]) * ((c_next / c).ln() / (c / cp).ln())
+                }
+                _ => cur[j],
+            };
+            let close = |s: Complex64| (s - pred).norm() <= 0.05 * (1.0 + cur[j].norm());
+            if let Some(s) = newton_track(l, delays_s, c_next, pred, mult[j]) {
+                // A corrector far from its predictor may have jumped to another root.
+                if close(s) {
+                    return Some(s);
+                }
+            }
+            // Two real roots that meet leave the axis as a conjugate pair: restart off the axis.
+            if cur[j].im.abs() <= 1e-9 * (1.0 + cur[j].norm()) {
+                let kick = Complex64::new(pred.re, 0.1 * dlog * (1.0 + cur[j].norm()));
+                let s = newton_track(l, delays_s, c_next, kick, mult[j])?;
+                return close(s).then_some(s);
+            }
+            None
+        };
+        let Some(mut next) = (0..cur.len()).map(correct).collect::<Option<Vec<_>>>() else {
+            dlog /= 2.0;
+            if dlog < 1e-9 {
+                return None;
+            }
+            continue;
+        };
+        // Roots that met (a real pair turned complex) are one root from now on.
+        let mut keep = vec![true; next.len()];
+        for i in 0..next.len() {
+            for j in i + 1..next.len() {
+                if keep[j] && (next[i] - next[j]).norm() < 1e-6 * (1.0 + next[i].norm()) {
+                    keep[j] = false;
+                }
+            }
+        }
+        if keep.iter().any(|k| !k) {
+            let mut idx = 0;
+            next.retain(|_| {
+                idx += 1;
+                keep[idx - 1]
+            });
+            let mut idx = 0;
+            cur.retain(|_| {
+                idx += 1;
+                keep[idx - 1]
+            });
+            let mut idx = 0;
+            mult.retain(|_| {
+                idx += 1;
+                keep[idx - 1]
+            });
+        }
+        let event = if increasing {
+            next.iter().any(|s| s.re >= 0.0)
+        } else {
+            next.iter().all(|s| s.re < 0.0)
+        };
+        if event {
+            // Every root that changed side crosses inside (c, c_next); the first in c wins.
+            let mut best: Option<Crossing> = None;
+            for j in 0..next.len() {
+                if (cur[j].re < 0.0) == (next[j].re < 0.0) {
+                    continue;
+                }
+                let m = mult[j];
+                let (c_star, s_star, bracket, bracket_re) =
+                    solve_crossing(l, delays_s, m, (c, cur[j]), (c_next, next[j]))?;
+                if best.as_ref().is_none_or(|b| c_star < b.scale) {
+                    // The other roots at c*, from the bracket end nearer in log c; one that
+                    // cannot be followed there only loosens the margin (the certificate still
+                    // counts).
+                    let others = (0..next.len())
+                        .filter(|&i| i != j)
+                        .filter_map(|i| {
+                            let from = if (c_star / c).ln().abs() < (c_star / c_next).ln().abs() {
+                                cur[i]
+                            } else {
+                                next[i]
+                            };
+                            newton_track(l, delays_s, c_star, from, mult[i])
+                        })
+                        .collect();
+                    best = Some(Crossing {
+                        scale: c_star,
+                        root: s_star,
+                        multiplicity: m,
+                        bracket,
+                        bracket_re,
+                        others,
+                    });
+                }
+            }
+            return best;
+        }
+        prev = Some((c, std::mem::replace(&mut cur, next)));
+        c = c_next;
+        dlog = (dlog * 1.5).min(0.3);
+    }
+    None
+}
+
+/// Regula falsi (Illinois) in `c` on `Re s(c) = 0` between two tracked points of opposite sign.
+#[allow(clippy::type_complexity)]
+fn solve_crossing(
+    l: &DMatrix<f64>,
+    delays_s: &[f64],
+    m: usize,
+    a: (f64, Complex64),
+    b: (f64, Complex64),
+) -> Option<(f64, Complex64, [f64; 2], [f64; 2])> {
+    let (mut ca, mut sa) = a;
+    let (mut cb, mut sb) = b;
+    let (mut fa, mut fb) = (sa.re, sb.re);
+    let mut side = 0i8;
+    for _ in 0..200 {
+        if (cb - ca).abs() <= 1e-15 * ca.abs().max(cb.abs()) {
+            break;
+        }
+        let c = (ca * fb - cb * fa) / (fb - fa);
+        let c = if c.is_finite() && c > ca.min(cb) && c < ca.max(cb) {
+            c
+        } else {
+            0.5 * (ca + cb)
+        };
+        let start = if (c - ca).abs() < (c - cb).abs() {
+            sa
+        } else {
+            sb
+        };
+        let s = newton_track(l, delays_s, c, start, m)?;
+        if s.re == 0.0 {
+            return Some((c, s, [c, c], [0.0, 0.0]));
+        }
+        if (s.re < 0.0) == (fa < 0.0) {
+            (ca, sa, fa) = (c, s, s.re);
+            if side == -1 {
+                fb /= 2.0;
+            }
+            side = -1;
+        } else {
+            (cb, sb, fb) = (c, s, s.re);
+            if side == 1 {
+                fa /= 2.0;
+            }
+            side = 1;
+        }
+        if s.re.abs() <= 1e-15 * (1.0 + s.norm()) {
+            break;
+        }
+    }
+    let (lo, hi) = if ca < cb {
+        ((ca, sa), (cb, sb))
+    } else {
+        ((cb, sb), (ca, sa))
+    };
+    // Report the end point nearer the axis.
+    let (c_star, s_star) = if lo.1.re.abs() <= hi.1.re.abs() {
+        lo
+    } else {
+        hi
+    };
+    Some((c_star, s_star, [lo.0, hi.0], [lo.1.re, hi.1.re]))
+}
+
+/// Argument-principle counts at `c*` on the lines `Re s = ∓δ`.
+pub(super) fn certify_crossing(
+    l: &DMatrix<f64>,
+    delays_s: &[f64],
+    x: &Crossing,
+) -> Option<CrossingCertificate> {
+    let scale = 1.0 + x.root.norm();
+    let separation = x.others.iter().map(|s| -s.re).fold(f64::INFINITY, f64::min);
+    let margin = if separation > 1e-9 * scale {
+        (0.25 * separation).min(0.05 * scale)
+    } else {
+        1e-3 * scale
+    };
+    let lc = l * x.scale;
+    let left = count_with_laplacian(&lc, delays_s, -margin).ok()?;
+    let right = count_with_laplacian(&lc, delays_s, margin).ok()?;
+    let real = x.root.im.abs() <= 1e-12 * scale;
+    let expected_left = 1 + x.multiplicity * if real { 1 } else { 2 };
+    Some(CrossingCertificate {
+        margin,
+        left,
+        right,
+        expected_left,
+        certified: left.count == expected_left && right.non_consensus() == 0,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::super::collocation::tests::{random_network, Lcg};
+    use super::super::super::collocation::CollocationOptions;
+    use super::super::super::ring_modes::UniformRing;
+    use super::super::{bisection_search, critical_scale, CriticalMethod};
+    use approx::assert_relative_eq;
+    use nalgebra::DMatrix;
+    use std::f64::consts::PI;
+
+    #[test]
+    fn continuation_equals_the_bisection_answer() {
+        // The fast search must not change results beyond 1e-10: compare with the first
+        // version's bisection (full solves only), on heterogeneous graphs, a symmetric ring
+        // (double roots) and an all-to-all graph (roots of multiplicity N − 1).
+        let opts = CollocationOptions::default();
+        let mut rng = Lcg(31);
+        let mut cases = Vec::new();
+        for n in [4usize, 6, 9] {
+            cases.push(random_network(n, &mut rng));
+        }
+        let ring = UniformRing::new(8, 0.7, 0.7, 0.6).unwrap();
+        cases.push((ring.adjacency(), ring.delays()));
+        cases.push((
+            DMatrix::from_fn(5, 5, |i, j| if i == j { 0.0 } else { 0.1 }),
+            vec![0.5; 5],
+        ));
+        for (k, (a, d)) in cases.iter().enumerate() {
+            let fast = critical_scale(a, d, &opts).unwrap();
+            let slow = bisection_search(a, d, &opts, false).unwrap();
+            assert_eq!(fast.method, CriticalMethod::Continuation, "case {k}");
+            assert_eq!(fast.full_solves, 1, "case {k}");
+            assert_relative_eq!(
+                fast.critical_gain_scale,
+                slow.critical_gain_scale,
+                max_relative = 1e-10
+            );
+            assert_relative_eq!(
+                fast.crossing_frequency_rad_s,
+                slow.crossing_frequency_rad_s,
+                max_relative = 1e-6
+            );
+        }
+    }
+
+    #[test]
+    fn multiple_roots_cross_together_on_symmetric_graphs() {
+        // All-to-all, k = 0.1, α = 0.5, N = 5: the mode s + 5ck e^{−sα} = 0 (multiplicity 4)
+        // crosses at 5c k α = π/2, at ω = π/(2α).
+        let a = DMatrix::from_fn(5, 5, |i, j| if i == j { 0.0 } else { 0.1 });
+        let r = critical_scale(&a, &[0.5; 5], &CollocationOptions::default()).unwrap();
+        assert_relative_eq!(r.critical_gain_scale, PI / 2.0 / 0.25, max_relative = 1e-12);
+        assert_relative_eq!(r.crossing_frequency_rad_s, PI, max_relative = 1e-12);
+        assert_eq!(r.crossing_multiplicity, 4);
+        let cert = r.certificate.unwrap();
+        assert_eq!(cert.expected_left, 1 + 2 * 4);
+        assert!(cert.certified);
+    }
+}

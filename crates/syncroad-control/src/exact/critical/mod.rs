@@ -1,0 +1,445 @@
+//! Critical gain and delay scales, and the conservatism of Theorem 1.
+//!
+//! Scaling every gain `a_ij → c·a_ij` of eq. `chandler+` moves the non-consensus roots; the
+//! *critical gain scale* `c*` is the smallest `c` at which the spectral abscissa reaches 0
+//! (a root crosses the imaginary axis at `iω`). Theorem `thm.1` (via `thm.delay-agent` and
+//! eq. `degree1`) guarantees stability for `c < c_T1 = 1/(2 max_j α_j d_j^+)` on strongly
+//! connected graphs; the *conservatism ratio* is `c*/c_T1 ≥ 1`.
+//!
+//! Scaling all delays by `r` is equivalent: with `s = s'/r`,
+//! `det(sI + diag(e^{−s rα_i})L) = r^{−N} det(s'I + r·diag(e^{−s'α_i})L)`, so the critical
+//! delay scale equals `c*` and the Theorem-1 delay scale equals `c_T1`. The tests check this
+//! identity by computing with scaled delays directly.
+//!
+//! For the straight road of eq. `chandler` (one follower per mode, `s + cK e^{−sα} = 0`) the
+//! exact bound is `αK < π/2`, whereas Section `sec.cacc` quotes `2αK < 1` as necessary and
+//! sufficient; `1/2` is rather the string-stability bound of that road
+//! ([`super::string_stability::chandler_string_peak`]) and the long-ring limit
+//! ([`super::ring_modes`]).
+//!
+//! Method: **continuation** from the roots at the given gains (`c = 1`, one full solve by
+//! [`rightmost_roots`]). Every reported rightmost root `s_j` (with its multiplicity `m_j`) is
+//! followed in `c` by a predictor and the Newton step `s − m_j / (log det M)'(s)`, which
+//! converges quadratically even at the multiple roots of symmetric graphs; the scale is
+//! stepped geometrically towards the axis until a root changes side, and the crossing is
+//! solved by regula falsi (Illinois) in `c` to `1e-15` relative. The answer is then
+//! **certified once**, at `c*`, by two argument-principle counts ([`super::argument_principle`])
+//! on the lines `Re s = ∓δ` (`δ` a quarter of the distance to the next tracked root): left
+//! of the axis exactly consensus plus the crossing root(s) with their multiplicity, right of
+//! it nothing. If the continuation fails or the certificate disagrees, the search falls back to
+//! bisection with full solves down to `1e-10` relative (the method of the first version,
+//! about 15 full solves).
+//!
+//! Scaling the delays by `r` instead crosses at the same `r* = c*`, but at the frequency
+//! `ω/c*` (the substitution `s = s'/r` above): the report gives both frequencies.
+//!
+//! This module holds the reports and the search that calls the two methods:
+//! `continuation` (the fast path) and `bisection` (the fallback and test reference).
+
+use nalgebra::DMatrix;
+use num_complex::Complex64;
+use serde::Serialize;
+
+use super::argument_principle::RootCount;
+use super::collocation::{
+    laplacian, rightmost_roots, validate_network, CollocationError, CollocationOptions, RootsReport,
+};
+
+mod bisection;
+mod continuation;
+
+pub(crate) use bisection::bisection_search;
+use continuation::{certify_crossing, continuation};
+
+/// Failure of the critical-scale search.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CriticalError {
+    /// Invalid network or failed root computation.
+    #[error(transparent)]
+    Roots(#[from] CollocationError),
+    /// No driver has a delay: the delay-free network is stable for every gain scale.
+    #[error(
+        "all delays are zero; the network synchronizes for every gain scale (no critical gain)"
+    )]
+    NoDelay,
+    /// Still stable at the largest scale tried.
+    #[error("still stable at gain scale {scale}; no crossing found")]
+    NoCrossing {
+        /// Largest scale tried.
+        scale: f64,
+    },
+    /// Unstable even at the smallest scale tried.
+    #[error("unstable even at gain scale {scale}; cannot bracket the critical gain")]
+    UnstableAtSmallGain {
+        /// Smallest scale tried.
+        scale: f64,
+    },
+}
+
+/// Exact critical scales next to Theorem 1.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CriticalReport {
+    /// Number of vehicles `N`.
+    pub vehicles: usize,
+    /// Whether the graph is strongly connected (a hypothesis of Theorem `thm.1`).
+    pub strongly_connected: bool,
+    /// Exact critical scale `c*` of the whole gain matrix.
+    pub critical_gain_scale: f64,
+    /// Theorem-1 scale `c_T1 = 1/(2 max_j α_j d_j^+)` (eq. `degree1`).
+    pub theorem1_gain_scale: f64,
+    /// `c* / c_T1`.
+    pub conservatism_ratio: f64,
+    /// Exact critical scale of all delays (equals `c*`, see module docs).
+    pub critical_delay_scale: f64,
+    /// Theorem-1 delay scale (equals `c_T1`).
+    pub theorem1_delay_scale: f64,
+    /// `r* / r_T1`.
+    pub delay_conservatism_ratio: f64,
+    /// Largest delay at the critical delay scale, `r* max_i α_i` \[s\].
+    pub critical_max_delay_s: f64,
+    /// Crossing frequency `ω` [rad/s] of the root reaching the axis when the *gains* are
+    /// scaled by `c*` (0 if real).
+    pub crossing_frequency_rad_s: f64,
+    /// Crossing frequency [rad/s] when the *delays* are scaled by `r* = c*` instead: `ω/c*`.
+    pub delay_crossing_frequency_rad_s: f64,
+    /// Multiplicity of the crossing root (each of `±iω`).
+    pub crossing_multiplicity: usize,
+    /// Bracket `[c_lo, c_hi]` ∋ `c*` of the final solve.
+    pub bracket: [f64; 2],
+    /// Real part of the crossing root (continuation) or spectral abscissa (bisection) at
+    /// `c_lo` and `c_hi` [1/s].
+    pub bracket_abscissae: [f64; 2],
+    /// Number of full root computations used (the one at `c = 1` included).
+    pub full_solves: usize,
+    /// How `c*` was found.
+    pub method: CriticalMethod,
+    /// Argument-principle certificate at `c*` (continuation only).
+    pub certificate: Option<CrossingCertificate>,
+}
+
+/// How the critical scale was found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CriticalMethod {
+    /// Newton continuation of the rightmost roots in `c`, certified at `c*`.
+    Continuation,
+    /// Bisection with full solves (fallback).
+    Bisection,
+}
+
+/// Root counts at the critical scale on both sides of the imaginary axis.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct CrossingCertificate {
+    /// Distance `δ` of the counting lines from the axis [1/s].
+    pub margin: f64,
+    /// Count right of `−δ` (consensus and the crossing roots expected).
+    pub left: RootCount,
+    /// Count right of `+δ` (nothing expected).
+    pub right: RootCount,
+    /// Expected `left.count`: consensus plus the crossing roots with multiplicity.
+    pub expected_left: usize,
+    /// Both counts as expected.
+    pub certified: bool,
+}
+
+/// Whether every vehicle reaches every other along arcs `j → i` (`a_ij > 0`).
+pub(crate) fn strongly_connected(adjacency: &DMatrix<f64>) -> bool {
+    let n = adjacency.nrows();
+    let reach = |forward: bool| {
+        let mut seen = vec![false; n];
+        seen[0] = true;
+        let mut stack = vec![0];
+        while let Some(v) = stack.pop() {
+            for w in 0..n {
+                let arc = if forward {
+                    adjacency[(w, v)]
+                } else {
+                    adjacency[(v, w)]
+                };
+                if !seen[w] && arc > 0.0 {
+                    seen[w] = true;
+                    stack.push(w);
+                }
+            }
+        }
+        seen.iter().all(|&s| s)
+    };
+    n > 0 && reach(true) && reach(false)
+}
+
+/// Critical gain and delay scales of the delayed-driver network (eq. `chandler+`) and the
+/// conservatism ratio of Theorem `thm.1`, to about `1e-10` relative or better.
+///
+/// # Errors
+/// [`CriticalError::Roots`] for invalid input, [`CriticalError::NoDelay`] when no driver is
+/// delayed, [`CriticalError::NoCrossing`] / [`CriticalError::UnstableAtSmallGain`] when the
+/// abscissa cannot be bracketed.
+pub fn critical_scale(
+    adjacency: &DMatrix<f64>,
+    delays_s: &[f64],
+    options: &CollocationOptions,
+) -> Result<CriticalReport, CriticalError> {
+    validate_network(adjacency, delays_s)?;
+    if no_delay(adjacency, delays_s) {
+        return Err(CriticalError::NoDelay);
+    }
+    let roots = rightmost_roots(adjacency, delays_s, options)?;
+    critical_scale_from(adjacency, delays_s, &roots, options)
+}
+
+fn no_delay(adjacency: &DMatrix<f64>, delays_s: &[f64]) -> bool {
+    (0..adjacency.nrows()).all(|i| delays_s[i] * adjacency.row(i).sum() == 0.0)
+}
+
+/// [`critical_scale`] starting from the rightmost roots at the given gains (a full solve the
+/// caller already has), by continuation (module documentation).
+///
+/// # Errors
+/// As [`critical_scale`].
+pub fn critical_scale_from(
+    adjacency: &DMatrix<f64>,
+    delays_s: &[f64],
+    roots: &RootsReport,
+    options: &CollocationOptions,
+) -> Result<CriticalReport, CriticalError> {
+    let n = validate_network(adjacency, delays_s)?;
+    if no_delay(adjacency, delays_s) {
+        return Err(CriticalError::NoDelay);
+    }
+    let l = laplacian(adjacency);
+    // Follow the rightmost roots from c = 1. On long rings the first root to cross need not
+    // be among the rightmost at c = 1; then the count right of the axis at the tracked
+    // crossing is positive, and one full solve there gives the roots that crossed earlier,
+    // which are followed back down (at most three restarts before bisection).
+    let mut start = 1.0f64;
+    let mut start_roots = roots.clone();
+    let mut full_solves = 1;
+    let mut found = None;
+    for _ in 0..3 {
+        let tracked: Vec<(Complex64, usize)> = start_roots
+            .roots
+            .iter()
+            .map(|r| (Complex64::from(r.root), r.multiplicity))
+            .collect();
+        let ls = &l * start;
+        let Some(mut x) = continuation(&ls, delays_s, &tracked) else {
+            break;
+        };
+        let certificate = certify_crossing(&ls, delays_s, &x);
+        x.scale *= start;
+        x.bracket = x.bracket.map(|b| b * start);
+        match certificate {
+            Some(c) if c.certified => {
+                found = Some((x, c));
+                break;
+            }
+            Some(c) if c.right.non_consensus() > 0 => {
+                start = x.scale;
+                full_solves += 1;
+                start_roots = rightmost_roots(&(adjacency * start), delays_s, options)?;
+            }
+            _ => break,
+        }
+    }
+    let Some((x, certificate)) = found else {
+        let mut r = fallback(adjacency, delays_s, options)?;
+        r.full_solves += full_solves - 1;
+        return Ok(r);
+    };
+    let certificate = Some(certificate);
+    let worst = (0..n).map(|i| delays_s[i] * l[(i, i)]).fold(0.0, f64::max);
+    let theorem1 = 1.0 / (2.0 * worst);
+    let c_star = x.scale;
+    let omega = x.root.im.abs();
+    Ok(CriticalReport {
+        vehicles: n,
+        strongly_connected: strongly_connected(adjacency),
+        critical_gain_scale: c_star,
+        theorem1_gain_scale: theorem1,
+        conservatism_ratio: c_star / theorem1,
+        critical_delay_scale: c_star,
+        theorem1_delay_scale: theorem1,
+        delay_conservatism_ratio: c_star / theorem1,
+        critical_max_delay_s: c_star * delays_s.iter().cloned().fold(0.0, f64::max),
+        crossing_frequency_rad_s: omega,
+        delay_crossing_frequency_rad_s: omega / c_star,
+        crossing_multiplicity: x.multiplicity,
+        bracket: x.bracket,
+        bracket_abscissae: x.bracket_re,
+        full_solves,
+        method: CriticalMethod::Continuation,
+        certificate,
+    })
+}
+
+fn fallback(
+    adjacency: &DMatrix<f64>,
+    delays_s: &[f64],
+    options: &CollocationOptions,
+) -> Result<CriticalReport, CriticalError> {
+    let mut r = bisection_search(adjacency, delays_s, options, true)?;
+    r.full_solves += 1; // the solve at c = 1 the continuation started from
+    Ok(r)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::collocation::tests::{random_network, Lcg};
+    use super::super::ring_modes::UniformRing;
+    use super::*;
+    use approx::assert_relative_eq;
+    use std::f64::consts::PI;
+
+    #[test]
+    fn single_follower_critical_gain_is_pi_over_two() {
+        // Chandler's straight road, one mode: s + cK e^{−sα} = 0 is stable iff αcK < π/2;
+        // Theorem 1 (its graph is not strongly connected) would give αcK < 1/2.
+        let (alpha, k) = (0.6, 1.3);
+        let a = DMatrix::from_row_slice(2, 2, &[0.0, 0.0, k, 0.0]);
+        let r = critical_scale(&a, &[alpha, alpha], &CollocationOptions::default()).unwrap();
+        assert_relative_eq!(
+            r.critical_gain_scale * alpha * k,
+            PI / 2.0,
+            max_relative = 1e-10
+        );
+        assert_relative_eq!(
+            r.crossing_frequency_rad_s,
+            PI / 2.0 / alpha,
+            max_relative = 1e-8
+        );
+        assert!(!r.strongly_connected);
+        assert_relative_eq!(r.conservatism_ratio, PI, max_relative = 1e-10);
+    }
+
+    #[test]
+    fn two_drivers_following_each_other() {
+        // a_12 = a_21 = k: L has eigenvalue 2k, crossing at 2αck = π/2, i.e. αck = π/4,
+        // against Theorem 1's αck < 1/2 · 1/1 → c_T1 = 1/(2αk): ratio π/2.
+        let (alpha, k) = (0.9, 0.7);
+        let a = DMatrix::from_row_slice(2, 2, &[0.0, k, k, 0.0]);
+        let r = critical_scale(&a, &[alpha, alpha], &CollocationOptions::default()).unwrap();
+        assert_relative_eq!(
+            r.critical_gain_scale * alpha * k,
+            PI / 4.0,
+            max_relative = 1e-10
+        );
+        assert_relative_eq!(r.conservatism_ratio, PI / 2.0, max_relative = 1e-10);
+        assert!(r.strongly_connected);
+    }
+
+    #[test]
+    fn full_search_matches_closed_form_on_uniform_rings() {
+        for &(n, kf, kb, alpha) in &[
+            (3usize, 1.0, 0.0, 0.5),
+            (8, 1.0, 0.0, 1.0),
+            (7, 0.8, 0.3, 0.7),
+            (10, 0.5, 0.5, 1.2),
+        ] {
+            let ring = UniformRing::new(n, kf, kb, alpha).unwrap();
+            let exact = ring.modes().unwrap();
+            let r = critical_scale(
+                &ring.adjacency(),
+                &ring.delays(),
+                &CollocationOptions::default(),
+            )
+            .unwrap();
+            assert_relative_eq!(
+                r.critical_gain_scale,
+                exact.critical_gain_scale,
+                max_relative = 1e-9
+            );
+            assert_relative_eq!(
+                r.theorem1_gain_scale,
+                exact.theorem1_gain_scale,
+                max_relative = 1e-14
+            );
+            assert!(r.bracket[0] <= r.critical_gain_scale && r.critical_gain_scale <= r.bracket[1]);
+            assert_eq!(r.method, CriticalMethod::Continuation);
+        }
+    }
+
+    #[test]
+    fn heterogeneous_critical_scales_respect_theorem_one_and_delay_equivalence() {
+        let mut rng = Lcg(7);
+        let opts = CollocationOptions::default();
+        for trial in 0..5 {
+            let n = 3 + trial;
+            let (a, delays) = random_network(n, &mut rng);
+            let r = critical_scale(&a, &delays, &opts).unwrap();
+            assert!(r.strongly_connected);
+            assert_eq!(r.method, CriticalMethod::Continuation, "trial {trial}");
+            assert!(r.certificate.unwrap().certified);
+            assert!(
+                r.conservatism_ratio >= 1.0,
+                "trial {trial}: {}",
+                r.conservatism_ratio
+            );
+            // Delay scaling computed directly (not through the gain identity).
+            let scaled = |f: f64| -> Vec<f64> { delays.iter().map(|d| d * f).collect() };
+            let below =
+                rightmost_roots(&a, &scaled(r.critical_delay_scale * (1.0 - 1e-6)), &opts).unwrap();
+            let above =
+                rightmost_roots(&a, &scaled(r.critical_delay_scale * (1.0 + 1e-6)), &opts).unwrap();
+            assert!(
+                below.abscissa < 0.0 && above.abscissa > 0.0,
+                "trial {trial}"
+            );
+            // At c* the dominant root sits on the imaginary axis.
+            let at = rightmost_roots(&(&a * r.critical_gain_scale), &delays, &opts).unwrap();
+            assert!(at.abscissa.abs() < 1e-9, "trial {trial}: {}", at.abscissa);
+        }
+    }
+
+    #[test]
+    fn errors_are_specific() {
+        let a = DMatrix::from_row_slice(2, 2, &[0.0, 1.0, 1.0, 0.0]);
+        assert_eq!(
+            critical_scale(&a, &[0.0, 0.0], &CollocationOptions::default())
+                .unwrap_err()
+                .to_string(),
+            "all delays are zero; the network synchronizes for every gain scale (no critical gain)"
+        );
+        assert_eq!(
+            critical_scale(&a, &[0.1], &CollocationOptions::default())
+                .unwrap_err()
+                .to_string(),
+            "1 delays given for 2 vehicles"
+        );
+    }
+
+    #[test]
+    fn delay_scaling_crosses_at_the_unscaled_frequency() {
+        // Scaling delays by r: s + λ e^{−s rα} = 0 crosses at ω = |λ| (gain scaling: c|λ|).
+        // Bidirectional ring N = 22, K = 1: λ_max = 4. One-way ring N = 3, K = 0.5:
+        // |λ_1| = 2K sin(π/3) = √3/2.
+        for (ring, omega) in [
+            (UniformRing::new(22, 1.0, 1.0, 0.2).unwrap(), 4.0),
+            (
+                UniformRing::new(3, 0.5, 0.0, 0.7).unwrap(),
+                3f64.sqrt() / 2.0,
+            ),
+        ] {
+            let r = critical_scale(
+                &ring.adjacency(),
+                &ring.delays(),
+                &CollocationOptions::default(),
+            )
+            .unwrap();
+            assert_relative_eq!(
+                r.delay_crossing_frequency_rad_s,
+                omega,
+                max_relative = 1e-10
+            );
+            // Directly, with the delays scaled by r*: the rightmost root sits at iω.
+            let scaled: Vec<f64> = ring
+                .delays()
+                .iter()
+                .map(|d| d * r.critical_delay_scale)
+                .collect();
+            let at = rightmost_roots(&ring.adjacency(), &scaled, &CollocationOptions::default())
+                .unwrap();
+            assert!(at.abscissa.abs() < 1e-9);
+            assert_relative_eq!(at.roots[0].root.im, omega, max_relative = 1e-9);
+        }
+    }
+}

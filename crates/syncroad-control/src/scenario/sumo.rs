@@ -1,0 +1,186 @@
+//! The validated `sumo` section: network file, vehicle type and wall-clock limit, checked once
+//! when the scenario is validated. The SUMO backend reads only this typed value, never the raw
+//! [`SumoSpec`].
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use serde::{Deserialize, Serialize};
+
+use super::{invalid, ScenarioError, SumoSpec};
+
+/// SUMO vehicle-type values shared by every vehicle of a run (lengths may differ per vehicle).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SumoVehicleType {
+    /// minGap \[m\]: the car-following model's standstill gap.
+    pub min_gap_m: f64,
+    /// accel [m/s²].
+    pub accel_mps2: f64,
+    /// decel [m/s²].
+    pub decel_mps2: f64,
+    /// emergencyDecel [m/s²].
+    pub emergency_decel_mps2: f64,
+    /// maxSpeed [m/s].
+    pub max_speed_mps: f64,
+}
+
+/// The `sumo` section of a validated scenario.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SumoSettings {
+    net: Option<PathBuf>,
+    vehicle_type: SumoVehicleType,
+    timeout: Duration,
+}
+
+impl SumoSettings {
+    /// The network file (`sumo.net`), relative paths resolved against the scenario's folder;
+    /// `None` when the scenario names none. Whether the file exists is checked by the SUMO
+    /// backend before it starts (a native run needs no network).
+    pub fn net(&self) -> Option<&Path> {
+        self.net.as_deref()
+    }
+
+    /// The vehicle type every SUMO vehicle shares.
+    pub fn vehicle_type(&self) -> &SumoVehicleType {
+        &self.vehicle_type
+    }
+
+    /// Wall-clock limit of one SUMO run (`sumo.timeout_s`).
+    pub fn timeout(&self) -> Duration {
+        self.timeout
+    }
+}
+
+impl SumoSpec {
+    /// Checks every number of the section; `base_dir` resolves a relative `net`.
+    pub(super) fn validate(&self, base_dir: &Path) -> Result<SumoSettings, ScenarioError> {
+        for (name, x) in [
+            ("length_m", self.length_m),
+            ("accel_mps2", self.accel_mps2),
+            ("decel_mps2", self.decel_mps2),
+            ("emergency_decel_mps2", self.emergency_decel_mps2),
+            ("max_speed_mps", self.max_speed_mps),
+            ("timeout_s", self.timeout_s),
+        ] {
+            if !(x.is_finite() && x > 0.0) {
+                return Err(invalid(
+                    format!("sumo.{name}"),
+                    x,
+                    "must be a finite number > 0",
+                ));
+            }
+        }
+        if !(self.min_gap_m.is_finite() && self.min_gap_m >= 0.0) {
+            return Err(invalid(
+                "sumo.min_gap_m",
+                self.min_gap_m,
+                "must be a finite number ≥ 0",
+            ));
+        }
+        let timeout = Duration::try_from_secs_f64(self.timeout_s).map_err(|_| {
+            invalid(
+                "sumo.timeout_s",
+                self.timeout_s,
+                "is too long to represent; use a number of seconds below 1.8e19",
+            )
+        })?;
+        let net = self.net.as_ref().map(|net| {
+            if net.is_absolute() {
+                net.clone()
+            } else {
+                base_dir.join(net)
+            }
+        });
+        Ok(SumoSettings {
+            net,
+            vehicle_type: SumoVehicleType {
+                min_gap_m: self.min_gap_m,
+                accel_mps2: self.accel_mps2,
+                decel_mps2: self.decel_mps2,
+                emergency_decel_mps2: self.emergency_decel_mps2,
+                max_speed_mps: self.max_speed_mps,
+            },
+            timeout,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+    use std::time::Duration;
+
+    use crate::scenario::ScenarioFile;
+
+    fn ring(sumo: &str) -> String {
+        format!(
+            r#"{{"seed": 1, "step_s": 0.1, "horizon_s": 10, "vehicles": 4,
+                "road": {{"type": "ring", "length_m": 200}},
+                "model": {{"type": "delayed_driver", "delay_s": 0.2,
+                          "graph": {{"type": "unidirectional_ring", "gain": 0.5}}}},
+                "sumo": {sumo}}}"#
+        )
+    }
+
+    #[test]
+    fn sumo_section_is_validated_into_typed_values() {
+        let sc = ScenarioFile::from_json(
+            &ring(r#"{"net": "nets/ring.net.xml", "timeout_s": 2.5, "min_gap_m": 0}"#),
+            "<test>",
+        )
+        .unwrap()
+        .validate(Path::new("/data/scenarios"))
+        .unwrap();
+        let s = sc.sumo();
+        assert_eq!(
+            s.net(),
+            Some(Path::new("/data/scenarios/nets/ring.net.xml"))
+        );
+        assert_eq!(s.timeout(), Duration::from_millis(2500));
+        assert_eq!(s.vehicle_type().min_gap_m, 0.0);
+        assert_eq!(s.vehicle_type().max_speed_mps, 30.0);
+    }
+
+    #[test]
+    fn absolute_net_stays_and_missing_net_is_none() {
+        let abs = ScenarioFile::from_json(&ring(r#"{"net": "/nets/ring.net.xml"}"#), "<test>")
+            .unwrap()
+            .validate(Path::new("/data"))
+            .unwrap();
+        assert_eq!(abs.sumo().net(), Some(Path::new("/nets/ring.net.xml")));
+        let none = ScenarioFile::from_json(&ring("{}"), "<test>")
+            .unwrap()
+            .validate(Path::new("/data"))
+            .unwrap();
+        assert_eq!(none.sumo().net(), None);
+    }
+
+    #[test]
+    fn bad_sumo_numbers_name_field_value_and_range() {
+        for (sumo, msg) in [
+            (
+                r#"{"timeout_s": 0}"#,
+                "sumo.timeout_s = 0: must be a finite number > 0",
+            ),
+            (
+                r#"{"min_gap_m": -1}"#,
+                "sumo.min_gap_m = -1: must be a finite number ≥ 0",
+            ),
+            (
+                r#"{"accel_mps2": -2}"#,
+                "sumo.accel_mps2 = -2: must be a finite number > 0",
+            ),
+            (
+                r#"{"timeout_s": 1e30}"#,
+                "sumo.timeout_s = 1000000000000000000000000000000: is too long to represent",
+            ),
+        ] {
+            let err = ScenarioFile::from_json(&ring(sumo), "<test>")
+                .unwrap()
+                .validate(Path::new("."))
+                .unwrap_err()
+                .to_string();
+            assert!(err.starts_with(msg), "{sumo}: {err}");
+        }
+    }
+}

@@ -1,0 +1,163 @@
+//! The ring experiments in real SUMO: SUMO's calibrated human drivers form Sugiyama's jam, one
+//! wave damper dissolves it, every compared run starts from the same state, the records carry
+//! the safety margins in the published shape, and mixed traffic draws its automated vehicles
+//! from the seed.
+
+mod common;
+
+use std::path::Path;
+
+use common::{bin, metrics_schema, repo, run, schema_violations, tmpdir};
+use serde_json::Value;
+
+fn read(path: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+/// The rows of `trajectories.csv` at t = 0, as written.
+fn initial_rows(dir: &Path) -> Vec<String> {
+    std::fs::read_to_string(dir.join("trajectories.csv"))
+        .unwrap()
+        .lines()
+        .skip(1)
+        .take_while(|l| l.starts_with("0,"))
+        .map(str::to_string)
+        .collect()
+}
+
+#[test]
+fn human_drivers_form_sugiyamas_jam_and_one_follower_stopper_dissolves_it() {
+    let d = tmpdir("ring-jam");
+    let (code, out, err) = run(bin()
+        .arg("compare")
+        .arg(repo().join("scenarios/sugiyama-human.json"))
+        .args([
+            "--mixed",
+            "0,1",
+            "--mixed-driver",
+            "human",
+            "--mixed-controller",
+            "follower-stopper-4.3",
+            "--warmup-s",
+            "400",
+            "--ssm",
+            "--no-plots",
+            "--out",
+        ])
+        .arg(&d));
+    assert_eq!(code, 0, "{out}{err}");
+    let humans = read(&d.join("mixed-0/metrics.json"));
+    let damped = read(&d.join("follower-stopper-4.3-mixed-1/metrics.json"));
+    assert_eq!(humans["law_controlled_vehicles"], 0);
+    assert!(humans["drivers"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|x| x == "human"));
+    // Sugiyama et al. (2008): from a near-uniform start a jam forms by itself, cars stop in
+    // it (below 1 m/s), and it moves backward at about 20 km/h; the band is 15–25 km/h.
+    let c = &humans["congestion"];
+    assert!(c["min_speed_mps"].as_f64().unwrap() < 1.0, "{c}");
+    let wave_kmh = c["wave_speed_mps"].as_f64().unwrap() * 3.6;
+    assert!((-25.0..=-15.0).contains(&wave_kmh), "wave {wave_kmh} km/h");
+    // One FollowerStopper among 21 humans: nobody stops any more (the jam's 1 m/s), and the
+    // wave amplitude falls below a tenth of the humans' ring.
+    let dc = &damped["congestion"];
+    assert!(dc["min_speed_mps"].as_f64().unwrap() > 1.0, "{dc}");
+    assert!(
+        dc["wave_amplitude_mps"].as_f64().unwrap()
+            < 0.1 * c["wave_amplitude_mps"].as_f64().unwrap(),
+        "{dc} vs {c}"
+    );
+    let drivers = damped["drivers"].as_array().unwrap();
+    assert_eq!(drivers[0], "follower-stopper-4.3");
+    assert!(drivers[1..].iter().all(|x| x == "human"));
+    // Both runs start from the scenario's positions and speeds, to the last digit.
+    let start = initial_rows(&d.join("mixed-0"));
+    assert_eq!(start.len(), 22);
+    assert_eq!(start, initial_rows(&d.join("follower-stopper-4.3-mixed-1")));
+    // The margins are in the published shape; among 21 humans the damper keeps SUMO's safe
+    // speed (speed mode 1), and a ring of humans has no law-commanded vehicle.
+    let schema = metrics_schema();
+    for doc in [&humans, &damped] {
+        let v = schema_violations(&schema, doc);
+        assert!(v.is_empty(), "{v:#?}");
+    }
+    let m = &damped["safety_margins"];
+    assert_eq!(m["ignores_safe_speed"], false, "{m}");
+    assert_eq!(m["law_speed_mode"], 1, "{m}");
+    assert_eq!(humans["safety_margins"]["law_speed_mode"], Value::Null);
+    // Without collisions every gap stays positive.
+    assert_eq!(humans["safety"]["collision_steps"], 0);
+    assert!(humans["safety_margins"]["min_gap_m"].as_f64().unwrap() > 0.0);
+    assert!(out.contains("| ignores SUMO's safe speed |"), "{out}");
+}
+
+/// A copy of the human ring with `mixed` and the given seed, 10 s long (absolute net path).
+fn mixed_scenario(dir: &Path, seed: u64, mixed: Value) -> std::path::PathBuf {
+    let mut sc = read(&repo().join("scenarios/sugiyama-human.json"));
+    sc["seed"] = seed.into();
+    sc["horizon_s"] = 10.0.into();
+    sc["mixed"] = mixed;
+    sc["sumo"]["net"] = repo()
+        .join("sumo-nets/sugiyama-ring.net.xml")
+        .display()
+        .to_string()
+        .into();
+    let p = dir.join(format!("mixed-{seed}.json"));
+    std::fs::write(&p, serde_json::to_string_pretty(&sc).unwrap()).unwrap();
+    p
+}
+
+#[test]
+fn half_penetration_automates_half_the_vehicles_drawn_from_the_seed() {
+    let d = tmpdir("ring-mixed");
+    let drivers_of = |seed: u64, out: &str| -> Vec<String> {
+        let sc = mixed_scenario(&d, seed, serde_json::json!({"penetration": 0.5}));
+        let o = d.join(out);
+        let (code, stdout, err) = run(bin()
+            .arg("run")
+            .arg(&sc)
+            .args(["--no-plots", "--out"])
+            .arg(&o));
+        assert!(code == 0 || code == 1, "{stdout}{err}");
+        let m = read(&o.join("metrics.json"));
+        assert_eq!(m["law_controlled_vehicles"], 11, "{m}");
+        m["drivers"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_str().unwrap().to_string())
+            .collect()
+    };
+    let a = drivers_of(42, "a");
+    let again = drivers_of(42, "again");
+    let other = drivers_of(43, "other");
+    assert_eq!(a, again);
+    assert_ne!(a, other);
+    // SUMO ran exactly the vehicles the library draws for the seed; the rest are humans.
+    for (seed, drivers) in [(42, &a), (43, &other)] {
+        let law: Vec<usize> = (0..22).filter(|&i| drivers[i] == "law").collect();
+        assert_eq!(
+            law,
+            syncroad_control::scenario::automated_vehicles(22, 0.5, seed)
+        );
+        assert!(drivers.iter().all(|x| x == "law" || x == "human"));
+    }
+    // An unknown human driver is named before SUMO starts, with the valid ones.
+    let sc = mixed_scenario(
+        &d,
+        7,
+        serde_json::json!({"penetration": 0.5, "human": "wiedemann"}),
+    );
+    let (code, _, err) = run(bin()
+        .arg("run")
+        .arg(&sc)
+        .args(["--no-plots", "--out"])
+        .arg(d.join("bad")));
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("mixed.human = wiedemann: unknown driver; use krauss"),
+        "{err}"
+    );
+}
