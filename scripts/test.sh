@@ -11,3 +11,7 @@ cargo test --release --workspace
 for b in tests/baselines/*.json; do
   ./target/release/syncroad regress "$b"
 done
+# A sweep sharded over a private single-node Slurm cluster (skipped, and said so, without Slurm).
+slurm="$(bash scripts/slurm-test.sh)"
+echo
+echo "summary: cargo tests passed; baselines passed; Slurm test: $(echo "$slurm" | tail -1)"

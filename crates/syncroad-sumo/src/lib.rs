@@ -45,9 +45,9 @@ pub use drivers::{DriverError, SumoDriver, EMISSION_CLASS};
 pub use net::Road;
 pub use protocol::{Event, Finish, ReadMode, Request, StartInfo, Totals};
 pub use run::{
-    check_sumo_numbers, layout_for, load_road, loop_position, run_scenario, MeasureOptions,
-    PrepareError, Prepared, RunOptions, SumoRun,
+    check_sumo_numbers, layout_for, load_road, loop_position, net_path, run_scenario,
+    MeasureOptions, PrepareError, Prepared, RunOptions, SumoRun,
 };
-pub use supervisor::{interrupt_flag, SupervisorError, WorkerCommand};
+pub use supervisor::{interrupt_flag, SupervisorError, WorkerCommand, WorkerPool};
 pub use venv::repo_dir;
 pub use worker::{is_worker_invocation, worker_main};

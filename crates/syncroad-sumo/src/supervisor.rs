@@ -7,7 +7,7 @@ use std::ffi::OsString;
 use std::io::{BufRead, BufReader, Write};
 use std::os::unix::process::{CommandExt, ExitStatusExt};
 use std::path::PathBuf;
-use std::process::{Command, Stdio};
+use std::process::{Child, ChildStdin, Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc;
 use std::sync::{Arc, Mutex, OnceLock};
@@ -199,174 +199,334 @@ fn signal_name(sig: i32) -> &'static str {
     }
 }
 
-/// Runs `request` in a new worker process started by `cmd`, under `limits`.
-pub fn run_worker(cmd: &WorkerCommand, request: &Request, limits: &Supervision) -> WorkerRun {
-    let mut run = WorkerRun {
-        start: None,
-        rows: Trajectory::new(request.layout.vehicles.len()),
-        events: Vec::new(),
-        result: Err(SupervisorError::Wait("not started".into())),
-        pid: 0,
-    };
-    let mut command = Command::new(&cmd.program);
-    if let Some(libdir) = option_env!("SYNCROAD_PYTHON_LIBDIR") {
-        // The libpython pyo3 was built against comes first (see build.rs).
-        let mut paths = vec![PathBuf::from(libdir)];
-        if let Some(old) = std::env::var_os("LD_LIBRARY_PATH") {
-            paths.extend(std::env::split_paths(&old));
-        }
-        if let Ok(joined) = std::env::join_paths(paths) {
-            command.env("LD_LIBRARY_PATH", joined);
-        }
+/// A worker process that runs requests one after another: SUMO is started and closed for each
+/// run inside the same process, so only the first run pays for Python and the libsumo import.
+/// A worker that crashed, timed out or was interrupted is gone ([`Worker::alive`] is false);
+/// start a new one for the next run.
+pub struct Worker {
+    child: Child,
+    stdin: Option<ChildStdin>,
+    frames: mpsc::Receiver<Result<Option<Frame>, crate::protocol::ProtocolError>>,
+    reader: Option<std::thread::JoinHandle<()>>,
+    stderr_thread: Option<std::thread::JoinHandle<()>>,
+    stderr_tail: Arc<Mutex<VecDeque<String>>>,
+    alive: bool,
+    runs: usize,
+}
+
+impl std::fmt::Debug for Worker {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Worker")
+            .field("pid", &self.child.id())
+            .field("alive", &self.alive)
+            .field("runs", &self.runs)
+            .finish()
     }
-    let mut child = match command
-        .args(&cmd.args)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .process_group(0)
-        .spawn()
-    {
-        Ok(c) => c,
-        Err(e) => {
-            run.result = Err(SupervisorError::Spawn {
+}
+
+impl Worker {
+    /// Starts a worker process (in its own process group, so a terminal Ctrl-C reaches only
+    /// the parent).
+    pub fn spawn(cmd: &WorkerCommand) -> Result<Self, SupervisorError> {
+        let mut command = Command::new(&cmd.program);
+        if let Some(libdir) = option_env!("SYNCROAD_PYTHON_LIBDIR") {
+            // The libpython pyo3 was built against comes first (see build.rs).
+            let mut paths = vec![PathBuf::from(libdir)];
+            if let Some(old) = std::env::var_os("LD_LIBRARY_PATH") {
+                paths.extend(std::env::split_paths(&old));
+            }
+            if let Ok(joined) = std::env::join_paths(paths) {
+                command.env("LD_LIBRARY_PATH", joined);
+            }
+        }
+        let mut child = command
+            .args(&cmd.args)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .process_group(0)
+            .spawn()
+            .map_err(|e| SupervisorError::Spawn {
                 program: cmd.program.display().to_string(),
                 reason: e.to_string(),
-            });
-            return run;
-        }
-    };
-    run.pid = child.id();
-    let verbose = std::env::var_os("SYNCROAD_SUMO_VERBOSE").is_some();
-    let stderr_tail = Arc::new(Mutex::new(VecDeque::<String>::new()));
-    let stderr_thread = child.stderr.take().map(|err| {
-        let tail = stderr_tail.clone();
-        std::thread::spawn(move || {
-            for line in BufReader::new(err).lines().map_while(Result::ok) {
-                if verbose {
-                    eprintln!("[sumo worker] {line}");
+            })?;
+        let verbose = std::env::var_os("SYNCROAD_SUMO_VERBOSE").is_some();
+        let stderr_tail = Arc::new(Mutex::new(VecDeque::<String>::new()));
+        let stderr_thread = child.stderr.take().map(|err| {
+            let tail = stderr_tail.clone();
+            std::thread::spawn(move || {
+                for line in BufReader::new(err).lines().map_while(Result::ok) {
+                    if verbose {
+                        eprintln!("[sumo worker] {line}");
+                    }
+                    let mut t = tail.lock().expect("stderr tail lock");
+                    if t.len() == STDERR_LINES {
+                        t.pop_front();
+                    }
+                    t.push_back(line);
                 }
-                let mut t = tail.lock().expect("stderr tail lock");
-                if t.len() == STDERR_LINES {
-                    t.pop_front();
+            })
+        });
+        let (tx, frames) = mpsc::channel();
+        let stdout = child.stdout.take().expect("piped stdout");
+        let reader = std::thread::spawn(move || {
+            let mut r = BufReader::with_capacity(1 << 20, stdout);
+            loop {
+                let f = read_frame(&mut r);
+                let end = !matches!(f, Ok(Some(_)));
+                if tx.send(f).is_err() || end {
+                    break;
                 }
-                t.push_back(line);
             }
+        });
+        Ok(Self {
+            stdin: child.stdin.take(),
+            child,
+            frames,
+            reader: Some(reader),
+            stderr_thread,
+            stderr_tail,
+            alive: true,
+            runs: 0,
         })
-    });
-    let tail_text = |t: &Arc<Mutex<VecDeque<String>>>| {
-        t.lock()
+    }
+
+    /// The worker's process id.
+    pub fn pid(&self) -> u32 {
+        self.child.id()
+    }
+
+    /// False once the worker crashed, exited, or was stopped for a timeout or Ctrl-C.
+    pub fn alive(&self) -> bool {
+        self.alive
+    }
+
+    fn tail_text(&self) -> String {
+        self.stderr_tail
+            .lock()
             .map(|t| t.iter().cloned().collect::<Vec<_>>().join("\n"))
             .unwrap_or_default()
-    };
-    // The request, then close stdin.
-    if let Some(mut stdin) = child.stdin.take() {
+    }
+
+    /// Runs `request` under `limits` and returns what the worker produced. The run ends with
+    /// the worker's `Finished` or `Failed` message; a worker that dies instead is reaped and
+    /// the way it ended (signal, exit code) becomes the error.
+    pub fn run(&mut self, request: &Request, limits: &Supervision) -> WorkerRun {
+        let mut run = WorkerRun {
+            start: None,
+            rows: Trajectory::new(request.layout.vehicles.len()),
+            events: Vec::new(),
+            result: Err(SupervisorError::Wait("not started".into())),
+            pid: self.pid(),
+        };
+        if !self.alive {
+            run.result = Err(SupervisorError::Wait(
+                "the worker is no longer running".into(),
+            ));
+            return run;
+        }
+        self.runs += 1;
         let line = serde_json::to_string(request).expect("a request serialises");
-        let _ = writeln!(stdin, "{line}");
-    }
-    let (tx, rx) = mpsc::channel();
-    let stdout = child.stdout.take().expect("piped stdout");
-    let reader = std::thread::spawn(move || {
-        let mut r = BufReader::with_capacity(1 << 20, stdout);
-        loop {
-            let f = read_frame(&mut r);
-            let end = !matches!(f, Ok(Some(_)));
-            if tx.send(f).is_err() || end {
-                break;
-            }
-        }
-    });
-    let started = Instant::now();
-    let mut finished: Option<Finish> = None;
-    let mut failed: Option<String> = None;
-    let mut protocol: Option<crate::protocol::ProtocolError> = None;
-    let mut stopped: Option<SupervisorError> = None;
-    let mut handle = |f: Frame, run: &mut WorkerRun| match f {
-        Frame::Rows(mut c) => run.rows.append(&mut c),
-        Frame::Msg(WorkerMsg::Started(s)) => {
-            if let Some(hook) = &limits.on_start {
-                hook(&s);
-            }
-            run.start = Some(s);
-        }
-        Frame::Msg(WorkerMsg::Event(e)) => run.events.push(e),
-        Frame::Msg(WorkerMsg::Finished(f)) => finished = Some(f),
-        Frame::Msg(WorkerMsg::Failed { message }) => failed = Some(message),
-    };
-    loop {
-        match rx.recv_timeout(Duration::from_millis(50)) {
-            Ok(Ok(Some(frame))) => handle(frame, &mut run),
-            Ok(Ok(None)) | Err(mpsc::RecvTimeoutError::Disconnected) => break,
-            Ok(Err(e)) => {
-                protocol = Some(e);
-                break;
-            }
-            Err(mpsc::RecvTimeoutError::Timeout) => {}
-        }
-        if stopped.is_none() {
-            let interrupted = limits
-                .interrupt
-                .as_ref()
-                .is_some_and(|f| f.load(Ordering::SeqCst));
-            let timed_out = limits.timeout.is_some_and(|t| started.elapsed() > t);
-            if interrupted || timed_out {
-                let _ = child.kill();
-                stopped = Some(if interrupted {
-                    SupervisorError::Interrupted { records: 0 }
-                } else {
-                    SupervisorError::Timeout {
-                        seconds: limits.timeout.map(|t| t.as_secs_f64()).unwrap_or(0.0),
-                        records: 0,
+        let sent = match self.stdin.as_mut() {
+            Some(stdin) => writeln!(stdin, "{line}").and_then(|()| stdin.flush()),
+            None => Err(std::io::Error::from(std::io::ErrorKind::BrokenPipe)),
+        };
+        let started = Instant::now();
+        let mut end: Option<Result<Finish, String>> = None;
+        let mut protocol: Option<crate::protocol::ProtocolError> = None;
+        let mut stopped: Option<SupervisorError> = None;
+        let mut eof = sent.is_err();
+        let handle =
+            |f: Frame, run: &mut WorkerRun, end: &mut Option<Result<Finish, String>>| match f {
+                Frame::Rows(mut c) => run.rows.append(&mut c),
+                Frame::Msg(WorkerMsg::Started(s)) => {
+                    if let Some(hook) = &limits.on_start {
+                        hook(&s);
                     }
-                });
+                    run.start = Some(s);
+                }
+                Frame::Msg(WorkerMsg::Event(e)) => run.events.push(e),
+                Frame::Msg(WorkerMsg::Finished(f)) => *end = Some(Ok(f)),
+                Frame::Msg(WorkerMsg::Failed { message }) => *end = Some(Err(message)),
+            };
+        while !eof {
+            match self.frames.recv_timeout(Duration::from_millis(50)) {
+                Ok(Ok(Some(frame))) => {
+                    handle(frame, &mut run, &mut end);
+                    if end.is_some() {
+                        break;
+                    }
+                }
+                Ok(Ok(None)) | Err(mpsc::RecvTimeoutError::Disconnected) => eof = true,
+                Ok(Err(e)) => {
+                    protocol = Some(e);
+                    eof = true;
+                }
+                Err(mpsc::RecvTimeoutError::Timeout) => {}
+            }
+            if stopped.is_none() {
+                let interrupted = limits
+                    .interrupt
+                    .as_ref()
+                    .is_some_and(|f| f.load(Ordering::SeqCst));
+                let timed_out = limits.timeout.is_some_and(|t| started.elapsed() > t);
+                if interrupted || timed_out {
+                    let _ = self.child.kill();
+                    stopped = Some(if interrupted {
+                        SupervisorError::Interrupted { records: 0 }
+                    } else {
+                        SupervisorError::Timeout {
+                            seconds: limits.timeout.map(|t| t.as_secs_f64()).unwrap_or(0.0),
+                            records: 0,
+                        }
+                    });
+                }
             }
         }
-    }
-    // Drain what the reader got before the pipe closed.
-    while let Ok(Ok(Some(frame))) = rx.try_recv() {
-        handle(frame, &mut run);
-    }
-    let status = child.wait();
-    let _ = reader.join();
-    if let Some(t) = stderr_thread {
-        let _ = t.join();
-    }
-    let records = run.rows.len();
-    run.result = if let Some(s) = stopped {
-        Err(match s {
-            SupervisorError::Interrupted { .. } => SupervisorError::Interrupted { records },
-            SupervisorError::Timeout { seconds, .. } => {
-                SupervisorError::Timeout { seconds, records }
+        // A run that ended with a message leaves the worker ready for the next one, unless it
+        // was stopped; anything else means the process is gone or unusable.
+        let ended_cleanly = stopped.is_none() && end.is_some();
+        let status = if ended_cleanly {
+            None
+        } else {
+            self.alive = false;
+            let _ = self.child.kill();
+            let status = self.reap();
+            // The reader has ended: take every frame it got before the pipe closed.
+            while let Ok(Ok(Some(frame))) = self.frames.try_recv() {
+                handle(frame, &mut run, &mut end);
             }
-            other => other,
-        })
-    } else if let Some(f) = finished {
-        Ok(f)
-    } else if let Some(m) = failed {
-        Err(SupervisorError::Worker(m))
-    } else {
-        match status {
-            Ok(st) => match st.signal() {
-                Some(sig) => Err(SupervisorError::Crashed {
-                    pid: run.pid,
-                    signal: sig,
-                    name: signal_name(sig),
-                    records,
-                    stderr_tail: tail_text(&stderr_tail),
-                }),
-                None => match protocol {
-                    Some(p) => Err(SupervisorError::Protocol(p)),
-                    None => Err(SupervisorError::Exited {
+            Some(status)
+        };
+        let records = run.rows.len();
+        run.result = if let Some(s) = stopped {
+            Err(match s {
+                SupervisorError::Interrupted { .. } => SupervisorError::Interrupted { records },
+                SupervisorError::Timeout { seconds, .. } => {
+                    SupervisorError::Timeout { seconds, records }
+                }
+                other => other,
+            })
+        } else if let Some(e) = end {
+            e.map_err(SupervisorError::Worker)
+        } else {
+            match status.expect("reaped above") {
+                Ok(st) => match st.signal() {
+                    Some(sig) => Err(SupervisorError::Crashed {
                         pid: run.pid,
-                        code: st.code().unwrap_or(-1),
-                        stderr_tail: tail_text(&stderr_tail),
+                        signal: sig,
+                        name: signal_name(sig),
+                        records,
+                        stderr_tail: self.tail_text(),
                     }),
+                    None => match protocol {
+                        Some(p) => Err(SupervisorError::Protocol(p)),
+                        None => Err(SupervisorError::Exited {
+                            pid: run.pid,
+                            code: st.code().unwrap_or(-1),
+                            stderr_tail: self.tail_text(),
+                        }),
+                    },
                 },
-            },
-            Err(e) => Err(SupervisorError::Wait(e.to_string())),
+                Err(e) => Err(SupervisorError::Wait(e.to_string())),
+            }
+        };
+        run
+    }
+
+    /// Waits for the process and joins the reader threads.
+    fn reap(&mut self) -> std::io::Result<std::process::ExitStatus> {
+        self.stdin = None;
+        let status = self.child.wait();
+        if let Some(r) = self.reader.take() {
+            let _ = r.join();
         }
-    };
-    run
+        if let Some(t) = self.stderr_thread.take() {
+            let _ = t.join();
+        }
+        status
+    }
+}
+
+impl Drop for Worker {
+    /// Closing stdin ends the worker's request loop; it exits by itself.
+    fn drop(&mut self) {
+        if self.alive {
+            self.alive = false;
+            let _ = self.reap();
+        }
+    }
+}
+
+/// Runs `request` in a new worker process started by `cmd`, under `limits`.
+pub fn run_worker(cmd: &WorkerCommand, request: &Request, limits: &Supervision) -> WorkerRun {
+    match Worker::spawn(cmd) {
+        Ok(mut w) => w.run(request, limits),
+        Err(e) => WorkerRun {
+            start: None,
+            rows: Trajectory::new(request.layout.vehicles.len()),
+            events: Vec::new(),
+            result: Err(e),
+            pid: 0,
+        },
+    }
+}
+
+/// Long-lived workers shared by the threads of a sweep: a run takes an idle worker (or starts
+/// one), and a worker that is still usable afterwards goes back for the next run. At most as
+/// many workers exist as runs in flight.
+#[derive(Debug)]
+pub struct WorkerPool {
+    cmd: WorkerCommand,
+    idle: Mutex<Vec<Worker>>,
+    started: std::sync::atomic::AtomicUsize,
+}
+
+impl WorkerPool {
+    /// An empty pool that starts workers with `cmd`.
+    pub fn new(cmd: WorkerCommand) -> Self {
+        Self {
+            cmd,
+            idle: Mutex::new(Vec::new()),
+            started: std::sync::atomic::AtomicUsize::new(0),
+        }
+    }
+
+    /// Runs `request` on a pooled worker.
+    pub fn run(&self, request: &Request, limits: &Supervision) -> WorkerRun {
+        let idle = self.idle.lock().map(|mut v| v.pop()).ok().flatten();
+        let mut worker = match idle {
+            Some(w) => w,
+            None => match Worker::spawn(&self.cmd) {
+                Ok(w) => {
+                    self.started.fetch_add(1, Ordering::SeqCst);
+                    w
+                }
+                Err(e) => {
+                    return WorkerRun {
+                        start: None,
+                        rows: Trajectory::new(request.layout.vehicles.len()),
+                        events: Vec::new(),
+                        result: Err(e),
+                        pid: 0,
+                    }
+                }
+            },
+        };
+        let run = worker.run(request, limits);
+        if worker.alive() {
+            if let Ok(mut v) = self.idle.lock() {
+                v.push(worker);
+            }
+        }
+        run
+    }
+
+    /// Worker processes started so far (crashed ones are replaced, so this can exceed the
+    /// number of threads).
+    pub fn workers_started(&self) -> usize {
+        self.started.load(Ordering::SeqCst)
+    }
 }
 
 #[cfg(test)]

@@ -1,4 +1,4 @@
-//! The worker side: one process, one SUMO run.
+//! The worker side: one process, SUMO runs one after another (one request line each).
 //!
 //! [`worker_main`] is the whole program of a worker. Any binary can become a worker by calling
 //! it when started with [`WORKER_ARG`] as its first argument; the `syncroad` CLI re-executes
@@ -53,43 +53,43 @@ pub fn worker_main() -> ExitCode {
         }
     };
     let mut out = BufWriter::with_capacity(1 << 20, proto);
+    let mut input = std::io::stdin().lock();
     let mut line = String::new();
-    if let Err(e) = std::io::stdin().lock().read_line(&mut line) {
-        let _ = write_msg(
-            &mut out,
-            &WorkerMsg::Failed {
-                message: format!("cannot read the request from stdin: {e}"),
-            },
-        );
-        return ExitCode::from(EXIT_FAILED);
-    }
-    let req: Request = match serde_json::from_str(&line) {
-        Ok(r) => r,
-        Err(e) => {
-            let _ = write_msg(
-                &mut out,
-                &WorkerMsg::Failed {
-                    message: format!("malformed request: {e}"),
-                },
-            );
+    let mut code = ExitCode::SUCCESS;
+    // One request per line until the parent closes stdin; SUMO starts and closes per run.
+    loop {
+        line.clear();
+        match input.read_line(&mut line) {
+            Ok(0) => return code,
+            Ok(_) => {}
+            Err(e) => {
+                let _ = write_msg(
+                    &mut out,
+                    &WorkerMsg::Failed {
+                        message: format!("cannot read the request from stdin: {e}"),
+                    },
+                );
+                let _ = out.flush();
+                return ExitCode::from(EXIT_FAILED);
+            }
+        }
+        let result = match serde_json::from_str::<Request>(&line) {
+            Ok(req) => pyo3::Python::attach(|py| crate::cosim::run(py, &req, &mut out))
+                .map_err(|e| e.to_string()),
+            Err(e) => Err(format!("malformed request: {e}")),
+        };
+        code = match result {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(message) => {
+                if write_msg(&mut out, &WorkerMsg::Failed { message }).is_err() {
+                    return ExitCode::from(EXIT_FAILED);
+                }
+                ExitCode::from(EXIT_FAILED)
+            }
+        };
+        if out.flush().is_err() {
+            // The parent is gone.
             return ExitCode::from(EXIT_FAILED);
-        }
-    };
-    let result = pyo3::Python::attach(|py| crate::cosim::run(py, &req, &mut out));
-    match result {
-        Ok(()) => {
-            let _ = out.flush();
-            ExitCode::SUCCESS
-        }
-        Err(e) => {
-            let _ = write_msg(
-                &mut out,
-                &WorkerMsg::Failed {
-                    message: e.to_string(),
-                },
-            );
-            let _ = out.flush();
-            ExitCode::from(EXIT_FAILED)
         }
     }
 }

@@ -224,10 +224,15 @@ mod supervision {
         let flag = Arc::new(AtomicBool::new(false));
         o.interrupt = Some(flag.clone());
         let f = flag.clone();
-        std::thread::spawn(move || {
-            std::thread::sleep(Duration::from_secs(3));
-            f.store(true, Ordering::SeqCst);
-        });
+        // Ctrl-C two seconds after SUMO started (not after the worker was spawned: on a busy
+        // machine starting Python alone can take seconds).
+        o.on_start = Some(Arc::new(move |_: &syncroad_sumo::StartInfo| {
+            let f = f.clone();
+            std::thread::spawn(move || {
+                std::thread::sleep(Duration::from_secs(2));
+                f.store(true, Ordering::SeqCst);
+            });
+        }));
         let run = run_scenario(&sc, &o).unwrap();
         let err = run.failure().unwrap();
         assert_eq!(err.exit_code(), Some(130), "{err}");
@@ -440,5 +445,94 @@ mod platoon {
                 epsilon = 1e-9
             );
         }
+    }
+}
+
+/// Long-lived workers: many runs in one process, each as if it had its own.
+mod pool {
+    use super::*;
+    use syncroad_sumo::WorkerPool;
+
+    fn krauss_run(pool: &WorkerPool, seed: u64, name: &str) -> syncroad_sumo::SumoRun {
+        let sc = ring_scenario(22, 30.0, &nets().join("sugiyama-ring.net.xml"), seed);
+        let road = load_road(&sc).unwrap();
+        let mut o = opts(name);
+        o.drivers = vec![Some(SumoDriver::Krauss { sigma: 0.5 }); 22];
+        Prepared::new(&sc, &road, &o).unwrap().run_in(pool)
+    }
+
+    /// Reusing a process changes nothing: the second and third runs of one worker give the
+    /// rows a fresh worker gives, bit for bit, and a different seed still gives other rows.
+    #[test]
+    fn a_reused_worker_gives_the_rows_of_a_fresh_one() {
+        let pool = WorkerPool::new(WorkerCommand::binary(env!(
+            "CARGO_BIN_EXE_syncroad-sumo-worker"
+        )));
+        let first = krauss_run(&pool, 7, "pool-1");
+        let other_seed = krauss_run(&pool, 8, "pool-2");
+        let again = krauss_run(&pool, 7, "pool-3");
+        for r in [&first, &other_seed, &again] {
+            r.outcome().unwrap();
+        }
+        let pid = |r: &syncroad_sumo::SumoRun| r.worker.start.as_ref().unwrap().pid;
+        assert_eq!(pid(&first), pid(&again), "one process served all runs");
+        assert_eq!(pid(&first), pid(&other_seed));
+        assert_eq!(pool.workers_started(), 1);
+        assert_eq!(first.worker.rows.speeds_mps, again.worker.rows.speeds_mps);
+        assert_eq!(first.worker.rows.positions_m, again.worker.rows.positions_m);
+        assert_ne!(
+            first.worker.rows.speeds_mps,
+            other_seed.worker.rows.speeds_mps
+        );
+        // A fresh process agrees with the reused one.
+        let sc = ring_scenario(22, 30.0, &nets().join("sugiyama-ring.net.xml"), 7);
+        let mut o = opts("pool-fresh");
+        o.drivers = vec![Some(SumoDriver::Krauss { sigma: 0.5 }); 22];
+        let fresh = run_scenario(&sc, &o).unwrap();
+        assert_ne!(fresh.worker.start.as_ref().unwrap().pid, pid(&first));
+        assert_eq!(fresh.worker.rows.speeds_mps, again.worker.rows.speeds_mps);
+    }
+
+    /// A worker that crashes is reported as the run's failure and replaced for the next run;
+    /// a run that fails cleanly (SUMO refuses to start) leaves its worker in service.
+    #[test]
+    fn a_crashed_worker_is_replaced() {
+        let pool = WorkerPool::new(WorkerCommand::binary(env!(
+            "CARGO_BIN_EXE_syncroad-sumo-worker"
+        )));
+        let sc = ring_scenario(22, 100_000.0, &nets().join("sugiyama-ring.net.xml"), 1);
+        let road = load_road(&sc).unwrap();
+        let mut o = opts("pool-crash");
+        o.on_start = Some(Arc::new(|s: &syncroad_sumo::StartInfo| {
+            let pid = s.pid as i32;
+            std::thread::spawn(move || {
+                std::thread::sleep(Duration::from_millis(500));
+                // SAFETY: signals our own child worker.
+                unsafe { libc::kill(pid, libc::SIGKILL) };
+            });
+        }));
+        let crashed = Prepared::new(&sc, &road, &o).unwrap().run_in(&pool);
+        assert!(
+            matches!(
+                crashed.failure(),
+                Some(SupervisorError::Crashed {
+                    name: "SIGKILL",
+                    ..
+                })
+            ),
+            "{:?}",
+            crashed.failure()
+        );
+        let next = krauss_run(&pool, 7, "pool-after-crash");
+        next.outcome().unwrap();
+        assert_eq!(pool.workers_started(), 2, "the dead worker was replaced");
+        assert_ne!(
+            next.worker.start.as_ref().unwrap().pid,
+            crashed.worker.pid,
+            "a new process"
+        );
+        let again = krauss_run(&pool, 7, "pool-after-crash-2");
+        again.outcome().unwrap();
+        assert_eq!(pool.workers_started(), 2, "the new worker stays in service");
     }
 }

@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use clap::{Parser, Subcommand};
+use clap::{Args, Parser, Subcommand};
 
 /// Velocity-synchronization experiments on ring roads and platoons (Proskurnikov & Mazo's
 /// delayed-driver and bidirectional CACC protocols), natively and in SUMO.
@@ -104,6 +104,10 @@ pub enum Command {
         #[arg(long)]
         jobs: Option<usize>,
     },
+    /// Run a parameter sweep (a JSON spec: base scenario, axes over its fields, runs, seeds)
+    /// through the run pipeline, in parallel and resumable; the results table is written as
+    /// results.parquet and results.csv, with plots. `syncroad sweep collect` merges shards.
+    Sweep(SweepArgs),
     /// Compare a fresh run's metrics with a committed baseline (per-metric tolerances); print
     /// a readable diff; exit 1 on regression. The baseline names its scenario.
     Regress {
@@ -258,4 +262,81 @@ mod tests {
     fn verify_cli() {
         Cli::command().debug_assert();
     }
+}
+
+/// `syncroad sweep`.
+#[derive(Debug, Args)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+pub struct SweepArgs {
+    /// `collect`: merge shard folders.
+    #[command(subcommand)]
+    pub action: Option<SweepAction>,
+    /// Sweep spec file (JSON).
+    #[arg(required = true)]
+    pub spec: Option<PathBuf>,
+    /// Output folder: new, empty, or one this spec made before (finished points are skipped).
+    #[arg(long, short, required = true)]
+    pub out: Option<PathBuf>,
+    /// Points in flight at once (default: all cores).
+    #[arg(long)]
+    pub jobs: Option<usize>,
+    /// Run only shard I of N (points with number mod N = I), e.g. 0/4.
+    #[arg(long, value_name = "I/N")]
+    pub shard: Option<String>,
+    /// Keep each point's run folder (trajectories.csv, metrics.json) under OUT/runs.
+    #[arg(long)]
+    pub keep_runs: bool,
+    /// With --keep-runs, also draw each point's plots.
+    #[arg(long, requires = "keep_runs")]
+    pub run_plots: bool,
+    /// Skip the sweep's plots.
+    #[arg(long)]
+    pub no_plots: bool,
+    /// Run again the points that failed before.
+    #[arg(long)]
+    pub retry_failed: bool,
+    /// Write a Slurm job array (one task per shard) and a collect job into this folder
+    /// instead of running; OUT is where the cluster writes the results.
+    #[arg(long, value_name = "DIR")]
+    pub emit_slurm: Option<PathBuf>,
+    /// Slurm: number of shards (array tasks).
+    #[arg(long, default_value_t = 16)]
+    pub shards: usize,
+    /// Slurm: array tasks running at once (%K).
+    #[arg(long, default_value_t = 8)]
+    pub max_running: usize,
+    /// Slurm: CPUs per array task (each runs that many points at once).
+    #[arg(long, default_value_t = 1)]
+    pub cpus_per_task: usize,
+    /// Slurm: --partition.
+    #[arg(long)]
+    pub partition: Option<String>,
+    /// Slurm: --account.
+    #[arg(long)]
+    pub account: Option<String>,
+    /// Slurm: --time (e.g. 02:00:00).
+    #[arg(long)]
+    pub time: Option<String>,
+    /// Slurm: any other sbatch option, repeatable (e.g. --sbatch-option=--mem=4G).
+    #[arg(long, allow_hyphen_values = true)]
+    pub sbatch_option: Vec<String>,
+}
+
+/// `syncroad sweep` actions.
+#[derive(Debug, Subcommand)]
+pub enum SweepAction {
+    /// Merge the rows of shard folders into one table; report missing or duplicated points.
+    Collect {
+        /// Sweep spec file (JSON) the shards ran.
+        spec: PathBuf,
+        /// Merged output folder.
+        #[arg(long, short)]
+        out: PathBuf,
+        /// Shard folders.
+        #[arg(required = true)]
+        shards: Vec<PathBuf>,
+        /// Skip the plots.
+        #[arg(long)]
+        no_plots: bool,
+    },
 }

@@ -19,7 +19,9 @@ mod pipeline;
 mod plots;
 mod progress;
 mod report;
+mod runs;
 mod stability;
+mod sweep;
 
 use std::process::ExitCode;
 

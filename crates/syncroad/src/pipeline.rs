@@ -4,7 +4,7 @@
 //! validated Scenario ─► backend: native simulator | SUMO worker ─► RunOutput
 //!                   ─► evaluate ─► Outcome ─► RunRecord ─► metrics.json + CSV + plots
 //! ```
-//! `run`, `simulate`, every `compare` run, every `map` point and `regress` go through
+//! `run`, `simulate`, every `compare` run, every `sweep` and `map` point and `regress` go through
 //! [`native`] or [`sumo`] and then [`Finished::new`]; nothing else computes metrics.
 
 use std::path::Path;
@@ -12,7 +12,9 @@ use std::path::Path;
 use syncroad_control::{
     evaluate, simulate, EvalOptions, NativeOptions, Outcome, RunOutput, RunRecord, Scenario,
 };
-use syncroad_sumo::{PrepareError, Prepared, Road, RunOptions, SupervisorError};
+use syncroad_sumo::{
+    PrepareError, Prepared, Road, RunOptions, SumoRun, SupervisorError, WorkerPool,
+};
 
 use crate::output;
 use crate::plots::RunPlots;
@@ -39,11 +41,24 @@ pub struct SumoOutput {
 /// Runs a scenario in one supervised SUMO worker on a road read once. Errors are the checks
 /// made before SUMO starts; a run that fails part-way returns its rows with a failed stop.
 pub fn sumo(sc: &Scenario, road: &Road, opts: &RunOptions) -> Result<SumoOutput, PrepareError> {
-    let run = Prepared::new(sc, road, opts)?.run();
-    Ok(SumoOutput {
+    Ok(sumo_output(sc, Prepared::new(sc, road, opts)?.run()))
+}
+
+/// [`sumo`] on a long-lived worker of `pool` (a sweep's many runs share a few processes).
+pub fn sumo_pooled(
+    sc: &Scenario,
+    road: &Road,
+    opts: &RunOptions,
+    pool: &WorkerPool,
+) -> Result<SumoOutput, PrepareError> {
+    Ok(sumo_output(sc, Prepared::new(sc, road, opts)?.run_in(pool)))
+}
+
+fn sumo_output(sc: &Scenario, run: SumoRun) -> SumoOutput {
+    SumoOutput {
         output: run.output(sc),
         interrupted: matches!(run.failure(), Some(SupervisorError::Interrupted { .. })),
-    })
+    }
 }
 
 /// A run with everything derived from it.

@@ -84,6 +84,7 @@ macro_rules! render_both {
         Ok(vec![png, svg])
     }};
 }
+pub(crate) use render_both;
 
 /// The drawings of one run.
 pub struct RunPlots<'a> {

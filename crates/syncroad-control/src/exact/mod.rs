@@ -31,6 +31,7 @@
 pub mod acyclic;
 pub mod analysis;
 pub mod argument_principle;
+pub mod boundaries;
 pub mod cacc_modes;
 pub mod collocation;
 pub mod critical;
@@ -43,6 +44,7 @@ pub mod string_stability;
 pub use acyclic::{acyclic_roots, AcyclicError, AcyclicReport, DriverRoot};
 pub use analysis::{analyse, AnalysisError, ExactVerdict, StabilityReport};
 pub use argument_principle::{count_roots_right_of, ArgumentPrincipleError, RootCount};
+pub use boundaries::{gain_delay_boundaries, Boundaries};
 pub use cacc_modes::{cacc_modes, CaccCondition, CaccError, CaccModes, CaccParams};
 pub use collocation::{
     characteristic_matrix, rightmost_roots, CollocationError, CollocationOptions, RefinedRoot,

@@ -25,6 +25,7 @@ mod graph_spec;
 pub mod leader;
 pub mod mixed;
 pub mod per_vehicle;
+mod scale;
 mod sumo;
 mod validate;
 
@@ -32,6 +33,7 @@ pub use file::*;
 pub use leader::LeaderProfile;
 pub use mixed::{automated_vehicles, MixedSpec};
 pub use per_vehicle::PerVehicle;
+pub use scale::Scaled;
 pub use sumo::{SumoSettings, SumoVehicleType};
 
 /// Errors raised while reading or validating a scenario.

@@ -241,9 +241,11 @@ pub(super) fn run_steps(
         }
     }
     let (loop_wall_s, phases) = timing.finish();
+    // Measurements cover whole runs; a run that lost a vehicle could not even ask SUMO for
+    // the lost vehicle's time loss, so an early stop keeps its stop reason and no measurement.
     let measured = match meter {
-        Some(m) => Some(m.finish(py, id_args)?),
-        None => None,
+        Some(m) if matches!(stop, StopReason::Horizon) => Some(m.finish(py, id_args)?),
+        _ => None,
     };
     write_rows(out, &mut recorder.rows).map_err(pipe)?;
     let mut totals = safety.totals;

@@ -34,18 +34,7 @@ use crate::output::write_json;
 use crate::pipeline::{self, Finished};
 use crate::plots::{spread_plot, Spread};
 use crate::progress::Progress;
-
-/// One run of a comparison: a name and who drives each scenario vehicle.
-#[derive(Debug, Clone, PartialEq)]
-pub struct RunSpec {
-    /// Folder and column name (`protocol`, `krauss-0.9`, `mixed-2`, ...).
-    pub name: String,
-    /// Per scenario vehicle: `None` = the law, `Some` = that SUMO model; empty: as the
-    /// scenario says (its law, or its `mixed` ring).
-    pub drivers: Vec<Option<SumoDriver>>,
-    /// A wave damper in place of the law on the law's vehicles.
-    pub damper: Option<DamperSpec>,
-}
+use crate::runs::RunSpec;
 
 /// A validated comparison.
 #[derive(Debug, Clone)]
@@ -72,11 +61,6 @@ pub struct Plan {
     pub road: Road,
 }
 
-/// Law-controlled vehicles of a mixed ring with `k` of `n`: `⌊j n / k⌋`, j = 0..k.
-pub fn mixed_controlled(n: usize, k: usize) -> Vec<usize> {
-    (0..k).map(|j| j * n / k).collect()
-}
-
 /// Parses and checks every option before anything runs.
 pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
     let bad = |m: String| anyhow::Error::new(InputError::new(m));
@@ -92,33 +76,17 @@ pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
         .unwrap_or(if a.mixed.is_some() { "" } else { default });
     let mut runs: Vec<RunSpec> = Vec::new();
     for name in list.split(',').map(str::trim).filter(|s| !s.is_empty()) {
-        let low = name.to_ascii_lowercase();
-        let (name, drivers, damper) = if low == "protocol" {
-            ("protocol".to_string(), Vec::new(), None)
-        } else if low.starts_with("follower-stopper") || low.starts_with("pi-saturation") {
-            let d = DamperSpec::parse("--baselines", name)
-                .map_err(|e| InputError::caused("--baselines", e))?;
-            if !sc.is_ring() {
-                return Err(bad(format!(
-                    "--baselines = {name}: the wave dampers drive on a ring (each vehicle follows its predecessor); scenario {} is a straight road",
-                    sc.name()
-                )));
-            }
-            let d = d.expect("a damper name");
-            (d.to_string(), vec![None; n], Some(d))
-        } else {
-            let d = SumoDriver::parse("--baselines", name)
-                .map_err(|e| InputError::caused("--baselines", e))?;
-            (d.to_string(), vec![Some(d); n], None)
-        };
-        if runs.iter().any(|r| r.name == name) {
-            return Err(bad(format!("--baselines: {name} is listed twice")));
+        let spec = RunSpec::parse("--baselines", name, n)?;
+        if spec.damper.is_some() && !sc.is_ring() {
+            return Err(bad(format!(
+                "--baselines = {name}: the wave dampers drive on a ring (each vehicle follows its predecessor); scenario {} is a straight road",
+                sc.name()
+            )));
         }
-        runs.push(RunSpec {
-            name,
-            drivers,
-            damper,
-        });
+        if runs.iter().any(|r| r.name == spec.name) {
+            return Err(bad(format!("--baselines: {} is listed twice", spec.name)));
+        }
+        runs.push(spec);
     }
     let mut mixed = Vec::new();
     let mut mixed_runs = Vec::new();
@@ -165,10 +133,6 @@ pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
                 return Err(bad(format!("--mixed = {m}: {k} is listed twice")));
             }
             mixed.push(k);
-            let mut drivers = vec![Some(human); n];
-            for i in mixed_controlled(n, k) {
-                drivers[i] = None;
-            }
             // The all-human ring is the same whatever would control: it runs once.
             let with = if k == 0 {
                 &controllers[..1]
@@ -181,11 +145,7 @@ pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
                     _ => format!("mixed-{k}"),
                 };
                 mixed_runs.push((name.clone(), k));
-                runs.push(RunSpec {
-                    name,
-                    drivers: drivers.clone(),
-                    damper: if k > 0 { *d } else { None },
-                });
+                runs.push(RunSpec::mixed(name, n, k, human, *d));
             }
         }
     }
@@ -580,17 +540,4 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<Status> {
     } else {
         Status::RunFailed
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn mixed_vehicles_are_evenly_spaced() {
-        assert_eq!(mixed_controlled(22, 0), Vec::<usize>::new());
-        assert_eq!(mixed_controlled(22, 1), [0]);
-        assert_eq!(mixed_controlled(22, 2), [0, 11]);
-        assert_eq!(mixed_controlled(22, 4), [0, 5, 11, 16]);
-    }
 }

@@ -10,7 +10,7 @@ use plotters::prelude::*;
 use rayon::prelude::*;
 use serde::Serialize;
 use syncroad_control::exact::analysis::{network_matrices, uniform_ring, FULL_SOLVE_LIMIT};
-use syncroad_control::exact::{self, CollocationOptions, UniformRing};
+use syncroad_control::exact::{self, Boundaries, CollocationOptions, UniformRing};
 use syncroad_control::scenario::{DelayedDriverModel, Model};
 use syncroad_control::{evaluate, theory, EvalOptions, Scenario, Verdict};
 
@@ -253,45 +253,12 @@ pub fn sweep(
     Ok(pts)
 }
 
-/// The stability boundaries in the (gain scale × delay scale) plane. Scaling gains by c and
-/// delays by r changes `det(sI + diag(e^{−srα}) cL)` into `det(zI + diag(e^{−zα}) crL)/r` with
-/// z = rs, so both boundaries are hyperbolas `c·r = const`.
-#[derive(Debug, Clone, Copy, Serialize)]
-pub struct Boundaries {
-    /// Theorem 1 (1+) holds for `c·r` below this.
-    pub theorem1_product: f64,
-    /// Exact stability for `c·r` below this (critical gain scale of the scenario).
-    pub exact_product: Option<f64>,
-}
-
-/// Computes the two boundaries of the scenario.
+/// The boundaries of the scenario (NaN / none for models without gains and delays to scale).
 pub fn boundaries(sc: &Scenario) -> Boundaries {
-    let Model::DelayedDriver(m) = sc.model() else {
-        return Boundaries {
-            theorem1_product: f64::NAN,
-            exact_product: None,
-        };
-    };
-    let theorem1_product = match &m.leader {
-        None => theory::theorem1(&m.graph, &m.delay_s).max_gain_scale,
-        Some((_, b)) => theory::theorem1_plus(&m.graph, &m.delay_s, b).max_gain_scale,
-    };
-    let exact_product = match uniform_ring(sc, m) {
-        Some(r) => r.modes().ok().map(|x| x.critical_gain_scale),
-        None => {
-            let (a, d) = network_matrices(m);
-            match exact::acyclic_roots(&a, &d) {
-                Ok(x) => Some(x.critical_gain_scale),
-                Err(_) => exact::critical_scale(&a, &d, &CollocationOptions::default())
-                    .ok()
-                    .map(|c| c.critical_gain_scale),
-            }
-        }
-    };
-    Boundaries {
-        theorem1_product,
-        exact_product,
-    }
+    exact::gain_delay_boundaries(sc).unwrap_or(Boundaries {
+        theorem1_product: f64::NAN,
+        exact_product: None,
+    })
 }
 
 /// Writes map.csv.

@@ -13,6 +13,7 @@ mod regress;
 mod run;
 mod stability;
 mod sumo_bench;
+mod sweep;
 
 /// Runs a parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<Status> {
@@ -41,6 +42,7 @@ pub fn run(cli: Cli) -> anyhow::Result<Status> {
             no_sim,
             jobs,
         } => map::run(&scenario, &x, &y, &out, no_sim, jobs),
+        Command::Sweep(args) => sweep::run(&args),
         Command::Regress {
             baseline,
             update,

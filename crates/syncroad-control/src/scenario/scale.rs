@@ -1,0 +1,88 @@
+//! Uniform scaling of a delayed-driver scenario: every gain a_ij (and pinning gain b_i) by c,
+//! every delay α_i by r. Theorem 1 and the exact boundary are both hyperbolas `c·r = const` in
+//! this plane (see [`crate::exact`]), which is why sweeps and maps use these two axes.
+
+use super::{invalid, Model, Scenario, ScenarioError};
+
+/// A scaled scenario and how far its delays had to move to land on the step grid.
+#[derive(Debug, Clone)]
+pub struct Scaled {
+    /// The scenario with gains `c·a_ij`, `c·b_i` and delays `k_i·Δt`, `k_i = round(r·α_i/Δt)`.
+    pub scenario: Scenario,
+    /// Largest |k_i·Δt − r·α_i| [s].
+    pub delay_rounding_s: f64,
+}
+
+impl Scenario {
+    /// Scales every gain by `gain` and every delay by `delay` (delays rounded to the step
+    /// grid, since the simulation delays by whole steps). Only delayed-driver models have
+    /// these gains and delays; the field names in errors are `scale.gain` and `scale.delay`.
+    pub fn scaled(&self, gain: f64, delay: f64) -> Result<Scaled, ScenarioError> {
+        let Model::DelayedDriver(m) = &self.model else {
+            return Err(invalid(
+                "scale",
+                "a CACC model",
+                "gain and delay scaling apply to delayed-driver models (model.type = \"delayed_driver\")",
+            ));
+        };
+        if !(gain.is_finite() && gain > 0.0) {
+            return Err(invalid("scale.gain", gain, "a finite number > 0"));
+        }
+        if !(delay.is_finite() && delay >= 0.0) {
+            return Err(invalid("scale.delay", delay, "a finite number ≥ 0"));
+        }
+        let mut s = m.clone();
+        s.graph = m.graph.scaled(gain);
+        if let Some((_, b)) = s.leader.as_mut() {
+            b.iter_mut().for_each(|x| *x *= gain);
+        }
+        let mut worst: f64 = 0.0;
+        for (i, a) in m.delay_s.iter().enumerate() {
+            let exact = a * delay;
+            let steps = (exact / self.step_s).round();
+            s.delay_steps[i] = steps as usize;
+            s.delay_s[i] = steps * self.step_s;
+            worst = worst.max((steps * self.step_s - exact).abs());
+        }
+        let mut scenario = self.clone();
+        scenario.model = Model::DelayedDriver(s);
+        Ok(Scaled {
+            scenario,
+            delay_rounding_s: worst,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ring() -> Scenario {
+        Scenario::from_json(
+            r#"{"name": "t", "backend": "native", "seed": 1, "step_s": 0.1, "horizon_s": 10,
+                "vehicles": 4, "road": {"type": "ring", "length_m": 100},
+                "model": {"type": "delayed_driver",
+                          "graph": {"type": "bidirectional_ring", "gain_pred": 0.6, "gain_follow": 0.1},
+                          "delay_s": [0.5, 0.6, 0.7, 0.5]},
+                "initial": {"speed_mps": 8}}"#,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn gains_scale_and_delays_round_to_the_grid() {
+        let sc = ring();
+        let s = sc.scaled(2.0, 1.25).unwrap();
+        let (Model::DelayedDriver(a), Model::DelayedDriver(b)) = (&sc.model, &s.scenario.model)
+        else {
+            unreachable!()
+        };
+        assert_eq!(b.graph.adjacency_dense(), a.graph.adjacency_dense() * 2.0);
+        // 1.25·(0.5, 0.6, 0.7) = (0.625, 0.75, 0.875) → 6, 8 (round half away), 9 steps.
+        assert_eq!(b.delay_steps, vec![6, 8, 9, 6]);
+        assert!((b.delay_s[2] - 0.9).abs() < 1e-12);
+        assert!((s.delay_rounding_s - 0.05).abs() < 1e-12, "0.75 s → 0.8 s");
+        let e = sc.scaled(0.0, 1.0).unwrap_err().to_string();
+        assert_eq!(e, "scale.gain = 0: a finite number > 0");
+    }
+}

@@ -1,0 +1,250 @@
+//! `syncroad sweep`: run a sweep spec (or a shard of it) into a resumable folder, write the
+//! results table and its plots; `syncroad sweep collect` merges shard folders;
+//! `--emit-slurm` writes the job array that runs the shards on a cluster.
+//!
+//! Exit codes: 0 every point of the shard has a row and none failed, 2 bad input (nothing
+//! ran), 3 some point failed or (collect) is missing or duplicated, 130 interrupted (the rows
+//! of finished points are kept; run the same command again to resume).
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::Context;
+use serde_json::{Map, Value};
+use syncroad_sumo::interrupt_flag;
+
+use crate::cli::{SweepAction, SweepArgs};
+use crate::config;
+use crate::error::{InputError, Status};
+use crate::sweep::exec::{self, read_rows};
+use crate::sweep::slurm::{self, SlurmOptions};
+use crate::sweep::{plots, ExecOptions, Shard, Sweep};
+
+/// Dispatches `sweep` and `sweep collect`.
+pub fn run(a: &SweepArgs) -> anyhow::Result<Status> {
+    if let Some(SweepAction::Collect {
+        spec,
+        out,
+        shards,
+        no_plots,
+    }) = &a.action
+    {
+        return collect(spec, out, shards, !no_plots);
+    }
+    let (Some(spec), Some(out)) = (&a.spec, &a.out) else {
+        return Err(InputError::new("sweep needs a SPEC file and --out DIR").into());
+    };
+    let sweep = Sweep::load(spec)?;
+    if let Some(dir) = &a.emit_slurm {
+        return emit(&sweep, spec, out, dir, a);
+    }
+    let shard = match &a.shard {
+        Some(s) => Shard::parse(s)?,
+        None => Shard::all(),
+    };
+    let opts = ExecOptions {
+        jobs: config::jobs(a.jobs)?,
+        shard,
+        keep_runs: a.keep_runs,
+        run_plots: a.run_plots,
+        retry_failed: a.retry_failed,
+    };
+    exec::open_out(&sweep, out, shard)?;
+    let interrupt = interrupt_flag()?;
+    let started = Instant::now();
+    let summary = exec::run(&sweep, out, &opts, interrupt)?;
+    let wall = started.elapsed().as_secs_f64();
+    let rows = read_rows(out)?;
+    let finished = rows.len();
+    write_tables(&sweep, out, rows, !a.no_plots)?;
+    let shard_text = if shard.count > 1 {
+        format!(" (shard {}/{})", shard.index, shard.count)
+    } else {
+        String::new()
+    };
+    println!(
+        "sweep {}: {} points{shard_text}; ran {} ({} failed), {} finished before, {} not run (interrupted)",
+        sweep.name, summary.points, summary.ran, summary.failed, summary.skipped, summary.interrupted
+    );
+    if summary.ran > 0 {
+        let veh_s = sweep.base.vehicles() as f64 * sweep.base.horizon_s() * summary.ran as f64;
+        println!(
+            "  {:.2} runs/s, {:.0} simulated vehicle-seconds per second ({} jobs{})",
+            summary.ran as f64 / wall,
+            veh_s / wall,
+            opts.jobs,
+            if summary.workers > 0 {
+                format!(", {} SUMO worker processes", summary.workers)
+            } else {
+                String::new()
+            }
+        );
+    }
+    println!(
+        "wrote {} rows to {}/results.parquet and results.csv",
+        finished,
+        out.display()
+    );
+    if summary.interrupted > 0 {
+        eprintln!(
+            "error: interrupted; {} points not run. Run the same command again to finish them.",
+            summary.interrupted
+        );
+        return Ok(Status::Interrupted);
+    }
+    if summary.failed > 0 || failed_rows(out)? > 0 {
+        eprintln!(
+            "error: some points failed; their rows hold the error (status = \"failed\"); --retry-failed runs them again"
+        );
+        return Ok(Status::RunFailed);
+    }
+    Ok(Status::Success)
+}
+
+fn failed_rows(out: &Path) -> anyhow::Result<usize> {
+    Ok(read_rows(out)?
+        .values()
+        .filter(|r| r.get("status").and_then(Value::as_str) == Some("failed"))
+        .count())
+}
+
+fn write_tables(
+    sweep: &Sweep,
+    out: &Path,
+    rows: BTreeMap<usize, Map<String, Value>>,
+    plots: bool,
+) -> anyhow::Result<()> {
+    let table = exec::table(sweep, rows);
+    table.write_parquet(&out.join("results.parquet"))?;
+    table.write_csv(&out.join("results.csv"))?;
+    if plots && !table.rows.is_empty() {
+        let files = plots::draw(sweep, &table, &out.join("plots"))?;
+        if !files.is_empty() {
+            println!("wrote {} plots to {}/plots", files.len() / 2, out.display());
+        }
+    }
+    Ok(())
+}
+
+fn emit(
+    sweep: &Sweep,
+    spec: &Path,
+    out: &Path,
+    dir: &Path,
+    a: &SweepArgs,
+) -> anyhow::Result<Status> {
+    let opts = SlurmOptions {
+        shards: a.shards,
+        max_running: a.max_running,
+        cpus_per_task: a.cpus_per_task,
+        partition: a.partition.clone(),
+        account: a.account.clone(),
+        time: a.time.clone(),
+        extra: a.sbatch_option.clone(),
+    };
+    let e = slurm::emit(&sweep.name, spec, out, dir, &opts)?;
+    println!(
+        "sweep {}: {} points in {} shards; wrote {}, {} and {}",
+        sweep.name,
+        sweep.len(),
+        opts.shards,
+        e.array.display(),
+        e.collect.display(),
+        e.submit.display()
+    );
+    println!("submit with: bash {}", e.submit.display());
+    println!(
+        "the merged table will be {}/merged/results.parquet; submitting again resumes unfinished shards",
+        out.display()
+    );
+    Ok(Status::Success)
+}
+
+fn collect(
+    spec: &Path,
+    out: &Path,
+    shards: &[std::path::PathBuf],
+    plots: bool,
+) -> anyhow::Result<Status> {
+    let sweep = Sweep::load(spec)?;
+    let mut merged: BTreeMap<usize, Map<String, Value>> = BTreeMap::new();
+    let mut from: BTreeMap<usize, &Path> = BTreeMap::new();
+    let mut duplicated = Vec::new();
+    for dir in shards {
+        let meta = dir.join("sweep.json");
+        let doc: Value = serde_json::from_str(&std::fs::read_to_string(&meta).map_err(|e| {
+            InputError::new(format!("{}: not a sweep folder ({e})", dir.display()))
+        })?)
+        .with_context(|| format!("{} is not valid JSON", meta.display()))?;
+        if doc["spec_hash"].as_str() != Some(sweep.hash.as_str()) {
+            return Err(InputError::new(format!(
+                "{}: ran another spec or base scenario (hash {}, {} has {})",
+                dir.display(),
+                doc["spec_hash"].as_str().unwrap_or("?"),
+                spec.display(),
+                sweep.hash
+            ))
+            .into());
+        }
+        for (id, row) in read_rows(dir)? {
+            if let Some(first) = from.get(&id) {
+                duplicated.push(format!(
+                    "{id} (in {} and {})",
+                    first.display(),
+                    dir.display()
+                ));
+                continue;
+            }
+            from.insert(id, dir);
+            merged.insert(id, row);
+        }
+    }
+    let missing: Vec<usize> = (0..sweep.len())
+        .filter(|id| !merged.contains_key(id))
+        .collect();
+    exec::open_out(&sweep, out, Shard::all())?;
+    // The merged folder holds the rows too, so it resumes like any sweep folder.
+    for (id, row) in &merged {
+        let text = serde_json::to_string(row)? + "\n";
+        let path = out.join("rows").join(format!("{id:07}.json"));
+        std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    let rows = merged.len();
+    write_tables(&sweep, out, merged, plots)?;
+    println!(
+        "collected {rows} of {} points from {} shard folders into {}/results.parquet and results.csv",
+        sweep.len(),
+        shards.len(),
+        out.display()
+    );
+    let mut ok = true;
+    if !missing.is_empty() {
+        ok = false;
+        let shown: Vec<String> = missing.iter().take(20).map(usize::to_string).collect();
+        eprintln!(
+            "error: {} points missing: {}{} (run their shards again; finished points are skipped)",
+            missing.len(),
+            shown.join(", "),
+            if missing.len() > 20 { ", ..." } else { "" }
+        );
+    }
+    if !duplicated.is_empty() {
+        ok = false;
+        eprintln!(
+            "error: {} points duplicated: {} (the first copy is kept)",
+            duplicated.len(),
+            duplicated
+                .iter()
+                .take(20)
+                .cloned()
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    Ok(if ok {
+        Status::Success
+    } else {
+        Status::RunFailed
+    })
+}

@@ -1,0 +1,97 @@
+//! Who drives in a run: the scenario's law, a wave damper, one of SUMO's drivers, or a mix.
+//! `compare` and `sweep` name runs the same way.
+
+use syncroad_control::DamperSpec;
+use syncroad_sumo::SumoDriver;
+
+use crate::error::InputError;
+
+/// One run: a name, who drives each scenario vehicle, and a damper in place of the law.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunSpec {
+    /// Folder and column name (`protocol`, `krauss-0.9`, `mixed-2`, ...).
+    pub name: String,
+    /// Per scenario vehicle: `None` = the law, `Some` = that SUMO model; empty: as the
+    /// scenario says (its law, or its `mixed` ring).
+    pub drivers: Vec<Option<SumoDriver>>,
+    /// A wave damper in place of the law on the law's vehicles.
+    pub damper: Option<DamperSpec>,
+}
+
+impl RunSpec {
+    /// `protocol` (the scenario's law), a damper (`follower-stopper-U`, `pi-saturation`) on
+    /// every vehicle, or a SUMO driver name for all `n` vehicles; `field` names where the name
+    /// was given, for errors.
+    pub fn parse(field: &str, name: &str, n: usize) -> Result<Self, InputError> {
+        let low = name.to_ascii_lowercase();
+        if low == "protocol" {
+            return Ok(Self {
+                name: "protocol".into(),
+                drivers: Vec::new(),
+                damper: None,
+            });
+        }
+        if low.starts_with("follower-stopper") || low.starts_with("pi-saturation") {
+            let d = DamperSpec::parse(field, name)
+                .map_err(|e| InputError::caused(field, e))?
+                .expect("a damper name");
+            return Ok(Self {
+                name: d.to_string(),
+                drivers: vec![None; n],
+                damper: Some(d),
+            });
+        }
+        let d = SumoDriver::parse(field, name).map_err(|e| InputError::caused(field, e))?;
+        Ok(Self {
+            name: d.to_string(),
+            drivers: vec![Some(d); n],
+            damper: None,
+        })
+    }
+
+    /// `k` of `n` vehicles run the law (or `damper`), spread evenly ([`mixed_controlled`]);
+    /// the others are `human`.
+    pub fn mixed(
+        name: String,
+        n: usize,
+        k: usize,
+        human: SumoDriver,
+        damper: Option<DamperSpec>,
+    ) -> Self {
+        let mut drivers = vec![Some(human); n];
+        for i in mixed_controlled(n, k) {
+            drivers[i] = None;
+        }
+        Self {
+            name,
+            drivers,
+            damper: if k > 0 { damper } else { None },
+        }
+    }
+
+    /// Fraction of the `n` vehicles the law or the damper drives.
+    pub fn penetration(&self, n: usize) -> f64 {
+        if self.drivers.is_empty() {
+            return 1.0;
+        }
+        self.drivers.iter().filter(|d| d.is_none()).count() as f64 / n.max(1) as f64
+    }
+}
+
+/// Law-controlled vehicles of a mixed ring with `k` of `n`: `⌊j n / k⌋`, j = 0..k.
+pub fn mixed_controlled(n: usize, k: usize) -> Vec<usize> {
+    (0..k).map(|j| j * n / k).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mixed_vehicles_are_evenly_spaced() {
+        assert_eq!(mixed_controlled(22, 0), Vec::<usize>::new());
+        assert_eq!(mixed_controlled(22, 1), [0]);
+        assert_eq!(mixed_controlled(22, 2), [0, 11]);
+        assert_eq!(mixed_controlled(22, 4), [0, 5, 11, 16]);
+    }
+}

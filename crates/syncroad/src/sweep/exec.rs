@@ -1,0 +1,500 @@
+//! Running a sweep's points through the one pipeline, in parallel, resumable and sharded.
+//!
+//! The output folder:
+//!
+//! ```text
+//! OUT/sweep.json        the spec, its hash and the shard: written first, checked on resume
+//! OUT/rows/<point>.json one row per finished point, written atomically when it finishes
+//! OUT/runs/<point>/     each point's run folder (only with --keep-runs)
+//! OUT/work/<point>/     SUMO's files of a point in flight; kept when the point failed
+//! OUT/results.parquet   the table of every row, in point order (and results.csv)
+//! ```
+
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
+
+use anyhow::Context;
+use rayon::prelude::*;
+use serde_json::{json, Map, Value};
+use syncroad_control::scenario::Backend;
+use syncroad_control::{EvalOptions, Scenario};
+use syncroad_sumo::{load_road, MeasureOptions, Road, RunOptions, WorkerCommand, WorkerPool};
+
+use super::spec::{Point, Sweep};
+use super::table::{at_path, metric_kinds, Column, Kind, Table};
+use crate::config;
+use crate::error::InputError;
+use crate::pipeline::{self, Finished};
+use crate::progress::Progress;
+
+/// A deterministic share of the points: those with `id % count == index`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Shard {
+    /// This shard, 0-based.
+    pub index: usize,
+    /// Number of shards.
+    pub count: usize,
+}
+
+impl Shard {
+    /// Parses `I/N` with 0 ≤ I < N.
+    pub fn parse(s: &str) -> Result<Self, InputError> {
+        let bad = || {
+            InputError::new(format!(
+                "--shard = {s:?}: expected I/N with 0 ≤ I < N, e.g. 0/4 (Slurm: $SLURM_ARRAY_TASK_ID/$SLURM_ARRAY_TASK_COUNT)"
+            ))
+        };
+        let (i, n) = s.split_once('/').ok_or_else(bad)?;
+        let index: usize = i.trim().parse().map_err(|_| bad())?;
+        let count: usize = n.trim().parse().map_err(|_| bad())?;
+        if count == 0 || index >= count {
+            return Err(bad());
+        }
+        Ok(Self { index, count })
+    }
+
+    /// The whole sweep.
+    pub fn all() -> Self {
+        Self { index: 0, count: 1 }
+    }
+
+    /// Whether point `id` belongs to this shard.
+    pub fn holds(&self, id: usize) -> bool {
+        id % self.count == self.index
+    }
+}
+
+/// How to run.
+#[derive(Debug, Clone)]
+pub struct ExecOptions {
+    /// Points in flight at once.
+    pub jobs: usize,
+    /// The share of points to run.
+    pub shard: Shard,
+    /// Keep each point's run folder (trajectories, metrics.json).
+    pub keep_runs: bool,
+    /// Also draw each kept run's plots.
+    pub run_plots: bool,
+    /// Run again the points whose row says they failed.
+    pub retry_failed: bool,
+}
+
+/// What a call to [`run`] did.
+#[derive(Debug, Clone, Default)]
+pub struct Summary {
+    /// Points of this shard.
+    pub points: usize,
+    /// Already finished before this call.
+    pub skipped: usize,
+    /// Run now.
+    pub ran: usize,
+    /// Of those, failed (no result, or the run stopped with an error).
+    pub failed: usize,
+    /// Not run because of Ctrl-C (or interrupted part-way).
+    pub interrupted: usize,
+    /// Worker processes started.
+    pub workers: usize,
+}
+
+/// The table's columns: point, axes, run, penetration, seed, status, the metrics, stamps.
+pub fn columns(sweep: &Sweep) -> Vec<Column> {
+    let mut c = vec![Column::new("point", Kind::Int)];
+    for a in &sweep.axes {
+        let kind = if a.values.iter().all(Value::is_number) {
+            Kind::Float
+        } else if a.values.iter().all(Value::is_boolean) {
+            Kind::Bool
+        } else {
+            Kind::Text
+        };
+        c.push(Column::new(&a.field, kind));
+    }
+    c.push(Column::new("run", Kind::Text));
+    c.push(Column::new("penetration", Kind::Float));
+    c.push(Column::new("seed", Kind::Int));
+    c.push(Column::new("status", Kind::Text));
+    c.push(Column::new("stop", Kind::Text));
+    c.push(Column::new("error", Kind::Text));
+    let kinds = metric_kinds();
+    for m in &sweep.metrics {
+        let k = kinds
+            .iter()
+            .find(|(p, _)| p == m)
+            .map_or(Kind::Text, |(_, k)| *k);
+        c.push(Column::new(m, k));
+    }
+    for s in [
+        "backend",
+        "scenario_hash",
+        "spec_hash",
+        "syncroad_version",
+        "sumo_version",
+    ] {
+        c.push(Column::new(s, Kind::Text));
+    }
+    c
+}
+
+fn rows_dir(out: &Path) -> PathBuf {
+    out.join("rows")
+}
+
+fn row_path(out: &Path, id: usize) -> PathBuf {
+    rows_dir(out).join(format!("{id:07}.json"))
+}
+
+/// The parameter cells of a point's row.
+fn point_cells(sweep: &Sweep, p: &Point) -> Map<String, Value> {
+    let mut r = Map::new();
+    r.insert("point".into(), json!(p.id));
+    for (a, &k) in sweep.axes.iter().zip(&p.at) {
+        r.insert(a.field.clone(), a.values[k].clone());
+    }
+    let run = &sweep.runs[p.run];
+    r.insert("run".into(), json!(run.spec.name));
+    r.insert("penetration".into(), json!(run.penetration));
+    r.insert("seed".into(), json!(p.seed));
+    r.insert(
+        "backend".into(),
+        serde_json::to_value(sweep.backend).unwrap_or_default(),
+    );
+    r.insert("spec_hash".into(), json!(sweep.hash));
+    r.insert("syncroad_version".into(), json!(env!("CARGO_PKG_VERSION")));
+    r
+}
+
+/// The row of a point that produced a record.
+fn row_of(sweep: &Sweep, p: &Point, record: &Value) -> Map<String, Value> {
+    let mut r = point_cells(sweep, p);
+    let reason = at_path(record, "stop.reason").as_str().unwrap_or("failed");
+    let status = if record["complete"].as_bool() == Some(true) {
+        "complete"
+    } else if reason == "failed" {
+        "failed"
+    } else {
+        // Diverged, a non-finite command, a lost vehicle: a result, not a failure.
+        "stopped"
+    };
+    r.insert("status".into(), json!(status));
+    r.insert("stop".into(), json!(reason));
+    r.insert("error".into(), record["error"].clone());
+    for m in &sweep.metrics {
+        r.insert(m.clone(), at_path(record, m).clone());
+    }
+    for s in ["scenario_hash", "sumo_version"] {
+        r.insert(s.into(), record[s].clone());
+    }
+    r
+}
+
+/// The row of a point that never produced a record.
+fn failed_row(sweep: &Sweep, p: &Point, error: &str) -> Map<String, Value> {
+    let mut r = point_cells(sweep, p);
+    r.insert("status".into(), json!("failed"));
+    r.insert("stop".into(), json!("failed"));
+    r.insert("error".into(), json!(error));
+    r
+}
+
+fn write_atomic(path: &Path, text: &str) -> anyhow::Result<()> {
+    let tmp = path.with_extension("json.tmp");
+    std::fs::write(&tmp, text).with_context(|| format!("cannot write {}", tmp.display()))?;
+    std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// Checks `out` and writes `sweep.json`: a new folder, or one this spec (and shard) made
+/// before, whose finished points are skipped.
+pub fn open_out(sweep: &Sweep, out: &Path, shard: Shard) -> anyhow::Result<()> {
+    let meta = out.join("sweep.json");
+    let doc = json!({
+        "name": sweep.name,
+        "spec_hash": sweep.hash,
+        "points": sweep.len(),
+        "shard": {"index": shard.index, "count": shard.count},
+        "spec": sweep.file,
+        "syncroad_version": env!("CARGO_PKG_VERSION"),
+    });
+    if out.is_file() {
+        return Err(InputError::new(format!(
+            "--out = {}: is a file; give a folder for the sweep's results",
+            out.display()
+        ))
+        .into());
+    }
+    if meta.is_file() {
+        let old: Value = serde_json::from_str(&std::fs::read_to_string(&meta)?)
+            .with_context(|| format!("{} is not valid JSON", meta.display()))?;
+        if old["spec_hash"] != doc["spec_hash"] {
+            return Err(InputError::new(format!(
+                "--out = {}: holds a sweep of another spec or base scenario (hash {} here, {} now); give a new folder, or remove it to start over",
+                out.display(),
+                old["spec_hash"].as_str().unwrap_or("?"),
+                sweep.hash
+            ))
+            .into());
+        }
+        if old["shard"] != doc["shard"] {
+            return Err(InputError::new(format!(
+                "--out = {}: holds shard {}/{} of this sweep, not {}/{}; give each shard its own folder",
+                out.display(),
+                old["shard"]["index"],
+                old["shard"]["count"],
+                shard.index,
+                shard.count
+            ))
+            .into());
+        }
+    } else if out.is_dir()
+        && std::fs::read_dir(out)
+            .with_context(|| format!("cannot read {}", out.display()))?
+            .next()
+            .is_some()
+    {
+        return Err(InputError::new(format!(
+            "--out = {}: exists and is not a sweep folder (no sweep.json); give a new or empty folder",
+            out.display()
+        ))
+        .into());
+    }
+    std::fs::create_dir_all(rows_dir(out))
+        .with_context(|| format!("cannot create {}", rows_dir(out).display()))?;
+    write_atomic(&meta, &(serde_json::to_string_pretty(&doc)? + "\n"))
+}
+
+/// Reads every row in `out/rows`, by point id.
+pub fn read_rows(out: &Path) -> anyhow::Result<BTreeMap<usize, Map<String, Value>>> {
+    let mut rows = BTreeMap::new();
+    let dir = rows_dir(out);
+    if !dir.is_dir() {
+        return Ok(rows);
+    }
+    for e in std::fs::read_dir(&dir).with_context(|| format!("cannot read {}", dir.display()))? {
+        let path = e?.path();
+        if path.extension().is_none_or(|x| x != "json") {
+            continue;
+        }
+        let text = std::fs::read_to_string(&path)
+            .with_context(|| format!("cannot read {}", path.display()))?;
+        let row: Map<String, Value> = serde_json::from_str(&text)
+            .with_context(|| format!("{} is not a sweep row", path.display()))?;
+        let id = row
+            .get("point")
+            .and_then(Value::as_u64)
+            .with_context(|| format!("{} has no point number", path.display()))?;
+        rows.insert(id as usize, row);
+    }
+    Ok(rows)
+}
+
+/// The table of the rows in `out`, in point order.
+pub fn table(sweep: &Sweep, rows: BTreeMap<usize, Map<String, Value>>) -> Table {
+    Table {
+        columns: columns(sweep),
+        rows: rows.into_values().collect(),
+    }
+}
+
+/// Everything a point's run needs that is the same for every point.
+struct Shared<'a> {
+    sweep: &'a Sweep,
+    out: &'a Path,
+    opts: &'a ExecOptions,
+    pool: Option<WorkerPool>,
+    roads: Mutex<HashMap<PathBuf, Arc<Road>>>,
+    interrupt: Arc<AtomicBool>,
+}
+
+enum PointEnd {
+    Row(Map<String, Value>),
+    Interrupted,
+}
+
+impl Shared<'_> {
+    fn road(&self, sc: &Scenario) -> anyhow::Result<Arc<Road>> {
+        let key = syncroad_sumo::net_path(sc)
+            .map_err(|e| InputError::caused("before starting SUMO", e))?;
+        if let Some(r) = self.roads.lock().expect("road cache").get(&key) {
+            return Ok(r.clone());
+        }
+        let road =
+            Arc::new(load_road(sc).map_err(|e| InputError::caused("before starting SUMO", e))?);
+        self.roads
+            .lock()
+            .expect("road cache")
+            .insert(key, road.clone());
+        Ok(road)
+    }
+
+    fn run_point(&self, p: &Point) -> anyhow::Result<PointEnd> {
+        let sweep = self.sweep;
+        let sc = sweep.scenario(p)?;
+        let choice = &sweep.runs[p.run];
+        let record_every = config::record_every(sweep.file.record_every, &sc)?;
+        let warmup_s = config::warmup_s(sweep.file.warmup_s, &sc)?;
+        let mut eval = EvalOptions::of(&sc);
+        eval.warmup_s = warmup_s;
+        let run_dir = self.out.join("runs").join(format!("{:07}", p.id));
+        let work = if self.opts.keep_runs {
+            run_dir.join("sumo")
+        } else {
+            self.out.join("work").join(format!("{:07}", p.id))
+        };
+        let (output, interrupted) = match sweep.backend {
+            Backend::Native => (pipeline::native(&sc, record_every), false),
+            Backend::Sumo => {
+                let road = self.road(&sc)?;
+                let worker = WorkerCommand::current_exe()
+                    .context("cannot locate the syncroad executable")?;
+                let mut o = RunOptions::new(work.clone(), worker);
+                o.record_every = record_every;
+                o.interrupt = Some(self.interrupt.clone());
+                o.timeout = sweep
+                    .file
+                    .timeout_s
+                    .and_then(|t| std::time::Duration::try_from_secs_f64(t).ok());
+                o.drivers = choice.spec.drivers.clone();
+                o.damper = choice.spec.damper;
+                o.measure = Some(MeasureOptions {
+                    warmup_s,
+                    emission_every: 1,
+                    tripinfo: false,
+                    ssm: false,
+                });
+                let pool = self.pool.as_ref().expect("a SUMO sweep has a worker pool");
+                let r = pipeline::sumo_pooled(&sc, &road, &o, pool)
+                    .map_err(|e| InputError::caused("before starting SUMO", e))?;
+                (r.output, r.interrupted)
+            }
+        };
+        if interrupted {
+            return Ok(PointEnd::Interrupted);
+        }
+        let f = Finished::new(&sc, &choice.spec.name, output, eval);
+        if self.opts.keep_runs {
+            std::fs::create_dir_all(&run_dir)
+                .with_context(|| format!("cannot create {}", run_dir.display()))?;
+            let title = self
+                .opts
+                .run_plots
+                .then(|| format!("{} point {}: {}", sweep.name, p.id, choice.spec.name));
+            f.write(&run_dir, title)?;
+        }
+        if f.record.complete && !self.opts.keep_runs && sweep.backend == Backend::Sumo {
+            let _ = std::fs::remove_dir_all(&work);
+        }
+        Ok(PointEnd::Row(row_of(sweep, p, &f.record.to_json())))
+    }
+}
+
+/// Runs the points of `opts.shard` not finished yet, writing each row as it finishes.
+pub fn run(
+    sweep: &Sweep,
+    out: &Path,
+    opts: &ExecOptions,
+    interrupt: Arc<AtomicBool>,
+) -> anyhow::Result<Summary> {
+    let done = read_rows(out)?;
+    let mine: Vec<Point> = sweep.points().filter(|p| opts.shard.holds(p.id)).collect();
+    let todo: Vec<&Point> = mine
+        .iter()
+        .filter(|p| match done.get(&p.id) {
+            None => true,
+            Some(r) => opts.retry_failed && r.get("status") == Some(&json!("failed")),
+        })
+        .collect();
+    let mut summary = Summary {
+        points: mine.len(),
+        skipped: mine.len() - todo.len(),
+        ..Summary::default()
+    };
+    if todo.is_empty() {
+        return Ok(summary);
+    }
+    let pool = (sweep.backend == Backend::Sumo).then(|| {
+        WorkerCommand::current_exe()
+            .map(WorkerPool::new)
+            .context("cannot locate the syncroad executable")
+    });
+    let shared = Shared {
+        sweep,
+        out,
+        opts,
+        pool: pool.transpose()?,
+        roads: Mutex::new(HashMap::new()),
+        interrupt: interrupt.clone(),
+    };
+    let threads = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.jobs.min(todo.len()).max(1))
+        .build()?;
+    let progress = Progress::new("sweep", todo.len() as u64);
+    let (ran, failed, stopped) = (
+        AtomicUsize::new(0),
+        AtomicUsize::new(0),
+        AtomicUsize::new(0),
+    );
+    let write_error: Mutex<Option<anyhow::Error>> = Mutex::new(None);
+    threads.install(|| {
+        todo.par_iter().for_each(|p| {
+            if interrupt.load(Ordering::SeqCst) {
+                stopped.fetch_add(1, Ordering::SeqCst);
+                return;
+            }
+            let end = shared
+                .run_point(p)
+                .unwrap_or_else(|e| PointEnd::Row(failed_row(sweep, p, &format!("{e:#}"))));
+            let row = match end {
+                PointEnd::Interrupted => {
+                    stopped.fetch_add(1, Ordering::SeqCst);
+                    return;
+                }
+                PointEnd::Row(r) => r,
+            };
+            ran.fetch_add(1, Ordering::SeqCst);
+            let error = (row.get("status") == Some(&json!("failed"))).then(|| {
+                row.get("error")
+                    .and_then(Value::as_str)
+                    .unwrap_or("failed")
+                    .to_string()
+            });
+            if error.is_some() {
+                failed.fetch_add(1, Ordering::SeqCst);
+            }
+            let text = serde_json::to_string(&row).expect("a row serializes") + "\n";
+            if let Err(e) = write_atomic(&row_path(out, p.id), &text) {
+                write_error.lock().expect("error slot").get_or_insert(e);
+                interrupt.store(true, Ordering::SeqCst);
+            }
+            progress.finished(&format!("point {}", p.id), error.as_deref());
+        })
+    });
+    progress.done();
+    summary.ran = ran.into_inner();
+    summary.failed = failed.into_inner();
+    summary.interrupted = stopped.into_inner();
+    summary.workers = shared.pool.as_ref().map_or(0, WorkerPool::workers_started);
+    if let Some(e) = write_error.into_inner().expect("error slot") {
+        return Err(e.context("a finished point's row could not be written; the sweep stopped"));
+    }
+    Ok(summary)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shards_split_the_points_without_overlap() {
+        let shards: Vec<Shard> = (0..4)
+            .map(|i| Shard::parse(&format!("{i}/4")).unwrap())
+            .collect();
+        for id in 0..103 {
+            assert_eq!(shards.iter().filter(|s| s.holds(id)).count(), 1);
+        }
+        for bad in ["4/4", "1", "a/2", "0/0", "-1/3"] {
+            let e = Shard::parse(bad).unwrap_err().to_string();
+            assert!(e.starts_with(&format!("--shard = {bad:?}")), "{e}");
+        }
+    }
+}

@@ -1,0 +1,18 @@
+//! Parameter sweeps: a spec names a base scenario, axes over its fields, runs and seeds;
+//! every point goes through the one run pipeline ([`crate::pipeline`]), SUMO points on
+//! long-lived workers; rows are kept per point so a sweep resumes and shards; the table is
+//! written as Parquet and CSV and plotted.
+//!
+//! [`spec`] (the file and its points), [`exec`] (running, resuming, sharding), [`table`]
+//! (typed columns, Parquet and CSV), [`stats`] (mean and interval over seeds), [`plots`]
+//! and [`slurm`] (a job array that runs the shards).
+
+pub mod exec;
+pub mod plots;
+pub mod slurm;
+pub mod spec;
+pub mod stats;
+pub mod table;
+
+pub use exec::{ExecOptions, Shard};
+pub use spec::Sweep;

@@ -1,0 +1,718 @@
+//! The sweep spec a user writes, validated into the list of points it stands for.
+//!
+//! ```json
+//! {
+//!   "name": "gain-delay",
+//!   "base": "../scenarios/sugiyama-ring.json",
+//!   "backend": "sumo",
+//!   "axes": [
+//!     {"field": "scale.gain",  "linspace": [0.5, 3.0, 6]},
+//!     {"field": "scale.delay", "values": [0.5, 1.0, 1.5]},
+//!     {"field": "initial.speed_mps", "logspace": [2, 16, 4]}
+//!   ],
+//!   "seeds": {"first": 1, "count": 3},
+//!   "runs": ["protocol", "krauss-0.9"],
+//!   "penetrations": [0.0, 0.25, 0.5],
+//!   "mixed_driver": "krauss-0.9",
+//!   "mixed_controller": "law",
+//!   "metrics": ["sync.verdict", "congestion.speed_std_mps"]
+//! }
+//! ```
+//!
+//! An axis sets one scenario field path (`model.graph.gain_pred`, `initial.speed_mps`, ...) to
+//! each of its values; `scale.gain` and `scale.delay` scale every gain and every delay of a
+//! delayed-driver scenario. `linspace` is `[first, last, count]` evenly spaced, `logspace`
+//! `[first, last, count]` geometrically spaced (both ends included). `runs` names who drives:
+//! `protocol` (the scenario's law), a wave damper (`follower-stopper-U`, `pi-saturation`) or
+//! one of SUMO's drivers, as `compare --baselines` names them; each `penetrations` entry p adds
+//! a run where round(p·n) vehicles run `mixed_controller` (the law by default), spread evenly,
+//! among `mixed_driver` humans. Points are the product axes × runs × seeds, numbered in
+//! that order (seeds fastest); the numbering is what shards and resumption rely on.
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+use sha2::{Digest, Sha256};
+use syncroad_control::scenario::{Backend, Model, ScenarioFile};
+use syncroad_control::{DamperSpec, Scenario};
+use syncroad_sumo::SumoDriver;
+
+use crate::error::InputError;
+use crate::runs::RunSpec;
+
+/// The spec as written.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpecFile {
+    /// Name for titles (default: the file's stem).
+    #[serde(default)]
+    pub name: Option<String>,
+    /// The base scenario, relative to the spec file.
+    pub base: PathBuf,
+    /// `native` or `sumo` (default: the scenario's).
+    #[serde(default)]
+    pub backend: Option<Backend>,
+    /// The axes, outermost first.
+    #[serde(default)]
+    pub axes: Vec<AxisFile>,
+    /// Seeds: a list, or `{"first": F, "count": N}` (default: the scenario's seed).
+    #[serde(default)]
+    pub seeds: Option<SeedsFile>,
+    /// Who drives: `protocol` or SUMO driver names (default `["protocol"]` unless
+    /// `penetrations` is given).
+    #[serde(default)]
+    pub runs: Option<Vec<String>>,
+    /// Mixed runs: fractions of law-driven vehicles, each in [0, 1].
+    #[serde(default)]
+    pub penetrations: Vec<f64>,
+    /// The human driver of mixed runs (default `krauss-0.9`, which forms waves at ring density).
+    #[serde(default)]
+    pub mixed_driver: Option<String>,
+    /// Who drives the automated vehicles of mixed runs: `law` (default), `follower-stopper-U`
+    /// or `pi-saturation`.
+    #[serde(default)]
+    pub mixed_controller: Option<String>,
+    /// Metric paths of `metrics.json` to keep (default: [`DEFAULT_METRICS`]).
+    #[serde(default)]
+    pub metrics: Option<Vec<String>>,
+    /// Recording stride (default: about 2000 samples per run).
+    #[serde(default)]
+    pub record_every: Option<usize>,
+    /// Per-run wall-clock limit for SUMO runs [s] (default: the scenario's `sumo.timeout_s`).
+    #[serde(default)]
+    pub timeout_s: Option<f64>,
+    /// Warm-up excluded from congestion metrics [s] (default: a quarter of the horizon).
+    #[serde(default)]
+    pub warmup_s: Option<f64>,
+}
+
+/// One axis as written.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AxisFile {
+    /// Scenario field path, or `scale.gain` / `scale.delay`.
+    pub field: String,
+    /// Explicit values.
+    #[serde(default)]
+    pub values: Option<Vec<Value>>,
+    /// `[first, last, count]`, evenly spaced.
+    #[serde(default)]
+    pub linspace: Option<(f64, f64, usize)>,
+    /// `[first, last, count]`, geometrically spaced.
+    #[serde(default)]
+    pub logspace: Option<(f64, f64, usize)>,
+}
+
+/// Seeds as written.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum SeedsFile {
+    /// Explicit seeds.
+    List(Vec<u64>),
+    /// `count` seeds from `first` on.
+    Range {
+        /// First seed.
+        first: u64,
+        /// How many.
+        count: u64,
+    },
+}
+
+/// Metrics kept by default: the verdict, the spread, congestion and safety.
+pub const DEFAULT_METRICS: [&str; 13] = [
+    "sync.verdict",
+    "sync.final_spread_mps",
+    "sync.window_max_spread_mps",
+    "sync.time_to_tolerance_s",
+    "sync.decay_rate_per_s",
+    "certified",
+    "congestion.mean_speed_mps",
+    "congestion.speed_std_mps",
+    "congestion.wave_amplitude_mps",
+    "congestion.stopped_fraction",
+    "safety.collision_steps",
+    "safety.overridden_commands",
+    "sumo.fuel_g_per_km",
+];
+
+/// What an axis sets.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Target {
+    /// A scenario field path.
+    Field(Vec<String>),
+    /// Every gain times the value.
+    GainScale,
+    /// Every delay times the value.
+    DelayScale,
+}
+
+/// A validated axis.
+#[derive(Debug, Clone)]
+pub struct Axis {
+    /// The path as written (the table column).
+    pub field: String,
+    /// What it sets.
+    pub target: Target,
+    /// Its values.
+    pub values: Vec<Value>,
+}
+
+impl Axis {
+    /// Numeric values, when every value is a number.
+    pub fn numbers(&self) -> Option<Vec<f64>> {
+        self.values.iter().map(Value::as_f64).collect()
+    }
+}
+
+/// One run of a point: its name, penetration and drivers.
+#[derive(Debug, Clone)]
+pub struct RunChoice {
+    /// The run spec (name and per-vehicle drivers).
+    pub spec: RunSpec,
+    /// Fraction of vehicles running the law.
+    pub penetration: f64,
+}
+
+/// A validated sweep.
+#[derive(Debug, Clone)]
+pub struct Sweep {
+    /// Name for titles.
+    pub name: String,
+    /// The spec as written.
+    pub file: SpecFile,
+    /// The base scenario, validated.
+    pub base: Scenario,
+    /// The base scenario's JSON as written.
+    base_json: Value,
+    /// Its folder (relative paths inside it resolve here).
+    base_dir: PathBuf,
+    /// The backend every point runs on.
+    pub backend: Backend,
+    /// The axes.
+    pub axes: Vec<Axis>,
+    /// The runs.
+    pub runs: Vec<RunChoice>,
+    /// The seeds.
+    pub seeds: Vec<u64>,
+    /// Metric paths kept.
+    pub metrics: Vec<String>,
+    /// SHA-256 of the spec and the base scenario as written: what resumption checks.
+    pub hash: String,
+}
+
+/// One point of the sweep.
+#[derive(Debug, Clone)]
+pub struct Point {
+    /// Its number in the product order.
+    pub id: usize,
+    /// Value index per axis.
+    pub at: Vec<usize>,
+    /// Run index.
+    pub run: usize,
+    /// Seed.
+    pub seed: u64,
+}
+
+fn bad(m: impl Into<String>) -> InputError {
+    InputError::new(m)
+}
+
+fn spaced(
+    field: &str,
+    kind: &str,
+    (a, b, n): (f64, f64, usize),
+    geometric: bool,
+) -> Result<Vec<Value>, InputError> {
+    let here = format!("axes[{field}].{kind} = [{a}, {b}, {n}]");
+    if !(a.is_finite() && b.is_finite()) {
+        return Err(bad(format!(
+            "{here}: first and last must be finite numbers"
+        )));
+    }
+    if !(1..=100_000).contains(&n) {
+        return Err(bad(format!("{here}: count must be between 1 and 100000")));
+    }
+    if geometric && !(a > 0.0 && b > 0.0) {
+        return Err(bad(format!(
+            "{here}: a logspace needs first > 0 and last > 0"
+        )));
+    }
+    Ok((0..n)
+        .map(|k| {
+            let t = if n == 1 {
+                0.0
+            } else {
+                k as f64 / (n - 1) as f64
+            };
+            let x = if geometric {
+                if k + 1 == n {
+                    b
+                } else {
+                    a * (b / a).powf(t)
+                }
+            } else if k + 1 == n {
+                b
+            } else {
+                a + (b - a) * t
+            };
+            serde_json::json!(x)
+        })
+        .collect())
+}
+
+impl AxisFile {
+    fn validate(&self) -> Result<Axis, InputError> {
+        let f = &self.field;
+        let given = [
+            self.values.is_some(),
+            self.linspace.is_some(),
+            self.logspace.is_some(),
+        ];
+        if given.iter().filter(|g| **g).count() != 1 {
+            return Err(bad(format!(
+                "axes[{f}]: give exactly one of \"values\", \"linspace\" or \"logspace\""
+            )));
+        }
+        let values = if let Some(v) = &self.values {
+            if v.is_empty() {
+                return Err(bad(format!(
+                    "axes[{f}].values is empty: give at least one value"
+                )));
+            }
+            v.clone()
+        } else if let Some(l) = self.linspace {
+            spaced(f, "linspace", l, false)?
+        } else {
+            spaced(f, "logspace", self.logspace.expect("one is given"), true)?
+        };
+        let target = match f.as_str() {
+            "scale.gain" => Target::GainScale,
+            "scale.delay" => Target::DelayScale,
+            _ => {
+                let parts: Vec<String> = f.split('.').map(str::to_string).collect();
+                if parts.iter().any(String::is_empty) {
+                    return Err(bad(format!(
+                        "axes[{f}]: not a field path; write it as in the scenario file, e.g. model.graph.gain_pred"
+                    )));
+                }
+                if matches!(parts[0].as_str(), "seed" | "backend") {
+                    return Err(bad(format!(
+                        "axes[{f}]: set {} with the spec's \"{}\" instead of an axis",
+                        parts[0],
+                        if parts[0] == "seed" {
+                            "seeds"
+                        } else {
+                            "backend"
+                        }
+                    )));
+                }
+                Target::Field(parts)
+            }
+        };
+        if !matches!(target, Target::Field(_)) {
+            for v in &values {
+                if v.as_f64().is_none_or(|x| !(x.is_finite() && x > 0.0)) {
+                    return Err(bad(format!(
+                        "axes[{f}]: value {v} is not a number > 0 (scales multiply every gain or delay)"
+                    )));
+                }
+            }
+        }
+        Ok(Axis {
+            field: f.clone(),
+            target,
+            values,
+        })
+    }
+}
+
+/// Sets `path` in `doc` to `value`, creating objects along the way.
+fn set_path(doc: &mut Value, path: &[String], value: Value, field: &str) -> Result<(), InputError> {
+    let mut cur = doc;
+    for (k, key) in path.iter().enumerate() {
+        let last = k + 1 == path.len();
+        cur = match cur {
+            Value::Object(map) => {
+                if last {
+                    map.insert(key.clone(), value);
+                    return Ok(());
+                }
+                map.entry(key.clone())
+                    .or_insert_with(|| Value::Object(Default::default()))
+            }
+            Value::Array(items) => {
+                let i: usize = key.parse().map_err(|_| {
+                    bad(format!(
+                        "axes[{field}]: {key:?} indexes a list; use a vehicle number"
+                    ))
+                })?;
+                let len = items.len();
+                let slot = items.get_mut(i).ok_or_else(|| {
+                    bad(format!(
+                        "axes[{field}]: index {i} is past the end of a list of {len}"
+                    ))
+                })?;
+                if last {
+                    *slot = value;
+                    return Ok(());
+                }
+                slot
+            }
+            other => {
+                return Err(bad(format!(
+                    "axes[{field}]: {} holds {other}, which has no field {key:?}",
+                    path[..k].join(".")
+                )))
+            }
+        };
+    }
+    Ok(())
+}
+
+impl Sweep {
+    /// Reads and validates a spec file: every point's scenario is built and validated, so a
+    /// bad value stops the sweep before anything runs.
+    pub fn load(path: &Path) -> anyhow::Result<Self> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| bad(format!("cannot read sweep spec {}: {e}", path.display())))?;
+        let file: SpecFile = serde_json::from_str(&text)
+            .map_err(|e| bad(format!("sweep spec {}: {e}", path.display())))?;
+        let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        let name = file.name.clone().unwrap_or_else(|| {
+            path.file_stem()
+                .map_or("sweep".into(), |s| s.to_string_lossy().into_owned())
+        });
+        Self::new(file, &dir, name)
+    }
+
+    /// Validates a spec whose relative paths resolve against `dir`.
+    pub fn new(file: SpecFile, dir: &Path, name: String) -> anyhow::Result<Self> {
+        let base_path = dir.join(&file.base);
+        let base_text = std::fs::read_to_string(&base_path).map_err(|e| {
+            bad(format!(
+                "base = {}: cannot read {}: {e}",
+                file.base.display(),
+                base_path.display()
+            ))
+        })?;
+        let base_json: Value = serde_json::from_str(&base_text)
+            .map_err(|e| bad(format!("base = {}: {e}", file.base.display())))?;
+        let base = crate::config::load_scenario(&base_path)?;
+        let base_dir = base_path
+            .parent()
+            .map(Path::to_path_buf)
+            .unwrap_or_default();
+        let backend = file.backend.unwrap_or(base.backend());
+        let axes = file
+            .axes
+            .iter()
+            .map(AxisFile::validate)
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut seen = BTreeSet::new();
+        for a in &axes {
+            if !seen.insert(a.field.as_str()) {
+                return Err(bad(format!("axes[{}] appears twice", a.field)).into());
+            }
+        }
+        let seeds = match &file.seeds {
+            None => vec![base.seed()],
+            Some(SeedsFile::List(v)) if v.is_empty() => {
+                return Err(bad("seeds = []: give at least one seed").into())
+            }
+            Some(SeedsFile::List(v)) => v.clone(),
+            Some(SeedsFile::Range { first, count }) => {
+                if *count == 0 || *count > 100_000 {
+                    return Err(bad(format!(
+                        "seeds.count = {count}: must be between 1 and 100000"
+                    ))
+                    .into());
+                }
+                (*first..first.saturating_add(*count)).collect()
+            }
+        };
+        if seeds.iter().collect::<BTreeSet<_>>().len() != seeds.len() {
+            return Err(bad(format!("seeds = {seeds:?}: a seed is listed twice")).into());
+        }
+        let n = base.vehicles();
+        let mut runs = Vec::new();
+        let names = file.runs.clone().unwrap_or_else(|| {
+            if file.penetrations.is_empty() {
+                vec!["protocol".into()]
+            } else {
+                Vec::new()
+            }
+        });
+        for name in &names {
+            let spec = RunSpec::parse("runs", name, n)?;
+            if runs.iter().any(|r: &RunChoice| r.spec.name == spec.name) {
+                return Err(bad(format!("runs: {} is listed twice", spec.name)).into());
+            }
+            runs.push(RunChoice {
+                penetration: spec.penetration(n),
+                spec,
+            });
+        }
+        if !file.penetrations.is_empty() {
+            let human_name = file.mixed_driver.as_deref().unwrap_or("krauss-0.9");
+            let human = SumoDriver::parse("mixed_driver", human_name)
+                .map_err(|e| InputError::caused("mixed_driver", e))?;
+            let controller = DamperSpec::parse(
+                "mixed_controller",
+                file.mixed_controller.as_deref().unwrap_or("law"),
+            )
+            .map_err(|e| InputError::caused("mixed_controller", e))?;
+            for &p in &file.penetrations {
+                if !(0.0..=1.0).contains(&p) {
+                    return Err(
+                        bad(format!("penetrations: {p} is not a fraction in [0, 1]")).into(),
+                    );
+                }
+                let k = (p * n as f64).round() as usize;
+                let name = match controller {
+                    Some(d) if k > 0 => format!("{d}-mixed-{p}"),
+                    _ => format!("mixed-{p}"),
+                };
+                let spec = RunSpec::mixed(name, n, k, human, controller);
+                if runs.iter().any(|r| r.spec.name == spec.name) {
+                    return Err(bad(format!("penetrations: {p} is listed twice")).into());
+                }
+                runs.push(RunChoice {
+                    spec,
+                    penetration: k as f64 / n.max(1) as f64,
+                });
+            }
+        }
+        if runs.is_empty() {
+            return Err(bad(
+                "runs = []: name at least one run (e.g. \"protocol\") or give penetrations",
+            )
+            .into());
+        }
+        if backend == Backend::Native {
+            if let Some(r) = runs
+                .iter()
+                .find(|r| r.spec.drivers.iter().any(Option::is_some))
+            {
+                return Err(bad(format!(
+                    "runs: {} has SUMO drivers but backend = \"native\"; use backend \"sumo\" or only \"protocol\"",
+                    r.spec.name
+                ))
+                .into());
+            }
+        }
+        let metrics = match &file.metrics {
+            None => DEFAULT_METRICS.iter().map(|s| s.to_string()).collect(),
+            Some(m) => m.clone(),
+        };
+        let known = crate::sweep::table::metric_kinds();
+        for m in &metrics {
+            if !known.iter().any(|(p, _)| p == m) {
+                let mut near: Vec<&str> = known
+                    .iter()
+                    .map(|(p, _)| p.as_str())
+                    .filter(|p| p.split('.').next() == m.split('.').next())
+                    .collect();
+                if near.is_empty() {
+                    near = known.iter().map(|(p, _)| p.as_str()).take(12).collect();
+                }
+                return Err(bad(format!(
+                    "metrics: {m:?} is not a metric of metrics.json; valid are e.g. {} (docs/metrics.schema.json lists all)",
+                    near.join(", ")
+                ))
+                .into());
+            }
+        }
+        if metrics.iter().collect::<BTreeSet<_>>().len() != metrics.len() {
+            return Err(bad("metrics: a metric is listed twice").into());
+        }
+        if file.record_every == Some(0) {
+            return Err(bad("record_every = 0: must be ≥ 1").into());
+        }
+        if let Some(t) = file.timeout_s {
+            if !(t.is_finite() && t > 0.0) {
+                return Err(bad(format!("timeout_s = {t}: must be a finite number > 0")).into());
+            }
+        }
+        let mut h = Sha256::new();
+        h.update(serde_json::to_string(&file)?.as_bytes());
+        h.update([0]);
+        h.update(serde_json::to_string(&base_json)?.as_bytes());
+        let hash = h.finalize().iter().map(|b| format!("{b:02x}")).collect();
+        let sweep = Self {
+            name,
+            file,
+            base,
+            base_json,
+            base_dir,
+            backend,
+            axes,
+            runs,
+            seeds,
+            metrics,
+            hash,
+        };
+        // Every point's scenario must validate before anything runs.
+        let mut checked = BTreeSet::new();
+        for p in sweep.points() {
+            // The run and the seed never make a scenario invalid; check each axis combination once.
+            if checked.insert(p.at.clone()) {
+                sweep.scenario(&p)?;
+            }
+        }
+        Ok(sweep)
+    }
+
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.axes.iter().map(|a| a.values.len()).product::<usize>()
+            * self.runs.len()
+            * self.seeds.len()
+    }
+
+    /// The points in order.
+    pub fn points(&self) -> impl Iterator<Item = Point> + '_ {
+        (0..self.len()).map(|id| self.point(id))
+    }
+
+    /// Point `id` (seeds vary fastest, then runs, then the last axis).
+    pub fn point(&self, id: usize) -> Point {
+        let mut rest = id;
+        let seed = self.seeds[rest % self.seeds.len()];
+        rest /= self.seeds.len();
+        let run = rest % self.runs.len();
+        rest /= self.runs.len();
+        let mut at = vec![0; self.axes.len()];
+        for (k, a) in self.axes.iter().enumerate().rev() {
+            at[k] = rest % a.values.len();
+            rest /= a.values.len();
+        }
+        Point { id, at, run, seed }
+    }
+
+    /// The validated scenario of a point (seed included; scales applied last).
+    pub fn scenario(&self, p: &Point) -> anyhow::Result<Scenario> {
+        let mut doc = self.base_json.clone();
+        let mut gain = 1.0;
+        let mut delay = 1.0;
+        for (a, &k) in self.axes.iter().zip(&p.at) {
+            let v = a.values[k].clone();
+            match &a.target {
+                Target::Field(path) => set_path(&mut doc, path, v, &a.field)?,
+                Target::GainScale => gain = v.as_f64().unwrap_or(1.0),
+                Target::DelayScale => delay = v.as_f64().unwrap_or(1.0),
+            }
+        }
+        doc["seed"] = serde_json::json!(p.seed);
+        doc["backend"] = serde_json::to_value(self.backend)?;
+        let at = || {
+            self.axes
+                .iter()
+                .zip(&p.at)
+                .map(|(a, &k)| format!("{} = {}", a.field, a.values[k]))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let file = ScenarioFile::from_json(&doc.to_string(), "<sweep point>")
+            .map_err(|e| InputError::caused(format!("sweep point {} ({})", p.id, at()), e))?;
+        let sc = file
+            .validate(&self.base_dir)
+            .map_err(|e| InputError::caused(format!("sweep point {} ({})", p.id, at()), e))?;
+        if gain == 1.0 && delay == 1.0 {
+            return Ok(sc);
+        }
+        if !matches!(sc.model(), Model::DelayedDriver(_)) {
+            return Err(bad(format!(
+                "axes[scale.*]: scale.gain and scale.delay need a delayed-driver scenario; {} is a CACC platoon",
+                self.base.name()
+            ))
+            .into());
+        }
+        Ok(sc
+            .scaled(gain, delay)
+            .map_err(|e| InputError::caused(format!("sweep point {} ({})", p.id, at()), e))?
+            .scenario)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spec(json: &str) -> anyhow::Result<Sweep> {
+        let file: SpecFile = serde_json::from_str(json)?;
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios");
+        Sweep::new(file, &dir, "t".into())
+    }
+
+    #[test]
+    fn points_are_the_product_with_seeds_fastest() {
+        let s = spec(
+            r#"{"base": "ring-theorem1.json", "backend": "native",
+                "axes": [{"field": "scale.gain", "linspace": [0.5, 1.5, 3]},
+                         {"field": "initial.speed_mps", "values": [6, 8]}],
+                "seeds": {"first": 10, "count": 2}}"#,
+        )
+        .unwrap();
+        assert_eq!(s.len(), 3 * 2 * 2);
+        let p = s.point(7);
+        // 7 = ((1·2 + 1)·1 + 0)·2 + 1: gain index 1, speed index 1, seed 11.
+        assert_eq!((p.at.clone(), p.run, p.seed), (vec![1, 1], 0, 11));
+        assert_eq!(s.axes[0].numbers().unwrap(), vec![0.5, 1.0, 1.5]);
+        let sc = s.scenario(&p).unwrap();
+        assert_eq!(sc.seed(), 11);
+        assert_eq!(sc.initial_speed_mps()[0], 8.0);
+        let ids: Vec<usize> = s.points().map(|p| p.id).collect();
+        assert_eq!(ids, (0..12).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn logspace_is_geometric_with_exact_ends() {
+        let v = spaced("x", "logspace", (0.1, 10.0, 3), true).unwrap();
+        assert_eq!(v[0].as_f64(), Some(0.1));
+        assert!((v[1].as_f64().unwrap() - 1.0).abs() < 1e-15);
+        assert_eq!(v[2].as_f64(), Some(10.0));
+    }
+
+    #[test]
+    fn errors_name_the_axis_and_the_field() {
+        let e = spec(
+            r#"{"base": "ring-theorem1.json", "axes": [{"field": "initial.speed_mps", "values": [-3]}]}"#,
+        )
+        .unwrap_err();
+        let msg = format!("{e:#}");
+        assert!(msg.contains("initial.speed_mps = -3"), "{msg}");
+        assert!(
+            msg.starts_with("sweep point 0 (initial.speed_mps = -3)"),
+            "{msg}"
+        );
+        let e = spec(
+            r#"{"base": "ring-theorem1.json", "axes": [{"field": "model.nope", "values": [1]}]}"#,
+        )
+        .unwrap_err();
+        assert!(format!("{e:#}").contains("nope"), "{e:#}");
+        let e = spec(r#"{"base": "ring-theorem1.json", "metrics": ["sync.verdikt"]}"#).unwrap_err();
+        assert!(
+            e.to_string().contains("\"sync.verdikt\" is not a metric"),
+            "{e}"
+        );
+        assert!(e.to_string().contains("sync.verdict"), "{e}");
+        let e = spec(
+            r#"{"base": "ring-theorem1.json", "axes": [{"field": "scale.gain", "values": [0]}]}"#,
+        )
+        .unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("axes[scale.gain]: value 0 is not a number > 0"),
+            "{e}"
+        );
+        let e = spec(r#"{"base": "ring-theorem1.json", "backend": "native", "runs": ["idm"]}"#)
+            .unwrap_err();
+        assert!(e.to_string().contains("backend = \"native\""), "{e}");
+        let e =
+            spec(r#"{"base": "ring-theorem1.json", "axes": [{"field": "seed", "values": [1]}]}"#)
+                .unwrap_err();
+        assert!(e.to_string().contains("\"seeds\""), "{e}");
+    }
+}

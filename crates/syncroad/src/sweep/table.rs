@@ -1,0 +1,248 @@
+//! The results table: one row per point, typed columns, written as Parquet and CSV.
+//!
+//! A row is kept as a JSON object (`rows/<point>.json`) the moment its point finishes, so an
+//! interrupted sweep loses nothing; the tables are rebuilt from the rows in point order, so
+//! they are the same whatever the jobs, the order of completion or the sharding.
+
+use std::fs::File;
+use std::path::Path;
+use std::sync::{Arc, OnceLock};
+
+use anyhow::Context;
+use arrow_array::{ArrayRef, BooleanArray, Float64Array, Int64Array, RecordBatch, StringArray};
+use arrow_schema::{DataType, Field, Schema};
+use serde_json::{Map, Value};
+
+/// A column's type.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kind {
+    /// 64-bit float.
+    Float,
+    /// 64-bit integer.
+    Int,
+    /// Boolean.
+    Bool,
+    /// UTF-8 text.
+    Text,
+}
+
+/// A column: its name and type.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Column {
+    /// Name.
+    pub name: String,
+    /// Type.
+    pub kind: Kind,
+}
+
+impl Column {
+    /// A column.
+    pub fn new(name: impl Into<String>, kind: Kind) -> Self {
+        Self {
+            name: name.into(),
+            kind,
+        }
+    }
+}
+
+/// Every scalar of `metrics.json` as a dotted path with its type, read from the published
+/// schema (`docs/metrics.schema.json`), in the schema's order.
+pub fn metric_kinds() -> &'static [(String, Kind)] {
+    static KINDS: OnceLock<Vec<(String, Kind)>> = OnceLock::new();
+    KINDS.get_or_init(|| {
+        let schema: Value =
+            serde_json::from_str(include_str!("../../../../docs/metrics.schema.json"))
+                .expect("the published schema is JSON");
+        let mut out = Vec::new();
+        walk(&schema, &schema, "", &mut out);
+        out
+    })
+}
+
+fn walk(node: &Value, root: &Value, prefix: &str, out: &mut Vec<(String, Kind)>) {
+    if let Some(r) = node.get("$ref").and_then(Value::as_str) {
+        let name = r.trim_start_matches("#/$defs/");
+        if let Some(def) = root.get("$defs").and_then(|d| d.get(name)) {
+            walk(def, root, prefix, out);
+        }
+        return;
+    }
+    if let Some(props) = node.get("properties").and_then(Value::as_object) {
+        for (k, v) in props {
+            let path = if prefix.is_empty() {
+                k.clone()
+            } else {
+                format!("{prefix}.{k}")
+            };
+            walk(v, root, &path, out);
+        }
+        return;
+    }
+    if node.get("enum").is_some() {
+        out.push((prefix.to_string(), Kind::Text));
+        return;
+    }
+    let types: Vec<&str> = match node.get("type") {
+        Some(Value::String(t)) => vec![t.as_str()],
+        Some(Value::Array(ts)) => ts.iter().filter_map(Value::as_str).collect(),
+        _ => Vec::new(),
+    };
+    let kind = types.iter().find_map(|t| match *t {
+        "number" => Some(Kind::Float),
+        "integer" => Some(Kind::Int),
+        "boolean" => Some(Kind::Bool),
+        "string" => Some(Kind::Text),
+        _ => None,
+    });
+    if let Some(k) = kind {
+        out.push((prefix.to_string(), k));
+    }
+}
+
+/// The value at a dotted path of a JSON document (`Null` when absent).
+pub fn at_path<'a>(doc: &'a Value, path: &str) -> &'a Value {
+    path.split('.')
+        .try_fold(doc, |v, k| v.get(k))
+        .unwrap_or(&Value::Null)
+}
+
+/// A table: columns and rows (JSON objects keyed by column name).
+#[derive(Debug, Clone)]
+pub struct Table {
+    /// The columns in order.
+    pub columns: Vec<Column>,
+    /// The rows in order.
+    pub rows: Vec<Map<String, Value>>,
+}
+
+fn float(v: &Value) -> Option<f64> {
+    v.as_f64()
+}
+
+fn int(v: &Value) -> Option<i64> {
+    v.as_i64()
+        .or_else(|| v.as_u64().and_then(|u| i64::try_from(u).ok()))
+}
+
+fn text(v: &Value) -> Option<String> {
+    match v {
+        Value::Null => None,
+        Value::String(s) => Some(s.clone()),
+        other => Some(other.to_string()),
+    }
+}
+
+impl Table {
+    /// The Arrow record batch of the table.
+    pub fn batch(&self) -> anyhow::Result<RecordBatch> {
+        let fields: Vec<Field> = self
+            .columns
+            .iter()
+            .map(|c| {
+                let t = match c.kind {
+                    Kind::Float => DataType::Float64,
+                    Kind::Int => DataType::Int64,
+                    Kind::Bool => DataType::Boolean,
+                    Kind::Text => DataType::Utf8,
+                };
+                Field::new(&c.name, t, true)
+            })
+            .collect();
+        let cell = |r: &Map<String, Value>, c: &Column| r.get(&c.name).cloned().unwrap_or_default();
+        let arrays: Vec<ArrayRef> = self
+            .columns
+            .iter()
+            .map(|c| -> ArrayRef {
+                let cells = self.rows.iter().map(|r| cell(r, c));
+                match c.kind {
+                    Kind::Float => Arc::new(cells.map(|v| float(&v)).collect::<Float64Array>()),
+                    Kind::Int => Arc::new(cells.map(|v| int(&v)).collect::<Int64Array>()),
+                    Kind::Bool => Arc::new(cells.map(|v| v.as_bool()).collect::<BooleanArray>()),
+                    Kind::Text => Arc::new(cells.map(|v| text(&v)).collect::<StringArray>()),
+                }
+            })
+            .collect();
+        Ok(RecordBatch::try_new(Arc::new(Schema::new(fields)), arrays)?)
+    }
+
+    /// Writes the table as Parquet (written to a temporary name, then renamed).
+    pub fn write_parquet(&self, path: &Path) -> anyhow::Result<()> {
+        let batch = self.batch()?;
+        let tmp = path.with_extension("parquet.tmp");
+        let f = File::create(&tmp).with_context(|| format!("cannot write {}", tmp.display()))?;
+        let mut w = parquet::arrow::ArrowWriter::try_new(f, batch.schema(), None)?;
+        w.write(&batch)?;
+        w.close()?;
+        std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
+    }
+
+    /// Writes the table as CSV (empty cells for missing values).
+    pub fn write_csv(&self, path: &Path) -> anyhow::Result<()> {
+        let tmp = path.with_extension("csv.tmp");
+        let mut w = csv::Writer::from_path(&tmp)
+            .with_context(|| format!("cannot write {}", tmp.display()))?;
+        w.write_record(self.columns.iter().map(|c| c.name.as_str()))?;
+        for r in &self.rows {
+            w.write_record(self.columns.iter().map(|c| {
+                let v = r.get(&c.name).cloned().unwrap_or_default();
+                match c.kind {
+                    Kind::Float => float(&v).map_or(String::new(), |x| x.to_string()),
+                    Kind::Int => int(&v).map_or(String::new(), |x| x.to_string()),
+                    Kind::Bool => v.as_bool().map_or(String::new(), |b| b.to_string()),
+                    Kind::Text => text(&v).unwrap_or_default(),
+                }
+            }))?;
+        }
+        w.flush()?;
+        drop(w);
+        std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_schema_gives_typed_metric_paths() {
+        let k = metric_kinds();
+        let find = |p: &str| k.iter().find(|(q, _)| q == p).map(|(_, t)| *t);
+        assert_eq!(find("sync.verdict"), Some(Kind::Text));
+        assert_eq!(find("sync.final_spread_mps"), Some(Kind::Float));
+        assert_eq!(find("safety.collision_steps"), Some(Kind::Int));
+        assert_eq!(find("certified"), Some(Kind::Bool));
+        assert_eq!(find("sync.thresholds.tolerance_mps"), Some(Kind::Float));
+        // Arrays are not scalar metrics.
+        assert_eq!(find("drivers"), None);
+    }
+
+    #[test]
+    fn cells_keep_their_types_and_gaps() {
+        let t = Table {
+            columns: vec![
+                Column::new("x", Kind::Float),
+                Column::new("n", Kind::Int),
+                Column::new("ok", Kind::Bool),
+                Column::new("s", Kind::Text),
+            ],
+            rows: vec![
+                serde_json::from_str(r#"{"x": 0.1, "n": 3, "ok": true, "s": "a,b"}"#).unwrap(),
+                serde_json::from_str(r#"{"x": null, "n": 2}"#).unwrap(),
+            ],
+        };
+        let dir = std::env::temp_dir().join(format!("syncroad-table-cells-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        t.write_csv(&dir.join("t.csv")).unwrap();
+        assert_eq!(
+            std::fs::read_to_string(dir.join("t.csv")).unwrap(),
+            "x,n,ok,s\n0.1,3,true,\"a,b\"\n,2,,\n"
+        );
+        let b = t.batch().unwrap();
+        assert_eq!(b.num_rows(), 2);
+        assert_eq!(b.column(0).null_count(), 1);
+        assert_eq!(b.column(2).null_count(), 1);
+        t.write_parquet(&dir.join("t.parquet")).unwrap();
+        let bytes = std::fs::read(dir.join("t.parquet")).unwrap();
+        assert_eq!(&bytes[..4], b"PAR1");
+    }
+}

@@ -1,0 +1,294 @@
+//! `syncroad sweep` end to end: the table is the same whatever the jobs, the shards and
+//! interruptions; native verdicts fall where the closed-form stability boundary says; the
+//! Parquet file loads in pandas; SUMO sweeps resume after Ctrl-C.
+
+mod common;
+
+use std::f64::consts::FRAC_PI_2;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use common::{bin, repo, run, tmpdir};
+
+/// A uniform bidirectional ring (22 vehicles, gains 0.6 ahead and 0.1 behind, one delay α
+/// for all) and a gain × delay sweep over it.
+fn uniform_ring(dir: &Path, alpha: f64) -> PathBuf {
+    let sc = dir.join("uniform-ring.json");
+    std::fs::write(
+        &sc,
+        format!(
+            r#"{{"name": "uniform-ring", "backend": "native", "seed": 42, "step_s": 0.05,
+                "horizon_s": 300, "vehicles": 22, "road": {{"type": "ring", "length_m": 230}},
+                "model": {{"type": "delayed_driver",
+                          "graph": {{"type": "bidirectional_ring", "gain_pred": 0.6, "gain_follow": 0.1}},
+                          "delay_s": {alpha}}},
+                "initial": {{"speed_mps": 8.0, "perturbation": {{"speed_mps": 1.5, "gap_m": 0.5}}}},
+                "verdict": {{"tolerance_mps": 0.05, "window_s": 10}}}}"#
+        ),
+    )
+    .unwrap();
+    sc
+}
+
+fn write_spec(dir: &Path, body: &str) -> PathBuf {
+    let p = dir.join("spec.json");
+    std::fs::write(&p, body).unwrap();
+    p
+}
+
+fn csv(dir: &Path) -> String {
+    std::fs::read_to_string(dir.join("results.csv")).unwrap()
+}
+
+/// Column `name` of a results.csv text.
+fn column<'a>(text: &'a str, name: &str) -> Vec<&'a str> {
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let k = header.iter().position(|h| *h == name).unwrap();
+    lines.map(|l| l.split(',').nth(k).unwrap()).collect()
+}
+
+/// The critical product c·r of gain scale c and delay scale r for `s + c μ_k e^{−s r α} = 0`
+/// over the ring's Laplacian eigenvalues μ_k = a(1 − e^{iθ}) + b(1 − e^{−iθ}),
+/// θ = 2πk/n: with μ = |μ| e^{iφ}, a mode is stable iff c·r·|μ|·α < π/2 − |φ|.
+fn critical_product(n: usize, a: f64, b: f64, alpha: f64) -> f64 {
+    (1..n)
+        .map(|k| {
+            let th = 2.0 * std::f64::consts::PI * k as f64 / n as f64;
+            let re = a * (1.0 - th.cos()) + b * (1.0 - th.cos());
+            let im = -a * th.sin() + b * th.sin();
+            let (m, phi) = (re.hypot(im), im.atan2(re));
+            (FRAC_PI_2 - phi.abs()) / (m * alpha)
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+#[test]
+fn native_verdicts_follow_the_closed_form_boundary_whatever_the_jobs_and_shards() {
+    let dir = tmpdir("sweep-native");
+    let sc = uniform_ring(&dir, 0.5);
+    let spec = write_spec(
+        &dir,
+        &format!(
+            r#"{{"name": "uniform ring", "base": "{}", "axes": [
+                {{"field": "scale.gain", "logspace": [0.3, 4.0, 9]}},
+                {{"field": "scale.delay", "logspace": [0.3, 4.0, 9]}}],
+                "metrics": ["sync.verdict", "sync.final_spread_mps", "certified"]}}"#,
+            sc.display()
+        ),
+    );
+    let one = dir.join("jobs1");
+    let (code, out, err) = run(bin()
+        .args(["sweep"])
+        .arg(&spec)
+        .arg("--out")
+        .arg(&one)
+        .args(["--jobs", "1", "--no-plots"]));
+    assert_eq!(code, 0, "{out}\n{err}");
+    assert!(out.contains("81 points; ran 81 (0 failed)"), "{out}");
+    let table = csv(&one);
+
+    // Independent check: the closed-form boundary of the uniform ring.
+    let p_star = critical_product(22, 0.6, 0.1, 0.5);
+    let (c, r, verdict) = (
+        column(&table, "scale.gain"),
+        column(&table, "scale.delay"),
+        column(&table, "sync.verdict"),
+    );
+    let (mut below, mut above) = (0, 0);
+    for k in 0..c.len() {
+        let p: f64 = c[k].parse::<f64>().unwrap() * r[k].parse::<f64>().unwrap();
+        if p <= 0.7 * p_star && p >= 0.2 * p_star {
+            below += 1;
+            assert_eq!(verdict[k], "synchronized", "c·r = {p} < 0.7·{p_star}");
+        }
+        if p >= 1.3 * p_star {
+            above += 1;
+            assert_eq!(verdict[k], "not_synchronized", "c·r = {p} > 1.3·{p_star}");
+        }
+    }
+    assert!(
+        below >= 10 && above >= 20,
+        "{below} points below, {above} above"
+    );
+
+    // The same table with two jobs, and from three shards merged.
+    let two = dir.join("jobs2");
+    let (code, _, err) = run(bin().arg("sweep").arg(&spec).arg("--out").arg(&two).args([
+        "--jobs",
+        "2",
+        "--no-plots",
+    ]));
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(csv(&two), table);
+    let shards: Vec<PathBuf> = (0..3).map(|i| dir.join(format!("shard-{i}"))).collect();
+    for (i, s) in shards.iter().enumerate() {
+        let (code, out, err) = run(bin().arg("sweep").arg(&spec).arg("--out").arg(s).args([
+            "--shard",
+            &format!("{i}/3"),
+            "--no-plots",
+        ]));
+        assert_eq!(code, 0, "{out}\n{err}");
+        assert!(out.contains("27 points (shard"), "{out}");
+    }
+    let merged = dir.join("merged");
+    let (code, out, err) = run(bin()
+        .args(["sweep", "collect"])
+        .arg(&spec)
+        .arg("--out")
+        .arg(&merged)
+        .args(&shards)
+        .arg("--no-plots"));
+    assert_eq!(code, 0, "{out}\n{err}");
+    assert_eq!(csv(&merged), table);
+
+    // A missing shard is reported, and so is a shard given twice.
+    let partial = dir.join("partial");
+    let (code, _, err) = run(bin()
+        .args(["sweep", "collect"])
+        .arg(&spec)
+        .arg("--out")
+        .arg(&partial)
+        .args([&shards[0], &shards[1], &shards[1]])
+        .arg("--no-plots"));
+    assert_eq!(code, 3, "{err}");
+    assert!(err.contains("error: 27 points missing: 2, 5, 8"), "{err}");
+    assert!(err.contains("27 points duplicated"), "{err}");
+
+    // Running again skips everything; another spec is refused in the same folder.
+    let (code, out, _) = run(bin()
+        .arg("sweep")
+        .arg(&spec)
+        .arg("--out")
+        .arg(&one)
+        .arg("--no-plots"));
+    assert_eq!(code, 0);
+    assert!(
+        out.contains("ran 0 (0 failed), 81 finished before"),
+        "{out}"
+    );
+    let other = write_spec(
+        &dir,
+        &format!(r#"{{"base": "{}", "seeds": [1, 2]}}"#, sc.display()),
+    );
+    let (code, _, err) = run(bin().arg("sweep").arg(&other).arg("--out").arg(&one));
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("holds a sweep of another spec"), "{err}");
+}
+
+#[test]
+fn bad_specs_are_refused_before_anything_runs() {
+    let dir = tmpdir("sweep-bad");
+    let sc = repo().join("scenarios/ring-theorem1.json");
+    let spec = write_spec(
+        &dir,
+        &format!(
+            r#"{{"base": "{}", "axes": [{{"field": "model.graph.gain_pred", "values": [0.5, -1]}}]}}"#,
+            sc.display()
+        ),
+    );
+    let out = dir.join("out");
+    let (code, _, err) = run(bin().arg("sweep").arg(&spec).arg("--out").arg(&out));
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("sweep point 1 (model.graph.gain_pred = -1)"),
+        "{err}"
+    );
+    assert!(!out.exists(), "nothing was created");
+}
+
+fn rows_in(dir: &Path) -> usize {
+    std::fs::read_dir(dir.join("rows"))
+        .map(|d| {
+            d.filter_map(Result::ok)
+                .filter(|e| e.path().extension().is_some_and(|x| x == "json"))
+                .count()
+        })
+        .unwrap_or(0)
+}
+
+/// A SUMO sweep stopped by Ctrl-C keeps its finished rows and exits 130; run again, it ends
+/// with the table of an uninterrupted sweep, which pandas reads in one line.
+#[test]
+fn an_interrupted_sumo_sweep_resumes_to_the_same_table() {
+    let dir = tmpdir("sweep-sumo");
+    let spec = write_spec(
+        &dir,
+        &format!(
+            r#"{{"name": "sugiyama", "base": "{}", "backend": "sumo",
+                "axes": [{{"field": "scale.gain", "values": [1.0, 1.3, 3.0]}}],
+                "runs": ["protocol", "krauss-0.9"], "seeds": [1, 2, 3]}}"#,
+            repo().join("scenarios/sugiyama-ring.json").display()
+        ),
+    );
+    let whole = dir.join("whole");
+    let (code, out, err) = run(bin().arg("sweep").arg(&spec).arg("--out").arg(&whole));
+    assert_eq!(code, 0, "{out}\n{err}");
+    assert!(out.contains("18 points; ran 18 (0 failed)"), "{out}");
+    assert!(out.contains("2 SUMO worker processes"), "{out}");
+
+    let resumed = dir.join("resumed");
+    let mut child = bin()
+        .arg("sweep")
+        .arg(&spec)
+        .arg("--out")
+        .arg(&resumed)
+        .args(["--jobs", "1"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t0 = Instant::now();
+    while rows_in(&resumed) < 4 && t0.elapsed() < Duration::from_secs(120) {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // SAFETY: signals our own child.
+    unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
+    let status = child.wait().unwrap();
+    let kept = rows_in(&resumed);
+    assert_eq!(status.code(), Some(130));
+    assert!((4..18).contains(&kept), "{kept} rows kept");
+    let (code, out, err) = run(bin().arg("sweep").arg(&spec).arg("--out").arg(&resumed));
+    assert_eq!(code, 0, "{out}\n{err}");
+    assert!(out.contains(&format!("{kept} finished before")), "{out}");
+    assert_eq!(csv(&resumed), csv(&whole));
+
+    // The law synchronizes at c = 1 and 1.3 and not at c = 3 (exact boundary c ≈ 1.71 at r = 1).
+    let t = csv(&whole);
+    let (gain, run_name, verdict) = (
+        column(&t, "scale.gain"),
+        column(&t, "run"),
+        column(&t, "sync.verdict"),
+    );
+    for k in 0..gain.len() {
+        if run_name[k] == "protocol" {
+            let want = if gain[k] == "3" {
+                "not_synchronized"
+            } else {
+                "synchronized"
+            };
+            assert_eq!(verdict[k], want, "row {k}");
+        }
+    }
+
+    // pandas reads the Parquet table in one line, with the CSV's values and typed columns.
+    let py = repo().join(".venv/bin/python");
+    let check = format!(
+        r#"
+import pandas
+df = pandas.read_parquet("{}")
+csv = pandas.read_csv("{}", float_precision="round_trip")
+assert len(df) == 18, len(df)
+assert list(df.columns) == list(csv.columns), (list(df.columns), list(csv.columns))
+assert str(df["scale.gain"].dtype) == "float64" and str(df["seed"].dtype) == "int64"
+assert (df["sync.final_spread_mps"] == csv["sync.final_spread_mps"]).all()
+assert set(df["run"]) == {{"protocol", "krauss-0.9"}}
+print("pandas ok")
+"#,
+        whole.join("results.parquet").display(),
+        whole.join("results.csv").display()
+    );
+    let (code, out, err) = run(std::process::Command::new(py).args(["-c", &check]));
+    assert_eq!(code, 0, "{out}\n{err}");
+    assert!(out.contains("pandas ok"));
+}
