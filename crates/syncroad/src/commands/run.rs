@@ -124,7 +124,7 @@ fn run_sumo(sc: &Scenario, out: &OutputArgs, args: &SumoArgs) -> anyhow::Result<
         }
         if let Some(t) = &facts.safety {
             println!(
-                "  SUMO safety: {} collision steps, {} teleports, {} overridden commands (max {:.3} m/s), {} negative commands sent as 0",
+                "  SUMO safety: {} collision steps, {} teleports, {} overridden commands (max {:.3e} m/s), {} negative commands sent as 0",
                 t.collision_steps, t.teleports, t.overridden_commands, facts.max_override_mps, t.negative_commands_clamped
             );
         }
