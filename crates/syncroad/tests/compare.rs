@@ -360,3 +360,37 @@ fn sumo_kind_baseline_and_plots() {
     }
     let _ = std::fs::remove_dir_all(&d);
 }
+
+#[test]
+fn a_law_diverging_on_a_vehicle_sumo_drives_does_not_stop_the_mixed_run() {
+    // Vehicle 1's gain makes the law's output for it non-finite from step 0; in mixed-2 SUMO
+    // drives vehicle 1 (the law drives 0 and 11), so the law's output for it is never sent.
+    let dir = tmpdir("compare-mixed-nonfinite");
+    let mut s = json(&sugiyama());
+    s["sumo"]["net"] = repo()
+        .join("sumo-nets/sugiyama-ring.net.xml")
+        .to_string_lossy()
+        .into();
+    s["horizon_s"] = 60.into();
+    let mut gain = vec![Value::from(0.6); 22];
+    gain[1] = 1e308.into();
+    s["model"]["graph"]["gain_pred"] = gain.into();
+    let scenario = dir.join("s.json");
+    std::fs::write(&scenario, s.to_string()).unwrap();
+    let (code, out, err) = run(bin()
+        .args([
+            "compare",
+            "--no-plots",
+            "--baselines",
+            "krauss",
+            "--mixed",
+            "0,2",
+        ])
+        .arg(&scenario)
+        .arg("--out")
+        .arg(dir.join("out")));
+    assert!(code == 0 || code == 1, "{out}{err}");
+    let m = json(&dir.join("out/mixed-2/metrics.json"));
+    assert_eq!(m["complete"], true, "{m}");
+    assert_eq!(m["safety"]["negative_commands_clamped"], 0, "{m}");
+}
