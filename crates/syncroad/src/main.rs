@@ -20,6 +20,7 @@ mod plots;
 mod progress;
 mod report;
 mod stability;
+mod stdout;
 
 use std::process::ExitCode;
 

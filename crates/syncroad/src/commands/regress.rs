@@ -30,6 +30,7 @@ use crate::config::load_scenario;
 use crate::error::{InputError, Status};
 use crate::output::write_json;
 use crate::pipeline::{self, Finished};
+use crate::stdout::{out, outln};
 use syncroad_control::EvalOptions;
 
 /// Absolute and relative tolerance of one metric.
@@ -395,11 +396,11 @@ pub fn run(baseline_path: &Path, update: bool, metrics: Option<&Path>) -> anyhow
         base.metrics = results;
         base.stamp = stamps;
         save(baseline_path, &base)?;
-        println!("updated {}", baseline_path.display());
+        outln!("updated {}", baseline_path.display());
         return Ok(Status::Success);
     }
     let c = compare(&base, &stamps, &results);
-    print!("{}", render(&c, baseline_path));
+    out!("{}", render(&c, baseline_path));
     Ok(Status::verdict(c.failures.is_empty()))
 }
 
