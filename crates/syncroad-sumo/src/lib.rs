@@ -34,6 +34,7 @@ mod net;
 mod protocol;
 mod python;
 mod run;
+mod signals;
 mod supervisor;
 mod venv;
 mod worker;
@@ -46,6 +47,7 @@ pub use run::{
     check_sumo_numbers, layout_for, load_road, loop_position, run_scenario, MeasureOptions,
     PrepareError, Prepared, RunOptions, SumoRun,
 };
+pub use signals::received as interrupt_signal;
 pub use supervisor::{interrupt_flag, SupervisorError, WorkerCommand};
 pub use venv::repo_dir;
 pub use worker::{is_worker_invocation, worker_main};

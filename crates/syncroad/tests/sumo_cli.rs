@@ -181,3 +181,44 @@ fn a_diverging_law_that_sumo_clamps_is_not_reported_synchronized() {
         assert!(out.contains("because SUMO reported"), "{out}");
     }
 }
+
+#[test]
+fn sigterm_and_sighup_keep_the_rows_like_ctrl_c() {
+    // What `timeout`, CI cancellation and `docker stop` send to the parent.
+    for (sig, code) in [
+        (libc::SIGTERM, 143),
+        (libc::SIGHUP, 129),
+        (libc::SIGINT, 130),
+    ] {
+        let dir = tmpdir(&format!("signal-{sig}"));
+        let scenario = sugiyama_variant(&dir, |s| s["horizon_s"] = 6000.into());
+        let out = dir.join("out");
+        let child = bin()
+            .arg("run")
+            .arg(&scenario)
+            .arg("--out")
+            .arg(&out)
+            .arg("--no-plots")
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(2000));
+        // SAFETY: signalling a child this test started.
+        assert_eq!(unsafe { libc::kill(child.id() as i32, sig) }, 0);
+        let o = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(code), "signal {sig}: {err}");
+        let m: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap())
+                .unwrap();
+        assert_eq!(m["complete"], false);
+        assert!(m["error"].as_str().unwrap().contains("interrupted"), "{m}");
+        let rows = std::fs::read_to_string(out.join("trajectories.csv"))
+            .unwrap()
+            .lines()
+            .count();
+        assert!(rows > 22 * 10, "signal {sig}: {rows} rows kept");
+        assert_ne!(m["sync"]["verdict"], "synchronized");
+    }
+}
