@@ -394,3 +394,33 @@ fn a_law_diverging_on_a_vehicle_sumo_drives_does_not_stop_the_mixed_run() {
     assert_eq!(m["complete"], true, "{m}");
     assert_eq!(m["safety"]["negative_commands_clamped"], 0, "{m}");
 }
+
+#[test]
+fn an_interrupted_regress_exits_130_and_leaves_the_baseline_whole() {
+    let d = tmpdir("regress-interrupted");
+    let mut base = json(&repo().join("tests/baselines/sugiyama-ring.compare.json"));
+    base["scenario"] = sugiyama().display().to_string().into();
+    let path = d.join("baseline.json");
+    let before = serde_json::to_string_pretty(&base).unwrap();
+    std::fs::write(&path, &before).unwrap();
+    for update in [true, false] {
+        let mut cmd = bin();
+        cmd.arg("regress").arg(&path);
+        if update {
+            cmd.arg("--update");
+        }
+        let child = cmd
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(2000));
+        // SAFETY: signalling a child this test started.
+        assert_eq!(unsafe { libc::kill(child.id() as i32, libc::SIGINT) }, 0);
+        let o = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(130), "update {update}: {err}");
+        assert!(err.contains("interrupted"), "{err}");
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), before);
+    }
+}

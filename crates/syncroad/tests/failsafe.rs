@@ -127,3 +127,34 @@ fn stdout_on_a_full_device_does_not_panic() {
     assert_eq!(o.status.code(), Some(0), "{err}");
     assert_eq!(listing(&dir), ["metrics.json", "trajectories.csv"]);
 }
+
+#[test]
+fn regress_update_refuses_an_incomplete_run_and_keeps_the_baseline() {
+    let dir = tmpdir("update-incomplete");
+    let (code, _, err) = run(&mut simulate(&dir.join("run")));
+    assert_eq!(code, 0, "{err}");
+    let mut m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("run/metrics.json")).unwrap())
+            .unwrap();
+    m["complete"] = false.into();
+    m["error"] = "interrupted (Ctrl-C) after 12 recorded samples".into();
+    std::fs::write(dir.join("partial.json"), m.to_string()).unwrap();
+    let base = dir.join("baseline.json");
+    let before = std::fs::read_to_string(repo().join("tests/baselines/ring-theorem1.native.json"))
+        .unwrap()
+        .replace(
+            "../../scenarios/",
+            &format!("{}/scenarios/", repo().display()),
+        );
+    std::fs::write(&base, &before).unwrap();
+    let (code, _, err) = run(bin()
+        .args(["regress", "--update", "--metrics"])
+        .arg(dir.join("partial.json"))
+        .arg(&base));
+    assert_eq!(code, 3, "{err}");
+    assert!(
+        err.contains("only from complete runs") && err.contains("interrupted"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read_to_string(&base).unwrap(), before);
+}

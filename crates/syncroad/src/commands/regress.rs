@@ -391,8 +391,23 @@ pub fn run(baseline_path: &Path, update: bool, metrics: Option<&Path>) -> anyhow
         }
         None => fresh_metrics(&base, baseline_path)?,
     };
+    if syncroad_sumo::interrupt_signal().is_some() {
+        eprintln!(
+            "regress {}: interrupted; the baseline was neither compared nor updated",
+            baseline_path.display()
+        );
+        return Ok(Status::Interrupted);
+    }
     let (stamps, results) = split_stamps(fresh);
     if update {
+        let incomplete = incomplete_runs(&results);
+        if !incomplete.is_empty() {
+            anyhow::bail!(
+                "not updating {}: a baseline is recorded only from complete runs, and {} did not complete",
+                baseline_path.display(),
+                incomplete.join("; ")
+            );
+        }
         base.metrics = results;
         base.stamp = stamps;
         save(baseline_path, &base)?;
@@ -404,7 +419,26 @@ pub fn run(baseline_path: &Path, update: bool, metrics: Option<&Path>) -> anyhow
     Ok(Status::verdict(c.failures.is_empty()))
 }
 
-/// Writes a baseline file (pretty JSON, trailing newline).
+/// The runs of a metrics document (one record, or compare's `runs`) that did not reach their
+/// horizon, each with its error.
+pub fn incomplete_runs(doc: &Value) -> Vec<String> {
+    let one = |name: &str, r: &Value| {
+        (r.get("complete") != Some(&Value::Bool(true))).then(|| {
+            let why = r
+                .get("error")
+                .and_then(Value::as_str)
+                .unwrap_or("no record");
+            format!("{name} ({why})")
+        })
+    };
+    match doc.get("runs").and_then(Value::as_object) {
+        Some(runs) => runs.iter().filter_map(|(k, r)| one(k, r)).collect(),
+        None => one("the run", doc).into_iter().collect(),
+    }
+}
+
+/// Writes a baseline file (pretty JSON, trailing newline), atomically: an interrupted or
+/// failed write leaves the old baseline whole.
 pub fn save(path: &Path, b: &Baseline) -> anyhow::Result<()> {
     write_json(path, &serde_json::to_value(b)?)
 }
@@ -493,6 +527,17 @@ mod tests {
         );
         let text = render(&c, Path::new("b.json"));
         assert!(text.contains("FAIL (3 of 3 metrics)"), "{text}");
+    }
+
+    #[test]
+    fn incomplete_runs_are_named_with_their_error() {
+        let doc = json!({"runs": {"a": {"complete": true}, "b": {"complete": false, "error": "interrupted"}}});
+        assert_eq!(incomplete_runs(&doc), ["b (interrupted)"]);
+        assert!(incomplete_runs(&json!({"complete": true})).is_empty());
+        assert_eq!(
+            incomplete_runs(&json!({"complete": false})),
+            ["the run (no record)"]
+        );
     }
 
     #[test]
