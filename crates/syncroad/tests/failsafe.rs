@@ -158,3 +158,70 @@ fn regress_update_refuses_an_incomplete_run_and_keeps_the_baseline() {
     );
     assert_eq!(std::fs::read_to_string(&base).unwrap(), before);
 }
+
+/// The committed native baseline, its scenario path made absolute, with `edit` applied.
+fn native_baseline(dir: &Path, edit: impl FnOnce(&mut serde_json::Value)) -> std::path::PathBuf {
+    let text =
+        std::fs::read_to_string(repo().join("tests/baselines/ring-theorem1.native.json")).unwrap();
+    let mut b: serde_json::Value = serde_json::from_str(&text).unwrap();
+    b["scenario"] = repo()
+        .join("scenarios/ring-theorem1.json")
+        .display()
+        .to_string()
+        .into();
+    edit(&mut b);
+    let path = dir.join("baseline.json");
+    std::fs::write(&path, b.to_string()).unwrap();
+    path
+}
+
+#[test]
+fn regress_writes_junit_and_markdown_and_strict_fails_on_a_foreign_stamp() {
+    let dir = tmpdir("regress-reports");
+    // Recorded "elsewhere", and one metric planted off.
+    let base = native_baseline(&dir, |b| {
+        b["stamp"]["platform"] = "riscv64-plan9".into();
+        b["metrics"]["sync"]["spread_l2"] = 99.0.into();
+    });
+    let (junit, md) = (dir.join("r.xml"), dir.join("r.md"));
+    let (code, out, err) = run(bin()
+        .arg("regress")
+        .arg(&base)
+        .arg("--junit")
+        .arg(&junit)
+        .arg("--markdown")
+        .arg(&md));
+    assert_eq!(code, 1, "{out}{err}");
+    let x = std::fs::read_to_string(&junit).unwrap();
+    let cases = x.matches("<testcase ").count();
+    assert!(cases > 50, "{x}");
+    assert_eq!(x.matches("<failure ").count(), 1, "{x}");
+    assert!(x.contains(r#"name="sync.spread_l2">"#), "{x}");
+    assert!(x.contains(r#"failures="1""#), "{x}");
+    assert!(x.contains("<system-out>platform: baseline"), "{x}");
+    let m = std::fs::read_to_string(&md).unwrap();
+    assert!(
+        m.contains(": FAIL") && m.contains("| `sync.spread_l2` | 99.0 |"),
+        "{m}"
+    );
+    assert!(m.contains("riscv64-plan9"), "{m}");
+
+    // Only the stamp differs: reported and passing, unless --strict.
+    let base = native_baseline(&dir, |b| b["stamp"]["platform"] = "riscv64-plan9".into());
+    let (code, out, _) = run(bin().arg("regress").arg(&base));
+    assert_eq!(code, 0, "{out}");
+    assert!(out.contains("note: stamp differs"), "{out}");
+    let (code, out, err) = run(bin()
+        .arg("regress")
+        .arg(&base)
+        .arg("--strict")
+        .arg("--junit")
+        .arg(&junit));
+    assert_eq!(code, 1, "{out}{err}");
+    assert!(err.contains("--strict"), "{err}");
+    let x = std::fs::read_to_string(&junit).unwrap();
+    assert!(
+        x.contains(r#"name="stamp.platform""#) && x.contains("<failure "),
+        "{x}"
+    );
+}
