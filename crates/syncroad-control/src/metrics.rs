@@ -65,6 +65,9 @@ pub struct SyncMetrics {
     pub final_gap_error_m: Option<f64>,
     /// The verdict.
     pub verdict: Verdict,
+    /// Why the verdict is not what the spread alone says: SUMO overrode the law (collisions,
+    /// teleports, overridden commands); `null` when the spread decides.
+    pub verdict_reason: Option<String>,
     /// Thresholds used.
     pub thresholds: VerdictThresholds,
     /// True when the run stopped before its horizon.
@@ -178,8 +181,34 @@ pub fn sync_metrics(
         decay_rate_per_s: rate,
         final_gap_error_m: final_gap_error,
         verdict,
+        verdict_reason: None,
         thresholds,
         incomplete,
+    }
+}
+
+impl Verdict {
+    /// How bad a verdict is: synchronized < inconclusive < not synchronized.
+    fn rank(self) -> u8 {
+        match self {
+            Verdict::Synchronized => 0,
+            Verdict::Inconclusive => 1,
+            Verdict::NotSynchronized => 2,
+        }
+    }
+}
+
+impl SyncMetrics {
+    /// Caps the verdict at `at_best` because of `reason`: a verdict already worse stays, and
+    /// the reason is recorded either way.
+    pub fn overrule(&mut self, at_best: Verdict, reason: String) {
+        if at_best.rank() > self.verdict.rank() {
+            self.verdict = at_best;
+        }
+        self.verdict_reason = Some(match self.verdict_reason.take() {
+            Some(r) => format!("{r}; {reason}"),
+            None => reason,
+        });
     }
 }
 

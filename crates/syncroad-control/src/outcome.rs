@@ -8,7 +8,7 @@
 
 use crate::congestion::{congestion_metrics, CongestionError, CongestionMetrics};
 use crate::facts::SumoFacts;
-use crate::metrics::{sync_metrics, SyncMetrics, VerdictThresholds};
+use crate::metrics::{sync_metrics, SyncMetrics, Verdict, VerdictThresholds};
 use crate::scenario::{Model, Scenario};
 use crate::stop::StopReason;
 use crate::theory::{self, TheoryReport};
@@ -62,22 +62,156 @@ pub struct Outcome {
 }
 
 /// Derives the metrics and the verdict of a run. A run that stopped early is never
-/// "synchronized".
+/// "synchronized", and neither is a SUMO run whose speeds were not the law's (see
+/// [`sumo_overruled`]).
 pub fn evaluate(scenario: &Scenario, run: &RunOutput, opts: EvalOptions) -> Outcome {
     let desired = match scenario.model() {
         Model::Cacc(c) => Some(c.desired_gap_m.as_slice()),
         Model::DelayedDriver(_) => None,
     };
-    let sync = sync_metrics(
+    let mut sync = sync_metrics(
         &run.trajectory,
         opts.thresholds,
         desired,
         !run.stop.is_complete(),
     );
+    if let Some(facts) = &run.sumo {
+        for (at_best, reason) in sumo_overruled(facts, opts.thresholds.tolerance_mps) {
+            sync.overrule(at_best, reason);
+        }
+    }
     Outcome {
         sync,
         congestion: congestion_metrics(&run.trajectory, opts.warmup_s, run.ring_length_m),
         theory: theory::report(scenario),
         warmup_s: opts.warmup_s,
+    }
+}
+
+/// What SUMO did instead of the law, with the best verdict it leaves. A small spread means
+/// nothing when SUMO, not the law, set the speeds:
+/// * collisions and teleports: vehicles stopped or jumped → at best "not synchronized";
+/// * commands SUMO did not realise by more than the verdict's tolerance (`tolerance_mps`), or
+///   negative commands sent as 0 → at best "inconclusive";
+/// * a run whose counters never arrived → at best "inconclusive".
+pub fn sumo_overruled(facts: &SumoFacts, tolerance_mps: f64) -> Vec<(Verdict, String)> {
+    let Some(s) = &facts.safety else {
+        return vec![(
+            Verdict::Inconclusive,
+            "SUMO's safety counters are missing (the worker never reported its end)".into(),
+        )];
+    };
+    let mut out = Vec::new();
+    if s.collision_steps > 0 || s.teleports > 0 {
+        out.push((
+            Verdict::NotSynchronized,
+            format!(
+                "SUMO reported {} collision steps and {} teleports: the speeds are SUMO's, not the law's",
+                s.collision_steps, s.teleports
+            ),
+        ));
+    }
+    if s.overridden_commands > 0 && facts.max_override_mps > tolerance_mps {
+        out.push((
+            Verdict::Inconclusive,
+            format!(
+                "SUMO overrode {} law commands, by up to {:.3e} m/s (more than the {tolerance_mps} m/s tolerance)",
+                s.overridden_commands, facts.max_override_mps
+            ),
+        ));
+    }
+    if s.negative_commands_clamped > 0 {
+        out.push((
+            Verdict::Inconclusive,
+            format!(
+                "{} negative law commands were sent to SUMO as 0 m/s",
+                s.negative_commands_clamped
+            ),
+        ));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::facts::Safety;
+    use crate::metrics::VerdictThresholds;
+    use crate::trajectory::Trajectory;
+
+    fn flat() -> SyncMetrics {
+        let mut tr = Trajectory::new(2);
+        for k in 0..=100 {
+            tr.push(k as f64 * 0.1, &[5.0, 5.0], &[0.0, 0.0], &[0.0, 0.0], None);
+        }
+        let th = VerdictThresholds {
+            tolerance_mps: 0.05,
+            window_s: 1.0,
+        };
+        sync_metrics(&tr, th, None, false)
+    }
+
+    fn facts(safety: Safety, max_override_mps: f64) -> SumoFacts {
+        SumoFacts {
+            safety: Some(safety),
+            max_override_mps,
+            ..SumoFacts::default()
+        }
+    }
+
+    fn judged(f: &SumoFacts) -> SyncMetrics {
+        let mut m = flat();
+        for (v, r) in sumo_overruled(f, 0.05) {
+            m.overrule(v, r);
+        }
+        m
+    }
+
+    #[test]
+    fn a_clean_sumo_run_keeps_the_spread_verdict() {
+        let m = judged(&facts(Safety::default(), 0.0));
+        assert_eq!(m.verdict, Verdict::Synchronized);
+        assert_eq!(m.verdict_reason, None);
+        // Overrides within the tolerance do not matter.
+        let small = Safety {
+            overridden_commands: 3,
+            ..Safety::default()
+        };
+        assert_eq!(judged(&facts(small, 0.01)).verdict, Verdict::Synchronized);
+    }
+
+    #[test]
+    fn collisions_and_teleports_are_never_synchronized() {
+        let crash = Safety {
+            collision_steps: 22,
+            overridden_commands: 106,
+            ..Safety::default()
+        };
+        let m = judged(&facts(crash, 6.9e7));
+        assert_eq!(m.verdict, Verdict::NotSynchronized);
+        let why = m.verdict_reason.unwrap();
+        assert!(why.contains("22 collision steps and 0 teleports"), "{why}");
+        assert!(why.contains("overrode 106 law commands"), "{why}");
+        let tele = Safety {
+            teleports: 1,
+            ..Safety::default()
+        };
+        assert_eq!(judged(&facts(tele, 0.0)).verdict, Verdict::NotSynchronized);
+    }
+
+    #[test]
+    fn overrides_beyond_the_tolerance_and_missing_counters_are_inconclusive() {
+        let over = Safety {
+            overridden_commands: 1,
+            ..Safety::default()
+        };
+        assert_eq!(judged(&facts(over, 0.2)).verdict, Verdict::Inconclusive);
+        let neg = Safety {
+            negative_commands_clamped: 4,
+            ..Safety::default()
+        };
+        assert_eq!(judged(&facts(neg, 0.0)).verdict, Verdict::Inconclusive);
+        let none = SumoFacts::default();
+        assert_eq!(judged(&none).verdict, Verdict::Inconclusive);
     }
 }

@@ -35,6 +35,7 @@ mod net;
 mod protocol;
 mod python;
 mod run;
+mod signals;
 mod ssm;
 mod supervisor;
 mod venv;
@@ -48,6 +49,7 @@ pub use run::{
     check_sumo_numbers, layout_for, load_road, loop_position, net_path, run_scenario,
     MeasureOptions, PrepareError, Prepared, RunOptions, SumoRun,
 };
+pub use signals::received as interrupt_signal;
 pub use supervisor::{interrupt_flag, SupervisorError, WorkerCommand, WorkerPool};
 pub use venv::repo_dir;
 pub use worker::{is_worker_invocation, worker_main};

@@ -10,7 +10,7 @@ use std::path::PathBuf;
 use std::process::{Child, ChildStdin, Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc;
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use syncroad_control::Trajectory;
@@ -76,20 +76,11 @@ impl std::fmt::Debug for Supervision {
     }
 }
 
-/// The process-wide Ctrl-C flag (installs the handler on first use). Workers run in their own
-/// process group, so a terminal Ctrl-C reaches only the parent, which stops the worker itself
-/// and keeps what it received.
+/// The process-wide stop flag, set by Ctrl-C, SIGTERM or SIGHUP (see `signals`). Workers run
+/// in their own process group, so a terminal Ctrl-C reaches only the parent, which stops the
+/// worker itself and keeps what it received.
 pub fn interrupt_flag() -> Result<Arc<AtomicBool>, SupervisorError> {
-    static FLAG: OnceLock<Result<Arc<AtomicBool>, String>> = OnceLock::new();
-    FLAG.get_or_init(|| {
-        let flag = Arc::new(AtomicBool::new(false));
-        let f = flag.clone();
-        ctrlc::set_handler(move || f.store(true, Ordering::SeqCst))
-            .map(|()| flag)
-            .map_err(|e| e.to_string())
-    })
-    .clone()
-    .map_err(SupervisorError::CtrlC)
+    crate::signals::interrupt_flag().map_err(SupervisorError::CtrlC)
 }
 
 /// How a supervised run failed. Rows received before the failure stay in [`WorkerRun`].
@@ -103,8 +94,8 @@ pub enum SupervisorError {
         /// The OS error.
         reason: String,
     },
-    /// The Ctrl-C handler could not be installed.
-    #[error("cannot install the Ctrl-C handler: {0}")]
+    /// The signal handlers could not be installed.
+    #[error("cannot install the Ctrl-C/SIGTERM/SIGHUP handlers: {0}")]
     CtrlC(String),
     /// The worker died on a signal (e.g. SIGSEGV inside libsumo on a malformed net).
     #[error("the SUMO worker (pid {pid}) crashed with signal {signal} ({name}) after {records} recorded samples; its last output:\n{stderr_tail}")]
@@ -138,8 +129,11 @@ pub enum SupervisorError {
         /// Samples received.
         records: usize,
     },
-    /// Ctrl-C.
-    #[error("interrupted (Ctrl-C) after {records} recorded samples")]
+    /// Ctrl-C, SIGTERM or SIGHUP.
+    #[error(
+        "interrupted ({}) after {records} recorded samples",
+        crate::signals::received_name()
+    )]
     Interrupted {
         /// Samples received.
         records: usize,

@@ -119,6 +119,17 @@ pub enum Command {
         /// Compare this metrics.json instead of running the baseline's scenario.
         #[arg(long)]
         metrics: Option<PathBuf>,
+        /// Also write the result as JUnit XML (one test case per metric and stamp), which
+        /// GitLab, GitHub and Jenkins display.
+        #[arg(long, value_name = "FILE")]
+        junit: Option<PathBuf>,
+        /// Also write a Markdown summary (e.g. to "$GITHUB_STEP_SUMMARY" for a job page).
+        #[arg(long, value_name = "FILE")]
+        markdown: Option<PathBuf>,
+        /// Fail when the baseline was recorded on another syncroad or SUMO version or platform
+        /// (by default that is reported and the metrics are compared with the stated tolerances).
+        #[arg(long)]
+        strict: bool,
     },
     /// The IFP index α = −inf_ω Re W(iω) of an agent W(λ) = η(λ)/(λ ρ(λ)) (Lemma lem.linear-pass),
     /// e.g. the CACC agent τ y''' + y'' + μ y' = u is `--eta 1 --rho MU,1,TAU`.

@@ -14,8 +14,17 @@ pub const NOT_SYNCHRONIZED: u8 = 1;
 pub const BAD_INPUT: u8 = 2;
 /// A run failed while executing (I/O error, SUMO crash, timeout). Partial results are written.
 pub const RUN_FAILED: u8 = 3;
-/// Interrupted by Ctrl-C. Partial results are written.
+/// Interrupted by Ctrl-C (SIGINT). Partial results are written. SIGTERM and SIGHUP are handled
+/// alike and exit with `128 + signal` (143 and 129), as a shell reports a process they killed.
 pub const INTERRUPTED: u8 = 130;
+
+/// The exit code of an interrupted command: `128 + signal`, or [`INTERRUPTED`] when the
+/// signal is unknown.
+fn interrupted() -> u8 {
+    syncroad_sumo::interrupt_signal()
+        .and_then(|s| u8::try_from(128 + s).ok())
+        .unwrap_or(INTERRUPTED)
+}
 
 /// The exit code of a command's result.
 pub fn of(result: &anyhow::Result<Status>) -> ExitCode {
@@ -23,7 +32,7 @@ pub fn of(result: &anyhow::Result<Status>) -> ExitCode {
         Ok(Status::Success) => SUCCESS,
         Ok(Status::NotSynchronized) => NOT_SYNCHRONIZED,
         Ok(Status::RunFailed) => RUN_FAILED,
-        Ok(Status::Interrupted) => INTERRUPTED,
+        Ok(Status::Interrupted) => interrupted(),
         Err(e) if e.chain().any(|c| c.is::<InputError>()) => BAD_INPUT,
         Err(_) => RUN_FAILED,
     })

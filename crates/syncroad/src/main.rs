@@ -21,6 +21,7 @@ mod progress;
 mod report;
 mod runs;
 mod stability;
+mod stdout;
 mod sweep;
 
 use std::process::ExitCode;

@@ -1,56 +1,150 @@
 //! The files a run writes: `trajectories.csv` (long format, one row per vehicle and sample)
 //! and `metrics.json` (the [`RunRecord`], pretty JSON with a trailing newline).
+//!
+//! Every file is written under a temporary name in its folder and renamed into place, so a
+//! full disk or a crash never leaves a cut-off file under the real name; `metrics.json` is
+//! written last, so a folder holding one is complete. [`prepare_dir`] checks an output folder
+//! before a run starts and clears what an earlier run left there.
 
 use std::fmt::Write as _;
-use std::path::Path;
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use syncroad_control::{RunRecord, Trajectory};
 
+use crate::error::InputError;
+
+/// The record of a run folder, written last.
+pub const METRICS_FILE: &str = "metrics.json";
+/// The samples of a run folder.
+pub const TRAJECTORY_FILE: &str = "trajectories.csv";
+
+/// Checks the output folder `dir` (given as `flag`) before any work starts and clears the files
+/// this run will write (`files`, removed in order: list the record first), so a failed run
+/// never leaves an earlier run's record beside its own rows. Refuses an existing file as the
+/// folder and a folder where a file goes, and checks the folder is writable.
+pub fn prepare_dir(flag: &str, dir: &Path, files: &[&str]) -> anyhow::Result<()> {
+    if dir.exists() && !dir.is_dir() {
+        return Err(InputError::new(format!(
+            "{flag} = {}: is an existing file, not a folder; name a folder (it is created if missing)",
+            dir.display()
+        ))
+        .into());
+    }
+    std::fs::create_dir_all(dir).with_context(|| {
+        format!(
+            "{flag} = {}: cannot create the output folder",
+            dir.display()
+        )
+    })?;
+    for name in files {
+        let path = dir.join(name);
+        let Ok(meta) = std::fs::symlink_metadata(&path) else {
+            continue;
+        };
+        if meta.is_dir() {
+            return Err(InputError::new(format!(
+                "{flag} = {}: {} is a folder, but this run writes a file there; remove it or choose another {flag}",
+                dir.display(),
+                path.display()
+            ))
+            .into());
+        }
+        std::fs::remove_file(&path).with_context(|| {
+            format!(
+                "{flag} = {}: cannot remove {} left by an earlier run",
+                dir.display(),
+                path.display()
+            )
+        })?;
+    }
+    let probe = temp_name(&dir.join(".write-probe"));
+    std::fs::write(&probe, b"").with_context(|| {
+        format!(
+            "{flag} = {}: the output folder is not writable",
+            dir.display()
+        )
+    })?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
+fn temp_name(path: &Path) -> PathBuf {
+    let name = path.file_name().unwrap_or_default().to_string_lossy();
+    path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
+}
+
+/// Writes `path` atomically: `write` fills a temporary file in the same folder, which is
+/// renamed to `path` only when every byte is written and flushed. On failure the temporary
+/// file is removed and `path` is untouched.
+pub fn write_atomic(
+    path: &Path,
+    write: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
+    let tmp = temp_name(path);
+    let result = (|| {
+        let file = std::fs::File::create(&tmp)?;
+        let mut w = std::io::BufWriter::new(file);
+        write(&mut w)?;
+        w.flush()?;
+        w.get_ref().sync_data()?;
+        drop(w);
+        std::fs::rename(&tmp, path)?;
+        anyhow::Ok(())
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result.with_context(|| format!("cannot write {}", path.display()))
+}
+
 /// Writes the trajectory as CSV: `time_s,vehicle,speed_mps,position_m,gap_m`.
 pub fn write_trajectory_csv(path: &Path, traj: &Trajectory) -> anyhow::Result<()> {
-    let mut w =
-        csv::Writer::from_path(path).with_context(|| format!("cannot write {}", path.display()))?;
-    let io =
-        |e: csv::Error| anyhow::Error::new(e).context(format!("cannot write {}", path.display()));
-    w.write_record(["time_s", "vehicle", "speed_mps", "position_m", "gap_m"])
-        .map_err(io)?;
-    let n = traj.n;
-    // One buffer per field, reused: a large fleet writes millions of rows.
-    let mut t = String::new();
-    let mut field = String::new();
-    let mut put = |w: &mut csv::Writer<std::fs::File>, x: &dyn std::fmt::Display| {
-        field.clear();
-        let _ = write!(field, "{x}");
-        w.write_field(&field)
-    };
-    for k in 0..traj.len() {
-        t.clear();
-        let _ = write!(t, "{}", traj.time_s[k]);
-        for i in 0..n {
-            let j = k * n + i;
-            let gap = traj.gaps_m.get(j).copied().unwrap_or(f64::NAN);
-            w.write_field(&t).map_err(io)?;
-            put(&mut w, &i).map_err(io)?;
-            put(&mut w, &traj.speeds_mps[j]).map_err(io)?;
-            put(&mut w, &traj.positions_m[j]).map_err(io)?;
-            put(&mut w, &gap).map_err(io)?;
-            w.write_record(None::<&[u8]>).map_err(io)?;
+    write_atomic(path, |file| {
+        let mut w = csv::Writer::from_writer(file);
+        w.write_record(["time_s", "vehicle", "speed_mps", "position_m", "gap_m"])?;
+        let n = traj.n;
+        // One buffer per field, reused: a large fleet writes millions of rows.
+        let mut t = String::new();
+        let mut field = String::new();
+        let mut put = |w: &mut csv::Writer<_>, x: &dyn std::fmt::Display| {
+            field.clear();
+            let _ = write!(field, "{x}");
+            w.write_field(&field)
+        };
+        for k in 0..traj.len() {
+            t.clear();
+            let _ = write!(t, "{}", traj.time_s[k]);
+            for i in 0..n {
+                let j = k * n + i;
+                let gap = traj.gaps_m.get(j).copied().unwrap_or(f64::NAN);
+                w.write_field(&t)?;
+                put(&mut w, &i)?;
+                put(&mut w, &traj.speeds_mps[j])?;
+                put(&mut w, &traj.positions_m[j])?;
+                put(&mut w, &gap)?;
+                w.write_record(None::<&[u8]>)?;
+            }
         }
-    }
-    w.flush()
-        .with_context(|| format!("cannot write {}", path.display()))
+        w.flush()?;
+        Ok(())
+    })
 }
 
-/// Writes a run's `trajectories.csv` and `metrics.json` into `dir`: the one place every
-/// backend's outputs are written.
-pub fn write_run_files(dir: &Path, traj: &Trajectory, record: &RunRecord) -> anyhow::Result<()> {
-    write_trajectory_csv(&dir.join("trajectories.csv"), traj)?;
-    write_json(&dir.join("metrics.json"), &record.to_json())
+/// Writes a run's `trajectories.csv` into `dir`: the one place every backend's rows are
+/// written.
+pub fn write_run_rows(dir: &Path, traj: &Trajectory) -> anyhow::Result<()> {
+    write_trajectory_csv(&dir.join(TRAJECTORY_FILE), traj)
 }
 
-/// Writes pretty JSON with a trailing newline.
+/// Writes a run's `metrics.json` into `dir`, after every other file of the run.
+pub fn write_run_record(dir: &Path, record: &RunRecord) -> anyhow::Result<()> {
+    write_json(&dir.join(METRICS_FILE), &record.to_json())
+}
+
+/// Writes pretty JSON with a trailing newline, atomically.
 pub fn write_json(path: &Path, doc: &serde_json::Value) -> anyhow::Result<()> {
-    std::fs::write(path, serde_json::to_string_pretty(doc)? + "\n")
-        .with_context(|| format!("cannot write {}", path.display()))
+    let text = serde_json::to_string_pretty(doc)? + "\n";
+    write_atomic(path, |w| Ok(w.write_all(text.as_bytes())?))
 }

@@ -83,19 +83,21 @@ impl Finished {
         }
     }
 
-    /// Writes `trajectories.csv` and `metrics.json` into `dir`, and the plots under `title`
-    /// when given and the run has at least two samples. Returns the plot files.
+    /// Writes `trajectories.csv`, the plots under `title` when given and the run has at least
+    /// two samples, and `metrics.json` last, into `dir`. Returns the plot files.
     pub fn write(&self, dir: &Path, plots: Option<String>) -> anyhow::Result<usize> {
-        output::write_run_files(dir, &self.output.trajectory, &self.record)?;
-        match plots {
-            Some(title) if self.output.trajectory.len() >= 2 => Ok(RunPlots {
+        output::write_run_rows(dir, &self.output.trajectory)?;
+        let n = match plots {
+            Some(title) if self.output.trajectory.len() >= 2 => RunPlots {
                 traj: &self.output.trajectory,
                 ring_length_m: self.output.ring_length_m,
                 title,
             }
             .write_all(dir)?
-            .len()),
-            _ => Ok(0),
-        }
+            .len(),
+            _ => 0,
+        };
+        output::write_run_record(dir, &self.record)?;
+        Ok(n)
     }
 }

@@ -224,6 +224,9 @@ pub fn metrics_table(
         yes(theory.certified)
     );
     let _ = writeln!(s, "verdict: {}", m.verdict);
+    if let Some(why) = &m.verdict_reason {
+        let _ = writeln!(s, "  because {why}");
+    }
     s
 }
 

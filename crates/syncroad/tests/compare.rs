@@ -360,3 +360,67 @@ fn sumo_kind_baseline_and_plots() {
     }
     let _ = std::fs::remove_dir_all(&d);
 }
+
+#[test]
+fn a_law_diverging_on_a_vehicle_sumo_drives_does_not_stop_the_mixed_run() {
+    // Vehicle 1's gain makes the law's output for it non-finite from step 0; in mixed-2 SUMO
+    // drives vehicle 1 (the law drives 0 and 11), so the law's output for it is never sent.
+    let dir = tmpdir("compare-mixed-nonfinite");
+    let mut s = json(&sugiyama());
+    s["sumo"]["net"] = repo()
+        .join("sumo-nets/sugiyama-ring.net.xml")
+        .to_string_lossy()
+        .into();
+    s["horizon_s"] = 60.into();
+    let mut gain = vec![Value::from(0.6); 22];
+    gain[1] = 1e308.into();
+    s["model"]["graph"]["gain_pred"] = gain.into();
+    let scenario = dir.join("s.json");
+    std::fs::write(&scenario, s.to_string()).unwrap();
+    let (code, out, err) = run(bin()
+        .args([
+            "compare",
+            "--no-plots",
+            "--baselines",
+            "krauss",
+            "--mixed",
+            "0,2",
+        ])
+        .arg(&scenario)
+        .arg("--out")
+        .arg(dir.join("out")));
+    assert!(code == 0 || code == 1, "{out}{err}");
+    let m = json(&dir.join("out/mixed-2/metrics.json"));
+    assert_eq!(m["complete"], true, "{m}");
+    assert_eq!(m["safety"]["negative_commands_clamped"], 0, "{m}");
+}
+
+#[test]
+fn an_interrupted_regress_exits_130_and_leaves_the_baseline_whole() {
+    let d = tmpdir("regress-interrupted");
+    let mut base = json(&repo().join("tests/baselines/sugiyama-ring.compare.json"));
+    base["scenario"] = sugiyama().display().to_string().into();
+    let path = d.join("baseline.json");
+    let before = serde_json::to_string_pretty(&base).unwrap();
+    std::fs::write(&path, &before).unwrap();
+    for update in [true, false] {
+        let mut cmd = bin();
+        cmd.arg("regress").arg(&path);
+        if update {
+            cmd.arg("--update");
+        }
+        let child = cmd
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(2000));
+        // SAFETY: signalling a child this test started.
+        assert_eq!(unsafe { libc::kill(child.id() as i32, libc::SIGINT) }, 0);
+        let o = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(130), "update {update}: {err}");
+        assert!(err.contains("interrupted"), "{err}");
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), before);
+    }
+}

@@ -145,3 +145,80 @@ fn missing_net_is_rejected_before_sumo_starts() {
     assert_eq!(code, 2, "{out}");
     assert!(out.contains("no-such.net.xml"), "{out}");
 }
+
+/// The Sugiyama ring scenario, changed by `edit`, written into `dir` (the net path made
+/// absolute so the copy finds it).
+fn sugiyama_variant(dir: &Path, edit: impl FnOnce(&mut serde_json::Value)) -> std::path::PathBuf {
+    let text = std::fs::read_to_string(repo().join("scenarios/sugiyama-ring.json")).unwrap();
+    let mut s: serde_json::Value = serde_json::from_str(&text).unwrap();
+    s["sumo"]["net"] = repo()
+        .join("sumo-nets/sugiyama-ring.net.xml")
+        .to_string_lossy()
+        .into();
+    edit(&mut s);
+    let path = dir.join("scenario.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&s).unwrap()).unwrap();
+    path
+}
+
+#[test]
+fn a_diverging_law_that_sumo_clamps_is_not_reported_synchronized() {
+    // Absurd gains: SUMO caps the commands, the cars collide and all end at 0 m/s, so the
+    // spread alone would say "synchronized".
+    for gain in [1e6, 1e300] {
+        let dir = tmpdir(&format!("clamped-{:e}", gain));
+        let scenario = sugiyama_variant(&dir, |s| {
+            s["horizon_s"] = 60.into();
+            s["model"]["graph"]["gain_pred"] = gain.into();
+            s["model"]["graph"]["gain_follow"] = gain.into();
+        });
+        let (code, out, m) = run_backend(&["run"], &scenario, &dir.join("out"));
+        assert_eq!(code, 1, "gain {gain}: {out}");
+        assert!(m["safety"]["collision_steps"].as_u64().unwrap() > 0, "{m}");
+        assert_eq!(m["sync"]["verdict"], "not_synchronized", "{out}");
+        let why = m["sync"]["verdict_reason"].as_str().unwrap();
+        assert!(why.contains("collision steps"), "{why}");
+        assert!(out.contains("because SUMO reported"), "{out}");
+    }
+}
+
+#[test]
+fn sigterm_and_sighup_keep_the_rows_like_ctrl_c() {
+    // What `timeout`, CI cancellation and `docker stop` send to the parent.
+    for (sig, code) in [
+        (libc::SIGTERM, 143),
+        (libc::SIGHUP, 129),
+        (libc::SIGINT, 130),
+    ] {
+        let dir = tmpdir(&format!("signal-{sig}"));
+        let scenario = sugiyama_variant(&dir, |s| s["horizon_s"] = 6000.into());
+        let out = dir.join("out");
+        let child = bin()
+            .arg("run")
+            .arg(&scenario)
+            .arg("--out")
+            .arg(&out)
+            .arg("--no-plots")
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(2000));
+        // SAFETY: signalling a child this test started.
+        assert_eq!(unsafe { libc::kill(child.id() as i32, sig) }, 0);
+        let o = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(code), "signal {sig}: {err}");
+        let m: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap())
+                .unwrap();
+        assert_eq!(m["complete"], false);
+        assert!(m["error"].as_str().unwrap().contains("interrupted"), "{m}");
+        let rows = std::fs::read_to_string(out.join("trajectories.csv"))
+            .unwrap()
+            .lines()
+            .count();
+        assert!(rows > 22 * 10, "signal {sig}: {rows} rows kept");
+        assert_ne!(m["sync"]["verdict"], "synchronized");
+    }
+}

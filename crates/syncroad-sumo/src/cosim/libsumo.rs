@@ -105,13 +105,20 @@ pub(crate) fn set_item_f64(tuple: &Bound<'_, PyTuple>, i: isize, x: f64) -> PyRe
 
 /// Checks the law's commands before they reach SUMO, which accepts NaN and ∞ silently and
 /// reads a negative speed as "release control": `Err(i)` for the first non-finite command
-/// (nothing is sent), else negatives are set to 0 and their number returned.
-pub fn sanitize_commands(next: &mut [f64]) -> Result<usize, usize> {
-    if let Some(i) = next.iter().position(|x| !x.is_finite()) {
+/// (nothing is sent), else negatives are set to 0 and their number returned. Only the vehicles
+/// the law drives (`law_driven[i]`) count: the law's output for a vehicle SUMO drives is never
+/// sent, so it can neither stop the run nor count as clamped.
+pub fn sanitize_commands(next: &mut [f64], law_driven: &[bool]) -> Result<usize, usize> {
+    debug_assert_eq!(next.len(), law_driven.len());
+    if let Some(i) = (0..next.len()).find(|&i| law_driven[i] && !next[i].is_finite()) {
         return Err(i);
     }
     let mut clamped = 0;
-    for x in next.iter_mut().filter(|x| **x < 0.0) {
+    for (x, _) in next
+        .iter_mut()
+        .zip(law_driven)
+        .filter(|(x, &law)| law && **x < 0.0)
+    {
         *x = 0.0;
         clamped += 1;
     }

@@ -243,17 +243,29 @@ mod tests {
     #[test]
     fn non_finite_commands_never_reach_sumo() {
         let mut c = [1.0, -0.5, f64::NAN, 2.0];
-        assert_eq!(sanitize_commands(&mut c), Err(2));
+        assert_eq!(sanitize_commands(&mut c, &[true; 4]), Err(2));
         // Nothing was changed: the run stops with the command as the law produced it.
         assert_eq!(c[1], -0.5);
         let mut c = [1.0, f64::INFINITY];
-        assert_eq!(sanitize_commands(&mut c), Err(1));
+        assert_eq!(sanitize_commands(&mut c, &[true; 2]), Err(1));
+    }
+
+    #[test]
+    fn commands_for_vehicles_sumo_drives_are_ignored() {
+        // Mixed traffic: the law's output for SUMO-driven vehicles 1 and 2 is never sent.
+        let mut c = [1.0, f64::NAN, -4.0, -0.5];
+        assert_eq!(
+            sanitize_commands(&mut c, &[true, false, false, true]),
+            Ok(1)
+        );
+        assert_eq!(c[3], 0.0);
+        assert_eq!(c[2], -4.0);
     }
 
     #[test]
     fn negative_commands_become_zero() {
         let mut c = [1.0, -0.5, -0.0, 2.0, -3.0];
-        assert_eq!(sanitize_commands(&mut c), Ok(2));
+        assert_eq!(sanitize_commands(&mut c, &[true; 5]), Ok(2));
         assert_eq!(c, [1.0, 0.0, -0.0, 2.0, 0.0]);
     }
 }

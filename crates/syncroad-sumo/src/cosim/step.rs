@@ -58,6 +58,8 @@ pub(super) struct CoSim<'a, 'py> {
     speed_args: Vec<Bound<'py, PyTuple>>,
     /// The law drives every vehicle (the batch `setSpeed` applies).
     all_law: bool,
+    /// Per vehicle: the law drives it (SUMO drives the others).
+    law_driven: Vec<bool>,
     q0: Vec<f64>,
     dist: Vec<f64>,
     next: Vec<f64>,
@@ -119,6 +121,12 @@ impl<'a, 'py> CoSim<'a, 'py> {
             ids,
             speed_args,
             all_law: req.layout.vehicles.iter().all(|v| v.driver.is_none()),
+            law_driven: req
+                .layout
+                .vehicles
+                .iter()
+                .map(|v| v.driver.is_none())
+                .collect(),
             q: q0.clone(),
             q0,
             dist: vec![0.0; n],
@@ -181,7 +189,7 @@ impl<'a, 'py> CoSim<'a, 'py> {
         let t_law = Instant::now();
         if let Some(c) = self.controller.as_deref_mut() {
             c.step(step as f64 * req.step_s, &self.v, &self.q, &mut self.next);
-            match sanitize_commands(&mut self.next) {
+            match sanitize_commands(&mut self.next, &self.law_driven) {
                 Ok(clamped) => self.negative_commands_clamped += clamped,
                 Err(i) => {
                     return Ok(Some(StopReason::NonFiniteCommand {

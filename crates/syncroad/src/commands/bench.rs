@@ -14,6 +14,7 @@ use syncroad_control::{DelayedDriverLaw, Graph};
 
 use crate::error::InputError;
 use crate::error::Status;
+use crate::stdout::outln;
 
 struct Ring {
     graph: Graph,
@@ -72,10 +73,13 @@ pub fn run(horizon_s: f64, sizes: &[usize]) -> anyhow::Result<Status> {
         .into());
     }
     let dt = 0.01;
-    println!("native delayed-driver simulator, unidirectional rings, K = 0.8/s, α_i ∈ [0.30, 0.50] s on the grid, Δt = {dt} s, {horizon_s} s simulated");
-    println!(
+    outln!("native delayed-driver simulator, unidirectional rings, K = 0.8/s, α_i ∈ [0.30, 0.50] s on the grid, Δt = {dt} s, {horizon_s} s simulated");
+    outln!(
         "{:>7} {:>14} {:>18} {:>22}",
-        "N", "wall [s]", "vehicle-steps/s", "max |v − v_ref| [m/s]"
+        "N",
+        "wall [s]",
+        "vehicle-steps/s",
+        "max |v − v_ref| [m/s]"
     );
     for &n in sizes {
         let r = ring(n);
@@ -88,7 +92,7 @@ pub fn run(horizon_s: f64, sizes: &[usize]) -> anyhow::Result<Status> {
             .zip(&vref)
             .map(|(a, b)| (a - b).abs())
             .fold(0.0, f64::max);
-        println!("{n:>7} {secs:>14.4} {rate:>18.3e} {err:>22.3e}");
+        outln!("{n:>7} {secs:>14.4} {rate:>18.3e} {err:>22.3e}");
     }
     Ok(Status::Success)
 }

@@ -7,15 +7,16 @@ use syncroad_control::theory;
 use crate::config::load_scenario;
 use crate::error::Status;
 use crate::report;
+use crate::stdout::{out, outln};
 
 /// Prints the theory report (table or JSON); success when certified.
 pub fn run(path: &Path, json: bool) -> anyhow::Result<Status> {
     let sc = load_scenario(path)?;
     let rep = theory::report(&sc);
     if json {
-        println!("{}", serde_json::to_string_pretty(&rep)?);
+        outln!("{}", serde_json::to_string_pretty(&rep)?);
     } else {
-        print!("{}", report::theory_table(&rep));
+        out!("{}", report::theory_table(&rep));
     }
     Ok(Status::verdict(rep.certified))
 }

@@ -30,11 +30,12 @@ use syncroad_sumo::{
 use crate::cli::CompareArgs;
 use crate::config::{self, load_scenario};
 use crate::error::{InputError, Status};
-use crate::output::write_json;
+use crate::output::{self, write_json};
 use crate::pipeline::{self, Finished};
 use crate::plots::{spread_plot, Spread};
 use crate::progress::Progress;
 use crate::runs::RunSpec;
+use crate::stdout::{out, outln};
 
 /// A validated comparison.
 #[derive(Debug, Clone)]
@@ -226,7 +227,6 @@ fn run_one(
     worker: &WorkerCommand,
     interrupt: &Arc<AtomicBool>,
 ) -> anyhow::Result<RunResult> {
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let mut opts = RunOptions::new(dir.join("sumo"), worker.clone());
     opts.record_every = plan.record_every;
     opts.timeout = plan.timeout;
@@ -467,8 +467,15 @@ pub fn compare_into(
     out: &Path,
     interrupt: Arc<AtomicBool>,
 ) -> anyhow::Result<(Value, Vec<RunResult>)> {
-    std::fs::create_dir_all(out)
-        .with_context(|| format!("cannot create output folder {}", out.display()))?;
+    // Every folder is checked, and an earlier comparison's files cleared, before any run.
+    output::prepare_dir("--out", out, &["compare.json"])?;
+    for spec in &plan.runs {
+        output::prepare_dir(
+            "--out",
+            &out.join(&spec.name),
+            &[output::METRICS_FILE, output::TRAJECTORY_FILE],
+        )?;
+    }
     let results = run_all(sc, plan, out, interrupt)?;
     if plan.plots {
         let spreads: Vec<Spread> = results.iter().map(|r| r.spread.clone()).collect();
@@ -490,7 +497,7 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<Status> {
     let plan = plan(&sc, a)?;
     let interrupt = interrupt_flag()?;
     let (doc, results) = compare_into(&sc, &plan, &a.out, interrupt.clone())?;
-    println!(
+    outln!(
         "{}: {} vehicles, seed {}, warm-up {} s, {}, emission class {}",
         sc.name(),
         sc.vehicles(),
@@ -500,9 +507,9 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<Status> {
         EMISSION_CLASS
     );
     if let Some((_, _, x)) = loop_position(&plan.road) {
-        println!("induction loop loop0 at ring coordinate {x:.2} m");
+        outln!("induction loop loop0 at ring coordinate {x:.2} m");
     }
-    print!("{}", table(&doc));
+    out!("{}", table(&doc));
     if let Some(red) = doc
         .get("mixed_reduction_vs_all_human")
         .and_then(|r| r.as_object())
@@ -512,14 +519,14 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<Status> {
                 x.as_f64()
                     .map_or("—".into(), |x| format!("{:+.1} %", -100.0 * x))
             };
-            println!(
+            outln!(
                 "{k} vs mixed-0 (all human): speed std {}, fuel per km {}",
                 pct(&v["speed_std_reduction"]),
                 pct(&v["fuel_per_km_reduction"])
             );
         }
     }
-    println!(
+    outln!(
         "wrote {}/compare.json and one folder per run ({})",
         a.out.display(),
         plan.runs

@@ -19,6 +19,7 @@ use crate::error::{InputError, Status};
 use crate::pipeline;
 use crate::plots::err;
 use crate::progress::Progress;
+use crate::stdout::outln;
 
 /// Swept quantity.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -437,8 +438,7 @@ pub fn run(
     let xa = Axis::parse("--x", x)?;
     let ya = Axis::parse("--y", y)?;
     let jobs = config::jobs(jobs)?;
-    std::fs::create_dir_all(out)
-        .with_context(|| format!("cannot create output folder {}", out.display()))?;
+    crate::output::prepare_dir("--out", out, &["map.csv"])?;
     let pts = sweep(&sc, xa, ya, !no_sim, jobs)?;
     write_csv(&out.join("map.csv"), &pts)?;
     let bounds = boundaries(&sc);
@@ -450,7 +450,7 @@ pub fn run(
         &pts,
         &bounds,
     )?;
-    println!(
+    outln!(
         "boundaries (gain scale × delay scale): Theorem 1 at {:.6}, exact at {}",
         bounds.theorem1_product,
         bounds
@@ -466,7 +466,7 @@ pub fn run(
         .iter()
         .filter(|p| p.certified && p.exact_stable == Some(false))
         .count();
-    println!(
+    outln!(
         "{} grid points: {certified} certified by Theorem 1, {stable} exactly stable{}",
         pts.len(),
         if contradictions > 0 {
@@ -488,9 +488,9 @@ pub fn run(
                         .is_some_and(|e| e != (p.simulated == Some(Verdict::Synchronized)))
             })
             .count();
-        println!("simulations: {sync} synchronized; {disagree} disagree with the exact verdict (near the boundary the horizon may be too short)");
+        outln!("simulations: {sync} synchronized; {disagree} disagree with the exact verdict (near the boundary the horizon may be too short)");
     }
-    println!("wrote {}/map.csv, map.png, map.svg", out.display());
+    outln!("wrote {}/map.csv, map.png, map.svg", out.display());
     Ok(Status::Success)
 }
 

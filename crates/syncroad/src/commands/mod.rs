@@ -47,6 +47,18 @@ pub fn run(cli: Cli) -> anyhow::Result<Status> {
             baseline,
             update,
             metrics,
-        } => regress::run(&baseline, update, metrics.as_deref()),
+            junit,
+            markdown,
+            strict,
+        } => regress::run(
+            &baseline,
+            update,
+            metrics.as_deref(),
+            &regress::Reports {
+                junit,
+                markdown,
+                strict,
+            },
+        ),
     }
 }

@@ -21,6 +21,7 @@
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
+use std::io::Write as _;
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
@@ -28,8 +29,9 @@ use serde_json::Value;
 
 use crate::config::load_scenario;
 use crate::error::{InputError, Status};
-use crate::output::write_json;
+use crate::output::{write_atomic, write_json};
 use crate::pipeline::{self, Finished};
+use crate::stdout::{out, outln};
 use syncroad_control::EvalOptions;
 
 /// Absolute and relative tolerance of one metric.
@@ -179,6 +181,8 @@ pub struct Failure {
 pub struct Comparison {
     /// Keys compared.
     pub compared: usize,
+    /// Every key compared, in order (baseline keys, then extra fresh keys).
+    pub keys: Vec<String>,
     /// Failures.
     pub failures: Vec<Failure>,
     /// Stamp mismatches (reported, not failing).
@@ -196,6 +200,7 @@ pub fn compare(
     let mut c = Comparison::default();
     for (k, bv) in &b {
         c.compared += 1;
+        c.keys.push(k.clone());
         let Some(fv) = f.get(k) else {
             c.failures.push(Failure {
                 key: k.clone(),
@@ -241,6 +246,7 @@ pub fn compare(
     }
     for k in f.keys().filter(|k| !b.contains_key(*k)) {
         c.compared += 1;
+        c.keys.push(k.clone());
         c.failures.push(Failure {
             key: k.clone(),
             base: "missing".into(),
@@ -379,8 +385,147 @@ pub fn fresh_metrics(base: &Baseline, baseline_path: &Path) -> anyhow::Result<Va
     Ok(result?.0)
 }
 
+/// Where `regress` reports besides stdout, and whether stamps must match.
+#[derive(Debug, Clone, Default)]
+pub struct Reports {
+    /// `--junit FILE`.
+    pub junit: Option<std::path::PathBuf>,
+    /// `--markdown FILE`.
+    pub markdown: Option<std::path::PathBuf>,
+    /// `--strict`: a stamp mismatch fails.
+    pub strict: bool,
+}
+
+fn xml_escape(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    for ch in s.chars() {
+        match ch {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            '\'' => out.push_str("&apos;"),
+            c if (c as u32) < 0x20 && !matches!(c, '\n' | '\t' | '\r') => {}
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+/// The comparison as JUnit XML: one test case per metric, and one per stamp (failing only
+/// with `strict`).
+pub fn junit(c: &Comparison, baseline: &Path, strict: bool) -> String {
+    let suite = xml_escape(&baseline.display().to_string());
+    let failed: BTreeMap<&str, &Failure> = c.failures.iter().map(|f| (f.key.as_str(), f)).collect();
+    let stamp_failures = if strict { c.stamp_notes.len() } else { 0 };
+    let mut s = String::from("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
+    let _ = writeln!(
+        s,
+        "<testsuites name=\"syncroad regress\" tests=\"{}\" failures=\"{}\">",
+        c.keys.len() + c.stamp_notes.len(),
+        c.failures.len() + stamp_failures
+    );
+    let _ = writeln!(
+        s,
+        "  <testsuite name=\"{suite}\" tests=\"{}\" failures=\"{}\">",
+        c.keys.len() + c.stamp_notes.len(),
+        c.failures.len() + stamp_failures
+    );
+    for k in &c.keys {
+        let name = xml_escape(k);
+        match failed.get(k.as_str()) {
+            None => {
+                let _ = writeln!(s, "    <testcase classname=\"{suite}\" name=\"{name}\"/>");
+            }
+            Some(f) => {
+                let _ = writeln!(
+                    s,
+                    "    <testcase classname=\"{suite}\" name=\"{name}\">\n      <failure message=\"{}\">baseline {} fresh {}</failure>\n    </testcase>",
+                    xml_escape(&f.why),
+                    xml_escape(&f.base),
+                    xml_escape(&f.fresh)
+                );
+            }
+        }
+    }
+    for n in &c.stamp_notes {
+        let key = n.split(':').next().unwrap_or(n);
+        let name = xml_escape(&format!("stamp.{key}"));
+        let body = if strict {
+            format!(
+                "<failure message=\"recorded on another version or platform (--strict)\">{}</failure>",
+                xml_escape(n)
+            )
+        } else {
+            format!("<system-out>{}</system-out>", xml_escape(n))
+        };
+        let _ = writeln!(
+            s,
+            "    <testcase classname=\"{suite}\" name=\"{name}\">\n      {body}\n    </testcase>"
+        );
+    }
+    s.push_str("  </testsuite>\n</testsuites>\n");
+    s
+}
+
+fn md_cell(s: &str) -> String {
+    s.replace('|', "\\|").replace('\n', " ")
+}
+
+/// The comparison as a Markdown summary for a CI job page.
+pub fn markdown(c: &Comparison, baseline: &Path, strict: bool) -> String {
+    let pass = c.failures.is_empty() && (!strict || c.stamp_notes.is_empty());
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "### syncroad regress `{}`: {}\n",
+        baseline.display(),
+        if pass { "PASS" } else { "FAIL" }
+    );
+    let _ = writeln!(
+        s,
+        "{} metrics compared, {} outside their tolerance.\n",
+        c.compared,
+        c.failures.len()
+    );
+    if !c.stamp_notes.is_empty() {
+        let _ = writeln!(
+            s,
+            "Recorded on another version or platform{}:\n",
+            if strict {
+                " (fails with --strict)"
+            } else {
+                " (compared with the stated tolerances)"
+            }
+        );
+        for n in &c.stamp_notes {
+            let _ = writeln!(s, "- {}", md_cell(n));
+        }
+        s.push('\n');
+    }
+    if !c.failures.is_empty() {
+        s.push_str("| metric | baseline | fresh | why |\n|---|---:|---:|---|\n");
+        for f in &c.failures {
+            let _ = writeln!(
+                s,
+                "| `{}` | {} | {} | {} |",
+                f.key,
+                md_cell(&f.base),
+                md_cell(&f.fresh),
+                md_cell(&f.why)
+            );
+        }
+    }
+    s
+}
+
 /// `syncroad regress`: compare with the baseline, or `--update` it.
-pub fn run(baseline_path: &Path, update: bool, metrics: Option<&Path>) -> anyhow::Result<Status> {
+pub fn run(
+    baseline_path: &Path,
+    update: bool,
+    metrics: Option<&Path>,
+    reports: &Reports,
+) -> anyhow::Result<Status> {
     let mut base = load(baseline_path)?;
     let fresh = match metrics {
         Some(m) => {
@@ -392,20 +537,69 @@ pub fn run(baseline_path: &Path, update: bool, metrics: Option<&Path>) -> anyhow
         }
         None => fresh_metrics(&base, baseline_path)?,
     };
+    if syncroad_sumo::interrupt_signal().is_some() {
+        eprintln!(
+            "regress {}: interrupted; the baseline was neither compared nor updated",
+            baseline_path.display()
+        );
+        return Ok(Status::Interrupted);
+    }
     let (stamps, results) = split_stamps(fresh);
     if update {
+        let incomplete = incomplete_runs(&results);
+        if !incomplete.is_empty() {
+            anyhow::bail!(
+                "not updating {}: a baseline is recorded only from complete runs, and {} did not complete",
+                baseline_path.display(),
+                incomplete.join("; ")
+            );
+        }
         base.metrics = results;
         base.stamp = stamps;
         save(baseline_path, &base)?;
-        println!("updated {}", baseline_path.display());
+        outln!("updated {}", baseline_path.display());
         return Ok(Status::Success);
     }
     let c = compare(&base, &stamps, &results);
-    print!("{}", render(&c, baseline_path));
-    Ok(Status::verdict(c.failures.is_empty()))
+    out!("{}", render(&c, baseline_path));
+    if let Some(p) = &reports.junit {
+        let text = junit(&c, baseline_path, reports.strict);
+        write_atomic(p, |w| Ok(w.write_all(text.as_bytes())?))?;
+    }
+    if let Some(p) = &reports.markdown {
+        let text = markdown(&c, baseline_path, reports.strict);
+        write_atomic(p, |w| Ok(w.write_all(text.as_bytes())?))?;
+    }
+    let stamps_ok = c.stamp_notes.is_empty() || !reports.strict;
+    if !stamps_ok {
+        eprintln!(
+            "regress {}: the baseline was recorded on another version or platform, and --strict is given",
+            baseline_path.display()
+        );
+    }
+    Ok(Status::verdict(c.failures.is_empty() && stamps_ok))
 }
 
-/// Writes a baseline file (pretty JSON, trailing newline).
+/// The runs of a metrics document (one record, or compare's `runs`) that did not reach their
+/// horizon, each with its error.
+pub fn incomplete_runs(doc: &Value) -> Vec<String> {
+    let one = |name: &str, r: &Value| {
+        (r.get("complete") != Some(&Value::Bool(true))).then(|| {
+            let why = r
+                .get("error")
+                .and_then(Value::as_str)
+                .unwrap_or("no record");
+            format!("{name} ({why})")
+        })
+    };
+    match doc.get("runs").and_then(Value::as_object) {
+        Some(runs) => runs.iter().filter_map(|(k, r)| one(k, r)).collect(),
+        None => one("the run", doc).into_iter().collect(),
+    }
+}
+
+/// Writes a baseline file (pretty JSON, trailing newline), atomically: an interrupted or
+/// failed write leaves the old baseline whole.
 pub fn save(path: &Path, b: &Baseline) -> anyhow::Result<()> {
     write_json(path, &serde_json::to_value(b)?)
 }
@@ -494,6 +688,17 @@ mod tests {
         );
         let text = render(&c, Path::new("b.json"));
         assert!(text.contains("FAIL (3 of 3 metrics)"), "{text}");
+    }
+
+    #[test]
+    fn incomplete_runs_are_named_with_their_error() {
+        let doc = json!({"runs": {"a": {"complete": true}, "b": {"complete": false, "error": "interrupted"}}});
+        assert_eq!(incomplete_runs(&doc), ["b (interrupted)"]);
+        assert!(incomplete_runs(&json!({"complete": true})).is_empty());
+        assert_eq!(
+            incomplete_runs(&json!({"complete": false})),
+            ["the run (no record)"]
+        );
     }
 
     #[test]

@@ -16,7 +16,8 @@ use crate::cli::{OutputArgs, SumoArgs};
 use crate::config::{self, load_scenario, RunConfig};
 use crate::error::{InputError, Status};
 use crate::pipeline::{self, Finished};
-use crate::report;
+use crate::stdout::{out, outln};
+use crate::{output, report};
 
 /// `syncroad run`: the scenario's backend.
 pub fn run(path: &Path, out: &OutputArgs, sumo: &SumoArgs) -> anyhow::Result<Status> {
@@ -32,9 +33,28 @@ pub fn simulate(path: &Path, out: &OutputArgs) -> anyhow::Result<Status> {
     run_native(&load_scenario(path)?, out)
 }
 
-fn create_dir(dir: &Path) -> anyhow::Result<()> {
-    std::fs::create_dir_all(dir)
-        .with_context(|| format!("cannot create output folder {}", dir.display()))
+/// Checks `--out` and clears the record and rows an earlier run left there.
+fn prepare_out(dir: &Path) -> anyhow::Result<()> {
+    output::prepare_dir(
+        "--out",
+        dir,
+        &[output::METRICS_FILE, output::TRAJECTORY_FILE],
+    )
+}
+
+/// After the summary is printed: the files written, or why they could not be.
+fn report_files(dir: &Path, written: anyhow::Result<usize>, complete: bool) -> anyhow::Result<()> {
+    let plots = written?;
+    outln!(
+        "wrote {} and {}{}",
+        dir.join(output::TRAJECTORY_FILE).display(),
+        dir.join(output::METRICS_FILE).display(),
+        if complete { "" } else { " (incomplete run)" }
+    );
+    if plots > 0 {
+        outln!("wrote {plots} plots: time_space, speeds, spread (PNG and SVG)");
+    }
+    Ok(())
 }
 
 fn verdict_status(f: &Finished) -> Status {
@@ -43,13 +63,14 @@ fn verdict_status(f: &Finished) -> Status {
 
 fn run_native(sc: &Scenario, out: &OutputArgs) -> anyhow::Result<Status> {
     let cfg = RunConfig::new(sc, out)?;
-    create_dir(&cfg.out)?;
+    prepare_out(&cfg.out)?;
     let f = Finished::new(sc, "law", pipeline::native(sc, cfg.record_every), cfg.eval);
-    let plots = f.write(
+    // The summary is printed even when a file cannot be written (a full disk).
+    let written = f.write(
         &cfg.out,
         cfg.plots.then(|| format!("{} (native)", sc.name())),
-    )?;
-    print!(
+    );
+    out!(
         "{}",
         report::metrics_table(
             sc,
@@ -60,17 +81,10 @@ fn run_native(sc: &Scenario, out: &OutputArgs) -> anyhow::Result<Status> {
         )
     );
     match &f.outcome.congestion {
-        Ok(c) => print!("{}", report::congestion_lines(c)),
-        Err(e) => println!("  congestion metrics skipped: {e}"),
+        Ok(c) => out!("{}", report::congestion_lines(c)),
+        Err(e) => outln!("  congestion metrics skipped: {e}"),
     }
-    println!(
-        "wrote {}/trajectories.csv and {}/metrics.json",
-        cfg.out.display(),
-        cfg.out.display()
-    );
-    if plots > 0 {
-        println!("wrote {plots} plots: time_space, speeds, spread (PNG and SVG)");
-    }
+    report_files(&cfg.out, written, true)?;
     Ok(verdict_status(&f))
 }
 
@@ -86,7 +100,7 @@ fn run_sumo(sc: &Scenario, out: &OutputArgs, args: &SumoArgs) -> anyhow::Result<
         }
     };
     let road = load_road(sc).map_err(|e| InputError::caused("before starting SUMO", e))?;
-    create_dir(&cfg.out)?;
+    prepare_out(&cfg.out)?;
     let worker = WorkerCommand::current_exe().context("cannot locate the syncroad executable")?;
     let mut opts = RunOptions::new(cfg.out.join("sumo"), worker);
     opts.record_every = cfg.record_every;
@@ -107,8 +121,8 @@ fn run_sumo(sc: &Scenario, out: &OutputArgs, args: &SumoArgs) -> anyhow::Result<
     let f = Finished::new(sc, name, run.output, cfg.eval);
     let complete = f.output.stop.is_complete();
     let title = (cfg.plots && complete).then(|| format!("{} (SUMO)", sc.name()));
-    let plots = f.write(&cfg.out, title)?;
-    print!(
+    let written = f.write(&cfg.out, title);
+    out!(
         "{}",
         report::metrics_table(
             sc,
@@ -120,27 +134,19 @@ fn run_sumo(sc: &Scenario, out: &OutputArgs, args: &SumoArgs) -> anyhow::Result<
     );
     if let Some(facts) = &f.output.sumo {
         if let (Some(v), Some(l)) = (&facts.sumo_version, &facts.libsumo) {
-            println!(
+            outln!(
                 "  SUMO: {v} (libsumo {l}), ring/road length {:.4} m",
                 facts.road_length_m
             );
         }
         if let Some(t) = &facts.safety {
-            println!(
-                "  SUMO safety: {} collision steps, {} teleports, {} overridden commands (max {:.3} m/s), {} negative commands sent as 0",
+            outln!(
+                "  SUMO safety: {} collision steps, {} teleports, {} overridden commands (max {:.3e} m/s), {} negative commands sent as 0",
                 t.collision_steps, t.teleports, t.overridden_commands, facts.max_override_mps, t.negative_commands_clamped
             );
         }
     }
-    println!(
-        "wrote {} and {}{}",
-        cfg.out.join("trajectories.csv").display(),
-        cfg.out.join("metrics.json").display(),
-        if complete { "" } else { " (incomplete run)" }
-    );
-    if plots > 0 {
-        println!("wrote {plots} plots: time_space, speeds, spread (PNG and SVG)");
-    }
+    report_files(&cfg.out, written, complete)?;
     if run.interrupted {
         eprintln!("error: {}", f.output.stop.message().unwrap_or_default());
         return Ok(Status::Interrupted);

@@ -7,6 +7,7 @@ use syncroad_control::exact::analysis::{self, AnalysisError, ExactVerdict};
 
 use crate::config::load_scenario;
 use crate::error::{InputError, Status};
+use crate::stdout::{out, outln};
 
 /// Prints the exact report (tables or JSON); success when the certified verdict is
 /// "synchronizes".
@@ -39,11 +40,11 @@ pub fn run(path: &Path, json: bool, platoon_scaling: bool) -> anyhow::Result<Sta
             Some(_) => serde_json::json!({"report": r, "platoon_scaling": scaling}),
             None => serde_json::to_value(&r)?,
         };
-        println!("{}", serde_json::to_string_pretty(&v)?);
+        outln!("{}", serde_json::to_string_pretty(&v)?);
     } else {
-        print!("{}", crate::stability::table(&r));
+        out!("{}", crate::stability::table(&r));
         if let Some(s) = &scaling {
-            print!("{}", crate::stability::scaling_table(s));
+            out!("{}", crate::stability::scaling_table(s));
         }
     }
     Ok(Status::verdict(r.verdict == ExactVerdict::Synchronizes))

@@ -8,6 +8,7 @@ use syncroad_sumo::WorkerCommand;
 
 use crate::error::Status;
 use crate::output::write_json;
+use crate::stdout::out;
 
 /// The SUMO benchmark: SUMO alone vs SUMO + controller vs the TraCI reference at N = 22 and
 /// N = 2000; prints a table, optionally writes JSON.
@@ -27,7 +28,7 @@ pub fn run(quick: bool, json_out: Option<&Path>) -> anyhow::Result<Status> {
         )?);
     }
     let _ = std::fs::remove_dir_all(&work);
-    print!("{}", format_table(&results));
+    out!("{}", format_table(&results));
     if let Some(p) = json_out {
         write_json(p, &serde_json::to_value(&results)?)?;
     }

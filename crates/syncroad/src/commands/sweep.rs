@@ -17,6 +17,7 @@ use syncroad_sumo::interrupt_flag;
 use crate::cli::{SweepAction, SweepArgs};
 use crate::config;
 use crate::error::{InputError, Status};
+use crate::stdout::outln;
 use crate::sweep::exec::{self, read_rows};
 use crate::sweep::slurm::{self, SlurmOptions};
 use crate::sweep::{plots, ExecOptions, Shard, Sweep};
@@ -63,13 +64,13 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<Status> {
     } else {
         String::new()
     };
-    println!(
+    outln!(
         "sweep {}: {} points{shard_text}; ran {} ({} failed), {} finished before, {} not run (interrupted)",
         sweep.name, summary.points, summary.ran, summary.failed, summary.skipped, summary.interrupted
     );
     if summary.ran > 0 {
         let veh_s = sweep.base.vehicles() as f64 * sweep.base.horizon_s() * summary.ran as f64;
-        println!(
+        outln!(
             "  {:.2} runs/s, {:.0} simulated vehicle-seconds per second ({} jobs{})",
             summary.ran as f64 / wall,
             veh_s / wall,
@@ -81,7 +82,7 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<Status> {
             }
         );
     }
-    println!(
+    outln!(
         "wrote {} rows to {}/results.parquet and results.csv",
         finished,
         out.display()
@@ -121,7 +122,7 @@ fn write_tables(
     if plots && !table.rows.is_empty() {
         let files = plots::draw(sweep, &table, &out.join("plots"))?;
         if !files.is_empty() {
-            println!("wrote {} plots to {}/plots", files.len() / 2, out.display());
+            outln!("wrote {} plots to {}/plots", files.len() / 2, out.display());
         }
     }
     Ok(())
@@ -144,7 +145,7 @@ fn emit(
         extra: a.sbatch_option.clone(),
     };
     let e = slurm::emit(&sweep.name, spec, out, dir, &opts)?;
-    println!(
+    outln!(
         "sweep {}: {} points in {} shards; wrote {}, {} and {}",
         sweep.name,
         sweep.len(),
@@ -153,8 +154,8 @@ fn emit(
         e.collect.display(),
         e.submit.display()
     );
-    println!("submit with: bash {}", e.submit.display());
-    println!(
+    outln!("submit with: bash {}", e.submit.display());
+    outln!(
         "the merged table will be {}/merged/results.parquet; submitting again resumes unfinished shards",
         out.display()
     );
@@ -212,7 +213,7 @@ fn collect(
     }
     let rows = merged.len();
     write_tables(&sweep, out, merged, plots)?;
-    println!(
+    outln!(
         "collected {rows} of {} points from {} shard folders into {}/results.parquet and results.csv",
         sweep.len(),
         shards.len(),

@@ -1,0 +1,227 @@
+//! Hostile surroundings: an output folder that is a file or holds an earlier run, a full disk,
+//! a closed or full stdout. Native runs, so no SUMO is needed.
+
+use std::os::unix::process::CommandExt as _;
+use std::path::Path;
+use std::process::{Command, Stdio};
+
+mod common;
+use common::*;
+
+fn simulate(out: &Path) -> Command {
+    let mut c = bin();
+    c.arg("simulate")
+        .arg(repo().join("scenarios/ring-theorem1.json"))
+        .arg("--out")
+        .arg(out)
+        .arg("--no-plots");
+    c
+}
+
+/// Files in `dir`, sorted.
+fn listing(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn an_existing_file_as_out_is_bad_input() {
+    let dir = tmpdir("out-is-file");
+    let file = dir.join("taken");
+    std::fs::write(&file, "mine").unwrap();
+    let (code, _, err) = run(&mut simulate(&file));
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("--out") && err.contains("existing file"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "mine");
+}
+
+#[test]
+fn a_folder_where_a_file_goes_is_refused_before_the_run() {
+    let dir = tmpdir("csv-is-dir");
+    std::fs::create_dir(dir.join("trajectories.csv")).unwrap();
+    let (code, out, err) = run(&mut simulate(&dir));
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("trajectories.csv is a folder"), "{err}");
+    // Refused before the run: nothing computed, nothing printed.
+    assert!(!out.contains("verdict"), "{out}");
+    assert_eq!(listing(&dir), ["trajectories.csv"]);
+}
+
+#[test]
+fn a_full_disk_loses_no_verdict_and_leaves_no_cut_off_file_nor_an_earlier_record() {
+    // A file-size limit of 64 KiB stands in for a full disk (the write fails with EFBIG as it
+    // would with ENOSPC); the CSV of this run is about 2 MB.
+    let dir = tmpdir("full-disk");
+    std::fs::write(dir.join("metrics.json"), r#"{"complete": true}"#).unwrap();
+    let mut cmd = simulate(&dir);
+    unsafe {
+        cmd.pre_exec(|| {
+            libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
+            let lim = libc::rlimit {
+                rlim_cur: 64 * 1024,
+                rlim_max: 64 * 1024,
+            };
+            if libc::setrlimit(libc::RLIMIT_FSIZE, &lim) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+    let (code, out, err) = run(&mut cmd);
+    assert_eq!(code, 3, "{out}{err}");
+    assert!(out.contains("verdict: synchronized"), "{out}");
+    assert!(
+        err.contains("cannot write") && err.contains("trajectories.csv"),
+        "{err}"
+    );
+    // No cut-off CSV, no temporary file, and the earlier run's record is gone.
+    assert_eq!(listing(&dir), Vec::<String>::new());
+}
+
+#[test]
+fn a_closed_stdout_stops_printing_but_not_the_run() {
+    for cmd in ["simulate", "check", "stability"] {
+        let dir = tmpdir(&format!("epipe-{cmd}"));
+        let mut c = bin();
+        c.arg(cmd).arg(repo().join("scenarios/ring-theorem1.json"));
+        if cmd == "simulate" {
+            c.arg("--out").arg(&dir).arg("--no-plots");
+        }
+        if cmd == "stability" {
+            c.arg("--json");
+        }
+        // The reader is gone before the first line: every write meets EPIPE.
+        let mut child = c
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        drop(child.stdout.take());
+        let o = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!err.contains("panicked"), "{cmd}: {err}");
+        assert_eq!(o.status.code(), Some(0), "{cmd}: {err}");
+        if cmd == "simulate" {
+            assert_eq!(listing(&dir), ["metrics.json", "trajectories.csv"]);
+        }
+    }
+}
+
+#[test]
+fn stdout_on_a_full_device_does_not_panic() {
+    let dir = tmpdir("dev-full");
+    let full = std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .unwrap();
+    let o = simulate(&dir).stdout(full).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert_eq!(listing(&dir), ["metrics.json", "trajectories.csv"]);
+}
+
+#[test]
+fn regress_update_refuses_an_incomplete_run_and_keeps_the_baseline() {
+    let dir = tmpdir("update-incomplete");
+    let (code, _, err) = run(&mut simulate(&dir.join("run")));
+    assert_eq!(code, 0, "{err}");
+    let mut m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("run/metrics.json")).unwrap())
+            .unwrap();
+    m["complete"] = false.into();
+    m["error"] = "interrupted (Ctrl-C) after 12 recorded samples".into();
+    std::fs::write(dir.join("partial.json"), m.to_string()).unwrap();
+    let base = dir.join("baseline.json");
+    let before = std::fs::read_to_string(repo().join("tests/baselines/ring-theorem1.native.json"))
+        .unwrap()
+        .replace(
+            "../../scenarios/",
+            &format!("{}/scenarios/", repo().display()),
+        );
+    std::fs::write(&base, &before).unwrap();
+    let (code, _, err) = run(bin()
+        .args(["regress", "--update", "--metrics"])
+        .arg(dir.join("partial.json"))
+        .arg(&base));
+    assert_eq!(code, 3, "{err}");
+    assert!(
+        err.contains("only from complete runs") && err.contains("interrupted"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read_to_string(&base).unwrap(), before);
+}
+
+/// The committed native baseline, its scenario path made absolute, with `edit` applied.
+fn native_baseline(dir: &Path, edit: impl FnOnce(&mut serde_json::Value)) -> std::path::PathBuf {
+    let text =
+        std::fs::read_to_string(repo().join("tests/baselines/ring-theorem1.native.json")).unwrap();
+    let mut b: serde_json::Value = serde_json::from_str(&text).unwrap();
+    b["scenario"] = repo()
+        .join("scenarios/ring-theorem1.json")
+        .display()
+        .to_string()
+        .into();
+    edit(&mut b);
+    let path = dir.join("baseline.json");
+    std::fs::write(&path, b.to_string()).unwrap();
+    path
+}
+
+#[test]
+fn regress_writes_junit_and_markdown_and_strict_fails_on_a_foreign_stamp() {
+    let dir = tmpdir("regress-reports");
+    // Recorded "elsewhere", and one metric planted off.
+    let base = native_baseline(&dir, |b| {
+        b["stamp"]["platform"] = "riscv64-plan9".into();
+        b["metrics"]["sync"]["spread_l2"] = 99.0.into();
+    });
+    let (junit, md) = (dir.join("r.xml"), dir.join("r.md"));
+    let (code, out, err) = run(bin()
+        .arg("regress")
+        .arg(&base)
+        .arg("--junit")
+        .arg(&junit)
+        .arg("--markdown")
+        .arg(&md));
+    assert_eq!(code, 1, "{out}{err}");
+    let x = std::fs::read_to_string(&junit).unwrap();
+    let cases = x.matches("<testcase ").count();
+    assert!(cases > 50, "{x}");
+    assert_eq!(x.matches("<failure ").count(), 1, "{x}");
+    assert!(x.contains(r#"name="sync.spread_l2">"#), "{x}");
+    assert!(x.contains(r#"failures="1""#), "{x}");
+    assert!(x.contains("<system-out>platform: baseline"), "{x}");
+    let m = std::fs::read_to_string(&md).unwrap();
+    assert!(
+        m.contains(": FAIL") && m.contains("| `sync.spread_l2` | 99.0 |"),
+        "{m}"
+    );
+    assert!(m.contains("riscv64-plan9"), "{m}");
+
+    // Only the stamp differs: reported and passing, unless --strict.
+    let base = native_baseline(&dir, |b| b["stamp"]["platform"] = "riscv64-plan9".into());
+    let (code, out, _) = run(bin().arg("regress").arg(&base));
+    assert_eq!(code, 0, "{out}");
+    assert!(out.contains("note: stamp differs"), "{out}");
+    let (code, out, err) = run(bin()
+        .arg("regress")
+        .arg(&base)
+        .arg("--strict")
+        .arg("--junit")
+        .arg(&junit));
+    assert_eq!(code, 1, "{out}{err}");
+    assert!(err.contains("--strict"), "{err}");
+    let x = std::fs::read_to_string(&junit).unwrap();
+    assert!(
+        x.contains(r#"name="stamp.platform""#) && x.contains("<failure "),
+        "{x}"
+    );
+}
