@@ -82,11 +82,15 @@ fn cells(table: &Table, metric: &str, keys: &[&str]) -> Cells {
         if r.get("status").and_then(Value::as_str) == Some("failed") {
             continue;
         }
-        let run = r
-            .get("run")
-            .and_then(Value::as_str)
-            .unwrap_or("")
-            .to_string();
+        let run = r.get("run").and_then(Value::as_str).unwrap_or("");
+        // Against penetration, the mixed runs of one controller form one line.
+        let run = if keys == ["penetration"] {
+            run.find("mixed-")
+                .map_or(run, |i| &run[..i + 5])
+                .to_string()
+        } else {
+            run.to_string()
+        };
         let xs: Option<Vec<f64>> = keys
             .iter()
             .map(|k| r.get(*k).and_then(Value::as_f64))

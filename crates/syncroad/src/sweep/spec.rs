@@ -71,9 +71,9 @@ pub struct SpecFile {
     #[serde(default)]
     pub mixed_driver: Option<String>,
     /// Who drives the automated vehicles of mixed runs: `law` (default), `follower-stopper-U`
-    /// or `pi-saturation`.
+    /// or `pi-saturation`, or a list of them (a mixed run per controller and penetration).
     #[serde(default)]
-    pub mixed_controller: Option<String>,
+    pub mixed_controller: Option<OneOrMany>,
     /// Metric paths of `metrics.json` to keep (default: [`DEFAULT_METRICS`]).
     #[serde(default)]
     pub metrics: Option<Vec<String>>,
@@ -103,6 +103,16 @@ pub struct AxisFile {
     /// `[first, last, count]`, geometrically spaced.
     #[serde(default)]
     pub logspace: Option<(f64, f64, usize)>,
+}
+
+/// A name or a list of names.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum OneOrMany {
+    /// One.
+    One(String),
+    /// Several.
+    Many(Vec<String>),
 }
 
 /// Seeds as written.
@@ -458,11 +468,23 @@ impl Sweep {
             let human_name = file.mixed_driver.as_deref().unwrap_or("krauss-0.9");
             let human = SumoDriver::parse("mixed_driver", human_name)
                 .map_err(|e| InputError::caused("mixed_driver", e))?;
-            let controller = DamperSpec::parse(
-                "mixed_controller",
-                file.mixed_controller.as_deref().unwrap_or("law"),
-            )
-            .map_err(|e| InputError::caused("mixed_controller", e))?;
+            let names = match &file.mixed_controller {
+                None => vec!["law".to_string()],
+                Some(OneOrMany::One(c)) => vec![c.clone()],
+                Some(OneOrMany::Many(v)) => v.clone(),
+            };
+            let mut controllers = Vec::new();
+            for c in &names {
+                let d = DamperSpec::parse("mixed_controller", c)
+                    .map_err(|e| InputError::caused("mixed_controller", e))?;
+                if controllers.contains(&d) {
+                    return Err(bad(format!("mixed_controller: {c} is listed twice")).into());
+                }
+                controllers.push(d);
+            }
+            if controllers.is_empty() {
+                return Err(bad("mixed_controller = []: name at least one (e.g. \"law\")").into());
+            }
             for &p in &file.penetrations {
                 if !(0.0..=1.0).contains(&p) {
                     return Err(
@@ -470,18 +492,30 @@ impl Sweep {
                     );
                 }
                 let k = (p * n as f64).round() as usize;
-                let name = match controller {
-                    Some(d) if k > 0 => format!("{d}-mixed-{p}"),
-                    _ => format!("mixed-{p}"),
+                // The all-human ring is the same whatever would control: it runs once.
+                let with = if k == 0 {
+                    &controllers[..1]
+                } else {
+                    &controllers[..]
                 };
-                let spec = RunSpec::mixed(name, n, k, human, controller);
-                if runs.iter().any(|r| r.spec.name == spec.name) {
-                    return Err(bad(format!("penetrations: {p} is listed twice")).into());
+                for &controller in with {
+                    let name = match controller {
+                        Some(d) if k > 0 => format!("{d}-mixed-{p}"),
+                        _ => format!("mixed-{p}"),
+                    };
+                    let spec = RunSpec::mixed(name, n, k, human, controller);
+                    if runs.iter().any(|r| r.spec.name == spec.name) {
+                        return Err(bad(format!(
+                            "penetrations: {p} gives {} again (listed twice)",
+                            spec.name
+                        ))
+                        .into());
+                    }
+                    runs.push(RunChoice {
+                        spec,
+                        penetration: k as f64 / n.max(1) as f64,
+                    });
                 }
-                runs.push(RunChoice {
-                    spec,
-                    penetration: k as f64 / n.max(1) as f64,
-                });
             }
         }
         if runs.is_empty() {
@@ -493,10 +527,10 @@ impl Sweep {
         if backend == Backend::Native {
             if let Some(r) = runs
                 .iter()
-                .find(|r| r.spec.drivers.iter().any(Option::is_some))
+                .find(|r| r.spec.damper.is_some() || r.spec.drivers.iter().any(Option::is_some))
             {
                 return Err(bad(format!(
-                    "runs: {} has SUMO drivers but backend = \"native\"; use backend \"sumo\" or only \"protocol\"",
+                    "runs: {} has SUMO drivers or a wave damper, which run in SUMO, but backend = \"native\"; use backend \"sumo\" or only \"protocol\"",
                     r.spec.name
                 ))
                 .into());

@@ -1,0 +1,47 @@
+#!/usr/bin/env bash
+# Sweep throughput against a shell loop, on the same 200 Sugiyama-ring points in SUMO
+# (20 values of gain_pred × 10 seeds, 300 s each, no plots):
+#   bash scripts/bench-sweep.sh sweep   one `syncroad sweep` (long-lived SUMO workers, all cores)
+#   bash scripts/bench-sweep.sh loop    a shell loop of `syncroad run` per point (one at a time)
+#   bash scripts/bench-sweep.sh loop2   the same loop, two points at a time (xargs -P 2)
+# Side by side, as the README quotes it:
+#   farm-bench -n 2 --warmup 0 --timeout 1500 --vs 'bash scripts/bench-sweep.sh loop' -- bash scripts/bench-sweep.sh sweep
+set -euo pipefail
+cd "$(dirname "$0")/.."
+repo="$(pwd)"
+bin="$repo/target/release/syncroad"
+d="${TMPDIR:-/tmp}/syncroad-bench-sweep"
+mode="${1:?usage: bench-sweep.sh sweep|loop|loop2}"
+
+gains=(0.40 0.42 0.44 0.46 0.48 0.50 0.52 0.54 0.56 0.58 0.60 0.62 0.64 0.66 0.68 0.70 0.72 0.74 0.76 0.78)
+seeds=(1 2 3 4 5 6 7 8 9 10)
+if [ ! -f "$d/points/199.json" ]; then
+    mkdir -p "$d/points"
+    # The per-point scenario files of the loop: the base scenario with the point's fields set.
+    python3 - "$repo" "$d" "${gains[*]}" "${seeds[*]}" <<'PY'
+import json, sys
+repo, d, gains, seeds = sys.argv[1], sys.argv[2], sys.argv[3].split(), sys.argv[4].split()
+base = json.load(open(f"{repo}/scenarios/sugiyama-ring.json"))
+base["sumo"]["net"] = f"{repo}/sumo-nets/sugiyama-ring.net.xml"
+k = 0
+for g in gains:
+    for s in seeds:
+        base["model"]["graph"]["gain_pred"] = float(g)
+        base["seed"] = int(s)
+        json.dump(base, open(f"{d}/points/{k}.json", "w"))
+        k += 1
+PY
+    values="$(printf '%s, ' "${gains[@]}")"
+    cat > "$d/spec.json" <<JSON
+{"name": "bench", "base": "$repo/scenarios/sugiyama-ring.json", "backend": "sumo",
+ "axes": [{"field": "model.graph.gain_pred", "values": [${values%, }]}],
+ "seeds": [$(IFS=,; echo "${seeds[*]}")], "metrics": ["sync.verdict", "sync.final_spread_mps"]}
+JSON
+fi
+rm -rf "$d/out" && mkdir -p "$d/out"
+case "$mode" in
+    sweep) exec "$bin" sweep "$d/spec.json" --out "$d/out/sweep" --no-plots ;;
+    loop) for k in $(seq 0 199); do "$bin" run "$d/points/$k.json" --out "$d/out/$k" --no-plots >/dev/null; done ;;
+    loop2) seq 0 199 | xargs -P 2 -I{} "$bin" run "$d/points/{}.json" --out "$d/out/{}" --no-plots >/dev/null ;;
+    *) echo "usage: bench-sweep.sh sweep|loop|loop2" >&2; exit 2 ;;
+esac
