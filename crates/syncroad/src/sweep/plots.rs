@@ -131,6 +131,23 @@ fn line_plots(sweep: &Sweep, table: &Table, x: &str, dir: &Path) -> anyhow::Resu
         if series.is_empty() {
             continue;
         }
+        if x == "penetration" {
+            // The all-human ring (penetration 0) ran once; it starts every controller's line,
+            // and the law's mixed line is named for what drives it.
+            if let Some(zero) = series
+                .get("mixed")
+                .and_then(|s| s.iter().find(|(p, _)| *p == 0.0).copied())
+            {
+                for (name, s) in series.iter_mut() {
+                    if name.ends_with("-mixed") && !s.iter().any(|(p, _)| *p == 0.0) {
+                        s.push(zero);
+                    }
+                }
+            }
+            if let Some(law) = series.remove("mixed") {
+                series.insert("law-mixed".into(), law);
+            }
+        }
         for s in series.values_mut() {
             s.sort_by(|a, b| a.0.total_cmp(&b.0));
         }
@@ -151,11 +168,7 @@ fn line_plots(sweep: &Sweep, table: &Table, x: &str, dir: &Path) -> anyhow::Resu
             }
         };
         let (px, py) = (pad(x0, x1), pad(y0, y1));
-        let title = format!(
-            "{}: {} (mean, 95 % interval over seeds)",
-            sweep.name,
-            label(&metric)
-        );
+        let title = format!("{} (mean, 95 % interval over seeds)", label(&metric));
         let stem = file_stem(&metric);
         let drawn: anyhow::Result<Vec<PathBuf>> = render_both!(dir, stem, (1000, 650), |root| {
             let mut chart = ChartBuilder::on(root)
@@ -306,8 +319,7 @@ fn grid_plots(
                 format!("heat-{}-{}", file_stem(&metric), file_stem(run))
             };
             let title = format!(
-                "{}: {} ({run}; mean over seeds {} … {}{})",
-                sweep.name,
+                "{} ({run}; mean over seeds {} … {}{})",
                 label(&metric),
                 fmt(lo),
                 fmt(hi),

@@ -387,18 +387,24 @@ impl Sweep {
     pub fn load(path: &Path) -> anyhow::Result<Self> {
         let text = std::fs::read_to_string(path)
             .map_err(|e| bad(format!("cannot read sweep spec {}: {e}", path.display())))?;
-        let file: SpecFile = serde_json::from_str(&text)
+        // Parsed once as the schema for errors with line and column, once as written.
+        serde_json::from_str::<SpecFile>(&text)
+            .map_err(|e| bad(format!("sweep spec {}: {e}", path.display())))?;
+        let raw: Value = serde_json::from_str(&text)
             .map_err(|e| bad(format!("sweep spec {}: {e}", path.display())))?;
         let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-        let name = file.name.clone().unwrap_or_else(|| {
-            path.file_stem()
-                .map_or("sweep".into(), |s| s.to_string_lossy().into_owned())
-        });
-        Self::new(file, &dir, name)
+        let stem = path
+            .file_stem()
+            .map_or("sweep".into(), |s| s.to_string_lossy().into_owned());
+        Self::new(raw, &dir, stem)
     }
 
-    /// Validates a spec whose relative paths resolve against `dir`.
-    pub fn new(file: SpecFile, dir: &Path, name: String) -> anyhow::Result<Self> {
+    /// Validates a spec (JSON as written) whose relative paths resolve against `dir`;
+    /// `default_name` names it when the spec gives no name.
+    pub fn new(raw: Value, dir: &Path, default_name: String) -> anyhow::Result<Self> {
+        let file: SpecFile =
+            serde_json::from_value(raw.clone()).map_err(|e| bad(format!("sweep spec: {e}")))?;
+        let name = file.name.clone().unwrap_or(default_name);
         let base_path = dir.join(&file.base);
         let base_text = std::fs::read_to_string(&base_path).map_err(|e| {
             bad(format!(
@@ -570,7 +576,8 @@ impl Sweep {
             }
         }
         let mut h = Sha256::new();
-        h.update(serde_json::to_string(&file)?.as_bytes());
+        // The spec as written (keys sorted), so the hash does not move with syncroad's defaults.
+        h.update(serde_json::to_string(&raw)?.as_bytes());
         h.update([0]);
         h.update(serde_json::to_string(&base_json)?.as_bytes());
         let hash = h.finalize().iter().map(|b| format!("{b:02x}")).collect();
@@ -675,9 +682,9 @@ mod tests {
     use super::*;
 
     fn spec(json: &str) -> anyhow::Result<Sweep> {
-        let file: SpecFile = serde_json::from_str(json)?;
+        let raw: Value = serde_json::from_str(json)?;
         let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios");
-        Sweep::new(file, &dir, "t".into())
+        Sweep::new(raw, &dir, "t".into())
     }
 
     #[test]
