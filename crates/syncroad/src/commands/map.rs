@@ -1,5 +1,6 @@
-//! `syncroad map`: sweep a 2-D grid of gain and delay scales of a delayed-driver scenario and
-//! draw, on one plot, the region Theorem 1 certifies, the exactly stable region (rightmost
+//! `syncroad map`: a preset of `syncroad sweep` over a 2-D grid of gain and delay scales of a
+//! delayed-driver scenario (the native verdicts come from the sweep, in `OUT/sweep`) that
+//! draws, on one plot, the region Theorem 1 certifies, the exactly stable region (rightmost
 //! characteristic root), and the verdict of a native simulation at every grid point.
 
 use std::fmt::Write as _;
@@ -12,14 +13,15 @@ use serde::Serialize;
 use syncroad_control::exact::analysis::{network_matrices, uniform_ring, FULL_SOLVE_LIMIT};
 use syncroad_control::exact::{self, Boundaries, CollocationOptions, UniformRing};
 use syncroad_control::scenario::{DelayedDriverModel, Model};
-use syncroad_control::{evaluate, theory, EvalOptions, Scenario, Verdict};
+use syncroad_control::{theory, Scenario, Verdict};
 
 use crate::config::{self, load_scenario};
 use crate::error::{InputError, Status};
-use crate::pipeline;
 use crate::plots::err;
 use crate::progress::Progress;
 use crate::stdout::outln;
+use crate::sweep::{exec, ExecOptions, Shard, Sweep};
+use syncroad_sumo::interrupt_flag;
 
 /// Swept quantity.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -131,7 +133,6 @@ fn evaluate_point(
     ring: Option<UniformRing>,
     x: (Param, f64),
     y: (Param, f64),
-    simulate_too: bool,
 ) -> Point {
     let scale = |p: Param| {
         [x, y]
@@ -147,26 +148,13 @@ fn evaluate_point(
         Some((_, b)) => theory::theorem1_plus(&m.graph, &m.delay_s, b).holds,
     };
     let abscissa = exact_abscissa(&m, ring, gain, delay);
-    let simulated = simulate_too.then(|| {
-        // The simulation uses the on-grid delays.
-        let mut mm = m.clone();
-        for (d, k) in mm.delay_s.iter_mut().zip(&mm.delay_steps) {
-            *d = *k as f64 * sc.step_s();
-        }
-        let s = sc
-            .with_model(Model::DelayedDriver(mm))
-            .expect("a scaled model keeps the scenario's vehicles and step grid");
-        let every = (s.steps() / 1000).max(1);
-        let out = pipeline::native(&s, every);
-        evaluate(&s, &out, EvalOptions::of(sc)).sync.verdict
-    });
     Point {
         x: x.1,
         y: y.1,
         certified,
         abscissa_per_s: abscissa,
         exact_stable: abscissa.map(|a| a < 0.0),
-        simulated,
+        simulated: None,
         delay_rounding_s: rounding,
     }
 }
@@ -198,14 +186,78 @@ fn exact_abscissa(
         .map(|r| r.abscissa)
 }
 
-/// Runs the sweep in parallel over the cores, with progress on stderr.
-pub fn sweep(
+/// The native verdict at every grid point, from a sweep over `scale.gain` × `scale.delay` (the
+/// map is a preset of `syncroad sweep`: the same pipeline, table and folder, in `OUT/sweep`).
+/// Returned in grid order, x fastest.
+fn simulate_grid(
+    path: &Path,
     sc: &Scenario,
-    xa: Axis,
-    ya: Axis,
-    simulate_too: bool,
+    xa: &Axis,
+    ya: &Axis,
+    out: &Path,
     jobs: usize,
-) -> anyhow::Result<Vec<Point>> {
+) -> anyhow::Result<Vec<Option<Verdict>>> {
+    let field = |p: Param| match p {
+        Param::GainScale => "scale.gain",
+        Param::DelayScale => "scale.delay",
+    };
+    let base =
+        std::path::absolute(path).with_context(|| format!("cannot resolve {}", path.display()))?;
+    let spec = serde_json::json!({
+        "name": format!("{} map", sc.name()),
+        "base": base,
+        "backend": "native",
+        "axes": [
+            {"field": field(xa.param), "linspace": [xa.lo, xa.hi, xa.n]},
+            {"field": field(ya.param), "linspace": [ya.lo, ya.hi, ya.n]},
+        ],
+        "metrics": ["sync.verdict", "sync.final_spread_mps", "certified"],
+    });
+    let sweep = Sweep::new(spec, Path::new("."), "map".into())?;
+    let dir = out.join("sweep");
+    // The map owns this folder: every map starts it afresh.
+    if dir.exists() {
+        std::fs::remove_dir_all(&dir)
+            .with_context(|| format!("cannot remove the previous {}", dir.display()))?;
+    }
+    exec::open_out(&sweep, &dir, Shard::all())?;
+    let opts = ExecOptions {
+        jobs,
+        shard: Shard::all(),
+        keep_runs: false,
+        run_plots: false,
+        retry_failed: false,
+    };
+    let summary = exec::run(&sweep, &dir, &opts, interrupt_flag()?)?;
+    if summary.interrupted > 0 {
+        return Err(anyhow::anyhow!(
+            "interrupted; the finished grid points are in {}",
+            dir.display()
+        ));
+    }
+    let rows = exec::read_rows(&dir)?;
+    let mut verdicts = vec![None; xa.n * ya.n];
+    for (id, row) in &rows {
+        let p = sweep.point(*id);
+        verdicts[p.at[0] + p.at[1] * xa.n] = row
+            .get("sync.verdict")
+            .and_then(|v| v.as_str())
+            .and_then(|v| match v {
+                "synchronized" => Some(Verdict::Synchronized),
+                "not_synchronized" => Some(Verdict::NotSynchronized),
+                "inconclusive" => Some(Verdict::Inconclusive),
+                _ => None,
+            });
+    }
+    let table = exec::table(&sweep, rows);
+    table.write_parquet(&dir.join("results.parquet"))?;
+    table.write_csv(&dir.join("results.csv"))?;
+    Ok(verdicts)
+}
+
+/// Theory at every grid point (Theorem 1 and the exact abscissa), in parallel over the cores,
+/// with progress on stderr.
+pub fn theory_grid(sc: &Scenario, xa: Axis, ya: Axis, jobs: usize) -> anyhow::Result<Vec<Point>> {
     let Model::DelayedDriver(base) = sc.model() else {
         return Err(InputError::new("map sweeps delayed-driver scenarios (model.type = \"delayed_driver\"); use `syncroad stability` for CACC platoons").into());
     };
@@ -243,7 +295,6 @@ pub fn sweep(
                     ring,
                     (xa.param, xa.value(i)),
                     (ya.param, ya.value(j)),
-                    simulate_too,
                 );
                 progress.finished("grid point", None);
                 p
@@ -439,7 +490,15 @@ pub fn run(
     let ya = Axis::parse("--y", y)?;
     let jobs = config::jobs(jobs)?;
     crate::output::prepare_dir("--out", out, &["map.csv"])?;
-    let pts = sweep(&sc, xa, ya, !no_sim, jobs)?;
+    let mut pts = theory_grid(&sc, xa, ya, jobs)?;
+    if !no_sim {
+        for (p, v) in pts
+            .iter_mut()
+            .zip(simulate_grid(path, &sc, &xa, &ya, out, jobs)?)
+        {
+            p.simulated = v;
+        }
+    }
     write_csv(&out.join("map.csv"), &pts)?;
     let bounds = boundaries(&sc);
     plot(

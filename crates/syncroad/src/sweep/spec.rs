@@ -703,7 +703,16 @@ mod tests {
         assert_eq!(s.axes[0].numbers().unwrap(), vec![0.5, 1.0, 1.5]);
         let sc = s.scenario(&p).unwrap();
         assert_eq!(sc.seed(), 11);
-        assert_eq!(sc.initial_speed_mps()[0], 8.0);
+        // Point 5 differs only in its speed axis (6 instead of 8 m/s): same seed, so the same
+        // perturbation on top of a 2 m/s higher base speed.
+        let slower = s.scenario(&s.point(5)).unwrap();
+        for (a, b) in sc
+            .initial_speed_mps()
+            .iter()
+            .zip(slower.initial_speed_mps())
+        {
+            assert!((a - b - 2.0).abs() < 1e-12, "{a} vs {b}");
+        }
         let ids: Vec<usize> = s.points().map(|p| p.id).collect();
         assert_eq!(ids, (0..12).collect::<Vec<_>>());
     }
