@@ -18,19 +18,7 @@ use crate::damper::{DamperController, DamperError, DamperSetup};
 use crate::delayed_driver::{DelayedDriverLaw, LawError};
 use crate::scenario::{LeaderProfile, Model, Scenario};
 
-/// A law that commands speeds one step ahead.
-pub trait SpeedController: Send {
-    /// From the state at time `time_s` = t_n (speeds \[m/s\] and unwrapped rear-bumper positions
-    /// \[m\] of every vehicle on the road, the leader first when there is one) writes the
-    /// speeds wanted at t_{n+1} into `next_speeds_mps`.
-    fn step(
-        &mut self,
-        time_s: f64,
-        speeds_mps: &[f64],
-        positions_m: &[f64],
-        next_speeds_mps: &mut [f64],
-    );
-}
+pub use crate::speed_controller::SpeedController;
 
 /// Errors building a controller.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

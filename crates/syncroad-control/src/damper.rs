@@ -18,9 +18,9 @@ use std::fmt;
 use serde::{Deserialize, Serialize};
 
 use crate::actuation::AccelLimits;
-use crate::controller::SpeedController;
 use crate::follower_stopper::{FollowerStopper, FollowerStopperError, FollowerStopperParams};
 use crate::pi_saturation::{PiSaturation, PiSaturationError, PiSaturationParams};
+use crate::speed_controller::SpeedController;
 
 /// Which damper, with the parameters a user chooses (the rest are the field experiment's).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

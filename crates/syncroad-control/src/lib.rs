@@ -45,6 +45,7 @@ pub mod poly;
 pub mod record;
 pub mod rng;
 pub mod scenario;
+pub mod speed_controller;
 pub mod stop;
 pub mod theory;
 pub mod trajectory;

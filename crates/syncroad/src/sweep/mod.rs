@@ -7,6 +7,7 @@
 //! (typed columns, Parquet and CSV), [`stats`] (mean and interval over seeds), [`plots`]
 //! and [`slurm`] (a job array that runs the shards).
 
+pub mod axis;
 pub mod exec;
 pub mod plots;
 pub mod slurm;

@@ -18,7 +18,8 @@ use plotters::prelude::*;
 use serde_json::{Map, Value};
 use syncroad_control::exact::gain_delay_boundaries;
 
-use super::spec::{Sweep, Target};
+use super::axis::Target;
+use super::spec::Sweep;
 use super::stats::{mean_ci, MeanCi};
 use super::table::{Kind, Table};
 use crate::plots::{ensure_font, err, render_both};

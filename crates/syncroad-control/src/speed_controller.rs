@@ -1,0 +1,16 @@
+//! The seam every law drives through: one step of commanded speeds. The laws ([`crate::controller`])
+//! and the wave dampers ([`crate::damper`]) implement it; both backends step it.
+
+/// A law that commands speeds one step ahead.
+pub trait SpeedController: Send {
+    /// From the state at time `time_s` = t_n (speeds \[m/s\] and unwrapped rear-bumper positions
+    /// \[m\] of every vehicle on the road, the leader first when there is one) writes the
+    /// speeds wanted at t_{n+1} into `next_speeds_mps`.
+    fn step(
+        &mut self,
+        time_s: f64,
+        speeds_mps: &[f64],
+        positions_m: &[f64],
+        next_speeds_mps: &mut [f64],
+    );
+}
