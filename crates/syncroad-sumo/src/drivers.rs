@@ -21,8 +21,8 @@ pub const MIXED_SPEED_MODE: i32 = 1;
 pub const EMISSION_CLASS: &str = "HBEFA4/PC_petrol_Euro-6ab";
 
 /// A SUMO car-following model driving a vehicle.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "model", rename_all = "snake_case")]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "driver", rename_all = "snake_case")]
 pub enum SumoDriver {
     /// Krauss with driver imperfection σ ∈ \[0, 1\].
     Krauss {
@@ -40,18 +40,32 @@ pub enum SumoDriver {
     Human,
     /// The `flow-idm` preset: Flow's `IDMController` defaults ([`CarFollowing::preset`]).
     FlowIdm,
+    /// Any of SUMO's car-following models with its parameters, written
+    /// `MODEL:name=value:name=value` (e.g. `idm:accel=1.3:tau=0.8`), or a preset with some of
+    /// its values changed (`human:tau=1.2`).
+    Custom(CarFollowing),
 }
 
 /// Errors naming a driver.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum DriverError {
     /// Unknown name.
-    #[error("{flag} = {value}: unknown driver; use krauss (σ 0.5), krauss-SIGMA with SIGMA in [0, 1] (e.g. krauss-0.9), idm, acc, cacc, or a preset: human (IDM calibrated on the Sugiyama ring), flow-idm")]
+    #[error("{flag} = {value}: unknown driver; use krauss (σ 0.5), krauss-SIGMA with SIGMA in [0, 1] (e.g. krauss-0.9), idm, acc, cacc, a preset: human (IDM calibrated on the Sugiyama ring), flow-idm, or any SUMO model with its parameters as MODEL:name=value:... (e.g. idm:accel=1.3:tau=0.8, eidm:..., w99:..., human:tau=1.2)")]
     Unknown {
         /// Flag or field.
         flag: String,
         /// The value.
         value: String,
+    },
+    /// A parameter of a `MODEL:name=value` driver is malformed, unknown or out of range.
+    #[error("{flag} = {value}: {reason}")]
+    Parameter {
+        /// Flag or field.
+        flag: String,
+        /// The value.
+        value: String,
+        /// What is wrong and what would be valid.
+        reason: String,
     },
     /// σ out of range.
     #[error("{flag} = {value}: Krauss σ = {sigma} must lie in [0, 1]")]
@@ -73,6 +87,9 @@ impl SumoDriver {
     /// `flow-idm` (case-insensitive); `flag` names
     /// the flag or field in the error.
     pub fn parse(flag: &str, s: &str) -> Result<Self, DriverError> {
+        if let Some((model, params)) = s.trim().split_once(':') {
+            return Self::custom(flag, s, model, params);
+        }
         let low = s.trim().to_ascii_lowercase();
         match low.as_str() {
             "krauss" => return Ok(Self::DEFAULT_KRAUSS),
@@ -93,6 +110,44 @@ impl SumoDriver {
             flag: flag.into(),
             value: s.into(),
         })
+    }
+
+    /// `MODEL:name=value:...`: a SUMO model (by its SUMO or short name) or a preset, with
+    /// parameters checked by [`CarFollowing::check_values`] (the names the model knows, finite
+    /// values in range).
+    fn custom(flag: &str, s: &str, model: &str, params: &str) -> Result<Self, DriverError> {
+        let bad = |reason: String| DriverError::Parameter {
+            flag: flag.into(),
+            value: s.into(),
+            reason,
+        };
+        let low = model.trim().to_ascii_lowercase();
+        let mut cf = if crate::car_following::PRESETS.contains(&low.as_str()) {
+            CarFollowing::preset(flag, &low).map_err(|e| bad(e.to_string()))?
+        } else {
+            let m = match low.as_str() {
+                "krauss" => CfModel::Krauss,
+                "idm" => CfModel::Idm,
+                "acc" => CfModel::Acc,
+                "cacc" => CfModel::Cacc,
+                _ => {
+                    CarFollowing::parse_model(flag, model.trim()).map_err(|e| bad(e.to_string()))?
+                }
+            };
+            CarFollowing::new(m)
+        };
+        for kv in params.split(':').map(str::trim).filter(|x| !x.is_empty()) {
+            let (name, value) = kv
+                .split_once('=')
+                .ok_or_else(|| bad(format!("{kv:?} is not name=value (e.g. accel=1.3)")))?;
+            let v: f64 = value
+                .trim()
+                .parse()
+                .map_err(|_| bad(format!("{}: {value:?} is not a number", name.trim())))?;
+            cf.params.insert(name.trim().to_string(), v);
+        }
+        cf.check_values(flag).map_err(|e| bad(e.to_string()))?;
+        Ok(Self::Custom(cf))
     }
 
     /// Krauss with driver imperfection `sigma`, checked to lie in \[0, 1\]; `flag` and
@@ -116,7 +171,9 @@ impl SumoDriver {
             SumoDriver::Idm => r#"carFollowModel="IDM""#.into(),
             SumoDriver::Acc => r#"carFollowModel="ACC""#.into(),
             SumoDriver::Cacc => r#"carFollowModel="CACC""#.into(),
-            SumoDriver::Human | SumoDriver::FlowIdm => self.car_following().vtype_attributes(),
+            SumoDriver::Human | SumoDriver::FlowIdm | SumoDriver::Custom(_) => {
+                self.car_following().vtype_attributes()
+            }
         }
     }
 }
@@ -125,9 +182,10 @@ impl SumoDriver {
     /// The same driver as a fully parameterized [`CarFollowing`]; it renders the same
     /// `vType` attributes as [`vtype_attributes`](Self::vtype_attributes).
     pub fn car_following(&self) -> CarFollowing {
-        match *self {
+        match self {
+            SumoDriver::Custom(cf) => cf.clone(),
             SumoDriver::Krauss { sigma } => {
-                CarFollowing::with(CfModel::Krauss, &[("sigma", sigma)])
+                CarFollowing::with(CfModel::Krauss, &[("sigma", *sigma)])
             }
             SumoDriver::Idm => CarFollowing::new(CfModel::Idm),
             SumoDriver::Acc => CarFollowing::new(CfModel::Acc),
@@ -152,6 +210,13 @@ impl fmt::Display for SumoDriver {
             SumoDriver::Cacc => write!(f, "cacc"),
             SumoDriver::Human => write!(f, "human"),
             SumoDriver::FlowIdm => write!(f, "flow-idm"),
+            SumoDriver::Custom(cf) => {
+                write!(f, "{}", cf.model.sumo_name().to_ascii_lowercase())?;
+                for (name, value) in &cf.params {
+                    write!(f, ":{name}={value}")?;
+                }
+                Ok(())
+            }
         }
     }
 }
@@ -186,5 +251,49 @@ mod tests {
             .unwrap_err()
             .to_string()
             .starts_with("--baselines = wiedemann: unknown driver; use krauss"));
+    }
+
+    #[test]
+    fn any_model_with_its_parameters_and_presets_with_changes() {
+        let d = SumoDriver::parse("--baselines", "IDM:tau=0.8:accel=1.3").unwrap();
+        assert_eq!(d.to_string(), "idm:accel=1.3:tau=0.8");
+        assert_eq!(SumoDriver::parse("x", &d.to_string()).unwrap(), d);
+        assert_eq!(
+            d.vtype_attributes(),
+            r#"carFollowModel="IDM" accel="1.3" tau="0.8""#
+        );
+        // A preset with one value changed keeps the others.
+        let h = SumoDriver::parse("x", "human:tau=1.2")
+            .unwrap()
+            .car_following();
+        let mut want = SumoDriver::Human.car_following();
+        want.params.insert("tau".into(), 1.2);
+        assert_eq!(h, want);
+        // Models beyond the short names, by SUMO's spelling.
+        let w = SumoDriver::parse("x", "w99:cc1=1.5")
+            .unwrap()
+            .car_following();
+        assert_eq!(w.model, CfModel::W99);
+        // A parameter the model does not know: the error lists the valid ones.
+        let e = SumoDriver::parse("--baselines", "idm:sigmaa=0.5")
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("--baselines = idm:sigmaa=0.5: "), "{e}");
+        assert!(
+            e.contains("sigmaa") && e.contains("accel") && e.contains("delta"),
+            "{e}"
+        );
+        for bad in [
+            "idm:accel=-1",
+            "idm:accel=nan",
+            "idm:accel",
+            "idm:accel=fast",
+            "nosuch:tau=1",
+        ] {
+            let e = SumoDriver::parse("--baselines", bad)
+                .unwrap_err()
+                .to_string();
+            assert!(e.starts_with(&format!("--baselines = {bad}: ")), "{e}");
+        }
     }
 }

@@ -301,13 +301,13 @@ impl Layout {
         // acts on them when the law does not command them, and then without randomness.
         let mut types: Vec<(u64, Option<crate::drivers::SumoDriver>)> = Vec::new();
         for v in &self.vehicles {
-            let key = (v.length_m.to_bits(), v.driver);
+            let key = (v.length_m.to_bits(), v.driver.clone());
             if !types.contains(&key) {
                 types.push(key);
                 // A driver's own values (a preset's accel, decel, minGap, maxSpeed) replace
                 // the scenario's; its other parameters follow its carFollowModel. Lengths are
                 // the layout's (a preset's length is checked to match before SUMO starts).
-                let cf = v.driver.map(|d| d.car_following());
+                let cf = v.driver.as_ref().map(|d| d.car_following());
                 let own = |name: &str, x: f64| {
                     cf.as_ref()
                         .and_then(|c| c.params.get(name).copied())
@@ -361,7 +361,7 @@ impl Layout {
         for v in &self.vehicles {
             let ty = types
                 .iter()
-                .position(|k| *k == (v.length_m.to_bits(), v.driver))
+                .position(|k| k.0 == v.length_m.to_bits() && k.1 == v.driver)
                 .expect("type written above");
             let _ = writeln!(
                 s,

@@ -77,6 +77,9 @@ pub enum PrepareError {
         /// What is valid.
         expected: &'static str,
     },
+    /// A driver's parameters do not fit the run (e.g. `actionStepLength` off the step grid).
+    #[error(transparent)]
+    CarFollowing(#[from] crate::car_following::CarFollowingError),
     /// A driver named in the scenario is unknown.
     #[error(transparent)]
     Driver(#[from] DriverError),
@@ -306,19 +309,26 @@ pub(crate) fn prepare(
         }
         for (i, (dep, d)) in layout.vehicles[k0..].iter_mut().zip(&drivers).enumerate() {
             if let Some(&preset_m) = d
+                .as_ref()
                 .and_then(|d| d.car_following().params.get("length").copied())
                 .as_ref()
             {
                 if preset_m != dep.length_m {
                     return Err(PrepareError::DriverLength {
-                        driver: d.map(|d| d.to_string()).unwrap_or_default(),
+                        driver: d.as_ref().map(|d| d.to_string()).unwrap_or_default(),
                         vehicle: i,
                         preset_m,
                         length_m: dep.length_m,
                     });
                 }
             }
-            dep.driver = *d;
+            if let Some(d) = d {
+                // Every value was checked when the driver was named; the step only now.
+                d.car_following()
+                    .validate(&format!("driver {d} of vehicle {i}"), scenario.step_s())
+                    .map_err(PrepareError::CarFollowing)?;
+            }
+            dep.driver = d.clone();
         }
     }
     if let (Some(d), false) = (damper, layout.road.ring) {
@@ -603,6 +613,7 @@ impl SumoRun {
                 .iter()
                 .map(|v| {
                     v.driver
+                        .as_ref()
                         .map_or_else(|| commanded.clone(), |d| d.to_string())
                 })
                 .collect(),

@@ -536,3 +536,51 @@ mod pool {
         assert_eq!(pool.workers_started(), 2, "the new worker stays in service");
     }
 }
+
+/// Drivers spelled out as `MODEL:name=value:...` reach SUMO with their values.
+mod parameterized_drivers {
+    use super::*;
+
+    fn ring_run(driver: &str, name: &str) -> syncroad_sumo::SumoRun {
+        let sc = ring_scenario(22, 60.0, &nets().join("sugiyama-ring.net.xml"), 3);
+        let mut o = opts(name);
+        o.drivers = vec![Some(SumoDriver::parse("driver", driver).unwrap()); 22];
+        run_scenario(&sc, &o).unwrap()
+    }
+
+    /// The `human` preset spelled out value by value drives exactly as the preset, and one
+    /// value changed changes the run: the parameters are what SUMO ran.
+    #[test]
+    fn a_spelled_out_preset_is_the_preset() {
+        let preset = ring_run("human", "pd-preset");
+        let spelled = ring_run(
+            "idm:accel=1.3:decel=1.5:tau=0.8:minGap=2:delta=4:maxSpeed=30:length=5",
+            "pd-spelled",
+        );
+        let slower = ring_run(
+            "idm:accel=1.3:decel=1.5:tau=1.6:minGap=2:delta=4:maxSpeed=30:length=5",
+            "pd-tau",
+        );
+        for r in [&preset, &spelled, &slower] {
+            r.outcome().unwrap();
+        }
+        assert_eq!(
+            preset.worker.rows.speeds_mps,
+            spelled.worker.rows.speeds_mps
+        );
+        assert_ne!(preset.worker.rows.speeds_mps, slower.worker.rows.speeds_mps);
+    }
+
+    /// A step-dependent value off the step grid is refused before SUMO starts, naming it.
+    #[test]
+    fn an_action_step_off_the_grid_is_refused_before_sumo_starts() {
+        let sc = ring_scenario(22, 10.0, &nets().join("sugiyama-ring.net.xml"), 3);
+        let road = load_road(&sc).unwrap();
+        let mut o = opts("pd-asl");
+        o.drivers =
+            vec![Some(SumoDriver::parse("driver", "idm:actionStepLength=0.15").unwrap()); 22];
+        let e = Prepared::new(&sc, &road, &o).unwrap_err().to_string();
+        assert!(e.contains("actionStepLength") && e.contains("0.15"), "{e}");
+        assert!(e.contains("whole multiple"), "{e}");
+    }
+}

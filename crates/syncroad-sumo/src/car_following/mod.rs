@@ -175,6 +175,24 @@ impl CarFollowing {
     /// when both are set; `actionStepLength` a whole multiple of the step (SUMO would round it).
     /// `field` is the path of this driver in the user's input, used in every message.
     pub fn validate(&self, field: &str, step_s: f64) -> Result<(), CarFollowingError> {
+        self.check_values(field)?;
+        if let Some(&asl) = self.params.get("actionStepLength") {
+            let steps = asl / step_s;
+            if steps < 1.0 - 1e-9 || (steps - steps.round()).abs() > 1e-9 {
+                return Err(CarFollowingError::OutOfRange {
+                    field: field.into(),
+                    name: "actionStepLength".into(),
+                    value: asl,
+                    valid: format!("a whole multiple ≥ 1 of the step {step_s} s"),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// The checks of [`validate`](Self::validate) that need no step: names the model knows,
+    /// finite values in range, `emergencyDecel ≥ decel`.
+    pub fn check_values(&self, field: &str) -> Result<(), CarFollowingError> {
         let out_of_range = |name: &str, value: f64, valid: String| CarFollowingError::OutOfRange {
             field: field.into(),
             name: name.into(),
@@ -203,16 +221,6 @@ impl CarFollowing {
                     "emergencyDecel",
                     emergency,
                     format!("≥ decel = {decel} m/s²"),
-                ));
-            }
-        }
-        if let Some(&asl) = self.params.get("actionStepLength") {
-            let steps = asl / step_s;
-            if steps < 1.0 - 1e-9 || (steps - steps.round()).abs() > 1e-9 {
-                return Err(out_of_range(
-                    "actionStepLength",
-                    asl,
-                    format!("a whole multiple ≥ 1 of the step {step_s} s"),
                 ));
             }
         }

@@ -146,7 +146,7 @@ pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
                     _ => format!("mixed-{k}"),
                 };
                 mixed_runs.push((name.clone(), k));
-                runs.push(RunSpec::mixed(name, n, k, human, *d));
+                runs.push(RunSpec::mixed(name, n, k, human.clone(), *d));
             }
         }
     }

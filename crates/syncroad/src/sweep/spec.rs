@@ -313,7 +313,7 @@ impl Sweep {
                         Some(d) if k > 0 => format!("{d}-mixed-{p}"),
                         _ => format!("mixed-{p}"),
                     };
-                    let spec = RunSpec::mixed(name, n, k, human, controller);
+                    let spec = RunSpec::mixed(name, n, k, human.clone(), controller);
                     if runs.iter().any(|r| r.spec.name == spec.name) {
                         return Err(bad(format!(
                             "penetrations: {p} gives {} again (listed twice)",
