@@ -47,6 +47,7 @@ pub mod rng;
 pub mod scenario;
 pub mod speed_controller;
 pub mod stop;
+pub mod string_measured;
 pub mod theory;
 pub mod trajectory;
 

@@ -14,6 +14,7 @@ use crate::metrics::SyncMetrics;
 use crate::outcome::{Outcome, RunOutput};
 use crate::scenario::{Backend, Scenario};
 use crate::stop::StopReason;
+use crate::string_measured::StringAmplification;
 use crate::trajectory::Trajectory;
 
 /// Version of the record's schema (`docs/metrics.schema.json`).
@@ -181,6 +182,9 @@ pub struct RunRecord {
     /// only when the run measured SSM (records of runs that did not keep their earlier shape).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub safety_margins: Option<SafetyMargins>,
+    /// String amplification measured behind a leader (present only for runs with a leader).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub string_amplification: Option<StringAmplification>,
 }
 
 impl RunRecord {
@@ -233,6 +237,7 @@ impl RunRecord {
             }),
             safety_margins: facts
                 .and_then(|f| SafetyMargins::of(&run.trajectory, outcome.warmup_s, f)),
+            string_amplification: crate::string_measured::measured(&run.trajectory),
         }
     }
 

@@ -358,3 +358,44 @@ fn native_decay_rate_matches_exact_abscissa_on_heterogeneous_network() {
     let rate = fit_decay_rate(&t[half..], &s[half..], 1e-13).unwrap();
     assert_relative_eq!(rate, exact.abscissa, max_relative = 0.01);
 }
+
+/// The measured string amplification (`string_measured`) against Chandler's theory on the
+/// same chain: with αK ≤ 1/e the follower's impulse response `K e^{−αs}/(s + K e^{−αs})` is
+/// non-negative, so its L∞ gain is |H(0)| = 1 and no peak grows down the chain; with
+/// 2αK = 1.5 > 1 the chain amplifies.
+#[test]
+fn measured_string_amplification_follows_chandler() {
+    for (alpha_k, stable) in [(0.3, true), (0.75, false)] {
+        let (n, k) = (40usize, 1.0);
+        let mut speeds = vec![20.0; n];
+        speeds[0] = 18.0;
+        let list = speeds
+            .iter()
+            .map(|v| v.to_string())
+            .collect::<Vec<_>>()
+            .join(",");
+        let mut pin = vec!["0"; n];
+        pin[0] = "1.0";
+        let sc = Scenario::from_json(&format!(
+            r#"{{"seed": 1, "step_s": 0.01, "horizon_s": 120, "vehicles": {n}, "road": {{"type": "straight"}},
+                "model": {{"type": "delayed_driver", "graph": {{"type": "chain", "gain": {k}}}, "delay_s": {},
+                          "leader": {{"speed_mps": 20.0, "pinning": [{}]}}, "history": "no_reaction"}},
+                "initial": {{"speed_mps": [{list}], "gap_m": 30}}}}"#,
+            alpha_k / k,
+            pin.join(",")
+        ))
+        .unwrap();
+        let run = simulate(&sc, NativeOptions { record_every: 1 });
+        let m = syncroad_control::string_measured::measured(&run.trajectory).unwrap();
+        // The leader keeps 20 m/s: the first peak is vehicle 0's initial 2 m/s.
+        assert!((m.first_peak_deviation_mps - 2.0).abs() < 1e-12);
+        let worst = m.worst_step_ratio.unwrap();
+        if stable {
+            assert!(worst <= 1.0 + 1e-9, "αK = {alpha_k}: worst step {worst}");
+            assert!(m.end_to_end_ratio.unwrap() < 1.0);
+        } else {
+            assert!(worst > 1.05, "αK = {alpha_k}: worst step {worst}");
+            assert!(m.end_to_end_ratio.unwrap() > 2.0, "{m:?}");
+        }
+    }
+}
