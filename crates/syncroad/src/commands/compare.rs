@@ -375,6 +375,25 @@ const ROWS: [(&str, &str, usize); 20] = [
     ("overridden commands", "safety.overridden_commands", 0),
 ];
 
+/// Rows added for runs behind a leader: the measured string amplification.
+const STRING_ROWS: [(&str, &str, usize); 3] = [
+    (
+        "string: worst step ratio",
+        "string_amplification.worst_step_ratio",
+        3,
+    ),
+    (
+        "string: at follower",
+        "string_amplification.worst_step_vehicle",
+        0,
+    ),
+    (
+        "string: last / first peak",
+        "string_amplification.end_to_end_ratio",
+        3,
+    ),
+];
+
 /// Rows added when the runs measured safety margins (`--ssm`).
 const MARGIN_ROWS: [(&str, &str, usize); 8] = [
     (
@@ -450,7 +469,11 @@ pub fn table(doc: &Value) -> String {
         .iter()
         .any(|(_, m)| m.is_some_and(|m| m.get("safety_margins").is_some()));
     let extra: &[(&str, &str, usize)] = if margins { &MARGIN_ROWS } else { &[] };
-    for &(label, path, d) in ROWS.iter().chain(extra) {
+    let platoon = order
+        .iter()
+        .any(|(_, m)| m.is_some_and(|m| m.get("string_amplification").is_some()));
+    let string: &[(&str, &str, usize)] = if platoon { &STRING_ROWS } else { &[] };
+    for &(label, path, d) in ROWS.iter().chain(string).chain(extra) {
         s.push_str(&format!("| {label} |"));
         for (_, m) in &order {
             s.push_str(&format!(" {} |", cell(*m, path, d)));
