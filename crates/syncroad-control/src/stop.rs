@@ -33,6 +33,14 @@ pub enum StopReason {
         /// Step index.
         step: usize,
     },
+    /// A signal (Ctrl-C, SIGTERM, SIGHUP) stopped the native simulator; the steps before it
+    /// are kept.
+    Interrupted {
+        /// Steps done.
+        step: usize,
+        /// Time reached \[s\].
+        time_s: f64,
+    },
     /// The run failed: the worker crashed, timed out, was interrupted or SUMO refused to start.
     Failed {
         /// What happened, with its cause.
@@ -64,6 +72,9 @@ impl StopReason {
             )),
             StopReason::VehicleLost { vehicle, step } => Some(format!(
                 "vehicle {vehicle} left the road at step {step} (end of the straight road?)"
+            )),
+            StopReason::Interrupted { step, time_s } => Some(format!(
+                "interrupted at t = {time_s:.3} s (step {step}); the rows so far are written, marked incomplete"
             )),
             StopReason::Failed { error } => Some(error.clone()),
         }

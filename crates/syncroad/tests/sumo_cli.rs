@@ -222,3 +222,27 @@ fn sigterm_and_sighup_keep_the_rows_like_ctrl_c() {
         assert_ne!(m["sync"]["verdict"], "synchronized");
     }
 }
+
+#[test]
+fn the_recording_stride_does_not_change_sumo_metrics() {
+    // Metrics come from the spread of every step, which the worker sends whatever the stride:
+    // recording every 1000th step (two samples) must give the very same numbers.
+    let dir = tmpdir("sumo-stride");
+    let scenario = sugiyama_variant(&dir, |s| s["horizon_s"] = 60.into());
+    let (c1, o1, fine) = run_backend(&["run", "--record-every", "1"], &scenario, &dir.join("a"));
+    let (c2, o2, coarse) = run_backend(
+        &["run", "--record-every", "1000"],
+        &scenario,
+        &dir.join("b"),
+    );
+    assert_eq!(c1, c2, "{o1}{o2}");
+    assert!(fine["sync"]["spread_l2"].as_f64().unwrap() > 0.1, "{fine}");
+    assert_eq!(fine["sync"], coarse["sync"], "{o1}\n{o2}");
+    let rows = |d: &str| {
+        std::fs::read_to_string(dir.join(d).join("trajectories.csv"))
+            .unwrap()
+            .lines()
+            .count()
+    };
+    assert_eq!((rows("a"), rows("b")), (601 * 22 + 1, 2 * 22 + 1));
+}
