@@ -248,6 +248,14 @@ impl Worker {
                 command.env("LD_LIBRARY_PATH", joined);
             }
         }
+        if let (None, Some(home)) = (
+            std::env::var_os("PYTHONHOME"),
+            option_env!("SYNCROAD_PYTHON_HOME"),
+        ) {
+            // The standard library of the interpreter pyo3 was built against, not the one of
+            // the first `python3` on PATH (see build.rs).
+            command.env("PYTHONHOME", home);
+        }
         let mut child = command
             .args(&cmd.args)
             .stdin(Stdio::piped())

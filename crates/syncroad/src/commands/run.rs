@@ -166,6 +166,14 @@ fn run_sumo(sc: &Scenario, out: &OutputArgs, args: &SumoArgs) -> anyhow::Result<
     }
     let run = pipeline::sumo(sc, &road, &opts)
         .map_err(|e| InputError::caused("before starting SUMO", e))?;
+    if run.output.trajectory.is_empty() && !run.interrupted {
+        // SUMO never ran (no Python, no libsumo, a network SUMO refuses): there is no run to
+        // judge, so no verdict and no record, only the reason (exit 3).
+        anyhow::bail!(
+            "SUMO did not start, nothing was run: {}",
+            run.output.stop.message().unwrap_or_default()
+        );
+    }
     let name = if args.krauss_sigma.is_some() {
         "sumo_krauss"
     } else {
