@@ -18,12 +18,21 @@ fn main() {
     let out = Command::new(&python)
         .args([
             "-c",
-            "import sysconfig; print(sysconfig.get_config_var('LIBDIR') or '')",
+            "import sys, sysconfig; print(sysconfig.get_config_var('LIBDIR') or ''); print(sys.base_prefix)",
         ])
         .output();
     match out {
         Ok(o) if o.status.success() => {
-            let libdir = String::from_utf8_lossy(&o.stdout).trim().to_string();
+            let text = String::from_utf8_lossy(&o.stdout).into_owned();
+            let mut lines = text.lines().map(str::trim);
+            let libdir = lines.next().unwrap_or_default().to_string();
+            if let Some(home) = lines.next().filter(|h| !h.is_empty()) {
+                // The build interpreter's installation: the supervisor gives it to the worker
+                // as PYTHONHOME, so the embedded interpreter finds its own standard library
+                // whatever `python3` comes first on PATH (a system Python 3.11 has another
+                // layout: `_posixsubprocess` went missing).
+                println!("cargo:rustc-env=SYNCROAD_PYTHON_HOME={home}");
+            }
             if !libdir.is_empty() {
                 // Binaries of this crate (worker, tests) and, through the `rustc-link-arg`
                 // of dependents' own build scripts, anything that opts in.

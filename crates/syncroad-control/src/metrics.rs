@@ -74,25 +74,69 @@ pub struct SyncMetrics {
     pub incomplete: bool,
 }
 
+/// The smallest and largest of `speeds` (NaN ignored; `(∞, −∞)` when there is none).
+pub fn speed_range(speeds: &[f64]) -> (f64, f64) {
+    speeds
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| {
+            (lo.min(x), hi.max(x))
+        })
+}
+
+/// The spread of speeds lying in `[lo, hi]`: `hi − lo` without a leader (eq. `sync`), and
+/// `max_i |v_i − v_0| = max(hi − v_0, v_0 − lo)` against the leader speed `v_0` (eq. `sync1`).
+pub fn spread_of_range(lo: f64, hi: f64, leader: Option<f64>) -> f64 {
+    match leader {
+        Some(v0) => (hi - v0).max(v0 - lo).max(0.0),
+        None => hi - lo,
+    }
+}
+
 /// Spread of sample `k`.
 pub fn spread_at(traj: &Trajectory, k: usize) -> f64 {
-    let v = traj.speeds(k);
-    match traj.leader(k) {
-        Some(v0) => v.iter().map(|x| (x - v0).abs()).fold(0.0, f64::max),
-        None => {
-            let (lo, hi) = v
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| {
-                    (lo.min(x), hi.max(x))
-                });
-            hi - lo
-        }
-    }
+    let (lo, hi) = speed_range(traj.speeds(k));
+    spread_of_range(lo, hi, traj.leader(k))
 }
 
 /// Spread over all samples.
 pub fn spread_series(traj: &Trajectory) -> Vec<f64> {
     (0..traj.len()).map(|k| spread_at(traj, k)).collect()
+}
+
+/// The spread at every step of a run, whatever stride the trajectory was recorded at: the
+/// metrics are computed from it, so `--record-every` changes the files, never the numbers.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SpreadSeries {
+    /// Step times \[s\].
+    pub time_s: Vec<f64>,
+    /// Spread at each time \[m/s\].
+    pub spread_mps: Vec<f64>,
+}
+
+impl SpreadSeries {
+    /// The spread of every sample of a trajectory.
+    pub fn of_trajectory(traj: &Trajectory) -> Self {
+        Self {
+            time_s: traj.time_s.clone(),
+            spread_mps: spread_series(traj),
+        }
+    }
+
+    /// Appends the spread at time `t`.
+    pub fn push(&mut self, t: f64, spread_mps: f64) {
+        self.time_s.push(t);
+        self.spread_mps.push(spread_mps);
+    }
+
+    /// Number of steps.
+    pub fn len(&self) -> usize {
+        self.time_s.len()
+    }
+
+    /// True when nothing was recorded.
+    pub fn is_empty(&self) -> bool {
+        self.time_s.is_empty()
+    }
 }
 
 /// Least-squares slope of `ln y` against `t` over the samples with `y > floor`.
@@ -125,8 +169,26 @@ pub fn sync_metrics(
     desired_gaps: Option<&[f64]>,
     incomplete: bool,
 ) -> SyncMetrics {
-    let s = spread_series(traj);
-    let t = &traj.time_s;
+    sync_metrics_of(
+        &SpreadSeries::of_trajectory(traj),
+        traj,
+        thresholds,
+        desired_gaps,
+        incomplete,
+    )
+}
+
+/// [`sync_metrics`] with the spread taken from `spread` (every step of the run) rather than
+/// from the recorded samples; `traj` gives the final gaps.
+pub fn sync_metrics_of(
+    spread: &SpreadSeries,
+    traj: &Trajectory,
+    thresholds: VerdictThresholds,
+    desired_gaps: Option<&[f64]>,
+    incomplete: bool,
+) -> SyncMetrics {
+    let s = &spread.spread_mps;
+    let t = &spread.time_s;
     let last = s.len().saturating_sub(1);
     let t_end = t.last().copied().unwrap_or(0.0);
     let mut l2 = 0.0;
@@ -136,7 +198,7 @@ pub fn sync_metrics(
     let window_start = t_end - thresholds.window_s;
     let window_max = t
         .iter()
-        .zip(&s)
+        .zip(s)
         .filter(|(&tk, _)| tk >= window_start - 1e-9)
         .map(|(_, &x)| x)
         .fold(0.0, f64::max);
@@ -154,7 +216,7 @@ pub fn sync_metrics(
     let floor = 1e-10 * s.first().copied().unwrap_or(1.0).max(1e-300);
     let rate = fit_decay_rate(&t[half..], &s[half..], floor);
     let final_gap_error = desired_gaps.filter(|_| !traj.is_empty()).map(|d| {
-        traj.gaps(last)
+        traj.gaps(traj.len() - 1)
             .iter()
             .zip(d)
             .map(|(g, d)| (g - d).abs())

@@ -9,9 +9,12 @@
 //! integrated exactly. [`cacc_rk4_reference`] integrates the continuous CACC closed loop by
 //! classical Runge–Kutta; tests use it to check the discrete law converges to it.
 
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use crate::cacc::{CaccLaw, PlatoonView};
 use crate::controller::{controller_for, LawSpec};
 use crate::delayed_driver::DelayedDriverLaw;
+use crate::metrics::{speed_range, spread_of_range, SpreadSeries};
 use crate::scenario::{Model, Scenario};
 pub use crate::stop::StopReason;
 use crate::trajectory::Trajectory;
@@ -20,15 +23,38 @@ use crate::trajectory::Trajectory;
 pub const DIVERGENCE_MPS: f64 = 1e6;
 
 /// Options of a native run.
-#[derive(Debug, Clone, Copy)]
-pub struct NativeOptions {
-    /// Record every k-th step (1 = every step).
+#[derive(Clone, Copy)]
+pub struct NativeOptions<'a> {
+    /// Record every k-th step (1 = every step). The spread is kept at every step whatever
+    /// the stride.
     pub record_every: usize,
+    /// Checked every step: when set, the run stops with [`StopReason::Interrupted`] and keeps
+    /// what it recorded (a signal handler's flag).
+    pub cancel: Option<&'a AtomicBool>,
+    /// Called every [`PROGRESS_EVERY`] steps with (steps done, steps in the run).
+    pub progress: Option<&'a dyn Fn(usize, usize)>,
 }
 
-impl Default for NativeOptions {
+/// Steps between two calls of [`NativeOptions::progress`].
+pub const PROGRESS_EVERY: usize = 10_000;
+
+impl Default for NativeOptions<'_> {
     fn default() -> Self {
-        Self { record_every: 1 }
+        Self {
+            record_every: 1,
+            cancel: None,
+            progress: None,
+        }
+    }
+}
+
+impl std::fmt::Debug for NativeOptions<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("NativeOptions")
+            .field("record_every", &self.record_every)
+            .field("cancel", &self.cancel)
+            .field("progress", &self.progress.is_some())
+            .finish()
     }
 }
 
@@ -39,6 +65,8 @@ pub struct NativeRun {
     pub trajectory: Trajectory,
     /// Why the run stopped.
     pub stop: StopReason,
+    /// The spread at every step (the metrics use it, not the recorded samples).
+    pub spread: SpreadSeries,
 }
 
 /// Initial unwrapped positions (rear bumpers) from the gaps: vehicle 0 at 0 (or behind the
@@ -128,9 +156,35 @@ pub fn simulate(scenario: &Scenario, opts: NativeOptions) -> NativeRun {
         gaps_from_positions(&q[k0..], lengths, leader.map(|_| q[0]), ring, &mut gaps);
         traj.push(t, &v[k0..], &q[k0..], &gaps, scenario.leader_speed_at(t));
     };
+    let steps = scenario.steps();
+    let mut spread = SpreadSeries::default();
+    spread.time_s.reserve(steps + 1);
+    spread.spread_mps.reserve(steps + 1);
+    let observe = |t: f64, v: &[f64], spread: &mut SpreadSeries| {
+        let (lo, hi) = speed_range(&v[k0..]);
+        spread.push(t, spread_of_range(lo, hi, scenario.leader_speed_at(t)));
+    };
     record(0.0, &q, &v, &mut traj);
+    observe(0.0, &v, &mut spread);
     let mut stop = StopReason::Horizon;
-    for step in 0..scenario.steps() {
+    for step in 0..steps {
+        if opts.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+            // The last step computed is recorded, so the files end where the run stopped.
+            if traj.time_s.last() != spread.time_s.last() {
+                record(step as f64 * dt, &q, &v, &mut traj);
+            }
+            stop = StopReason::Interrupted {
+                step,
+                time_s: step as f64 * dt,
+            };
+            break;
+        }
+        if let Some(p) = opts
+            .progress
+            .filter(|_| step % PROGRESS_EVERY == 0 && step > 0)
+        {
+            p(step, steps);
+        }
         law.step(step as f64 * dt, &v, &q, &mut next);
         if let Some(s) = check(&next[k0..], step + 1, dt) {
             stop = s;
@@ -140,13 +194,16 @@ pub fn simulate(scenario: &Scenario, opts: NativeOptions) -> NativeRun {
             q[i] += 0.5 * dt * (v[i] + next[i]);
         }
         std::mem::swap(&mut v, &mut next);
-        if (step + 1) % every == 0 || step + 1 == scenario.steps() {
-            record((step + 1) as f64 * dt, &q, &v, &mut traj);
+        let t = (step + 1) as f64 * dt;
+        observe(t, &v, &mut spread);
+        if (step + 1) % every == 0 || step + 1 == steps {
+            record(t, &q, &v, &mut traj);
         }
     }
     NativeRun {
         trajectory: traj,
         stop,
+        spread,
     }
 }
 
@@ -263,7 +320,107 @@ pub fn cacc_rk4_reference(scenario: &Scenario, opts: NativeOptions) -> NativeRun
         }
     }
     NativeRun {
+        spread: SpreadSeries::of_trajectory(&traj),
         trajectory: traj,
         stop,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::outcome::{evaluate, EvalOptions, RunOutput};
+    use std::cell::Cell;
+
+    fn ring() -> Scenario {
+        Scenario::load(
+            &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../../scenarios/ring-theorem1.json"),
+        )
+        .expect("the shipped scenario is valid")
+    }
+
+    fn output(sc: &Scenario, run: NativeRun) -> RunOutput {
+        RunOutput {
+            trajectory: run.trajectory,
+            stop: run.stop,
+            ring_length_m: sc.ring_length_m(),
+            sumo: None,
+            spread: Some(run.spread),
+        }
+    }
+
+    #[test]
+    fn the_recording_stride_changes_the_samples_not_the_metrics() {
+        let sc = ring();
+        let every = |k: usize| {
+            let run = simulate(
+                &sc,
+                NativeOptions {
+                    record_every: k,
+                    ..NativeOptions::default()
+                },
+            );
+            (
+                run.trajectory.len(),
+                evaluate(&sc, &output(&sc, run), EvalOptions::of(&sc)).sync,
+            )
+        };
+        let (all, fine) = every(1);
+        let (two, coarse) = every(1_000_000);
+        assert_eq!((all, two), (sc.steps() + 1, 2));
+        // The L2 norm, the time to tolerance, the fitted rate and the verdict are the same
+        // numbers, not just close: they come from the spread of every step.
+        assert_eq!(fine, coarse);
+        assert!((fine.spread_l2 - 3.861).abs() < 1e-3, "{}", fine.spread_l2);
+    }
+
+    #[test]
+    fn a_set_stop_flag_ends_the_run_where_it_is_and_keeps_the_samples() {
+        let flag = AtomicBool::new(false);
+        let calls = Cell::new(0);
+        // Raised from the progress callback at step 2·PROGRESS_EVERY, as a signal would be.
+        let raise = |done: usize, _total: usize| {
+            calls.set(calls.get() + 1);
+            if done == 2 * PROGRESS_EVERY {
+                flag.store(true, Ordering::SeqCst);
+            }
+        };
+        let sc = Scenario::from_json(
+            &std::fs::read_to_string(
+                std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                    .join("../../scenarios/ring-theorem1.json"),
+            )
+            .unwrap()
+            .replace(r#""horizon_s": 300"#, r#""horizon_s": 10000"#),
+        )
+        .unwrap();
+        let run = simulate(
+            &sc,
+            NativeOptions {
+                record_every: 1000,
+                cancel: Some(&flag),
+                progress: Some(&raise),
+            },
+        );
+        // The flag is seen at the next step's check.
+        let step = 2 * PROGRESS_EVERY + 1;
+        assert_eq!(
+            run.stop,
+            StopReason::Interrupted {
+                step,
+                time_s: step as f64 * sc.step_s()
+            }
+        );
+        assert_eq!(calls.get(), 2);
+        // Every step up to the stop is in the spread; the samples end at the stop.
+        assert_eq!(run.spread.len(), step + 1);
+        // Samples every 1000 steps from 0, and the step it stopped at.
+        assert_eq!(run.trajectory.len(), step / 1000 + 2);
+        assert!((run.trajectory.time_s.last().unwrap() - step as f64 * sc.step_s()).abs() < 1e-9);
+        let out = output(&sc, run);
+        let m = evaluate(&sc, &out, EvalOptions::of(&sc)).sync;
+        assert!(m.incomplete);
+        assert_eq!(m.verdict, crate::metrics::Verdict::NotSynchronized);
     }
 }

@@ -8,7 +8,9 @@
 
 use crate::congestion::{congestion_metrics, CongestionError, CongestionMetrics};
 use crate::facts::SumoFacts;
-use crate::metrics::{sync_metrics, SyncMetrics, Verdict, VerdictThresholds};
+use crate::metrics::{
+    sync_metrics, sync_metrics_of, SpreadSeries, SyncMetrics, Verdict, VerdictThresholds,
+};
 use crate::scenario::{Model, Scenario};
 use crate::stop::StopReason;
 use crate::theory::{self, TheoryReport};
@@ -27,6 +29,9 @@ pub struct RunOutput {
     pub ring_length_m: Option<f64>,
     /// Backend facts: `None` for the native simulator.
     pub sumo: Option<SumoFacts>,
+    /// The spread at every step, whatever the recording stride (the metrics are computed from
+    /// it); `None`: from the recorded samples.
+    pub spread: Option<SpreadSeries>,
 }
 
 /// How to judge a run.
@@ -69,12 +74,17 @@ pub fn evaluate(scenario: &Scenario, run: &RunOutput, opts: EvalOptions) -> Outc
         Model::Cacc(c) => Some(c.desired_gap_m.as_slice()),
         Model::DelayedDriver(_) => None,
     };
-    let mut sync = sync_metrics(
-        &run.trajectory,
-        opts.thresholds,
-        desired,
-        !run.stop.is_complete(),
-    );
+    let incomplete = !run.stop.is_complete();
+    let mut sync = match &run.spread {
+        Some(spread) => sync_metrics_of(
+            spread,
+            &run.trajectory,
+            opts.thresholds,
+            desired,
+            incomplete,
+        ),
+        None => sync_metrics(&run.trajectory, opts.thresholds, desired, incomplete),
+    };
     if let Some(facts) = &run.sumo {
         for (at_best, reason) in sumo_overruled(facts, opts.thresholds.tolerance_mps) {
             sync.overrule(at_best, reason);

@@ -26,12 +26,24 @@ pub enum StopReason {
         /// The value (as text: NaN, inf).
         value: String,
     },
-    /// A vehicle disappeared from the road (reached the end of a straight road).
+    /// A vehicle disappeared from the road: the end of a straight road, or on a ring SUMO
+    /// removed it (a collision or a teleport).
     VehicleLost {
         /// SUMO vehicle id.
         vehicle: String,
         /// Step index.
         step: usize,
+        /// True on a ring, where no road ends.
+        #[serde(default)]
+        ring: bool,
+    },
+    /// A signal (Ctrl-C, SIGTERM, SIGHUP) stopped the native simulator; the steps before it
+    /// are kept.
+    Interrupted {
+        /// Steps done.
+        step: usize,
+        /// Time reached \[s\].
+        time_s: f64,
     },
     /// The run failed: the worker crashed, timed out, was interrupted or SUMO refused to start.
     Failed {
@@ -62,8 +74,22 @@ impl StopReason {
             } => Some(format!(
                 "the law commanded a non-finite speed ({value} m/s) to vehicle {vehicle} at step {step}; the run stopped before sending it to SUMO"
             )),
-            StopReason::VehicleLost { vehicle, step } => Some(format!(
+            StopReason::VehicleLost {
+                vehicle,
+                step,
+                ring: false,
+            } => Some(format!(
                 "vehicle {vehicle} left the road at step {step} (end of the straight road?)"
+            )),
+            StopReason::VehicleLost {
+                vehicle,
+                step,
+                ring: true,
+            } => Some(format!(
+                "vehicle {vehicle} left the ring at step {step}: SUMO removed it (a collision or a teleport; see sumo/sumo.log)"
+            )),
+            StopReason::Interrupted { step, time_s } => Some(format!(
+                "interrupted at t = {time_s:.3} s (step {step}); the rows so far are written, marked incomplete"
             )),
             StopReason::Failed { error } => Some(error.clone()),
         }
@@ -92,5 +118,34 @@ mod tests {
         let back: StopReason = serde_json::from_str(&serde_json::to_string(&e).unwrap()).unwrap();
         assert_eq!(back, e);
         assert!(!e.is_complete() && StopReason::Horizon.is_complete());
+    }
+
+    #[test]
+    fn a_vehicle_lost_on_a_ring_is_not_blamed_on_the_end_of_a_road() {
+        let lost = |ring| StopReason::VehicleLost {
+            vehicle: "v17".into(),
+            step: 224,
+            ring,
+        };
+        let m = lost(true).message().unwrap();
+        assert_eq!(
+            m,
+            "vehicle v17 left the ring at step 224: SUMO removed it (a collision or a teleport; see sumo/sumo.log)"
+        );
+        assert!(lost(false)
+            .message()
+            .unwrap()
+            .contains("end of the straight road?"));
+        // Records written before the field existed still read.
+        let old: StopReason =
+            serde_json::from_str(r#"{"reason":"vehicle_lost","vehicle":"v1","step":3}"#).unwrap();
+        assert_eq!(
+            old,
+            StopReason::VehicleLost {
+                vehicle: "v1".into(),
+                step: 3,
+                ring: false
+            }
+        );
     }
 }

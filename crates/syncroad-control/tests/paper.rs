@@ -151,7 +151,13 @@ fn mode_root(lambda: Complex64, alpha: f64) -> Complex64 {
 fn ring_decay_rate_matches_fourier_modes() {
     for (n, k, delay) in [(8usize, 0.5, 0.0), (8, 0.5, 0.6), (12, 0.8, 0.3)] {
         let sc = ring_scenario(n, k, delay, 0.01, 150.0, "constant_speeds");
-        let run = simulate(&sc, NativeOptions { record_every: 10 });
+        let run = simulate(
+            &sc,
+            NativeOptions {
+                record_every: 10,
+                ..NativeOptions::default()
+            },
+        );
         let theta = 2.0 * std::f64::consts::PI / n as f64;
         let slowest = (1..n)
             .map(|m| {
@@ -220,7 +226,13 @@ fn theorem1_scenario_synchronizes() {
     .unwrap();
     let rep = theory::report(&sc);
     assert!(rep.certified, "{:?}", rep.theorem1);
-    let run = simulate(&sc, NativeOptions { record_every: 5 });
+    let run = simulate(
+        &sc,
+        NativeOptions {
+            record_every: 5,
+            ..NativeOptions::default()
+        },
+    );
     let m = syncroad_control::sync_metrics(
         &run.trajectory,
         syncroad_control::VerdictThresholds {
@@ -241,7 +253,13 @@ fn unstable_ring_is_not_synchronized() {
     let rep = theory::report(&sc);
     assert!(!rep.certified);
     assert!(!rep.chandler.unwrap().holds);
-    let run = simulate(&sc, NativeOptions { record_every: 2 });
+    let run = simulate(
+        &sc,
+        NativeOptions {
+            record_every: 2,
+            ..NativeOptions::default()
+        },
+    );
     let m = syncroad_control::sync_metrics(
         &run.trajectory,
         syncroad_control::VerdictThresholds {
@@ -267,7 +285,13 @@ fn cacc_platoon_reaches_gaps_and_leader_speed() {
     )
     .unwrap();
     assert!(theory::report(&sc).certified);
-    let run = simulate(&sc, NativeOptions { record_every: 10 });
+    let run = simulate(
+        &sc,
+        NativeOptions {
+            record_every: 10,
+            ..NativeOptions::default()
+        },
+    );
     let traj = &run.trajectory;
     let last = traj.len() - 1;
     for (i, v) in traj.speeds(last).iter().enumerate() {
@@ -306,7 +330,13 @@ fn chandler_string_stability_boundary() {
         let rep = theory::report(&sc);
         assert_eq!(rep.chandler.unwrap().holds, attenuates);
         assert_eq!(rep.certified, attenuates);
-        let run = simulate(&sc, NativeOptions { record_every: 5 });
+        let run = simulate(
+            &sc,
+            NativeOptions {
+                record_every: 5,
+                ..NativeOptions::default()
+            },
+        );
         let tr = &run.trajectory;
         let peak = |i: usize| {
             (0..tr.len())
@@ -351,7 +381,13 @@ fn native_decay_rate_matches_exact_abscissa_on_heterogeneous_network() {
     )
     .unwrap();
     assert!(exact.abscissa < 0.0);
-    let run = simulate(&sc, NativeOptions { record_every: 10 });
+    let run = simulate(
+        &sc,
+        NativeOptions {
+            record_every: 10,
+            ..NativeOptions::default()
+        },
+    );
     let s = spread_series(&run.trajectory);
     let t = &run.trajectory.time_s;
     let half = t.len() / 2;

@@ -270,3 +270,43 @@ fn a_replacement_model_must_fit_the_scenario() {
         "{e}"
     );
 }
+
+#[test]
+fn horizons_beyond_the_step_limit_are_refused_naming_both_fields() {
+    let json = base(RING, "").replace(r#""horizon_s": 10"#, r#""horizon_s": 1e12"#);
+    let e = err(&json);
+    assert_eq!(
+        e,
+        "horizon_s = 1000000000000 s with step_s = 0.1 s is 1.000e13 steps; at most 10000000 steps are allowed, so give horizon_s ≤ 1000000 s at this step (or a larger step_s)"
+    );
+    // A tiny step over an ordinary horizon: the same limit, both fields named.
+    let json = base(RING, "").replace(r#""step_s": 0.1"#, r#""step_s": 1e-9"#);
+    let e = err(&json);
+    assert!(
+        e.starts_with("horizon_s = 10 s with step_s = 0.000000001 s is 1.000e10 steps"),
+        "{e}"
+    );
+    // The largest horizon allowed runs.
+    let json = base(RING, "").replace(r#""horizon_s": 10"#, r#""horizon_s": 1e6"#);
+    assert_eq!(Scenario::from_json(&json).unwrap().steps(), 10_000_000);
+}
+
+#[test]
+fn delay_buffers_beyond_the_limit_are_refused() {
+    // 0.3 s at 1e-7 s is 3·10⁶ steps of 4 vehicles: 1.2·10⁷ values fit; 0.6 s does not.
+    let short = base(RING, "")
+        .replace(r#""step_s": 0.1"#, r#""step_s": 1e-7"#)
+        .replace(r#""horizon_s": 10"#, r#""horizon_s": 0.5"#)
+        .replace(
+            r#""model""#,
+            r#""verdict": {"tolerance_mps": 0.05, "window_s": 0.1}, "model""#,
+        );
+    if let Err(e) = Scenario::from_json(&short) {
+        panic!("{e}");
+    }
+    let e = err(&short.replace(r#""delay_s": 0.3"#, r#""delay_s": 0.6"#));
+    assert!(
+        e.starts_with("model.delay_s[0] = 0.6 s with step_s = 0.0000001 s needs a delay buffer of 2.400e7 values; at most 16777216 are allowed, so give step_s ≥ 1.431e-7 s"),
+        "{e}"
+    );
+}

@@ -46,6 +46,22 @@ pub enum LayoutError {
         /// Horizon \[s\].
         horizon_s: f64,
     },
+    /// The horizon needs more laps than SUMO's route `repeat` (a 32-bit integer) can count.
+    #[error("horizon_s = {horizon_s} s needs {repeats:.3e} laps of the {ring_m:.1} m ring {net} at up to {speed_mps} m/s, but SUMO counts route repeats as a 32-bit integer (at most {max}); give horizon_s ≤ {max_horizon_s:.0} s", max = i32::MAX)]
+    TooManyLaps {
+        /// The network.
+        net: String,
+        /// Horizon \[s\].
+        horizon_s: f64,
+        /// Repeats needed.
+        repeats: f64,
+        /// Ring length \[m\].
+        ring_m: f64,
+        /// The speed the route is sized for (twice the faster of maxSpeed and the lane limit) \[m/s\].
+        speed_mps: f64,
+        /// The longest horizon that fits \[s\].
+        max_horizon_s: f64,
+    },
     /// A per-vehicle number is out of range.
     #[error("{field} = {value} is invalid: {expected}")]
     Invalid {
@@ -199,13 +215,24 @@ pub fn ring_layout(
     // lost, never silently removed.
     let fastest = vtype.max_speed_mps.max(road.speed_limit_mps());
     let laps = horizon_s * 2.0 * fastest / ring;
+    let repeats = laps.ceil() + 2.0;
+    if repeats.is_nan() || repeats > f64::from(i32::MAX) {
+        return Err(LayoutError::TooManyLaps {
+            net: road.path.display().to_string(),
+            horizon_s,
+            repeats,
+            ring_m: ring,
+            speed_mps: 2.0 * fastest,
+            max_horizon_s: (f64::from(i32::MAX) - 3.0) * ring / (2.0 * fastest),
+        });
+    }
     Ok(Layout {
         road: road.clone(),
         vtype,
         vehicles,
         leader_vehicle: false,
         gap_scale,
-        route_repeats: laps.ceil() as usize + 2,
+        route_repeats: repeats as usize,
     })
 }
 
@@ -428,6 +455,26 @@ mod tests {
         let err = ring_layout(&road, t, &[5.0; 3], &[10.0; 3], &[8.0, 9.5, 8.0], 10.0).unwrap_err();
         let msg = err.to_string();
         assert!(msg.starts_with("initial speed of vehicle 1 = 9.5 is invalid: must lie in [0, 9] m/s (sumo.max_speed_mps = 9, speed limit of "), "{msg}");
+    }
+
+    #[test]
+    fn horizons_beyond_sumo_route_repeats_are_refused() {
+        // 1e12 s at 2 × 30 m/s on 230 m is 2.6e11 laps: SUMO's 32-bit repeat count would
+        // overflow and every vehicle would leave the ring after one lap.
+        let road = sugiyama();
+        let err = ring_layout(&road, vt(), &[5.0; 3], &[10.0; 3], &[8.0; 3], 1e12).unwrap_err();
+        let msg = err.to_string();
+        assert!(
+            msg.starts_with("horizon_s = 1000000000000 s needs 2.605e11 laps of the 230.4 m ring"),
+            "{msg}"
+        );
+        assert!(
+            msg.contains("at most 2147483647); give horizon_s ≤ 8244"),
+            "{msg}"
+        );
+        let max_h = 8.2e9;
+        let lay = ring_layout(&road, vt(), &[5.0; 3], &[10.0; 3], &[8.0; 3], max_h).unwrap();
+        assert!(lay.route_repeats <= i32::MAX as usize);
     }
 
     #[test]

@@ -24,6 +24,9 @@ use crate::python::PythonInfo;
 pub const KIND_JSON: u8 = b'J';
 /// Frame kind of a row chunk.
 pub const KIND_ROWS: u8 = b'R';
+/// Frame kind of the speed ranges of every step: `(t, min v_i, max v_i)` over the vehicles the
+/// run judges (the leader vehicle excluded), whatever the recording stride.
+pub const KIND_RANGES: u8 = b'S';
 /// Largest frame accepted \[bytes\]; a longer length means a corrupted stream.
 pub const MAX_FRAME: usize = 1 << 30;
 
@@ -290,6 +293,39 @@ pub fn encode_rows(rows: &Trajectory) -> Vec<u8> {
     out
 }
 
+/// Writes the speed ranges gathered since the last call (`t, lo, hi` triplets) and empties
+/// them.
+pub fn write_ranges(w: &mut impl Write, ranges: &mut Vec<[f64; 3]>) -> io::Result<()> {
+    if ranges.is_empty() {
+        return Ok(());
+    }
+    let mut out = Vec::with_capacity(ranges.len() * 24);
+    for r in ranges.iter() {
+        for x in r {
+            out.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    write_frame(w, KIND_RANGES, &out)?;
+    ranges.clear();
+    Ok(())
+}
+
+fn decode_ranges(bytes: &[u8]) -> Result<Vec<[f64; 3]>, ProtocolError> {
+    if bytes.len() % 24 != 0 {
+        return Err(ProtocolError::Json(format!(
+            "speed-range frame of {} bytes is not a whole number of 24-byte records",
+            bytes.len()
+        )));
+    }
+    Ok(bytes
+        .chunks_exact(24)
+        .map(|c| {
+            let f = |i: usize| f64::from_le_bytes(c[i..i + 8].try_into().expect("8 bytes"));
+            [f(0), f(8), f(16)]
+        })
+        .collect())
+}
+
 /// Inverse of [`encode_rows`].
 pub fn decode_rows(bytes: &[u8]) -> Result<Trajectory, ProtocolError> {
     let word = |i: usize| -> usize {
@@ -391,6 +427,8 @@ pub enum Frame {
     Msg(WorkerMsg),
     /// Rows.
     Rows(Trajectory),
+    /// Speed ranges of every step.
+    Ranges(Vec<[f64; 3]>),
 }
 
 /// Reads one frame; `Ok(None)` at a clean end of stream.
@@ -421,6 +459,7 @@ pub fn read_frame(r: &mut impl Read) -> Result<Option<Frame>, ProtocolError> {
             .map(|m| Some(Frame::Msg(m)))
             .map_err(|e| ProtocolError::Json(e.to_string())),
         KIND_ROWS => decode_rows(&payload).map(|c| Some(Frame::Rows(c))),
+        KIND_RANGES => decode_ranges(&payload).map(|r| Some(Frame::Ranges(r))),
         k => Err(ProtocolError::UnknownKind(k)),
     }
 }

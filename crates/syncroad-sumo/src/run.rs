@@ -9,6 +9,7 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
 
+use syncroad_control::metrics::{spread_of_range, SpreadSeries};
 use syncroad_control::native::{initial_positions, leader_start};
 use syncroad_control::record::{Safety, SumoFacts};
 use syncroad_control::scenario::Scenario;
@@ -643,7 +644,21 @@ impl SumoRun {
             stop: self.stop(),
             ring_length_m: self.request.layout.road.ring.then(|| self.road_length_m()),
             sumo: Some(facts),
+            spread: self.spread(scenario),
         }
+    }
+
+    /// The spread at every step the worker reported (against the scenario's leader speed, as
+    /// in [`SumoRun::trajectory`]); `None` when the worker sent no ranges.
+    pub fn spread(&self, scenario: &Scenario) -> Option<SpreadSeries> {
+        if self.worker.ranges.is_empty() {
+            return None;
+        }
+        let mut s = SpreadSeries::default();
+        for &[t, lo, hi] in &self.worker.ranges {
+            s.push(t, spread_of_range(lo, hi, scenario.leader_speed_at(t)));
+        }
+        Some(s)
     }
 
     /// The controlled vehicles' samples (the leader vehicle, if any, becomes the reference

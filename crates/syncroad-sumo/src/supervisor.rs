@@ -163,6 +163,9 @@ pub struct WorkerRun {
     pub start: Option<StartInfo>,
     /// Every row received.
     pub rows: Trajectory,
+    /// `(t, min v_i, max v_i)` of every step received (leader vehicle excluded): the spread at
+    /// every step, whatever the recording stride.
+    pub ranges: Vec<[f64; 3]>,
     /// Every event received.
     pub events: Vec<Event>,
     /// The end of the run, or why there is none.
@@ -172,6 +175,18 @@ pub struct WorkerRun {
 }
 
 impl WorkerRun {
+    /// A run with nothing received yet.
+    fn empty(request: &Request, result: Result<Finish, SupervisorError>, pid: u32) -> Self {
+        Self {
+            start: None,
+            rows: Trajectory::new(request.layout.vehicles.len()),
+            ranges: Vec::new(),
+            events: Vec::new(),
+            result,
+            pid,
+        }
+    }
+
     /// True when the worker finished the run and reported its end.
     pub fn complete(&self) -> bool {
         self.result.is_ok()
@@ -232,6 +247,14 @@ impl Worker {
             if let Ok(joined) = std::env::join_paths(paths) {
                 command.env("LD_LIBRARY_PATH", joined);
             }
+        }
+        if let (None, Some(home)) = (
+            std::env::var_os("PYTHONHOME"),
+            option_env!("SYNCROAD_PYTHON_HOME"),
+        ) {
+            // The standard library of the interpreter pyo3 was built against, not the one of
+            // the first `python3` on PATH (see build.rs).
+            command.env("PYTHONHOME", home);
         }
         let mut child = command
             .args(&cmd.args)
@@ -306,13 +329,11 @@ impl Worker {
     /// the worker's `Finished` or `Failed` message; a worker that dies instead is reaped and
     /// the way it ended (signal, exit code) becomes the error.
     pub fn run(&mut self, request: &Request, limits: &Supervision) -> WorkerRun {
-        let mut run = WorkerRun {
-            start: None,
-            rows: Trajectory::new(request.layout.vehicles.len()),
-            events: Vec::new(),
-            result: Err(SupervisorError::Wait("not started".into())),
-            pid: self.pid(),
-        };
+        let mut run = WorkerRun::empty(
+            request,
+            Err(SupervisorError::Wait("not started".into())),
+            self.pid(),
+        );
         if !self.alive {
             run.result = Err(SupervisorError::Wait(
                 "the worker is no longer running".into(),
@@ -333,6 +354,7 @@ impl Worker {
         let handle =
             |f: Frame, run: &mut WorkerRun, end: &mut Option<Result<Finish, String>>| match f {
                 Frame::Rows(mut c) => run.rows.append(&mut c),
+                Frame::Ranges(mut r) => run.ranges.append(&mut r),
                 Frame::Msg(WorkerMsg::Started(s)) => {
                     if let Some(hook) = &limits.on_start {
                         hook(&s);
@@ -456,13 +478,7 @@ impl Drop for Worker {
 pub fn run_worker(cmd: &WorkerCommand, request: &Request, limits: &Supervision) -> WorkerRun {
     match Worker::spawn(cmd) {
         Ok(mut w) => w.run(request, limits),
-        Err(e) => WorkerRun {
-            start: None,
-            rows: Trajectory::new(request.layout.vehicles.len()),
-            events: Vec::new(),
-            result: Err(e),
-            pid: 0,
-        },
+        Err(e) => WorkerRun::empty(request, Err(e), 0),
     }
 }
 
@@ -496,15 +512,7 @@ impl WorkerPool {
                     self.started.fetch_add(1, Ordering::SeqCst);
                     w
                 }
-                Err(e) => {
-                    return WorkerRun {
-                        start: None,
-                        rows: Trajectory::new(request.layout.vehicles.len()),
-                        events: Vec::new(),
-                        result: Err(e),
-                        pid: 0,
-                    }
-                }
+                Err(e) => return WorkerRun::empty(request, Err(e), 0),
             },
         };
         let run = worker.run(request, limits);

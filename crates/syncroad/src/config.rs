@@ -61,13 +61,34 @@ pub fn warmup_s(flag: Option<f64>, sc: &Scenario) -> anyhow::Result<f64> {
     Ok(w)
 }
 
-/// `--record-every`: at least 1; default about 2000 samples.
+/// The most vehicle-samples a recorded trajectory may hold (speed, position, gap and command
+/// each: about 1.6 GB in memory, several GB of CSV).
+pub const MAX_RECORDED_VALUES: usize = 50_000_000;
+
+/// `--record-every`: at least 1, and few enough samples to stay within
+/// [`MAX_RECORDED_VALUES`]; default about 2000 samples. (The metrics use every step whatever
+/// the stride.)
 pub fn record_every(flag: Option<usize>, sc: &Scenario) -> anyhow::Result<usize> {
-    match flag {
-        Some(0) => Err(InputError::new("--record-every = 0: must be ≥ 1").into()),
-        Some(k) => Ok(k),
-        None => Ok(default_record_every(sc.steps(), sc.vehicles())),
+    let k = match flag {
+        Some(0) => return Err(InputError::new("--record-every = 0: must be ≥ 1").into()),
+        Some(k) => k,
+        None => default_record_every(sc.steps(), sc.vehicles()),
+    };
+    let values = (sc.steps() / k + 2).saturating_mul(sc.vehicles());
+    if values > MAX_RECORDED_VALUES {
+        let min_k = sc
+            .steps()
+            .div_ceil(MAX_RECORDED_VALUES / sc.vehicles().max(1) - 2);
+        return Err(InputError::new(format!(
+            "--record-every = {k}: {} steps (horizon_s = {} s / step_s = {} s) of {} vehicles would record {values} vehicle-samples, more than the {MAX_RECORDED_VALUES} kept in memory; give --record-every ≥ {min_k}",
+            sc.steps(),
+            sc.horizon_s(),
+            sc.step_s(),
+            sc.vehicles()
+        ))
+        .into());
     }
+    Ok(k)
 }
 
 /// The validated output options of a command that runs one scenario.

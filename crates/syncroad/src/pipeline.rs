@@ -21,12 +21,24 @@ use crate::plots::RunPlots;
 
 /// Runs a scenario on the native simulator, recording every `record_every`-th step.
 pub fn native(sc: &Scenario, record_every: usize) -> RunOutput {
-    let run = simulate(sc, NativeOptions { record_every });
+    native_with(
+        sc,
+        NativeOptions {
+            record_every,
+            ..NativeOptions::default()
+        },
+    )
+}
+
+/// [`native`] with every option: a stop flag (signals) and a progress callback.
+pub fn native_with(sc: &Scenario, opts: NativeOptions<'_>) -> RunOutput {
+    let run = simulate(sc, opts);
     RunOutput {
         trajectory: run.trajectory,
         stop: run.stop,
         ring_length_m: sc.ring_length_m(),
         sumo: None,
+        spread: Some(run.spread),
     }
 }
 

@@ -225,3 +225,109 @@ fn regress_writes_junit_and_markdown_and_strict_fails_on_a_foreign_stamp() {
         "{x}"
     );
 }
+
+/// `scenarios/ring-theorem1.json` with `edit` applied, written into `dir`.
+fn theorem1_variant(
+    dir: &Path,
+    name: &str,
+    edit: impl FnOnce(&mut serde_json::Value),
+) -> std::path::PathBuf {
+    let mut s: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(repo().join("scenarios/ring-theorem1.json")).unwrap(),
+    )
+    .unwrap();
+    edit(&mut s);
+    let p = dir.join(name);
+    std::fs::write(&p, s.to_string()).unwrap();
+    p
+}
+
+#[test]
+fn horizons_and_steps_that_would_exhaust_memory_or_time_are_refused_up_front() {
+    let dir = tmpdir("limits");
+    let huge = theorem1_variant(&dir, "huge.json", |s| s["horizon_s"] = 1e12.into());
+    let tiny = theorem1_variant(&dir, "tiny.json", |s| s["step_s"] = 1e-9.into());
+    for (sc, needle) in [
+        (&huge, "horizon_s = 1000000000000 s with step_s = 0.1 s is 1.000e13 steps; at most 10000000 steps are allowed, so give horizon_s ≤ 1000000 s"),
+        (&tiny, "horizon_s = 300 s with step_s = 0.000000001 s is 3.000e11 steps"),
+    ] {
+        for cmd in ["simulate", "run"] {
+            let out = dir.join(format!("out-{cmd}"));
+            let (code, stdout, err) = run(bin().arg(cmd).arg(sc).arg("--out").arg(&out));
+            assert_eq!(code, 2, "{cmd} {}: {stdout}{err}", sc.display());
+            assert!(err.contains(needle), "{err}");
+            assert!(!stdout.contains("verdict"), "{stdout}");
+        }
+    }
+    // Within the step limit, a stride that would keep 2.2e8 vehicle-samples is refused too.
+    let long = theorem1_variant(&dir, "long.json", |s| s["horizon_s"] = 1e6.into());
+    let (code, _, err) = run(bin()
+        .arg("simulate")
+        .arg(&long)
+        .args(["--record-every", "1", "--out"])
+        .arg(dir.join("o")));
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("--record-every = 1: 10000000 steps (horizon_s = 1000000 s / step_s = 0.1 s) of 22 vehicles would record 220000044 vehicle-samples")
+            && err.contains("give --record-every ≥ 5"),
+        "{err}"
+    );
+}
+
+#[test]
+fn termination_signals_stop_a_long_native_run_and_keep_its_rows() {
+    let dir = tmpdir("native-signals");
+    // 10⁷ steps of 220 vehicles: about half a minute, so the signal comes mid-run.
+    let long = theorem1_variant(&dir, "long.json", |s| {
+        s["horizon_s"] = 1e6.into();
+        s["vehicles"] = 220.into();
+        s["road"]["length_m"] = 2300.into();
+        s["model"]["delay_s"] = 0.6.into();
+    });
+    for (sig, code) in [
+        (libc::SIGTERM, 143),
+        (libc::SIGHUP, 129),
+        (libc::SIGINT, 130),
+    ] {
+        let out = dir.join(format!("out-{sig}"));
+        let child = bin()
+            .arg("simulate")
+            .arg(&long)
+            .arg("--out")
+            .arg(&out)
+            .arg("--no-plots")
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(1500));
+        // SAFETY: signalling our own child by its pid.
+        unsafe { libc::kill(child.id() as i32, sig) };
+        let o = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(code), "signal {sig}: {err}");
+        assert!(err.contains("error: interrupted at t = "), "{err}");
+        let m: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap())
+                .unwrap();
+        assert_eq!(m["complete"], false, "{m}");
+        assert_eq!(m["stop"]["reason"], "interrupted", "{m}");
+        assert_ne!(m["sync"]["verdict"], "synchronized", "{m}");
+        // The CSV ends at the step the run stopped at.
+        let csv = std::fs::read_to_string(out.join("trajectories.csv")).unwrap();
+        let last_t: f64 = csv
+            .lines()
+            .last()
+            .unwrap()
+            .split(',')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap();
+        let stopped = m["stop"]["time_s"].as_f64().unwrap();
+        assert!(
+            (last_t - stopped).abs() < 1e-6 && stopped > 0.0,
+            "{last_t} {stopped}"
+        );
+    }
+}

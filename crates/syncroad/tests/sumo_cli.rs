@@ -222,3 +222,81 @@ fn sigterm_and_sighup_keep_the_rows_like_ctrl_c() {
         assert_ne!(m["sync"]["verdict"], "synchronized");
     }
 }
+
+#[test]
+fn the_recording_stride_does_not_change_sumo_metrics() {
+    // Metrics come from the spread of every step, which the worker sends whatever the stride:
+    // recording every 1000th step (two samples) must give the very same numbers.
+    let dir = tmpdir("sumo-stride");
+    let scenario = sugiyama_variant(&dir, |s| s["horizon_s"] = 60.into());
+    let (c1, o1, fine) = run_backend(&["run", "--record-every", "1"], &scenario, &dir.join("a"));
+    let (c2, o2, coarse) = run_backend(
+        &["run", "--record-every", "1000"],
+        &scenario,
+        &dir.join("b"),
+    );
+    assert_eq!(c1, c2, "{o1}{o2}");
+    assert!(fine["sync"]["spread_l2"].as_f64().unwrap() > 0.1, "{fine}");
+    assert_eq!(fine["sync"], coarse["sync"], "{o1}\n{o2}");
+    let rows = |d: &str| {
+        std::fs::read_to_string(dir.join(d).join("trajectories.csv"))
+            .unwrap()
+            .lines()
+            .count()
+    };
+    assert_eq!((rows("a"), rows("b")), (601 * 22 + 1, 2 * 22 + 1));
+}
+
+#[test]
+fn an_ordinary_path_finds_the_embedded_interpreters_own_library() {
+    // PATH without the build interpreter: the embedded Python once took /usr/bin/python3's
+    // standard library and every run failed on `_posixsubprocess`.
+    let dir = tmpdir("plain-path");
+    let scenario = sugiyama_variant(&dir, |s| s["horizon_s"] = 10.into());
+    let o = bin()
+        .env_clear()
+        .env("PATH", "/usr/local/bin:/usr/bin:/bin")
+        .arg("run")
+        .arg(&scenario)
+        .arg("--out")
+        .arg(dir.join("out"))
+        .arg("--no-plots")
+        .output()
+        .unwrap();
+    let text =
+        String::from_utf8_lossy(&o.stdout).into_owned() + &String::from_utf8_lossy(&o.stderr);
+    assert!(!text.contains("_posixsubprocess"), "{text}");
+    assert!(text.contains("SUMO: SUMO 1.28.0"), "{text}");
+    assert_ne!(o.status.code(), Some(3), "{text}");
+}
+
+#[test]
+fn a_missing_environment_is_an_error_without_a_verdict() {
+    let dir = tmpdir("no-venv");
+    let scenario = sugiyama_variant(&dir, |s| s["horizon_s"] = 10.into());
+    let o = bin()
+        .env("SYNCROAD_VENV", dir.join("no-such-venv"))
+        .arg("run")
+        .arg(&scenario)
+        .arg("--out")
+        .arg(dir.join("out"))
+        .arg("--no-plots")
+        .output()
+        .unwrap();
+    let (out, err) = (
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr),
+    );
+    assert_eq!(o.status.code(), Some(3), "{out}{err}");
+    assert!(
+        !out.contains("verdict") && !out.contains("certified"),
+        "{out}"
+    );
+    assert!(
+        err.contains("SUMO did not start")
+            && err.contains("SYNCROAD_VENV=")
+            && err.contains("is not a virtualenv"),
+        "{err}"
+    );
+    assert!(!dir.join("out/metrics.json").exists());
+}

@@ -36,6 +36,14 @@ pub use per_vehicle::PerVehicle;
 pub use scale::Scaled;
 pub use sumo::{SumoSettings, SumoVehicleType};
 
+/// The most steps a run may take (`horizon_s / step_s`): 10⁷ steps of N vehicles already take
+/// minutes natively and hours in SUMO, and each step keeps one value of the spread.
+pub const MAX_STEPS: usize = 10_000_000;
+
+/// The most values the delayed-driver law may buffer (`(max_i α_i/Δt + 2) · N`, 8 bytes each:
+/// 128 MiB).
+pub const MAX_DELAY_BUFFER: usize = 1 << 24;
+
 /// Errors raised while reading or validating a scenario.
 #[derive(Debug, thiserror::Error)]
 pub enum ScenarioError {
@@ -64,6 +72,32 @@ pub enum ScenarioError {
         value: String,
         /// What would be valid.
         expected: String,
+    },
+    /// The run would take more than [`MAX_STEPS`] steps.
+    #[error("horizon_s = {horizon_s} s with step_s = {step_s} s is {steps:.3e} steps; at most {max} steps are allowed, so give horizon_s ≤ {max_horizon_s} s at this step (or a larger step_s)", max = MAX_STEPS)]
+    TooManySteps {
+        /// The horizon \[s\].
+        horizon_s: f64,
+        /// The step \[s\].
+        step_s: f64,
+        /// `horizon_s / step_s`.
+        steps: f64,
+        /// The longest horizon allowed at this step \[s\].
+        max_horizon_s: f64,
+    },
+    /// The delay buffers would pass [`MAX_DELAY_BUFFER`] values.
+    #[error("model.delay_s[{vehicle}] = {delay_s} s with step_s = {step_s} s needs a delay buffer of {values:.3e} values; at most {max} are allowed, so give step_s ≥ {min_step_s:.3e} s (or shorter delays)", max = MAX_DELAY_BUFFER)]
+    DelayBufferTooLarge {
+        /// The vehicle with the longest delay.
+        vehicle: usize,
+        /// Its delay \[s\].
+        delay_s: f64,
+        /// The step \[s\].
+        step_s: f64,
+        /// Values the buffers would hold.
+        values: f64,
+        /// The smallest step that fits \[s\].
+        min_step_s: f64,
     },
     /// A per-vehicle list has the wrong length.
     #[error("{field} has {len} entries but the scenario has {vehicles} vehicles; give one value per vehicle or a single number")]

@@ -39,7 +39,16 @@ impl ScenarioFile {
                 "must be a finite number > 0",
             ));
         }
-        let steps = (self.horizon_s / self.step_s).round() as usize;
+        let steps_f = (self.horizon_s / self.step_s).round();
+        if steps_f > MAX_STEPS as f64 {
+            return Err(ScenarioError::TooManySteps {
+                horizon_s: self.horizon_s,
+                step_s: self.step_s,
+                steps: steps_f,
+                max_horizon_s: MAX_STEPS as f64 * self.step_s,
+            });
+        }
+        let steps = steps_f as usize;
         if steps == 0 {
             return Err(invalid(
                 "horizon_s",
@@ -112,6 +121,7 @@ impl ScenarioFile {
                     }
                     delay_steps.push(m as usize);
                 }
+                check_delay_buffer(&delay_steps, &delay_s, self.step_s)?;
                 let leader = match leader {
                     None => None,
                     Some(l) => {
@@ -300,6 +310,7 @@ impl Scenario {
                 if let Some((_, b)) = &m.leader {
                     per_vehicle("model.leader.pinning", b.len())?;
                 }
+                check_delay_buffer(&m.delay_steps, &m.delay_s, self.step_s)?;
                 for (i, (&d, &k)) in m.delay_s.iter().zip(&m.delay_steps).enumerate() {
                     let on_grid = k as f64 * self.step_s;
                     if !(d.is_finite() && (on_grid - d).abs() <= 1e-9 * self.step_s.max(d)) {
@@ -353,4 +364,29 @@ impl Scenario {
             ..self.clone()
         })
     }
+}
+
+/// Refuses delays whose buffers would pass [`MAX_DELAY_BUFFER`] values: the law keeps
+/// `max_i m_i + 2` rows of N inputs, `m_i = α_i / Δt`.
+fn check_delay_buffer(
+    delay_steps: &[usize],
+    delay_s: &[f64],
+    step_s: f64,
+) -> Result<(), ScenarioError> {
+    let n = delay_steps.len();
+    let Some(&m) = delay_steps.iter().max() else {
+        return Ok(());
+    };
+    let vehicle = delay_steps.iter().position(|&k| k == m).unwrap_or(0);
+    let values = (m as f64 + 2.0) * n as f64;
+    if values > MAX_DELAY_BUFFER as f64 {
+        return Err(ScenarioError::DelayBufferTooLarge {
+            vehicle,
+            delay_s: delay_s[vehicle],
+            step_s,
+            values,
+            min_step_s: delay_s[vehicle] / (MAX_DELAY_BUFFER as f64 / n as f64 - 2.0),
+        });
+    }
+    Ok(())
 }

@@ -7,12 +7,15 @@ use std::time::{Duration, Instant};
 
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
+use syncroad_control::metrics::speed_range;
 use syncroad_control::{StopReason, Trajectory};
 
 use super::meter::Meter;
 use super::step::{CoSim, StepTimes};
 use super::CosimError;
-use crate::protocol::{write_msg, write_rows, Event, Finish, PhaseTimes, Totals, WorkerMsg};
+use crate::protocol::{
+    write_msg, write_ranges, write_rows, Event, Finish, PhaseTimes, Totals, WorkerMsg,
+};
 
 /// Longest time rows wait in the worker before they are sent.
 const FLUSH_INTERVAL: Duration = Duration::from_millis(200);
@@ -93,14 +96,24 @@ impl SafetyWatch {
 
 /// Records every `record_every`-th step and streams the rows in chunks, so a crash or Ctrl-C
 /// loses at most one chunk or [`FLUSH_INTERVAL`] of the run.
+/// The speed range of the judged vehicles is kept at every step and sent with the rows.
 struct Recorder {
     rows: Trajectory,
+    ranges: Vec<[f64; 3]>,
+    /// The leader vehicle's index offset (1 with a leader vehicle: it is not judged).
+    k0: usize,
     every: usize,
     chunk: usize,
     last_flush: Instant,
 }
 
 impl Recorder {
+    /// Keeps the speed range of step time `t` (every step).
+    fn observe(&mut self, t: f64, sim: &CoSim<'_, '_>) {
+        let (lo, hi) = speed_range(&sim.v[self.k0.min(sim.v.len())..]);
+        self.ranges.push([t, lo, hi]);
+    }
+
     fn record(
         &mut self,
         t: f64,
@@ -109,9 +122,15 @@ impl Recorder {
     ) -> Result<(), CosimError> {
         self.rows.push_commanded(t, &sim.v, &sim.q, &sim.cmd);
         if self.rows.len() >= self.chunk || self.last_flush.elapsed() >= FLUSH_INTERVAL {
-            write_rows(out, &mut self.rows).map_err(pipe)?;
-            self.last_flush = Instant::now();
+            self.flush(out)?;
         }
+        Ok(())
+    }
+
+    fn flush(&mut self, out: &mut impl Write) -> Result<(), CosimError> {
+        write_ranges(out, &mut self.ranges).map_err(pipe)?;
+        write_rows(out, &mut self.rows).map_err(pipe)?;
+        self.last_flush = Instant::now();
         Ok(())
     }
 }
@@ -192,6 +211,8 @@ pub(super) fn run_steps(
     };
     let mut recorder = Recorder {
         rows: Trajectory::new(sim.v.len()),
+        ranges: Vec::new(),
+        k0: usize::from(req.layout.leader_vehicle),
         every: req.record_every.max(1),
         chunk: req.chunk_records.max(1),
         last_flush: Instant::now(),
@@ -204,6 +225,7 @@ pub(super) fn run_steps(
         loop_start: Instant::now(),
     };
     if req.observe {
+        recorder.observe(0.0, &sim);
         recorder.record(0.0, &sim, out)?;
     }
     let mut stop = StopReason::Horizon;
@@ -236,6 +258,7 @@ pub(super) fn run_steps(
             safety.check_overrides(&sim, step + 1, out)?;
         }
         let last = step + 1 == req.steps;
+        recorder.observe((step + 1) as f64 * dt, &sim);
         if (step + 1) % recorder.every == 0 || last {
             recorder.record((step + 1) as f64 * dt, &sim, out)?;
         }
@@ -247,7 +270,7 @@ pub(super) fn run_steps(
         Some(m) if matches!(stop, StopReason::Horizon) => Some(m.finish(py, id_args)?),
         _ => None,
     };
-    write_rows(out, &mut recorder.rows).map_err(pipe)?;
+    recorder.flush(out)?;
     let mut totals = safety.totals;
     totals.negative_commands_clamped = sim.negative_commands_clamped;
     totals.odometer_deviation_max_m = sim.odometer_deviation_max_m;

@@ -242,6 +242,7 @@ impl<'a, 'py> CoSim<'a, 'py> {
         StopReason::VehicleLost {
             vehicle: self.req.layout.vehicles[i].id.clone(),
             step,
+            ring: self.req.layout.road.ring,
         }
     }
 

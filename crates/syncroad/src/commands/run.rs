@@ -5,11 +5,13 @@
 //! capacity, road length); a run that fails part-way still writes every row received, marked
 //! incomplete.
 
+use std::cell::Cell;
 use std::path::Path;
+use std::time::Instant;
 
 use anyhow::Context;
 use syncroad_control::scenario::Backend;
-use syncroad_control::{Scenario, Verdict};
+use syncroad_control::{NativeOptions, Scenario, StopReason, Verdict};
 use syncroad_sumo::{interrupt_flag, load_road, ReadMode, RunOptions, SumoDriver, WorkerCommand};
 
 use crate::cli::{OutputArgs, SumoArgs};
@@ -64,7 +66,17 @@ fn verdict_status(f: &Finished) -> Status {
 fn run_native(sc: &Scenario, out: &OutputArgs) -> anyhow::Result<Status> {
     let cfg = RunConfig::new(sc, out)?;
     prepare_out(&cfg.out)?;
-    let f = Finished::new(sc, "law", pipeline::native(sc, cfg.record_every), cfg.eval);
+    // Ctrl-C, SIGTERM and SIGHUP stop the loop; the steps so far are written, as on SUMO.
+    let stop = interrupt_flag()?;
+    let progress = StepProgress::new(sc.step_s());
+    let report = |done: usize, total: usize| progress.report(done, total);
+    let opts = NativeOptions {
+        record_every: cfg.record_every,
+        cancel: Some(&stop),
+        progress: Some(&report),
+    };
+    let f = Finished::new(sc, "law", pipeline::native_with(sc, opts), cfg.eval);
+    let complete = f.output.stop.is_complete();
     // The summary is printed even when a file cannot be written (a full disk).
     let written = f.write(
         &cfg.out,
@@ -84,8 +96,49 @@ fn run_native(sc: &Scenario, out: &OutputArgs) -> anyhow::Result<Status> {
         Ok(c) => out!("{}", report::congestion_lines(c)),
         Err(e) => outln!("  congestion metrics skipped: {e}"),
     }
-    report_files(&cfg.out, written, true)?;
+    report_files(&cfg.out, written, complete)?;
+    if matches!(f.output.stop, StopReason::Interrupted { .. }) {
+        eprintln!("error: {}", f.output.stop.message().unwrap_or_default());
+        return Ok(Status::Interrupted);
+    }
     Ok(verdict_status(&f))
+}
+
+/// Progress of a long native run on stderr: a line every [`StepProgress::EVERY_S`] of wall
+/// time (so a run of a few seconds prints nothing), with the simulated time and an estimate
+/// of the time left.
+struct StepProgress {
+    step_s: f64,
+    start: Instant,
+    last: Cell<Instant>,
+}
+
+impl StepProgress {
+    const EVERY_S: f64 = 5.0;
+
+    fn new(step_s: f64) -> Self {
+        let now = Instant::now();
+        Self {
+            step_s,
+            start: now,
+            last: Cell::new(now),
+        }
+    }
+
+    fn report(&self, done: usize, total: usize) {
+        if self.last.get().elapsed().as_secs_f64() < Self::EVERY_S {
+            return;
+        }
+        self.last.set(Instant::now());
+        let elapsed = self.start.elapsed().as_secs_f64();
+        let left = elapsed * (total - done) as f64 / done.max(1) as f64;
+        eprintln!(
+            "simulate: step {done} of {total} ({:.0}%), t = {:.1} of {:.1} s; {elapsed:.0} s elapsed, about {left:.0} s left",
+            100.0 * done as f64 / total as f64,
+            done as f64 * self.step_s,
+            total as f64 * self.step_s,
+        );
+    }
 }
 
 fn run_sumo(sc: &Scenario, out: &OutputArgs, args: &SumoArgs) -> anyhow::Result<Status> {
@@ -113,6 +166,14 @@ fn run_sumo(sc: &Scenario, out: &OutputArgs, args: &SumoArgs) -> anyhow::Result<
     }
     let run = pipeline::sumo(sc, &road, &opts)
         .map_err(|e| InputError::caused("before starting SUMO", e))?;
+    if run.output.trajectory.is_empty() && !run.interrupted {
+        // SUMO never ran (no Python, no libsumo, a network SUMO refuses): there is no run to
+        // judge, so no verdict and no record, only the reason (exit 3).
+        anyhow::bail!(
+            "SUMO did not start, nothing was run: {}",
+            run.output.stop.message().unwrap_or_default()
+        );
+    }
     let name = if args.krauss_sigma.is_some() {
         "sumo_krauss"
     } else {
