@@ -421,7 +421,13 @@ fn measured_string_amplification_follows_chandler() {
             pin.join(",")
         ))
         .unwrap();
-        let run = simulate(&sc, NativeOptions { record_every: 1 });
+        let run = simulate(
+            &sc,
+            NativeOptions {
+                record_every: 1,
+                ..NativeOptions::default()
+            },
+        );
         let m = syncroad_control::string_measured::measured(&run.trajectory).unwrap();
         // The leader keeps 20 m/s: the first peak is vehicle 0's initial 2 m/s.
         assert!((m.first_peak_deviation_mps - 2.0).abs() < 1e-12);

@@ -19,7 +19,7 @@ use anyhow::Context;
 use rayon::prelude::*;
 use serde_json::{json, Map, Value};
 use syncroad_control::scenario::Backend;
-use syncroad_control::{EvalOptions, Scenario};
+use syncroad_control::{EvalOptions, NativeOptions, Scenario, StopReason};
 use syncroad_sumo::{load_road, MeasureOptions, Road, RunOptions, WorkerCommand, WorkerPool};
 
 use super::spec::{Point, Sweep};
@@ -342,7 +342,18 @@ impl Shared<'_> {
             self.out.join("work").join(format!("{:07}", p.id))
         };
         let (output, interrupted) = match sweep.backend {
-            Backend::Native => (pipeline::native(&sc, record_every), false),
+            Backend::Native => {
+                let out = pipeline::native_with(
+                    &sc,
+                    NativeOptions {
+                        record_every,
+                        cancel: Some(&self.interrupt),
+                        ..NativeOptions::default()
+                    },
+                );
+                let interrupted = matches!(out.stop, StopReason::Interrupted { .. });
+                (out, interrupted)
+            }
             Backend::Sumo => {
                 let road = self.road(&sc)?;
                 let worker = WorkerCommand::current_exe()
