@@ -37,6 +37,7 @@ mod python;
 mod run;
 mod signals;
 mod ssm;
+mod sumo_run;
 mod supervisor;
 mod venv;
 mod worker;

@@ -9,19 +9,16 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
 
-use syncroad_control::metrics::{spread_of_range, SpreadSeries};
 use syncroad_control::native::{initial_positions, leader_start};
-use syncroad_control::record::{Safety, SumoFacts};
 use syncroad_control::scenario::Scenario;
-use syncroad_control::{DamperSetup, DamperSpec, LawSpec, RunOutput, StopReason, Trajectory};
+use syncroad_control::{DamperSetup, DamperSpec, LawSpec};
 
 use crate::drivers::{DriverError, SumoDriver, MIXED_SPEED_MODE};
 use crate::layout::{ring_layout, straight_layout, Layout, LayoutError};
 use crate::net::{read_ring, read_straight, NetError, Road};
-use crate::protocol::{Control, Finish, Measure, ReadMode, Request};
-use crate::supervisor::{
-    run_worker, Supervision, SupervisorError, WorkerCommand, WorkerPool, WorkerRun,
-};
+use crate::protocol::{Control, Measure, ReadMode, Request};
+pub use crate::sumo_run::SumoRun;
+use crate::supervisor::{run_worker, Supervision, WorkerCommand, WorkerPool};
 
 /// Tolerance between commanded and realised speed before a command counts as overridden [m/s].
 pub const OVERRIDE_TOLERANCE_MPS: f64 = 1e-6;
@@ -513,195 +510,6 @@ impl Prepared {
 pub fn run_scenario(scenario: &Scenario, opts: &RunOptions) -> Result<SumoRun, PrepareError> {
     let road = load_road(scenario)?;
     Ok(Prepared::new(scenario, &road, opts)?.run())
-}
-
-/// The result of a SUMO run: every row received, and how the run ended.
-#[derive(Debug, Clone)]
-pub struct SumoRun {
-    /// The request that was run.
-    pub request: Request,
-    /// What the worker produced.
-    pub worker: WorkerRun,
-}
-
-/// Occurrences of SUMO's emergency-braking warning in its log.
-fn emergency_braking_warnings(log: &Path) -> usize {
-    std::fs::read_to_string(log)
-        .map(|t| t.matches("performs emergency braking").count())
-        .unwrap_or(0)
-}
-
-impl SumoRun {
-    /// Why the run stopped: the worker's stop, or the supervision failure.
-    pub fn stop(&self) -> StopReason {
-        match &self.worker.result {
-            Ok(f) => f.stop.clone(),
-            Err(e) => StopReason::Failed {
-                error: e.to_string(),
-            },
-        }
-    }
-
-    /// The worker's end-of-run report when the run reached its horizon, else why it stopped.
-    pub fn outcome(&self) -> Result<&Finish, StopReason> {
-        match &self.worker.result {
-            Ok(f) if f.stop.is_complete() => Ok(f),
-            _ => Err(self.stop()),
-        }
-    }
-
-    /// The supervision failure (crash, timeout, Ctrl-C), if any.
-    pub fn failure(&self) -> Option<&SupervisorError> {
-        self.worker.result.as_ref().err()
-    }
-
-    /// SUMO's road length, or the parsed one if SUMO never started.
-    pub fn road_length_m(&self) -> f64 {
-        self.worker
-            .start
-            .as_ref()
-            .map(|s| s.road_length_m)
-            .unwrap_or_else(|| self.request.layout.road.length_m())
-    }
-
-    /// The run as every backend reports it: the controlled vehicles' samples, the stop and
-    /// the SUMO facts.
-    pub fn output(&self, scenario: &Scenario) -> RunOutput {
-        let k0 = usize::from(self.request.layout.leader_vehicle);
-        let finish = self.worker.result.as_ref().ok();
-        let start = self.worker.start.as_ref();
-        // Law-commanded vehicles are labelled `law`, or with the damper that drives them.
-        let damper = match &self.request.control {
-            Control::Law { law } => law.damper.as_ref().map(|d| d.spec.to_string()),
-            _ => None,
-        };
-        let commanded = damper.unwrap_or_else(|| "law".to_string());
-        let law_driven = matches!(self.request.control, Control::Law { .. })
-            && self.request.layout.vehicles[k0..]
-                .iter()
-                .any(|v| v.driver.is_none());
-        let warmup_s = self
-            .request
-            .measure
-            .as_ref()
-            .map_or(0.0, |m| m.warmup_steps as f64 * self.request.step_s);
-        let ssm = self
-            .request
-            .measure
-            .as_ref()
-            .and_then(|m| m.ssm_file.as_ref())
-            .filter(|_| finish.is_some())
-            .and_then(|f| match crate::ssm::read(f, warmup_s) {
-                Ok(s) => Some(s),
-                Err(e) => {
-                    // The run itself is fine; its record says no SSM was measured.
-                    eprintln!("warning: {e}; the record has no safety margins");
-                    None
-                }
-            });
-        let facts = SumoFacts {
-            sumo_version: start.map(|s| s.python.sumo_version.clone()),
-            libsumo: start.map(|s| s.python.libsumo_file.clone()),
-            road_length_m: self.road_length_m(),
-            gap_scale: self.request.layout.gap_scale,
-            step_method: if self.request.ballistic {
-                "ballistic"
-            } else {
-                "euler"
-            }
-            .into(),
-            drivers: self.request.layout.vehicles[k0..]
-                .iter()
-                .map(|v| {
-                    v.driver
-                        .as_ref()
-                        .map_or_else(|| commanded.clone(), |d| d.to_string())
-                })
-                .collect(),
-            safety: finish.map(|f| Safety {
-                collision_steps: f.totals.collision_steps,
-                colliding_vehicles: f.totals.colliding_vehicles,
-                teleports: f.totals.teleports,
-                emergency_braking_warnings: emergency_braking_warnings(&self.request.log_file),
-                overridden_commands: f.totals.overrides,
-                negative_commands_clamped: f.totals.negative_commands_clamped,
-            }),
-            max_override_mps: finish.map_or(0.0, |f| f.totals.max_override_mps),
-            odometer_deviation_max_m: finish.map_or(0.0, |f| f.totals.odometer_deviation_max_m),
-            measured: finish.and_then(|f| f.measured.clone()),
-            loop_ring_m: self
-                .request
-                .measure
-                .as_ref()
-                .and_then(|_| loop_position(&self.request.layout.road).map(|l| l.2)),
-            emission_class: crate::drivers::EMISSION_CLASS.to_string(),
-            emission_every: self.request.measure.as_ref().map(|m| m.emission_every),
-            law_speed_mode: law_driven.then_some(self.request.speed_mode),
-            ssm,
-        };
-        RunOutput {
-            trajectory: self.trajectory(scenario),
-            stop: self.stop(),
-            ring_length_m: self.request.layout.road.ring.then(|| self.road_length_m()),
-            sumo: Some(facts),
-            spread: self.spread(scenario),
-        }
-    }
-
-    /// The spread at every step the worker reported (against the scenario's leader speed, as
-    /// in [`SumoRun::trajectory`]); `None` when the worker sent no ranges.
-    pub fn spread(&self, scenario: &Scenario) -> Option<SpreadSeries> {
-        if self.worker.ranges.is_empty() {
-            return None;
-        }
-        let mut s = SpreadSeries::default();
-        for &[t, lo, hi] in &self.worker.ranges {
-            s.push(t, spread_of_range(lo, hi, scenario.leader_speed_at(t)));
-        }
-        Some(s)
-    }
-
-    /// The controlled vehicles' samples (the leader vehicle, if any, becomes the reference
-    /// speed), with bumper-to-bumper gaps as the native simulator computes them.
-    pub fn trajectory(&self, scenario: &Scenario) -> Trajectory {
-        let rows = &self.worker.rows;
-        let all = rows.n;
-        let k0 = usize::from(self.request.layout.leader_vehicle);
-        let n = all - k0;
-        let lengths: Vec<f64> = self
-            .request
-            .layout
-            .vehicles
-            .iter()
-            .map(|v| v.length_m)
-            .collect();
-        let ring = self.request.layout.road.ring.then(|| self.road_length_m());
-        let mut t = Trajectory::new(n);
-        let mut gaps = vec![0.0; n];
-        for k in 0..rows.len() {
-            let q = &rows.positions_m[k * all..(k + 1) * all];
-            let v = &rows.speeds_mps[k * all..(k + 1) * all];
-            for i in 0..n {
-                let j = k0 + i;
-                gaps[i] = if i > 0 || k0 == 1 {
-                    q[j - 1] - q[j] - lengths[j]
-                } else if let Some(c) = ring {
-                    q[all - 1] + c - q[j] - lengths[j]
-                } else {
-                    f64::NAN
-                };
-            }
-            let time = rows.time_s[k];
-            t.push(
-                time,
-                &v[k0..],
-                &q[k0..],
-                &gaps,
-                scenario.leader_speed_at(time),
-            );
-        }
-        t
-    }
 }
 
 #[cfg(test)]
