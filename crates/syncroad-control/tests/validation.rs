@@ -310,3 +310,22 @@ fn delay_buffers_beyond_the_limit_are_refused() {
         "{e}"
     );
 }
+
+#[test]
+fn nan_and_infinity_literals_name_their_field() {
+    for (lit, text) in [
+        ("NaN", r#""delay_s": NaN"#),
+        ("Infinity", r#""delay_s": Infinity"#),
+        ("-Infinity", r#""delay_s": -Infinity"#),
+    ] {
+        let json = base(RING, "").replace(r#""delay_s": 0.3"#, text);
+        assert!(json.contains(text), "the fixture has a delay to replace");
+        let e = err(&json);
+        assert!(
+            e.starts_with(&format!(
+                "delay_s = {lit}: JSON has no {lit}: write a finite number (line "
+            )),
+            "{e}"
+        );
+    }
+}

@@ -584,3 +584,59 @@ mod parameterized_drivers {
         assert!(e.contains("whole multiple"), "{e}");
     }
 }
+
+/// Fault injection: the worker is killed (SIGKILL, or SIGABRT as libsumo's assertions raise)
+/// at a random moment of a long run, over several seeds. (A SIGSEGV sent with `kill` is no
+/// crash: Rust's stack-overflow handler returns from it once and the worker runs on; a real
+/// segmentation fault re-executes the faulting access and dies, as
+/// `malformed_net_crash_is_contained` shows.) Every time the run reports the crash
+/// with its signal, keeps every row streamed before it, and its verdict is never
+/// "synchronized": a run that did not reach its horizon cannot claim it.
+#[test]
+fn worker_killed_at_random_moments_never_yields_a_confident_verdict() {
+    use syncroad_control::rng::SplitMix64;
+    use syncroad_control::{evaluate, EvalOptions, Verdict};
+    let mut rng = SplitMix64::new(2026);
+    for case in 0..4 {
+        let (signal, name) = if case % 2 == 0 {
+            (libc::SIGKILL, "SIGKILL")
+        } else {
+            (libc::SIGABRT, "SIGABRT")
+        };
+        let delay = Duration::from_millis(200 + (rng.next_f64() * 1300.0) as u64);
+        let sc = ring_scenario(
+            22,
+            100_000.0,
+            &nets().join("sugiyama-ring.net.xml"),
+            case + 1,
+        );
+        let mut o = opts(&format!("fault-{case}"));
+        o.on_start = Some(Arc::new(move |s: &syncroad_sumo::StartInfo| {
+            let pid = s.pid as i32;
+            std::thread::spawn(move || {
+                std::thread::sleep(delay);
+                // SAFETY: signals our own child worker.
+                unsafe { libc::kill(pid, signal) };
+            });
+        }));
+        let run = run_scenario(&sc, &o).unwrap();
+        match run.failure() {
+            Some(SupervisorError::Crashed {
+                name: got, records, ..
+            }) => {
+                assert_eq!(*got, name, "case {case}");
+                assert_eq!(*records, run.worker.rows.len(), "case {case}");
+            }
+            other => panic!("case {case} ({name} after {delay:?}): {other:?}"),
+        }
+        let out = run.output(&sc);
+        assert!(!out.stop.is_complete(), "case {case}");
+        assert_eq!(
+            out.trajectory.len(),
+            run.worker.rows.len(),
+            "case {case}: rows kept"
+        );
+        let verdict = evaluate(&sc, &out, EvalOptions::of(&sc)).sync.verdict;
+        assert_ne!(verdict, Verdict::Synchronized, "case {case}");
+    }
+}

@@ -300,3 +300,36 @@ fn a_missing_environment_is_an_error_without_a_verdict() {
     );
     assert!(!dir.join("out/metrics.json").exists());
 }
+
+/// A scenario piped in (`/dev/stdin`) has no folder of its own: its relative paths resolve
+/// against the current folder, so the Sugiyama ring runs from `scenarios/` as from its file.
+#[test]
+fn a_scenario_read_from_stdin_resolves_paths_from_the_current_folder() {
+    use std::io::Write as _;
+    let dir = tmpdir("stdin-scenario");
+    let text = std::fs::read_to_string(repo().join("scenarios/sugiyama-ring.json")).unwrap();
+    let mut child = bin()
+        .current_dir(repo().join("scenarios"))
+        .args(["run", "/dev/stdin", "--no-plots", "--out"])
+        .arg(dir.join("out"))
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    child
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(text.as_bytes())
+        .unwrap();
+    let out = child.wait_with_output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("verdict: synchronized"), "{stdout}");
+}

@@ -240,7 +240,14 @@ impl Scenario {
             source,
         })?;
         let file = ScenarioFile::from_json(&text, &path.display().to_string())?;
-        let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        // Relative paths inside the scenario resolve against its folder; a scenario read from
+        // a pipe or a device (`/dev/stdin`) has no folder of its own: the current one is used.
+        let regular = std::fs::metadata(path).is_ok_and(|m| m.is_file());
+        let base = if regular {
+            path.parent().map(Path::to_path_buf).unwrap_or_default()
+        } else {
+            PathBuf::from(".")
+        };
         file.validate(&base)
     }
 

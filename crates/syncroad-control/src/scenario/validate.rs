@@ -9,12 +9,48 @@ use super::*;
 use crate::metrics::VerdictThresholds;
 use crate::rng::SplitMix64;
 
+/// JSON has no NaN or Infinity; a scenario that writes one gets an error naming the field
+/// (the nearest key before the literal) instead of serde_json's "expected value".
+fn non_finite_literal(text: &str, line: usize, column: usize) -> Option<ScenarioError> {
+    let offset = text
+        .split_inclusive('\n')
+        .take(line.saturating_sub(1))
+        .map(str::len)
+        .sum::<usize>()
+        + column.saturating_sub(1);
+    // serde_json stops after a sign: `-Infinity` is reported at its `I`.
+    let offset = if text.get(..offset)?.ends_with('-') {
+        offset - 1
+    } else {
+        offset
+    };
+    let rest = text.get(offset..)?;
+    let literal = ["-Infinity", "Infinity", "NaN", "-inf", "inf", "nan"]
+        .into_iter()
+        .find(|l| rest.starts_with(l))?;
+    // The key: the last `"name":` before the literal.
+    let before = &text[..offset];
+    let colon = before.rfind(':')?;
+    let key_end = before[..colon].rfind('"')?;
+    let key_start = before[..key_end].rfind('"')? + 1;
+    Some(invalid(
+        &before[key_start..key_end],
+        literal,
+        format!("JSON has no {literal}: write a finite number (line {line}, column {column})"),
+    ))
+}
+
 impl ScenarioFile {
     /// Parses JSON text; `origin` names the source in error messages.
     pub fn from_json(text: &str, origin: &str) -> Result<Self, ScenarioError> {
-        serde_json::from_str(text).map_err(|source| ScenarioError::Json {
-            path: origin.to_string(),
-            source,
+        serde_json::from_str(text).map_err(|source| {
+            if let Some(e) = non_finite_literal(text, source.line(), source.column()) {
+                return e;
+            }
+            ScenarioError::Json {
+                path: origin.to_string(),
+                source,
+            }
         })
     }
 
