@@ -219,6 +219,7 @@ pub struct Worker {
     reader: Option<std::thread::JoinHandle<()>>,
     stderr_thread: Option<std::thread::JoinHandle<()>>,
     stderr_tail: Arc<Mutex<VecDeque<String>>>,
+    stderr_lines: Arc<std::sync::atomic::AtomicUsize>,
     alive: bool,
     runs: usize,
 }
@@ -269,8 +270,10 @@ impl Worker {
             })?;
         let verbose = std::env::var_os("SYNCROAD_SUMO_VERBOSE").is_some();
         let stderr_tail = Arc::new(Mutex::new(VecDeque::<String>::new()));
+        let stderr_lines = Arc::new(std::sync::atomic::AtomicUsize::new(0));
         let stderr_thread = child.stderr.take().map(|err| {
             let tail = stderr_tail.clone();
+            let count = stderr_lines.clone();
             std::thread::spawn(move || {
                 for line in BufReader::new(err).lines().map_while(Result::ok) {
                     if verbose {
@@ -281,6 +284,7 @@ impl Worker {
                         t.pop_front();
                     }
                     t.push_back(line);
+                    count.fetch_add(1, Ordering::SeqCst);
                 }
             })
         });
@@ -303,6 +307,7 @@ impl Worker {
             reader: Some(reader),
             stderr_thread,
             stderr_tail,
+            stderr_lines,
             alive: true,
             runs: 0,
         })
@@ -316,6 +321,34 @@ impl Worker {
     /// False once the worker crashed, exited, or was stopped for a timeout or Ctrl-C.
     pub fn alive(&self) -> bool {
         self.alive
+    }
+
+    /// A worker's failure message with SUMO's own `Error:` lines of this run appended: libsumo
+    /// reports only "Process Error" for a network it cannot load, and says why on stderr.
+    fn with_sumo_errors(&self, message: String, lines_before: usize) -> String {
+        // SUMO wrote its lines before the worker reported; give the reader a moment.
+        std::thread::sleep(Duration::from_millis(100));
+        let new = self
+            .stderr_lines
+            .load(Ordering::SeqCst)
+            .saturating_sub(lines_before);
+        let errors: Vec<String> = self
+            .stderr_tail
+            .lock()
+            .map(|t| {
+                let skip = t.len().saturating_sub(new);
+                t.iter()
+                    .skip(skip)
+                    .filter(|l| l.trim_start().starts_with("Error"))
+                    .cloned()
+                    .collect()
+            })
+            .unwrap_or_default();
+        if errors.is_empty() {
+            message
+        } else {
+            format!("{message}\nSUMO said:\n{}", errors.join("\n"))
+        }
     }
 
     fn tail_text(&self) -> String {
@@ -341,6 +374,7 @@ impl Worker {
             return run;
         }
         self.runs += 1;
+        let lines_before = self.stderr_lines.load(Ordering::SeqCst);
         let line = serde_json::to_string(request).expect("a request serialises");
         let sent = match self.stdin.as_mut() {
             Some(stdin) => writeln!(stdin, "{line}").and_then(|()| stdin.flush()),
@@ -424,7 +458,7 @@ impl Worker {
                 other => other,
             })
         } else if let Some(e) = end {
-            e.map_err(SupervisorError::Worker)
+            e.map_err(|m| SupervisorError::Worker(self.with_sumo_errors(m, lines_before)))
         } else {
             match status.expect("reaped above") {
                 Ok(st) => match st.signal() {

@@ -640,3 +640,21 @@ fn worker_killed_at_random_moments_never_yields_a_confident_verdict() {
         assert_ne!(verdict, Verdict::Synchronized, "case {case}");
     }
 }
+
+/// SUMO refuses a network with a broken lane shape and libsumo says only "Process Error";
+/// the run's error carries SUMO's own reasons from the worker's output.
+#[test]
+fn sumo_start_errors_carry_sumos_own_reasons() {
+    let dir = work("garbage-shape");
+    let text = std::fs::read_to_string(nets().join("sugiyama-ring.net.xml")).unwrap();
+    let at = text.find("shape=\"").unwrap() + "shape=\"".len();
+    let end = at + text[at..].find('"').unwrap();
+    let net = dir.join("ring.net.xml");
+    std::fs::write(&net, format!("{}garbage{}", &text[..at], &text[end..])).unwrap();
+    let sc = ring_scenario(22, 10.0, &net, 1);
+    let run = run_scenario(&sc, &opts("garbage-shape-run")).unwrap();
+    let e = run.failure().expect("SUMO refuses the net").to_string();
+    assert!(e.contains("Process Error"), "{e}");
+    assert!(e.contains("SUMO said:"), "{e}");
+    assert!(e.contains("is not a valid list of positions"), "{e}");
+}
