@@ -74,7 +74,10 @@ pub fn table(r: &StabilityReport) -> String {
         );
     }
     if let Some(n) = &r.network {
-        let _ = writeln!(s, "\nfull solve (Chebyshev collocation + Newton):");
+        let _ = writeln!(
+            s,
+            "\nfull solve (Chebyshev collocation, shift-invert or dense, + Newton):"
+        );
         let _ = write!(s, "{n}");
     }
     if let Some(c) = &r.cacc {

@@ -5,9 +5,10 @@
 //! * Acyclic networks (chains behind a leader): exact per-driver roots ([`super::acyclic`]),
 //!   and the string-stability peak of every predecessor-to-follower transfer
 //!   ([`super::string_stability::chandler_string_peak`]).
-//! * Any other graph up to [`FULL_SOLVE_LIMIT`] vehicles: collocation and Newton, certified
-//!   by the argument principle, and the critical scale by continuation
-//!   ([`super::report::analyse_network`]).
+//! * Any other graph up to [`NETWORK_SOLVE_LIMIT`] vehicles: collocation and Newton (the
+//!   collocation's rightmost eigenvalues by shift-invert Arnoldi, its dense Schur form up to
+//!   [`FULL_SOLVE_LIMIT`] when that is not certified), certified by the argument principle,
+//!   and the critical scale by continuation ([`super::report::analyse_network`]).
 //! * CACC platoons: closed-loop eigenvalues and string stability ([`super::report::analyse_cacc`]).
 //!
 //! A leader with pinning gains enters as an extra, undelayed vertex whose speed never changes,
@@ -29,18 +30,25 @@ use crate::scenario::{CaccModel, DelayedDriverModel, GraphShape, Model};
 use crate::theory::{self, TheoryReport};
 use crate::Scenario;
 
-/// Largest network (vehicles, leader included) for the full root solve.
-pub const FULL_SOLVE_LIMIT: usize = 150;
+/// Largest network (vehicles, leader included) for the dense collocation solve
+/// ([`super::rightmost_roots`]): `map` at every grid point, and the fallback of the
+/// shift-invert solve.
+pub const FULL_SOLVE_LIMIT: usize = super::report::DENSE_SOLVE_LIMIT;
+
+/// Largest network (vehicles, leader included) that [`analyse`] solves for its roots: by
+/// shift-invert Arnoldi and band LUs ([`super::rightmost_roots_shift_invert`]), certified by
+/// root counts; about 2 s for a heterogeneous ring of 200.
+pub const NETWORK_SOLVE_LIMIT: usize = 400;
 
 /// Failure of the scenario analysis.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum AnalysisError {
-    /// Too many vehicles for the full solve, and no fast path applies.
-    #[error("the scenario has {vehicles} vehicles (field `vehicles`, leader included): the full root solve is limited to {limit}; uniform rings of any size use the Fourier fast path (one value for every gain in `model.graph` and for `model.delay_s`), chains behind a leader the exact per-driver roots")]
+    /// Too many vehicles for the root solve, and no fast path applies.
+    #[error("the scenario has {vehicles} vehicles (field `vehicles`, leader included): the root solve of a general network is limited to {limit}; uniform rings of any size use the Fourier fast path (one value for every gain in `model.graph` and for `model.delay_s`), chains behind a leader the exact per-driver roots")]
     TooLargeForFullSolve {
         /// Vehicles, leader included.
         vehicles: usize,
-        /// [`FULL_SOLVE_LIMIT`].
+        /// [`NETWORK_SOLVE_LIMIT`].
         limit: usize,
     },
     /// The uniform-ring fast path failed.
@@ -206,7 +214,7 @@ pub fn analyse(sc: &Scenario) -> Result<StabilityReport, AnalysisError> {
             let acyclic = acyclic_roots(&a, &d).ok();
             let network = if acyclic.is_some() {
                 None
-            } else if size <= FULL_SOLVE_LIMIT {
+            } else if size <= NETWORK_SOLVE_LIMIT {
                 Some(
                     analyse_network(&a, &d, &CollocationOptions::default(), true)
                         .map_err(AnalysisError::Network)?,
@@ -214,7 +222,7 @@ pub fn analyse(sc: &Scenario) -> Result<StabilityReport, AnalysisError> {
             } else if ring.is_none() {
                 return Err(AnalysisError::TooLargeForFullSolve {
                     vehicles: size,
-                    limit: FULL_SOLVE_LIMIT,
+                    limit: NETWORK_SOLVE_LIMIT,
                 });
             } else {
                 None

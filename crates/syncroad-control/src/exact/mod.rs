@@ -31,6 +31,7 @@
 pub mod acyclic;
 pub mod analysis;
 pub mod argument_principle;
+pub(crate) mod banded;
 pub mod boundaries;
 pub mod cacc_modes;
 pub mod collocation;
@@ -47,8 +48,8 @@ pub use argument_principle::{count_roots_right_of, ArgumentPrincipleError, RootC
 pub use boundaries::{gain_delay_boundaries, Boundaries};
 pub use cacc_modes::{cacc_modes, CaccCondition, CaccError, CaccModes, CaccParams};
 pub use collocation::{
-    characteristic_matrix, rightmost_roots, CollocationError, CollocationOptions, RefinedRoot,
-    RootsReport,
+    characteristic_matrix, rightmost_roots, rightmost_roots_shift_invert, CollocationError,
+    CollocationOptions, RefinedRoot, RootsReport,
 };
 pub use critical::{critical_scale, CriticalError, CriticalReport};
 pub use lambert_w::{lambert_w, LambertWError};
