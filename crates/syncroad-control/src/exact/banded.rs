@@ -55,7 +55,7 @@ impl Dual {
 pub(crate) struct BandedNetwork {
     /// `perm[p]` is the vehicle at position `p`.
     perm: Vec<usize>,
-    /// Per position: `(position of the column, L entry)`, the diagonal included.
+    /// Per position: `(position of the column, L entry)`, the diagonal always included.
     rows: Vec<Vec<(usize, f64)>>,
     /// Delay of the driver at each position \[s\].
     delays: Vec<f64>,
@@ -77,8 +77,9 @@ impl BandedNetwork {
             .iter()
             .enumerate()
             .map(|(p, &i)| {
+                // The diagonal is kept even when zero (a leader observes nobody): `s` sits there.
                 let mut row: Vec<(usize, f64)> = (0..n)
-                    .filter(|&j| l[(i, j)] != 0.0)
+                    .filter(|&j| j == i || l[(i, j)] != 0.0)
                     .map(|j| (pos[j], l[(i, j)]))
                     .collect();
                 row.sort_by_key(|e| e.0);
@@ -397,6 +398,21 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_leader_row_of_zeros_still_carries_s() {
+        // Vertex 2 observes nobody (a leader): its row of M(s) is s alone, so
+        // det M = s · det(sI + e^{−sα}L_f) and (log det M)' has the term 1/s.
+        let a = DMatrix::from_row_slice(3, 3, &[0.0, 0.5, 1.0, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        let l = laplacian(&a);
+        let d = [0.7, 0.4, 0.0];
+        let band = BandedNetwork::new(&l, &d);
+        let s = Complex64::new(-0.2, 0.9);
+        let (g, _) = dense(&l, &d, 1.0, s);
+        let lu = band.factor(1.0, s);
+        assert!(lu.is_regular());
+        assert!((lu.log_det_derivative().unwrap() - g).norm() < 1e-12);
     }
 
     #[test]

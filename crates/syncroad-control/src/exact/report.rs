@@ -180,15 +180,16 @@ fn certified_roots(
     delays_s: &[f64],
     options: &CollocationOptions,
 ) -> Result<(RootsReport, Option<RootsCertificate>), ReportError> {
+    let large = adjacency.nrows() > DENSE_SOLVE_LIMIT;
     let fast = match rightmost_roots_shift_invert(adjacency, delays_s, options) {
-        Ok(r) => {
-            let c = certify_roots(adjacency, delays_s, &r)?;
-            if c.certified || adjacency.nrows() > DENSE_SOLVE_LIMIT {
-                return Ok((r, Some(c)));
-            }
-            Some((r, c))
-        }
-        Err(e) if adjacency.nrows() > DENSE_SOLVE_LIMIT => return Err(e.into()),
+        // A count line through a root the solve missed fails the count: not certified.
+        Ok(r) => match certify_roots(adjacency, delays_s, &r) {
+            Ok(c) if c.certified || large => return Ok((r, Some(c))),
+            Ok(c) => Some((r, c)),
+            Err(e) if large => return Err(e.into()),
+            Err(_) => None,
+        },
+        Err(e) if large => return Err(e.into()),
         Err(_) => None,
     };
     let dense = rightmost_roots(adjacency, delays_s, options)?;
