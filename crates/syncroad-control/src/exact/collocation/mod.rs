@@ -19,9 +19,10 @@
 //!    being certified by `σ_min(M(s))/σ_max(M(s))`.
 //!
 //! The method's steps live in their own files: `network` (checking the input, the Laplacian),
-//! `generator` (the collocation matrix and its eigenvalues), `refine` (the characteristic
-//! matrix, Newton refinement and multiplicities); this file holds the reports and
-//! [`rightmost_roots`], which runs the steps in order.
+//! `generator` (the collocation matrix and its eigenvalues), `arnoldi` (its rightmost
+//! eigenvalues without the dense Schur form, for large networks), `refine` (the
+//! characteristic matrix, Newton refinement and multiplicities); this file holds the reports,
+//! [`rightmost_roots`] (dense) and [`rightmost_roots_shift_invert`], which run the steps.
 //!
 //! # Reference
 //! D. Breda, S. Maset, R. Vermiglio, "Pseudospectral differencing methods for characteristic

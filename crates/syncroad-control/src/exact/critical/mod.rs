@@ -26,9 +26,13 @@
 //! **certified once**, at `c*`, by two argument-principle counts ([`super::argument_principle`])
 //! on the lines `Re s = ∓δ` (`δ` a quarter of the distance to the next tracked root): left
 //! of the axis exactly consensus plus the crossing root(s) with their multiplicity, right of
-//! it nothing. If the continuation fails or the certificate disagrees, the search falls back to
-//! bisection with full solves down to `1e-10` relative (the method of the first version,
-//! about 15 full solves).
+//! it nothing. On long rings the rightmost roots at `c = 1` are slow modes that cross late or
+//! never, while a fast mode crosses first: then the certificate counts roots right of the
+//! axis at the tracked crossing, or the continuation gives up. The first scale with a root
+//! right of the axis is then bracketed to 2 % by argument-principle counts alone (no solve),
+//! one shift-invert solve there gives the roots that crossed, and they are followed back down
+//! to `c*`. If that fails too, the search falls back to bisection with full solves down to
+//! `1e-10` relative (the method of the first version, about 15 full solves).
 //!
 //! Scaling the delays by `r` instead crosses at the same `r* = c*`, but at the frequency
 //! `ω/c*` (the substitution `s = s'/r` above): the report gives both frequencies.
