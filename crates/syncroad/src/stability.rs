@@ -6,7 +6,8 @@
 //!   conservatism ratio against Theorem 1. Uniform rings of any size use the Fourier/Lambert-W
 //!   fast path; other graphs the full solve (collocation + Newton, certified by the argument
 //!   principle). A leader with pinning gains enters as an extra, undelayed vertex whose speed
-//!   never changes, so the consensus root is the leader's own mode.
+//!   never changes, so the consensus root is the leader's own mode; when the network
+//!   synchronizes, the peak gain from the leader's speed to each follower's.
 //! * CACC platoons: closed-loop eigenvalues, Theorem `thm.cacc` beside the exact verdict, and
 //!   string stability.
 
@@ -73,8 +74,32 @@ pub fn table(r: &StabilityReport) -> String {
             }
         );
     }
+    if let Some(x) = &r.leader_amplification {
+        let shown: Vec<String> = x.peaks.iter().take(12).map(|p| format!("{p:.4}")).collect();
+        let _ = writeln!(
+            s,
+            "leader-to-follower amplification sup_ω|T_i(iω)|: worst {:.6} (vehicle {}, ω = {:.4} rad/s) -> {}\n  per follower: {}{}",
+            x.worst_peak,
+            x.worst_vehicle,
+            x.worst_frequency_rad_s,
+            if x.no_amplification {
+                "no follower's speed overshoots the leader's"
+            } else {
+                "changes of the leader's speed are amplified along the platoon"
+            },
+            shown.join(" "),
+            if x.peaks.len() > 12 {
+                format!(" ... ({} followers)", x.peaks.len())
+            } else {
+                String::new()
+            }
+        );
+    }
     if let Some(n) = &r.network {
-        let _ = writeln!(s, "\nfull solve (Chebyshev collocation + Newton):");
+        let _ = writeln!(
+            s,
+            "\nfull solve (Chebyshev collocation, shift-invert or dense, + Newton):"
+        );
         let _ = write!(s, "{n}");
     }
     if let Some(c) = &r.cacc {

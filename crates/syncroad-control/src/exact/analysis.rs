@@ -5,9 +5,12 @@
 //! * Acyclic networks (chains behind a leader): exact per-driver roots ([`super::acyclic`]),
 //!   and the string-stability peak of every predecessor-to-follower transfer
 //!   ([`super::string_stability::chandler_string_peak`]).
-//! * Any other graph up to [`FULL_SOLVE_LIMIT`] vehicles: collocation and Newton, certified
-//!   by the argument principle, and the critical scale by continuation
-//!   ([`super::report::analyse_network`]).
+//! * Any other graph up to [`NETWORK_SOLVE_LIMIT`] vehicles: collocation and Newton (the
+//!   collocation's rightmost eigenvalues by shift-invert Arnoldi, its dense Schur form up to
+//!   [`FULL_SOLVE_LIMIT`] when that is not certified), certified by the argument principle,
+//!   and the critical scale by continuation ([`super::report::analyse_network`]).
+//! * With a leader, when the network synchronizes: the worst amplification from the leader's
+//!   speed to a follower's ([`super::leader_amplification`]).
 //! * CACC platoons: closed-loop eigenvalues and string stability ([`super::report::analyse_cacc`]).
 //!
 //! A leader with pinning gains enters as an extra, undelayed vertex whose speed never changes,
@@ -19,6 +22,7 @@ use serde::Serialize;
 use super::acyclic::{acyclic_roots, AcyclicReport};
 use super::cacc_modes::CaccParams;
 use super::collocation::CollocationOptions;
+use super::leader_amplification::{leader_amplification, LeaderAmplification};
 use super::platoon_scaling::{platoon_scaling, PlatoonLaw, PlatoonScaling, PlatoonScalingError};
 use super::report::{
     analyse_cacc, analyse_network, CaccReport, NetworkStabilityReport, ReportError,
@@ -29,18 +33,25 @@ use crate::scenario::{CaccModel, DelayedDriverModel, GraphShape, Model};
 use crate::theory::{self, TheoryReport};
 use crate::Scenario;
 
-/// Largest network (vehicles, leader included) for the full root solve.
-pub const FULL_SOLVE_LIMIT: usize = 150;
+/// Largest network (vehicles, leader included) for the dense collocation solve
+/// ([`super::rightmost_roots`]): `map` at every grid point, and the fallback of the
+/// shift-invert solve.
+pub const FULL_SOLVE_LIMIT: usize = super::report::DENSE_SOLVE_LIMIT;
+
+/// Largest network (vehicles, leader included) that [`analyse`] solves for its roots: by
+/// shift-invert Arnoldi and band LUs ([`super::rightmost_roots_shift_invert`]), certified by
+/// root counts; about 2 s for a heterogeneous ring of 200.
+pub const NETWORK_SOLVE_LIMIT: usize = 400;
 
 /// Failure of the scenario analysis.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum AnalysisError {
-    /// Too many vehicles for the full solve, and no fast path applies.
-    #[error("the scenario has {vehicles} vehicles (field `vehicles`, leader included): the full root solve is limited to {limit}; uniform rings of any size use the Fourier fast path (one value for every gain in `model.graph` and for `model.delay_s`), chains behind a leader the exact per-driver roots")]
+    /// Too many vehicles for the root solve, and no fast path applies.
+    #[error("the scenario has {vehicles} vehicles (field `vehicles`, leader included): the root solve of a general network is limited to {limit}; uniform rings of any size use the Fourier fast path (one value for every gain in `model.graph` and for `model.delay_s`), chains behind a leader the exact per-driver roots")]
     TooLargeForFullSolve {
         /// Vehicles, leader included.
         vehicles: usize,
-        /// [`FULL_SOLVE_LIMIT`].
+        /// [`NETWORK_SOLVE_LIMIT`].
         limit: usize,
     },
     /// The uniform-ring fast path failed.
@@ -113,6 +124,10 @@ pub struct StabilityReport {
     pub acyclic: Option<AcyclicReport>,
     /// String stability of an acyclic chain.
     pub chain_string_stability: Option<ChainStringStability>,
+    /// With a leader and a synchronizing network (chains, heterogeneous or not, and graphs
+    /// with cycles such as bidirectional platoons): the peak gain from the leader's speed to
+    /// each follower's, and the worst along the platoon.
+    pub leader_amplification: Option<LeaderAmplification>,
     /// Full solve of the network, when small enough and not acyclic.
     pub network: Option<NetworkStabilityReport>,
     /// CACC platoon analysis.
@@ -206,7 +221,7 @@ pub fn analyse(sc: &Scenario) -> Result<StabilityReport, AnalysisError> {
             let acyclic = acyclic_roots(&a, &d).ok();
             let network = if acyclic.is_some() {
                 None
-            } else if size <= FULL_SOLVE_LIMIT {
+            } else if size <= NETWORK_SOLVE_LIMIT {
                 Some(
                     analyse_network(&a, &d, &CollocationOptions::default(), true)
                         .map_err(AnalysisError::Network)?,
@@ -214,7 +229,7 @@ pub fn analyse(sc: &Scenario) -> Result<StabilityReport, AnalysisError> {
             } else if ring.is_none() {
                 return Err(AnalysisError::TooLargeForFullSolve {
                     vehicles: size,
-                    limit: FULL_SOLVE_LIMIT,
+                    limit: NETWORK_SOLVE_LIMIT,
                 });
             } else {
                 None
@@ -238,6 +253,17 @@ pub fn analyse(sc: &Scenario) -> Result<StabilityReport, AnalysisError> {
             let chain_string_stability = acyclic
                 .as_ref()
                 .and_then(|_| chain_string_stability(&a, &d));
+            let leader_amplification = match (&m.leader, verdict) {
+                (Some(_), ExactVerdict::Synchronizes) => {
+                    let frequencies: Vec<f64> = match (&acyclic, &network) {
+                        (Some(x), _) => x.drivers.iter().map(|r| r.im.abs()).collect(),
+                        (None, Some(n)) => n.roots.roots.iter().map(|r| r.root.im.abs()).collect(),
+                        _ => Vec::new(),
+                    };
+                    leader_amplification(&a, &d, a.nrows() - 1, &frequencies)
+                }
+                _ => None,
+            };
             Ok(StabilityReport {
                 scenario: sc.name().to_string(),
                 certified: paper.certified,
@@ -245,6 +271,7 @@ pub fn analyse(sc: &Scenario) -> Result<StabilityReport, AnalysisError> {
                 ring,
                 acyclic,
                 chain_string_stability,
+                leader_amplification,
                 network,
                 cacc: None,
                 exactly_stable: verdict == ExactVerdict::Synchronizes,
@@ -267,6 +294,7 @@ pub fn analyse(sc: &Scenario) -> Result<StabilityReport, AnalysisError> {
                 ring: None,
                 acyclic: None,
                 chain_string_stability: None,
+                leader_amplification: None,
                 network: None,
                 exactly_stable: verdict == ExactVerdict::Synchronizes,
                 verdict,
@@ -337,4 +365,91 @@ pub fn platoon_scaling_study(
     laws.iter()
         .map(|&law| platoon_scaling(law, sizes).map_err(AnalysisError::PlatoonScaling))
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::string_stability::chandler_string_peak;
+    use super::*;
+    use approx::assert_relative_eq;
+
+    /// Chandler's road behind a leader, `n` drivers with gain `k` and delay `alpha`, read
+    /// through the scenario format; `bidirectional` adds follower gains `k/2` (a graph with
+    /// cycles, so the full solve and not the acyclic path).
+    fn platoon(n: usize, k: f64, alpha: f64, bidirectional: bool) -> Scenario {
+        let mut pinning = vec![0.0; n];
+        pinning[0] = k;
+        let graph = if bidirectional {
+            let mut m = vec![vec![0.0; n]; n];
+            for i in 0..n {
+                if i > 0 {
+                    m[i][i - 1] = k;
+                }
+                if i + 1 < n {
+                    m[i][i + 1] = k / 2.0;
+                }
+            }
+            serde_json::json!({"type": "matrix", "a": m})
+        } else {
+            serde_json::json!({"type": "chain", "gain": k})
+        };
+        let sc = serde_json::json!({
+            "name": "platoon", "seed": 1, "step_s": 0.1, "horizon_s": 10, "vehicles": n,
+            "road": {"type": "straight"},
+            "model": {"type": "delayed_driver", "graph": graph, "delay_s": alpha,
+                      "leader": {"speed_mps": 15.0, "pinning": pinning}}
+        });
+        Scenario::from_json(&sc.to_string()).unwrap()
+    }
+
+    #[test]
+    fn stability_reports_the_worst_amplification_behind_a_leader() {
+        // Chain: the last follower's peak is (sup_ω|H|)^N (closed form of |H|).
+        let r = analyse(&platoon(10, 0.6, 1.0, false)).unwrap();
+        let x = r.leader_amplification.unwrap();
+        assert_relative_eq!(
+            x.worst_peak,
+            chandler_string_peak(0.6).powi(10),
+            max_relative = 1e-8
+        );
+        assert_eq!(x.worst_vehicle, 9);
+        // Bidirectional platoon (through the full solve): checked against a dense solve of
+        // (iωI + e^{−iωα}L_f) T = e^{−iωα} b, at the reported frequency and on a fine grid.
+        // (α = 1 would not synchronize: the backward gains k/2 raise d_i to 0.9.)
+        let (n, k, alpha) = (10, 0.6, 0.6);
+        let r = analyse(&platoon(n, k, alpha, true)).unwrap();
+        assert!(r.network.is_some() && r.exactly_stable);
+        let x = r.leader_amplification.unwrap();
+        assert_eq!(x.peaks.len(), n);
+        let gain = |w: f64| -> f64 {
+            let s = num_complex::Complex64::new(0.0, w);
+            let e = (-s * alpha).exp();
+            let m = DMatrix::from_fn(n, n, |i, j| {
+                // Diagonal: the predecessor (or the leader's pinning, for i = 0) and the follower.
+                let lij = if i == j {
+                    k + if i + 1 < n { k / 2.0 } else { 0.0 }
+                } else if j + 1 == i {
+                    -k
+                } else if j == i + 1 {
+                    -k / 2.0
+                } else {
+                    0.0
+                };
+                e * lij + if i == j { s } else { 0.0.into() }
+            });
+            let mut rhs = nalgebra::DVector::zeros(n);
+            rhs[0] = e * k;
+            let t = m.lu().solve(&rhs).unwrap();
+            t.iter().map(|z| z.norm()).fold(0.0, f64::max)
+        };
+        assert_relative_eq!(
+            gain(x.worst_frequency_rad_s),
+            x.worst_peak,
+            max_relative = 1e-9
+        );
+        for q in 1..=4000 {
+            let w = 4.0 * 1.5 * k * q as f64 / 4000.0;
+            assert!(gain(w) <= x.worst_peak * (1.0 + 1e-9), "ω = {w}");
+        }
+    }
 }

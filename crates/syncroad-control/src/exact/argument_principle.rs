@@ -16,8 +16,8 @@
 //! **Step control.** Each step from `a` to `b = a + h·e` is accepted only if
 //! 1. the wrapped phase change `Δ = arg(f(b)/f(a))` satisfies `|Δ| ≤ 0.5`;
 //! 2. `h · max(|g(a)|, |g(b)|) ≤ 1`, where `g = f'/f = tr(M⁻¹M') − N/(s + ρ)` is the exact
-//!    logarithmic derivative (`tr(M⁻¹M') = Σ_i (1 + sα_i)(M⁻¹)_ii − Σ_i α_i`, since
-//!    `M' = I + s·D_α − D_α M`); a root at distance `d` from an end point gives `|g| ≳ 1/d`,
+//!    logarithmic derivative (`tr(M⁻¹M') = Σ_k u_kk'/u_kk` from an LU that carries the
+//!    derivative, [`super::banded`]); a root at distance `d` from an end point gives `|g| ≳ 1/d`,
 //!    so this keeps every step shorter than the distance to the nearest root;
 //! 3. `Δ` agrees within `0.1` with the trapezoid prediction `Im((g(a) + g(b))/2 · h e)`: a
 //!    full turn hidden inside the step would make them differ by about `2π`;
@@ -27,6 +27,7 @@
 //! without violating one of the three tests at every scale the step halving visits.
 //! The count uses neither the collocation nor Newton's method, so it certifies them.
 
+use super::banded::BandedNetwork;
 use super::collocation::{laplacian, validate_network, CollocationError};
 use nalgebra::DMatrix;
 use num_complex::Complex64;
@@ -101,65 +102,24 @@ pub fn count_roots_right_of(
     count_with_laplacian(&laplacian(adjacency), delays_s, sigma)
 }
 
-/// `f(s)/|f(s)|` and the logarithmic derivative `g(s) = f'(s)/f(s)` (module documentation).
+/// `f(s)/|f(s)|` and the logarithmic derivative `g(s) = f'(s)/f(s)` (module documentation),
+/// from one band LU of `M(s)` carrying its derivative ([`super::banded`]).
 fn phase_and_log_derivative(
-    l: &DMatrix<f64>,
-    delays_s: &[f64],
+    band: &BandedNetwork,
     rho: f64,
     s: Complex64,
 ) -> Option<(Complex64, Complex64)> {
-    let n = l.nrows();
-    let mut m = DMatrix::from_fn(n, n, |i, j| {
-        Complex64::new(l[(i, j)], 0.0) * (-s * delays_s[i]).exp()
-    });
-    for i in 0..n {
-        m[(i, i)] += s;
-    }
-    let lu = m.lu();
-    // det f = det M / (s + ρ)^N, normalized factor by factor to avoid overflow.
+    let lu = band.factor(1.0, s);
     let shift = s + rho;
-    let u = lu.u();
-    let mut phase = Complex64::new(1.0, 0.0);
-    for i in 0..n {
-        let z = u[(i, i)] / shift;
-        let norm = z.norm();
-        if !(norm.is_finite() && norm > 0.0) {
-            return None;
-        }
-        phase *= z / norm;
-    }
-    if lu.p().determinant::<f64>() < 0.0 {
-        phase = -phase;
-    }
-    let inv = lu.try_inverse()?;
-    let mut g = Complex64::new(0.0, 0.0);
-    for i in 0..n {
-        g += (1.0 + s * delays_s[i]) * inv[(i, i)] - delays_s[i];
-    }
-    g -= n as f64 / shift;
+    let phase = lu.phase_over(shift)?;
+    let g = lu.log_det_derivative()? - band.len() as f64 / shift;
     (g.re.is_finite() && g.im.is_finite()).then_some((phase, g))
 }
 
-/// `d/ds log det M(s) = tr(M(s)⁻¹M'(s))` for `M(s) = sI + diag(e^{−sα_i})L`, or `None` at a
+/// `d/ds log det M(s) = tr(M(s)⁻¹M'(s))` for `M(s) = sI + c·diag(e^{−sα_i})L`, or `None` at a
 /// root. Newton's step `s − m/g(s)` converges quadratically to a root of multiplicity `m`.
-pub(crate) fn log_det_derivative(
-    l: &DMatrix<f64>,
-    delays_s: &[f64],
-    s: Complex64,
-) -> Option<Complex64> {
-    let n = l.nrows();
-    let mut m = DMatrix::from_fn(n, n, |i, j| {
-        Complex64::new(l[(i, j)], 0.0) * (-s * delays_s[i]).exp()
-    });
-    for i in 0..n {
-        m[(i, i)] += s;
-    }
-    let inv = m.try_inverse()?;
-    let mut g = Complex64::new(0.0, 0.0);
-    for i in 0..n {
-        g += (1.0 + s * delays_s[i]) * inv[(i, i)] - delays_s[i];
-    }
-    (g.re.is_finite() && g.im.is_finite()).then_some(g)
+pub(crate) fn log_det_derivative(band: &BandedNetwork, c: f64, s: Complex64) -> Option<Complex64> {
+    band.factor(c, s).log_det_derivative()
 }
 
 /// [`count_roots_right_of`] for a validated Laplacian.
@@ -187,7 +147,8 @@ pub(crate) fn count_with_laplacian(
     ];
     let scale = r + sigma.abs();
     let on_contour = |s: Complex64| ArgumentPrincipleError::RootOnContour { re: s.re, im: s.im };
-    let eval = |s: Complex64| phase_and_log_derivative(l, delays_s, rho, s).ok_or(on_contour(s));
+    let band = BandedNetwork::new(l, delays_s);
+    let eval = |s: Complex64| phase_and_log_derivative(&band, rho, s).ok_or(on_contour(s));
     let mut evaluations = 0;
     let mut rejected_steps = 0;
     let mut total_angle = 0.0;

@@ -19,6 +19,8 @@
 //!   braking-wave simulation;
 //! * [`platoon_scaling`](mod@platoon_scaling) — least-stable eigenvalue of bidirectional
 //!   platoons against their size, with the fitted exponent (Barooah, Mehta & Hespanha);
+//! * [`leader_amplification`](mod@leader_amplification) — peak gain from a leader's speed to
+//!   every follower's, on any graph (the worst amplification along a platoon);
 //! * [`acyclic`] — exact roots of acyclic networks (predecessor following behind a leader),
 //!   where identical drivers give roots of high multiplicity;
 //! * [`analysis`] — a whole scenario: the method chosen for its structure and one verdict;
@@ -31,11 +33,13 @@
 pub mod acyclic;
 pub mod analysis;
 pub mod argument_principle;
+pub(crate) mod banded;
 pub mod boundaries;
 pub mod cacc_modes;
 pub mod collocation;
 pub mod critical;
 pub mod lambert_w;
+pub mod leader_amplification;
 pub mod platoon_scaling;
 pub mod report;
 pub mod ring_modes;
@@ -47,11 +51,12 @@ pub use argument_principle::{count_roots_right_of, ArgumentPrincipleError, RootC
 pub use boundaries::{gain_delay_boundaries, Boundaries};
 pub use cacc_modes::{cacc_modes, CaccCondition, CaccError, CaccModes, CaccParams};
 pub use collocation::{
-    characteristic_matrix, rightmost_roots, CollocationError, CollocationOptions, RefinedRoot,
-    RootsReport,
+    characteristic_matrix, rightmost_roots, rightmost_roots_shift_invert, CollocationError,
+    CollocationOptions, RefinedRoot, RootsReport,
 };
 pub use critical::{critical_scale, CriticalError, CriticalReport};
 pub use lambert_w::{lambert_w, LambertWError};
+pub use leader_amplification::{leader_amplification, LeaderAmplification};
 pub use platoon_scaling::{platoon_scaling, PlatoonLaw, PlatoonScaling, PlatoonScalingError};
 pub use report::{
     analyse_cacc, analyse_network, certify_roots, CaccReport, NetworkStabilityReport, ReportError,

@@ -7,7 +7,7 @@ use num_complex::Complex64;
 use super::CollocationError;
 
 /// Chebyshev points `x_k = cos(kπ/M)` and differentiation matrix (Trefethen, `cheb`).
-fn chebyshev(m: usize) -> (Vec<f64>, DMatrix<f64>) {
+pub(super) fn chebyshev(m: usize) -> (Vec<f64>, DMatrix<f64>) {
     let x: Vec<f64> = (0..=m)
         .map(|k| (std::f64::consts::PI * k as f64 / m as f64).cos())
         .collect();

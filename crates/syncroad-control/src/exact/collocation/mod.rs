@@ -19,9 +19,10 @@
 //!    being certified by `σ_min(M(s))/σ_max(M(s))`.
 //!
 //! The method's steps live in their own files: `network` (checking the input, the Laplacian),
-//! `generator` (the collocation matrix and its eigenvalues), `refine` (the characteristic
-//! matrix, Newton refinement and multiplicities); this file holds the reports and
-//! [`rightmost_roots`], which runs the steps in order.
+//! `generator` (the collocation matrix and its eigenvalues), `arnoldi` (its rightmost
+//! eigenvalues without the dense Schur form, for large networks), `refine` (the
+//! characteristic matrix, Newton refinement and multiplicities); this file holds the reports,
+//! [`rightmost_roots`] (dense) and [`rightmost_roots_shift_invert`], which run the steps.
 //!
 //! # Reference
 //! D. Breda, S. Maset, R. Vermiglio, "Pseudospectral differencing methods for characteristic
@@ -32,8 +33,10 @@ use nalgebra::DMatrix;
 use num_complex::Complex64;
 use serde::Serialize;
 
+use super::banded::BandedNetwork;
 use super::Root;
 
+mod arnoldi;
 mod generator;
 mod network;
 mod refine;
@@ -42,7 +45,7 @@ pub(crate) use generator::eigenvalues;
 use generator::{default_nodes, generator_matrix};
 pub(crate) use network::{laplacian, validate_network};
 pub use refine::characteristic_matrix;
-use refine::{assign_multiplicities, newton_refine};
+use refine::{assign_multiplicities, newton_on_band, newton_refine, root_residuals};
 
 /// Invalid network data or a failed root computation.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -247,6 +250,98 @@ pub fn rightmost_roots(
     refined.sort_by(|a, b| b.root.re.total_cmp(&a.root.re));
     refined.truncate(options.roots.max(1));
     assign_multiplicities(&l, delays_s, &all, &mut refined);
+    let abscissa = refined[0].root.re;
+    let max_residual = refined.iter().map(|r| r.residual).fold(0.0, f64::max);
+    Ok(RootsReport {
+        vehicles: n,
+        nodes_per_delay: m,
+        collocation_order: order,
+        roots: refined,
+        abscissa,
+        max_residual,
+    })
+}
+
+/// [`rightmost_roots`] for large networks: the candidates from shift-invert Arnoldi on the
+/// same collocation matrix instead of its dense Schur form (`arnoldi`), refined by Newton on
+/// `det M(s)` with a band LU, multiplicities from small contour integrals.
+///
+/// The dense solve finds every collocation eigenvalue; this one only those near its shifts,
+/// so its answer must be certified ([`super::report::certify_roots`]); where the certificate
+/// fails, [`super::report::analyse_network`] falls back to [`rightmost_roots`]. Roots far from
+/// the axis (beyond `1.2 max_i 2d_i^+` in frequency) may be left out, so fewer than
+/// `options.roots` can be reported.
+///
+/// # Errors
+/// As [`rightmost_roots`]; [`CollocationError::NoRoots`] when no candidate converged.
+pub fn rightmost_roots_shift_invert(
+    adjacency: &DMatrix<f64>,
+    delays_s: &[f64],
+    options: &CollocationOptions,
+) -> Result<RootsReport, CollocationError> {
+    let n = validate_network(adjacency, delays_s)?;
+    let l = laplacian(adjacency);
+    let m = options
+        .nodes_per_delay
+        .unwrap_or_else(|| default_nodes(&l, delays_s))
+        .max(2);
+    let delayed = delays_s.iter().filter(|&&a| a > 0.0).count();
+    let order = n + m * delayed;
+    let band = BandedNetwork::new(&l, delays_s);
+    let reach = 1.2 * l.diagonal().iter().fold(0.0f64, |a, &d| a.max(2.0 * d));
+    let mut eig = arnoldi::eigenvalues_near_axis(&l, delays_s, m, &band, reach);
+    eig.retain(|z| z.im >= -1e-9 * (1.0 + z.norm()));
+    eig.sort_by(|a, b| b.re.total_cmp(&a.re));
+    // Neighbouring shifts find the same eigenvalues.
+    let mut candidates: Vec<Complex64> = Vec::new();
+    for z in eig {
+        if candidates
+            .iter()
+            .all(|q| (q - z).norm() > 1e-7 * (1.0 + z.norm()))
+        {
+            candidates.push(z);
+        }
+    }
+    let scale = l.diagonal().max().max(1e-300);
+    let mut refined: Vec<RefinedRoot> = Vec::new();
+    for &z in candidates.iter().take(2 * options.roots + 5) {
+        let Some((mut s, multiplicity, newton_steps, converged)) =
+            newton_on_band(&band, z, options)
+        else {
+            continue;
+        };
+        if s.norm() < 1e-9 * scale {
+            continue; // the consensus root
+        }
+        if s.im < 0.0 {
+            s = s.conj();
+        }
+        if s.im.abs() < 1e-12 * (1.0 + s.norm()) {
+            s.im = 0.0;
+        }
+        if refined
+            .iter()
+            .any(|q| (Complex64::from(q.root) - s).norm() < 1e-8 * (1.0 + s.norm()))
+        {
+            continue;
+        }
+        refined.push(RefinedRoot {
+            root: s.into(),
+            residual: 0.0,
+            null_vector_residual: 0.0,
+            newton_steps,
+            converged,
+            multiplicity,
+        });
+    }
+    if refined.is_empty() {
+        return Err(CollocationError::NoRoots);
+    }
+    refined.sort_by(|a, b| b.root.re.total_cmp(&a.root.re));
+    refined.truncate(options.roots.max(1));
+    for r in refined.iter_mut() {
+        (r.residual, r.null_vector_residual) = root_residuals(&l, delays_s, &band, r.root.into());
+    }
     let abscissa = refined[0].root.re;
     let max_residual = refined.iter().map(|r| r.residual).fold(0.0, f64::max);
     Ok(RootsReport {

@@ -4,6 +4,7 @@
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 
+use super::super::banded::BandedNetwork;
 use super::network::laplacian;
 use super::{CollocationOptions, RefinedRoot};
 
@@ -111,6 +112,102 @@ fn relative_residual(l: &DMatrix<f64>, delays_s: &[f64], s: Complex64) -> f64 {
     } else {
         0.0
     }
+}
+
+/// Number of zeros of `det M(s)` (gains scaled by `c`) inside the circle `|z − s| = r`, by the
+/// trapezoid rule on 8 points for `(1/2πi)∮ g(z) dz = mean_k (z_k − s) g(z_k)`; `None` if a
+/// point hits a root or the mean is not close to a whole number.
+pub(crate) fn zeros_in_circle(band: &BandedNetwork, c: f64, s: Complex64, r: f64) -> Option<usize> {
+    const K: usize = 8;
+    let mut sum = Complex64::new(0.0, 0.0);
+    for k in 0..K {
+        let dz = Complex64::from_polar(r, (k as f64 + 0.5) * std::f64::consts::TAU / K as f64);
+        sum += dz * band.factor(c, s + dz).log_det_derivative()?;
+    }
+    let mean = sum / K as f64;
+    let count = mean.re.round();
+    ((mean - count).norm() < 0.05 && count >= 0.0).then_some(count as usize)
+}
+
+/// Newton on `det M(s) = 0` with the band LU: `s − m/g(s)`, the multiplicity `m` estimated on a
+/// circle around the iterate (after three steps, and every ten while it has not converged).
+/// Returns the root, its multiplicity, the steps, and whether the tolerance was met.
+pub(super) fn newton_on_band(
+    band: &BandedNetwork,
+    s0: Complex64,
+    options: &CollocationOptions,
+) -> Option<(Complex64, usize, usize, bool)> {
+    let mut s = s0;
+    let mut m = 1usize;
+    let mut step_norm = f64::INFINITY;
+    let mut steps = 0;
+    let max_steps = options.max_newton_steps.max(20) * 2;
+    while steps < max_steps {
+        steps += 1;
+        let Some(g) = band.factor(1.0, s).log_det_derivative() else {
+            step_norm = 0.0; // s is a root to working precision
+            break;
+        };
+        let step = m as f64 / g;
+        if !(step.re.is_finite() && step.im.is_finite()) {
+            return None;
+        }
+        s -= step;
+        step_norm = step.norm();
+        if step_norm <= options.newton_tolerance * (1.0 + s.norm()) {
+            break;
+        }
+        if steps == 3 || steps % 10 == 0 {
+            let r = (20.0 * step_norm).max(1e-9 * (1.0 + s.norm()));
+            if let Some(k) = zeros_in_circle(band, 1.0, s, r) {
+                m = k.max(1);
+            }
+        }
+    }
+    let converged = step_norm <= options.newton_tolerance * (1.0 + s.norm());
+    if step_norm > 1e-10 * (1.0 + s.norm()) {
+        return None;
+    }
+    let multiplicity = zeros_in_circle(band, 1.0, s, 1e-6 * (1.0 + s.norm()))
+        .unwrap_or(m)
+        .max(1);
+    Some((s, multiplicity, steps, converged))
+}
+
+/// The certificate fields of a root found on the band path: `σ_min/σ_max` of `M(s)` and the
+/// residual of the null vector from two steps of inverse iteration.
+pub(super) fn root_residuals(
+    l: &DMatrix<f64>,
+    delays_s: &[f64],
+    band: &BandedNetwork,
+    s: Complex64,
+) -> (f64, f64) {
+    let n = l.nrows();
+    let m = char_matrix_from_laplacian(l, delays_s, s);
+    let lu = band.factor(1.0, s);
+    let perm = band.permutation();
+    let mut x: Vec<Complex64> = (0..n)
+        .map(|i| Complex64::new(1.0, 0.1 * i as f64))
+        .collect();
+    let mut null_vector_residual = 0.0;
+    for _ in 0..2 {
+        if !lu.solve(&mut x) {
+            break;
+        }
+        let norm = x.iter().map(|z| z.norm_sqr()).sum::<f64>().sqrt();
+        if !(norm.is_finite() && norm > 0.0) {
+            break;
+        }
+        x.iter_mut().for_each(|z| *z /= norm);
+    }
+    let mut xv = DVector::zeros(n);
+    for (p, &v) in perm.iter().enumerate() {
+        xv[v] = x[p];
+    }
+    if xv.norm() > 0.0 {
+        null_vector_residual = (&m * &xv).norm() / (m.norm() * xv.norm()).max(f64::MIN_POSITIVE);
+    }
+    (relative_residual(l, delays_s, s), null_vector_residual)
 }
 
 /// Multiplicity of each refined root as a zero of `det M(s)`: the larger of the number of

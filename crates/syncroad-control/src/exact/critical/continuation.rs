@@ -6,6 +6,7 @@ use nalgebra::DMatrix;
 use num_complex::Complex64;
 
 use super::super::argument_principle::{count_with_laplacian, log_det_derivative};
+use super::super::banded::BandedNetwork;
 use super::CrossingCertificate;
 
 /// A root crossing the imaginary axis at gain scale `scale`.
@@ -20,18 +21,16 @@ pub(super) struct Crossing {
 }
 
 /// Newton's step `s − m/(log det M)'(s)` for gains scaled by `c`, from `s0`.
-fn newton_track(
-    l: &DMatrix<f64>,
-    delays_s: &[f64],
+pub(crate) fn newton_track(
+    band: &BandedNetwork,
     c: f64,
     s0: Complex64,
     m: usize,
 ) -> Option<Complex64> {
-    let lc = l * c;
     let mut s = s0;
     let mut last = f64::INFINITY;
     for _ in 0..40 {
-        let g = log_det_derivative(&lc, delays_s, s)?;
+        let g = log_det_derivative(band, c, s)?;
         let step = m as f64 / g;
         if !(step.re.is_finite() && step.im.is_finite()) {
             return None;
@@ -57,6 +56,7 @@ pub(super) fn continuation(
     if tracked.is_empty() {
         return None;
     }
+    let band = BandedNetwork::new(l, delays_s);
     let increasing = tracked.iter().all(|(s, _)| s.re < 0.0);
     let sign = if increasing { 1.0 } else { -1.0 };
     let mut c = 1.0f64;
@@ -77,7 +77,7 @@ pub(super) fn continuation(
                 _ => cur[j],
             };
             let close = |s: Complex64| (s - pred).norm() <= 0.05 * (1.0 + cur[j].norm());
-            if let Some(s) = newton_track(l, delays_s, c_next, pred, mult[j]) {
+            if let Some(s) = newton_track(&band, c_next, pred, mult[j]) {
                 // A corrector far from its predictor may have jumped to another root.
                 if close(s) {
                     return Some(s);
@@ -86,7 +86,7 @@ pub(super) fn continuation(
             // Two real roots that meet leave the axis as a conjugate pair: restart off the axis.
             if cur[j].im.abs() <= 1e-9 * (1.0 + cur[j].norm()) {
                 let kick = Complex64::new(pred.re, 0.1 * dlog * (1.0 + cur[j].norm()));
-                let s = newton_track(l, delays_s, c_next, kick, mult[j])?;
+                let s = newton_track(&band, c_next, kick, mult[j])?;
                 return close(s).then_some(s);
             }
             None
@@ -138,7 +138,7 @@ pub(super) fn continuation(
                 }
                 let m = mult[j];
                 let (c_star, s_star, bracket, bracket_re) =
-                    solve_crossing(l, delays_s, m, (c, cur[j]), (c_next, next[j]))?;
+                    solve_crossing(&band, m, (c, cur[j]), (c_next, next[j]))?;
                 if best.as_ref().is_none_or(|b| c_star < b.scale) {
                     // The other roots at c*, from the bracket end nearer in log c; one that
                     // cannot be followed there only loosens the margin (the certificate still
@@ -151,7 +151,7 @@ pub(super) fn continuation(
                             } else {
                                 next[i]
                             };
-                            newton_track(l, delays_s, c_star, from, mult[i])
+                            newton_track(&band, c_star, from, mult[i])
                         })
                         .collect();
                     best = Some(Crossing {
@@ -176,8 +176,7 @@ pub(super) fn continuation(
 /// Regula falsi (Illinois) in `c` on `Re s(c) = 0` between two tracked points of opposite sign.
 #[allow(clippy::type_complexity)]
 fn solve_crossing(
-    l: &DMatrix<f64>,
-    delays_s: &[f64],
+    band: &BandedNetwork,
     m: usize,
     a: (f64, Complex64),
     b: (f64, Complex64),
@@ -201,7 +200,7 @@ fn solve_crossing(
         } else {
             sb
         };
-        let s = newton_track(l, delays_s, c, start, m)?;
+        let s = newton_track(band, c, start, m)?;
         if s.re == 0.0 {
             return Some((c, s, [c, c], [0.0, 0.0]));
         }

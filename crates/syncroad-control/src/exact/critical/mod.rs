@@ -26,9 +26,13 @@
 //! **certified once**, at `c*`, by two argument-principle counts ([`super::argument_principle`])
 //! on the lines `Re s = ∓δ` (`δ` a quarter of the distance to the next tracked root): left
 //! of the axis exactly consensus plus the crossing root(s) with their multiplicity, right of
-//! it nothing. If the continuation fails or the certificate disagrees, the search falls back to
-//! bisection with full solves down to `1e-10` relative (the method of the first version,
-//! about 15 full solves).
+//! it nothing. On long rings the rightmost roots at `c = 1` are slow modes that cross late or
+//! never, while a fast mode crosses first: then the certificate counts roots right of the
+//! axis at the tracked crossing, or the continuation gives up. The first scale with a root
+//! right of the axis is then bracketed to 2 % by argument-principle counts alone (no solve),
+//! one shift-invert solve there gives the roots that crossed, and they are followed back down
+//! to `c*`. If that fails too, the search falls back to bisection with full solves down to
+//! `1e-10` relative (the method of the first version, about 15 full solves).
 //!
 //! Scaling the delays by `r` instead crosses at the same `r* = c*`, but at the frequency
 //! `ω/c*` (the substitution `s = s'/r` above): the report gives both frequencies.
@@ -40,9 +44,10 @@ use nalgebra::DMatrix;
 use num_complex::Complex64;
 use serde::Serialize;
 
-use super::argument_principle::RootCount;
+use super::argument_principle::{count_with_laplacian, RootCount};
 use super::collocation::{
-    laplacian, rightmost_roots, validate_network, CollocationError, CollocationOptions, RootsReport,
+    laplacian, rightmost_roots, rightmost_roots_shift_invert, validate_network, CollocationError,
+    CollocationOptions, RootsReport,
 };
 
 mod bisection;
@@ -208,38 +213,55 @@ pub fn critical_scale_from(
     }
     let l = laplacian(adjacency);
     // Follow the rightmost roots from c = 1. On long rings the first root to cross need not
-    // be among the rightmost at c = 1; then the count right of the axis at the tracked
-    // crossing is positive, and one full solve there gives the roots that crossed earlier,
-    // which are followed back down (at most three restarts before bisection).
+    // be among the rightmost at c = 1: then either the tracked roots cross later (the count
+    // right of the axis at their crossing is positive) or they never do (the continuation
+    // gives up). Either way the scale at which some root first reaches the right half-plane
+    // is bracketed by root counts, which cost no solve, to 2 %; one solve there gives the
+    // roots that crossed, and they are followed back down to c*.
     let mut start = 1.0f64;
     let mut start_roots = roots.clone();
     let mut full_solves = 1;
     let mut found = None;
-    for _ in 0..3 {
+    let mut bracketed = false;
+    for _ in 0..4 {
         let tracked: Vec<(Complex64, usize)> = start_roots
             .roots
             .iter()
             .map(|r| (Complex64::from(r.root), r.multiplicity))
             .collect();
+        let increasing = tracked.iter().all(|t| t.0.re < 0.0);
         let ls = &l * start;
-        let Some(mut x) = continuation(&ls, delays_s, &tracked) else {
-            break;
-        };
-        let certificate = certify_crossing(&ls, delays_s, &x);
-        x.scale *= start;
-        x.bracket = x.bracket.map(|b| b * start);
-        match certificate {
-            Some(c) if c.certified => {
+        let x = continuation(&ls, delays_s, &tracked).map(|mut x| {
+            let certificate = certify_crossing(&ls, delays_s, &x);
+            x.scale *= start;
+            x.bracket = x.bracket.map(|b| b * start);
+            (x, certificate)
+        });
+        let restart = match x {
+            Some((x, Some(c))) if c.certified => {
                 found = Some((x, c));
                 break;
             }
-            Some(c) if c.right.non_consensus() > 0 => {
-                start = x.scale;
-                full_solves += 1;
-                start_roots = rightmost_roots(&(adjacency * start), delays_s, options)?;
+            Some((x, Some(c))) if c.right.non_consensus() > 0 && !increasing => x.scale,
+            Some((x, Some(c))) if c.right.non_consensus() > 0 && !bracketed => {
+                bracketed = true;
+                match first_unstable_scale(&l, delays_s, start, Some(x.scale)) {
+                    Some(c) => c,
+                    None => break,
+                }
+            }
+            None if increasing && !bracketed => {
+                bracketed = true;
+                match first_unstable_scale(&l, delays_s, start, None) {
+                    Some(c) => c,
+                    None => break,
+                }
             }
             _ => break,
-        }
+        };
+        start = restart;
+        full_solves += 1;
+        start_roots = roots_at(adjacency, delays_s, start, options)?;
     }
     let Some((x, certificate)) = found else {
         let mut r = fallback(adjacency, delays_s, options)?;
@@ -270,6 +292,76 @@ pub fn critical_scale_from(
         method: CriticalMethod::Continuation,
         certificate,
     })
+}
+
+/// Rightmost roots with all gains scaled by `c`: shift-invert first, the dense collocation if
+/// that fails (the crossing certificate checks the outcome either way).
+fn roots_at(
+    adjacency: &DMatrix<f64>,
+    delays_s: &[f64],
+    c: f64,
+    options: &CollocationOptions,
+) -> Result<RootsReport, CollocationError> {
+    let scaled = adjacency * c;
+    let wide = CollocationOptions {
+        roots: options.roots.max(8),
+        ..*options
+    };
+    match rightmost_roots_shift_invert(&scaled, delays_s, &wide) {
+        Ok(r) => Ok(r),
+        Err(_) => rightmost_roots(&scaled, delays_s, options),
+    }
+}
+
+/// Whether some root other than consensus lies right of the imaginary axis at gain scale `c`:
+/// the argument-principle count right of the line `Re s = δ`, `δ = 10⁻⁹(1 + max_i d_i^+)`,
+/// close enough to the axis for a bracket of the crossing (the continuation refines it).
+fn unstable_at(l: &DMatrix<f64>, delays_s: &[f64], c: f64) -> Option<bool> {
+    let lc = l * c;
+    let delta = 1e-9 * (1.0 + lc.diagonal().max());
+    count_with_laplacian(&lc, delays_s, delta)
+        .ok()
+        .map(|r| r.count > 0)
+}
+
+/// A gain scale at most 2 % above the first one at which a root reaches the right half-plane,
+/// from a stable `lo`: by counting roots ([`unstable_at`]) while multiplying the scale by 1.5
+/// (from `hi` down when given, else from `lo` up), then bisecting in `log c`.
+fn first_unstable_scale(
+    l: &DMatrix<f64>,
+    delays_s: &[f64],
+    lo: f64,
+    hi: Option<f64>,
+) -> Option<f64> {
+    let mut lo = lo;
+    let mut hi = match hi {
+        Some(h) => h,
+        None => {
+            let mut c = lo;
+            loop {
+                c *= 1.5;
+                if c > lo * 1e12 {
+                    return None;
+                }
+                if unstable_at(l, delays_s, c)? {
+                    break c;
+                }
+                lo = c;
+            }
+        }
+    };
+    if !unstable_at(l, delays_s, hi)? {
+        return None;
+    }
+    while hi / lo > 1.02 {
+        let mid = (lo * hi).sqrt();
+        if unstable_at(l, delays_s, mid)? {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    Some(hi)
 }
 
 fn fallback(
@@ -387,6 +479,55 @@ mod tests {
             // At c* the dominant root sits on the imaginary axis.
             let at = rightmost_roots(&(&a * r.critical_gain_scale), &delays, &opts).unwrap();
             assert!(at.abscissa.abs() < 1e-9, "trial {trial}: {}", at.abscissa);
+        }
+    }
+
+    /// A ring of `n` drivers with gains and delays drawn from `rng`: predecessor gains in
+    /// [0.4, 0.8], follower gains in [0.1, 0.4] when `bidirectional`, delays in [0.3, 0.7] s.
+    fn heterogeneous_ring(
+        n: usize,
+        bidirectional: bool,
+        rng: &mut Lcg,
+    ) -> (DMatrix<f64>, Vec<f64>) {
+        let mut a = DMatrix::zeros(n, n);
+        for i in 0..n {
+            a[(i, (i + n - 1) % n)] = 0.4 + 0.4 * rng.next();
+            if bidirectional {
+                a[(i, (i + 1) % n)] = 0.1 + 0.3 * rng.next();
+            }
+        }
+        let delays = (0..n).map(|_| 0.3 + 0.4 * rng.next()).collect();
+        (a, delays)
+    }
+
+    #[test]
+    fn fast_report_equals_the_bisection_on_long_heterogeneous_rings() {
+        // The whole fast path (shift-invert roots, continuation, root counts bracketing a
+        // crossing that the rightmost roots at c = 1 do not make) against the first version's
+        // search with dense full solves only: the critical scale to 1e-10, the crossing
+        // frequency to 1e-8 and the abscissa at the given gains to 1e-12.
+        let opts = CollocationOptions::default();
+        let mut rng = Lcg(2025);
+        for &(n, bidirectional) in &[(24usize, true), (30, false), (40, true)] {
+            let (a, d) = heterogeneous_ring(n, bidirectional, &mut rng);
+            let fast = super::super::report::analyse_network(&a, &d, &opts, true).unwrap();
+            assert!(fast.certificate.unwrap().certified, "N={n}");
+            let dense = rightmost_roots(&a, &d, &opts).unwrap();
+            assert_relative_eq!(fast.roots.abscissa, dense.abscissa, epsilon = 1e-12);
+            let fast = fast.critical.unwrap();
+            let slow = bisection_search(&a, &d, &opts, false).unwrap();
+            assert_eq!(fast.method, CriticalMethod::Continuation, "N={n}");
+            assert!(fast.certificate.unwrap().certified, "N={n}");
+            assert_relative_eq!(
+                fast.critical_gain_scale,
+                slow.critical_gain_scale,
+                max_relative = 1e-10
+            );
+            assert_relative_eq!(
+                fast.crossing_frequency_rad_s,
+                slow.crossing_frequency_rad_s,
+                max_relative = 1e-8
+            );
         }
     }
 
