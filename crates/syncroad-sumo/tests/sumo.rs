@@ -585,30 +585,29 @@ mod parameterized_drivers {
     }
 }
 
-/// Fault injection: the worker is killed (SIGKILL, or SIGABRT as libsumo's assertions raise)
-/// at a random moment of a long run, over several seeds. (A SIGSEGV sent with `kill` is no
-/// crash: Rust's stack-overflow handler returns from it once and the worker runs on; a real
-/// segmentation fault re-executes the faulting access and dies, as
-/// `malformed_net_crash_is_contained` shows.) Every time the run reports the crash
-/// with its signal, keeps every row streamed before it, and its verdict is never
-/// "synchronized": a run that did not reach its horizon cannot claim it.
+/// Fault injection: the worker is killed at a random moment of a long run, over several
+/// seeds, by SIGKILL, SIGABRT (libsumo's assertions) or SIGSEGV. Every time the run reports the
+/// crash with its signal, keeps every row streamed before it, and its verdict is never
+/// "synchronized": a run that did not reach its horizon cannot claim it. (A SIGSEGV sent with
+/// `kill` is survived once: Rust's stack-overflow handler finds no guard-page fault, restores
+/// the default action and returns; a real fault re-executes and dies. So it is sent twice.)
 #[test]
 fn worker_killed_at_random_moments_never_yields_a_confident_verdict() {
     use syncroad_control::rng::SplitMix64;
     use syncroad_control::{evaluate, EvalOptions, Verdict};
     let mut rng = SplitMix64::new(2026);
-    for case in 0..4 {
-        let (signal, name) = if case % 2 == 0 {
-            (libc::SIGKILL, "SIGKILL")
-        } else {
-            (libc::SIGABRT, "SIGABRT")
-        };
+    for case in 0..6 {
+        let (signal, name) = [
+            (libc::SIGKILL, "SIGKILL"),
+            (libc::SIGABRT, "SIGABRT"),
+            (libc::SIGSEGV, "SIGSEGV"),
+        ][case % 3];
         let delay = Duration::from_millis(200 + (rng.next_f64() * 1300.0) as u64);
         let sc = ring_scenario(
             22,
             100_000.0,
             &nets().join("sugiyama-ring.net.xml"),
-            case + 1,
+            case as u64 + 1,
         );
         let mut o = opts(&format!("fault-{case}"));
         o.on_start = Some(Arc::new(move |s: &syncroad_sumo::StartInfo| {
@@ -616,6 +615,9 @@ fn worker_killed_at_random_moments_never_yields_a_confident_verdict() {
             std::thread::spawn(move || {
                 std::thread::sleep(delay);
                 // SAFETY: signals our own child worker.
+                unsafe { libc::kill(pid, signal) };
+                std::thread::sleep(Duration::from_millis(50));
+                // SAFETY: as above; a second SIGSEGV meets the default action.
                 unsafe { libc::kill(pid, signal) };
             });
         }));
