@@ -333,3 +333,95 @@ fn a_scenario_read_from_stdin_resolves_paths_from_the_current_folder() {
     );
     assert!(stdout.contains("verdict: synchronized"), "{stdout}");
 }
+
+/// The process ids of `parent`'s children (from /proc).
+fn children_of(parent: u32) -> Vec<i32> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir("/proc").unwrap().flatten() {
+        let Ok(pid) = e.file_name().to_string_lossy().parse::<i32>() else {
+            continue;
+        };
+        let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else {
+            continue;
+        };
+        // pid (comm) state ppid ...: comm may hold spaces, so split after its ')'.
+        let ppid = stat
+            .rsplit_once(')')
+            .and_then(|(_, rest)| rest.split_whitespace().nth(1))
+            .and_then(|p| p.parse::<u32>().ok());
+        if ppid == Some(parent) {
+            out.push(pid);
+        }
+    }
+    out
+}
+
+/// Fault injection through the CLI: the SUMO worker of a `syncroad run` is killed part-way
+/// (SIGKILL, SIGABRT, SIGSEGV twice). The run exits 3 and its folder is consistent: a
+/// `metrics.json` saying incomplete with the signal in its error and a verdict other than
+/// "synchronized", and a `trajectories.csv` of whole samples (22 rows each, times increasing)
+/// ending where the record's last sample is.
+#[test]
+fn a_worker_killed_part_way_leaves_a_consistent_folder() {
+    let dir = tmpdir("cli-fault");
+    let sc = sugiyama_variant(&dir, |v| {
+        v["horizon_s"] = serde_json::json!(100000);
+    });
+    for (k, (signal, name)) in [
+        (libc::SIGKILL, "SIGKILL"),
+        (libc::SIGABRT, "SIGABRT"),
+        (libc::SIGSEGV, "SIGSEGV"),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let out = dir.join(format!("out-{k}"));
+        let mut child = bin()
+            .args(["run", "--no-plots", "--record-every", "10", "--out"])
+            .arg(&out)
+            .arg(&sc)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        // Wait for SUMO to run (its log exists), then a little longer.
+        let t0 = std::time::Instant::now();
+        while !out.join("sumo/sumo.log").exists() && t0.elapsed().as_secs() < 60 {
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        std::thread::sleep(std::time::Duration::from_millis(700 + 300 * k as u64));
+        let workers = children_of(child.id());
+        assert_eq!(workers.len(), 1, "one worker process: {workers:?}");
+        for _ in 0..2 {
+            // SAFETY: signals the worker our child started.
+            unsafe { libc::kill(workers[0], signal) };
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        }
+        let status = child.wait().unwrap();
+        assert_eq!(status.code(), Some(3), "{name}");
+        let m: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap())
+                .unwrap();
+        assert_eq!(m["complete"], false, "{name}");
+        let error = m["error"].as_str().unwrap_or("");
+        assert!(error.contains(name), "{name}: {error}");
+        assert_ne!(m["sync"]["verdict"], "synchronized", "{name}");
+        let csv = std::fs::read_to_string(out.join("trajectories.csv")).unwrap();
+        let rows: Vec<&str> = csv.lines().skip(1).collect();
+        assert!(rows.len() >= 22 * 10, "{name}: {} rows", rows.len());
+        assert_eq!(rows.len() % 22, 0, "{name}: whole samples only");
+        let times: Vec<f64> = rows
+            .iter()
+            .step_by(22)
+            .map(|r| r.split(',').next().unwrap().parse().unwrap())
+            .collect();
+        assert!(
+            times.windows(2).all(|w| w[1] > w[0]),
+            "{name}: times increase"
+        );
+        let last_sample_s = m["stop"]["time_s"].as_f64();
+        if let Some(t) = last_sample_s {
+            assert!(*times.last().unwrap() <= t + 1e-9, "{name}");
+        }
+    }
+}
