@@ -368,6 +368,11 @@ pub fn spread_plot(out: &Path, title: &str, results: &[Spread]) -> anyhow::Resul
             .flat_map(|r| r.points.iter())
             .filter(|(_, y)| y.is_finite() && *y > 0.0)
     };
+    if pos().next().is_none() {
+        // No run recorded a positive spread (every run failed before its first sample): a log
+        // axis over nothing has no range, so there is no plot.
+        return Ok(Vec::new());
+    }
     let t_end = pos().map(|p| p.0).fold(1.0, f64::max);
     let lo = pos().map(|p| p.1).fold(f64::INFINITY, f64::min).max(1e-12);
     let hi = pos().map(|p| p.1).fold(0.0, f64::max).max(lo * 10.0);

@@ -331,3 +331,34 @@ fn termination_signals_stop_a_long_native_run_and_keep_its_rows() {
         );
     }
 }
+
+/// A compare whose every run fails before its first sample (here: no SUMO environment) ends
+/// with exit 3 and the failures named; it once spun on the spread plot's empty log axis until
+/// memory ran out.
+#[test]
+fn a_compare_where_every_run_fails_before_starting_ends_cleanly() {
+    let dir = tmpdir("compare-all-failed");
+    let (code, out, err) = run(bin()
+        .env("SYNCROAD_VENV", dir.join("no-such-venv"))
+        .args([
+            "compare",
+            "--baselines",
+            "protocol,idm",
+            "--no-plots",
+            "--out",
+        ])
+        .arg(dir.join("out"))
+        .arg(repo().join("scenarios/sugiyama-ring.json")));
+    assert_eq!(code, 3, "{out}\n{err}");
+    assert!(
+        err.contains("run protocol failed") && err.contains("not a virtualenv"),
+        "{err}"
+    );
+    let (code, _, err) = run(bin()
+        .env("SYNCROAD_VENV", dir.join("no-such-venv"))
+        .args(["compare", "--baselines", "protocol", "--out"])
+        .arg(dir.join("out-plots"))
+        .arg(repo().join("scenarios/sugiyama-ring.json")));
+    assert_eq!(code, 3, "{err}");
+    assert!(!dir.join("out-plots/compare_spread.png").exists());
+}
