@@ -4,14 +4,33 @@
 #   bash scripts/bench-sweep.sh sweep   one `syncroad sweep` (long-lived SUMO workers, all cores)
 #   bash scripts/bench-sweep.sh loop    a shell loop of `syncroad run` per point (one at a time)
 #   bash scripts/bench-sweep.sh loop2   the same loop, two points at a time (xargs -P 2)
-# Side by side, as the README quotes it:
-#   farm-bench -n 2 --warmup 0 --timeout 1500 --vs 'bash scripts/bench-sweep.sh loop' -- bash scripts/bench-sweep.sh sweep
+# Side by side, as the README quotes it (sweep and loop in turn, PAIRS times; medians and the
+# ratio of each pair):
+#   bash scripts/bench-sweep.sh vs loop 2      (or: vs loop2 2)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 repo="$(pwd)"
 bin="$repo/target/release/syncroad"
 d="${TMPDIR:-/tmp}/syncroad-bench-sweep"
-mode="${1:?usage: bench-sweep.sh sweep|loop|loop2}"
+mode="${1:?usage: bench-sweep.sh sweep|loop|loop2|vs loop|loop2 [PAIRS]}"
+if [ "$mode" = vs ]; then
+    other="${2:?vs needs loop or loop2}"
+    pairs="${3:-2}"
+    for i in $(seq "$pairs"); do
+        t0=$(date +%s.%N); bash "$0" sweep >/dev/null 2>&1; t1=$(date +%s.%N)
+        bash "$0" "$other" >/dev/null 2>&1; t2=$(date +%s.%N)
+        echo "$t0 $t1 $t2"
+    done | awk -v other="$other" '
+        { a[NR] = $2 - $1; b[NR] = $3 - $2; r[NR] = a[NR] / b[NR];
+          printf "pair %d: sweep %.1f s, %s %.1f s, ratio %.3f\n", NR, a[NR], other, b[NR], r[NR] }
+        function median(x, n,   i, j, t) {
+            for (i = 1; i <= n; i++) for (j = i + 1; j <= n; j++) if (x[j] < x[i]) { t = x[i]; x[i] = x[j]; x[j] = t }
+            return n % 2 ? x[(n + 1) / 2] : (x[n / 2] + x[n / 2 + 1]) / 2 }
+        END { n = NR; ma = median(a, n); mb = median(b, n); mr = median(r, n);
+              printf "median: sweep %.1f s (%.2f runs/s), %s %.1f s (%.2f runs/s); sweep/%s wall %.3f (%.1fx faster)\n",
+                     ma, 200 / ma, other, mb, 200 / mb, other, mr, 1 / mr }'
+    exit 0
+fi
 
 gains=(0.40 0.42 0.44 0.46 0.48 0.50 0.52 0.54 0.56 0.58 0.60 0.62 0.64 0.66 0.68 0.70 0.72 0.74 0.76 0.78)
 seeds=(1 2 3 4 5 6 7 8 9 10)
