@@ -302,31 +302,37 @@ fn cacc_platoon_reaches_gaps_and_leader_speed() {
     }
 }
 
+/// Chandler's chain: 40 predecessor-following drivers (K = 1/s, delay αK/K) behind a leader
+/// at 20 m/s; the first driver starts 2 m/s slow, the others at 20 m/s, 30 m apart.
+fn chandler_chain(alpha_k: f64) -> Scenario {
+    let (n, k) = (40usize, 1.0);
+    let delay = alpha_k / k;
+    let mut speeds = vec![20.0; n];
+    speeds[0] = 18.0;
+    let list = speeds
+        .iter()
+        .map(|v| v.to_string())
+        .collect::<Vec<_>>()
+        .join(",");
+    let mut pin = vec!["0"; n];
+    pin[0] = "1.0";
+    Scenario::from_json(&format!(
+        r#"{{"seed": 1, "step_s": 0.01, "horizon_s": 120, "vehicles": {n}, "road": {{"type": "straight"}},
+            "model": {{"type": "delayed_driver", "graph": {{"type": "chain", "gain": {k}}}, "delay_s": {delay},
+                      "leader": {{"speed_mps": 20.0, "pinning": [{}]}}, "history": "no_reaction"}},
+            "initial": {{"speed_mps": [{list}], "gap_m": 30}}}}"#,
+        pin.join(",")
+    ))
+    .unwrap()
+}
+
 /// Chandler's result for predecessor following behind a leader: a speed disturbance of the
 /// first driver is attenuated along the chain when 2αK < 1 and amplified when 2αK > 1 (even
 /// though every vehicle is individually stable while αK < π/2).
 #[test]
 fn chandler_string_stability_boundary() {
     for (alpha_k, attenuates) in [(0.4, true), (0.75, false)] {
-        let (n, k) = (40usize, 1.0);
-        let delay = alpha_k / k;
-        let mut speeds = vec![20.0; n];
-        speeds[0] = 18.0;
-        let list = speeds
-            .iter()
-            .map(|v| v.to_string())
-            .collect::<Vec<_>>()
-            .join(",");
-        let mut pin = vec!["0"; n];
-        pin[0] = "1.0";
-        let sc = Scenario::from_json(&format!(
-            r#"{{"seed": 1, "step_s": 0.01, "horizon_s": 120, "vehicles": {n}, "road": {{"type": "straight"}},
-                "model": {{"type": "delayed_driver", "graph": {{"type": "chain", "gain": {k}}}, "delay_s": {delay},
-                          "leader": {{"speed_mps": 20.0, "pinning": [{}]}}, "history": "no_reaction"}},
-                "initial": {{"speed_mps": [{list}], "gap_m": 30}}}}"#,
-            pin.join(",")
-        ))
-        .unwrap();
+        let sc = chandler_chain(alpha_k);
         let rep = theory::report(&sc);
         assert_eq!(rep.chandler.unwrap().holds, attenuates);
         assert_eq!(rep.certified, attenuates);
@@ -402,25 +408,7 @@ fn native_decay_rate_matches_exact_abscissa_on_heterogeneous_network() {
 #[test]
 fn measured_string_amplification_follows_chandler() {
     for (alpha_k, stable) in [(0.3, true), (0.75, false)] {
-        let (n, k) = (40usize, 1.0);
-        let mut speeds = vec![20.0; n];
-        speeds[0] = 18.0;
-        let list = speeds
-            .iter()
-            .map(|v| v.to_string())
-            .collect::<Vec<_>>()
-            .join(",");
-        let mut pin = vec!["0"; n];
-        pin[0] = "1.0";
-        let sc = Scenario::from_json(&format!(
-            r#"{{"seed": 1, "step_s": 0.01, "horizon_s": 120, "vehicles": {n}, "road": {{"type": "straight"}},
-                "model": {{"type": "delayed_driver", "graph": {{"type": "chain", "gain": {k}}}, "delay_s": {},
-                          "leader": {{"speed_mps": 20.0, "pinning": [{}]}}, "history": "no_reaction"}},
-                "initial": {{"speed_mps": [{list}], "gap_m": 30}}}}"#,
-            alpha_k / k,
-            pin.join(",")
-        ))
-        .unwrap();
+        let sc = chandler_chain(alpha_k);
         let run = simulate(
             &sc,
             NativeOptions {

@@ -536,6 +536,11 @@ impl WorkerPool {
         }
     }
 
+    /// The command that starts this pool's workers.
+    pub fn command(&self) -> &WorkerCommand {
+        &self.cmd
+    }
+
     /// Runs `request` on a pooled worker.
     pub fn run(&self, request: &Request, limits: &Supervision) -> WorkerRun {
         let idle = self.idle.lock().map(|mut v| v.pop()).ok().flatten();

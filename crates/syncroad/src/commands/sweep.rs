@@ -58,6 +58,11 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<Status> {
     let wall = started.elapsed().as_secs_f64();
     let rows = read_rows(out)?;
     let finished = rows.len();
+    // Failed before this call too (a resumed sweep skips them unless --retry-failed).
+    let failed = rows
+        .values()
+        .filter(|r| r.get("status").and_then(Value::as_str) == Some("failed"))
+        .count();
     write_tables(&sweep, out, rows, !a.no_plots)?;
     let shard_text = if shard.count > 1 {
         format!(" (shard {}/{})", shard.index, shard.count)
@@ -94,20 +99,13 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<Status> {
         );
         return Ok(Status::Interrupted);
     }
-    if summary.failed > 0 || failed_rows(out)? > 0 {
+    if failed > 0 {
         eprintln!(
             "error: some points failed; their rows hold the error (status = \"failed\"); --retry-failed runs them again"
         );
         return Ok(Status::RunFailed);
     }
     Ok(Status::Success)
-}
-
-fn failed_rows(out: &Path) -> anyhow::Result<usize> {
-    Ok(read_rows(out)?
-        .values()
-        .filter(|r| r.get("status").and_then(Value::as_str) == Some("failed"))
-        .count())
 }
 
 fn write_tables(

@@ -356,9 +356,8 @@ impl Shared<'_> {
             }
             Backend::Sumo => {
                 let road = self.road(&sc)?;
-                let worker = WorkerCommand::current_exe()
-                    .context("cannot locate the syncroad executable")?;
-                let mut o = RunOptions::new(work.clone(), worker);
+                let pool = self.pool.as_ref().expect("a SUMO sweep has a worker pool");
+                let mut o = RunOptions::new(work.clone(), pool.command().clone());
                 o.record_every = record_every;
                 o.interrupt = Some(self.interrupt.clone());
                 o.timeout = sweep
@@ -373,7 +372,6 @@ impl Shared<'_> {
                     tripinfo: false,
                     ssm: false,
                 });
-                let pool = self.pool.as_ref().expect("a SUMO sweep has a worker pool");
                 let r = pipeline::sumo_pooled(&sc, &road, &o, pool)
                     .map_err(|e| InputError::caused("before starting SUMO", e))?;
                 (r.output, r.interrupted)

@@ -219,11 +219,14 @@ impl Sweep {
         })?;
         let base_json: Value = serde_json::from_str(&base_text)
             .map_err(|e| bad(format!("base = {}: {e}", file.base.display())))?;
-        let base = crate::config::load_scenario(&base_path)?;
         let base_dir = base_path
             .parent()
             .map(Path::to_path_buf)
             .unwrap_or_default();
+        // Validated from the text just read, so the scenario and the hash see the same file.
+        let base = ScenarioFile::from_json(&base_text, &base_path.display().to_string())
+            .and_then(|f| f.validate(&base_dir))
+            .map_err(|e| InputError::caused(format!("base = {}", file.base.display()), e))?;
         let backend = file.backend.unwrap_or(base.backend());
         let axes = file
             .axes

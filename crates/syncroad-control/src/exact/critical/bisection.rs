@@ -8,7 +8,7 @@ use num_complex::Complex64;
 use super::super::collocation::{
     laplacian, rightmost_roots, validate_network, CollocationError, CollocationOptions, RootsReport,
 };
-use super::{strongly_connected, CriticalError, CriticalMethod, CriticalReport};
+use super::{CriticalError, CriticalMethod, CriticalReport, Crossing};
 
 /// Spectral abscissa with all gains scaled by `c`.
 fn abscissa_at(
@@ -196,25 +196,21 @@ pub(crate) fn bisection_search(
         c_star = 0.5 * (lo + hi);
         s_star = hi_report.roots[0].root.into();
     }
-    Ok(CriticalReport {
-        vehicles: n,
-        strongly_connected: strongly_connected(adjacency),
-        critical_gain_scale: c_star,
-        theorem1_gain_scale: theorem1,
-        conservatism_ratio: c_star / theorem1,
-        critical_delay_scale: c_star,
-        theorem1_delay_scale: theorem1,
-        delay_conservatism_ratio: c_star / theorem1,
-        critical_max_delay_s: c_star * delays_s.iter().cloned().fold(0.0, f64::max),
-        crossing_frequency_rad_s: s_star.im.abs(),
-        delay_crossing_frequency_rad_s: s_star.im.abs() / c_star,
-        crossing_multiplicity: hi_report.roots[0].multiplicity,
-        bracket: [lo, hi],
-        bracket_abscissae: [lo_report.abscissa, hi_report.abscissa],
-        full_solves,
-        method: CriticalMethod::Bisection,
-        certificate: None,
-    })
+    Ok(CriticalReport::of_crossing(
+        adjacency,
+        delays_s,
+        &l,
+        Crossing {
+            scale: c_star,
+            root: s_star,
+            multiplicity: hi_report.roots[0].multiplicity,
+            bracket: [lo, hi],
+            bracket_abscissae: [lo_report.abscissa, hi_report.abscissa],
+            full_solves,
+            method: CriticalMethod::Bisection,
+            certificate: None,
+        },
+    ))
 }
 
 #[cfg(test)]

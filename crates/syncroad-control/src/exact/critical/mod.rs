@@ -207,7 +207,7 @@ pub fn critical_scale_from(
     roots: &RootsReport,
     options: &CollocationOptions,
 ) -> Result<CriticalReport, CriticalError> {
-    let n = validate_network(adjacency, delays_s)?;
+    validate_network(adjacency, delays_s)?;
     if no_delay(adjacency, delays_s) {
         return Err(CriticalError::NoDelay);
     }
@@ -268,30 +268,78 @@ pub fn critical_scale_from(
         r.full_solves += full_solves - 1;
         return Ok(r);
     };
-    let certificate = Some(certificate);
-    let worst = (0..n).map(|i| delays_s[i] * l[(i, i)]).fold(0.0, f64::max);
-    let theorem1 = 1.0 / (2.0 * worst);
-    let c_star = x.scale;
-    let omega = x.root.im.abs();
-    Ok(CriticalReport {
-        vehicles: n,
-        strongly_connected: strongly_connected(adjacency),
-        critical_gain_scale: c_star,
-        theorem1_gain_scale: theorem1,
-        conservatism_ratio: c_star / theorem1,
-        critical_delay_scale: c_star,
-        theorem1_delay_scale: theorem1,
-        delay_conservatism_ratio: c_star / theorem1,
-        critical_max_delay_s: c_star * delays_s.iter().cloned().fold(0.0, f64::max),
-        crossing_frequency_rad_s: omega,
-        delay_crossing_frequency_rad_s: omega / c_star,
-        crossing_multiplicity: x.multiplicity,
-        bracket: x.bracket,
-        bracket_abscissae: x.bracket_re,
-        full_solves,
-        method: CriticalMethod::Continuation,
-        certificate,
-    })
+    Ok(CriticalReport::of_crossing(
+        adjacency,
+        delays_s,
+        &l,
+        Crossing {
+            scale: x.scale,
+            root: x.root,
+            multiplicity: x.multiplicity,
+            bracket: x.bracket,
+            bracket_abscissae: x.bracket_re,
+            full_solves,
+            method: CriticalMethod::Continuation,
+            certificate: Some(certificate),
+        },
+    ))
+}
+
+/// The first crossing as a search found it: everything else in a [`CriticalReport`] follows.
+pub(crate) struct Crossing {
+    /// The critical gain scale c*.
+    pub scale: f64,
+    /// The root on the imaginary axis at c*.
+    pub root: Complex64,
+    /// Its multiplicity.
+    pub multiplicity: usize,
+    /// Gain scales bracketing c*.
+    pub bracket: [f64; 2],
+    /// The abscissae at the bracket's ends.
+    pub bracket_abscissae: [f64; 2],
+    /// Full collocation solves spent.
+    pub full_solves: usize,
+    /// How c* was found.
+    pub method: CriticalMethod,
+    /// The root-count certificate of the crossing, when one was made.
+    pub certificate: Option<CrossingCertificate>,
+}
+
+impl CriticalReport {
+    /// The report of a crossing of the network with Laplacian `l`: Theorem 1's scale
+    /// `1/(2 max_i α_i d_i)`, the ratios, and the delay-scale view (the same c*, the crossing
+    /// at ω/c*) are derived here once for every search.
+    pub(crate) fn of_crossing(
+        adjacency: &DMatrix<f64>,
+        delays_s: &[f64],
+        l: &DMatrix<f64>,
+        x: Crossing,
+    ) -> Self {
+        let n = l.nrows();
+        let worst = (0..n).map(|i| delays_s[i] * l[(i, i)]).fold(0.0, f64::max);
+        let theorem1 = 1.0 / (2.0 * worst);
+        let c_star = x.scale;
+        let omega = x.root.im.abs();
+        CriticalReport {
+            vehicles: n,
+            strongly_connected: strongly_connected(adjacency),
+            critical_gain_scale: c_star,
+            theorem1_gain_scale: theorem1,
+            conservatism_ratio: c_star / theorem1,
+            critical_delay_scale: c_star,
+            theorem1_delay_scale: theorem1,
+            delay_conservatism_ratio: c_star / theorem1,
+            critical_max_delay_s: c_star * delays_s.iter().cloned().fold(0.0, f64::max),
+            crossing_frequency_rad_s: omega,
+            delay_crossing_frequency_rad_s: omega / c_star,
+            crossing_multiplicity: x.multiplicity,
+            bracket: x.bracket,
+            bracket_abscissae: x.bracket_abscissae,
+            full_solves: x.full_solves,
+            method: x.method,
+            certificate: x.certificate,
+        }
+    }
 }
 
 /// Rightmost roots with all gains scaled by `c`: shift-invert first, the dense collocation if
