@@ -32,7 +32,7 @@ use crate::config::{self, load_scenario};
 use crate::error::{InputError, Status};
 use crate::output::{self, write_json};
 use crate::pipeline::{self, Finished};
-use crate::plots::{spread_plot, Spread};
+use crate::plots::{spread_plot, Spread, SpreadLabels};
 use crate::progress::Progress;
 use crate::runs::RunSpec;
 use crate::stdout::{out, outln};
@@ -502,11 +502,13 @@ pub fn compare_into(
     let results = run_all(sc, plan, out, interrupt)?;
     if plan.plots {
         let spreads: Vec<Spread> = results.iter().map(|r| r.spread.clone()).collect();
-        spread_plot(
-            out,
-            &format!("{}: speed spread by driver", sc.name()),
-            &spreads,
-        )?;
+        let title = format!("{}: speed spread by driver", sc.name());
+        let labels = SpreadLabels {
+            stem: "compare_spread",
+            title: &title,
+            y_desc: "speed spread [m/s]",
+        };
+        spread_plot(out, &labels, &spreads)?;
     }
     let mut doc = combined(sc, &results, &plan.mixed_runs);
     doc["order"] = json!(plan.runs.iter().map(|r| r.name.clone()).collect::<Vec<_>>());

@@ -22,7 +22,7 @@ use super::axis::Target;
 use super::spec::Sweep;
 use super::stats::{mean_ci, MeanCi};
 use super::table::{Kind, Table};
-use crate::plots::{ensure_font, err, render_both};
+use crate::plots::{axis, ensure_font, err, render_both};
 
 /// A metric's value in a row as a number: numbers as they are, the verdict as 1
 /// (synchronized) or 0, booleans as 1 or 0.
@@ -152,23 +152,16 @@ fn line_plots(sweep: &Sweep, table: &Table, x: &str, dir: &Path) -> anyhow::Resu
         for s in series.values_mut() {
             s.sort_by(|a, b| a.0.total_cmp(&b.0));
         }
-        let all = series.values().flatten();
-        let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-        for (xv, m) in all {
-            let h = m.half_width.unwrap_or(0.0);
-            x0 = x0.min(*xv);
-            x1 = x1.max(*xv);
-            y0 = y0.min(m.mean - h);
-            y1 = y1.max(m.mean + h);
-        }
-        let pad = |a: f64, b: f64| {
-            if b > a {
-                0.05 * (b - a)
-            } else {
-                0.5f64.max(a.abs() * 0.1)
-            }
-        };
-        let (px, py) = (pad(x0, x1), pad(y0, y1));
+        let all = || series.values().flatten();
+        let xr = axis::padded(axis::linear(all().map(|(x, _)| *x), 1.0, 0.0..1.0));
+        let yr = axis::padded(axis::linear(
+            all().flat_map(|(_, m)| {
+                let h = m.half_width.unwrap_or(0.0);
+                [m.mean - h, m.mean + h]
+            }),
+            1.0,
+            0.0..1.0,
+        ));
         let title = format!("{} (mean, 95 % interval over seeds)", label(&metric));
         let stem = file_stem(&metric);
         let drawn: anyhow::Result<Vec<PathBuf>> = render_both!(dir, stem, (1000, 650), |root| {
@@ -177,7 +170,7 @@ fn line_plots(sweep: &Sweep, table: &Table, x: &str, dir: &Path) -> anyhow::Resu
                 .margin(12)
                 .x_label_area_size(45)
                 .y_label_area_size(70)
-                .build_cartesian_2d((x0 - px)..(x1 + px), (y0 - py)..(y1 + py))
+                .build_cartesian_2d(xr.clone(), yr.clone())
                 .map_err(err)?;
             chart
                 .configure_mesh()
@@ -221,25 +214,13 @@ fn line_plots(sweep: &Sweep, table: &Table, x: &str, dir: &Path) -> anyhow::Resu
     Ok(files)
 }
 
+/// plotters' viridis colour of `t` in [0, 1] (clamped; NaN: the low end).
 fn viridis(t: f64) -> RGBColor {
-    // Five stops of the viridis map, linearly interpolated.
-    const STOPS: [(f64, f64, f64); 5] = [
-        (68.0, 1.0, 84.0),
-        (59.0, 82.0, 139.0),
-        (33.0, 145.0, 140.0),
-        (94.0, 201.0, 98.0),
-        (253.0, 231.0, 37.0),
-    ];
-    let t = if t.is_finite() {
+    ViridisRGB::get_color(if t.is_finite() {
         t.clamp(0.0, 1.0)
     } else {
         0.0
-    } * 4.0;
-    let i = (t.floor() as usize).min(3);
-    let f = t - i as f64;
-    let (a, b) = (STOPS[i], STOPS[i + 1]);
-    let mix = |p: f64, q: f64| (p + (q - p) * f).round() as u8;
-    RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
+    })
 }
 
 /// Cell edges of sorted grid values: midpoints between neighbours, half a spacing outside.

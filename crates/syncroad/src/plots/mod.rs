@@ -9,8 +9,12 @@ use std::sync::Once;
 
 use anyhow::{anyhow, Context};
 use plotters::prelude::*;
-use syncroad_control::metrics::spread_series;
 use syncroad_control::Trajectory;
+
+pub(crate) mod axis;
+mod spread;
+
+pub use spread::{spread_plot, Spread, SpreadLabels};
 
 static FONT: Once = Once::new();
 
@@ -25,30 +29,15 @@ pub(crate) fn ensure_font() {
     });
 }
 
-/// Colour of a speed on a blue (slow) → yellow (fast) scale (viridis-like).
-fn speed_colour(v: f64, vmin: f64, vmax: f64) -> RGBColor {
-    let x = if vmax > vmin {
+/// Colour of a speed on plotters' viridis map (dark blue: slow → yellow: fast); the middle of
+/// the map when the range is empty or the speed is not finite.
+pub(crate) fn speed_colour(v: f64, vmin: f64, vmax: f64) -> RGBColor {
+    let x = if vmax > vmin && v.is_finite() {
         ((v - vmin) / (vmax - vmin)).clamp(0.0, 1.0)
     } else {
         0.5
     };
-    // Piecewise-linear through five viridis anchors.
-    const A: [(f64, f64, f64); 5] = [
-        (68.0, 1.0, 84.0),
-        (59.0, 82.0, 139.0),
-        (33.0, 145.0, 140.0),
-        (94.0, 201.0, 98.0),
-        (253.0, 231.0, 37.0),
-    ];
-    let s = x * 4.0;
-    let k = (s.floor() as usize).min(3);
-    let f = s - k as f64;
-    let lerp = |a: f64, b: f64| (a + (b - a) * f).round() as u8;
-    RGBColor(
-        lerp(A[k].0, A[k + 1].0),
-        lerp(A[k].1, A[k + 1].1),
-        lerp(A[k].2, A[k + 1].2),
-    )
+    ViridisRGB::get_color(x)
 }
 
 /// A plotting backend error as an anyhow error.
@@ -60,7 +49,7 @@ pub(crate) fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
 /// drawing is generic over the backend and closures cannot be).
 macro_rules! render_both {
     ($dir:expr, $stem:expr, $size:expr, |$root:ident| $body:block) => {{
-        ensure_font();
+        $crate::plots::ensure_font();
         let png = $dir.join(format!("{}.png", $stem));
         let svg = $dir.join(format!("{}.svg", $stem));
         {
@@ -110,19 +99,14 @@ impl RunPlots<'_> {
     }
 
     fn speed_range(&self) -> (f64, f64) {
-        let (lo, hi) = self
-            .traj
-            .speeds_mps
-            .iter()
-            .filter(|v| v.is_finite())
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-                (a.min(v), b.max(v))
-            });
-        if lo.is_finite() {
-            (lo, hi.max(lo + 1e-9))
-        } else {
-            (0.0, 1.0)
-        }
+        let r = axis::linear(self.traj.speeds_mps.iter().copied(), 1e-9, 0.0..1.0);
+        (r.start, r.end)
+    }
+
+    /// The time axis: from 0 to the last sample, at least a second long.
+    fn time_range(&self) -> std::ops::Range<f64> {
+        let r = axis::linear(self.traj.time_s.iter().copied(), 1.0, 0.0..1.0);
+        r.start.min(0.0)..r.end
     }
 
     /// Time-space diagram: every vehicle's position (wrapped on a ring) against time,
@@ -133,18 +117,12 @@ impl RunPlots<'_> {
         let (vmin, vmax) = self.speed_range();
         // Keep about 150k points in the bitmap and the vector file alike.
         let stride = ((tr.len() * n) / 150_000).max(1);
-        let t_end = *tr.time_s.last().unwrap_or(&1.0);
+        let time = self.time_range();
         let (ymin, ymax) = match self.ring_length_m {
-            Some(l) => (0.0, l),
-            None => {
-                let (a, b) = tr
-                    .positions_m
-                    .iter()
-                    .filter(|x| x.is_finite())
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
-                        (a.min(x), b.max(x))
-                    });
-                (a, b.max(a + 1.0))
+            Some(l) if l.is_finite() && l > 0.0 => (0.0, l),
+            _ => {
+                let r = axis::linear(tr.positions_m.iter().copied(), 1.0, 0.0..1.0);
+                (r.start, r.end)
             }
         };
         render_both!(dir, "time_space", (1100, 650), |root| {
@@ -157,7 +135,7 @@ impl RunPlots<'_> {
                 .margin(10)
                 .x_label_area_size(40)
                 .y_label_area_size(60)
-                .build_cartesian_2d(0.0..t_end, ymin..ymax)
+                .build_cartesian_2d(time.clone(), ymin..ymax)
                 .map_err(err)?;
             chart
                 .configure_mesh()
@@ -222,7 +200,7 @@ impl RunPlots<'_> {
         let tr = self.traj;
         let n = tr.n;
         let (vmin, vmax) = self.speed_range();
-        let t_end = *tr.time_s.last().unwrap_or(&1.0);
+        let time = self.time_range();
         let shown: Vec<usize> = if n <= 30 {
             (0..n).collect()
         } else {
@@ -235,7 +213,7 @@ impl RunPlots<'_> {
                 .margin(10)
                 .x_label_area_size(40)
                 .y_label_area_size(60)
-                .build_cartesian_2d(0.0..t_end, (vmin - pad)..(vmax + pad))
+                .build_cartesian_2d(time.clone(), (vmin - pad)..(vmax + pad))
                 .map_err(err)?;
             chart
                 .configure_mesh()
@@ -278,49 +256,17 @@ impl RunPlots<'_> {
 
     /// The spread `max_ij |v_i − v_j|` (or `max_i |v_i − v_0|`) on a log scale.
     pub fn spread(&self, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
-        let tr = self.traj;
-        let s = spread_series(tr);
-        let t_end = *tr.time_s.last().unwrap_or(&1.0);
-        let pos: Vec<f64> = s
-            .iter()
-            .copied()
-            .filter(|x| x.is_finite() && *x > 0.0)
-            .collect();
-        let lo = pos.iter().copied().fold(f64::INFINITY, f64::min).max(1e-12);
-        let hi = pos.iter().copied().fold(0.0, f64::max).max(lo * 10.0);
-        render_both!(dir, "spread", (900, 500), |root| {
-            let mut chart = ChartBuilder::on(root)
-                .caption(format!("{} — speed spread", self.title), ("sans-serif", 20))
-                .margin(10)
-                .x_label_area_size(40)
-                .y_label_area_size(70)
-                .build_cartesian_2d(0.0..t_end, (lo * 0.5..hi * 2.0).log_scale())
-                .map_err(err)?;
-            chart
-                .configure_mesh()
-                .x_desc("time [s]")
-                .y_desc(if tr.leader_speed_mps.is_empty() {
-                    "max |v_i − v_j| [m/s]"
-                } else {
-                    "max |v_i − v_0| [m/s]"
-                })
-                .y_label_formatter(&|y| format!("{y:.0e}"))
-                .label_style(("sans-serif", 13))
-                .axis_desc_style(("sans-serif", 15))
-                .draw()
-                .map_err(err)?;
-            chart
-                .draw_series(LineSeries::new(
-                    tr.time_s
-                        .iter()
-                        .zip(&s)
-                        .filter(|(_, y)| y.is_finite() && **y > 0.0)
-                        .map(|(t, y)| (*t, *y)),
-                    BLUE.stroke_width(2),
-                ))
-                .map_err(err)?;
-            Ok(())
-        })
+        let title = format!("{} — speed spread", self.title);
+        let labels = SpreadLabels {
+            stem: "spread",
+            title: &title,
+            y_desc: if self.traj.leader_speed_mps.is_empty() {
+                "max |v_i − v_j| [m/s]"
+            } else {
+                "max |v_i − v_0| [m/s]"
+            },
+        };
+        spread_plot(dir, &labels, &[Spread::of("", self.traj)])
     }
 }
 
@@ -331,86 +277,11 @@ mod tests {
     #[test]
     fn colour_scale_ends_are_the_viridis_ends() {
         assert_eq!(speed_colour(0.0, 0.0, 10.0), RGBColor(68, 1, 84));
-        assert_eq!(speed_colour(10.0, 0.0, 10.0), RGBColor(253, 231, 37));
+        assert_eq!(speed_colour(10.0, 0.0, 10.0), RGBColor(254, 232, 37));
         assert_eq!(speed_colour(-5.0, 0.0, 10.0), RGBColor(68, 1, 84));
+        assert_eq!(
+            speed_colour(f64::NAN, 0.0, 10.0),
+            speed_colour(5.0, 0.0, 10.0)
+        );
     }
-}
-
-/// One run's speed spread over time, for [`spread_plot`].
-#[derive(Debug, Clone, Default)]
-pub struct Spread {
-    /// The run's name (legend).
-    pub name: String,
-    /// `(t, spread)` samples.
-    pub points: Vec<(f64, f64)>,
-}
-
-impl Spread {
-    /// The spread series of a trajectory.
-    pub fn of(name: &str, traj: &Trajectory) -> Self {
-        Self {
-            name: name.to_string(),
-            points: traj
-                .time_s
-                .iter()
-                .copied()
-                .zip(spread_series(traj))
-                .collect(),
-        }
-    }
-}
-
-/// `compare_spread.png` and `.svg`: every run's speed spread on one log scale.
-pub fn spread_plot(out: &Path, title: &str, results: &[Spread]) -> anyhow::Result<Vec<PathBuf>> {
-    let pos = || {
-        results
-            .iter()
-            .flat_map(|r| r.points.iter())
-            .filter(|(_, y)| y.is_finite() && *y > 0.0)
-    };
-    if pos().next().is_none() {
-        // No run recorded a positive spread (every run failed before its first sample): a log
-        // axis over nothing has no range, so there is no plot.
-        return Ok(Vec::new());
-    }
-    let t_end = pos().map(|p| p.0).fold(1.0, f64::max);
-    let lo = pos().map(|p| p.1).fold(f64::INFINITY, f64::min).max(1e-12);
-    let hi = pos().map(|p| p.1).fold(0.0, f64::max).max(lo * 10.0);
-    render_both!(out, "compare_spread", (900, 500), |root| {
-        let mut chart = ChartBuilder::on(root)
-            .caption(title, ("sans-serif", 20))
-            .margin(10)
-            .x_label_area_size(40)
-            .y_label_area_size(70)
-            .build_cartesian_2d(0.0..t_end, (lo * 0.5..hi * 2.0).log_scale())
-            .map_err(err)?;
-        chart
-            .configure_mesh()
-            .x_desc("time [s]")
-            .y_desc("speed spread [m/s]")
-            .y_label_formatter(&|y| format!("{y:.0e}"))
-            .draw()
-            .map_err(err)?;
-        for (k, r) in results.iter().enumerate() {
-            let colour = Palette99::pick(k).to_rgba();
-            chart
-                .draw_series(LineSeries::new(
-                    r.points
-                        .iter()
-                        .copied()
-                        .filter(|(_, y)| y.is_finite() && *y > 0.0),
-                    colour.stroke_width(2),
-                ))
-                .map_err(err)?
-                .label(r.name.clone())
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
-        }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()
-            .map_err(err)?;
-        Ok(())
-    })
 }
