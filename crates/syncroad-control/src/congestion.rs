@@ -15,7 +15,8 @@
 //!   its slope [m/s] in the ground frame is negative for waves travelling against traffic.
 //!   Reported only when the amplitude exceeds 0.5 m/s.
 
-use serde::Serialize;
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
 
 use crate::trajectory::Trajectory;
 
@@ -23,29 +24,39 @@ use crate::trajectory::Trajectory;
 pub const STOP_SPEED_MPS: f64 = 0.1;
 
 /// Congestion metrics of one run.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct CongestionMetrics {
     /// Warm-up excluded [s].
     pub warmup_s: f64,
     /// Time- and vehicle-averaged speed [m/s].
+    #[schemars(title = "mean speed")]
     pub mean_speed_mps: f64,
     /// Standard deviation over all vehicle-samples [m/s].
+    #[schemars(title = "speed std")]
     pub speed_std_mps: f64,
     /// Mean over time of the std across vehicles [m/s].
+    #[schemars(title = "std across vehicles")]
     pub speed_std_across_vehicles_mps: f64,
     /// Mean over vehicles of the std over time [m/s].
+    #[schemars(title = "std over time")]
     pub speed_std_over_time_mps: f64,
     /// Harmonic-mean speed [m/s].
+    #[schemars(title = "harmonic-mean speed")]
     pub harmonic_mean_speed_mps: f64,
     /// Minimum speed [m/s].
+    #[schemars(title = "min speed")]
     pub min_speed_mps: f64,
     /// Number of stop events.
+    #[schemars(title = "stop events")]
     pub stop_events: usize,
     /// Fraction of vehicle-time stopped.
+    #[schemars(title = "stopped fraction")]
     pub stopped_fraction: f64,
     /// Stop-and-go wave amplitude [m/s].
+    #[schemars(title = "wave amplitude")]
     pub wave_amplitude_mps: f64,
     /// Wave propagation speed [m/s] (ring roads with waves only).
+    #[schemars(title = "wave speed")]
     pub wave_speed_mps: Option<f64>,
 }
 

@@ -1,20 +1,25 @@
 //! What a SUMO run reports beside its trajectory: counters, SUMO-side measurements and how
 //! SUMO ran. Plain data, filled by the SUMO backend; the maths never sees SUMO.
 
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 /// Counters of a SUMO run.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct Safety {
     /// Steps with at least one collision.
+    #[schemars(title = "collision steps")]
     pub collision_steps: usize,
     /// Sum over steps of colliding vehicles.
     pub colliding_vehicles: usize,
     /// Teleports started.
+    #[schemars(title = "teleports")]
     pub teleports: usize,
     /// SUMO's "performs emergency braking" warnings in its log.
+    #[schemars(title = "emergency braking warn.")]
     pub emergency_braking_warnings: usize,
     /// Law commands SUMO did not realise within the override tolerance.
+    #[schemars(title = "overridden commands")]
     pub overridden_commands: usize,
     /// Negative commands sent as 0 (SUMO reads a negative speed as "release control").
     pub negative_commands_clamped: usize,
@@ -81,18 +86,22 @@ pub struct SumoFacts {
 /// encounter of an ego vehicle with a foe; every vehicle carries a device, so one encounter can
 /// be logged from both sides) whose time to collision fell below the TTC threshold or whose
 /// deceleration rate to avoid a crash rose above the DRAC threshold.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct SsmSummary {
     /// TTC threshold of the device \[s\] (SUMO's default 3 s).
     pub ttc_threshold_s: f64,
     /// DRAC threshold of the device \[m/s²\] (SUMO's default 3 m/s²).
     pub drac_threshold_mps2: f64,
     /// Conflicts with a TTC below the threshold after the warm-up.
+    #[schemars(title = "TTC < 3 s conflicts")]
     pub ttc_conflicts: usize,
     /// Smallest TTC among them \[s\] (`null`: none).
+    #[schemars(title = "min TTC")]
     pub ttc_min_s: Option<f64>,
     /// Conflicts with a DRAC above the threshold after the warm-up.
+    #[schemars(title = "DRAC > 3 m/s² conflicts")]
     pub drac_conflicts: usize,
     /// Largest DRAC among them \[m/s²\] (`null`: none).
+    #[schemars(title = "max DRAC")]
     pub drac_max_mps2: Option<f64>,
 }

@@ -43,6 +43,7 @@ pub mod outcome;
 pub mod pi_saturation;
 pub mod poly;
 pub mod record;
+pub mod record_schema;
 pub mod rng;
 pub mod scenario;
 pub mod speed_controller;

@@ -14,7 +14,8 @@
 //! * **ignores safe speed**: some vehicle took law commands with bit 0 of SUMO's speed mode
 //!   off, so SUMO did not cap its command at the safe speed towards its leader.
 
-use serde::Serialize;
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
 
 pub use crate::facts::SsmSummary;
 use crate::facts::SumoFacts;
@@ -24,15 +25,19 @@ use crate::trajectory::Trajectory;
 pub const HEADWAY_MIN_SPEED_MPS: f64 = 1.0;
 
 /// Safety margins of one run (present in the record when the run measured them).
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct SafetyMargins {
     /// Smallest time headway Δx/v over samples with v ≥ 1 m/s \[s\].
+    #[schemars(title = "time headway min")]
     pub time_headway_min_s: Option<f64>,
     /// Mean time headway over the same samples \[s\].
+    #[schemars(title = "time headway mean")]
     pub time_headway_mean_s: Option<f64>,
     /// Smallest bumper-to-bumper gap \[m\].
+    #[schemars(title = "min gap")]
     pub min_gap_m: Option<f64>,
     /// Some law-commanded vehicle drove with SUMO's safe-speed check off (speed mode bit 0).
+    #[schemars(title = "ignores SUMO's safe speed")]
     pub ignores_safe_speed: bool,
     /// SUMO's speed mode of the law-commanded vehicles (`null` when SUMO drives every vehicle).
     pub law_speed_mode: Option<i32>,

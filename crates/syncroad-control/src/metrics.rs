@@ -6,12 +6,13 @@
 //! * the final spread, the time after which the spread stays within the tolerance, and the
 //!   exponential decay rate fitted to `ln spread` over the second half of the run.
 
-use serde::Serialize;
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
 
 use crate::trajectory::Trajectory;
 
 /// Outcome of a run.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum Verdict {
     /// The spread stayed within the tolerance over the final window.
@@ -33,7 +34,7 @@ impl std::fmt::Display for Verdict {
 }
 
 /// Thresholds of the verdict.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct VerdictThresholds {
     /// Spread tolerance [m/s].
     pub tolerance_mps: f64,
@@ -42,28 +43,36 @@ pub struct VerdictThresholds {
 }
 
 /// Synchronization metrics of one run.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct SyncMetrics {
     /// Whether the spread is taken against the leader speed v_0.
     pub against_leader: bool,
     /// Spread at t = 0 [m/s].
+    #[schemars(title = "initial spread")]
     pub initial_spread_mps: f64,
     /// Spread at the last sample [m/s].
+    #[schemars(title = "final spread")]
     pub final_spread_mps: f64,
     /// Largest spread over the final window [m/s].
+    #[schemars(title = "max spread over the final window")]
     pub window_max_spread_mps: f64,
     /// Largest spread over the run [m/s].
+    #[schemars(title = "max spread")]
     pub max_spread_mps: f64,
     /// `(∫ spread² dt)^{1/2}` [m/s·√s].
+    #[schemars(title = "L2 norm of the spread")]
     pub spread_l2: f64,
     /// First time after which the spread stays ≤ tolerance [s], if it does.
+    #[schemars(title = "time to tolerance")]
     pub time_to_tolerance_s: Option<f64>,
     /// Fitted exponential rate of `spread ~ e^{rate·t}` over the second half [1/s]
     /// (negative = decaying), if enough samples lie above round-off.
+    #[schemars(title = "fitted decay rate")]
     pub decay_rate_per_s: Option<f64>,
     /// Largest |gap − desired gap| at the last sample [m], for platoons.
     pub final_gap_error_m: Option<f64>,
     /// The verdict.
+    #[schemars(title = "verdict")]
     pub verdict: Verdict,
     /// Why the verdict is not what the spread alone says: SUMO overrode the law (collisions,
     /// teleports, overridden commands); `null` when the spread decides.

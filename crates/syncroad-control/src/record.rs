@@ -5,7 +5,8 @@
 //! everything else is a result. Every key is always present (`null` where it does not apply),
 //! so tables and regression checks see one shape.
 
-use serde::Serialize;
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
 
 use crate::congestion::CongestionMetrics;
 pub use crate::facts::{Measured, Safety, SumoFacts};
@@ -17,15 +18,31 @@ use crate::stop::StopReason;
 use crate::string_measured::StringAmplification;
 use crate::trajectory::Trajectory;
 
+/// Stamps: the keys that say what produced a record (`regress --strict` holds a baseline to
+/// them).
+pub const STAMPS: [&str; 3] = ["syncroad_version", "platform", "sumo_version"];
+
+/// Keys every run of one comparison shares: the stamps, the scenario's hash and seed, and the
+/// emission class; `compare.json` holds them once, at its top.
+pub const SHARED_KEYS: [&str; 6] = [
+    STAMPS[0],
+    STAMPS[1],
+    STAMPS[2],
+    "scenario_hash",
+    "seed",
+    "emission_class",
+];
+
 /// Version of the record's schema (`docs/metrics.schema.json`).
 pub const SCHEMA_VERSION: u32 = 1;
 
 /// Traffic measured in SUMO, per distance and time.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct Traffic {
     /// Seconds measured after the warm-up.
     pub measured_s: f64,
     /// Flow at the induction loop \[veh/h\].
+    #[schemars(title = "flow, loop")]
     pub flow_veh_per_h: Option<f64>,
     /// Loop passages.
     pub loop_passages: Option<usize>,
@@ -34,10 +51,12 @@ pub struct Traffic {
     /// SUMO's road length \[m\].
     pub road_length_m: f64,
     /// `N v̄ / L` \[veh/h\] on a ring (cross-check of the loop).
+    #[schemars(title = "flow, N·v̄/L")]
     pub flow_from_speed_veh_per_h: Option<f64>,
     /// Time loss after the warm-up \[s\].
     pub time_loss_s: f64,
     /// Time loss per vehicle \[s\].
+    #[schemars(title = "time loss / veh")]
     pub time_loss_per_vehicle_s: f64,
     /// Fuel after the warm-up \[mg\].
     pub fuel_mg: f64,
@@ -48,10 +67,13 @@ pub struct Traffic {
     /// Distance driven after the warm-up, from the recorded positions \[m\].
     pub distance_m: f64,
     /// Fuel per distance \[g/km\].
+    #[schemars(title = "fuel")]
     pub fuel_g_per_km: f64,
     /// CO2 per distance \[g/km\].
+    #[schemars(title = "CO2")]
     pub co2_g_per_km: f64,
     /// Hard-braking vehicle-steps.
+    #[schemars(title = "hard braking")]
     pub hard_braking_steps: usize,
 }
 
@@ -111,7 +133,7 @@ impl Traffic {
 }
 
 /// How SUMO ran, beyond the counters.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct BackendFacts {
     /// SUMO's road length \[m\].
     pub road_length_m: f64,
@@ -126,19 +148,23 @@ pub struct BackendFacts {
 }
 
 /// The metrics document of one run (`metrics.json`).
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct RunRecord {
     /// Stamp: syncroad's version.
+    #[serde(default)]
     pub syncroad_version: String,
     /// Stamp: `arch-os`.
+    #[serde(default)]
     pub platform: String,
     /// Stamp: SUMO's version (`null` for native runs).
     pub sumo_version: Option<String>,
     /// Scenario name.
     pub scenario: String,
     /// Hash of the scenario as written.
+    #[serde(default)]
     pub scenario_hash: String,
     /// Seed.
+    #[serde(default)]
     pub seed: u64,
     /// `native` or `sumo`.
     pub backend: Backend,

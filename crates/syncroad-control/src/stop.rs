@@ -1,9 +1,10 @@
 //! Why a run stopped: one typed reason for every backend.
 
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 /// Why a run stopped. Serialized with a `reason` tag (`{"reason": "horizon"}`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(tag = "reason", rename_all = "snake_case")]
 pub enum StopReason {
     /// The horizon was reached.

@@ -9,21 +9,25 @@
 //! some well above 1 for a string-unstable one. Vehicles whose predecessor never deviated
 //! (`p_{i−1} = 0`) give no ratio.
 
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::Trajectory;
 
 /// The measured string amplification of a platoon run.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct StringAmplification {
     /// The first non-zero peak deviation along the platoon (the leader's, or the first
     /// follower's when the leader keeps its speed) \[m/s\].
     pub first_peak_deviation_mps: f64,
     /// The largest `p_i / p_{i−1}` (`null` when no vehicle's predecessor deviated).
+    #[schemars(title = "string: worst step ratio")]
     pub worst_step_ratio: Option<f64>,
     /// The follower (0-based, leader not counted) where it occurs.
+    #[schemars(title = "string: at follower")]
     pub worst_step_vehicle: Option<usize>,
     /// The last vehicle's peak over the first non-zero peak.
+    #[schemars(title = "string: last / first peak")]
     pub end_to_end_ratio: Option<f64>,
 }
 

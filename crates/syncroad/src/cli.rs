@@ -131,6 +131,9 @@ pub enum Command {
         #[arg(long)]
         strict: bool,
     },
+    /// Prints the JSON Schema of `metrics.json`, derived from the record's type (the
+    /// published `docs/metrics.schema.json` is this output).
+    Schema,
     /// The IFP index α = −inf_ω Re W(iω) of an agent W(λ) = η(λ)/(λ ρ(λ)) (Lemma lem.linear-pass),
     /// e.g. the CACC agent τ y''' + y'' + μ y' = u is `--eta 1 --rho MU,1,TAU`.
     Ifp {

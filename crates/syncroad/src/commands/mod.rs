@@ -29,6 +29,10 @@ pub fn run(cli: Cli) -> anyhow::Result<Status> {
         Command::SumoBench { quick, json } => sumo_bench::run(quick, json.as_deref()),
         Command::Bench { horizon_s, sizes } => bench::run(horizon_s, &sizes),
         Command::Ifp { eta, rho, json } => ifp::run(&eta, &rho, json),
+        Command::Schema => {
+            crate::stdout::out!("{}", syncroad_control::record_schema::metrics_schema_text());
+            Ok(Status::Success)
+        }
         Command::Stability {
             scenario,
             json,

@@ -21,7 +21,7 @@ use syncroad_control::exact::gain_delay_boundaries;
 use super::axis::Target;
 use super::spec::Sweep;
 use super::stats::{mean_ci, MeanCi};
-use super::table::{Kind, Table};
+use super::table::{metric_label, Kind, Table};
 use crate::plots::{axis, ensure_font, err, render_both};
 
 /// A metric's value in a row as a number: numbers as they are, the verdict as 1
@@ -39,11 +39,21 @@ fn number(row: &Map<String, Value>, metric: &str) -> Option<f64> {
     }
 }
 
+/// A metric's title and unit from the record's schema; the verdict plots as a fraction.
 fn label(metric: &str) -> String {
     if metric == "sync.verdict" {
         "fraction synchronized".into()
     } else {
-        metric.to_string()
+        metric_label(metric)
+    }
+}
+
+/// An axis's label: a scenario field as written; penetration says what its fraction counts.
+fn axis_label(axis: &str) -> String {
+    if axis == "penetration" {
+        "penetration [share of the vehicles automated]".into()
+    } else {
+        axis.to_string()
     }
 }
 
@@ -174,7 +184,7 @@ fn line_plots(sweep: &Sweep, table: &Table, x: &str, dir: &Path) -> anyhow::Resu
                 .map_err(err)?;
             chart
                 .configure_mesh()
-                .x_desc(x)
+                .x_desc(axis_label(x))
                 .y_desc(label(&metric))
                 .draw()
                 .map_err(err)?;
@@ -319,8 +329,8 @@ fn grid_plots(
                     chart
                         .configure_mesh()
                         .disable_mesh()
-                        .x_desc(names.0)
-                        .y_desc(names.1)
+                        .x_desc(axis_label(names.0))
+                        .y_desc(axis_label(names.1))
                         .draw()
                         .map_err(err)?;
                     if verdict {

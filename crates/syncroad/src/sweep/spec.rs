@@ -365,7 +365,7 @@ impl Sweep {
                     near = known.iter().map(|(p, _)| p.as_str()).take(12).collect();
                 }
                 return Err(bad(format!(
-                    "metrics: {m:?} is not a metric of metrics.json; valid are e.g. {} (docs/metrics.schema.json lists all)",
+                    "metrics: {m:?} is not a metric of metrics.json; valid are e.g. {} (`syncroad schema` lists all)",
                     near.join(", ")
                 ))
                 .into());

@@ -12,6 +12,7 @@ use anyhow::Context;
 use arrow_array::{ArrayRef, BooleanArray, Float64Array, Int64Array, RecordBatch, StringArray};
 use arrow_schema::{DataType, Field, Schema};
 use serde_json::{Map, Value};
+use syncroad_control::record_schema::{metric_infos, MetricInfo};
 
 /// A column's type.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -45,58 +46,35 @@ impl Column {
     }
 }
 
-/// Every scalar of `metrics.json` as a dotted path with its type, read from the published
-/// schema (`docs/metrics.schema.json`), in the schema's order.
+/// Every scalar of `metrics.json` as a dotted path with its column type, from the record's
+/// derived schema ([`metric_infos`]), in the record's field order.
 pub fn metric_kinds() -> &'static [(String, Kind)] {
     static KINDS: OnceLock<Vec<(String, Kind)>> = OnceLock::new();
     KINDS.get_or_init(|| {
-        let schema: Value =
-            serde_json::from_str(include_str!("../../../../docs/metrics.schema.json"))
-                .expect("the published schema is JSON");
-        let mut out = Vec::new();
-        walk(&schema, &schema, "", &mut out);
-        out
+        metric_infos()
+            .into_iter()
+            .map(|m| {
+                let kind = match m.kind {
+                    "number" => Kind::Float,
+                    "integer" => Kind::Int,
+                    "boolean" => Kind::Bool,
+                    _ => Kind::Text,
+                };
+                (m.path, kind)
+            })
+            .collect()
     })
 }
 
-fn walk(node: &Value, root: &Value, prefix: &str, out: &mut Vec<(String, Kind)>) {
-    if let Some(r) = node.get("$ref").and_then(Value::as_str) {
-        let name = r.trim_start_matches("#/$defs/");
-        if let Some(def) = root.get("$defs").and_then(|d| d.get(name)) {
-            walk(def, root, prefix, out);
-        }
-        return;
-    }
-    if let Some(props) = node.get("properties").and_then(Value::as_object) {
-        for (k, v) in props {
-            let path = if prefix.is_empty() {
-                k.clone()
-            } else {
-                format!("{prefix}.{k}")
-            };
-            walk(v, root, &path, out);
-        }
-        return;
-    }
-    if node.get("enum").is_some() {
-        out.push((prefix.to_string(), Kind::Text));
-        return;
-    }
-    let types: Vec<&str> = match node.get("type") {
-        Some(Value::String(t)) => vec![t.as_str()],
-        Some(Value::Array(ts)) => ts.iter().filter_map(Value::as_str).collect(),
-        _ => Vec::new(),
-    };
-    let kind = types.iter().find_map(|t| match *t {
-        "number" => Some(Kind::Float),
-        "integer" => Some(Kind::Int),
-        "boolean" => Some(Kind::Bool),
-        "string" => Some(Kind::Text),
-        _ => None,
-    });
-    if let Some(k) = kind {
-        out.push((prefix.to_string(), k));
-    }
+/// `title [unit]` of a metric path, from the record's schema (the path itself when it is no
+/// metric of the record).
+pub fn metric_label(path: &str) -> String {
+    static INFOS: OnceLock<Vec<MetricInfo>> = OnceLock::new();
+    INFOS
+        .get_or_init(metric_infos)
+        .iter()
+        .find(|m| m.path == path)
+        .map_or_else(|| path.to_string(), MetricInfo::label)
 }
 
 /// The value at a dotted path of a JSON document (`Null` when absent).
@@ -212,6 +190,8 @@ mod tests {
         assert_eq!(find("safety.collision_steps"), Some(Kind::Int));
         assert_eq!(find("certified"), Some(Kind::Bool));
         assert_eq!(find("sync.thresholds.tolerance_mps"), Some(Kind::Float));
+        assert_eq!(find("stop.reason"), Some(Kind::Text));
+        assert_eq!(metric_label("congestion.speed_std_mps"), "speed std [m/s]");
         // Arrays are not scalar metrics.
         assert_eq!(find("drivers"), None);
     }

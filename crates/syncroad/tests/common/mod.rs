@@ -36,85 +36,13 @@ pub fn run(cmd: &mut Command) -> (i32, String, String) {
     )
 }
 
-/// Checks `doc` against the JSON Schema subset `docs/metrics.schema.json` uses (`type`,
-/// `enum`, `required`, `properties`, `additionalProperties: false`, `items`, local `$ref`);
-/// returns every violation with its JSON path.
+/// Every violation of `schema` by `doc`, with its JSON path (a maintained validator,
+/// `jsonschema`, draft 2020-12).
 pub fn schema_violations(schema: &serde_json::Value, doc: &serde_json::Value) -> Vec<String> {
-    use serde_json::Value;
-    fn resolve<'a>(root: &'a Value, s: &'a Value) -> &'a Value {
-        match s.get("$ref").and_then(Value::as_str) {
-            Some(r) => {
-                let mut v = root;
-                for part in r.trim_start_matches("#/").split('/') {
-                    v = &v[part];
-                }
-                resolve(root, v)
-            }
-            None => s,
-        }
-    }
-    fn type_ok(t: &str, v: &Value) -> bool {
-        match t {
-            "object" => v.is_object(),
-            "array" => v.is_array(),
-            "string" => v.is_string(),
-            "boolean" => v.is_boolean(),
-            "null" => v.is_null(),
-            "integer" => v.is_u64() || v.is_i64(),
-            "number" => v.is_number(),
-            _ => false,
-        }
-    }
-    fn go(root: &Value, s: &Value, v: &Value, path: &str, out: &mut Vec<String>) {
-        let s = resolve(root, s);
-        if let Some(t) = s.get("type") {
-            let ok = match t {
-                Value::String(t) => type_ok(t, v),
-                Value::Array(ts) => ts.iter().filter_map(Value::as_str).any(|t| type_ok(t, v)),
-                _ => true,
-            };
-            if !ok {
-                out.push(format!("{path}: {v} is not of type {t}"));
-                return;
-            }
-        }
-        if let Some(e) = s.get("enum").and_then(Value::as_array) {
-            if !e.contains(v) {
-                out.push(format!("{path}: {v} is not one of {e:?}"));
-            }
-        }
-        if let Value::Object(m) = v {
-            for r in s
-                .get("required")
-                .and_then(Value::as_array)
-                .into_iter()
-                .flatten()
-            {
-                let k = r.as_str().unwrap_or_default();
-                if !m.contains_key(k) {
-                    out.push(format!("{path}: missing required key {k}"));
-                }
-            }
-            let props = s.get("properties").and_then(Value::as_object);
-            for (k, x) in m {
-                match props.and_then(|p| p.get(k)) {
-                    Some(ps) => go(root, ps, x, &format!("{path}.{k}"), out),
-                    None if s.get("additionalProperties") == Some(&Value::Bool(false)) => {
-                        out.push(format!("{path}: key {k} is not in the schema"))
-                    }
-                    None => {}
-                }
-            }
-        }
-        if let (Value::Array(a), Some(items)) = (v, s.get("items")) {
-            for (i, x) in a.iter().enumerate() {
-                go(root, items, x, &format!("{path}[{i}]"), out);
-            }
-        }
-    }
-    let mut out = Vec::new();
-    go(schema, schema, doc, "$", &mut out);
-    out
+    let v = jsonschema::draft202012::new(schema).expect("the schema compiles");
+    v.iter_errors(doc)
+        .map(|e| format!("{}: {e}", e.instance_path()))
+        .collect()
 }
 
 /// The published metrics schema.

@@ -23,6 +23,7 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::Path;
+use syncroad_control::record::STAMPS;
 
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
@@ -121,14 +122,11 @@ pub struct Baseline {
     pub metrics: Value,
 }
 
-/// Keys of a metrics document that are stamps, not results.
-pub const STAMP_KEYS: [&str; 3] = ["syncroad_version", "platform", "sumo_version"];
-
 /// Splits a metrics document into (stamps, results).
 pub fn split_stamps(mut doc: Value) -> (BTreeMap<String, Value>, Value) {
     let mut stamps = BTreeMap::new();
     if let Value::Object(map) = &mut doc {
-        for k in STAMP_KEYS {
+        for k in STAMPS {
             if let Some(v) = map.remove(k) {
                 stamps.insert(k.to_string(), v);
             }
@@ -432,7 +430,7 @@ pub fn run(
     let c = compare(&base, &stamps, &results);
     out!("{}", render(&c, baseline_path));
     if let Some(p) = &reports.junit {
-        let text = junit(&c, baseline_path, reports.strict);
+        let text = junit(&c, baseline_path, reports.strict)?;
         write_atomic(p, |w| Ok(w.write_all(text.as_bytes())?))?;
     }
     if let Some(p) = &reports.markdown {

@@ -20,6 +20,7 @@ use std::time::Duration;
 use anyhow::Context;
 use rayon::prelude::*;
 use serde_json::{json, Value};
+use syncroad_control::record::SHARED_KEYS;
 use syncroad_control::scenario::Model;
 use syncroad_control::{DamperSpec, EvalOptions, RunRecord, Scenario};
 use syncroad_sumo::{
@@ -36,6 +37,8 @@ use crate::plots::{spread_plot, Spread, SpreadLabels};
 use crate::progress::Progress;
 use crate::runs::RunSpec;
 use crate::stdout::{out, outln};
+
+mod table;
 
 /// A validated comparison.
 #[derive(Debug, Clone)]
@@ -208,16 +211,6 @@ impl RunResult {
     }
 }
 
-/// Keys of a run's record that are stamps, lifted to the top of compare.json.
-const RUN_STAMPS: [&str; 6] = [
-    "syncroad_version",
-    "platform",
-    "sumo_version",
-    "scenario_hash",
-    "seed",
-    "emission_class",
-];
-
 /// One run through the pipeline, written into `dir`.
 fn run_one(
     sc: &Scenario,
@@ -299,7 +292,7 @@ pub fn combined(sc: &Scenario, results: &[RunResult], mixed: &[(String, usize)])
             Err(e) => json!({"run": r.name, "complete": false, "error": e}),
         };
         if let Value::Object(o) = &mut m {
-            for k in RUN_STAMPS {
+            for k in SHARED_KEYS {
                 o.remove(k);
             }
         }
@@ -341,146 +334,6 @@ pub fn combined(sc: &Scenario, results: &[RunResult], mixed: &[(String, usize)])
         doc["mixed_reduction_vs_all_human"] = Value::Object(red);
     }
     doc
-}
-
-/// One table row: label, dotted path into a run's metrics, decimals.
-const ROWS: [(&str, &str, usize); 20] = [
-    ("verdict", "sync.verdict", 0),
-    ("final spread [m/s]", "sync.final_spread_mps", 4),
-    ("mean speed [m/s]", "congestion.mean_speed_mps", 3),
-    ("speed std [m/s]", "congestion.speed_std_mps", 3),
-    (
-        "std across vehicles [m/s]",
-        "congestion.speed_std_across_vehicles_mps",
-        3,
-    ),
-    ("min speed [m/s]", "congestion.min_speed_mps", 3),
-    ("stop events", "congestion.stop_events", 0),
-    ("stopped fraction", "congestion.stopped_fraction", 4),
-    ("wave amplitude [m/s]", "congestion.wave_amplitude_mps", 3),
-    ("wave speed [m/s]", "congestion.wave_speed_mps", 2),
-    ("flow, loop [veh/h]", "sumo.flow_veh_per_h", 0),
-    ("flow, N·v̄/L [veh/h]", "sumo.flow_from_speed_veh_per_h", 0),
-    ("time loss / veh [s]", "sumo.time_loss_per_vehicle_s", 1),
-    ("fuel [g/km]", "sumo.fuel_g_per_km", 2),
-    ("CO2 [g/km]", "sumo.co2_g_per_km", 1),
-    ("hard braking [veh-steps]", "sumo.hard_braking_steps", 0),
-    (
-        "emergency braking warn.",
-        "safety.emergency_braking_warnings",
-        0,
-    ),
-    ("collision steps", "safety.collision_steps", 0),
-    ("teleports", "safety.teleports", 0),
-    ("overridden commands", "safety.overridden_commands", 0),
-];
-
-/// Rows added for runs behind a leader: the measured string amplification.
-const STRING_ROWS: [(&str, &str, usize); 3] = [
-    (
-        "string: worst step ratio",
-        "string_amplification.worst_step_ratio",
-        3,
-    ),
-    (
-        "string: at follower",
-        "string_amplification.worst_step_vehicle",
-        0,
-    ),
-    (
-        "string: last / first peak",
-        "string_amplification.end_to_end_ratio",
-        3,
-    ),
-];
-
-/// Rows added when the runs measured safety margins (`--ssm`).
-const MARGIN_ROWS: [(&str, &str, usize); 8] = [
-    (
-        "time headway min [s]",
-        "safety_margins.time_headway_min_s",
-        2,
-    ),
-    (
-        "time headway mean [s]",
-        "safety_margins.time_headway_mean_s",
-        2,
-    ),
-    ("min gap [m]", "safety_margins.min_gap_m", 2),
-    ("TTC < 3 s conflicts", "safety_margins.ssm.ttc_conflicts", 0),
-    ("min TTC [s]", "safety_margins.ssm.ttc_min_s", 2),
-    (
-        "DRAC > 3 m/s² conflicts",
-        "safety_margins.ssm.drac_conflicts",
-        0,
-    ),
-    ("max DRAC [m/s²]", "safety_margins.ssm.drac_max_mps2", 2),
-    (
-        "ignores SUMO's safe speed",
-        "safety_margins.ignores_safe_speed",
-        0,
-    ),
-];
-
-fn cell(m: Option<&Value>, path: &str, decimals: usize) -> String {
-    let mut v = match m {
-        Some(v) => v,
-        None => return "—".into(),
-    };
-    for p in path.split('.') {
-        match v.get(p) {
-            Some(x) => v = x,
-            None => return "—".into(),
-        }
-    }
-    match v {
-        Value::Number(x) => format!("{:.*}", decimals, x.as_f64().unwrap_or(f64::NAN)),
-        Value::String(s) => s
-            .replace("_synchronized", "_sync")
-            .replace("not_sync", "not sync"),
-        Value::Null => "—".into(),
-        Value::Bool(b) => if *b { "yes" } else { "no" }.into(),
-        other => other.to_string(),
-    }
-}
-
-/// The side-by-side table (one column per run; Markdown, so it pastes into the README).
-pub fn table(doc: &Value) -> String {
-    let runs = doc["runs"].as_object().cloned().unwrap_or_default();
-    let names: Vec<&String> = runs.keys().collect();
-    let mut order: Vec<(String, Option<&Value>)> = Vec::new();
-    for n in names {
-        order.push((n.clone(), runs.get(n)));
-    }
-    // Keep the run order of the plan (JSON maps are sorted; the plan order is in "order").
-    if let Some(o) = doc.get("order").and_then(|o| o.as_array()) {
-        order.sort_by_key(|(n, _)| o.iter().position(|x| x.as_str() == Some(n)));
-    }
-    let mut s = String::new();
-    s.push_str("| metric |");
-    for (n, m) in &order {
-        let ok = m.and_then(|m| m.get("complete")).and_then(Value::as_bool) == Some(true);
-        s.push_str(&format!(" {n}{} |", if ok { "" } else { " (FAILED)" }));
-    }
-    s.push_str("\n|---|");
-    s.push_str(&"---:|".repeat(order.len()));
-    s.push('\n');
-    let margins = order
-        .iter()
-        .any(|(_, m)| m.is_some_and(|m| m.get("safety_margins").is_some()));
-    let extra: &[(&str, &str, usize)] = if margins { &MARGIN_ROWS } else { &[] };
-    let platoon = order
-        .iter()
-        .any(|(_, m)| m.is_some_and(|m| m.get("string_amplification").is_some()));
-    let string: &[(&str, &str, usize)] = if platoon { &STRING_ROWS } else { &[] };
-    for &(label, path, d) in ROWS.iter().chain(string).chain(extra) {
-        s.push_str(&format!("| {label} |"));
-        for (_, m) in &order {
-            s.push_str(&format!(" {} |", cell(*m, path, d)));
-        }
-        s.push('\n');
-    }
-    s
 }
 
 /// Runs a comparison into `out` and returns the combined document (the CLI and `regress`).
@@ -534,7 +387,11 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<Status> {
     if let Some((_, _, x)) = loop_position(&plan.road) {
         outln!("induction loop loop0 at ring coordinate {x:.2} m");
     }
-    out!("{}", table(&doc));
+    let columns: Vec<(&str, Option<&RunRecord>)> = results
+        .iter()
+        .map(|r| (r.name.as_str(), r.record.as_ref().ok()))
+        .collect();
+    out!("{}", table::table(&columns));
     if let Some(red) = doc
         .get("mixed_reduction_vs_all_human")
         .and_then(|r| r.as_object())
