@@ -193,12 +193,37 @@ fn regress_writes_junit_and_markdown_and_strict_fails_on_a_foreign_stamp() {
         .arg(&md));
     assert_eq!(code, 1, "{out}{err}");
     let x = std::fs::read_to_string(&junit).unwrap();
-    let cases = x.matches("<testcase ").count();
-    assert!(cases > 50, "{x}");
-    assert_eq!(x.matches("<failure ").count(), 1, "{x}");
-    assert!(x.contains(r#"name="sync.spread_l2">"#), "{x}");
-    assert!(x.contains(r#"failures="1""#), "{x}");
-    assert!(x.contains("<system-out>platform: baseline"), "{x}");
+    let doc = roxmltree::Document::parse(&x).expect("the JUnit report is XML");
+    let cases: Vec<_> = doc
+        .descendants()
+        .filter(|n| n.has_tag_name("testcase"))
+        .collect();
+    assert!(cases.len() > 50, "{x}");
+    let failed: Vec<_> = cases
+        .iter()
+        .filter(|c| c.children().any(|k| k.has_tag_name("failure")))
+        .collect();
+    assert_eq!(failed.len(), 1, "{x}");
+    assert_eq!(failed[0].attribute("name"), Some("sync.spread_l2"), "{x}");
+    let suite = doc
+        .descendants()
+        .find(|n| n.has_tag_name("testsuite"))
+        .unwrap();
+    assert_eq!(suite.attribute("failures"), Some("1"), "{x}");
+    assert_eq!(
+        suite.attribute("tests"),
+        Some(cases.len().to_string().as_str())
+    );
+    let stamp = cases
+        .iter()
+        .find(|c| c.attribute("name") == Some("stamp.platform"))
+        .expect("a test case for the platform stamp");
+    let out = stamp
+        .children()
+        .find(|k| k.has_tag_name("system-out"))
+        .and_then(|k| k.text())
+        .unwrap_or("");
+    assert!(out.starts_with("platform: baseline"), "{x}");
     let m = std::fs::read_to_string(&md).unwrap();
     assert!(
         m.contains(": FAIL") && m.contains("| `sync.spread_l2` | 99.0 |"),
@@ -220,10 +245,12 @@ fn regress_writes_junit_and_markdown_and_strict_fails_on_a_foreign_stamp() {
     assert_eq!(code, 1, "{out}{err}");
     assert!(err.contains("--strict"), "{err}");
     let x = std::fs::read_to_string(&junit).unwrap();
-    assert!(
-        x.contains(r#"name="stamp.platform""#) && x.contains("<failure "),
-        "{x}"
-    );
+    let doc = roxmltree::Document::parse(&x).expect("the JUnit report is XML");
+    let stamp = doc
+        .descendants()
+        .find(|n| n.has_tag_name("testcase") && n.attribute("name") == Some("stamp.platform"))
+        .expect("a test case for the platform stamp");
+    assert!(stamp.children().any(|k| k.has_tag_name("failure")), "{x}");
 }
 
 /// `scenarios/ring-theorem1.json` with `edit` applied, written into `dir`.

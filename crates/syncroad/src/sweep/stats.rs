@@ -1,26 +1,17 @@
-//! Mean and 95 % confidence interval over seeds (Student's t).
+//! Mean and 95 % confidence interval over seeds (Student's t, quantiles from `statrs`).
 
-/// Two-sided 95 % quantile t_{0.975, ν} of Student's t for ν = 1..=30 degrees of freedom
-/// (standard tables, e.g. NIST/SEMATECH e-Handbook 1.3.6.7.2). Between tabulated rows the
-/// value of the row below is used (30, 40, 60, 120), which widens the interval slightly and
-/// never narrows it; the normal quantile 1.95996 only in the limit.
-const T975: [f64; 30] = [
-    12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179, 2.160,
-    2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060, 2.056,
-    2.052, 2.048, 2.045, 2.042,
-];
+use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
 
-/// t_{0.975, ν}.
+/// The two-sided 95 % quantile t_{0.975, ν} of Student's t with ν degrees of freedom (NaN for
+/// ν = 0); beyond 10⁷ degrees of freedom the normal quantile, which it equals there to 1e-7.
 pub fn t975(dof: usize) -> f64 {
-    match dof {
-        0 => f64::NAN,
-        1..=30 => T975[dof - 1],
-        31..=40 => 2.042,
-        41..=60 => 2.021,
-        61..=120 => 2.000,
-        121..=1_000_000 => 1.980,
-        _ => 1.95996,
+    if dof == 0 {
+        return f64::NAN;
     }
+    if dof > 10_000_000 {
+        return Normal::standard().inverse_cdf(0.975);
+    }
+    StudentsT::new(0.0, 1.0, dof as f64).map_or(f64::NAN, |t| t.inverse_cdf(0.975))
 }
 
 /// Mean of the finite values and the half-width of its 95 % interval (`None` with fewer than
@@ -65,8 +56,21 @@ mod tests {
         let m = mean_ci(&xs).unwrap();
         assert_eq!(m.mean, 5.5);
         let s = (82.5f64 / 9.0).sqrt();
-        assert!((m.half_width.unwrap() - 2.262 * s / 10f64.sqrt()).abs() < 1e-12);
+        assert!((m.half_width.unwrap() - t975(9) * s / 10f64.sqrt()).abs() < 1e-12);
         assert!((m.half_width.unwrap() - 2.1658).abs() < 1e-3);
+        // Quantiles against the NIST/SEMATECH table (1.3.6.7.2, three decimals) and exact
+        // closed forms: ν = 1 is tan(0.475 π); ν = 2 is (2p − 1)/sqrt(2p(1 − p)) = 4.302653.
+        assert!((t975(1) - (0.475 * std::f64::consts::PI).tan()).abs() < 1e-6);
+        assert!((t975(2) - 4.302_652_7).abs() < 1e-6);
+        for (dof, table) in [
+            (9, 2.262),
+            (10, 2.228),
+            (20, 2.086),
+            (30, 2.042),
+            (100, 1.984),
+        ] {
+            assert!((t975(dof) - table).abs() < 5e-4, "t({dof}) = {}", t975(dof));
+        }
         assert_eq!(mean_ci(&[3.0]).unwrap().half_width, None);
         assert_eq!(mean_ci(&[f64::NAN]), None);
         // The large-sample limit is the normal quantile.

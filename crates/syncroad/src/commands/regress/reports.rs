@@ -6,6 +6,8 @@ use std::path::Path;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
+use quick_junit::{NonSuccessKind, Report, TestCase, TestCaseStatus, TestSuite};
+
 use super::{Comparison, Failure};
 
 /// Where `regress` reports besides stdout, and whether stamps must match.
@@ -19,76 +21,44 @@ pub struct Reports {
     pub strict: bool,
 }
 
-fn xml_escape(s: &str) -> String {
-    let mut out = String::with_capacity(s.len());
-    for ch in s.chars() {
-        match ch {
-            '&' => out.push_str("&amp;"),
-            '<' => out.push_str("&lt;"),
-            '>' => out.push_str("&gt;"),
-            '"' => out.push_str("&quot;"),
-            '\'' => out.push_str("&apos;"),
-            c if (c as u32) < 0x20 && !matches!(c, '\n' | '\t' | '\r') => {}
-            c => out.push(c),
-        }
-    }
-    out
-}
-
-/// The comparison as JUnit XML: one test case per metric, and one per stamp (failing only
-/// with `strict`).
-pub fn junit(c: &Comparison, baseline: &Path, strict: bool) -> String {
-    let suite = xml_escape(&baseline.display().to_string());
+/// The comparison as JUnit XML (written by `quick-junit`): one test case per metric, and one
+/// per stamp (failing only with `strict`).
+pub fn junit(c: &Comparison, baseline: &Path, strict: bool) -> anyhow::Result<String> {
+    let suite_name = baseline.display().to_string();
     let failed: BTreeMap<&str, &Failure> = c.failures.iter().map(|f| (f.key.as_str(), f)).collect();
-    let stamp_failures = if strict { c.stamp_notes.len() } else { 0 };
-    let mut s = String::from("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
-    let _ = writeln!(
-        s,
-        "<testsuites name=\"syncroad regress\" tests=\"{}\" failures=\"{}\">",
-        c.keys.len() + c.stamp_notes.len(),
-        c.failures.len() + stamp_failures
-    );
-    let _ = writeln!(
-        s,
-        "  <testsuite name=\"{suite}\" tests=\"{}\" failures=\"{}\">",
-        c.keys.len() + c.stamp_notes.len(),
-        c.failures.len() + stamp_failures
-    );
+    let mut suite = TestSuite::new(suite_name.as_str());
     for k in &c.keys {
-        let name = xml_escape(k);
-        match failed.get(k.as_str()) {
-            None => {
-                let _ = writeln!(s, "    <testcase classname=\"{suite}\" name=\"{name}\"/>");
-            }
+        let status = match failed.get(k.as_str()) {
+            None => TestCaseStatus::success(),
             Some(f) => {
-                let _ = writeln!(
-                    s,
-                    "    <testcase classname=\"{suite}\" name=\"{name}\">\n      <failure message=\"{}\">baseline {} fresh {}</failure>\n    </testcase>",
-                    xml_escape(&f.why),
-                    xml_escape(&f.base),
-                    xml_escape(&f.fresh)
-                );
+                let mut st = TestCaseStatus::non_success(NonSuccessKind::Failure);
+                st.set_message(f.why.as_str())
+                    .set_description(format!("baseline {} fresh {}", f.base, f.fresh));
+                st
             }
-        }
+        };
+        let mut case = TestCase::new(k.as_str(), status);
+        case.set_classname(suite_name.as_str());
+        suite.add_test_case(case);
     }
     for n in &c.stamp_notes {
         let key = n.split(':').next().unwrap_or(n);
-        let name = xml_escape(&format!("stamp.{key}"));
-        let body = if strict {
-            format!(
-                "<failure message=\"recorded on another version or platform (--strict)\">{}</failure>",
-                xml_escape(n)
-            )
+        let mut case = if strict {
+            let mut st = TestCaseStatus::non_success(NonSuccessKind::Failure);
+            st.set_message("recorded on another version or platform (--strict)")
+                .set_description(n.as_str());
+            TestCase::new(format!("stamp.{key}"), st)
         } else {
-            format!("<system-out>{}</system-out>", xml_escape(n))
+            let mut case = TestCase::new(format!("stamp.{key}"), TestCaseStatus::success());
+            case.set_system_out(n.as_str());
+            case
         };
-        let _ = writeln!(
-            s,
-            "    <testcase classname=\"{suite}\" name=\"{name}\">\n      {body}\n    </testcase>"
-        );
+        case.set_classname(suite_name.as_str());
+        suite.add_test_case(case);
     }
-    s.push_str("  </testsuite>\n</testsuites>\n");
-    s
+    let mut report = Report::new("syncroad regress");
+    report.add_test_suite(suite);
+    Ok(report.to_string()?)
 }
 
 fn md_cell(s: &str) -> String {
