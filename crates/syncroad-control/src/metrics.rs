@@ -42,26 +42,28 @@ pub struct VerdictThresholds {
     pub window_s: f64,
 }
 
-/// Synchronization metrics of one run.
+/// Synchronization metrics of one run. The spread figures are `null` for a run that produced
+/// no sample (it never started, or died before its first step): nothing was measured, so
+/// nothing is reported, and its verdict is "not synchronized" with that reason.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct SyncMetrics {
     /// Whether the spread is taken against the leader speed v_0.
     pub against_leader: bool,
     /// Spread at t = 0 [m/s].
     #[schemars(title = "initial spread")]
-    pub initial_spread_mps: f64,
+    pub initial_spread_mps: Option<f64>,
     /// Spread at the last sample [m/s].
     #[schemars(title = "final spread")]
-    pub final_spread_mps: f64,
+    pub final_spread_mps: Option<f64>,
     /// Largest spread over the final window [m/s].
     #[schemars(title = "max spread over the final window")]
-    pub window_max_spread_mps: f64,
+    pub window_max_spread_mps: Option<f64>,
     /// Largest spread over the run [m/s].
     #[schemars(title = "max spread")]
-    pub max_spread_mps: f64,
+    pub max_spread_mps: Option<f64>,
     /// `(∫ spread² dt)^{1/2}` [m/s·√s].
     #[schemars(title = "L2 norm of the spread")]
-    pub spread_l2: f64,
+    pub spread_l2: Option<f64>,
     /// First time after which the spread stays ≤ tolerance [s], if it does.
     #[schemars(title = "time to tolerance")]
     pub time_to_tolerance_s: Option<f64>,
@@ -241,18 +243,24 @@ pub fn sync_metrics_of(
     } else {
         Verdict::Inconclusive
     };
+    let measured = !s.is_empty();
+    let some = |x: f64| measured.then_some(x);
     SyncMetrics {
         against_leader: !traj.leader_speed_mps.is_empty(),
-        initial_spread_mps: s.first().copied().unwrap_or(0.0),
-        final_spread_mps: s.get(last).copied().unwrap_or(0.0),
-        window_max_spread_mps: window_max,
-        max_spread_mps: max_spread,
-        spread_l2: l2.sqrt(),
-        time_to_tolerance_s: time_to_tol,
+        initial_spread_mps: s.first().copied(),
+        final_spread_mps: s.get(last).copied(),
+        window_max_spread_mps: some(window_max),
+        max_spread_mps: some(max_spread),
+        spread_l2: some(l2.sqrt()),
+        time_to_tolerance_s: time_to_tol.filter(|_| measured),
         decay_rate_per_s: rate,
         final_gap_error_m: final_gap_error,
-        verdict,
-        verdict_reason: None,
+        verdict: if measured {
+            verdict
+        } else {
+            Verdict::NotSynchronized
+        },
+        verdict_reason: (!measured).then(|| "the run produced no sample".to_string()),
         thresholds,
         incomplete,
     }
@@ -311,13 +319,33 @@ mod tests {
     };
 
     #[test]
+    fn a_run_without_samples_reports_nothing_measured() {
+        // A worker that died before its first step: no spread, no zero made up for it.
+        let m = sync_metrics(&Trajectory::new(3), TH, None, true);
+        assert_eq!(m.initial_spread_mps, None);
+        assert_eq!(m.final_spread_mps, None);
+        assert_eq!(m.max_spread_mps, None);
+        assert_eq!(m.window_max_spread_mps, None);
+        assert_eq!(m.spread_l2, None);
+        assert_eq!(m.time_to_tolerance_s, None);
+        assert_eq!(m.verdict, Verdict::NotSynchronized);
+        assert_eq!(
+            m.verdict_reason.as_deref(),
+            Some("the run produced no sample")
+        );
+        // Even one that claims to be complete.
+        let m = sync_metrics(&Trajectory::new(3), TH, None, false);
+        assert_eq!(m.verdict, Verdict::NotSynchronized);
+    }
+
+    #[test]
     fn exponential_decay_is_fitted_and_integrated_exactly() {
         // spread = 2 e^{−0.3 t}: rate −0.3, L2² = 4/(0.6) (1 − e^{−0.6·40}), time to 0.05 = ln(40)/0.3.
         let tr = traj_from(|t| 2.0 * (-0.3 * t).exp(), 40.0, 0.01);
         let m = sync_metrics(&tr, TH, None, false);
         assert_relative_eq!(m.decay_rate_per_s.unwrap(), -0.3, epsilon = 1e-9);
         assert_relative_eq!(
-            m.spread_l2,
+            m.spread_l2.unwrap(),
             (4.0 / 0.6 * (1.0 - (-24.0f64).exp())).sqrt(),
             max_relative = 1e-4
         );

@@ -186,8 +186,9 @@ pub struct RunRecord {
     pub error: Option<String>,
     /// Why the run stopped.
     pub stop: StopReason,
-    /// Certified by the paper's sufficient conditions.
-    pub certified: bool,
+    /// Certified by the paper's sufficient conditions: `null` when they do not speak of this
+    /// run (some vehicle is not driven by the law, or the run produced no sample).
+    pub certified: Option<bool>,
     /// Warm-up excluded from congestion and SUMO measures \[s\].
     pub warmup_s: f64,
     /// Synchronization metrics and verdict.
@@ -213,6 +214,12 @@ pub struct RunRecord {
     pub string_amplification: Option<StringAmplification>,
 }
 
+/// The paper's conditions speak of a run only when the law drives every vehicle (a human or a
+/// damper in the ring is outside the theorem's graph) and the run produced a sample.
+pub fn certificate_applies(vehicles: usize, law_controlled: usize, run: &RunOutput) -> bool {
+    law_controlled == vehicles && !run.trajectory.is_empty()
+}
+
 impl RunRecord {
     /// The record of a run named `run`.
     pub fn new(sc: &Scenario, run_name: &str, run: &RunOutput, outcome: &Outcome) -> Self {
@@ -221,6 +228,7 @@ impl RunRecord {
             .map(|f| f.drivers.clone())
             .filter(|d| !d.is_empty())
             .unwrap_or_else(|| vec!["law".to_string(); sc.vehicles()]);
+        let law_controlled = drivers.iter().filter(|d| *d == "law").count();
         Self {
             syncroad_version: env!("CARGO_PKG_VERSION").to_string(),
             platform: format!("{}-{}", std::env::consts::ARCH, std::env::consts::OS),
@@ -237,12 +245,13 @@ impl RunRecord {
             vehicles: sc.vehicles(),
             step_s: sc.step_s(),
             horizon_s: sc.horizon_s(),
-            law_controlled_vehicles: drivers.iter().filter(|d| *d == "law").count(),
+            law_controlled_vehicles: law_controlled,
             drivers,
             complete: run.stop.is_complete(),
             error: run.stop.message(),
             stop: run.stop.clone(),
-            certified: outcome.theory.certified,
+            certified: certificate_applies(sc.vehicles(), law_controlled, run)
+                .then_some(outcome.theory.certified),
             warmup_s: outcome.warmup_s,
             sync: outcome.sync.clone(),
             congestion: outcome.congestion.as_ref().ok().cloned(),

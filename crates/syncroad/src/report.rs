@@ -156,6 +156,11 @@ pub fn theory_table(r: &TheoryReport) -> String {
     s
 }
 
+/// A measured figure, or "—" when nothing was measured.
+fn num(x: Option<f64>, f: impl Fn(f64) -> String) -> String {
+    x.map_or("—".to_string(), f)
+}
+
 fn opt(x: Option<f64>, unit: &str) -> String {
     x.map_or("—".to_string(), |v| format!("{v:.6} {unit}"))
 }
@@ -166,7 +171,8 @@ pub fn metrics_table(
     backend: &str,
     m: &SyncMetrics,
     stopped_early: Option<&str>,
-    theory: &TheoryReport,
+    certified: Option<bool>,
+    law_vehicles: usize,
 ) -> String {
     let mut s = String::new();
     let _ = writeln!(
@@ -185,18 +191,22 @@ pub fn metrics_table(
     };
     let _ = writeln!(
         s,
-        "  spread {vs}: initial {:.6} m/s, final {:.3e} m/s, max {:.6} m/s",
-        m.initial_spread_mps, m.final_spread_mps, m.max_spread_mps
+        "  spread {vs}: initial {} m/s, final {} m/s, max {} m/s",
+        num(m.initial_spread_mps, |x| format!("{x:.6}")),
+        num(m.final_spread_mps, |x| format!("{x:.3e}")),
+        num(m.max_spread_mps, |x| format!("{x:.6}"))
     );
     let _ = writeln!(
         s,
-        "  spread over the final {} s       ≤ {:.3e} m/s (tolerance {} m/s)",
-        m.thresholds.window_s, m.window_max_spread_mps, m.thresholds.tolerance_mps
+        "  spread over the final {} s       ≤ {} m/s (tolerance {} m/s)",
+        m.thresholds.window_s,
+        num(m.window_max_spread_mps, |x| format!("{x:.3e}")),
+        m.thresholds.tolerance_mps
     );
     let _ = writeln!(
         s,
-        "  L2 norm of the spread             {:.6} m/s·√s",
-        m.spread_l2
+        "  L2 norm of the spread             {} m/s·√s",
+        num(m.spread_l2, |x| format!("{x:.6}"))
     );
     let _ = writeln!(
         s,
@@ -221,7 +231,14 @@ pub fn metrics_table(
     let _ = writeln!(
         s,
         "  certified by the paper's conditions: {}",
-        yes(theory.certified)
+        match certified {
+            Some(c) => yes(c).to_string(),
+            None if law_vehicles < sc.vehicles() => format!(
+                "does not apply (the law drives {law_vehicles} of {} vehicles)",
+                sc.vehicles()
+            ),
+            None => "does not apply (no sample)".to_string(),
+        }
     );
     let _ = writeln!(s, "verdict: {}", m.verdict);
     if let Some(why) = &m.verdict_reason {

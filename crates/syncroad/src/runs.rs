@@ -1,7 +1,7 @@
 //! Who drives in a run: the scenario's law, a wave damper, one of SUMO's drivers, or a mix.
 //! `compare` and `sweep` name runs the same way.
 
-use syncroad_control::DamperSpec;
+use syncroad_control::{DamperSpec, Scenario};
 use syncroad_sumo::SumoDriver;
 
 use crate::error::InputError;
@@ -69,12 +69,18 @@ impl RunSpec {
         }
     }
 
-    /// Fraction of the `n` vehicles the law or the damper drives.
-    pub fn penetration(&self, n: usize) -> f64 {
+    /// Fraction of the scenario's vehicles the law or the damper drives: as the scenario says
+    /// when the run does not choose (its `mixed` block puts humans among the law's vehicles).
+    pub fn penetration(&self, sc: &Scenario) -> f64 {
+        let n = sc.vehicles().max(1) as f64;
         if self.drivers.is_empty() {
-            return 1.0;
+            return match sc.mixed() {
+                // round(p N) vehicles whatever the seed, which only chooses which.
+                Some(m) => m.automated(sc.vehicles(), sc.seed()).len() as f64 / n,
+                None => 1.0,
+            };
         }
-        self.drivers.iter().filter(|d| d.is_none()).count() as f64 / n.max(1) as f64
+        self.drivers.iter().filter(|d| d.is_none()).count() as f64 / n
     }
 }
 

@@ -89,7 +89,8 @@ fn run_native(sc: &Scenario, out: &OutputArgs) -> anyhow::Result<Status> {
             "native",
             &f.outcome.sync,
             f.output.stop.message().as_deref(),
-            &f.outcome.theory
+            f.record.certified,
+            f.record.law_controlled_vehicles,
         )
     );
     match &f.outcome.congestion {
@@ -190,7 +191,8 @@ fn run_sumo(sc: &Scenario, out: &OutputArgs, args: &SumoArgs) -> anyhow::Result<
             "sumo",
             &f.outcome.sync,
             f.output.stop.message().as_deref(),
-            &f.outcome.theory
+            f.record.certified,
+            f.record.law_controlled_vehicles,
         )
     );
     if let Some(facts) = &f.output.sumo {

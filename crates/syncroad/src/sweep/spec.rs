@@ -273,7 +273,7 @@ impl Sweep {
                 return Err(bad(format!("runs: {} is listed twice", spec.name)).into());
             }
             runs.push(RunChoice {
-                penetration: spec.penetration(n),
+                penetration: spec.penetration(&base),
                 spec,
             });
         }

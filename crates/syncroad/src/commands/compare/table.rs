@@ -51,7 +51,7 @@ const ROWS: [Row; 20] = [
     Row {
         path: "sync.final_spread_mps",
         decimals: 4,
-        get: |r| Cell::Num(Some(r.sync.final_spread_mps)),
+        get: |r| Cell::Num(r.sync.final_spread_mps),
     },
     Row {
         path: "congestion.mean_speed_mps",
