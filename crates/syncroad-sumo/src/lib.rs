@@ -21,6 +21,8 @@
 //! * `supervisor`, `run` — the parent: [`Prepared::new`] checks everything it can before SUMO
 //!   starts, [`Prepared::run`] supervises the worker, [`SumoRun::output`] is the
 //!   [`RunOutput`](syncroad_control::RunOutput) every backend returns;
+//! * `result_file` — the one writer of every result file: atomic replacement of regular
+//!   files, written through to FIFOs and devices, never renamed over anything else;
 //! * [`bench`](mod@bench) — SUMO alone vs SUMO + controller vs a TraCI-socket reference.
 #![warn(missing_docs)]
 #![allow(clippy::needless_range_loop)]
@@ -34,6 +36,7 @@ mod layout;
 mod net;
 mod protocol;
 mod python;
+mod result_file;
 mod run;
 mod signals;
 mod ssm;
@@ -46,6 +49,7 @@ pub use car_following::{CarFollowing, CarFollowingError, CfModel};
 pub use drivers::{DriverError, SumoDriver, EMISSION_CLASS};
 pub use net::Road;
 pub use protocol::{Event, Finish, ReadMode, Request, StartInfo, Totals};
+pub use result_file::{write_result, write_result_via_path, ResultFileError};
 pub use run::{
     check_sumo_numbers, layout_for, load_road, loop_position, net_path, run_scenario,
     MeasureOptions, PrepareError, Prepared, RunOptions, SumoRun,

@@ -17,6 +17,7 @@ use syncroad_control::{theory, Scenario, Verdict};
 
 use crate::config::{self, load_scenario};
 use crate::error::{InputError, Status};
+use crate::output::write_result_via_path;
 use crate::plots::err;
 use crate::progress::Progress;
 use crate::stdout::outln;
@@ -332,7 +333,7 @@ pub fn write_csv(path: &Path, pts: &[Point]) -> anyhow::Result<()> {
             p.delay_rounding_s
         );
     }
-    std::fs::write(path, s).with_context(|| format!("cannot write {}", path.display()))
+    crate::output::write_text(path, &s)
 }
 
 macro_rules! draw_map {
@@ -461,18 +462,18 @@ pub fn plot(
     crate::plots::ensure_font();
     let png = dir.join("map.png");
     let svg = dir.join("map.svg");
-    {
-        let area = BitMapBackend::new(&png, (1000, 800)).into_drawing_area();
+    write_result_via_path(&png, |tmp: &Path| {
+        let area = BitMapBackend::new(tmp, (1000, 800)).into_drawing_area();
         area.fill(&WHITE).map_err(err)?;
         draw_map!(&area, title, xa, ya, pts, bounds)?;
-        area.present().map_err(err)?;
-    }
-    {
-        let area = SVGBackend::new(&svg, (1000, 800)).into_drawing_area();
+        area.present().map_err(err)
+    })?;
+    write_result_via_path(&svg, |tmp: &Path| {
+        let area = SVGBackend::new(tmp, (1000, 800)).into_drawing_area();
         area.fill(&WHITE).map_err(err)?;
         draw_map!(&area, title, xa, ya, pts, bounds)?;
-        area.present().map_err(err)?;
-    }
+        area.present().map_err(err)
+    })?;
     Ok(vec![png, svg])
 }
 

@@ -17,6 +17,7 @@ use syncroad_sumo::interrupt_flag;
 use crate::cli::{SweepAction, SweepArgs};
 use crate::config;
 use crate::error::{InputError, Status};
+use crate::output::write_text;
 use crate::stdout::outln;
 use crate::sweep::exec::{self, read_rows};
 use crate::sweep::slurm::{self, SlurmOptions};
@@ -207,7 +208,7 @@ fn collect(
     for (id, row) in &merged {
         let text = serde_json::to_string(row)? + "\n";
         let path = out.join("rows").join(format!("{id:07}.json"));
-        std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))?;
+        write_text(&path, &text)?;
     }
     let rows = merged.len();
     write_tables(&sweep, out, merged, plots)?;

@@ -26,6 +26,7 @@ use super::spec::{Point, Sweep};
 use super::table::{at_path, metric_kinds, Column, Kind, Table};
 use crate::config;
 use crate::error::InputError;
+use crate::output::write_text;
 use crate::pipeline::{self, Finished};
 use crate::progress::Progress;
 
@@ -198,12 +199,6 @@ fn failed_row(sweep: &Sweep, p: &Point, error: &str) -> Map<String, Value> {
     r
 }
 
-fn write_atomic(path: &Path, text: &str) -> anyhow::Result<()> {
-    let tmp = path.with_extension("json.tmp");
-    std::fs::write(&tmp, text).with_context(|| format!("cannot write {}", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
-}
-
 /// Checks `out` and writes `sweep.json`: a new folder, or one this spec (and shard) made
 /// before, whose finished points are skipped.
 pub fn open_out(sweep: &Sweep, out: &Path, shard: Shard) -> anyhow::Result<()> {
@@ -260,7 +255,7 @@ pub fn open_out(sweep: &Sweep, out: &Path, shard: Shard) -> anyhow::Result<()> {
     }
     std::fs::create_dir_all(rows_dir(out))
         .with_context(|| format!("cannot create {}", rows_dir(out).display()))?;
-    write_atomic(&meta, &(serde_json::to_string_pretty(&doc)? + "\n"))
+    write_text(&meta, &(serde_json::to_string_pretty(&doc)? + "\n"))
 }
 
 /// Reads every row in `out/rows`, by point id.
@@ -471,7 +466,7 @@ pub fn run(
                 failed.fetch_add(1, Ordering::SeqCst);
             }
             let text = serde_json::to_string(&row).expect("a row serializes") + "\n";
-            if let Err(e) = write_atomic(&row_path(out, p.id), &text) {
+            if let Err(e) = write_text(&row_path(out, p.id), &text) {
                 write_error.lock().expect("error slot").get_or_insert(e);
                 interrupt.store(true, Ordering::SeqCst);
             }

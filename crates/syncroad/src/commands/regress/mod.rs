@@ -21,7 +21,6 @@
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
-use std::io::Write as _;
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
@@ -29,7 +28,7 @@ use serde_json::Value;
 
 use crate::config::load_scenario;
 use crate::error::{InputError, Status};
-use crate::output::{write_atomic, write_json};
+use crate::output::{write_json, write_text};
 use crate::pipeline::{self, Finished};
 use crate::stdout::{out, outln};
 use syncroad_control::EvalOptions;
@@ -433,11 +432,11 @@ pub fn run(
     out!("{}", render(&c, baseline_path));
     if let Some(p) = &reports.junit {
         let text = junit(&c, baseline_path, reports.strict);
-        write_atomic(p, |w| Ok(w.write_all(text.as_bytes())?))?;
+        write_text(p, &text)?;
     }
     if let Some(p) = &reports.markdown {
         let text = markdown(&c, baseline_path, reports.strict);
-        write_atomic(p, |w| Ok(w.write_all(text.as_bytes())?))?;
+        write_text(p, &text)?;
     }
     let stamps_ok = c.stamp_notes.is_empty() || !reports.strict;
     if !stamps_ok {
