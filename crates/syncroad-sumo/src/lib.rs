@@ -51,7 +51,7 @@ pub use net::Road;
 pub use protocol::{Event, Finish, ReadMode, Request, StartInfo, Totals};
 pub use result_file::{write_result, write_result_via_path, ResultFileError};
 pub use run::{
-    check_sumo_numbers, layout_for, load_road, loop_position, net_path, run_scenario,
+    check_run, check_sumo_numbers, layout_for, load_road, loop_position, net_path, run_scenario,
     MeasureOptions, PrepareError, Prepared, RunOptions, SumoRun,
 };
 pub use signals::received as interrupt_signal;

@@ -216,12 +216,13 @@ fn simulate_grid(
     });
     let sweep = Sweep::new(spec, Path::new("."), "map".into())?;
     let dir = out.join("sweep");
-    // The map owns this folder: every map starts it afresh.
+    // One map at a time writes into `out`; it owns `out/sweep` and starts it afresh.
+    let _lock = crate::sweep::lock::hold("--out", out)?;
     if dir.exists() {
         std::fs::remove_dir_all(&dir)
             .with_context(|| format!("cannot remove the previous {}", dir.display()))?;
     }
-    exec::open_out(&sweep, &dir, Shard::all())?;
+    let _sweep_lock = exec::open_out(&sweep, &dir, Shard::all())?;
     let opts = ExecOptions {
         jobs,
         shard: Shard::all(),
@@ -236,7 +237,7 @@ fn simulate_grid(
             dir.display()
         ));
     }
-    let rows = exec::read_rows(&dir)?;
+    let rows = crate::sweep::rows::read_rows(&sweep, &dir, Shard::all())?;
     let mut verdicts = vec![None; xa.n * ya.n];
     for (id, row) in &rows {
         let p = sweep.point(*id);

@@ -164,7 +164,10 @@ pub struct Sweep {
     pub seeds: Vec<u64>,
     /// Metric paths kept.
     pub metrics: Vec<String>,
-    /// SHA-256 of the spec and the base scenario as written: what resumption checks.
+    /// Number of points.
+    count: usize,
+    /// SHA-256 of the spec, the base scenario as written and (SUMO) the network files the
+    /// points read: what resumption checks.
     pub hash: String,
 }
 
@@ -244,7 +247,16 @@ impl Sweep {
             Some(SeedsFile::List(v)) if v.is_empty() => {
                 return Err(bad("seeds = []: give at least one seed").into())
             }
-            Some(SeedsFile::List(v)) => v.clone(),
+            Some(SeedsFile::List(v)) => {
+                if let Some(s) = v.iter().find(|&&s| s > i64::MAX as u64) {
+                    return Err(bad(format!(
+                        "seeds: {s} is past {}, the largest seed the results table holds",
+                        i64::MAX
+                    ))
+                    .into());
+                }
+                v.clone()
+            }
             Some(SeedsFile::Range { first, count }) => {
                 if *count == 0 || *count > 100_000 {
                     return Err(bad(format!(
@@ -252,7 +264,7 @@ impl Sweep {
                     ))
                     .into());
                 }
-                (*first..first.saturating_add(*count)).collect()
+                super::points::seed_range(*first, *count)?
             }
         };
         if seeds.iter().collect::<BTreeSet<_>>().len() != seeds.len() {
@@ -298,6 +310,7 @@ impl Sweep {
             if controllers.is_empty() {
                 return Err(bad("mixed_controller = []: name at least one (e.g. \"law\")").into());
             }
+            let mut counts: Vec<(usize, f64)> = Vec::new();
             for &p in &file.penetrations {
                 if !(0.0..=1.0).contains(&p) {
                     return Err(
@@ -305,6 +318,13 @@ impl Sweep {
                     );
                 }
                 let k = (p * n as f64).round() as usize;
+                if let Some((_, q)) = counts.iter().find(|(j, _)| *j == k) {
+                    return Err(bad(format!(
+                        "penetrations: {q} and {p} both give {k} of {n} automated vehicles, so the same run twice; give one of them"
+                    ))
+                    .into());
+                }
+                counts.push((k, p));
                 // The all-human ring is the same whatever would control: it runs once.
                 let with = if k == 0 {
                     &controllers[..1]
@@ -378,17 +398,18 @@ impl Sweep {
             return Err(bad("record_every = 0: must be ≥ 1").into());
         }
         if let Some(t) = file.timeout_s {
-            if !(t.is_finite() && t > 0.0) {
-                return Err(bad(format!("timeout_s = {t}: must be a finite number > 0")).into());
+            if t == 0.0 {
+                return Err(bad("timeout_s = 0: must be > 0").into());
             }
+            crate::config::timeout_as("timeout_s", t)?;
         }
+        let count = super::points::count(&axes, runs.len(), seeds.len())?;
         let mut h = Sha256::new();
         // The spec as written (keys sorted), so the hash does not move with syncroad's defaults.
         h.update(serde_json::to_string(&raw)?.as_bytes());
         h.update([0]);
         h.update(serde_json::to_string(&base_json)?.as_bytes());
-        let hash = h.finalize().iter().map(|b| format!("{b:02x}")).collect();
-        let sweep = Self {
+        let mut sweep = Self {
             name,
             file,
             base,
@@ -399,24 +420,24 @@ impl Sweep {
             runs,
             seeds,
             metrics,
-            hash,
+            count,
+            hash: String::new(),
         };
-        // Every point's scenario must validate before anything runs.
-        let mut checked = BTreeSet::new();
-        for p in sweep.points() {
-            // The run and the seed never make a scenario invalid; check each axis combination once.
-            if checked.insert(p.at.clone()) {
-                sweep.scenario(&p)?;
-            }
+        // Every point is checked as it will run before anything runs; the networks they read
+        // are part of what a resumed sweep must match.
+        for net in sweep.check_points()? {
+            let bytes = std::fs::read(&net)
+                .map_err(|e| bad(format!("cannot read the network {}: {e}", net.display())))?;
+            h.update([0]);
+            h.update(&bytes);
         }
+        sweep.hash = h.finalize().iter().map(|b| format!("{b:02x}")).collect();
         Ok(sweep)
     }
 
-    /// Number of points.
+    /// Number of points (at most [`super::points::MAX_POINTS`]).
     pub fn len(&self) -> usize {
-        self.axes.iter().map(|a| a.values.len()).product::<usize>()
-            * self.runs.len()
-            * self.seeds.len()
+        self.count
     }
 
     /// The points in order.
