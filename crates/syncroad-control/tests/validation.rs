@@ -277,7 +277,7 @@ fn horizons_beyond_the_step_limit_are_refused_naming_both_fields() {
     let e = err(&json);
     assert_eq!(
         e,
-        "horizon_s = 1000000000000 s with step_s = 0.1 s is 1.000e13 steps; at most 10000000 steps are allowed, so give horizon_s ≤ 1000000 s at this step (or a larger step_s)"
+        "horizon_s = 1000000000000 s with step_s = 0.1 s is 10000000000000 steps; at most 10000000 steps are allowed, so give horizon_s ≤ 1000000 s at this step (or a larger step_s)"
     );
     // A tiny step over an ordinary horizon: the same limit, both fields named.
     let json = base(RING, "").replace(r#""step_s": 0.1"#, r#""step_s": 1e-9"#);

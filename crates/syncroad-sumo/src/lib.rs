@@ -54,7 +54,7 @@ pub use run::{
     check_run, check_sumo_numbers, layout_for, load_road, loop_position, net_path, run_scenario,
     MeasureOptions, PrepareError, Prepared, RunOptions, SumoRun,
 };
-pub use signals::received as interrupt_signal;
+pub use signals::{received as interrupt_signal, received_name as interrupt_signal_name};
 pub use supervisor::{interrupt_flag, SupervisorError, WorkerCommand, WorkerPool};
 pub use venv::repo_dir;
 pub use worker::{is_worker_invocation, worker_main};

@@ -267,6 +267,13 @@ pub fn compare(
                 .push(format!("{k}: baseline {v}, this run has none")),
         }
     }
+    // A baseline without a stamp says nothing about where it was recorded: --strict fails it.
+    for (k, w) in fresh_stamps {
+        if !base.stamp.contains_key(k) && !w.is_null() {
+            c.stamp_notes
+                .push(format!("{k}: the baseline has none, this run {w}"));
+        }
+    }
     c
 }
 
