@@ -210,6 +210,33 @@ mod tests {
         m
     }
 
+    fn at_speed(v: f64, leader: Option<f64>) -> (Trajectory, SyncMetrics) {
+        let mut tr = Trajectory::new(2);
+        for k in 0..=100 {
+            tr.push(k as f64 * 0.1, &[v, v], &[0.0, 0.0], &[5.0, 5.0], leader);
+        }
+        let th = VerdictThresholds {
+            tolerance_mps: 0.05,
+            window_s: 1.0,
+        };
+        let m = sync_metrics(&tr, th, None, false);
+        (tr, m)
+    }
+
+    #[test]
+    fn a_ring_at_standstill_is_a_jam_but_a_stop_behind_a_stopped_leader_is_not() {
+        let (tr, m) = at_speed(0.0, None);
+        assert_eq!(m.verdict, Verdict::Synchronized);
+        let why = standstill(&tr, &m).unwrap();
+        assert!(why.starts_with("every vehicle stands still at the end"), "{why}");
+        // 0.04 m/s is within the 0.05 m/s tolerance of 0; 0.06 m/s is motion.
+        assert!(standstill(&at_speed(0.04, None).0, &at_speed(0.04, None).1).is_some());
+        assert!(standstill(&at_speed(0.06, None).0, &at_speed(0.06, None).1).is_none());
+        let (tr, m) = at_speed(0.0, Some(0.0));
+        assert!(m.against_leader);
+        assert!(standstill(&tr, &m).is_none());
+    }
+
     #[test]
     fn a_clean_sumo_run_keeps_the_spread_verdict() {
         let m = judged(&facts(Safety::default(), 0.0));

@@ -14,7 +14,7 @@ use syncroad_control::scenario::Backend;
 use syncroad_sumo::{load_road, MeasureOptions, Road, RunOptions, WorkerCommand};
 
 use super::axis::Axis;
-use super::spec::{Point, Sweep};
+use super::spec::{Point, SeedsFile, SpecFile, Sweep};
 use crate::config;
 use crate::error::InputError;
 
@@ -57,6 +57,39 @@ pub fn seed_range(first: u64, count: u64) -> Result<Vec<u64>, InputError> {
             "seeds = {{\"first\": {first}, \"count\": {count}}}: the last seed would pass {LARGEST}, the largest the results table holds; start lower"
         ))),
     }
+}
+
+/// The seeds of a spec (default: the base scenario's), each at most 2^63 − 1.
+pub fn seeds_of(file: &SpecFile, base_seed: u64) -> anyhow::Result<Vec<u64>> {
+    let seeds = match &file.seeds {
+        None => vec![base_seed],
+        Some(SeedsFile::List(v)) if v.is_empty() => {
+            return Err(InputError::new("seeds = []: give at least one seed").into())
+        }
+        Some(SeedsFile::List(v)) => {
+            if let Some(s) = v.iter().find(|&&s| s > i64::MAX as u64) {
+                return Err(InputError::new(format!(
+                    "seeds: {s} is past {}, the largest seed the results table holds",
+                    i64::MAX
+                ))
+                .into());
+            }
+            v.clone()
+        }
+        Some(SeedsFile::Range { first, count }) => {
+            if *count == 0 || *count > 100_000 {
+                return Err(InputError::new(format!(
+                    "seeds.count = {count}: must be between 1 and 100000"
+                ))
+                .into());
+            }
+            seed_range(*first, *count)?
+        }
+    };
+    if seeds.iter().collect::<BTreeSet<_>>().len() != seeds.len() {
+        return Err(InputError::new(format!("seeds = {seeds:?}: a seed is listed twice")).into());
+    }
+    Ok(seeds)
 }
 
 impl Sweep {

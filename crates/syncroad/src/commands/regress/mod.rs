@@ -535,6 +535,24 @@ mod tests {
     }
 
     #[test]
+    fn a_baseline_without_a_stamp_is_a_stamp_note_so_strict_fails_it() {
+        let mut b = base(json!({"a": 1.0}));
+        b.stamp.clear();
+        let stamps = [
+            ("platform".to_string(), json!("x86_64-linux")),
+            ("sumo_version".to_string(), Value::Null),
+        ]
+        .into_iter()
+        .collect();
+        let c = compare(&b, &stamps, &json!({"a": 1.0}));
+        assert!(c.failures.is_empty());
+        assert_eq!(
+            c.stamp_notes,
+            ["platform: the baseline has none, this run \"x86_64-linux\""]
+        );
+    }
+
+    #[test]
     fn nan_missing_and_extra_keys_fail_and_stamps_are_reported() {
         let b = base(json!({"a": 1.0, "b": 2.0}));
         let stamps = [("platform".to_string(), json!("aarch64-linux"))]
