@@ -124,6 +124,10 @@ mod tests {
             "vehicles overlapped in 2 steps (gap down to -2.000 m; first vehicle 1 at t = 0.100 s, gap -0.500 m): a collision, which SUMO reports as one"
         );
         assert_eq!(v[1].0, Verdict::Inconclusive);
-        assert!(v[1].1.starts_with("vehicles drove backwards in 1 steps"), "{}", v[1].1);
+        assert!(
+            v[1].1.starts_with("vehicles drove backwards in 1 steps"),
+            "{}",
+            v[1].1
+        );
     }
 }

@@ -168,7 +168,13 @@ pub fn simulate(scenario: &Scenario, opts: NativeOptions) -> NativeRun {
     let mut observe = |t: f64, q: &[f64], v: &[f64], spread: &mut SpreadSeries| {
         let (lo, hi) = speed_range(&v[k0..]);
         spread.push(t, spread_of_range(lo, hi, scenario.leader_speed_at(t)));
-        gaps_from_positions(&q[k0..], lengths, leader.map(|_| q[0]), ring, &mut step_gaps);
+        gaps_from_positions(
+            &q[k0..],
+            lengths,
+            leader.map(|_| q[0]),
+            ring,
+            &mut step_gaps,
+        );
         collisions.observe(t, &step_gaps, &v[k0..]);
     };
     record(0.0, &q, &v, &mut traj);

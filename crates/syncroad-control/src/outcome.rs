@@ -228,7 +228,10 @@ mod tests {
         let (tr, m) = at_speed(0.0, None);
         assert_eq!(m.verdict, Verdict::Synchronized);
         let why = standstill(&tr, &m).unwrap();
-        assert!(why.starts_with("every vehicle stands still at the end"), "{why}");
+        assert!(
+            why.starts_with("every vehicle stands still at the end"),
+            "{why}"
+        );
         // 0.04 m/s is within the 0.05 m/s tolerance of 0; 0.06 m/s is motion.
         assert!(standstill(&at_speed(0.04, None).0, &at_speed(0.04, None).1).is_some());
         assert!(standstill(&at_speed(0.06, None).0, &at_speed(0.06, None).1).is_none());

@@ -271,7 +271,10 @@ mod tests {
         .unwrap_err();
         assert_eq!(format!("{e}"), format!("cannot write {}", p.display()));
         assert_eq!(std::fs::read_to_string(&p).unwrap(), "two");
-        let names: Vec<_> = std::fs::read_dir(&d).unwrap().map(|e| e.unwrap().file_name()).collect();
+        let names: Vec<_> = std::fs::read_dir(&d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
         assert_eq!(names, vec![std::ffi::OsString::from("r.md")]);
     }
 
@@ -284,14 +287,23 @@ mod tests {
         let link = d.join("link.md");
         symlink(&target, &link).unwrap();
         put(&link, "new").unwrap();
-        assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+        assert!(std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink());
         assert_eq!(std::fs::read_to_string(&target).unwrap(), "new");
         // A dangling link is refused and not replaced by a file.
         let dangling = d.join("dangling.md");
         symlink(d.join("nowhere/x.md"), &dangling).unwrap();
         let e = put(&dangling, "x").unwrap_err().to_string();
-        assert!(e.contains("is a symlink to") && e.contains("does not exist"), "{e}");
-        assert!(std::fs::symlink_metadata(&dangling).unwrap().file_type().is_symlink());
+        assert!(
+            e.contains("is a symlink to") && e.contains("does not exist"),
+            "{e}"
+        );
+        assert!(std::fs::symlink_metadata(&dangling)
+            .unwrap()
+            .file_type()
+            .is_symlink());
     }
 
     #[test]
@@ -316,7 +328,10 @@ mod tests {
         let chain = format!("{e}: {}", std::error::Error::source(&e).unwrap());
         assert!(chain.starts_with("cannot write /dev/full"), "{chain}");
         assert!(chain.contains("No space left on device"), "{chain}");
-        assert!(std::fs::metadata("/dev/full").unwrap().file_type().is_char_device());
+        assert!(std::fs::metadata("/dev/full")
+            .unwrap()
+            .file_type()
+            .is_char_device());
     }
 
     #[test]

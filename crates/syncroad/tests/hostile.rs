@@ -72,7 +72,10 @@ mod wrong_results {
         assert_eq!(code, 1, "{out}{err}");
         let m = metrics(&dir.join("native"));
         // The spread alone would call it synchronized ...
-        assert!(m["sync"]["window_max_spread_mps"].as_f64().unwrap() <= 0.05, "{m}");
+        assert!(
+            m["sync"]["window_max_spread_mps"].as_f64().unwrap() <= 0.05,
+            "{m}"
+        );
         // ... but positions recomputed from the file show overlapping bumpers.
         let gap = smallest_gap_from_positions(&dir.join("native/trajectories.csv"), 22, 230.0, 5.0);
         assert!(gap < -1.0, "smallest gap {gap}");
@@ -105,7 +108,10 @@ mod wrong_results {
         let m = metrics(&out.join("follower-stopper-0"));
         assert!(m["complete"].as_bool().unwrap(), "{stdout}{err}");
         // Every vehicle stands: equal speeds of 0 m/s.
-        assert!(m["congestion"]["mean_speed_mps"].as_f64().unwrap() < 0.05, "{m}");
+        assert!(
+            m["congestion"]["mean_speed_mps"].as_f64().unwrap() < 0.05,
+            "{m}"
+        );
         assert_ne!(m["sync"]["verdict"], "synchronized", "{m}");
         let why = m["sync"]["verdict_reason"].as_str().unwrap_or_default();
         assert!(why.contains("stands still"), "{m}");
@@ -186,9 +192,17 @@ mod sweeps {
         let mut reseeded: Value = serde_json::from_str(&first).unwrap();
         reseeded["seed"] = json!(7);
         let cases: [(&str, String, &str); 3] = [
-            ("0000099.json", foreign.to_string(), "holds point 99, and the spec has 2 points"),
+            (
+                "0000099.json",
+                foreign.to_string(),
+                "holds point 99, and the spec has 2 points",
+            ),
             // A duplicate of a finished row under another name.
-            ("0000001 (copy).json", row.clone(), "holds point 1, whose row is 0000001.json"),
+            (
+                "0000001 (copy).json",
+                row.clone(),
+                "holds point 1, whose row is 0000001.json",
+            ),
             // A row with other parameters under a point's number.
             (
                 "0000000.json",
@@ -220,7 +234,13 @@ mod sweeps {
         }
         let (code, o, e) = sweep(&p, &out);
         assert_eq!(code, 0, "{o}{e}");
-        assert_eq!(std::fs::read_to_string(out.join("results.csv")).unwrap().lines().count(), 3);
+        assert_eq!(
+            std::fs::read_to_string(out.join("results.csv"))
+                .unwrap()
+                .lines()
+                .count(),
+            3
+        );
     }
 
     #[test]
@@ -233,11 +253,18 @@ mod sweeps {
         // This test process holds the lock as another sweep would.
         let held = File::create(out.join(".syncroad.lock")).unwrap();
         held.try_lock().unwrap();
-        std::fs::write(out.join(".syncroad.lock"), format!("{}\nsyncroad sweep other.json\n", std::process::id())).unwrap();
+        std::fs::write(
+            out.join(".syncroad.lock"),
+            format!("{}\nsyncroad sweep other.json\n", std::process::id()),
+        )
+        .unwrap();
         let (code, o, e) = sweep(&p, &out);
         assert_eq!(code, 2, "{o}{e}");
         assert!(
-            e.contains(&format!("another syncroad is writing this folder (pid {}: syncroad sweep other.json)", std::process::id())),
+            e.contains(&format!(
+                "another syncroad is writing this folder (pid {}: syncroad sweep other.json)",
+                std::process::id()
+            )),
             "{e}"
         );
         assert!(!out.join("rows").exists(), "nothing was written");
@@ -265,10 +292,17 @@ mod sweeps {
         let dir = tmpdir("validate-all");
         native_ring(&dir);
         // The spec's warm-up is named as the spec's field, and refused before any point runs.
-        let p = spec(&dir, "spec.json", json!({"base": "ring.json", "warmup_s": 1e9}));
+        let p = spec(
+            &dir,
+            "spec.json",
+            json!({"base": "ring.json", "warmup_s": 1e9}),
+        );
         let (code, o, e) = sweep(&p, &dir.join("out"));
         assert_eq!(code, 2, "{o}{e}");
-        assert!(e.contains("warmup_s = 1000000000: must be ≥ 0 and shorter than the horizon"), "{e}");
+        assert!(
+            e.contains("warmup_s = 1000000000: must be ≥ 0 and shorter than the horizon"),
+            "{e}"
+        );
         assert!(!e.contains("--warmup-s"), "{e}");
         // A driver value that depends on the step, checked for every point (SUMO, not started).
         let sc = sugiyama(&dir, "sumo-ring.json", |_| {});
@@ -281,7 +315,10 @@ mod sweeps {
         assert_eq!(code, 2, "{o}{e}");
         assert!(e.contains("sweep point 0"), "{e}");
         assert!(e.contains("actionStepLength"), "{e}");
-        assert!(!dir.join("out2/rows").exists() || std::fs::read_dir(dir.join("out2/rows")).unwrap().count() == 0);
+        assert!(
+            !dir.join("out2/rows").exists()
+                || std::fs::read_dir(dir.join("out2/rows")).unwrap().count() == 0
+        );
         // Penetrations that round to the same vehicle count would run the same ring twice.
         let p = spec(
             &dir,
@@ -290,7 +327,10 @@ mod sweeps {
         );
         let (code, _, e) = sweep(&p, &dir.join("out3"));
         assert_eq!(code, 2, "{e}");
-        assert!(e.contains("penetrations: 0.1 and 0.11 both give 2 of 22"), "{e}");
+        assert!(
+            e.contains("penetrations: 0.1 and 0.11 both give 2 of 22"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -310,16 +350,26 @@ mod sweeps {
         let table = std::fs::read_to_string(out.join("results.csv")).unwrap_or_default();
         assert!(code == 0 || code == 3, "{o}{e}");
         let work = out.join("work");
-        let kept = if work.is_dir() { std::fs::read_dir(&work).unwrap().count() } else { 0 };
+        let kept = if work.is_dir() {
+            std::fs::read_dir(&work).unwrap().count()
+        } else {
+            0
+        };
         let failed = table.lines().filter(|l| l.contains(",failed,")).count();
-        assert_eq!(kept, failed, "work folders are kept for failed points only\n{table}");
+        assert_eq!(
+            kept, failed,
+            "work folders are kept for failed points only\n{table}"
+        );
         // The same spec and scenario on an edited network is another sweep.
         let mut text = std::fs::read_to_string(&net).unwrap();
         text.push_str("<!-- edited -->\n");
         std::fs::write(&net, text).unwrap();
         let (code, o, e) = sweep(&p, &out);
         assert_eq!(code, 2, "{o}{e}");
-        assert!(e.contains("holds a sweep of another spec, base scenario or network"), "{e}");
+        assert!(
+            e.contains("holds a sweep of another spec, base scenario or network"),
+            "{e}"
+        );
     }
 }
 
@@ -340,15 +390,28 @@ mod overwritten {
         // /dev/full: a clear error, and the device stays a device.
         let (code, o, e) = regress("--markdown", Path::new("/dev/full"));
         assert_eq!(code, 3, "{o}{e}");
-        assert!(e.contains("cannot write /dev/full") && e.contains("No space left on device"), "{e}");
-        assert!(std::fs::metadata("/dev/full").unwrap().file_type().is_char_device());
+        assert!(
+            e.contains("cannot write /dev/full") && e.contains("No space left on device"),
+            "{e}"
+        );
+        assert!(std::fs::metadata("/dev/full")
+            .unwrap()
+            .file_type()
+            .is_char_device());
         // /dev/null takes it silently.
         let (code, o, e) = regress("--junit", Path::new("/dev/null"));
         assert_eq!(code, 0, "{o}{e}");
-        assert!(std::fs::metadata("/dev/null").unwrap().file_type().is_char_device());
+        assert!(std::fs::metadata("/dev/null")
+            .unwrap()
+            .file_type()
+            .is_char_device());
         // A FIFO: the reader gets the report, the FIFO stays a FIFO.
         let fifo = dir.join("fifo");
-        assert!(std::process::Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+        assert!(std::process::Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap()
+            .success());
         let reader = {
             let f = fifo.clone();
             std::thread::spawn(move || std::fs::read_to_string(f).unwrap())
@@ -356,7 +419,10 @@ mod overwritten {
         let (code, o, e) = regress("--markdown", &fifo);
         assert_eq!(code, 0, "{o}{e}");
         assert!(reader.join().unwrap().contains("ring-theorem1"));
-        assert!(std::fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo());
+        assert!(std::fs::symlink_metadata(&fifo)
+            .unwrap()
+            .file_type()
+            .is_fifo());
         // A symlink: the link stays, its target gets the report.
         std::fs::create_dir_all(dir.join("real")).unwrap();
         let target = dir.join("real/summary.md");
@@ -365,8 +431,13 @@ mod overwritten {
         symlink(&target, &link).unwrap();
         let (code, o, e) = regress("--markdown", &link);
         assert_eq!(code, 0, "{o}{e}");
-        assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
-        assert!(std::fs::read_to_string(&target).unwrap().contains("ring-theorem1"));
+        assert!(std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink());
+        assert!(std::fs::read_to_string(&target)
+            .unwrap()
+            .contains("ring-theorem1"));
         // A folder is refused, not replaced.
         let (code, _, e) = regress("--junit", &dir.join("real"));
         assert_eq!(code, 3, "{e}");
@@ -386,7 +457,11 @@ mod shell {
         let dir = tmpdir("slurm");
         let work = dir.join("has spaces $(touch PWNED4)");
         std::fs::create_dir_all(&work).unwrap();
-        std::fs::copy(repo().join("scenarios/ring-theorem1.json"), work.join("ring.json")).unwrap();
+        std::fs::copy(
+            repo().join("scenarios/ring-theorem1.json"),
+            work.join("ring.json"),
+        )
+        .unwrap();
         let spec = write_json(
             &work.join("spec.json"),
             &json!({"name": HOSTILE, "base": "ring.json", "seeds": [1, 2]}),
@@ -410,7 +485,12 @@ mod shell {
             "#!/bin/bash\nprintf '%s\\n' \"$@\" >> \"$SBATCH_LOG\"\necho 42\n",
         )
         .unwrap();
-        assert!(std::process::Command::new("chmod").arg("+x").arg(fake.join("sbatch")).status().unwrap().success());
+        assert!(std::process::Command::new("chmod")
+            .arg("+x")
+            .arg(fake.join("sbatch"))
+            .status()
+            .unwrap()
+            .success());
         let bash = |script: &str, task: &str| {
             let status = std::process::Command::new("bash")
                 .arg(scripts.join(script))
@@ -418,7 +498,10 @@ mod shell {
                 .env("SLURM_ARRAY_TASK_ID", task)
                 .env("SLURM_CPUS_PER_TASK", "1")
                 .env("SBATCH_LOG", dir.join("sbatch.log"))
-                .env("PATH", format!("{}:{}", fake.display(), std::env::var("PATH").unwrap()))
+                .env(
+                    "PATH",
+                    format!("{}:{}", fake.display(), std::env::var("PATH").unwrap()),
+                )
                 .output()
                 .unwrap();
             assert!(status.status.success(), "{script}: {status:?}");
@@ -430,10 +513,17 @@ mod shell {
         let merged = out.join("merged/results.csv");
         assert_eq!(std::fs::read_to_string(&merged).unwrap().lines().count(), 3);
         let log = std::fs::read_to_string(dir.join("sbatch.log")).unwrap();
-        assert!(log.contains("sweep.sbatch") && log.contains("collect.sbatch"), "{log}");
+        assert!(
+            log.contains("sweep.sbatch") && log.contains("collect.sbatch"),
+            "{log}"
+        );
         for k in 1..=5 {
             for d in [&dir, &work, &scripts] {
-                assert!(!d.join(format!("PWNED{k}")).exists(), "PWNED{k} in {}", d.display());
+                assert!(
+                    !d.join(format!("PWNED{k}")).exists(),
+                    "PWNED{k} in {}",
+                    d.display()
+                );
             }
         }
         // The job name is one quoted word in its #SBATCH line: bash reads it back as written.
@@ -448,14 +538,21 @@ mod shell {
             .current_dir(&dir)
             .output()
             .unwrap();
-        assert_eq!(String::from_utf8(back.stdout).unwrap(), format!("syncroad-{HOSTILE}"));
+        assert_eq!(
+            String::from_utf8(back.stdout).unwrap(),
+            format!("syncroad-{HOSTILE}")
+        );
         assert!(text.contains("#SBATCH --partition='short queue'"), "{text}");
     }
 
     #[test]
     fn a_name_with_a_line_break_is_refused_before_a_script_is_written() {
         let dir = tmpdir("slurm-newline");
-        std::fs::copy(repo().join("scenarios/ring-theorem1.json"), dir.join("ring.json")).unwrap();
+        std::fs::copy(
+            repo().join("scenarios/ring-theorem1.json"),
+            dir.join("ring.json"),
+        )
+        .unwrap();
         for (name, partition) in [("x\ntouch PWNED", "short"), ("x", "a\rb")] {
             let spec = write_json(
                 &dir.join("spec.json"),
@@ -482,7 +579,9 @@ mod up_front {
     /// The driver strings the README spells out (`MODEL:name=value:...`).
     fn readme_drivers() -> Vec<String> {
         let text = std::fs::read_to_string(repo().join("README.md")).unwrap();
-        let start = text.find("it can be spelled out as").expect("the README's driver paragraph");
+        let start = text
+            .find("it can be spelled out as")
+            .expect("the README's driver paragraph");
         let para = &text[start..start + text[start..].find("names and ranges").unwrap()];
         para.split('`')
             .skip(1)
@@ -496,7 +595,10 @@ mod up_front {
     fn every_driver_example_of_the_readme_runs_as_printed() {
         let drivers = readme_drivers();
         assert!(drivers.len() >= 3, "{drivers:?}");
-        assert!(drivers.contains(&"human:tau=1.2".to_string()), "{drivers:?}");
+        assert!(
+            drivers.contains(&"human:tau=1.2".to_string()),
+            "{drivers:?}"
+        );
         let dir = tmpdir("readme-drivers");
         let sc = sugiyama(&dir, "ring.json", |s| s["horizon_s"] = json!(10));
         let out = dir.join("cmp");

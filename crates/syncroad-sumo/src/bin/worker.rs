@@ -6,7 +6,6 @@
 //! worker of every measurement.
 
 use std::path::PathBuf;
-use std::io::Write as _;
 use std::process::ExitCode;
 
 use syncroad_sumo::bench::{format_table, run_case, standard_cases};

@@ -77,7 +77,9 @@ pub fn run(horizon_s: f64, sizes: &[usize]) -> anyhow::Result<Status> {
     }
     let dt = 0.01;
     // Each size runs at Δt and at Δt/16 (the accuracy reference): 17 runs' worth of steps.
-    let work = sizes.iter().fold(0.0, |w, &n| w + 17.0 * n as f64 * horizon_s / dt);
+    let work = sizes
+        .iter()
+        .fold(0.0, |w, &n| w + 17.0 * n as f64 * horizon_s / dt);
     if work > MAX_VEHICLE_STEPS {
         return Err(InputError::new(format!(
             "--horizon-s = {horizon_s} with --sizes {}: {work:.3e} vehicle-steps (17 × N × horizon_s / {dt} s, summed over the sizes), more than the {MAX_VEHICLE_STEPS:e} a benchmark may take (several minutes); give a shorter horizon or smaller rings",

@@ -283,7 +283,14 @@ pub fn run_all(
                 let r = if interrupt.load(Ordering::SeqCst) {
                     Err(anyhow::anyhow!("not started: interrupted"))
                 } else {
-                    run_one(sc, spec, plan, &out.join(spec.folder()), &worker, &interrupt)
+                    run_one(
+                        sc,
+                        spec,
+                        plan,
+                        &out.join(spec.folder()),
+                        &worker,
+                        &interrupt,
+                    )
                 };
                 let r = r.unwrap_or_else(|e| RunResult {
                     name: spec.name.clone(),

@@ -53,13 +53,16 @@ pub fn hold(flag: &str, dir: &Path) -> anyhow::Result<FolderLock> {
             .into());
         }
         Err(TryLockError::Error(e)) => {
-            return Err(anyhow::Error::new(e)
-                .context(format!("{flag} = {}: cannot lock {}", dir.display(), path.display())))
+            return Err(anyhow::Error::new(e).context(format!(
+                "{flag} = {}: cannot lock {}",
+                dir.display(),
+                path.display()
+            )))
         }
     }
     let args: Vec<String> = std::env::args().collect();
-    let command = shlex::try_join(args.iter().map(String::as_str))
-        .unwrap_or_else(|_| args.join(" "));
+    let command =
+        shlex::try_join(args.iter().map(String::as_str)).unwrap_or_else(|_| args.join(" "));
     let stamp = format!("{}\n{command}\n", std::process::id());
     file.set_len(0)
         .and_then(|()| file.rewind())

@@ -155,8 +155,8 @@ impl Sweep {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use super::super::axis::Target;
+    use super::*;
     use serde_json::json;
 
     fn axis(field: &str, n: usize) -> Axis {
@@ -172,14 +172,20 @@ mod tests {
         assert_eq!(count(&[axis("a", 3), axis("b", 4)], 2, 5).unwrap(), 120);
         assert_eq!(count(&[], 1, MAX_POINTS).unwrap(), MAX_POINTS);
         // 65536⁴ = 2^64 wraps to 0 in unchecked arithmetic.
-        let four: Vec<Axis> = ["a", "b", "c", "d"].iter().map(|f| axis(f, 65536)).collect();
+        let four: Vec<Axis> = ["a", "b", "c", "d"]
+            .iter()
+            .map(|f| axis(f, 65536))
+            .collect();
         let e = count(&four, 1, 1).unwrap_err().to_string();
         assert_eq!(
             e,
             "the sweep has more than 2^64 points (axes[a]: 65536 × axes[b]: 65536 × axes[c]: 65536 × axes[d]: 65536 × runs: 1 × seeds: 1), more than the 100000 a sweep may have; use fewer values, or split it into several specs"
         );
         let e = count(&[axis("x", 1000)], 1, 1000).unwrap_err().to_string();
-        assert!(e.starts_with("the sweep has 1000000 points (axes[x]: 1000 × runs: 1 × seeds: 1000)"), "{e}");
+        assert!(
+            e.starts_with("the sweep has 1000000 points (axes[x]: 1000 × runs: 1 × seeds: 1000)"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -189,7 +195,10 @@ mod tests {
         assert_eq!(seed_range(top, 1).unwrap(), vec![top]);
         for (first, n) in [(top, 2), (u64::MAX, 1), (u64::MAX - 1, 5)] {
             let e = seed_range(first, n).unwrap_err().to_string();
-            assert!(e.contains("the last seed would pass 9223372036854775807"), "{e}");
+            assert!(
+                e.contains("the last seed would pass 9223372036854775807"),
+                "{e}"
+            );
         }
     }
 }

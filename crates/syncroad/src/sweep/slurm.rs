@@ -237,7 +237,9 @@ mod tests {
 
     #[test]
     fn an_sbatch_value_with_a_line_break_is_refused_naming_the_field() {
-        let e = sbatch_value("name", "x\ntouch pwned").unwrap_err().to_string();
+        let e = sbatch_value("name", "x\ntouch pwned")
+            .unwrap_err()
+            .to_string();
         assert!(
             e.starts_with("name = \"x\\ntouch pwned\": holds the control character '\\n'"),
             "{e}"

@@ -400,9 +400,7 @@ fn runs_of(file: &SpecFile, n: usize, backend: Backend) -> anyhow::Result<Vec<Ru
         let mut counts: Vec<(usize, f64)> = Vec::new();
         for &p in &file.penetrations {
             if !(0.0..=1.0).contains(&p) {
-                return Err(
-                    bad(format!("penetrations: {p} is not a fraction in [0, 1]")).into(),
-                );
+                return Err(bad(format!("penetrations: {p} is not a fraction in [0, 1]")).into());
             }
             let k = (p * n as f64).round() as usize;
             if let Some((_, q)) = counts.iter().find(|(j, _)| *j == k) {
@@ -573,8 +571,8 @@ mod tests {
             e.to_string(),
             "timeout_s = 100000000000000000000: must be a number of seconds between 0 and 1e9"
         );
-        let e = spec(r#"{"base": "ring-theorem1.json", "seeds": [9223372036854775808]}"#)
-            .unwrap_err();
+        let e =
+            spec(r#"{"base": "ring-theorem1.json", "seeds": [9223372036854775808]}"#).unwrap_err();
         assert!(e.to_string().contains("is past 9223372036854775807"), "{e}");
     }
 }
