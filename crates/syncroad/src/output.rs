@@ -51,6 +51,11 @@ pub fn prepare_dir(flag: &str, dir: &Path, files: &[&str]) -> anyhow::Result<()>
             ))
             .into());
         }
+        // Only a regular file is cleared: a symlink, a FIFO or a device is left to
+        // `write_result`, which writes through it (or refuses it), never replaces it.
+        if !meta.is_file() {
+            continue;
+        }
         std::fs::remove_file(&path).with_context(|| {
             format!(
                 "{flag} = {}: cannot remove {} left by an earlier run",

@@ -446,6 +446,28 @@ mod overwritten {
     }
 }
 
+#[test]
+fn a_run_folder_keeps_a_symlinked_record_a_link() {
+    let dir = tmpdir("run-link");
+    let out = dir.join("out");
+    std::fs::create_dir_all(&out).unwrap();
+    let kept = dir.join("kept-metrics.json");
+    std::fs::write(&kept, "{}").unwrap();
+    symlink(&kept, out.join("metrics.json")).unwrap();
+    let (code, o, e) = run(bin()
+        .arg("simulate")
+        .arg(repo().join("scenarios/ring-theorem1.json"))
+        .arg("--out")
+        .arg(&out));
+    assert_eq!(code, 0, "{o}{e}");
+    assert!(std::fs::symlink_metadata(out.join("metrics.json"))
+        .unwrap()
+        .file_type()
+        .is_symlink());
+    let m: Value = serde_json::from_str(&std::fs::read_to_string(&kept).unwrap()).unwrap();
+    assert_eq!(m["sync"]["verdict"], "synchronized");
+}
+
 mod shell {
     use super::*;
 
