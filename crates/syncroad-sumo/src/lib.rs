@@ -32,6 +32,7 @@ mod car_following;
 mod cosim;
 mod direct;
 mod drivers;
+mod frozen;
 mod layout;
 mod net;
 mod protocol;
@@ -47,6 +48,7 @@ mod worker;
 
 pub use car_following::{CarFollowing, CarFollowingError, CfModel};
 pub use drivers::{DriverError, SumoDriver, EMISSION_CLASS};
+pub use frozen::FROZEN_LIMIT;
 pub use net::Road;
 pub use protocol::{Event, Finish, ReadMode, Request, StartInfo, Totals};
 pub use result_file::{write_result, write_result_via_path, ResultFileError};

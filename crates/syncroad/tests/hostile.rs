@@ -373,6 +373,77 @@ mod sweeps {
     }
 }
 
+/// The pids whose parent is `parent` (from /proc).
+fn children_of(parent: u32) -> Vec<i32> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir("/proc").unwrap().flatten() {
+        let Ok(pid) = e.file_name().to_string_lossy().parse::<i32>() else {
+            continue;
+        };
+        let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else {
+            continue;
+        };
+        let ppid = stat
+            .rsplit_once(')')
+            .and_then(|(_, rest)| rest.split_whitespace().nth(1))
+            .and_then(|p| p.parse::<u32>().ok());
+        if ppid == Some(parent) {
+            out.push(pid);
+        }
+    }
+    out
+}
+
+#[test]
+fn a_stopped_sumo_worker_fails_its_point_instead_of_stalling_the_sweep() {
+    let dir = tmpdir("sigstop");
+    let sc = sugiyama(&dir, "ring.json", |s| s["horizon_s"] = json!(20000));
+    let spec = write_json(&dir.join("spec.json"), &json!({"base": sc, "seeds": [1]}));
+    let started = std::time::Instant::now();
+    let mut child = bin()
+        .arg("sweep")
+        .arg(&spec)
+        .arg("--out")
+        .arg(dir.join("out"))
+        .args(["--no-plots", "--jobs", "1"])
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Wait for the worker, let SUMO start, then stop it as SIGSTOP (or Ctrl-Z on it) would.
+    let worker = loop {
+        if let Some(&w) = children_of(child.id()).first() {
+            break w;
+        }
+        assert!(started.elapsed().as_secs() < 30, "no worker started");
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    };
+    std::thread::sleep(std::time::Duration::from_secs(3));
+    unsafe { libc::kill(worker, libc::SIGSTOP) };
+    let stopped_at = std::time::Instant::now();
+    let status = child.wait().unwrap();
+    // Failed after the 10 s limit, not after the run's 600 s time limit.
+    let waited = stopped_at.elapsed().as_secs_f64();
+    assert!((9.0..60.0).contains(&waited), "waited {waited} s");
+    assert_eq!(status.code(), Some(3));
+    let row: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("out/rows/0000000.json")).unwrap())
+            .unwrap();
+    assert_eq!(row["status"], "failed", "{row}");
+    let why = row["error"].as_str().unwrap();
+    assert!(
+        why.contains(&format!(
+            "the SUMO worker (pid {worker}) was stopped (SIGSTOP or SIGTSTP)"
+        )),
+        "{why}"
+    );
+    // The stopped worker is gone, not left behind.
+    assert!(
+        !Path::new(&format!("/proc/{worker}")).exists()
+            || std::fs::read_to_string(format!("/proc/{worker}/stat"))
+                .map_or(true, |s| s.contains(") Z"))
+    );
+}
+
 mod overwritten {
     use super::*;
 
