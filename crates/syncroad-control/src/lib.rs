@@ -15,7 +15,8 @@
 //! * [`exact`] — exact stability: rightmost characteristic roots, critical gains, CACC modes
 //!   and string stability, to show how conservative the sufficient conditions are;
 //! * [`controller`] — the one law object both backends step;
-//! * [`native`] — the fixed-step simulator; [`stop`] — why a run stopped;
+//! * [`native`] — the fixed-step simulator; [`stop`] — why a run stopped; [`collisions`] —
+//!   vehicles the native simulator drove through each other or backwards;
 //! * [`metrics`], [`congestion`], [`margins`] — the synchronization verdict, congestion
 //!   measures and safety margins (time headway, gaps, SUMO's surrogate safety measures);
 //! * [`outcome`], [`record`] — one run, whatever ran it: output → outcome → the `metrics.json`
@@ -26,6 +27,7 @@
 
 pub mod actuation;
 pub mod cacc;
+pub mod collisions;
 pub mod congestion;
 pub mod controller;
 pub mod damper;

@@ -12,6 +12,7 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use crate::cacc::{CaccLaw, PlatoonView};
+use crate::collisions::Collisions;
 use crate::controller::{controller_for, LawSpec};
 use crate::delayed_driver::DelayedDriverLaw;
 use crate::metrics::{speed_range, spread_of_range, SpreadSeries};
@@ -67,6 +68,8 @@ pub struct NativeRun {
     pub stop: StopReason,
     /// The spread at every step (the metrics use it, not the recorded samples).
     pub spread: SpreadSeries,
+    /// Overlapping and reversing vehicles, seen at every step.
+    pub collisions: Collisions,
 }
 
 /// Initial unwrapped positions (rear bumpers) from the gaps: vehicle 0 at 0 (or behind the
@@ -160,12 +163,22 @@ pub fn simulate(scenario: &Scenario, opts: NativeOptions) -> NativeRun {
     let mut spread = SpreadSeries::default();
     spread.time_s.reserve(steps + 1);
     spread.spread_mps.reserve(steps + 1);
-    let observe = |t: f64, v: &[f64], spread: &mut SpreadSeries| {
+    let mut collisions = Collisions::default();
+    let mut step_gaps = vec![0.0; n];
+    let mut observe = |t: f64, q: &[f64], v: &[f64], spread: &mut SpreadSeries| {
         let (lo, hi) = speed_range(&v[k0..]);
         spread.push(t, spread_of_range(lo, hi, scenario.leader_speed_at(t)));
+        gaps_from_positions(
+            &q[k0..],
+            lengths,
+            leader.map(|_| q[0]),
+            ring,
+            &mut step_gaps,
+        );
+        collisions.observe(t, &step_gaps, &v[k0..]);
     };
     record(0.0, &q, &v, &mut traj);
-    observe(0.0, &v, &mut spread);
+    observe(0.0, &q, &v, &mut spread);
     let mut stop = StopReason::Horizon;
     for step in 0..steps {
         if opts.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
@@ -195,7 +208,7 @@ pub fn simulate(scenario: &Scenario, opts: NativeOptions) -> NativeRun {
         }
         std::mem::swap(&mut v, &mut next);
         let t = (step + 1) as f64 * dt;
-        observe(t, &v, &mut spread);
+        observe(t, &q, &v, &mut spread);
         if (step + 1) % every == 0 || step + 1 == steps {
             record(t, &q, &v, &mut traj);
         }
@@ -204,6 +217,7 @@ pub fn simulate(scenario: &Scenario, opts: NativeOptions) -> NativeRun {
         trajectory: traj,
         stop,
         spread,
+        collisions,
     }
 }
 
@@ -319,10 +333,15 @@ pub fn cacc_rk4_reference(scenario: &Scenario, opts: NativeOptions) -> NativeRun
             traj.push(t1, &v, &q, &gaps, Some(profile.speed_at(t1)));
         }
     }
+    let mut collisions = Collisions::default();
+    for k in 0..traj.len() {
+        collisions.observe(traj.time_s[k], traj.gaps(k), traj.speeds(k));
+    }
     NativeRun {
         spread: SpreadSeries::of_trajectory(&traj),
         trajectory: traj,
         stop,
+        collisions,
     }
 }
 
@@ -347,6 +366,7 @@ mod tests {
             ring_length_m: sc.ring_length_m(),
             sumo: None,
             spread: Some(run.spread),
+            collisions: Some(run.collisions),
         }
     }
 

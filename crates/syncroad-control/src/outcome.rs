@@ -6,6 +6,7 @@
 //! Every command that runs a scenario (`run`, each `compare` run, each `map` point) goes through
 //! [`evaluate`], so the same trajectory always gives the same metrics and verdict.
 
+use crate::collisions::Collisions;
 use crate::congestion::{congestion_metrics, CongestionError, CongestionMetrics};
 use crate::facts::SumoFacts;
 use crate::metrics::{
@@ -32,6 +33,9 @@ pub struct RunOutput {
     /// The spread at every step, whatever the recording stride (the metrics are computed from
     /// it); `None`: from the recorded samples.
     pub spread: Option<SpreadSeries>,
+    /// Overlapping and reversing vehicles seen by the native simulator at every step; `None`
+    /// for SUMO, whose own counters ([`SumoFacts`]) say it.
+    pub collisions: Option<Collisions>,
 }
 
 /// How to judge a run.
@@ -68,7 +72,8 @@ pub struct Outcome {
 
 /// Derives the metrics and the verdict of a run. A run that stopped early is never
 /// "synchronized", and neither is a SUMO run whose speeds were not the law's (see
-/// [`sumo_overruled`]).
+/// [`sumo_overruled`]), a native run whose vehicles overlapped or reversed
+/// ([`Collisions::overruled`]) or a ring that came to a standstill ([`standstill`]).
 pub fn evaluate(scenario: &Scenario, run: &RunOutput, opts: EvalOptions) -> Outcome {
     let desired = match scenario.model() {
         Model::Cacc(c) => Some(c.desired_gap_m.as_slice()),
@@ -90,12 +95,40 @@ pub fn evaluate(scenario: &Scenario, run: &RunOutput, opts: EvalOptions) -> Outc
             sync.overrule(at_best, reason);
         }
     }
+    if let Some(c) = &run.collisions {
+        for (at_best, reason) in c.overruled() {
+            sync.overrule(at_best, reason);
+        }
+    }
+    if let Some(reason) = standstill(&run.trajectory, &sync) {
+        sync.overrule(Verdict::NotSynchronized, reason);
+    }
     Outcome {
         sync,
         congestion: congestion_metrics(&run.trajectory, opts.warmup_s, run.ring_length_m),
         theory: theory::report(scenario),
         warmup_s: opts.warmup_s,
     }
+}
+
+/// Why a "synchronized" run without a leader is a jam: every vehicle stands (|v| within the
+/// tolerance) at the last sample. Equal speeds of 0 m/s are a standstill, not the
+/// synchronized motion the verdict reports (a FollowerStopper with U = 0 stops every vehicle).
+/// Behind a leader that stops, standing still is what following means, and stays.
+pub fn standstill(traj: &Trajectory, sync: &SyncMetrics) -> Option<String> {
+    if sync.verdict != Verdict::Synchronized || sync.against_leader || traj.is_empty() {
+        return None;
+    }
+    let fastest = traj
+        .speeds(traj.len() - 1)
+        .iter()
+        .fold(0.0, |m: f64, v| m.max(v.abs()));
+    (fastest <= sync.thresholds.tolerance_mps).then(|| {
+        format!(
+            "every vehicle stands still at the end (fastest {fastest:.3} m/s, within the {} m/s tolerance): equal speeds of 0 m/s are a jam, not synchronized motion",
+            sync.thresholds.tolerance_mps
+        )
+    })
 }
 
 /// What SUMO did instead of the law, with the best verdict it leaves. A small spread means
@@ -175,6 +208,36 @@ mod tests {
             m.overrule(v, r);
         }
         m
+    }
+
+    fn at_speed(v: f64, leader: Option<f64>) -> (Trajectory, SyncMetrics) {
+        let mut tr = Trajectory::new(2);
+        for k in 0..=100 {
+            tr.push(k as f64 * 0.1, &[v, v], &[0.0, 0.0], &[5.0, 5.0], leader);
+        }
+        let th = VerdictThresholds {
+            tolerance_mps: 0.05,
+            window_s: 1.0,
+        };
+        let m = sync_metrics(&tr, th, None, false);
+        (tr, m)
+    }
+
+    #[test]
+    fn a_ring_at_standstill_is_a_jam_but_a_stop_behind_a_stopped_leader_is_not() {
+        let (tr, m) = at_speed(0.0, None);
+        assert_eq!(m.verdict, Verdict::Synchronized);
+        let why = standstill(&tr, &m).unwrap();
+        assert!(
+            why.starts_with("every vehicle stands still at the end"),
+            "{why}"
+        );
+        // 0.04 m/s is within the 0.05 m/s tolerance of 0; 0.06 m/s is motion.
+        assert!(standstill(&at_speed(0.04, None).0, &at_speed(0.04, None).1).is_some());
+        assert!(standstill(&at_speed(0.06, None).0, &at_speed(0.06, None).1).is_none());
+        let (tr, m) = at_speed(0.0, Some(0.0));
+        assert!(m.against_leader);
+        assert!(standstill(&tr, &m).is_none());
     }
 
     #[test]

@@ -277,13 +277,20 @@ fn horizons_beyond_the_step_limit_are_refused_naming_both_fields() {
     let e = err(&json);
     assert_eq!(
         e,
-        "horizon_s = 1000000000000 s with step_s = 0.1 s is 1.000e13 steps; at most 10000000 steps are allowed, so give horizon_s ≤ 1000000 s at this step (or a larger step_s)"
+        "horizon_s = 1000000000000 s with step_s = 0.1 s is 10000000000000 steps; at most 10000000 steps are allowed, so give horizon_s ≤ 1000000 s at this step (or a larger step_s)"
     );
     // A tiny step over an ordinary horizon: the same limit, both fields named.
     let json = base(RING, "").replace(r#""step_s": 0.1"#, r#""step_s": 1e-9"#);
     let e = err(&json);
     assert!(
-        e.starts_with("horizon_s = 10 s with step_s = 0.000000001 s is 1.000e10 steps"),
+        e.starts_with("horizon_s = 10 s with step_s = 0.000000001 s is 10000000000 steps"),
+        "{e}"
+    );
+    // Just past the limit the count is exact, never a rounded "1.000e7 steps; at most 10000000".
+    let json = base(RING, "").replace(r#""horizon_s": 10"#, r#""horizon_s": 1000000.1"#);
+    let e = err(&json);
+    assert!(
+        e.contains("is 10000001 steps; at most 10000000 steps are allowed"),
         "{e}"
     );
     // The largest horizon allowed runs.

@@ -21,6 +21,8 @@
 //! * `supervisor`, `run` — the parent: [`Prepared::new`] checks everything it can before SUMO
 //!   starts, [`Prepared::run`] supervises the worker, [`SumoRun::output`] is the
 //!   [`RunOutput`](syncroad_control::RunOutput) every backend returns;
+//! * `result_file` — the one writer of every result file: atomic replacement of regular
+//!   files, written through to FIFOs and devices, never renamed over anything else;
 //! * [`bench`](mod@bench) — SUMO alone vs SUMO + controller vs a TraCI-socket reference.
 #![warn(missing_docs)]
 #![allow(clippy::needless_range_loop)]
@@ -30,10 +32,12 @@ mod car_following;
 mod cosim;
 mod direct;
 mod drivers;
+mod frozen;
 mod layout;
 mod net;
 mod protocol;
 mod python;
+mod result_file;
 mod run;
 mod signals;
 mod ssm;
@@ -44,13 +48,15 @@ mod worker;
 
 pub use car_following::{CarFollowing, CarFollowingError, CfModel};
 pub use drivers::{DriverError, SumoDriver, EMISSION_CLASS};
+pub use frozen::FROZEN_LIMIT;
 pub use net::Road;
 pub use protocol::{Event, Finish, ReadMode, Request, StartInfo, Totals};
+pub use result_file::{write_result, write_result_via_path, ResultFileError};
 pub use run::{
-    check_sumo_numbers, layout_for, load_road, loop_position, net_path, run_scenario,
+    check_run, check_sumo_numbers, layout_for, load_road, loop_position, net_path, run_scenario,
     MeasureOptions, PrepareError, Prepared, RunOptions, SumoRun,
 };
-pub use signals::received as interrupt_signal;
+pub use signals::{received as interrupt_signal, received_name as interrupt_signal_name};
 pub use supervisor::{interrupt_flag, SupervisorError, WorkerCommand, WorkerPool};
 pub use venv::repo_dir;
 pub use worker::{is_worker_invocation, worker_main};

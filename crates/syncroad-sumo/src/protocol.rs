@@ -311,7 +311,7 @@ pub fn write_ranges(w: &mut impl Write, ranges: &mut Vec<[f64; 3]>) -> io::Resul
 }
 
 fn decode_ranges(bytes: &[u8]) -> Result<Vec<[f64; 3]>, ProtocolError> {
-    if bytes.len() % 24 != 0 {
+    if !bytes.len().is_multiple_of(24) {
         return Err(ProtocolError::Json(format!(
             "speed-range frame of {} bytes is not a whole number of 24-byte records",
             bytes.len()

@@ -289,6 +289,22 @@ pub(crate) fn prepare(
     road: &Road,
     opts: &RunOptions,
 ) -> Result<Request, PrepareError> {
+    prepare_with(scenario, road, opts, true)
+}
+
+/// Every check [`Prepared::new`] makes before SUMO starts (numbers, road layout, drivers and
+/// their step-dependent values, damper, measurement options), without writing a file: a
+/// sweep runs it on every point before any point runs.
+pub fn check_run(scenario: &Scenario, road: &Road, opts: &RunOptions) -> Result<(), PrepareError> {
+    prepare_with(scenario, road, opts, false).map(|_| ())
+}
+
+fn prepare_with(
+    scenario: &Scenario,
+    road: &Road,
+    opts: &RunOptions,
+    write: bool,
+) -> Result<Request, PrepareError> {
     check_sumo_numbers(scenario)?;
     let layout = layout_for(scenario, road)?;
     let io = |path: &Path, e: std::io::Error| PrepareError::Io {
@@ -363,8 +379,11 @@ pub(crate) fn prepare(
                     expected: "must be ≥ 1 (1 = read fuel and CO2 every step)",
                 });
             }
-            std::fs::create_dir_all(&opts.work_dir).map_err(|e| io(&opts.work_dir, e))?;
+            if write {
+                std::fs::create_dir_all(&opts.work_dir).map_err(|e| io(&opts.work_dir, e))?;
+            }
             let detector_file = match loop_position(&layout.road) {
+                Some(_) if !write => None,
                 Some((lane, pos, _)) => {
                     let f = opts.work_dir.join("detectors.add.xml");
                     // SUMO resolves `file` relative to the additional file itself.
@@ -385,9 +404,13 @@ pub(crate) fn prepare(
             })
         }
     };
-    let routes_file = layout
-        .write_routes(&opts.work_dir)
-        .map_err(|e| io(&opts.work_dir, e))?;
+    let routes_file = if write {
+        layout
+            .write_routes(&opts.work_dir)
+            .map_err(|e| io(&opts.work_dir, e))?
+    } else {
+        opts.work_dir.join("routes.rou.xml")
+    };
     // The leader vehicle, when there is one, always follows its profile through the law.
     let control = if law_driven == 0 && sumo_driven > 0 && !layout.leader_vehicle {
         Control::SumoModel

@@ -15,6 +15,7 @@ use std::time::{Duration, Instant};
 
 use syncroad_control::Trajectory;
 
+use crate::frozen::FrozenWatch;
 use crate::protocol::{read_frame, Event, Finish, Frame, Request, StartInfo, WorkerMsg};
 use crate::worker::WORKER_ARG;
 
@@ -125,6 +126,16 @@ pub enum SupervisorError {
     #[error("the SUMO run exceeded its time limit of {seconds} s and was stopped after {records} recorded samples (raise sumo.timeout_s)")]
     Timeout {
         /// The limit \[s\].
+        seconds: f64,
+        /// Samples received.
+        records: usize,
+    },
+    /// The worker stayed stopped (SIGSTOP, SIGTSTP) for [`crate::FROZEN_LIMIT`]; it was killed.
+    #[error("the SUMO worker (pid {pid}) was stopped (SIGSTOP or SIGTSTP) for {seconds:.0} s and was killed after {records} recorded samples; the run failed (a sweep's --retry-failed runs it again)")]
+    Frozen {
+        /// Worker pid.
+        pid: u32,
+        /// How long it was stopped \[s\].
         seconds: f64,
         /// Samples received.
         records: usize,
@@ -381,6 +392,7 @@ impl Worker {
             None => Err(std::io::Error::from(std::io::ErrorKind::BrokenPipe)),
         };
         let started = Instant::now();
+        let mut watch = FrozenWatch::new(run.pid);
         let mut end: Option<Result<Finish, String>> = None;
         let mut protocol: Option<crate::protocol::ProtocolError> = None;
         let mut stopped: Option<SupervisorError> = None;
@@ -415,21 +427,9 @@ impl Worker {
                 Err(mpsc::RecvTimeoutError::Timeout) => {}
             }
             if stopped.is_none() {
-                let interrupted = limits
-                    .interrupt
-                    .as_ref()
-                    .is_some_and(|f| f.load(Ordering::SeqCst));
-                let timed_out = limits.timeout.is_some_and(|t| started.elapsed() > t);
-                if interrupted || timed_out {
+                stopped = stop_reason(limits, started, &mut watch);
+                if stopped.is_some() {
                     let _ = self.child.kill();
-                    stopped = Some(if interrupted {
-                        SupervisorError::Interrupted { records: 0 }
-                    } else {
-                        SupervisorError::Timeout {
-                            seconds: limits.timeout.map(|t| t.as_secs_f64()).unwrap_or(0.0),
-                            records: 0,
-                        }
-                    });
                 }
             }
         }
@@ -455,6 +455,11 @@ impl Worker {
                 SupervisorError::Timeout { seconds, .. } => {
                     SupervisorError::Timeout { seconds, records }
                 }
+                SupervisorError::Frozen { pid, seconds, .. } => SupervisorError::Frozen {
+                    pid,
+                    seconds,
+                    records,
+                },
                 other => other,
             })
         } else if let Some(e) = end {
@@ -506,6 +511,33 @@ impl Drop for Worker {
             let _ = self.reap();
         }
     }
+}
+
+/// Why a run in flight must stop now, if it must: Ctrl-C (or SIGTERM, SIGHUP), its time
+/// limit, or a worker that stays stopped ([`FrozenWatch`]).
+fn stop_reason(
+    limits: &Supervision,
+    started: Instant,
+    watch: &mut FrozenWatch,
+) -> Option<SupervisorError> {
+    if limits
+        .interrupt
+        .as_ref()
+        .is_some_and(|f| f.load(Ordering::SeqCst))
+    {
+        return Some(SupervisorError::Interrupted { records: 0 });
+    }
+    if let Some(t) = limits.timeout.filter(|t| started.elapsed() > *t) {
+        return Some(SupervisorError::Timeout {
+            seconds: t.as_secs_f64(),
+            records: 0,
+        });
+    }
+    watch.frozen().map(|d| SupervisorError::Frozen {
+        pid: watch.pid(),
+        seconds: d.as_secs_f64(),
+        records: 0,
+    })
 }
 
 /// Runs `request` in a new worker process started by `cmd`, under `limits`.

@@ -38,22 +38,36 @@ pub fn jobs(flag: Option<usize>) -> anyhow::Result<usize> {
     }
 }
 
-/// `--timeout-s`: a finite number ≥ 0.
+/// The longest wall-clock limit of a run [s] (about 31 years; past it a limit means none).
+pub const MAX_TIMEOUT_S: f64 = 1e9;
+
+/// `--timeout-s`: a number of seconds in [0, [`MAX_TIMEOUT_S`]].
 pub fn timeout(flag: Option<f64>) -> anyhow::Result<Option<Duration>> {
-    flag.map(|t| {
-        Duration::try_from_secs_f64(t).map_err(|_| {
-            InputError::new(format!("--timeout-s = {t}: must be a finite number ≥ 0")).into()
-        })
-    })
-    .transpose()
+    flag.map(|t| timeout_as("--timeout-s", t)).transpose()
+}
+
+/// A wall-clock limit given as `field`: a number of seconds in [0, [`MAX_TIMEOUT_S`]].
+pub fn timeout_as(field: &str, t: f64) -> anyhow::Result<Duration> {
+    if !(0.0..=MAX_TIMEOUT_S).contains(&t) {
+        return Err(InputError::new(format!(
+            "{field} = {t}: must be a number of seconds between 0 and {MAX_TIMEOUT_S:e}"
+        ))
+        .into());
+    }
+    Ok(Duration::from_secs_f64(t))
 }
 
 /// `--warmup-s`: ≥ 0 and shorter than the horizon; default a quarter of it.
 pub fn warmup_s(flag: Option<f64>, sc: &Scenario) -> anyhow::Result<f64> {
+    warmup_s_as("--warmup-s", flag, sc)
+}
+
+/// [`warmup_s`] given as `field` (a flag, or a sweep spec's `warmup_s`).
+pub fn warmup_s_as(field: &str, flag: Option<f64>, sc: &Scenario) -> anyhow::Result<f64> {
     let w = flag.unwrap_or(0.25 * sc.horizon_s());
     if !(w.is_finite() && w >= 0.0 && w < sc.horizon_s()) {
         return Err(InputError::new(format!(
-            "--warmup-s = {w}: must be ≥ 0 and shorter than the horizon ({} s)",
+            "{field} = {w}: must be ≥ 0 and shorter than the horizon ({} s)",
             sc.horizon_s()
         ))
         .into());
@@ -69,18 +83,32 @@ pub const MAX_RECORDED_VALUES: usize = 50_000_000;
 /// [`MAX_RECORDED_VALUES`]; default about 2000 samples. (The metrics use every step whatever
 /// the stride.)
 pub fn record_every(flag: Option<usize>, sc: &Scenario) -> anyhow::Result<usize> {
+    record_every_as("--record-every", flag, sc)
+}
+
+/// [`record_every`] given as `field` (a flag, or a sweep spec's `record_every`).
+pub fn record_every_as(field: &str, flag: Option<usize>, sc: &Scenario) -> anyhow::Result<usize> {
     let k = match flag {
-        Some(0) => return Err(InputError::new("--record-every = 0: must be ≥ 1").into()),
+        Some(0) => return Err(InputError::new(format!("{field} = 0: must be ≥ 1")).into()),
         Some(k) => k,
         None => default_record_every(sc.steps(), sc.vehicles()),
     };
     let values = (sc.steps() / k + 2).saturating_mul(sc.vehicles());
+    // Even the first and the last sample alone: no stride helps.
+    if sc.vehicles().saturating_mul(3) > MAX_RECORDED_VALUES {
+        return Err(InputError::new(format!(
+            "vehicles = {}: a trajectory of so many vehicles cannot be kept in memory (at most {} vehicles, {MAX_RECORDED_VALUES} vehicle-samples)",
+            sc.vehicles(),
+            MAX_RECORDED_VALUES / 3
+        ))
+        .into());
+    }
     if values > MAX_RECORDED_VALUES {
         let min_k = sc
             .steps()
             .div_ceil(MAX_RECORDED_VALUES / sc.vehicles().max(1) - 2);
         return Err(InputError::new(format!(
-            "--record-every = {k}: {} steps (horizon_s = {} s / step_s = {} s) of {} vehicles would record {values} vehicle-samples, more than the {MAX_RECORDED_VALUES} kept in memory; give --record-every ≥ {min_k}",
+            "{field} = {k}: {} steps (horizon_s = {} s / step_s = {} s) of {} vehicles would record {values} vehicle-samples, more than the {MAX_RECORDED_VALUES} kept in memory; give {field} ≥ {min_k}",
             sc.steps(),
             sc.horizon_s(),
             sc.step_s(),

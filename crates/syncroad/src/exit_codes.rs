@@ -26,8 +26,20 @@ fn interrupted() -> u8 {
         .unwrap_or(INTERRUPTED)
 }
 
-/// The exit code of a command's result.
+/// The exit code of a command's result. A signal that arrived after the runs, while the files
+/// were written or plotted, still ends the command as interrupted (its files are whole: each
+/// is written atomically); a bad input stays a bad input.
 pub fn of(result: &anyhow::Result<Status>) -> ExitCode {
+    let bad_input = matches!(result, Err(e) if e.chain().any(|c| c.is::<InputError>()));
+    if syncroad_sumo::interrupt_signal().is_some() && !bad_input {
+        if !matches!(result, Ok(Status::Interrupted)) {
+            eprintln!(
+                "error: interrupted ({}) after the runs; the files written are complete, the command did not finish",
+                syncroad_sumo::interrupt_signal_name()
+            );
+        }
+        return ExitCode::from(interrupted());
+    }
     ExitCode::from(match result {
         Ok(Status::Success) => SUCCESS,
         Ok(Status::NotSynchronized) => NOT_SYNCHRONIZED,

@@ -1,13 +1,13 @@
 //! The files a run writes: `trajectories.csv` (long format, one row per vehicle and sample)
 //! and `metrics.json` (the [`RunRecord`], pretty JSON with a trailing newline).
 //!
-//! Every file is written under a temporary name in its folder and renamed into place, so a
-//! full disk or a crash never leaves a cut-off file under the real name; `metrics.json` is
+//! Every file goes through [`write_result`]: written under a temporary name in its folder,
+//! synced and renamed into place, so a full disk or a crash never leaves a cut-off file under
+//! the real name; `metrics.json` is
 //! written last, so a folder holding one is complete. [`prepare_dir`] checks an output folder
 //! before a run starts and clears what an earlier run left there.
 
 use std::fmt::Write as _;
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
@@ -51,6 +51,11 @@ pub fn prepare_dir(flag: &str, dir: &Path, files: &[&str]) -> anyhow::Result<()>
             ))
             .into());
         }
+        // Only a regular file is cleared: a symlink, a FIFO or a device is left to
+        // `write_result`, which writes through it (or refuses it), never replaces it.
+        if !meta.is_file() {
+            continue;
+        }
         std::fs::remove_file(&path).with_context(|| {
             format!(
                 "{flag} = {}: cannot remove {} left by an earlier run",
@@ -75,33 +80,19 @@ fn temp_name(path: &Path) -> PathBuf {
     path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
 }
 
-/// Writes `path` atomically: `write` fills a temporary file in the same folder, which is
-/// renamed to `path` only when every byte is written and flushed. On failure the temporary
-/// file is removed and `path` is untouched.
-pub fn write_atomic(
-    path: &Path,
-    write: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> anyhow::Result<()>,
-) -> anyhow::Result<()> {
-    let tmp = temp_name(path);
-    let result = (|| {
-        let file = std::fs::File::create(&tmp)?;
-        let mut w = std::io::BufWriter::new(file);
-        write(&mut w)?;
-        w.flush()?;
-        w.get_ref().sync_data()?;
-        drop(w);
-        std::fs::rename(&tmp, path)?;
-        anyhow::Ok(())
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result.with_context(|| format!("cannot write {}", path.display()))
+/// The one writer of result files (see `syncroad_sumo::write_result`): a regular file or a
+/// new one is replaced atomically (synced, renamed, folder synced), a symlink's target
+/// likewise, a FIFO or device is written through, anything else is refused.
+pub use syncroad_sumo::{write_result, write_result_via_path};
+
+/// Writes `text` to the result file `path` ([`write_result`]).
+pub fn write_text(path: &Path, text: &str) -> anyhow::Result<()> {
+    Ok(write_result(path, |w| w.write_all(text.as_bytes()))?)
 }
 
 /// Writes the trajectory as CSV: `time_s,vehicle,speed_mps,position_m,gap_m`.
 pub fn write_trajectory_csv(path: &Path, traj: &Trajectory) -> anyhow::Result<()> {
-    write_atomic(path, |file| {
+    Ok(write_result(path, |file| -> anyhow::Result<()> {
         let mut w = csv::Writer::from_writer(file);
         w.write_record(["time_s", "vehicle", "speed_mps", "position_m", "gap_m"])?;
         let n = traj.n;
@@ -129,7 +120,7 @@ pub fn write_trajectory_csv(path: &Path, traj: &Trajectory) -> anyhow::Result<()
         }
         w.flush()?;
         Ok(())
-    })
+    })?)
 }
 
 /// Writes a run's `trajectories.csv` into `dir`: the one place every backend's rows are
@@ -145,6 +136,5 @@ pub fn write_run_record(dir: &Path, record: &RunRecord) -> anyhow::Result<()> {
 
 /// Writes pretty JSON with a trailing newline, atomically.
 pub fn write_json(path: &Path, doc: &serde_json::Value) -> anyhow::Result<()> {
-    let text = serde_json::to_string_pretty(doc)? + "\n";
-    write_atomic(path, |w| Ok(w.write_all(text.as_bytes())?))
+    write_text(path, &(serde_json::to_string_pretty(doc)? + "\n"))
 }

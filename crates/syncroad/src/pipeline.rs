@@ -39,6 +39,7 @@ pub fn native_with(sc: &Scenario, opts: NativeOptions<'_>) -> RunOutput {
         ring_length_m: sc.ring_length_m(),
         sumo: None,
         spread: Some(run.spread),
+        collisions: Some(run.collisions),
     }
 }
 

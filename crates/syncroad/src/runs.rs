@@ -69,6 +69,22 @@ impl RunSpec {
         }
     }
 
+    /// The run's folder name: its name with every character but letters, digits and `._=+-`
+    /// replaced by `_` (`human:tau=1.2` → `human_tau=1.2`), because SUMO reads `a:b` in an
+    /// output path as host:port and a shell or a list option splits on others.
+    pub fn folder(&self) -> String {
+        self.name
+            .chars()
+            .map(|c| {
+                if c.is_ascii_alphanumeric() || "._=+-".contains(c) {
+                    c
+                } else {
+                    '_'
+                }
+            })
+            .collect()
+    }
+
     /// Fraction of the scenario's vehicles the law or the damper drives: as the scenario says
     /// when the run does not choose (its `mixed` block puts humans among the law's vehicles).
     pub fn penetration(&self, sc: &Scenario) -> f64 {

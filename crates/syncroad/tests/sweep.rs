@@ -11,14 +11,16 @@ use std::time::{Duration, Instant};
 use common::{bin, repo, run, tmpdir};
 
 /// A uniform bidirectional ring (22 vehicles, gains 0.6 ahead and 0.1 behind, one delay α
-/// for all) and a gain × delay sweep over it.
+/// for all) and a gain × delay sweep over it. The ring is 1 km long: the speeds do not depend
+/// on it, and its 40 m gaps stay open while weakly coupled points drift apart (on a 230 m
+/// ring, gain scales of 0.3 drive vehicles through each other: a collision, not synchronized).
 fn uniform_ring(dir: &Path, alpha: f64) -> PathBuf {
     let sc = dir.join("uniform-ring.json");
     std::fs::write(
         &sc,
         format!(
             r#"{{"name": "uniform-ring", "backend": "native", "seed": 42, "step_s": 0.05,
-                "horizon_s": 300, "vehicles": 22, "road": {{"type": "ring", "length_m": 230}},
+                "horizon_s": 300, "vehicles": 22, "road": {{"type": "ring", "length_m": 1000}},
                 "model": {{"type": "delayed_driver",
                           "graph": {{"type": "bidirectional_ring", "gain_pred": 0.6, "gain_follow": 0.1}},
                           "delay_s": {alpha}}},

@@ -187,7 +187,7 @@ impl UniformRing {
     /// the consensus mode and without delay (a delay-free ring is stable for every gain).
     pub fn mode_critical_gain_scale(&self, k: usize) -> f64 {
         let lambda = self.laplacian_eigenvalue(k);
-        if k % self.vehicles == 0 || self.delay_s == 0.0 || lambda.norm() == 0.0 {
+        if k.is_multiple_of(self.vehicles) || self.delay_s == 0.0 || lambda.norm() == 0.0 {
             return f64::INFINITY;
         }
         (lambda.arg() + FRAC_PI_2) / (self.delay_s * lambda.norm())

@@ -74,7 +74,7 @@ pub enum ScenarioError {
         expected: String,
     },
     /// The run would take more than [`MAX_STEPS`] steps.
-    #[error("horizon_s = {horizon_s} s with step_s = {step_s} s is {steps:.3e} steps; at most {max} steps are allowed, so give horizon_s ≤ {max_horizon_s} s at this step (or a larger step_s)", max = MAX_STEPS)]
+    #[error("horizon_s = {horizon_s} s with step_s = {step_s} s is {steps} steps; at most {max} steps are allowed, so give horizon_s ≤ {max_horizon_s} s at this step (or a larger step_s)", max = MAX_STEPS)]
     TooManySteps {
         /// The horizon \[s\].
         horizon_s: f64,

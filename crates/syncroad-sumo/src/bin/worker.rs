@@ -52,8 +52,10 @@ fn main() -> ExitCode {
     print!("{}", format_table(&results));
     if let Some(path) = json {
         let text = serde_json::to_string_pretty(&results).expect("results serialise");
-        if let Err(e) = std::fs::write(&path, text + "\n") {
-            eprintln!("error: cannot write {}: {e}", path.display());
+        let text = text + "\n";
+        if let Err(e) = syncroad_sumo::write_result(&path, |w| w.write_all(text.as_bytes())) {
+            let cause = std::error::Error::source(&e).map_or(String::new(), |c| format!(": {c}"));
+            eprintln!("error: {e}{cause}");
             return ExitCode::FAILURE;
         }
     }

@@ -79,7 +79,7 @@ impl<'py> Meter<'py> {
         let warm = self.req.warmup_steps;
         let k = self.req.emission_every.max(1);
         let measuring = s > warm;
-        if s > 0 && s % k == 0 {
+        if s > 0 && s.is_multiple_of(k) {
             let fuel = self.sum(py, &self.fuel, "vehicle.getFuelConsumption", args)?;
             self.out.fuel_total_mg += fuel * dt * k as f64;
             if measuring {

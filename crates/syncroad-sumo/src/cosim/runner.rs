@@ -155,7 +155,7 @@ impl Timing {
         if self.block == 0 {
             return false;
         }
-        let bare = (step / self.block) % 2 == 0;
+        let bare = (step / self.block).is_multiple_of(2);
         let now = Instant::now();
         if let Some((was_bare, t0)) = self.last_kind.take() {
             self.phases

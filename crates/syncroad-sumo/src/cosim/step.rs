@@ -223,7 +223,7 @@ impl<'a, 'py> CoSim<'a, 'py> {
             };
         }
         let last = step + 1 == req.steps;
-        if self.reader.subscribed || (step + 1) % req.odometer_every.max(1) == 0 || last {
+        if self.reader.subscribed || (step + 1).is_multiple_of(req.odometer_every.max(1)) || last {
             if let Some(i) = self.reader.odometers(&mut self.dist)? {
                 return Ok(Some(self.vehicle_lost(i, step + 1)));
             }

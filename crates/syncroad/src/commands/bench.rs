@@ -58,6 +58,9 @@ fn timed(r: &Ring, dt: f64, horizon_s: f64) -> (Vec<f64>, f64) {
     (v, t.elapsed().as_secs_f64())
 }
 
+/// The most vehicle-steps one benchmark may take (both steps of every size).
+pub const MAX_VEHICLE_STEPS: f64 = 1e11;
+
 /// Runs the benchmark and prints one line per ring size.
 pub fn run(horizon_s: f64, sizes: &[usize]) -> anyhow::Result<Status> {
     if !(horizon_s.is_finite() && horizon_s > 0.0) {
@@ -73,6 +76,17 @@ pub fn run(horizon_s: f64, sizes: &[usize]) -> anyhow::Result<Status> {
         .into());
     }
     let dt = 0.01;
+    // Each size runs at Δt and at Δt/16 (the accuracy reference): 17 runs' worth of steps.
+    let work = sizes
+        .iter()
+        .fold(0.0, |w, &n| w + 17.0 * n as f64 * horizon_s / dt);
+    if work > MAX_VEHICLE_STEPS {
+        return Err(InputError::new(format!(
+            "--horizon-s = {horizon_s} with --sizes {}: {work:.3e} vehicle-steps (17 × N × horizon_s / {dt} s, summed over the sizes), more than the {MAX_VEHICLE_STEPS:e} a benchmark may take (several minutes); give a shorter horizon or smaller rings",
+            sizes.iter().map(usize::to_string).collect::<Vec<_>>().join(",")
+        ))
+        .into());
+    }
     outln!("native delayed-driver simulator, unidirectional rings, K = 0.8/s, α_i ∈ [0.30, 0.50] s on the grid, Δt = {dt} s, {horizon_s} s simulated");
     outln!(
         "{:>7} {:>14} {:>18} {:>22}",

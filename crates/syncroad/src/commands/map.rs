@@ -17,6 +17,7 @@ use syncroad_control::{theory, Scenario, Verdict};
 
 use crate::config::{self, load_scenario};
 use crate::error::{InputError, Status};
+use crate::output::write_result_via_path;
 use crate::plots::err;
 use crate::progress::Progress;
 use crate::stdout::outln;
@@ -215,12 +216,13 @@ fn simulate_grid(
     });
     let sweep = Sweep::new(spec, Path::new("."), "map".into())?;
     let dir = out.join("sweep");
-    // The map owns this folder: every map starts it afresh.
+    // One map at a time writes into `out`; it owns `out/sweep` and starts it afresh.
+    let _lock = crate::sweep::lock::hold("--out", out)?;
     if dir.exists() {
         std::fs::remove_dir_all(&dir)
             .with_context(|| format!("cannot remove the previous {}", dir.display()))?;
     }
-    exec::open_out(&sweep, &dir, Shard::all())?;
+    let _sweep_lock = exec::open_out(&sweep, &dir, Shard::all())?;
     let opts = ExecOptions {
         jobs,
         shard: Shard::all(),
@@ -235,7 +237,7 @@ fn simulate_grid(
             dir.display()
         ));
     }
-    let rows = exec::read_rows(&dir)?;
+    let rows = crate::sweep::rows::read_rows(&sweep, &dir, Shard::all())?;
     let mut verdicts = vec![None; xa.n * ya.n];
     for (id, row) in &rows {
         let p = sweep.point(*id);
@@ -332,7 +334,7 @@ pub fn write_csv(path: &Path, pts: &[Point]) -> anyhow::Result<()> {
             p.delay_rounding_s
         );
     }
-    std::fs::write(path, s).with_context(|| format!("cannot write {}", path.display()))
+    crate::output::write_text(path, &s)
 }
 
 macro_rules! draw_map {
@@ -461,18 +463,18 @@ pub fn plot(
     crate::plots::ensure_font();
     let png = dir.join("map.png");
     let svg = dir.join("map.svg");
-    {
-        let area = BitMapBackend::new(&png, (1000, 800)).into_drawing_area();
+    write_result_via_path(&png, |tmp: &Path| {
+        let area = BitMapBackend::new(tmp, (1000, 800)).into_drawing_area();
         area.fill(&WHITE).map_err(err)?;
         draw_map!(&area, title, xa, ya, pts, bounds)?;
-        area.present().map_err(err)?;
-    }
-    {
-        let area = SVGBackend::new(&svg, (1000, 800)).into_drawing_area();
+        area.present().map_err(err)
+    })?;
+    write_result_via_path(&svg, |tmp: &Path| {
+        let area = SVGBackend::new(tmp, (1000, 800)).into_drawing_area();
         area.fill(&WHITE).map_err(err)?;
         draw_map!(&area, title, xa, ya, pts, bounds)?;
-        area.present().map_err(err)?;
-    }
+        area.present().map_err(err)
+    })?;
     Ok(vec![png, svg])
 }
 

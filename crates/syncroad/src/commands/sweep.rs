@@ -17,8 +17,10 @@ use syncroad_sumo::interrupt_flag;
 use crate::cli::{SweepAction, SweepArgs};
 use crate::config;
 use crate::error::{InputError, Status};
+use crate::output::write_text;
 use crate::stdout::outln;
-use crate::sweep::exec::{self, read_rows};
+use crate::sweep::exec;
+use crate::sweep::rows::read_rows;
 use crate::sweep::slurm::{self, SlurmOptions};
 use crate::sweep::{plots, ExecOptions, Shard, Sweep};
 
@@ -51,12 +53,12 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<Status> {
         run_plots: a.run_plots,
         retry_failed: a.retry_failed,
     };
-    exec::open_out(&sweep, out, shard)?;
+    let _lock = exec::open_out(&sweep, out, shard)?;
     let interrupt = interrupt_flag()?;
     let started = Instant::now();
     let summary = exec::run(&sweep, out, &opts, interrupt)?;
     let wall = started.elapsed().as_secs_f64();
-    let rows = read_rows(out)?;
+    let rows = read_rows(&sweep, out, shard)?;
     let finished = rows.len();
     // Failed before this call too (a resumed sweep skips them unless --retry-failed).
     let failed = rows
@@ -186,7 +188,7 @@ fn collect(
             ))
             .into());
         }
-        for (id, row) in read_rows(dir)? {
+        for (id, row) in read_rows(&sweep, dir, Shard::all())? {
             if let Some(first) = from.get(&id) {
                 duplicated.push(format!(
                     "{id} (in {} and {})",
@@ -202,12 +204,12 @@ fn collect(
     let missing: Vec<usize> = (0..sweep.len())
         .filter(|id| !merged.contains_key(id))
         .collect();
-    exec::open_out(&sweep, out, Shard::all())?;
+    let _lock = exec::open_out(&sweep, out, Shard::all())?;
     // The merged folder holds the rows too, so it resumes like any sweep folder.
     for (id, row) in &merged {
         let text = serde_json::to_string(row)? + "\n";
         let path = out.join("rows").join(format!("{id:07}.json"));
-        std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))?;
+        write_text(&path, &text)?;
     }
     let rows = merged.len();
     write_tables(&sweep, out, merged, plots)?;

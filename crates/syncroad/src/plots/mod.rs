@@ -7,7 +7,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::Once;
 
-use anyhow::{anyhow, Context};
+use anyhow::anyhow;
 use plotters::prelude::*;
 use syncroad_control::Trajectory;
 
@@ -45,31 +45,27 @@ pub(crate) fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
     anyhow!("plotting failed: {e:?}")
 }
 
-/// Writes `<stem>.png` and `<stem>.svg` from the same drawing code (a macro, because the
+/// Writes `<stem>.png` and `<stem>.svg` (each a result file, replaced atomically) from the same drawing code (a macro, because the
 /// drawing is generic over the backend and closures cannot be).
 macro_rules! render_both {
     ($dir:expr, $stem:expr, $size:expr, |$root:ident| $body:block) => {{
         $crate::plots::ensure_font();
         let png = $dir.join(format!("{}.png", $stem));
         let svg = $dir.join(format!("{}.svg", $stem));
-        {
-            let area = BitMapBackend::new(&png, $size).into_drawing_area();
+        $crate::output::write_result_via_path(&png, |tmp: &std::path::Path| {
+            let area = BitMapBackend::new(tmp, $size).into_drawing_area();
             area.fill(&WHITE).map_err(err)?;
             let $root = &area;
             (|| -> anyhow::Result<()> { $body })()?;
-            area.present()
-                .map_err(err)
-                .with_context(|| format!("cannot write {}", png.display()))?;
-        }
-        {
-            let area = SVGBackend::new(&svg, $size).into_drawing_area();
+            area.present().map_err(err)
+        })?;
+        $crate::output::write_result_via_path(&svg, |tmp: &std::path::Path| {
+            let area = SVGBackend::new(tmp, $size).into_drawing_area();
             area.fill(&WHITE).map_err(err)?;
             let $root = &area;
             (|| -> anyhow::Result<()> { $body })()?;
-            area.present()
-                .map_err(err)
-                .with_context(|| format!("cannot write {}", svg.display()))?;
-        }
+            area.present().map_err(err)
+        })?;
         Ok(vec![png, svg])
     }};
 }

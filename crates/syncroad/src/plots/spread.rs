@@ -3,7 +3,6 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
 use plotters::prelude::*;
 use syncroad_control::metrics::spread_series;
 use syncroad_control::Trajectory;

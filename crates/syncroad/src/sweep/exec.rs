@@ -22,10 +22,13 @@ use syncroad_control::scenario::Backend;
 use syncroad_control::{EvalOptions, NativeOptions, Scenario, StopReason};
 use syncroad_sumo::{load_road, MeasureOptions, Road, RunOptions, WorkerCommand, WorkerPool};
 
+use super::lock::{self, FolderLock};
+use super::rows::{read_rows, row_path, rows_dir};
 use super::spec::{Point, Sweep};
 use super::table::{at_path, metric_kinds, Column, Kind, Table};
 use crate::config;
 use crate::error::InputError;
+use crate::output::write_text;
 use crate::pipeline::{self, Finished};
 use crate::progress::Progress;
 
@@ -137,16 +140,8 @@ pub fn columns(sweep: &Sweep) -> Vec<Column> {
     c
 }
 
-fn rows_dir(out: &Path) -> PathBuf {
-    out.join("rows")
-}
-
-fn row_path(out: &Path, id: usize) -> PathBuf {
-    rows_dir(out).join(format!("{id:07}.json"))
-}
-
 /// The parameter cells of a point's row.
-fn point_cells(sweep: &Sweep, p: &Point) -> Map<String, Value> {
+pub(super) fn point_cells(sweep: &Sweep, p: &Point) -> Map<String, Value> {
     let mut r = Map::new();
     r.insert("point".into(), json!(p.id));
     for (a, &k) in sweep.axes.iter().zip(&p.at) {
@@ -198,15 +193,10 @@ fn failed_row(sweep: &Sweep, p: &Point, error: &str) -> Map<String, Value> {
     r
 }
 
-fn write_atomic(path: &Path, text: &str) -> anyhow::Result<()> {
-    let tmp = path.with_extension("json.tmp");
-    std::fs::write(&tmp, text).with_context(|| format!("cannot write {}", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
-}
-
-/// Checks `out` and writes `sweep.json`: a new folder, or one this spec (and shard) made
-/// before, whose finished points are skipped.
-pub fn open_out(sweep: &Sweep, out: &Path, shard: Shard) -> anyhow::Result<()> {
+/// Locks `out` ([`lock::hold`]: one writer at a time), checks it and writes `sweep.json`: a
+/// new folder, or one this spec (and shard) made before, whose finished points are skipped.
+/// Keep the returned lock while writing into `out`.
+pub fn open_out(sweep: &Sweep, out: &Path, shard: Shard) -> anyhow::Result<FolderLock> {
     let meta = out.join("sweep.json");
     let doc = json!({
         "name": sweep.name,
@@ -223,12 +213,13 @@ pub fn open_out(sweep: &Sweep, out: &Path, shard: Shard) -> anyhow::Result<()> {
         ))
         .into());
     }
+    let held = lock::hold("--out", out)?;
     if meta.is_file() {
         let old: Value = serde_json::from_str(&std::fs::read_to_string(&meta)?)
             .with_context(|| format!("{} is not valid JSON", meta.display()))?;
         if old["spec_hash"] != doc["spec_hash"] {
             return Err(InputError::new(format!(
-                "--out = {}: holds a sweep of another spec or base scenario (hash {} here, {} now); give a new folder, or remove it to start over",
+                "--out = {}: holds a sweep of another spec, base scenario or network (hash {} here, {} now); give a new folder, or remove it to start over",
                 out.display(),
                 old["spec_hash"].as_str().unwrap_or("?"),
                 sweep.hash
@@ -246,11 +237,9 @@ pub fn open_out(sweep: &Sweep, out: &Path, shard: Shard) -> anyhow::Result<()> {
             ))
             .into());
         }
-    } else if out.is_dir()
-        && std::fs::read_dir(out)
-            .with_context(|| format!("cannot read {}", out.display()))?
-            .next()
-            .is_some()
+    } else if std::fs::read_dir(out)
+        .with_context(|| format!("cannot read {}", out.display()))?
+        .any(|e| e.is_ok_and(|e| e.file_name() != lock::LOCK_FILE))
     {
         return Err(InputError::new(format!(
             "--out = {}: exists and is not a sweep folder (no sweep.json); give a new or empty folder",
@@ -260,32 +249,8 @@ pub fn open_out(sweep: &Sweep, out: &Path, shard: Shard) -> anyhow::Result<()> {
     }
     std::fs::create_dir_all(rows_dir(out))
         .with_context(|| format!("cannot create {}", rows_dir(out).display()))?;
-    write_atomic(&meta, &(serde_json::to_string_pretty(&doc)? + "\n"))
-}
-
-/// Reads every row in `out/rows`, by point id.
-pub fn read_rows(out: &Path) -> anyhow::Result<BTreeMap<usize, Map<String, Value>>> {
-    let mut rows = BTreeMap::new();
-    let dir = rows_dir(out);
-    if !dir.is_dir() {
-        return Ok(rows);
-    }
-    for e in std::fs::read_dir(&dir).with_context(|| format!("cannot read {}", dir.display()))? {
-        let path = e?.path();
-        if path.extension().is_none_or(|x| x != "json") {
-            continue;
-        }
-        let text = std::fs::read_to_string(&path)
-            .with_context(|| format!("cannot read {}", path.display()))?;
-        let row: Map<String, Value> = serde_json::from_str(&text)
-            .with_context(|| format!("{} is not a sweep row", path.display()))?;
-        let id = row
-            .get("point")
-            .and_then(Value::as_u64)
-            .with_context(|| format!("{} has no point number", path.display()))?;
-        rows.insert(id as usize, row);
-    }
-    Ok(rows)
+    write_text(&meta, &(serde_json::to_string_pretty(&doc)? + "\n"))?;
+    Ok(held)
 }
 
 /// The table of the rows in `out`, in point order.
@@ -378,6 +343,10 @@ impl Shared<'_> {
             }
         };
         if interrupted {
+            // Run again from the start on resume: nothing of this attempt is kept.
+            if !self.opts.keep_runs {
+                let _ = std::fs::remove_dir_all(&work);
+            }
             return Ok(PointEnd::Interrupted);
         }
         let f = Finished::new(&sc, &choice.spec.name, output, eval);
@@ -390,10 +359,12 @@ impl Shared<'_> {
                 .then(|| format!("{} point {}: {}", sweep.name, p.id, choice.spec.name));
             f.write(&run_dir, title)?;
         }
-        if f.record.complete && !self.opts.keep_runs && sweep.backend == Backend::Sumo {
+        let row = row_of(sweep, p, &f.record.to_json());
+        // SUMO's files are kept for failed points only (a stopped point is a result).
+        if row.get("status") != Some(&json!("failed")) && !self.opts.keep_runs {
             let _ = std::fs::remove_dir_all(&work);
         }
-        Ok(PointEnd::Row(row_of(sweep, p, &f.record.to_json())))
+        Ok(PointEnd::Row(row))
     }
 }
 
@@ -404,7 +375,7 @@ pub fn run(
     opts: &ExecOptions,
     interrupt: Arc<AtomicBool>,
 ) -> anyhow::Result<Summary> {
-    let done = read_rows(out)?;
+    let done = read_rows(sweep, out, opts.shard)?;
     let mine: Vec<Point> = sweep.points().filter(|p| opts.shard.holds(p.id)).collect();
     let todo: Vec<&Point> = mine
         .iter()
@@ -471,7 +442,7 @@ pub fn run(
                 failed.fetch_add(1, Ordering::SeqCst);
             }
             let text = serde_json::to_string(&row).expect("a row serializes") + "\n";
-            if let Err(e) = write_atomic(&row_path(out, p.id), &text) {
+            if let Err(e) = write_text(&row_path(out, p.id), &text) {
                 write_error.lock().expect("error slot").get_or_insert(e);
                 interrupt.store(true, Ordering::SeqCst);
             }

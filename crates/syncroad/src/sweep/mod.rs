@@ -3,13 +3,18 @@
 //! long-lived workers; rows are kept per point so a sweep resumes and shards; the table is
 //! written as Parquet and CSV and plotted.
 //!
-//! [`spec`] (the file and its points), [`exec`] (running, resuming, sharding), [`table`]
+//! [`spec`] (the file and its points), [`points`] (their count and their checks), [`exec`]
+//! (running, resuming, sharding), [`rows`] (a folder's rows, each checked to be the sweep's),
+//! [`lock`] (one writer per folder), [`table`]
 //! (typed columns, Parquet and CSV), [`stats`] (mean and interval over seeds), [`plots`]
 //! and [`slurm`] (a job array that runs the shards).
 
 pub mod axis;
 pub mod exec;
+pub mod lock;
 pub mod plots;
+pub mod points;
+pub mod rows;
 pub mod slurm;
 pub mod spec;
 pub mod stats;

@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 
 use crate::error::InputError;
+use crate::output::write_text;
 
 /// What the scripts ask of the cluster.
 #[derive(Debug, Clone)]
@@ -38,37 +39,55 @@ pub struct Emitted {
     pub submit: PathBuf,
 }
 
-/// Quotes `s` for a POSIX shell.
-fn sh(s: &str) -> String {
-    if !s.is_empty()
-        && s.chars()
-            .all(|c| c.is_ascii_alphanumeric() || "/._-+=:,@%".contains(c))
-    {
-        s.to_string()
-    } else {
-        format!("'{}'", s.replace('\'', "'\\''"))
+/// Quotes `s` as one word of a POSIX shell (shlex), so no value of a spec or a flag is read
+/// as shell syntax when the script runs.
+fn sh(s: &str) -> anyhow::Result<String> {
+    Ok(shlex::try_quote(s)
+        .map_err(|_| InputError::new(format!("{s:?}: a NUL byte cannot be passed to a shell")))?
+        .into_owned())
+}
+
+/// A value for an `#SBATCH` line (`field` names it for the error): quoted, and refused when it
+/// holds a line break or another control character, which would end the comment line and
+/// let the rest run as a command.
+fn sbatch_value(field: &str, value: &str) -> anyhow::Result<String> {
+    if let Some(c) = value.chars().find(|c| c.is_control()) {
+        return Err(InputError::new(format!(
+            "{field} = {value:?}: holds the control character {c:?}, which cannot go into an #SBATCH line of a job script; use letters, digits and punctuation"
+        ))
+        .into());
     }
+    sh(value)
 }
 
 fn abs(p: &Path) -> anyhow::Result<PathBuf> {
     std::path::absolute(p).with_context(|| format!("cannot resolve {}", p.display()))
 }
 
-fn header(name: &str, opts: &SlurmOptions, lines: &mut Vec<String>) {
+fn header(
+    field: &str,
+    name: &str,
+    opts: &SlurmOptions,
+    lines: &mut Vec<String>,
+) -> anyhow::Result<()> {
     lines.push("#!/bin/bash".into());
-    lines.push(format!("#SBATCH --job-name={}", sh(name)));
-    if let Some(p) = &opts.partition {
-        lines.push(format!("#SBATCH --partition={}", sh(p)));
-    }
-    if let Some(a) = &opts.account {
-        lines.push(format!("#SBATCH --account={}", sh(a)));
-    }
-    if let Some(t) = &opts.time {
-        lines.push(format!("#SBATCH --time={}", sh(t)));
+    lines.push(format!("#SBATCH --job-name={}", sbatch_value(field, name)?));
+    for (flag, value) in [
+        ("partition", &opts.partition),
+        ("account", &opts.account),
+        ("time", &opts.time),
+    ] {
+        if let Some(v) = value {
+            lines.push(format!(
+                "#SBATCH --{flag}={}",
+                sbatch_value(&format!("--{flag}"), v)?
+            ));
+        }
     }
     for x in &opts.extra {
         lines.push(format!("#SBATCH {x}"));
     }
+    Ok(())
 }
 
 /// Writes `sweep.sbatch`, `collect.sbatch` and `submit.sh` into `dir`. Shard `i` writes
@@ -87,6 +106,8 @@ pub fn emit(
         ))
         .into());
     }
+    // The spec's name names the jobs: checked as written, before the prefix.
+    sbatch_value("name", name)?;
     if opts.max_running == 0 {
         return Err(InputError::new("--max-running = 0: must be ≥ 1").into());
     }
@@ -94,7 +115,7 @@ pub fn emit(
         return Err(InputError::new("--cpus-per-task = 0: must be ≥ 1").into());
     }
     for x in &opts.extra {
-        if !x.starts_with('-') || x.contains('\n') {
+        if !x.starts_with('-') || x.chars().any(char::is_control) {
             return Err(InputError::new(format!(
                 "--sbatch-option = {x:?}: give one sbatch option as written on its command line, e.g. --mem=4G"
             ))
@@ -106,10 +127,11 @@ pub fn emit(
     let exe = std::env::current_exe().context("cannot locate the syncroad executable")?;
     let (exe, spec, out, dir) = (abs(&exe)?, abs(spec)?, abs(out)?, abs(dir)?);
     let s = |p: &Path| sh(&p.display().to_string());
+    let line = |p: &Path| sbatch_value("the script folder", &p.display().to_string());
     let job = format!("syncroad-{name}");
 
     let mut a = Vec::new();
-    header(&job, opts, &mut a);
+    header("name", &job, opts, &mut a)?;
     a.push(format!(
         "#SBATCH --array=0-{}%{}",
         opts.shards - 1,
@@ -118,55 +140,53 @@ pub fn emit(
     a.push(format!("#SBATCH --cpus-per-task={}", opts.cpus_per_task));
     a.push(format!(
         "#SBATCH --output={}",
-        s(&dir.join("logs/%A_%a.out"))
+        line(&dir.join("logs/%A_%a.out"))?
     ));
     a.push(format!(
         "#SBATCH --error={}",
-        s(&dir.join("logs/%A_%a.err"))
+        line(&dir.join("logs/%A_%a.err"))?
     ));
     a.push(String::new());
     a.push("# One shard per array task; a resubmitted array resumes each shard's folder.".into());
     a.push("set -euo pipefail".into());
     a.push(format!(
         "exec {} sweep {} --out {}/shard-\"$SLURM_ARRAY_TASK_ID\" --shard \"$SLURM_ARRAY_TASK_ID\"/{} --jobs \"${{SLURM_CPUS_PER_TASK:-1}}\" --no-plots",
-        s(&exe),
-        s(&spec),
-        s(&out),
+        s(&exe)?,
+        s(&spec)?,
+        s(&out)?,
         opts.shards
     ));
     let array = dir.join("sweep.sbatch");
-    std::fs::write(&array, a.join("\n") + "\n")
-        .with_context(|| format!("cannot write {}", array.display()))?;
+    write_text(&array, &(a.join("\n") + "\n"))?;
 
     let mut c = Vec::new();
-    header(&format!("{job}-collect"), opts, &mut c);
+    header("name", &format!("{job}-collect"), opts, &mut c)?;
     c.push(format!(
         "#SBATCH --output={}",
-        s(&dir.join("logs/collect_%j.out"))
+        line(&dir.join("logs/collect_%j.out"))?
     ));
     c.push(String::new());
     c.push("set -euo pipefail".into());
-    let shards: Vec<String> = (0..opts.shards)
+    let shards = (0..opts.shards)
         .map(|i| s(&out.join(format!("shard-{i}"))))
-        .collect();
+        .collect::<anyhow::Result<Vec<String>>>()?;
     c.push(format!(
         "exec {} sweep collect {} --out {} {}",
-        s(&exe),
-        s(&spec),
-        s(&out.join("merged")),
+        s(&exe)?,
+        s(&spec)?,
+        s(&out.join("merged"))?,
         shards.join(" ")
     ));
     let collect = dir.join("collect.sbatch");
-    std::fs::write(&collect, c.join("\n") + "\n")
-        .with_context(|| format!("cannot write {}", collect.display()))?;
+    write_text(&collect, &(c.join("\n") + "\n"))?;
 
     let submit = dir.join("submit.sh");
     let text = format!(
         "#!/bin/bash\n# Submits the array, then the merge once every task has ended (finished or not:\n# collect reports missing points, and submitting the array again resumes them).\nset -euo pipefail\narray=$(sbatch --parsable \"$@\" {})\necho \"array job $array\"\nsbatch --dependency=afterany:\"${{array%%;*}}\" \"$@\" {}\n",
-        s(&array),
-        s(&collect)
+        s(&array)?,
+        s(&collect)?
     );
-    std::fs::write(&submit, text).with_context(|| format!("cannot write {}", submit.display()))?;
+    write_text(&submit, &text)?;
     Ok(Emitted {
         array,
         collect,
@@ -178,10 +198,52 @@ pub fn emit(
 mod tests {
     use super::*;
 
+    /// What bash makes of `word`: the words it splits `echo WORD` into, run for real.
+    fn bash_words(word: &str) -> Vec<String> {
+        let out = std::process::Command::new("bash")
+            .arg("-c")
+            .arg(format!("printf '%s\\0' {word}"))
+            .output()
+            .expect("bash runs");
+        assert!(out.status.success(), "{word}: {out:?}");
+        String::from_utf8(out.stdout)
+            .unwrap()
+            .split_terminator('\0')
+            .map(str::to_string)
+            .collect()
+    }
+
     #[test]
-    fn quoting_survives_spaces_and_quotes() {
-        assert_eq!(sh("/a/b.json"), "/a/b.json");
-        assert_eq!(sh("a b"), "'a b'");
-        assert_eq!(sh("it's"), "'it'\\''s'");
+    fn quoting_gives_bash_back_the_value_as_one_word() {
+        assert_eq!(sh("/a/b.json").unwrap(), "/a/b.json");
+        for hostile in [
+            "a b",
+            "it's",
+            "$(touch pwned)",
+            "`touch pwned`",
+            "x\ntouch pwned",
+            "\"; touch pwned; \"",
+            "'; touch pwned; '",
+            "*",
+            "~",
+            "a\\b",
+            "",
+        ] {
+            let q = sh(hostile).unwrap();
+            assert_eq!(bash_words(&q), vec![hostile.to_string()], "{q}");
+        }
+        assert!(sh("a\0b").is_err());
+    }
+
+    #[test]
+    fn an_sbatch_value_with_a_line_break_is_refused_naming_the_field() {
+        let e = sbatch_value("name", "x\ntouch pwned")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("name = \"x\\ntouch pwned\": holds the control character '\\n'"),
+            "{e}"
+        );
+        assert_eq!(sbatch_value("name", "gain delay").unwrap(), "'gain delay'");
     }
 }

@@ -164,7 +164,10 @@ pub struct Sweep {
     pub seeds: Vec<u64>,
     /// Metric paths kept.
     pub metrics: Vec<String>,
-    /// SHA-256 of the spec and the base scenario as written: what resumption checks.
+    /// Number of points.
+    count: usize,
+    /// SHA-256 of the spec, the base scenario as written and (SUMO) the network files the
+    /// points read: what resumption checks.
     pub hash: String,
 }
 
@@ -239,156 +242,25 @@ impl Sweep {
                 return Err(bad(format!("axes[{}] appears twice", a.field)).into());
             }
         }
-        let seeds = match &file.seeds {
-            None => vec![base.seed()],
-            Some(SeedsFile::List(v)) if v.is_empty() => {
-                return Err(bad("seeds = []: give at least one seed").into())
-            }
-            Some(SeedsFile::List(v)) => v.clone(),
-            Some(SeedsFile::Range { first, count }) => {
-                if *count == 0 || *count > 100_000 {
-                    return Err(bad(format!(
-                        "seeds.count = {count}: must be between 1 and 100000"
-                    ))
-                    .into());
-                }
-                (*first..first.saturating_add(*count)).collect()
-            }
-        };
-        if seeds.iter().collect::<BTreeSet<_>>().len() != seeds.len() {
-            return Err(bad(format!("seeds = {seeds:?}: a seed is listed twice")).into());
-        }
-        let n = base.vehicles();
-        let mut runs = Vec::new();
-        let names = file.runs.clone().unwrap_or_else(|| {
-            if file.penetrations.is_empty() {
-                vec!["protocol".into()]
-            } else {
-                Vec::new()
-            }
-        });
-        for name in &names {
-            let spec = RunSpec::parse("runs", name, n)?;
-            if runs.iter().any(|r: &RunChoice| r.spec.name == spec.name) {
-                return Err(bad(format!("runs: {} is listed twice", spec.name)).into());
-            }
-            runs.push(RunChoice {
-                penetration: spec.penetration(&base),
-                spec,
-            });
-        }
-        if !file.penetrations.is_empty() {
-            let human_name = file.mixed_driver.as_deref().unwrap_or("krauss-0.9");
-            let human = SumoDriver::parse("mixed_driver", human_name)
-                .map_err(|e| InputError::caused("mixed_driver", e))?;
-            let names = match &file.mixed_controller {
-                None => vec!["law".to_string()],
-                Some(OneOrMany::One(c)) => vec![c.clone()],
-                Some(OneOrMany::Many(v)) => v.clone(),
-            };
-            let mut controllers = Vec::new();
-            for c in &names {
-                let d = DamperSpec::parse("mixed_controller", c)
-                    .map_err(|e| InputError::caused("mixed_controller", e))?;
-                if controllers.contains(&d) {
-                    return Err(bad(format!("mixed_controller: {c} is listed twice")).into());
-                }
-                controllers.push(d);
-            }
-            if controllers.is_empty() {
-                return Err(bad("mixed_controller = []: name at least one (e.g. \"law\")").into());
-            }
-            for &p in &file.penetrations {
-                if !(0.0..=1.0).contains(&p) {
-                    return Err(
-                        bad(format!("penetrations: {p} is not a fraction in [0, 1]")).into(),
-                    );
-                }
-                let k = (p * n as f64).round() as usize;
-                // The all-human ring is the same whatever would control: it runs once.
-                let with = if k == 0 {
-                    &controllers[..1]
-                } else {
-                    &controllers[..]
-                };
-                for &controller in with {
-                    let name = match controller {
-                        Some(d) if k > 0 => format!("{d}-mixed-{p}"),
-                        _ => format!("mixed-{p}"),
-                    };
-                    let spec = RunSpec::mixed(name, n, k, human.clone(), controller);
-                    if runs.iter().any(|r| r.spec.name == spec.name) {
-                        return Err(bad(format!(
-                            "penetrations: {p} gives {} again (listed twice)",
-                            spec.name
-                        ))
-                        .into());
-                    }
-                    runs.push(RunChoice {
-                        spec,
-                        penetration: k as f64 / n.max(1) as f64,
-                    });
-                }
-            }
-        }
-        if runs.is_empty() {
-            return Err(bad(
-                "runs = []: name at least one run (e.g. \"protocol\") or give penetrations",
-            )
-            .into());
-        }
-        if backend == Backend::Native {
-            if let Some(r) = runs
-                .iter()
-                .find(|r| r.spec.damper.is_some() || r.spec.drivers.iter().any(Option::is_some))
-            {
-                return Err(bad(format!(
-                    "runs: {} has SUMO drivers or a wave damper, which run in SUMO, but backend = \"native\"; use backend \"sumo\" or only \"protocol\"",
-                    r.spec.name
-                ))
-                .into());
-            }
-        }
-        let metrics = match &file.metrics {
-            None => DEFAULT_METRICS.iter().map(|s| s.to_string()).collect(),
-            Some(m) => m.clone(),
-        };
-        let known = crate::sweep::table::metric_kinds();
-        for m in &metrics {
-            if !known.iter().any(|(p, _)| p == m) {
-                let mut near: Vec<&str> = known
-                    .iter()
-                    .map(|(p, _)| p.as_str())
-                    .filter(|p| p.split('.').next() == m.split('.').next())
-                    .collect();
-                if near.is_empty() {
-                    near = known.iter().map(|(p, _)| p.as_str()).take(12).collect();
-                }
-                return Err(bad(format!(
-                    "metrics: {m:?} is not a metric of metrics.json; valid are e.g. {} (`syncroad schema` lists all)",
-                    near.join(", ")
-                ))
-                .into());
-            }
-        }
-        if metrics.iter().collect::<BTreeSet<_>>().len() != metrics.len() {
-            return Err(bad("metrics: a metric is listed twice").into());
-        }
+        let seeds = super::points::seeds_of(&file, base.seed())?;
+        let runs = runs_of(&file, &base, backend)?;
+        let metrics = metrics_of(&file)?;
         if file.record_every == Some(0) {
             return Err(bad("record_every = 0: must be ≥ 1").into());
         }
         if let Some(t) = file.timeout_s {
-            if !(t.is_finite() && t > 0.0) {
-                return Err(bad(format!("timeout_s = {t}: must be a finite number > 0")).into());
+            if t == 0.0 {
+                return Err(bad("timeout_s = 0: must be > 0").into());
             }
+            crate::config::timeout_as("timeout_s", t)?;
         }
+        let count = super::points::count(&axes, runs.len(), seeds.len())?;
         let mut h = Sha256::new();
         // The spec as written (keys sorted), so the hash does not move with syncroad's defaults.
         h.update(serde_json::to_string(&raw)?.as_bytes());
         h.update([0]);
         h.update(serde_json::to_string(&base_json)?.as_bytes());
-        let hash = h.finalize().iter().map(|b| format!("{b:02x}")).collect();
-        let sweep = Self {
+        let mut sweep = Self {
             name,
             file,
             base,
@@ -399,24 +271,24 @@ impl Sweep {
             runs,
             seeds,
             metrics,
-            hash,
+            count,
+            hash: String::new(),
         };
-        // Every point's scenario must validate before anything runs.
-        let mut checked = BTreeSet::new();
-        for p in sweep.points() {
-            // The run and the seed never make a scenario invalid; check each axis combination once.
-            if checked.insert(p.at.clone()) {
-                sweep.scenario(&p)?;
-            }
+        // Every point is checked as it will run before anything runs; the networks they read
+        // are part of what a resumed sweep must match.
+        for net in sweep.check_points()? {
+            let bytes = std::fs::read(&net)
+                .map_err(|e| bad(format!("cannot read the network {}: {e}", net.display())))?;
+            h.update([0]);
+            h.update(&bytes);
         }
+        sweep.hash = h.finalize().iter().map(|b| format!("{b:02x}")).collect();
         Ok(sweep)
     }
 
-    /// Number of points.
+    /// Number of points (at most [`super::points::MAX_POINTS`]).
     pub fn len(&self) -> usize {
-        self.axes.iter().map(|a| a.values.len()).product::<usize>()
-            * self.runs.len()
-            * self.seeds.len()
+        self.count
     }
 
     /// The points in order.
@@ -482,6 +354,138 @@ impl Sweep {
             .map_err(|e| InputError::caused(format!("sweep point {} ({})", p.id, at()), e))?
             .scenario)
     }
+}
+
+/// The runs of a spec: `runs` by name, then a mixed run per penetration and controller.
+fn runs_of(file: &SpecFile, base: &Scenario, backend: Backend) -> anyhow::Result<Vec<RunChoice>> {
+    let n = base.vehicles();
+    let mut runs = Vec::new();
+    let names = file.runs.clone().unwrap_or_else(|| {
+        if file.penetrations.is_empty() {
+            vec!["protocol".into()]
+        } else {
+            Vec::new()
+        }
+    });
+    for name in &names {
+        let spec = RunSpec::parse("runs", name, n)?;
+        if runs.iter().any(|r: &RunChoice| r.spec.name == spec.name) {
+            return Err(bad(format!("runs: {} is listed twice", spec.name)).into());
+        }
+        runs.push(RunChoice {
+            penetration: spec.penetration(base),
+            spec,
+        });
+    }
+    if !file.penetrations.is_empty() {
+        let human_name = file.mixed_driver.as_deref().unwrap_or("krauss-0.9");
+        let human = SumoDriver::parse("mixed_driver", human_name)
+            .map_err(|e| InputError::caused("mixed_driver", e))?;
+        let names = match &file.mixed_controller {
+            None => vec!["law".to_string()],
+            Some(OneOrMany::One(c)) => vec![c.clone()],
+            Some(OneOrMany::Many(v)) => v.clone(),
+        };
+        let mut controllers = Vec::new();
+        for c in &names {
+            let d = DamperSpec::parse("mixed_controller", c)
+                .map_err(|e| InputError::caused("mixed_controller", e))?;
+            if controllers.contains(&d) {
+                return Err(bad(format!("mixed_controller: {c} is listed twice")).into());
+            }
+            controllers.push(d);
+        }
+        if controllers.is_empty() {
+            return Err(bad("mixed_controller = []: name at least one (e.g. \"law\")").into());
+        }
+        let mut counts: Vec<(usize, f64)> = Vec::new();
+        for &p in &file.penetrations {
+            if !(0.0..=1.0).contains(&p) {
+                return Err(bad(format!("penetrations: {p} is not a fraction in [0, 1]")).into());
+            }
+            let k = (p * n as f64).round() as usize;
+            if let Some((_, q)) = counts.iter().find(|(j, _)| *j == k) {
+                return Err(bad(format!(
+                    "penetrations: {q} and {p} both give {k} of {n} automated vehicles, so the same run twice; give one of them"
+                ))
+                .into());
+            }
+            counts.push((k, p));
+            // The all-human ring is the same whatever would control: it runs once.
+            let with = if k == 0 {
+                &controllers[..1]
+            } else {
+                &controllers[..]
+            };
+            for &controller in with {
+                let name = match controller {
+                    Some(d) if k > 0 => format!("{d}-mixed-{p}"),
+                    _ => format!("mixed-{p}"),
+                };
+                let spec = RunSpec::mixed(name, n, k, human.clone(), controller);
+                if runs.iter().any(|r| r.spec.name == spec.name) {
+                    return Err(bad(format!(
+                        "penetrations: {p} gives {} again (listed twice)",
+                        spec.name
+                    ))
+                    .into());
+                }
+                runs.push(RunChoice {
+                    spec,
+                    penetration: k as f64 / n.max(1) as f64,
+                });
+            }
+        }
+    }
+    if runs.is_empty() {
+        return Err(bad(
+            "runs = []: name at least one run (e.g. \"protocol\") or give penetrations",
+        )
+        .into());
+    }
+    if backend == Backend::Native {
+        if let Some(r) = runs
+            .iter()
+            .find(|r| r.spec.damper.is_some() || r.spec.drivers.iter().any(Option::is_some))
+        {
+            return Err(bad(format!(
+                "runs: {} has SUMO drivers or a wave damper, which run in SUMO, but backend = \"native\"; use backend \"sumo\" or only \"protocol\"",
+                r.spec.name
+            ))
+            .into());
+        }
+    }
+    Ok(runs)
+}
+
+/// The metric paths a spec keeps, each a metric of `metrics.json`.
+fn metrics_of(file: &SpecFile) -> anyhow::Result<Vec<String>> {
+    let metrics = match &file.metrics {
+        None => DEFAULT_METRICS.iter().map(|s| s.to_string()).collect(),
+        Some(m) => m.clone(),
+    };
+    let known = crate::sweep::table::metric_kinds();
+    for m in &metrics {
+        if !known.iter().any(|(p, _)| p == m) {
+            let mut near: Vec<&str> = known
+                .iter()
+                .map(|(p, _)| p.as_str())
+                .filter(|p| p.split('.').next() == m.split('.').next())
+                .collect();
+            if near.is_empty() {
+                near = known.iter().map(|(p, _)| p.as_str()).take(12).collect();
+            }
+            return Err(bad(format!(
+                "metrics: {m:?} is not a metric of metrics.json; valid are e.g. {} (`syncroad schema` lists all)",
+                near.join(", ")
+            ))
+            .into());
+        }
+    }
+    if metrics.iter().collect::<BTreeSet<_>>().len() != metrics.len() {
+        return Err(bad("metrics: a metric is listed twice").into());
+    }
+    Ok(metrics)
 }
 
 #[cfg(test)]
@@ -563,5 +567,13 @@ mod tests {
             spec(r#"{"base": "ring-theorem1.json", "axes": [{"field": "seed", "values": [1]}]}"#)
                 .unwrap_err();
         assert!(e.to_string().contains("\"seeds\""), "{e}");
+        let e = spec(r#"{"base": "ring-theorem1.json", "timeout_s": 1e20}"#).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "timeout_s = 100000000000000000000: must be a number of seconds between 0 and 1e9"
+        );
+        let e =
+            spec(r#"{"base": "ring-theorem1.json", "seeds": [9223372036854775808]}"#).unwrap_err();
+        assert!(e.to_string().contains("is past 9223372036854775807"), "{e}");
     }
 }

@@ -4,15 +4,15 @@
 //! interrupted sweep loses nothing; the tables are rebuilt from the rows in point order, so
 //! they are the same whatever the jobs, the order of completion or the sharding.
 
-use std::fs::File;
 use std::path::Path;
 use std::sync::{Arc, OnceLock};
 
-use anyhow::Context;
 use arrow_array::{ArrayRef, BooleanArray, Float64Array, Int64Array, RecordBatch, StringArray};
 use arrow_schema::{DataType, Field, Schema};
 use serde_json::{Map, Value};
 use syncroad_control::record_schema::{metric_infos, MetricInfo};
+
+use crate::output::write_result;
 
 /// A column's type.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -143,22 +143,25 @@ impl Table {
         Ok(RecordBatch::try_new(Arc::new(Schema::new(fields)), arrays)?)
     }
 
-    /// Writes the table as Parquet (written to a temporary name, then renamed).
+    /// Writes the table as Parquet (a result file, replaced atomically).
     pub fn write_parquet(&self, path: &Path) -> anyhow::Result<()> {
         let batch = self.batch()?;
-        let tmp = path.with_extension("parquet.tmp");
-        let f = File::create(&tmp).with_context(|| format!("cannot write {}", tmp.display()))?;
-        let mut w = parquet::arrow::ArrowWriter::try_new(f, batch.schema(), None)?;
-        w.write(&batch)?;
-        w.close()?;
-        std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
+        Ok(write_result(path, |f| -> anyhow::Result<()> {
+            let mut w = parquet::arrow::ArrowWriter::try_new(f, batch.schema(), None)?;
+            w.write(&batch)?;
+            w.close()?;
+            Ok(())
+        })?)
     }
 
-    /// Writes the table as CSV (empty cells for missing values).
+    /// Writes the table as CSV (empty cells for missing values; a result file, replaced
+    /// atomically).
     pub fn write_csv(&self, path: &Path) -> anyhow::Result<()> {
-        let tmp = path.with_extension("csv.tmp");
-        let mut w = csv::Writer::from_path(&tmp)
-            .with_context(|| format!("cannot write {}", tmp.display()))?;
+        Ok(write_result(path, |f| self.write_csv_to(f))?)
+    }
+
+    fn write_csv_to(&self, f: &mut (dyn std::io::Write + Send)) -> anyhow::Result<()> {
+        let mut w = csv::Writer::from_writer(f);
         w.write_record(self.columns.iter().map(|c| c.name.as_str()))?;
         for r in &self.rows {
             w.write_record(self.columns.iter().map(|c| {
@@ -172,8 +175,7 @@ impl Table {
             }))?;
         }
         w.flush()?;
-        drop(w);
-        std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
+        Ok(())
     }
 }
 

@@ -13,7 +13,7 @@ pub(super) fn chebyshev(m: usize) -> (Vec<f64>, DMatrix<f64>) {
         .collect();
     let c = |k: usize| {
         let w = if k == 0 || k == m { 2.0 } else { 1.0 };
-        if k % 2 == 0 {
+        if k.is_multiple_of(2) {
             w
         } else {
             -w

@@ -171,6 +171,16 @@ pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
     check_sumo_numbers(sc).map_err(before)?;
     let road = load_road(sc).map_err(before)?;
     syncroad_sumo::layout_for(sc, &road).map_err(before)?;
+    for (i, r) in runs.iter().enumerate() {
+        if let Some(o) = runs[..i].iter().find(|o| o.folder() == r.folder()) {
+            return Err(bad(format!(
+                "--baselines: runs {} and {} would write the same folder {}; name one of them otherwise",
+                o.name,
+                r.name,
+                r.folder()
+            )));
+        }
+    }
     Ok(Plan {
         runs,
         jobs,
@@ -266,7 +276,14 @@ pub fn run_all(
                 let r = if interrupt.load(Ordering::SeqCst) {
                     Err(anyhow::anyhow!("not started: interrupted"))
                 } else {
-                    run_one(sc, spec, plan, &out.join(&spec.name), &worker, &interrupt)
+                    run_one(
+                        sc,
+                        spec,
+                        plan,
+                        &out.join(spec.folder()),
+                        &worker,
+                        &interrupt,
+                    )
                 };
                 let r = r.unwrap_or_else(|e| RunResult {
                     name: spec.name.clone(),
@@ -348,7 +365,7 @@ pub fn compare_into(
     for spec in &plan.runs {
         output::prepare_dir(
             "--out",
-            &out.join(&spec.name),
+            &out.join(spec.folder()),
             &[output::METRICS_FILE, output::TRAJECTORY_FILE],
         )?;
     }
@@ -365,6 +382,12 @@ pub fn compare_into(
     }
     let mut doc = combined(sc, &results, &plan.mixed_runs);
     doc["order"] = json!(plan.runs.iter().map(|r| r.name.clone()).collect::<Vec<_>>());
+    // Each run's folder under --out (its name made safe for paths).
+    doc["folders"] = json!(plan
+        .runs
+        .iter()
+        .map(|r| (r.name.clone(), json!(r.folder())))
+        .collect::<serde_json::Map<_, _>>());
     write_json(&out.join("compare.json"), &doc)?;
     Ok((doc, results))
 }
@@ -413,7 +436,7 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<Status> {
         a.out.display(),
         plan.runs
             .iter()
-            .map(|r| r.name.as_str())
+            .map(|r| r.folder())
             .collect::<Vec<_>>()
             .join(", ")
     );

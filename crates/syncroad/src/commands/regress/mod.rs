@@ -21,7 +21,6 @@
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
-use std::io::Write as _;
 use std::path::Path;
 use syncroad_control::record::STAMPS;
 
@@ -30,7 +29,7 @@ use serde_json::Value;
 
 use crate::config::load_scenario;
 use crate::error::{InputError, Status};
-use crate::output::{write_atomic, write_json};
+use crate::output::{write_json, write_text};
 use crate::pipeline::{self, Finished};
 use crate::stdout::{out, outln};
 use syncroad_control::EvalOptions;
@@ -266,6 +265,13 @@ pub fn compare(
                 .push(format!("{k}: baseline {v}, this run has none")),
         }
     }
+    // A baseline without a stamp says nothing about where it was recorded: --strict fails it.
+    for (k, w) in fresh_stamps {
+        if !base.stamp.contains_key(k) && !w.is_null() {
+            c.stamp_notes
+                .push(format!("{k}: the baseline has none, this run {w}"));
+        }
+    }
     c
 }
 
@@ -431,11 +437,11 @@ pub fn run(
     out!("{}", render(&c, baseline_path));
     if let Some(p) = &reports.junit {
         let text = junit(&c, baseline_path, reports.strict)?;
-        write_atomic(p, |w| Ok(w.write_all(text.as_bytes())?))?;
+        write_text(p, &text)?;
     }
     if let Some(p) = &reports.markdown {
         let text = markdown(&c, baseline_path, reports.strict);
-        write_atomic(p, |w| Ok(w.write_all(text.as_bytes())?))?;
+        write_text(p, &text)?;
     }
     let stamps_ok = c.stamp_notes.is_empty() || !reports.strict;
     if !stamps_ok {
@@ -524,6 +530,24 @@ mod tests {
         );
         let keys: Vec<&str> = bad.failures.iter().map(|f| f.key.as_str()).collect();
         assert_eq!(keys, ["cong.mean", "sync.final", "sync.l2", "sync.verdict"]);
+    }
+
+    #[test]
+    fn a_baseline_without_a_stamp_is_a_stamp_note_so_strict_fails_it() {
+        let mut b = base(json!({"a": 1.0}));
+        b.stamp.clear();
+        let stamps = [
+            ("platform".to_string(), json!("x86_64-linux")),
+            ("sumo_version".to_string(), Value::Null),
+        ]
+        .into_iter()
+        .collect();
+        let c = compare(&b, &stamps, &json!({"a": 1.0}));
+        assert!(c.failures.is_empty());
+        assert_eq!(
+            c.stamp_notes,
+            ["platform: the baseline has none, this run \"x86_64-linux\""]
+        );
     }
 
     #[test]

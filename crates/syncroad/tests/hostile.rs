@@ -1,0 +1,717 @@
+//! Hostile input end to end: nothing silently wrong, nothing overwritten. One module per
+//! class: wrong results reported as right, data overwritten or lost, text that reaches a
+//! shell, and what must be refused up front. Tests that need SUMO run SUMO.
+
+mod common;
+
+use std::fs::File;
+use std::os::unix::fs::{symlink, FileTypeExt};
+use std::path::{Path, PathBuf};
+
+use common::{bin, repo, run, tmpdir};
+use serde_json::{json, Value};
+
+fn write_json(path: &Path, v: &Value) -> PathBuf {
+    std::fs::write(path, serde_json::to_string_pretty(v).unwrap()).unwrap();
+    path.to_path_buf()
+}
+
+/// The Sugiyama ring of `scenarios/sugiyama-ring.json` with `edit` applied, its network path
+/// made absolute.
+fn sugiyama(dir: &Path, name: &str, edit: impl FnOnce(&mut Value)) -> PathBuf {
+    let mut s: Value = serde_json::from_str(
+        &std::fs::read_to_string(repo().join("scenarios/sugiyama-ring.json")).unwrap(),
+    )
+    .unwrap();
+    s["sumo"]["net"] = json!(repo().join("sumo-nets/sugiyama-ring.net.xml"));
+    edit(&mut s);
+    write_json(&dir.join(name), &s)
+}
+
+fn metrics(dir: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("metrics.json")).unwrap()).unwrap()
+}
+
+/// Every gap of every sample of a `trajectories.csv` on a ring of `ring_m` with vehicles of
+/// `length_m`, recomputed from the positions (not the file's gap column).
+fn smallest_gap_from_positions(csv: &Path, n: usize, ring_m: f64, length_m: f64) -> f64 {
+    let text = std::fs::read_to_string(csv).unwrap();
+    let q: Vec<f64> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(3).unwrap().parse().unwrap())
+        .collect();
+    let mut smallest = f64::INFINITY;
+    for s in q.chunks(n) {
+        for i in 0..n {
+            // Vehicle i follows i − 1 (vehicle 0 follows n − 1, one lap ahead).
+            let ahead = if i == 0 { s[n - 1] + ring_m } else { s[i - 1] };
+            smallest = smallest.min(ahead - s[i] - length_m);
+        }
+    }
+    smallest
+}
+
+mod wrong_results {
+    use super::*;
+
+    #[test]
+    fn a_native_ring_whose_vehicles_overlap_is_not_synchronized_and_sumo_agrees() {
+        let dir = tmpdir("overlap");
+        // Gains scaled by 0.25: the spread still decays below the tolerance, but the vehicles
+        // drive through each other.
+        let sc = sugiyama(&dir, "ring.json", |s| {
+            s["model"]["graph"]["gain_pred"] = json!(0.15);
+            s["model"]["graph"]["gain_follow"] = json!(0.025);
+        });
+        let (code, out, err) = run(bin()
+            .args(["simulate"])
+            .arg(&sc)
+            .arg("--out")
+            .arg(dir.join("native")));
+        assert_eq!(code, 1, "{out}{err}");
+        let m = metrics(&dir.join("native"));
+        // The spread alone would call it synchronized ...
+        assert!(
+            m["sync"]["window_max_spread_mps"].as_f64().unwrap() <= 0.05,
+            "{m}"
+        );
+        // ... but positions recomputed from the file show overlapping bumpers.
+        let gap = smallest_gap_from_positions(&dir.join("native/trajectories.csv"), 22, 230.0, 5.0);
+        assert!(gap < -1.0, "smallest gap {gap}");
+        assert_eq!(m["sync"]["verdict"], "not_synchronized");
+        let why = m["sync"]["verdict_reason"].as_str().unwrap();
+        assert!(why.starts_with("vehicles overlapped in "), "{why}");
+        assert!(out.contains("because vehicles overlapped"), "{out}");
+        // SUMO, on the same scenario, reports collisions.
+        let (code, out, err) = run(bin()
+            .args(["run"])
+            .arg(&sc)
+            .arg("--out")
+            .arg(dir.join("sumo")));
+        assert_eq!(code, 1, "{out}{err}");
+        let s = metrics(&dir.join("sumo"));
+        assert!(s["safety"]["collision_steps"].as_u64().unwrap() > 0, "{s}");
+        assert_eq!(s["sync"]["verdict"], "not_synchronized");
+    }
+
+    #[test]
+    fn a_follower_stopper_that_stops_every_vehicle_is_a_jam_not_a_success() {
+        let dir = tmpdir("standstill");
+        let sc = sugiyama(&dir, "ring.json", |s| s["horizon_s"] = json!(120));
+        let out = dir.join("cmp");
+        let (_, stdout, err) = run(bin()
+            .args(["compare"])
+            .arg(&sc)
+            .args(["--baselines", "follower-stopper-0", "--no-plots", "--out"])
+            .arg(&out));
+        let m = metrics(&out.join("follower-stopper-0"));
+        assert!(m["complete"].as_bool().unwrap(), "{stdout}{err}");
+        // Every vehicle stands: equal speeds of 0 m/s.
+        assert!(
+            m["congestion"]["mean_speed_mps"].as_f64().unwrap() < 0.05,
+            "{m}"
+        );
+        assert_ne!(m["sync"]["verdict"], "synchronized", "{m}");
+        let why = m["sync"]["verdict_reason"].as_str().unwrap_or_default();
+        assert!(why.contains("stands still"), "{m}");
+    }
+}
+
+mod sweeps {
+    use super::*;
+
+    pub fn native_ring(dir: &Path) -> PathBuf {
+        let p = dir.join("ring.json");
+        std::fs::copy(repo().join("scenarios/ring-theorem1.json"), &p).unwrap();
+        p
+    }
+
+    pub fn spec(dir: &Path, name: &str, body: Value) -> PathBuf {
+        write_json(&dir.join(name), &body)
+    }
+
+    fn sweep(spec: &Path, out: &Path) -> (i32, String, String) {
+        run(bin()
+            .arg("sweep")
+            .arg(spec)
+            .arg("--out")
+            .arg(out)
+            .args(["--no-plots", "--jobs", "1"]))
+    }
+
+    #[test]
+    fn point_counts_never_wrap_and_huge_sweeps_are_refused_naming_the_axes() {
+        let dir = tmpdir("counts");
+        native_ring(&dir);
+        let axis = |f: &str, n: usize| json!({"field": f, "linspace": [0.5, 1.5, n]});
+        let cases = [
+            // 65536⁴ = 2^64 wraps to 0 in unchecked arithmetic ("0 points", exit 0).
+            (
+                json!({"base": "ring.json", "axes": [axis("scale.gain", 65536), axis("scale.delay", 65536), axis("initial.speed_mps", 65536), axis("initial.perturbation.speed_mps", 65536)]}),
+                "more than 2^64 points (axes[scale.gain]: 65536 × axes[scale.delay]: 65536",
+            ),
+            // 10⁹ points: refused at once, not run out of memory.
+            (
+                json!({"base": "ring.json", "axes": [axis("scale.gain", 1000), axis("scale.delay", 1000), axis("initial.speed_mps", 1000)]}),
+                "the sweep has 1000000000 points",
+            ),
+            // Seeds starting near the largest integer gave 0 points.
+            (
+                json!({"base": "ring.json", "seeds": {"first": u64::MAX, "count": 2}}),
+                "the last seed would pass 9223372036854775807",
+            ),
+        ];
+        for (body, want) in cases {
+            let p = spec(&dir, "spec.json", body);
+            let started = std::time::Instant::now();
+            let (code, out, err) = sweep(&p, &dir.join("out"));
+            assert_eq!(code, 2, "{out}{err}");
+            assert!(err.contains(want), "{err}");
+            assert!(started.elapsed().as_secs() < 20);
+            assert!(!dir.join("out").exists());
+        }
+    }
+
+    #[test]
+    fn rows_that_are_not_the_sweeps_never_enter_its_table() {
+        let dir = tmpdir("foreign");
+        native_ring(&dir);
+        let p = spec(
+            &dir,
+            "spec.json",
+            json!({"base": "ring.json", "seeds": [1, 2], "axes": [{"field": "scale.gain", "values": [1.0]}]}),
+        );
+        let out = dir.join("out");
+        let (code, o, e) = sweep(&p, &out);
+        assert_eq!(code, 0, "{o}{e}");
+        let row = std::fs::read_to_string(out.join("rows/0000001.json")).unwrap();
+        let mut foreign: Value = serde_json::from_str(&row).unwrap();
+        foreign["point"] = json!(99);
+        let first = std::fs::read_to_string(out.join("rows/0000000.json")).unwrap();
+        let mut reseeded: Value = serde_json::from_str(&first).unwrap();
+        reseeded["seed"] = json!(7);
+        let cases: [(&str, String, &str); 3] = [
+            (
+                "0000099.json",
+                foreign.to_string(),
+                "holds point 99, and the spec has 2 points",
+            ),
+            // A duplicate of a finished row under another name.
+            (
+                "0000001 (copy).json",
+                row.clone(),
+                "holds point 1, whose row is 0000001.json",
+            ),
+            // A row with other parameters under a point's number.
+            (
+                "0000000.json",
+                reseeded.to_string(),
+                "its seed is 7, but point 0 of this spec has 1",
+            ),
+        ];
+        for (name, text, want) in cases {
+            std::fs::write(out.join("rows").join(name), &text).unwrap();
+            let (code, o, e) = sweep(&p, &out);
+            assert_eq!(code, 2, "{name}: {o}{e}");
+            assert!(e.contains(want), "{name}: {e}");
+            assert!(e.contains(name), "{name}: {e}");
+            // collect refuses it too, instead of reporting "2 of 2".
+            let (code, o, e) = run(bin()
+                .args(["sweep", "collect"])
+                .arg(&p)
+                .arg("--out")
+                .arg(dir.join("merged"))
+                .arg(&out)
+                .arg("--no-plots"));
+            assert_eq!(code, 2, "{name}: {o}{e}");
+            assert!(e.contains(want), "{name}: {e}");
+            if name == "0000000.json" {
+                std::fs::write(out.join("rows/0000000.json"), &first).unwrap();
+            } else {
+                std::fs::remove_file(out.join("rows").join(name)).unwrap();
+            }
+        }
+        let (code, o, e) = sweep(&p, &out);
+        assert_eq!(code, 0, "{o}{e}");
+        assert_eq!(
+            std::fs::read_to_string(out.join("results.csv"))
+                .unwrap()
+                .lines()
+                .count(),
+            3
+        );
+    }
+
+    #[test]
+    fn a_second_writer_of_a_sweep_folder_is_refused_naming_the_holder() {
+        let dir = tmpdir("lock");
+        native_ring(&dir);
+        let p = spec(&dir, "spec.json", json!({"base": "ring.json"}));
+        let out = dir.join("out");
+        std::fs::create_dir_all(&out).unwrap();
+        // This test process holds the lock as another sweep would.
+        let held = File::create(out.join(".syncroad.lock")).unwrap();
+        held.try_lock().unwrap();
+        std::fs::write(
+            out.join(".syncroad.lock"),
+            format!("{}\nsyncroad sweep other.json\n", std::process::id()),
+        )
+        .unwrap();
+        let (code, o, e) = sweep(&p, &out);
+        assert_eq!(code, 2, "{o}{e}");
+        assert!(
+            e.contains(&format!(
+                "another syncroad is writing this folder (pid {}: syncroad sweep other.json)",
+                std::process::id()
+            )),
+            "{e}"
+        );
+        assert!(!out.join("rows").exists(), "nothing was written");
+        drop(held);
+        // Released (as the kernel does when the holder dies, however it dies): it runs.
+        let (code, o, e) = sweep(&p, &out);
+        assert_eq!(code, 0, "{o}{e}");
+        // A killed sweep leaves no stale lock.
+        let mut child = bin()
+            .arg("sweep")
+            .arg(&p)
+            .arg("--out")
+            .arg(dir.join("killed"))
+            .spawn()
+            .unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(300));
+        let _ = child.kill();
+        child.wait().unwrap();
+        let (code, o, e) = sweep(&p, &dir.join("killed"));
+        assert_eq!(code, 0, "{o}{e}");
+    }
+
+    #[test]
+    fn every_point_is_checked_as_it_will_run_before_anything_runs() {
+        let dir = tmpdir("validate-all");
+        native_ring(&dir);
+        // The spec's warm-up is named as the spec's field, and refused before any point runs.
+        let p = spec(
+            &dir,
+            "spec.json",
+            json!({"base": "ring.json", "warmup_s": 1e9}),
+        );
+        let (code, o, e) = sweep(&p, &dir.join("out"));
+        assert_eq!(code, 2, "{o}{e}");
+        assert!(
+            e.contains("warmup_s = 1000000000: must be ≥ 0 and shorter than the horizon"),
+            "{e}"
+        );
+        assert!(!e.contains("--warmup-s"), "{e}");
+        // A driver value that depends on the step, checked for every point (SUMO, not started).
+        let sc = sugiyama(&dir, "sumo-ring.json", |_| {});
+        let p = spec(
+            &dir,
+            "spec2.json",
+            json!({"base": sc, "runs": ["idm:actionStepLength=0.15"]}),
+        );
+        let (code, o, e) = sweep(&p, &dir.join("out2"));
+        assert_eq!(code, 2, "{o}{e}");
+        assert!(e.contains("sweep point 0"), "{e}");
+        assert!(e.contains("actionStepLength"), "{e}");
+        assert!(
+            !dir.join("out2/rows").exists()
+                || std::fs::read_dir(dir.join("out2/rows")).unwrap().count() == 0
+        );
+        // Penetrations that round to the same vehicle count would run the same ring twice.
+        let p = spec(
+            &dir,
+            "spec3.json",
+            json!({"base": sc, "penetrations": [0.1, 0.11]}),
+        );
+        let (code, _, e) = sweep(&p, &dir.join("out3"));
+        assert_eq!(code, 2, "{e}");
+        assert!(
+            e.contains("penetrations: 0.1 and 0.11 both give 2 of 22"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_resumed_sumo_sweep_refuses_another_network_and_keeps_no_work_of_stopped_points() {
+        let dir = tmpdir("net-hash");
+        let net = dir.join("ring.net.xml");
+        std::fs::copy(repo().join("sumo-nets/sugiyama-ring.net.xml"), &net).unwrap();
+        // Huge gains: SUMO removes colliding vehicles, the point stops (a result, not a failure).
+        let sc = sugiyama(&dir, "ring.json", |s| {
+            s["sumo"]["net"] = json!(net);
+            s["horizon_s"] = json!(30);
+            s["model"]["graph"]["gain_pred"] = json!(1e6);
+        });
+        let p = spec(&dir, "spec.json", json!({"base": sc, "seeds": [1, 2]}));
+        let out = dir.join("out");
+        let (code, o, e) = sweep(&p, &out);
+        let table = std::fs::read_to_string(out.join("results.csv")).unwrap_or_default();
+        assert!(code == 0 || code == 3, "{o}{e}");
+        let work = out.join("work");
+        let kept = if work.is_dir() {
+            std::fs::read_dir(&work).unwrap().count()
+        } else {
+            0
+        };
+        let failed = table.lines().filter(|l| l.contains(",failed,")).count();
+        assert_eq!(
+            kept, failed,
+            "work folders are kept for failed points only\n{table}"
+        );
+        // The same spec and scenario on an edited network is another sweep.
+        let mut text = std::fs::read_to_string(&net).unwrap();
+        text.push_str("<!-- edited -->\n");
+        std::fs::write(&net, text).unwrap();
+        let (code, o, e) = sweep(&p, &out);
+        assert_eq!(code, 2, "{o}{e}");
+        assert!(
+            e.contains("holds a sweep of another spec, base scenario or network"),
+            "{e}"
+        );
+    }
+}
+
+/// The pids whose parent is `parent` (from /proc).
+fn children_of(parent: u32) -> Vec<i32> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir("/proc").unwrap().flatten() {
+        let Ok(pid) = e.file_name().to_string_lossy().parse::<i32>() else {
+            continue;
+        };
+        let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else {
+            continue;
+        };
+        let ppid = stat
+            .rsplit_once(')')
+            .and_then(|(_, rest)| rest.split_whitespace().nth(1))
+            .and_then(|p| p.parse::<u32>().ok());
+        if ppid == Some(parent) {
+            out.push(pid);
+        }
+    }
+    out
+}
+
+#[test]
+fn a_stopped_sumo_worker_fails_its_point_instead_of_stalling_the_sweep() {
+    let dir = tmpdir("sigstop");
+    let sc = sugiyama(&dir, "ring.json", |s| s["horizon_s"] = json!(20000));
+    let spec = write_json(&dir.join("spec.json"), &json!({"base": sc, "seeds": [1]}));
+    let started = std::time::Instant::now();
+    let mut child = bin()
+        .arg("sweep")
+        .arg(&spec)
+        .arg("--out")
+        .arg(dir.join("out"))
+        .args(["--no-plots", "--jobs", "1"])
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Wait for the worker, let SUMO start, then stop it as SIGSTOP (or Ctrl-Z on it) would.
+    let worker = loop {
+        if let Some(&w) = children_of(child.id()).first() {
+            break w;
+        }
+        assert!(started.elapsed().as_secs() < 30, "no worker started");
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    };
+    std::thread::sleep(std::time::Duration::from_secs(3));
+    unsafe { libc::kill(worker, libc::SIGSTOP) };
+    let stopped_at = std::time::Instant::now();
+    let status = child.wait().unwrap();
+    // Failed after the 10 s limit, not after the run's 600 s time limit.
+    let waited = stopped_at.elapsed().as_secs_f64();
+    assert!((9.0..60.0).contains(&waited), "waited {waited} s");
+    assert_eq!(status.code(), Some(3));
+    let row: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("out/rows/0000000.json")).unwrap())
+            .unwrap();
+    assert_eq!(row["status"], "failed", "{row}");
+    let why = row["error"].as_str().unwrap();
+    assert!(
+        why.contains(&format!(
+            "the SUMO worker (pid {worker}) was stopped (SIGSTOP or SIGTSTP)"
+        )),
+        "{why}"
+    );
+    // The stopped worker is gone, not left behind.
+    assert!(
+        !Path::new(&format!("/proc/{worker}")).exists()
+            || std::fs::read_to_string(format!("/proc/{worker}/stat"))
+                .map_or(true, |s| s.contains(") Z"))
+    );
+}
+
+mod overwritten {
+    use super::*;
+
+    fn regress(report: &str, path: &Path) -> (i32, String, String) {
+        run(bin()
+            .arg("regress")
+            .arg(repo().join("tests/baselines/ring-theorem1.native.json"))
+            .arg(report)
+            .arg(path))
+    }
+
+    #[test]
+    fn reports_write_through_special_files_and_symlinks_and_never_replace_them() {
+        let dir = tmpdir("reports");
+        // /dev/full: a clear error, and the device stays a device.
+        let (code, o, e) = regress("--markdown", Path::new("/dev/full"));
+        assert_eq!(code, 3, "{o}{e}");
+        assert!(
+            e.contains("cannot write /dev/full") && e.contains("No space left on device"),
+            "{e}"
+        );
+        assert!(std::fs::metadata("/dev/full")
+            .unwrap()
+            .file_type()
+            .is_char_device());
+        // /dev/null takes it silently.
+        let (code, o, e) = regress("--junit", Path::new("/dev/null"));
+        assert_eq!(code, 0, "{o}{e}");
+        assert!(std::fs::metadata("/dev/null")
+            .unwrap()
+            .file_type()
+            .is_char_device());
+        // A FIFO: the reader gets the report, the FIFO stays a FIFO.
+        let fifo = dir.join("fifo");
+        assert!(std::process::Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap()
+            .success());
+        let reader = {
+            let f = fifo.clone();
+            std::thread::spawn(move || std::fs::read_to_string(f).unwrap())
+        };
+        let (code, o, e) = regress("--markdown", &fifo);
+        assert_eq!(code, 0, "{o}{e}");
+        assert!(reader.join().unwrap().contains("ring-theorem1"));
+        assert!(std::fs::symlink_metadata(&fifo)
+            .unwrap()
+            .file_type()
+            .is_fifo());
+        // A symlink: the link stays, its target gets the report.
+        std::fs::create_dir_all(dir.join("real")).unwrap();
+        let target = dir.join("real/summary.md");
+        std::fs::write(&target, "old").unwrap();
+        let link = dir.join("summary.md");
+        symlink(&target, &link).unwrap();
+        let (code, o, e) = regress("--markdown", &link);
+        assert_eq!(code, 0, "{o}{e}");
+        assert!(std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink());
+        assert!(std::fs::read_to_string(&target)
+            .unwrap()
+            .contains("ring-theorem1"));
+        // A folder is refused, not replaced.
+        let (code, _, e) = regress("--junit", &dir.join("real"));
+        assert_eq!(code, 3, "{e}");
+        assert!(e.contains("it is a folder"), "{e}");
+        assert!(dir.join("real").is_dir());
+    }
+}
+
+#[test]
+fn a_run_folder_keeps_a_symlinked_record_a_link() {
+    let dir = tmpdir("run-link");
+    let out = dir.join("out");
+    std::fs::create_dir_all(&out).unwrap();
+    let kept = dir.join("kept-metrics.json");
+    std::fs::write(&kept, "{}").unwrap();
+    symlink(&kept, out.join("metrics.json")).unwrap();
+    let (code, o, e) = run(bin()
+        .arg("simulate")
+        .arg(repo().join("scenarios/ring-theorem1.json"))
+        .arg("--out")
+        .arg(&out));
+    assert_eq!(code, 0, "{o}{e}");
+    assert!(std::fs::symlink_metadata(out.join("metrics.json"))
+        .unwrap()
+        .file_type()
+        .is_symlink());
+    let m: Value = serde_json::from_str(&std::fs::read_to_string(&kept).unwrap()).unwrap();
+    assert_eq!(m["sync"]["verdict"], "synchronized");
+}
+
+mod shell {
+    use super::*;
+
+    /// A name that runs `touch PWNED` in every way a shell could be made to.
+    const HOSTILE: &str = "x'\"; touch PWNED1; \"'$(touch PWNED2)`touch PWNED3` a b";
+
+    #[test]
+    fn generated_slurm_scripts_run_no_injected_command() {
+        let dir = tmpdir("slurm");
+        let work = dir.join("has spaces $(touch PWNED4)");
+        std::fs::create_dir_all(&work).unwrap();
+        std::fs::copy(
+            repo().join("scenarios/ring-theorem1.json"),
+            work.join("ring.json"),
+        )
+        .unwrap();
+        let spec = write_json(
+            &work.join("spec.json"),
+            &json!({"name": HOSTILE, "base": "ring.json", "seeds": [1, 2]}),
+        );
+        let out = work.join("out `touch PWNED5`");
+        let scripts = work.join("slurm");
+        let (code, o, e) = run(bin()
+            .arg("sweep")
+            .arg(&spec)
+            .arg("--out")
+            .arg(&out)
+            .arg("--emit-slurm")
+            .arg(&scripts)
+            .args(["--shards", "2", "--partition", "short queue"]));
+        assert_eq!(code, 0, "{o}{e}");
+        // A fake sbatch records its arguments; the scripts run in bash as Slurm would run them.
+        let fake = dir.join("bin");
+        std::fs::create_dir_all(&fake).unwrap();
+        std::fs::write(
+            fake.join("sbatch"),
+            "#!/bin/bash\nprintf '%s\\n' \"$@\" >> \"$SBATCH_LOG\"\necho 42\n",
+        )
+        .unwrap();
+        assert!(std::process::Command::new("chmod")
+            .arg("+x")
+            .arg(fake.join("sbatch"))
+            .status()
+            .unwrap()
+            .success());
+        let bash = |script: &str, task: &str| {
+            let status = std::process::Command::new("bash")
+                .arg(scripts.join(script))
+                .current_dir(&dir)
+                .env("SLURM_ARRAY_TASK_ID", task)
+                .env("SLURM_CPUS_PER_TASK", "1")
+                .env("SBATCH_LOG", dir.join("sbatch.log"))
+                .env(
+                    "PATH",
+                    format!("{}:{}", fake.display(), std::env::var("PATH").unwrap()),
+                )
+                .output()
+                .unwrap();
+            assert!(status.status.success(), "{script}: {status:?}");
+        };
+        bash("sweep.sbatch", "0");
+        bash("sweep.sbatch", "1");
+        bash("collect.sbatch", "");
+        bash("submit.sh", "");
+        let merged = out.join("merged/results.csv");
+        assert_eq!(std::fs::read_to_string(&merged).unwrap().lines().count(), 3);
+        let log = std::fs::read_to_string(dir.join("sbatch.log")).unwrap();
+        assert!(
+            log.contains("sweep.sbatch") && log.contains("collect.sbatch"),
+            "{log}"
+        );
+        for k in 1..=5 {
+            for d in [&dir, &work, &scripts] {
+                assert!(
+                    !d.join(format!("PWNED{k}")).exists(),
+                    "PWNED{k} in {}",
+                    d.display()
+                );
+            }
+        }
+        // The job name is one quoted word in its #SBATCH line: bash reads it back as written.
+        let text = std::fs::read_to_string(scripts.join("sweep.sbatch")).unwrap();
+        let line = text
+            .lines()
+            .find_map(|l| l.strip_prefix("#SBATCH --job-name="))
+            .unwrap();
+        let back = std::process::Command::new("bash")
+            .arg("-c")
+            .arg(format!("printf '%s' {line}"))
+            .current_dir(&dir)
+            .output()
+            .unwrap();
+        assert_eq!(
+            String::from_utf8(back.stdout).unwrap(),
+            format!("syncroad-{HOSTILE}")
+        );
+        assert!(text.contains("#SBATCH --partition='short queue'"), "{text}");
+    }
+
+    #[test]
+    fn a_name_with_a_line_break_is_refused_before_a_script_is_written() {
+        let dir = tmpdir("slurm-newline");
+        std::fs::copy(
+            repo().join("scenarios/ring-theorem1.json"),
+            dir.join("ring.json"),
+        )
+        .unwrap();
+        for (name, partition) in [("x\ntouch PWNED", "short"), ("x", "a\rb")] {
+            let spec = write_json(
+                &dir.join("spec.json"),
+                &json!({"name": name, "base": "ring.json"}),
+            );
+            let (code, o, e) = run(bin()
+                .arg("sweep")
+                .arg(&spec)
+                .arg("--out")
+                .arg(dir.join("out"))
+                .arg("--emit-slurm")
+                .arg(dir.join("slurm"))
+                .args(["--partition", partition]));
+            assert_eq!(code, 2, "{o}{e}");
+            assert!(e.contains("holds the control character"), "{e}");
+            assert!(!dir.join("slurm/sweep.sbatch").exists());
+        }
+    }
+}
+
+mod up_front {
+    use super::*;
+
+    /// The driver strings the README spells out (`MODEL:name=value:...`).
+    fn readme_drivers() -> Vec<String> {
+        let text = std::fs::read_to_string(repo().join("README.md")).unwrap();
+        let start = text
+            .find("it can be spelled out as")
+            .expect("the README's driver paragraph");
+        let para = &text[start..start + text[start..].find("names and ranges").unwrap()];
+        para.split('`')
+            .skip(1)
+            .step_by(2)
+            .filter(|s| s.contains(':') && !s.contains("..."))
+            .map(str::to_string)
+            .collect()
+    }
+
+    #[test]
+    fn every_driver_example_of_the_readme_runs_as_printed() {
+        let drivers = readme_drivers();
+        assert!(drivers.len() >= 3, "{drivers:?}");
+        assert!(
+            drivers.contains(&"human:tau=1.2".to_string()),
+            "{drivers:?}"
+        );
+        let dir = tmpdir("readme-drivers");
+        let sc = sugiyama(&dir, "ring.json", |s| s["horizon_s"] = json!(10));
+        let out = dir.join("cmp");
+        let (code, o, e) = run(bin()
+            .arg("compare")
+            .arg(&sc)
+            .args(["--baselines", &drivers.join(","), "--no-plots", "--out"])
+            .arg(&out));
+        assert!(code == 0 || code == 1, "{drivers:?}: {o}{e}");
+        let doc: Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("compare.json")).unwrap())
+                .unwrap();
+        let folders = doc["folders"].as_object().unwrap();
+        assert_eq!(folders.len(), drivers.len(), "{doc}");
+        for (run, folder) in folders {
+            let folder = folder.as_str().unwrap();
+            assert!(!folder.contains(':'), "{folder}");
+            let m = metrics(&out.join(folder));
+            assert_eq!(m["complete"], true, "{run}: {m}");
+            assert_eq!(m["run"], json!(run));
+        }
+    }
+}
