@@ -202,14 +202,11 @@ impl DamperController {
     /// Gaps `Δx_i = q_{i−1} − q_i − ℓ_i` (plus C for vehicle 0) and leader speeds `v_{i−1}`.
     fn observe(&mut self, speeds: &[f64], positions: &[f64]) {
         let n = speeds.len();
+        let ring = Some(self.ring_length_m);
+        crate::road::gaps(positions, &self.length_m, None, ring, &mut self.gaps_m);
         for i in 0..n {
-            let (ahead, wrap) = if i == 0 {
-                (n - 1, self.ring_length_m)
-            } else {
-                (i - 1, 0.0)
-            };
-            self.gaps_m[i] = positions[ahead] + wrap - positions[i] - self.length_m[i];
-            self.leader_speeds_mps[i] = speeds[ahead];
+            let (j, _) = crate::road::ahead(i, n, ring).expect("a ring has a vehicle ahead");
+            self.leader_speeds_mps[i] = speeds[j];
         }
     }
 }

@@ -47,6 +47,7 @@ pub mod poly;
 pub mod record;
 pub mod record_schema;
 pub mod rng;
+pub mod road;
 pub mod scenario;
 pub mod speed_controller;
 pub mod stop;

@@ -16,6 +16,7 @@ use crate::collisions::Collisions;
 use crate::controller::{controller_for, LawSpec};
 use crate::delayed_driver::DelayedDriverLaw;
 use crate::metrics::{speed_range, spread_of_range, SpreadSeries};
+use crate::road::{self, initial_positions, leader_start};
 use crate::scenario::{Model, Scenario};
 pub use crate::stop::StopReason;
 use crate::trajectory::Trajectory;
@@ -72,44 +73,6 @@ pub struct NativeRun {
     pub collisions: Collisions,
 }
 
-/// Initial unwrapped positions (rear bumpers) from the gaps: vehicle 0 at 0 (or behind the
-/// leader at `leader_position_m`), each next vehicle one length plus one gap further back.
-pub fn initial_positions(scenario: &Scenario, leader_position_m: Option<f64>) -> Vec<f64> {
-    let n = scenario.vehicles();
-    let mut q = vec![0.0; n];
-    let (l, g) = (scenario.length_m(), scenario.initial_gap_m());
-    q[0] = match leader_position_m {
-        Some(q0) => q0 - l[0] - g[0],
-        None => 0.0,
-    };
-    for i in 1..n {
-        q[i] = q[i - 1] - l[i] - g[i];
-    }
-    q
-}
-
-fn gaps_from_positions(
-    q: &[f64],
-    length: &[f64],
-    front: Option<f64>,
-    ring_m: Option<f64>,
-    out: &mut [f64],
-) {
-    let n = q.len();
-    for i in 0..n {
-        out[i] = if i > 0 {
-            q[i - 1] - q[i] - length[i]
-        } else if let Some(f) = front {
-            f - q[0] - length[0]
-        } else if let Some(c) = ring_m {
-            // Vehicle 0 follows vehicle N−1, one lap ahead in unwrapped coordinates.
-            q[n - 1] + c - q[0] - length[0]
-        } else {
-            f64::NAN
-        };
-    }
-}
-
 fn check(v: &[f64], step: usize, dt: f64) -> Option<StopReason> {
     v.iter()
         .position(|x| !x.is_finite() || x.abs() >= DIVERGENCE_MPS)
@@ -118,18 +81,6 @@ fn check(v: &[f64], step: usize, dt: f64) -> Option<StopReason> {
             vehicle,
             time_s: step as f64 * dt,
         })
-}
-
-/// Where the leader vehicle starts and how fast, when the road has one: a delayed-driver
-/// leader one gap ahead of vehicle 0 at `v_0`, a CACC leader at 0 on its profile.
-pub fn leader_start(scenario: &Scenario) -> Option<(f64, f64)> {
-    match scenario.model() {
-        Model::DelayedDriver(m) => m
-            .leader
-            .as_ref()
-            .map(|(v0, _)| (scenario.length_m()[0] + scenario.initial_gap_m()[0], *v0)),
-        Model::Cacc(m) => Some((0.0, m.leader.initial_speed())),
-    }
 }
 
 /// Runs the scenario on the native simulator.
@@ -156,7 +107,7 @@ pub fn simulate(scenario: &Scenario, opts: NativeOptions) -> NativeRun {
     let every = opts.record_every.max(1);
     let lengths = scenario.length_m();
     let mut record = |t: f64, q: &[f64], v: &[f64], traj: &mut Trajectory| {
-        gaps_from_positions(&q[k0..], lengths, leader.map(|_| q[0]), ring, &mut gaps);
+        road::gaps(&q[k0..], lengths, leader.map(|_| q[0]), ring, &mut gaps);
         traj.push(t, &v[k0..], &q[k0..], &gaps, scenario.leader_speed_at(t));
     };
     let steps = scenario.steps();
@@ -168,7 +119,7 @@ pub fn simulate(scenario: &Scenario, opts: NativeOptions) -> NativeRun {
     let mut observe = |t: f64, q: &[f64], v: &[f64], spread: &mut SpreadSeries| {
         let (lo, hi) = speed_range(&v[k0..]);
         spread.push(t, spread_of_range(lo, hi, scenario.leader_speed_at(t)));
-        gaps_from_positions(
+        road::gaps(
             &q[k0..],
             lengths,
             leader.map(|_| q[0]),
@@ -252,7 +203,7 @@ pub fn cacc_rk4_reference(scenario: &Scenario, opts: NativeOptions) -> NativeRun
     let profile = &m.leader;
     let mut gaps = vec![0.0; n];
     let mut traj = Trajectory::new(n);
-    gaps_from_positions(&q, &m.length_m, Some(q0), None, &mut gaps);
+    road::gaps(&q, &m.length_m, Some(q0), None, &mut gaps);
     traj.push(0.0, &v, &q, &gaps, Some(profile.speed_at(0.0)));
     let every = opts.record_every.max(1);
     let mut ades = vec![0.0; n];
@@ -328,7 +279,7 @@ pub fn cacc_rk4_reference(scenario: &Scenario, opts: NativeOptions) -> NativeRun
             break;
         }
         if (step + 1) % every == 0 || step + 1 == scenario.steps() {
-            gaps_from_positions(&q, &m.length_m, Some(q0), None, &mut gaps);
+            road::gaps(&q, &m.length_m, Some(q0), None, &mut gaps);
             let t1 = (step + 1) as f64 * dt;
             traj.push(t1, &v, &q, &gaps, Some(profile.speed_at(t1)));
         }

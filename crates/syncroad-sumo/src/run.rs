@@ -9,7 +9,7 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
 
-use syncroad_control::native::{initial_positions, leader_start};
+use syncroad_control::road::{initial_positions, leader_start};
 use syncroad_control::scenario::Scenario;
 use syncroad_control::{DamperSetup, DamperSpec, LawSpec};
 

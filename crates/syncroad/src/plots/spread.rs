@@ -46,7 +46,8 @@ pub struct SpreadLabels<'a> {
 /// Draws `series` on one log axis as `STEM.png` and `STEM.svg` in `dir`. Samples that are
 /// not finite and positive cannot sit on a log axis and are left out; when no sample is (a run
 /// in perfectly uniform flow has spread 0 throughout), the axes are drawn with a caption that
-/// says so.
+/// says so. Without any sample at all (every run failed before its first step) nothing is
+/// drawn.
 pub fn spread_plot(
     dir: &Path,
     labels: &SpreadLabels<'_>,
@@ -54,6 +55,10 @@ pub fn spread_plot(
 ) -> anyhow::Result<Vec<PathBuf>> {
     let shown = |p: &&(f64, f64)| p.0.is_finite() && p.1.is_finite() && p.1 > 0.0;
     let all = || series.iter().flat_map(|s| s.points.iter());
+    if all().next().is_none() {
+        // No run produced a sample: nothing was measured, so there is nothing to draw.
+        return Ok(Vec::new());
+    }
     let t = axis::linear(all().map(|p| p.0), 1.0, 0.0..1.0);
     let t = t.start.min(0.0)..t.end;
     let (y, caption) = match axis::log(all().map(|p| p.1)) {

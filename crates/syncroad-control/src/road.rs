@@ -1,0 +1,94 @@
+//! Where the vehicles of a scenario are on their road: the start positions, the leader's
+//! start, and the gap rule, shared by the native simulator, the SUMO layout and the wave
+//! dampers, so that none of them keeps its own geometry.
+//!
+//! Positions are unwrapped rear-bumper coordinates along the direction of travel; vehicle 0
+//! drives in front (behind the leader, when there is one) and each next vehicle follows the
+//! one before it. On a closed road (a ring, or a loop through a network) of length `C`,
+//! vehicle 0 follows vehicle N−1 one lap ahead.
+
+use crate::scenario::{Model, Scenario};
+
+/// Initial unwrapped positions (rear bumpers) from the gaps: vehicle 0 at 0 (or one gap behind
+/// the leader's rear bumper at `leader_position_m`), each next vehicle one length plus one gap
+/// further back.
+pub fn initial_positions(scenario: &Scenario, leader_position_m: Option<f64>) -> Vec<f64> {
+    let n = scenario.vehicles();
+    let mut q = vec![0.0; n];
+    let (l, g) = (scenario.length_m(), scenario.initial_gap_m());
+    q[0] = match leader_position_m {
+        Some(q0) => q0 - l[0] - g[0],
+        None => 0.0,
+    };
+    for i in 1..n {
+        q[i] = q[i - 1] - l[i] - g[i];
+    }
+    q
+}
+
+/// Where the leader vehicle starts and how fast, when the road has one: a delayed-driver
+/// leader one gap ahead of vehicle 0 at `v_0`, a CACC leader at 0 on its profile.
+pub fn leader_start(scenario: &Scenario) -> Option<(f64, f64)> {
+    match scenario.model() {
+        Model::DelayedDriver(m) => m
+            .leader
+            .as_ref()
+            .map(|(v0, _)| (scenario.length_m()[0] + scenario.initial_gap_m()[0], *v0)),
+        Model::Cacc(m) => Some((0.0, m.leader.initial_speed())),
+    }
+}
+
+/// The vehicle each vehicle follows: `i − 1`, and for vehicle 0 vehicle N−1 on a closed road
+/// (with the lap `C` to add to its position), or the leader / nobody on an open one (`None`).
+pub fn ahead(i: usize, n: usize, loop_length_m: Option<f64>) -> Option<(usize, f64)> {
+    if i > 0 {
+        Some((i - 1, 0.0))
+    } else {
+        loop_length_m.map(|c| (n - 1, c))
+    }
+}
+
+/// Bumper-to-bumper gaps `Δx_i = q_{i−1} − q_i − ℓ_i` into `out`: vehicle 0 behind the
+/// leader's rear bumper `front` when there is one, behind vehicle N−1 one lap ahead on a closed
+/// road of length `loop_length_m`, and NaN (nobody ahead) otherwise.
+pub fn gaps(
+    q: &[f64],
+    length_m: &[f64],
+    front: Option<f64>,
+    loop_length_m: Option<f64>,
+    out: &mut [f64],
+) {
+    let n = q.len();
+    for i in 0..n {
+        out[i] = match (i, front) {
+            (0, Some(f)) => f - q[0] - length_m[0],
+            _ => match ahead(i, n, loop_length_m) {
+                Some((j, lap)) => q[j] + lap - q[i] - length_m[i],
+                None => f64::NAN,
+            },
+        };
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gaps_follow_the_vehicle_ahead_and_wrap_on_a_loop() {
+        // Three 5 m cars on a 100 m ring, rear bumpers at 60, 40, 10.
+        let q = [60.0, 40.0, 10.0];
+        let l = [5.0; 3];
+        let mut g = [0.0; 3];
+        gaps(&q, &l, None, Some(100.0), &mut g);
+        // 60 − 40 − 5, 40 − 10 − 5, and vehicle 0 behind vehicle 2 one lap on: 110 − 60 − 5.
+        assert_eq!(g, [15.0, 25.0, 45.0]);
+        gaps(&q, &l, Some(70.0), None, &mut g);
+        assert_eq!(g, [5.0, 15.0, 25.0]);
+        gaps(&q, &l, None, None, &mut g);
+        assert!(g[0].is_nan());
+        assert_eq!(ahead(0, 3, Some(100.0)), Some((2, 100.0)));
+        assert_eq!(ahead(2, 3, None), Some((1, 0.0)));
+        assert_eq!(ahead(0, 3, None), None);
+    }
+}
