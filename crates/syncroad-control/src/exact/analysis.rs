@@ -452,4 +452,60 @@ mod tests {
             assert!(gain(w) <= x.worst_peak * (1.0 + 1e-9), "ω = {w}");
         }
     }
+
+    #[test]
+    fn behind_a_leader_the_reference_is_theorem_one_plus_as_in_check() {
+        // A bidirectional platoon (heterogeneous delays) and a leader graph with a cycle that
+        // is not a chain: 0 ↔ 1 ↔ 2 → 3 → 0 with the leader pinning vehicles 0 and 2. The
+        // reference of `stability` must be `check`'s Theorem 1+ scale, computed here by hand
+        // from α_j (d_j^+ + 2 b_j) as well.
+        let cyclic = serde_json::json!({
+            "name": "cyclic", "seed": 1, "step_s": 0.1, "horizon_s": 10, "vehicles": 4,
+            "road": {"type": "straight"},
+            "model": {"type": "delayed_driver",
+                      "graph": {"type": "edges", "edges": [
+                          {"from": 1, "to": 0, "weight": 0.3}, {"from": 0, "to": 1, "weight": 0.5},
+                          {"from": 2, "to": 1, "weight": 0.2}, {"from": 1, "to": 2, "weight": 0.4},
+                          {"from": 2, "to": 3, "weight": 0.6}, {"from": 3, "to": 0, "weight": 0.1}]},
+                      "delay_s": [0.4, 0.5, 0.6, 0.7],
+                      "leader": {"speed_mps": 15.0, "pinning": [0.2, 0.0, 0.3, 0.0]}}
+        });
+        let cyclic = Scenario::from_json(&cyclic.to_string()).unwrap();
+        let by_hand = |d: &[f64], alpha: &[f64], b: &[f64]| {
+            let worst = (0..d.len())
+                .map(|j| alpha[j] * (d[j] + 2.0 * b[j]))
+                .fold(0.0, f64::max);
+            0.5 / worst
+        };
+        let cases = [
+            (
+                platoon(8, 0.6, 0.6, true),
+                by_hand(
+                    &[0.3, 0.9, 0.9, 0.9, 0.9, 0.9, 0.9, 0.6],
+                    &[0.6; 8],
+                    &[0.6, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+                ),
+            ),
+            (
+                cyclic,
+                by_hand(&[0.4, 0.7, 0.4, 0.6], &[0.4, 0.5, 0.6, 0.7], &[0.2, 0.0, 0.3, 0.0]),
+            ),
+        ];
+        for (sc, expected) in cases {
+            let r = analyse(&sc).unwrap();
+            let check = r.paper.theorem1_plus.as_ref().unwrap().max_gain_scale;
+            let c = r.network.as_ref().unwrap().critical.as_ref().unwrap();
+            assert_eq!(c.reference, super::super::ReferenceTheorem::Theorem1Plus);
+            assert_relative_eq!(c.reference_gain_scale, check, max_relative = 1e-14);
+            assert_relative_eq!(c.reference_gain_scale, expected, max_relative = 1e-14);
+            assert_relative_eq!(
+                c.conservatism_ratio,
+                c.critical_gain_scale / check,
+                max_relative = 1e-14
+            );
+            let json = serde_json::to_value(c).unwrap();
+            assert_eq!(json["reference"], "theorem1_plus");
+            assert!(r.network.as_ref().unwrap().to_string().contains("Theorem 1+"));
+        }
+    }
 }

@@ -54,7 +54,7 @@ pub use collocation::{
     characteristic_matrix, rightmost_roots, rightmost_roots_shift_invert, CollocationError,
     CollocationOptions, RefinedRoot, RootsReport,
 };
-pub use critical::{critical_scale, CriticalError, CriticalReport};
+pub use critical::{critical_scale, CriticalError, CriticalReport, ReferenceTheorem};
 pub use lambert_w::{lambert_w, LambertWError};
 pub use leader_amplification::{leader_amplification, LeaderAmplification};
 pub use platoon_scaling::{platoon_scaling, PlatoonLaw, PlatoonScaling, PlatoonScalingError};

@@ -276,17 +276,19 @@ impl fmt::Display for NetworkStabilityReport {
             Some(c) => {
                 writeln!(
                     f,
-                    "critical gain scale {:.10}  Theorem-1 {:.10}  ratio {:.6}  (crossing {:.6} rad/s)",
+                    "critical gain scale {:.10}  {} {:.10}  ratio {:.6}  (crossing {:.6} rad/s)",
                     c.critical_gain_scale,
-                    c.theorem1_gain_scale,
+                    c.reference.label(),
+                    c.reference_gain_scale,
                     c.conservatism_ratio,
                     c.crossing_frequency_rad_s
                 )?;
                 writeln!(
                     f,
-                    "critical delay scale {:.10}  Theorem-1 {:.10}  ratio {:.6}  (max delay {:.6} s, crossing {:.6} rad/s)",
+                    "critical delay scale {:.10}  {} {:.10}  ratio {:.6}  (max delay {:.6} s, crossing {:.6} rad/s)",
                     c.critical_delay_scale,
-                    c.theorem1_delay_scale,
+                    c.reference.label(),
+                    c.reference_delay_scale,
                     c.delay_conservatism_ratio,
                     c.critical_max_delay_s,
                     c.delay_crossing_frequency_rad_s
@@ -401,10 +403,11 @@ mod tests {
         }
         for key in [
             "critical_gain_scale",
-            "theorem1_gain_scale",
+            "reference",
+            "reference_gain_scale",
             "conservatism_ratio",
             "critical_delay_scale",
-            "theorem1_delay_scale",
+            "reference_delay_scale",
         ] {
             assert!(
                 json["critical"].get(key).is_some(),

@@ -90,15 +90,20 @@ pub struct CriticalReport {
     pub strongly_connected: bool,
     /// Exact critical scale `c*` of the whole gain matrix.
     pub critical_gain_scale: f64,
-    /// Theorem-1 scale `c_T1 = 1/(2 max_j α_j d_j^+)` (eq. `degree1`).
-    pub theorem1_gain_scale: f64,
-    /// `c* / c_T1`.
+    /// The sufficient condition the exact scale is compared with: Theorem `thm.1` without a
+    /// leader, Theorem `thm.1+` behind one (cycles or not).
+    pub reference: ReferenceTheorem,
+    /// The reference's scale: `1/(2 max_j α_j d_j^+)` (Theorem 1, eq. `degree1`) or
+    /// `1/(2 max_j α_j (d_j^+ + 2 b_j))` (Theorem 1+, eq. `degree1+`), the value `check`
+    /// prints as `max_gain_scale`.
+    pub reference_gain_scale: f64,
+    /// `c* / c_ref`.
     pub conservatism_ratio: f64,
     /// Exact critical scale of all delays (equals `c*`, see module docs).
     pub critical_delay_scale: f64,
-    /// Theorem-1 delay scale (equals `c_T1`).
-    pub theorem1_delay_scale: f64,
-    /// `r* / r_T1`.
+    /// The reference's delay scale (equals `c_ref`).
+    pub reference_delay_scale: f64,
+    /// `r* / r_ref`.
     pub delay_conservatism_ratio: f64,
     /// Largest delay at the critical delay scale, `r* max_i α_i` \[s\].
     pub critical_max_delay_s: f64,
@@ -120,6 +125,56 @@ pub struct CriticalReport {
     pub method: CriticalMethod,
     /// Argument-principle certificate at `c*` (continuation only).
     pub certificate: Option<CrossingCertificate>,
+}
+
+/// The paper's sufficient condition a critical scale is measured against.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ReferenceTheorem {
+    /// Theorem `thm.1`: `α_j d_j^+ < 1/2` (no leader).
+    Theorem1,
+    /// Theorem `thm.1+`: `α_j (d_j^+ + 2 b_j) < 1/2`, the leader's pinning gains `b_j` counted
+    /// twice (a network behind a leader).
+    Theorem1Plus,
+}
+
+impl ReferenceTheorem {
+    /// The name and inequality, as the tables print them.
+    pub fn label(self) -> &'static str {
+        match self {
+            ReferenceTheorem::Theorem1 => "Theorem 1 (α_j d_j^+ < 1/2)",
+            ReferenceTheorem::Theorem1Plus => "Theorem 1+ (α_j(d_j^+ + 2b_j) < 1/2)",
+        }
+    }
+}
+
+/// The reference condition of a network and its gain scale. A leader is the one undelayed
+/// vertex no arc enters (its speed never changes; `analysis::network_matrices` appends it so):
+/// then Theorem 1+ with `b_j = a_{j,leader}` and `d_j^+` the follower arcs, so
+/// `α_j (d_j^+ + 2 b_j) = α_j (l_jj + b_j)`. Otherwise Theorem 1 on `l_jj = d_j^+` (also for
+/// a delayed driver no arc enters, such as the head of a chain without a leader: Theorem 1's
+/// form, although its graph is not strongly connected).
+pub(crate) fn reference_scale(l: &DMatrix<f64>, delays_s: &[f64]) -> (ReferenceTheorem, f64) {
+    let n = l.nrows();
+    let sources: Vec<usize> = (0..n)
+        .filter(|&i| l[(i, i)] == 0.0 && delays_s[i] == 0.0)
+        .collect();
+    let leader = match sources.as_slice() {
+        [k] if n > 1 => Some(*k),
+        _ => None,
+    };
+    let worst = (0..n)
+        .map(|i| {
+            let pinning = leader.map_or(0.0, |k| -l[(i, k)]);
+            delays_s[i] * (l[(i, i)] + pinning)
+        })
+        .fold(0.0, f64::max);
+    let reference = if leader.is_some() {
+        ReferenceTheorem::Theorem1Plus
+    } else {
+        ReferenceTheorem::Theorem1
+    };
+    (reference, 1.0 / (2.0 * worst))
 }
 
 /// How the critical scale was found.
@@ -306,9 +361,9 @@ pub(crate) struct Crossing {
 }
 
 impl CriticalReport {
-    /// The report of a crossing of the network with Laplacian `l`: Theorem 1's scale
-    /// `1/(2 max_i α_i d_i)`, the ratios, and the delay-scale view (the same c*, the crossing
-    /// at ω/c*) are derived here once for every search.
+    /// The report of a crossing of the network with Laplacian `l`: the reference theorem's
+    /// scale ([`reference_scale`]), the ratios, and the delay-scale view (the same c*, the
+    /// crossing at ω/c*) are derived here once for every search.
     pub(crate) fn of_crossing(
         adjacency: &DMatrix<f64>,
         delays_s: &[f64],
@@ -316,18 +371,18 @@ impl CriticalReport {
         x: Crossing,
     ) -> Self {
         let n = l.nrows();
-        let worst = (0..n).map(|i| delays_s[i] * l[(i, i)]).fold(0.0, f64::max);
-        let theorem1 = 1.0 / (2.0 * worst);
+        let (reference, theorem1) = reference_scale(l, delays_s);
         let c_star = x.scale;
         let omega = x.root.im.abs();
         CriticalReport {
             vehicles: n,
             strongly_connected: strongly_connected(adjacency),
             critical_gain_scale: c_star,
-            theorem1_gain_scale: theorem1,
+            reference,
+            reference_gain_scale: theorem1,
             conservatism_ratio: c_star / theorem1,
             critical_delay_scale: c_star,
-            theorem1_delay_scale: theorem1,
+            reference_delay_scale: theorem1,
             delay_conservatism_ratio: c_star / theorem1,
             critical_max_delay_s: c_star * delays_s.iter().cloned().fold(0.0, f64::max),
             crossing_frequency_rad_s: omega,
@@ -489,7 +544,7 @@ mod tests {
                 max_relative = 1e-9
             );
             assert_relative_eq!(
-                r.theorem1_gain_scale,
+                r.reference_gain_scale,
                 exact.theorem1_gain_scale,
                 max_relative = 1e-14
             );
