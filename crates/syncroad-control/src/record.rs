@@ -8,6 +8,7 @@
 use serde::Serialize;
 
 use crate::congestion::CongestionMetrics;
+use crate::exact::gaps::GapSummary;
 pub use crate::facts::{Measured, Safety, SumoFacts};
 use crate::margins::SafetyMargins;
 use crate::metrics::SyncMetrics;
@@ -185,6 +186,10 @@ pub struct RunRecord {
     /// String amplification measured behind a leader (present only for runs with a leader).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub string_amplification: Option<StringAmplification>,
+    /// The gap certificate of the scenario's linear model (`exact::gaps`), present for runs
+    /// of the delayed-driver law on every vehicle that it covers.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gap_certificate: Option<GapSummary>,
 }
 
 impl RunRecord {
@@ -195,6 +200,7 @@ impl RunRecord {
             .map(|f| f.drivers.clone())
             .filter(|d| !d.is_empty())
             .unwrap_or_else(|| vec!["law".to_string(); sc.vehicles()]);
+        let all_law = sc.mixed().is_none() && drivers.iter().all(|d| d == "law");
         Self {
             syncroad_version: env!("CARGO_PKG_VERSION").to_string(),
             platform: format!("{}-{}", std::env::consts::ARCH, std::env::consts::OS),
@@ -238,6 +244,10 @@ impl RunRecord {
             safety_margins: facts
                 .and_then(|f| SafetyMargins::of(&run.trajectory, outcome.warmup_s, f)),
             string_amplification: crate::string_measured::measured(&run.trajectory),
+            gap_certificate: all_law
+                .then(|| crate::exact::gaps::gap_certificate(sc).ok().flatten())
+                .flatten()
+                .map(|c| c.summary()),
         }
     }
 

@@ -84,6 +84,21 @@ pub enum ExactVerdict {
     Uncertified,
 }
 
+/// Whether the critical scale a report prints is backed by a certificate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CriticalScaleStatus {
+    /// A closed form: the uniform ring's modes or the acyclic network's per-driver roots.
+    ClosedForm,
+    /// Found by a search and certified by root counts at `c*`.
+    Certified,
+    /// Found by a search whose root counts at `c*` do not confirm it: another root may cross
+    /// first. Reported as UNCERTIFIED, and `stability` exits 1.
+    Uncertified,
+    /// No critical scale (no delays, or a CACC platoon).
+    None,
+}
+
 /// String stability of a chain behind a leader (acyclic network).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ChainStringStability {
@@ -136,6 +151,8 @@ pub struct StabilityReport {
     pub verdict: ExactVerdict,
     /// `verdict == Synchronizes`.
     pub exactly_stable: bool,
+    /// Whether the critical scale printed is certified.
+    pub critical_scale_status: CriticalScaleStatus,
     /// The paper's conditions certify it.
     pub certified: bool,
 }
@@ -264,9 +281,11 @@ pub fn analyse(sc: &Scenario) -> Result<StabilityReport, AnalysisError> {
                 }
                 _ => None,
             };
+            let critical_scale_status = critical_status(&ring, &acyclic, &network);
             Ok(StabilityReport {
                 scenario: sc.name().to_string(),
                 certified: paper.certified,
+                critical_scale_status,
                 paper,
                 ring,
                 acyclic,
@@ -297,10 +316,26 @@ pub fn analyse(sc: &Scenario) -> Result<StabilityReport, AnalysisError> {
                 leader_amplification: None,
                 network: None,
                 exactly_stable: verdict == ExactVerdict::Synchronizes,
+                critical_scale_status: CriticalScaleStatus::None,
                 verdict,
                 cacc: Some(r),
             })
         }
+    }
+}
+
+/// The status of the critical scale the report prints: the search's certificate when the full
+/// solve gave it, else the closed form.
+fn critical_status(
+    ring: &Option<RingModes>,
+    acyclic: &Option<AcyclicReport>,
+    network: &Option<NetworkStabilityReport>,
+) -> CriticalScaleStatus {
+    match network.as_ref().and_then(|n| n.critical.as_ref()) {
+        Some(c) if c.certified => CriticalScaleStatus::Certified,
+        Some(_) => CriticalScaleStatus::Uncertified,
+        None if ring.is_some() || acyclic.is_some() => CriticalScaleStatus::ClosedForm,
+        None => CriticalScaleStatus::None,
     }
 }
 
@@ -488,7 +523,11 @@ mod tests {
             ),
             (
                 cyclic,
-                by_hand(&[0.4, 0.7, 0.4, 0.6], &[0.4, 0.5, 0.6, 0.7], &[0.2, 0.0, 0.3, 0.0]),
+                by_hand(
+                    &[0.4, 0.7, 0.4, 0.6],
+                    &[0.4, 0.5, 0.6, 0.7],
+                    &[0.2, 0.0, 0.3, 0.0],
+                ),
             ),
         ];
         for (sc, expected) in cases {
@@ -505,7 +544,12 @@ mod tests {
             );
             let json = serde_json::to_value(c).unwrap();
             assert_eq!(json["reference"], "theorem1_plus");
-            assert!(r.network.as_ref().unwrap().to_string().contains("Theorem 1+"));
+            assert!(r
+                .network
+                .as_ref()
+                .unwrap()
+                .to_string()
+                .contains("Theorem 1+"));
         }
     }
 }

@@ -38,6 +38,7 @@ pub mod boundaries;
 pub mod cacc_modes;
 pub mod collocation;
 pub mod critical;
+pub mod gaps;
 pub mod lambert_w;
 pub mod leader_amplification;
 pub mod platoon_scaling;

@@ -212,6 +212,12 @@ mod tests {
         assert_eq!(find("safety.collision_steps"), Some(Kind::Int));
         assert_eq!(find("certified"), Some(Kind::Bool));
         assert_eq!(find("sync.thresholds.tolerance_mps"), Some(Kind::Float));
+        // The gap certificate's numbers are sweep columns too.
+        assert_eq!(
+            find("gap_certificate.worst_shrinkage_m_per_mps"),
+            Some(Kind::Float)
+        );
+        assert_eq!(find("gap_certificate.contact_predicted"), Some(Kind::Bool));
         // Arrays are not scalar metrics.
         assert_eq!(find("drivers"), None);
     }

@@ -1,4 +1,5 @@
-//! Critical gain and delay scales, and the conservatism of Theorem 1.
+//! Critical gain and delay scales, and the conservatism of Theorem 1 (Theorem 1+ behind a
+//! leader).
 //!
 //! Scaling every gain `a_ij → c·a_ij` of eq. `chandler+` moves the non-consensus roots; the
 //! *critical gain scale* `c*` is the smallest `c` at which the spectral abscissa reaches 0
@@ -22,17 +23,27 @@
 //! followed in `c` by a predictor and the Newton step `s − m_j / (log det M)'(s)`, which
 //! converges quadratically even at the multiple roots of symmetric graphs; the scale is
 //! stepped geometrically towards the axis until a root changes side, and the crossing is
-//! solved by regula falsi (Illinois) in `c` to `1e-15` relative. The answer is then
-//! **certified once**, at `c*`, by two argument-principle counts ([`super::argument_principle`])
-//! on the lines `Re s = ∓δ` (`δ` a quarter of the distance to the next tracked root): left
-//! of the axis exactly consensus plus the crossing root(s) with their multiplicity, right of
-//! it nothing. On long rings the rightmost roots at `c = 1` are slow modes that cross late or
-//! never, while a fast mode crosses first: then the certificate counts roots right of the
-//! axis at the tracked crossing, or the continuation gives up. The first scale with a root
-//! right of the axis is then bracketed to 2 % by argument-principle counts alone (no solve),
-//! one shift-invert solve there gives the roots that crossed, and they are followed back down
-//! to `c*`. If that fails too, the search falls back to bisection with full solves down to
-//! `1e-10` relative (the method of the first version, about 15 full solves).
+//! solved by regula falsi (Illinois) in `c` to `1e-15` relative. Two tracked roots that land on
+//! one point are one root only when both were real (a real pair meeting and turning complex);
+//! two complex ones mean the corrector jumped to a neighbour of a cluster (rings with uniform
+//! gains and mixed delays have such clusters near the crossing), and the step is retried
+//! shorter. The answer is then **certified once**, at `c*`, by two argument-principle counts
+//! ([`super::argument_principle`]) on the lines `Re s = ∓δ` (`δ` a quarter of the distance to
+//! the next tracked root, moved 8× closer to the axis up to twice when the strip holds more
+//! roots than expected): left of the axis exactly consensus plus the crossing root(s) with
+//! their multiplicity, right of it nothing. On long rings the rightmost roots at `c = 1` are
+//! slow modes that cross late or never, while a fast mode crosses first: then the certificate
+//! counts roots right of the axis at the tracked crossing, or the continuation gives up. The
+//! first scale with a root right of the axis is then bracketed to 2 % by argument-principle
+//! counts alone (no solve), one shift-invert solve there gives the roots that crossed, and
+//! they are followed back down to `c*`. If that fails too, the search falls back to bisection
+//! with full solves down to `1e-10` relative (the method of the first version, about 15 full
+//! solves), whose answer gets the same certificate. A critical scale whose counts do not
+//! confirm it is reported with `certified: false`, and the command line prints UNCERTIFIED.
+//!
+//! Behind a leader (an undelayed vertex no arc enters, as [`super::analysis`] appends it) the
+//! reference is Theorem `thm.1+`, `α_j (d_j^+ + 2 b_j) < 1/2`, cycles or not; otherwise
+//! Theorem `thm.1` ([`ReferenceTheorem`]).
 //!
 //! Scaling the delays by `r` instead crosses at the same `r* = c*`, but at the frequency
 //! `ω/c*` (the substitution `s = s'/r` above): the report gives both frequencies.
@@ -54,7 +65,7 @@ mod bisection;
 mod continuation;
 
 pub(crate) use bisection::bisection_search;
-use continuation::{certify_crossing, continuation};
+use continuation::{certify_at, certify_crossing, continuation};
 
 /// Failure of the critical-scale search.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -123,8 +134,11 @@ pub struct CriticalReport {
     pub full_solves: usize,
     /// How `c*` was found.
     pub method: CriticalMethod,
-    /// Argument-principle certificate at `c*` (continuation only).
+    /// Argument-principle certificate at `c*` (both searches; `None` when a count failed).
     pub certificate: Option<CrossingCertificate>,
+    /// The certificate exists and holds: exactly the crossing root(s) on the axis at `c*`,
+    /// nothing right of it. Otherwise the scale is UNCERTIFIED.
+    pub certified: bool,
 }
 
 /// The paper's sufficient condition a critical scale is measured against.
@@ -392,6 +406,7 @@ impl CriticalReport {
             bracket_abscissae: x.bracket_abscissae,
             full_solves: x.full_solves,
             method: x.method,
+            certified: x.certificate.is_some_and(|c| c.certified),
             certificate: x.certificate,
         }
     }
@@ -632,6 +647,72 @@ mod tests {
                 max_relative = 1e-8
             );
         }
+    }
+
+    #[test]
+    fn clustered_crossings_are_followed_without_the_bisection() {
+        // 50 drivers on a bidirectional ring, gains 0.8/0.3, delays 0.3 + 0.05 k_i s. On these
+        // two the corrector used to jump from one root of the cluster near iω ≈ 3.3 to its
+        // neighbour; the two were merged as "roots that met", the certificate then counted the
+        // lost one, and the search fell back to bisection (16 full solves, 16 s). Now: the
+        // continuation, certified, and c* bracketed by two dense solves (another method).
+        let opts = CollocationOptions::default();
+        for digits in [
+            "04402424404022400424422400404240400402022442422442",
+            "02123002022022213402413212341240203122240313100001",
+        ] {
+            let d: Vec<f64> = digits
+                .bytes()
+                .map(|b| 0.3 + 0.05 * f64::from(b - b'0'))
+                .collect();
+            let n = d.len();
+            let mut a = DMatrix::zeros(n, n);
+            for i in 0..n {
+                a[(i, (i + n - 1) % n)] = 0.8;
+                a[(i, (i + 1) % n)] = 0.3;
+            }
+            let r = super::super::report::analyse_network(&a, &d, &opts, true)
+                .unwrap()
+                .critical
+                .unwrap();
+            assert_eq!(r.method, CriticalMethod::Continuation, "{digits}");
+            assert!(r.certified && r.full_solves <= 2, "{digits}: {r:?}");
+            let abscissa = |c: f64| rightmost_roots(&(&a * c), &d, &opts).unwrap().abscissa;
+            assert!(
+                abscissa(r.critical_gain_scale * (1.0 - 1e-7)) < 0.0,
+                "{digits}"
+            );
+            assert!(
+                abscissa(r.critical_gain_scale * (1.0 + 1e-7)) > 0.0,
+                "{digits}"
+            );
+        }
+    }
+
+    #[test]
+    fn the_bisection_is_certified_by_the_same_counts() {
+        let ring = UniformRing::new(6, 1.0, 0.3, 0.5).unwrap();
+        let r = bisection_search(
+            &ring.adjacency(),
+            &ring.delays(),
+            &CollocationOptions::default(),
+            true,
+        )
+        .unwrap();
+        let c = r.certificate.unwrap();
+        assert!(r.certified && c.certified);
+        assert_eq!(c.expected_left, 3);
+        // A wrong c* (10 % above) is refused: roots lie right of the axis there.
+        let l = laplacian(&ring.adjacency());
+        let root = Complex64::new(0.0, r.crossing_frequency_rad_s);
+        let wrong = certify_at(
+            &l,
+            &ring.delays(),
+            1.1 * r.critical_gain_scale,
+            (root, 1),
+            &[],
+        );
+        assert!(!wrong.unwrap().certified);
     }
 
     #[test]
