@@ -81,6 +81,15 @@ fn main() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(20);
+    // `EXACT_SPREAD_ONLY=N,bidir,K` (or `N,oneway,K`): that one ring.
+    let only: Option<(usize, bool, u64)> = std::env::var("EXACT_SPREAD_ONLY").ok().map(|s| {
+        let f: Vec<&str> = s.split(',').collect();
+        (
+            f[0].parse().unwrap(),
+            f[1] == "bidir",
+            f[2].parse().unwrap(),
+        )
+    });
     println!("whole report over a spread of heterogeneous rings (one run each)");
     for n in [50usize, 200] {
         let count = if n > 50 { rings.div_ceil(4) } else { rings };
@@ -88,6 +97,9 @@ fn main() {
             let mut times = Vec::new();
             let mut uncertified = 0;
             for k in 0..count {
+                if only.is_some_and(|o| o != (n, bidirectional, k)) {
+                    continue;
+                }
                 let (sc, what) = ring(n, bidirectional, k);
                 let start = Instant::now();
                 let r = analyse(&sc).expect("the report");
@@ -105,6 +117,9 @@ fn main() {
                     r.critical_scale_status
                 );
                 times.push(t);
+            }
+            if times.is_empty() {
+                continue;
             }
             times.sort_by(f64::total_cmp);
             println!(

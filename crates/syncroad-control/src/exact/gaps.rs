@@ -458,6 +458,36 @@ struct Sweep {
     error: f64,
 }
 
+/// The experiments, row-major `N × (units + 1)`: unit perturbations of the first `units`
+/// vehicles and the scenario's own `own`; with each column's final gap offsets and speed.
+#[allow(clippy::type_complexity)]
+fn columns(
+    net: &LinearNetwork,
+    own: &[f64],
+    units: usize,
+) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>), GapError> {
+    let n = own.len();
+    let c = units + 1;
+    let mut v0 = vec![0.0; n * c];
+    for j in 0..units {
+        v0[j * c + j] = 1.0;
+    }
+    for i in 0..n {
+        v0[i * c + units] = own[i];
+    }
+    let mut finals = vec![0.0; n * c];
+    let mut final_speed = vec![0.0; c];
+    for p in 0..c {
+        let col: Vec<f64> = (0..n).map(|i| v0[i * c + p]).collect();
+        let (v_inf, off) = net.final_offsets(&col)?;
+        final_speed[p] = v_inf;
+        for i in 0..n {
+            finals[i * c + p] = off[i];
+        }
+    }
+    Ok((v0, finals, final_speed))
+}
+
 /// Runs the responses (unit perturbations of every vehicle, or of vehicle 0 on a circulant
 /// ring, and the scenario's own `own`) at `h` and `2h` until they settle, and takes the sup.
 fn response_sup(
@@ -470,24 +500,7 @@ fn response_sup(
     let n = own.len();
     let units = if circulant { 1 } else { n };
     let c = units + 1;
-    let mut v0 = vec![0.0; n * c];
-    for j in 0..units {
-        v0[j * c + j] = 1.0;
-    }
-    for i in 0..n {
-        v0[i * c + units] = own[i];
-    }
-    // Final values of every column, for the settling test.
-    let mut finals = vec![0.0; n * c];
-    let mut final_speed = vec![0.0; c];
-    for p in 0..c {
-        let col: Vec<f64> = (0..n).map(|i| v0[i * c + p]).collect();
-        let (v_inf, off) = net.final_offsets(&col)?;
-        final_speed[p] = v_inf;
-        for i in 0..n {
-            finals[i * c + p] = off[i];
-        }
-    }
+    let (v0, finals, final_speed) = columns(net, own, units)?;
     let coarse_per_step = (scenario_step_s / 0.02).ceil().max(1.0) as usize;
     let h2 = scenario_step_s / coarse_per_step as f64;
     let mut coarse = Integrator::new(net, &v0, c, h2, coarse_per_step);
@@ -546,23 +559,15 @@ fn response_sup(
             }
         }
         if tick % 50 == 0 {
-            let speed = fine
-                .v
-                .iter()
-                .enumerate()
-                .map(|(k, v)| {
-                    let p = k % c;
-                    (v - final_speed[p]).abs() / if p == units { own_scale } else { 1.0 }
-                })
+            let scale = |k: usize| if k % c == units { own_scale } else { 1.0 };
+            let speed = (0..n * c)
+                .map(|k| (fine.v[k] - final_speed[k % c]).abs() / scale(k))
                 .fold(0.0, f64::max);
             if !speed.is_finite() || speed > 1e6 {
                 return Err(GapError::Diverges { time_s: t });
             }
             let gaps = (0..n * c)
-                .map(|k| {
-                    let p = k % c;
-                    (e[k] - finals[k]).abs() / if p == units { own_scale } else { 1.0 }
-                })
+                .map(|k| (e[k] - finals[k]).abs() / scale(k))
                 .fold(0.0, f64::max);
             let tol = 1e-4 * best.0.max(1e-3);
             if gaps <= tol && speed <= 1e-4 {

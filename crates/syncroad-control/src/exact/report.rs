@@ -304,6 +304,7 @@ impl fmt::Display for NetworkStabilityReport {
 fn critical_certificate_line(f: &mut fmt::Formatter<'_>, c: &CriticalReport) -> fmt::Result {
     let method = match c.method {
         CriticalMethod::Continuation => "continuation",
+        CriticalMethod::CountedBracket => "counted bracket",
         CriticalMethod::Bisection => "bisection",
     };
     match &c.certificate {

@@ -209,6 +209,67 @@ pub(super) fn continuation(
     None
 }
 
+/// The first crossing inside a counted bracket `(lo, hi)` (`lo` stable, a root right of the
+/// axis at `hi`), from the roots `roots_hi` at `hi`: the bracket is narrowed to `1e-6` by the
+/// counts `unstable(c)`, every root right of the axis at its top is followed down to its
+/// bottom, and the first to change side is solved by regula falsi.
+pub(super) fn counted_crossing(
+    l: &DMatrix<f64>,
+    delays_s: &[f64],
+    bracket: (f64, f64),
+    roots_hi: &[(Complex64, usize)],
+    unstable: impl Fn(f64) -> Option<bool>,
+) -> Option<Crossing> {
+    let band = BandedNetwork::new(l, delays_s);
+    let (mut lo, hi0) = bracket;
+    let mut hi = hi0;
+    while hi / lo > 1.0 + 1e-6 {
+        let mid = (lo * hi).sqrt();
+        if unstable(mid)? {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    let at_hi: Vec<(Complex64, usize)> = roots_hi
+        .iter()
+        .filter_map(|&(s, m)| follow(&band, (hi0, s), hi, m, 8).map(|s| (s, m)))
+        .collect();
+    let mut best: Option<Crossing> = None;
+    for (j, &(s_hi, m)) in at_hi.iter().enumerate() {
+        if s_hi.re < 0.0 {
+            continue;
+        }
+        let Some(s_lo) = follow(&band, (hi, s_hi), lo, m, 8) else {
+            continue;
+        };
+        if s_lo.re >= 0.0 {
+            continue;
+        }
+        let Some((c_star, root, br, br_re)) = solve_crossing(&band, m, (lo, s_lo), (hi, s_hi))
+        else {
+            continue;
+        };
+        if best.as_ref().is_none_or(|b| c_star < b.scale) {
+            let others = at_hi
+                .iter()
+                .enumerate()
+                .filter(|&(i, _)| i != j)
+                .filter_map(|(_, &(s, mi))| follow(&band, (hi, s), c_star, mi, 8))
+                .collect();
+            best = Some(Crossing {
+                scale: c_star,
+                root,
+                multiplicity: m,
+                bracket: br,
+                bracket_re: br_re,
+                others,
+            });
+        }
+    }
+    best
+}
+
 /// Regula falsi (Illinois) in `c` on `Re s(c) = 0` between two tracked points of opposite sign.
 #[allow(clippy::type_complexity)]
 fn solve_crossing(

@@ -65,7 +65,7 @@ mod bisection;
 mod continuation;
 
 pub(crate) use bisection::bisection_search;
-use continuation::{certify_at, certify_crossing, continuation};
+use continuation::{certify_at, certify_crossing, continuation, counted_crossing};
 
 /// Failure of the critical-scale search.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -197,6 +197,10 @@ pub(crate) fn reference_scale(l: &DMatrix<f64>, delays_s: &[f64]) -> (ReferenceT
 pub enum CriticalMethod {
     /// Newton continuation of the rightmost roots in `c`, certified at `c*`.
     Continuation,
+    /// The first crossing bracketed by root counts to `1e-6`, the roots that crossed followed
+    /// down by Newton and the crossing solved by regula falsi (when the continuation gives up
+    /// inside the counted bracket).
+    CountedBracket,
     /// Bisection with full solves (fallback).
     Bisection,
 }
@@ -292,6 +296,9 @@ pub fn critical_scale_from(
     let mut full_solves = 1;
     let mut found = None;
     let mut bracketed = false;
+    // The 2 % bracket of the first crossing from root counts, with the roots at its top.
+    let mut bracket: Option<(f64, f64)> = None;
+    let mut bracket_roots: Option<RootsReport> = None;
     for _ in 0..4 {
         let tracked: Vec<(Complex64, usize)> = start_roots
             .roots
@@ -314,15 +321,17 @@ pub fn critical_scale_from(
             Some((x, Some(c))) if c.right.non_consensus() > 0 && !increasing => x.scale,
             Some((x, Some(c))) if c.right.non_consensus() > 0 && !bracketed => {
                 bracketed = true;
-                match first_unstable_scale(&l, delays_s, start, Some(x.scale)) {
-                    Some(c) => c,
+                bracket = first_unstable_scale(&l, delays_s, start, Some(x.scale));
+                match bracket {
+                    Some((_, c)) => c,
                     None => break,
                 }
             }
             None if increasing && !bracketed => {
                 bracketed = true;
-                match first_unstable_scale(&l, delays_s, start, None) {
-                    Some(c) => c,
+                bracket = first_unstable_scale(&l, delays_s, start, None);
+                match bracket {
+                    Some((_, c)) => c,
                     None => break,
                 }
             }
@@ -331,6 +340,42 @@ pub fn critical_scale_from(
         start = restart;
         full_solves += 1;
         start_roots = roots_at(adjacency, delays_s, start, options)?;
+        if bracket.is_some_and(|b| b.1 == start) {
+            bracket_roots = Some(start_roots.clone());
+        }
+    }
+    // The continuation gave up inside the bracket: narrow it by root counts and follow the
+    // roots that crossed (no further solve).
+    if found.is_none() {
+        if let (Some(b), Some(r)) = (bracket, &bracket_roots) {
+            let roots: Vec<(Complex64, usize)> = r
+                .roots
+                .iter()
+                .map(|r| (Complex64::from(r.root), r.multiplicity))
+                .collect();
+            let unstable = |c: f64| unstable_at(&l, delays_s, c);
+            if let Some(x) = counted_crossing(&l, delays_s, b, &roots, unstable) {
+                if let Some(c) = certify_crossing(&l, delays_s, &x) {
+                    if c.certified {
+                        return Ok(CriticalReport::of_crossing(
+                            adjacency,
+                            delays_s,
+                            &l,
+                            Crossing {
+                                scale: x.scale,
+                                root: x.root,
+                                multiplicity: x.multiplicity,
+                                bracket: x.bracket,
+                                bracket_abscissae: x.bracket_re,
+                                full_solves,
+                                method: CriticalMethod::CountedBracket,
+                                certificate: Some(c),
+                            },
+                        ));
+                    }
+                }
+            }
+        }
     }
     let Some((x, certificate)) = found else {
         let mut r = fallback(adjacency, delays_s, options)?;
@@ -442,15 +487,15 @@ fn unstable_at(l: &DMatrix<f64>, delays_s: &[f64], c: f64) -> Option<bool> {
         .map(|r| r.count > 0)
 }
 
-/// A gain scale at most 2 % above the first one at which a root reaches the right half-plane,
-/// from a stable `lo`: by counting roots ([`unstable_at`]) while multiplying the scale by 1.5
+/// A bracket `(lo, hi)`, `hi/lo ≤ 1.02`, of the first gain scale at which a root reaches the
+/// right half-plane, from a stable `lo`: by counting roots ([`unstable_at`]) while multiplying the scale by 1.5
 /// (from `hi` down when given, else from `lo` up), then bisecting in `log c`.
 fn first_unstable_scale(
     l: &DMatrix<f64>,
     delays_s: &[f64],
     lo: f64,
     hi: Option<f64>,
-) -> Option<f64> {
+) -> Option<(f64, f64)> {
     let mut lo = lo;
     let mut hi = match hi {
         Some(h) => h,
@@ -479,7 +524,7 @@ fn first_unstable_scale(
             lo = mid;
         }
     }
-    Some(hi)
+    Some((lo, hi))
 }
 
 fn fallback(
@@ -687,6 +732,28 @@ mod tests {
                 "{digits}"
             );
         }
+    }
+
+    #[test]
+    fn the_counted_bracket_reaches_the_closed_form_crossing() {
+        // The path taken when the continuation gives up inside the counted bracket (a
+        // 200-vehicle bidirectional ring of the spread benchmark): bracket by counts, follow
+        // the roots that crossed, regula falsi. Against the uniform ring's closed form.
+        let ring = UniformRing::new(12, 0.8, 0.3, 0.5).unwrap();
+        let exact = ring.modes().unwrap().critical_gain_scale;
+        let (a, d) = (ring.adjacency(), ring.delays());
+        let l = laplacian(&a);
+        let b = first_unstable_scale(&l, &d, 1.0, None).unwrap();
+        assert!(b.0 < exact && exact <= b.1 && b.1 / b.0 <= 1.02 + 1e-12);
+        let roots = roots_at(&a, &d, b.1, &CollocationOptions::default()).unwrap();
+        let tracked: Vec<(Complex64, usize)> = roots
+            .roots
+            .iter()
+            .map(|r| (Complex64::from(r.root), r.multiplicity))
+            .collect();
+        let x = counted_crossing(&l, &d, b, &tracked, |c| unstable_at(&l, &d, c)).unwrap();
+        assert_relative_eq!(x.scale, exact, max_relative = 1e-10);
+        assert!(certify_crossing(&l, &d, &x).unwrap().certified);
     }
 
     #[test]
