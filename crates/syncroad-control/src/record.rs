@@ -187,7 +187,7 @@ pub struct RunRecord {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub string_amplification: Option<StringAmplification>,
     /// The gap certificate of the scenario's linear model (`exact::gaps`), present for runs
-    /// of the delayed-driver law on every vehicle that it covers.
+    /// of the scenario's law on every vehicle that it covers.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gap_certificate: Option<GapSummary>,
 }

@@ -56,12 +56,25 @@ pub fn gap_lines(cert: &Result<Option<GapCertificate>, GapError>, synchronizes: 
         "  final gaps of the scenario's own state: {lo:.3} … {hi:.3} m at {:.4} m/s",
         c.final_speed_mps
     );
+    if let Some(r) = c.leader_step_m_per_mps {
+        let _ = writeln!(
+            s,
+            "  a leader speed step of ε m/s moves a spacing error by up to {r:.4}·ε m (either sign)"
+        );
+    }
+    let method = if c.leader_step_m_per_mps.is_some() {
+        "exact exponential".to_string()
+    } else {
+        format!(
+            "Richardson error ≤ {:.1e} m per m/s",
+            c.integration_error_m_per_mps
+        )
+    };
     let _ = writeln!(
         s,
-        "  integrated {:.0} s (h = {} s, Richardson error ≤ {:.1e} m per m/s){}",
+        "  integrated {:.0} s (h = {} s, {method}){}",
         c.horizon_s,
         c.step_s,
-        c.integration_error_m_per_mps,
         if c.settled {
             ", every response settled"
         } else {

@@ -23,6 +23,8 @@
 //!   every follower's, on any graph (the worst amplification along a platoon);
 //! * [`acyclic`] — exact roots of acyclic networks (predecessor following behind a leader),
 //!   where identical drivers give roots of high multiplicity;
+//! * [`gaps`] — the gap certificate: where the gaps settle, the worst-case shrinkage per m/s
+//!   of speed perturbation, the scenario's own run (delayed drivers and CACC platoons);
 //! * [`analysis`] — a whole scenario: the method chosen for its structure and one verdict;
 //! * [`report`] — combined serializable reports with plain-text tables for a CLI.
 //!

@@ -32,6 +32,8 @@
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
+mod cacc;
+
 use super::analysis::uniform_ring;
 use crate::scenario::{DelayedDriverModel, HistorySpec, Model};
 use crate::Scenario;
@@ -111,8 +113,13 @@ pub struct GapCertificate {
     pub settled: bool,
     /// Integration step `h` [s] (the extrapolation also used `2h`).
     pub step_s: f64,
-    /// Estimated integration error of the shrinkage [m per m/s].
+    /// Estimated integration error of the shrinkage [m per m/s] (0 for the exact
+    /// exponential of a CACC platoon).
     pub integration_error_m_per_mps: f64,
+    /// CACC platoons: `sup_t max_i |r_i(t)|`, the largest spacing error per m/s of a leader
+    /// speed step (either sign) [m per m/s].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub leader_step_m_per_mps: Option<f64>,
 }
 
 /// The few numbers of a [`GapCertificate`] a run record and a sweep table keep.
@@ -384,13 +391,15 @@ impl<'a> Integrator<'a> {
     }
 }
 
-/// The gap certificate of a scenario: `Ok(None)` for models it does not cover (CACC).
+/// The gap certificate of a scenario: delayed drivers (module documentation) or a CACC
+/// platoon ([`cacc`](self::cacc)); `Ok(None)` for models it does not cover.
 ///
 /// # Errors
 /// [`GapError`]: too many vehicles, growing responses, or final gaps not determined.
 pub fn gap_certificate(sc: &Scenario) -> Result<Option<GapCertificate>, GapError> {
-    let Model::DelayedDriver(m) = sc.model() else {
-        return Ok(None);
+    let m = match sc.model() {
+        Model::DelayedDriver(m) => m,
+        Model::Cacc(c) => return cacc::cacc_gap_certificate(sc, c).map(Some),
     };
     let n = sc.vehicles();
     let circulant = uniform_ring(sc, m).is_some();
@@ -442,6 +451,7 @@ pub fn gap_certificate(sc: &Scenario) -> Result<Option<GapCertificate>, GapError
         settled: sweep.settled,
         step_s: sweep.h,
         integration_error_m_per_mps: sweep.error,
+        leader_step_m_per_mps: None,
     }))
 }
 
