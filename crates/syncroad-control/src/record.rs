@@ -9,6 +9,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::congestion::CongestionMetrics;
+use crate::exact::gaps::GapSummary;
 pub use crate::facts::{Measured, Safety, SumoFacts};
 use crate::margins::SafetyMargins;
 use crate::metrics::SyncMetrics;
@@ -187,7 +188,8 @@ pub struct RunRecord {
     /// Why the run stopped.
     pub stop: StopReason,
     /// Certified by the paper's sufficient conditions: `null` when they do not speak of this
-    /// run (some vehicle is not driven by the law, or the run produced no sample).
+    /// run (some vehicle is not driven by the law — a human or a damper is outside the
+    /// theorem's graph — or the run produced no sample).
     pub certified: Option<bool>,
     /// Warm-up excluded from congestion and SUMO measures \[s\].
     pub warmup_s: f64,
@@ -212,12 +214,10 @@ pub struct RunRecord {
     /// String amplification measured behind a leader (present only for runs with a leader).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub string_amplification: Option<StringAmplification>,
-}
-
-/// The paper's conditions speak of a run only when the law drives every vehicle (a human or a
-/// damper in the ring is outside the theorem's graph) and the run produced a sample.
-pub fn certificate_applies(vehicles: usize, law_controlled: usize, run: &RunOutput) -> bool {
-    law_controlled == vehicles && !run.trajectory.is_empty()
+    /// The gap certificate of the scenario's linear model (`exact::gaps`), present for runs
+    /// of the scenario's law on every vehicle that it covers.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gap_certificate: Option<GapSummary>,
 }
 
 impl RunRecord {
@@ -229,6 +229,7 @@ impl RunRecord {
             .filter(|d| !d.is_empty())
             .unwrap_or_else(|| vec!["law".to_string(); sc.vehicles()]);
         let law_controlled = drivers.iter().filter(|d| *d == "law").count();
+        let all_law = sc.mixed().is_none() && law_controlled == sc.vehicles();
         Self {
             syncroad_version: env!("CARGO_PKG_VERSION").to_string(),
             platform: format!("{}-{}", std::env::consts::ARCH, std::env::consts::OS),
@@ -250,8 +251,7 @@ impl RunRecord {
             complete: run.stop.is_complete(),
             error: run.stop.message(),
             stop: run.stop.clone(),
-            certified: certificate_applies(sc.vehicles(), law_controlled, run)
-                .then_some(outcome.theory.certified),
+            certified: (all_law && !run.trajectory.is_empty()).then_some(outcome.theory.certified),
             warmup_s: outcome.warmup_s,
             sync: outcome.sync.clone(),
             congestion: outcome.congestion.as_ref().ok().cloned(),
@@ -273,6 +273,10 @@ impl RunRecord {
             safety_margins: facts
                 .and_then(|f| SafetyMargins::of(&run.trajectory, outcome.warmup_s, f)),
             string_amplification: crate::string_measured::measured(&run.trajectory),
+            gap_certificate: all_law
+                .then(|| crate::exact::gaps::gap_certificate(sc).ok().flatten())
+                .flatten()
+                .map(|c| c.summary()),
         }
     }
 

@@ -8,7 +8,7 @@
 //! * **units** from the field's name, whose suffix carries the unit by the project's
 //!   convention (`_mps` → m/s, `_s` → s, …), written as `x-unit`;
 //! * every key is required except the blocks a record carries only when measured
-//!   (`safety_margins`, `string_amplification`), and no other key is allowed.
+//!   (`OPTIONAL_BLOCKS`), and no other key is allowed.
 
 use schemars::generate::SchemaSettings;
 use schemars::transform::{RecursiveTransform, Transform};
@@ -21,7 +21,7 @@ use crate::record::RunRecord;
 pub const SCHEMA_ID: &str = "syncroad-metrics-v1";
 
 /// Keys a record holds only when the run measured them.
-const OPTIONAL_BLOCKS: [&str; 2] = ["safety_margins", "string_amplification"];
+const OPTIONAL_BLOCKS: [&str; 3] = ["safety_margins", "string_amplification", "gap_certificate"];
 
 /// Unit suffixes of field names, longest first.
 const UNITS: [(&str, &str); 13] = [

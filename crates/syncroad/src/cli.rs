@@ -8,7 +8,8 @@ use clap::{Args, Parser, Subcommand};
 /// delayed-driver and bidirectional CACC protocols), natively and in SUMO.
 ///
 /// Exit codes: 0 synchronized / certified, 1 not synchronized / inconclusive / not certified
-/// (for `stability`: also when the root count cannot certify the computed roots),
+/// (for `stability`: also when the root count cannot certify the computed roots or the
+/// critical scale),
 /// 2 bad input, 3 run failed (partial results written), 130 interrupted.
 #[derive(Debug, Parser)]
 #[command(name = "syncroad", version, about, long_about)]

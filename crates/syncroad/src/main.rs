@@ -14,6 +14,7 @@ mod commands;
 mod config;
 mod error;
 mod exit_codes;
+mod gaps;
 mod output;
 mod pipeline;
 mod plots;

@@ -13,7 +13,7 @@
 
 use std::fmt::Write as _;
 
-use syncroad_control::exact::analysis::{ExactVerdict, StabilityReport};
+use syncroad_control::exact::analysis::{CriticalScaleStatus, ExactVerdict, StabilityReport};
 use syncroad_control::exact::PlatoonScaling;
 
 /// The table printed by `syncroad stability`.
@@ -121,6 +121,9 @@ pub fn table(r: &StabilityReport) -> String {
             "not certified"
         }
     );
+    if r.critical_scale_status == CriticalScaleStatus::Uncertified {
+        let _ = writeln!(s, "critical scale: UNCERTIFIED (the root counts at c* do not confirm that the reported root crosses first)");
+    }
     if r.certified && r.verdict == ExactVerdict::DoesNotSynchronize {
         let _ = writeln!(s, "WARNING: the sufficient conditions certify a network the exact analysis finds unstable; please report this scenario.");
     }

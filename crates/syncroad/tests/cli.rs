@@ -298,3 +298,56 @@ fn platoon_scaling_option_fits_the_exponents() {
     assert!((fits[2] + 2.0).abs() < 0.1, "{fits:?}");
     assert!((fits[3] + 1.0).abs() < 0.1, "{fits:?}");
 }
+
+#[test]
+fn check_predicts_contact_on_the_weak_gain_ring_and_none_on_the_demo_ring() {
+    let text = std::fs::read_to_string(repo().join("scenarios/sugiyama-ring.json")).unwrap();
+    let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    for k in ["gain_pred", "gain_follow"] {
+        let g = v["model"]["graph"][k].as_f64().unwrap();
+        v["model"]["graph"][k] = serde_json::json!(0.25 * g);
+    }
+    v["sumo"]["net"] = serde_json::json!(repo().join("sumo-nets/sugiyama-ring.net.xml"));
+    let dir = tmpdir("check-gaps");
+    let weak = dir.join("weak.json");
+    std::fs::write(&weak, v.to_string()).unwrap();
+    let (_, out, err) = run(bin().arg("check").arg(&weak));
+    assert!(
+        out.contains("but the gaps may shrink by up to")
+            && out.contains("contact at the scenario's own perturbation"),
+        "{out}{err}"
+    );
+    let (_, out, _) = run(bin().args(["check", "--json"]).arg(&weak));
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(j["gap_certificate"]["own_contact"], true);
+    assert!(j["gap_certificate"]["own_min_gap_m"].as_f64().unwrap() < 0.0);
+    let (code, out, _) = run(bin()
+        .arg("check")
+        .arg(repo().join("scenarios/sugiyama-ring.json")));
+    assert_eq!(code, 0, "{out}");
+    assert!(
+        out.contains("synchronizes, and no contact for speed perturbations up to"),
+        "{out}"
+    );
+}
+
+#[test]
+fn stability_certifies_the_clustered_ring_without_the_bisection() {
+    let (code, out, err) = run(bin()
+        .args(["stability", "--json"])
+        .arg(repo().join("scenarios/het50-bidir-clustered.json")));
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let c = &v["network"]["critical"];
+    assert_eq!(c["method"], "continuation", "{c}");
+    assert_eq!(c["certified"], true);
+    assert_eq!(c["reference"], "theorem1");
+    assert_eq!(v["critical_scale_status"], "certified");
+    let (_, out, _) = run(bin()
+        .arg("stability")
+        .arg(repo().join("scenarios/het50-bidir-clustered.json")));
+    assert!(
+        out.contains("full solve(s)): at c*") && out.contains("-> certified"),
+        "{out}"
+    );
+}

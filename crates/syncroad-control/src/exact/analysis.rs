@@ -84,6 +84,21 @@ pub enum ExactVerdict {
     Uncertified,
 }
 
+/// Whether the critical scale a report prints is backed by a certificate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CriticalScaleStatus {
+    /// A closed form: the uniform ring's modes or the acyclic network's per-driver roots.
+    ClosedForm,
+    /// Found by a search and certified by root counts at `c*`.
+    Certified,
+    /// Found by a search whose root counts at `c*` do not confirm it: another root may cross
+    /// first. Reported as UNCERTIFIED, and `stability` exits 1.
+    Uncertified,
+    /// No critical scale (no delays, or a CACC platoon).
+    None,
+}
+
 /// String stability of a chain behind a leader (acyclic network).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ChainStringStability {
@@ -136,6 +151,8 @@ pub struct StabilityReport {
     pub verdict: ExactVerdict,
     /// `verdict == Synchronizes`.
     pub exactly_stable: bool,
+    /// Whether the critical scale printed is certified.
+    pub critical_scale_status: CriticalScaleStatus,
     /// The paper's conditions certify it.
     pub certified: bool,
 }
@@ -264,9 +281,11 @@ pub fn analyse(sc: &Scenario) -> Result<StabilityReport, AnalysisError> {
                 }
                 _ => None,
             };
+            let critical_scale_status = critical_status(&ring, &acyclic, &network);
             Ok(StabilityReport {
                 scenario: sc.name().to_string(),
                 certified: paper.certified,
+                critical_scale_status,
                 paper,
                 ring,
                 acyclic,
@@ -297,10 +316,26 @@ pub fn analyse(sc: &Scenario) -> Result<StabilityReport, AnalysisError> {
                 leader_amplification: None,
                 network: None,
                 exactly_stable: verdict == ExactVerdict::Synchronizes,
+                critical_scale_status: CriticalScaleStatus::None,
                 verdict,
                 cacc: Some(r),
             })
         }
+    }
+}
+
+/// The status of the critical scale the report prints: the search's certificate when the full
+/// solve gave it, else the closed form.
+fn critical_status(
+    ring: &Option<RingModes>,
+    acyclic: &Option<AcyclicReport>,
+    network: &Option<NetworkStabilityReport>,
+) -> CriticalScaleStatus {
+    match network.as_ref().and_then(|n| n.critical.as_ref()) {
+        Some(c) if c.certified => CriticalScaleStatus::Certified,
+        Some(_) => CriticalScaleStatus::Uncertified,
+        None if ring.is_some() || acyclic.is_some() => CriticalScaleStatus::ClosedForm,
+        None => CriticalScaleStatus::None,
     }
 }
 
@@ -450,6 +485,71 @@ mod tests {
         for q in 1..=4000 {
             let w = 4.0 * 1.5 * k * q as f64 / 4000.0;
             assert!(gain(w) <= x.worst_peak * (1.0 + 1e-9), "ω = {w}");
+        }
+    }
+
+    #[test]
+    fn behind_a_leader_the_reference_is_theorem_one_plus_as_in_check() {
+        // A bidirectional platoon (heterogeneous delays) and a leader graph with a cycle that
+        // is not a chain: 0 ↔ 1 ↔ 2 → 3 → 0 with the leader pinning vehicles 0 and 2. The
+        // reference of `stability` must be `check`'s Theorem 1+ scale, computed here by hand
+        // from α_j (d_j^+ + 2 b_j) as well.
+        let cyclic = serde_json::json!({
+            "name": "cyclic", "seed": 1, "step_s": 0.1, "horizon_s": 10, "vehicles": 4,
+            "road": {"type": "straight"},
+            "model": {"type": "delayed_driver",
+                      "graph": {"type": "edges", "edges": [
+                          {"from": 1, "to": 0, "weight": 0.3}, {"from": 0, "to": 1, "weight": 0.5},
+                          {"from": 2, "to": 1, "weight": 0.2}, {"from": 1, "to": 2, "weight": 0.4},
+                          {"from": 2, "to": 3, "weight": 0.6}, {"from": 3, "to": 0, "weight": 0.1}]},
+                      "delay_s": [0.4, 0.5, 0.6, 0.7],
+                      "leader": {"speed_mps": 15.0, "pinning": [0.2, 0.0, 0.3, 0.0]}}
+        });
+        let cyclic = Scenario::from_json(&cyclic.to_string()).unwrap();
+        let by_hand = |d: &[f64], alpha: &[f64], b: &[f64]| {
+            let worst = (0..d.len())
+                .map(|j| alpha[j] * (d[j] + 2.0 * b[j]))
+                .fold(0.0, f64::max);
+            0.5 / worst
+        };
+        let cases = [
+            (
+                platoon(8, 0.6, 0.6, true),
+                by_hand(
+                    &[0.3, 0.9, 0.9, 0.9, 0.9, 0.9, 0.9, 0.6],
+                    &[0.6; 8],
+                    &[0.6, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+                ),
+            ),
+            (
+                cyclic,
+                by_hand(
+                    &[0.4, 0.7, 0.4, 0.6],
+                    &[0.4, 0.5, 0.6, 0.7],
+                    &[0.2, 0.0, 0.3, 0.0],
+                ),
+            ),
+        ];
+        for (sc, expected) in cases {
+            let r = analyse(&sc).unwrap();
+            let check = r.paper.theorem1_plus.as_ref().unwrap().max_gain_scale;
+            let c = r.network.as_ref().unwrap().critical.as_ref().unwrap();
+            assert_eq!(c.reference, super::super::ReferenceTheorem::Theorem1Plus);
+            assert_relative_eq!(c.reference_gain_scale, check, max_relative = 1e-14);
+            assert_relative_eq!(c.reference_gain_scale, expected, max_relative = 1e-14);
+            assert_relative_eq!(
+                c.conservatism_ratio,
+                c.critical_gain_scale / check,
+                max_relative = 1e-14
+            );
+            let json = serde_json::to_value(c).unwrap();
+            assert_eq!(json["reference"], "theorem1_plus");
+            assert!(r
+                .network
+                .as_ref()
+                .unwrap()
+                .to_string()
+                .contains("Theorem 1+"));
         }
     }
 }

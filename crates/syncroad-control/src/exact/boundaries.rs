@@ -18,6 +18,9 @@ pub struct Boundaries {
     pub theorem1_product: f64,
     /// Exact stability for `c·r` below this (the critical gain scale), when computed.
     pub exact_product: Option<f64>,
+    /// The exact constant is a closed form or certified by root counts at `c*`
+    /// ([`super::CriticalReport::certified`]); false: UNCERTIFIED.
+    pub exact_certified: bool,
 }
 
 /// The boundaries of a delayed-driver scenario (`None` for other models).
@@ -29,20 +32,22 @@ pub fn gain_delay_boundaries(sc: &Scenario) -> Option<Boundaries> {
         None => theory::theorem1(&m.graph, &m.delay_s).max_gain_scale,
         Some((_, b)) => theory::theorem1_plus(&m.graph, &m.delay_s, b).max_gain_scale,
     };
-    let exact_product = match uniform_ring(sc, m) {
-        Some(r) => r.modes().ok().map(|x| x.critical_gain_scale),
+    let (exact_product, exact_certified) = match uniform_ring(sc, m) {
+        Some(r) => (r.modes().ok().map(|x| x.critical_gain_scale), true),
         None => {
             let (a, d) = network_matrices(m);
             match acyclic_roots(&a, &d) {
-                Ok(x) => Some(x.critical_gain_scale),
-                Err(_) => critical_scale(&a, &d, &CollocationOptions::default())
-                    .ok()
-                    .map(|c| c.critical_gain_scale),
+                Ok(x) => (Some(x.critical_gain_scale), true),
+                Err(_) => match critical_scale(&a, &d, &CollocationOptions::default()) {
+                    Ok(c) => (Some(c.critical_gain_scale), c.certified),
+                    Err(_) => (None, false),
+                },
             }
         }
     };
     Some(Boundaries {
         theorem1_product,
         exact_product,
+        exact_certified,
     })
 }

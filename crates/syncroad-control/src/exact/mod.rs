@@ -23,6 +23,8 @@
 //!   every follower's, on any graph (the worst amplification along a platoon);
 //! * [`acyclic`] — exact roots of acyclic networks (predecessor following behind a leader),
 //!   where identical drivers give roots of high multiplicity;
+//! * [`gaps`] — the gap certificate: where the gaps settle, the worst-case shrinkage per m/s
+//!   of speed perturbation, the scenario's own run (delayed drivers and CACC platoons);
 //! * [`analysis`] — a whole scenario: the method chosen for its structure and one verdict;
 //! * [`report`] — combined serializable reports with plain-text tables for a CLI.
 //!
@@ -38,6 +40,7 @@ pub mod boundaries;
 pub mod cacc_modes;
 pub mod collocation;
 pub mod critical;
+pub mod gaps;
 pub mod lambert_w;
 pub mod leader_amplification;
 pub mod platoon_scaling;
@@ -54,7 +57,7 @@ pub use collocation::{
     characteristic_matrix, rightmost_roots, rightmost_roots_shift_invert, CollocationError,
     CollocationOptions, RefinedRoot, RootsReport,
 };
-pub use critical::{critical_scale, CriticalError, CriticalReport};
+pub use critical::{critical_scale, CriticalError, CriticalReport, ReferenceTheorem};
 pub use lambert_w::{lambert_w, LambertWError};
 pub use leader_amplification::{leader_amplification, LeaderAmplification};
 pub use platoon_scaling::{platoon_scaling, PlatoonLaw, PlatoonScaling, PlatoonScalingError};

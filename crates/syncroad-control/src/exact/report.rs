@@ -7,7 +7,7 @@ use super::collocation::{
     rightmost_roots, rightmost_roots_shift_invert, CollocationError, CollocationOptions,
     RootsReport,
 };
-use super::critical::{critical_scale_from, CriticalError, CriticalReport};
+use super::critical::{critical_scale_from, CriticalError, CriticalMethod, CriticalReport};
 use super::ring_modes::RingModes;
 use super::string_stability::{
     string_stability, StringStabilityError, StringStabilityOptions, StringStabilityReport,
@@ -276,24 +276,58 @@ impl fmt::Display for NetworkStabilityReport {
             Some(c) => {
                 writeln!(
                     f,
-                    "critical gain scale {:.10}  Theorem-1 {:.10}  ratio {:.6}  (crossing {:.6} rad/s)",
+                    "critical gain scale {:.10}  {} {:.10}  ratio {:.6}  (crossing {:.6} rad/s)",
                     c.critical_gain_scale,
-                    c.theorem1_gain_scale,
+                    c.reference.label(),
+                    c.reference_gain_scale,
                     c.conservatism_ratio,
                     c.crossing_frequency_rad_s
                 )?;
                 writeln!(
                     f,
-                    "critical delay scale {:.10}  Theorem-1 {:.10}  ratio {:.6}  (max delay {:.6} s, crossing {:.6} rad/s)",
+                    "critical delay scale {:.10}  {} {:.10}  ratio {:.6}  (max delay {:.6} s, crossing {:.6} rad/s)",
                     c.critical_delay_scale,
-                    c.theorem1_delay_scale,
+                    c.reference.label(),
+                    c.reference_delay_scale,
                     c.delay_conservatism_ratio,
                     c.critical_max_delay_s,
                     c.delay_crossing_frequency_rad_s
-                )
+                )?;
+                critical_certificate_line(f, c)
             }
             None => writeln!(f, "no delays: stable for every gain scale"),
         }
+    }
+}
+
+/// The line under the critical scales: their root-count certificate, or UNCERTIFIED.
+fn critical_certificate_line(f: &mut fmt::Formatter<'_>, c: &CriticalReport) -> fmt::Result {
+    let method = match c.method {
+        CriticalMethod::Continuation => "continuation",
+        CriticalMethod::CountedBracket => "counted bracket",
+        CriticalMethod::Bisection => "bisection",
+    };
+    match &c.certificate {
+        Some(x) => writeln!(
+            f,
+            "critical scale ({method}, {} full solve(s)): at c* {} root(s) right of {:.3e} (expected {}), {} other than consensus right of {:.3e} (expected 0) -> {}",
+            c.full_solves,
+            x.left.count,
+            x.left.sigma,
+            x.expected_left,
+            x.right.non_consensus(),
+            x.right.sigma,
+            if x.certified {
+                "certified"
+            } else {
+                "UNCERTIFIED: another root may cross first"
+            }
+        ),
+        None => writeln!(
+            f,
+            "critical scale ({method}, {} full solve(s)): UNCERTIFIED (the root count at c* failed)",
+            c.full_solves
+        ),
     }
 }
 
@@ -321,7 +355,7 @@ impl fmt::Display for RingModes {
         )?;
         writeln!(
             f,
-            "critical gain scale {:.10}  Theorem-1 {:.10}  ratio {:.6}",
+            "critical gain scale {:.10} (closed form, Lambert W per mode)  Theorem-1 {:.10}  ratio {:.6}",
             self.critical_gain_scale, self.theorem1_gain_scale, self.conservatism_ratio
         )
     }
@@ -401,10 +435,11 @@ mod tests {
         }
         for key in [
             "critical_gain_scale",
-            "theorem1_gain_scale",
+            "reference",
+            "reference_gain_scale",
             "conservatism_ratio",
             "critical_delay_scale",
-            "theorem1_delay_scale",
+            "reference_delay_scale",
         ] {
             assert!(
                 json["critical"].get(key).is_some(),

@@ -312,6 +312,7 @@ pub fn boundaries(sc: &Scenario) -> Boundaries {
     exact::gain_delay_boundaries(sc).unwrap_or(Boundaries {
         theorem1_product: f64::NAN,
         exact_product: None,
+        exact_certified: false,
     })
 }
 
@@ -517,8 +518,13 @@ pub fn run(
         bounds
             .exact_product
             .map_or("— (not computed)".to_string(), |c| format!(
-                "{c:.6} (ratio {:.4})",
-                c / bounds.theorem1_product
+                "{c:.6} (ratio {:.4}){}",
+                c / bounds.theorem1_product,
+                if bounds.exact_certified {
+                    ""
+                } else {
+                    ", UNCERTIFIED: the root counts at c* do not confirm it"
+                }
             ))
     );
     let certified = pts.iter().filter(|p| p.certified).count();

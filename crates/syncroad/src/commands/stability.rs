@@ -3,14 +3,14 @@
 
 use std::path::Path;
 
-use syncroad_control::exact::analysis::{self, AnalysisError, ExactVerdict};
+use syncroad_control::exact::analysis::{self, AnalysisError, CriticalScaleStatus, ExactVerdict};
 
 use crate::config::load_scenario;
 use crate::error::{InputError, Status};
 use crate::stdout::{out, outln};
 
 /// Prints the exact report (tables or JSON); success when the certified verdict is
-/// "synchronizes".
+/// "synchronizes" and the critical scale, when a search found it, is certified.
 pub fn run(path: &Path, json: bool, platoon_scaling: bool) -> anyhow::Result<Status> {
     let sc = load_scenario(path)?;
     let r = analysis::analyse(&sc).map_err(|e| match e {
@@ -47,5 +47,8 @@ pub fn run(path: &Path, json: bool, platoon_scaling: bool) -> anyhow::Result<Sta
             out!("{}", crate::stability::scaling_table(s));
         }
     }
-    Ok(Status::verdict(r.verdict == ExactVerdict::Synchronizes))
+    Ok(Status::verdict(
+        r.verdict == ExactVerdict::Synchronizes
+            && r.critical_scale_status != CriticalScaleStatus::Uncertified,
+    ))
 }

@@ -194,6 +194,12 @@ mod tests {
         assert_eq!(find("sync.thresholds.tolerance_mps"), Some(Kind::Float));
         assert_eq!(find("stop.reason"), Some(Kind::Text));
         assert_eq!(metric_label("congestion.speed_std_mps"), "speed std [m/s]");
+        // The gap certificate's numbers are sweep columns too.
+        assert_eq!(
+            find("gap_certificate.worst_shrinkage_m_per_mps"),
+            Some(Kind::Float)
+        );
+        assert_eq!(find("gap_certificate.contact_predicted"), Some(Kind::Bool));
         // Arrays are not scalar metrics.
         assert_eq!(find("drivers"), None);
     }

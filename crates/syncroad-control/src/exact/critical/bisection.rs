@@ -1,6 +1,7 @@
 //! The first version's search for the critical scale: bracket the abscissa's sign change and
 //! bisect with full solves, a secant on the tracked root inside the bracket. The fallback of
-//! the continuation and its reference in tests.
+//! the continuation and its reference in tests; its answer carries the same root-count
+//! certificate.
 
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
@@ -8,7 +9,7 @@ use num_complex::Complex64;
 use super::super::collocation::{
     laplacian, rightmost_roots, validate_network, CollocationError, CollocationOptions, RootsReport,
 };
-use super::{CriticalError, CriticalMethod, CriticalReport, Crossing};
+use super::{certify_at, CriticalError, CriticalMethod, CriticalReport, Crossing};
 
 /// Spectral abscissa with all gains scaled by `c`.
 fn abscissa_at(
@@ -196,6 +197,14 @@ pub(crate) fn bisection_search(
         c_star = 0.5 * (lo + hi);
         s_star = hi_report.roots[0].root.into();
     }
+    // The same root counts as the continuation's certificate, the other roots of the last
+    // solve above c* setting the margin.
+    let multiplicity = hi_report.roots[0].multiplicity;
+    let others: Vec<Complex64> = hi_report.roots[1..]
+        .iter()
+        .map(|r| Complex64::from(r.root))
+        .collect();
+    let certificate = certify_at(&l, delays_s, c_star, (s_star, multiplicity), &others);
     Ok(CriticalReport::of_crossing(
         adjacency,
         delays_s,
@@ -203,12 +212,12 @@ pub(crate) fn bisection_search(
         Crossing {
             scale: c_star,
             root: s_star,
-            multiplicity: hi_report.roots[0].multiplicity,
+            multiplicity,
             bracket: [lo, hi],
             bracket_abscissae: [lo_report.abscissa, hi_report.abscissa],
             full_solves,
             method: CriticalMethod::Bisection,
-            certificate: None,
+            certificate,
         },
     ))
 }

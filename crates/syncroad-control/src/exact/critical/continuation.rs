@@ -47,6 +47,29 @@ pub(crate) fn newton_track(
     (last <= 1e-11 * (1.0 + s.norm())).then_some(s)
 }
 
+/// The root of multiplicity `m` through `from = (c0, s0)` followed to gain scale `c1` by Newton,
+/// halving the step in `log c` (at most `depth` times) where Newton does not converge.
+fn follow(
+    band: &BandedNetwork,
+    from: (f64, Complex64),
+    c1: f64,
+    m: usize,
+    depth: usize,
+) -> Option<Complex64> {
+    let (c0, s0) = from;
+    if let Some(s) = newton_track(band, c1, s0, m) {
+        if (s - s0).norm() <= 0.05 * (1.0 + s0.norm()) {
+            return Some(s);
+        }
+    }
+    if depth == 0 {
+        return None;
+    }
+    let mid = (c0 * c1).sqrt();
+    let s_mid = follow(band, from, mid, m, depth - 1)?;
+    follow(band, (mid, s_mid), c1, m, depth - 1)
+}
+
 /// Follows the tracked roots in `c` from 1 until one crosses the axis (module documentation).
 pub(super) fn continuation(
     l: &DMatrix<f64>,
@@ -98,14 +121,26 @@ pub(super) fn continuation(
             }
             continue;
         };
-        // Roots that met (a real pair turned complex) are one root from now on.
+        // Roots that met (a real pair turned complex) are one root from now on. Two complex
+        // roots landing on one point are not a meeting but a corrector that jumped from one
+        // root of a cluster to its neighbour: the step is retried shorter.
         let mut keep = vec![true; next.len()];
+        let mut jumped = false;
         for i in 0..next.len() {
             for j in i + 1..next.len() {
                 if keep[j] && (next[i] - next[j]).norm() < 1e-6 * (1.0 + next[i].norm()) {
+                    let real = |s: Complex64| s.im.abs() <= 1e-9 * (1.0 + s.norm());
+                    jumped |= !(real(cur[i]) && real(cur[j]));
                     keep[j] = false;
                 }
             }
+        }
+        if jumped {
+            dlog /= 2.0;
+            if dlog < 1e-9 {
+                return None;
+            }
+            continue;
         }
         if keep.iter().any(|k| !k) {
             let mut idx = 0;
@@ -140,18 +175,19 @@ pub(super) fn continuation(
                 let (c_star, s_star, bracket, bracket_re) =
                     solve_crossing(&band, m, (c, cur[j]), (c_next, next[j]))?;
                 if best.as_ref().is_none_or(|b| c_star < b.scale) {
-                    // The other roots at c*, from the bracket end nearer in log c; one that
-                    // cannot be followed there only loosens the margin (the certificate still
-                    // counts).
+                    // The other roots at c*, followed from the bracket end nearer in log c;
+                    // one that cannot be followed there only loosens the margin (the
+                    // certificate still counts).
                     let others = (0..next.len())
                         .filter(|&i| i != j)
                         .filter_map(|i| {
-                            let from = if (c_star / c).ln().abs() < (c_star / c_next).ln().abs() {
-                                cur[i]
-                            } else {
-                                next[i]
-                            };
-                            newton_track(&band, c_star, from, mult[i])
+                            let (from_c, from) =
+                                if (c_star / c).ln().abs() < (c_star / c_next).ln().abs() {
+                                    (c, cur[i])
+                                } else {
+                                    (c_next, next[i])
+                                };
+                            follow(&band, (from_c, from), c_star, mult[i], 6)
                         })
                         .collect();
                     best = Some(Crossing {
@@ -171,6 +207,67 @@ pub(super) fn continuation(
         dlog = (dlog * 1.5).min(0.3);
     }
     None
+}
+
+/// The first crossing inside a counted bracket `(lo, hi)` (`lo` stable, a root right of the
+/// axis at `hi`), from the roots `roots_hi` at `hi`: the bracket is narrowed to `1e-6` by the
+/// counts `unstable(c)`, every root right of the axis at its top is followed down to its
+/// bottom, and the first to change side is solved by regula falsi.
+pub(super) fn counted_crossing(
+    l: &DMatrix<f64>,
+    delays_s: &[f64],
+    bracket: (f64, f64),
+    roots_hi: &[(Complex64, usize)],
+    unstable: impl Fn(f64) -> Option<bool>,
+) -> Option<Crossing> {
+    let band = BandedNetwork::new(l, delays_s);
+    let (mut lo, hi0) = bracket;
+    let mut hi = hi0;
+    while hi / lo > 1.0 + 1e-6 {
+        let mid = (lo * hi).sqrt();
+        if unstable(mid)? {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    let at_hi: Vec<(Complex64, usize)> = roots_hi
+        .iter()
+        .filter_map(|&(s, m)| follow(&band, (hi0, s), hi, m, 8).map(|s| (s, m)))
+        .collect();
+    let mut best: Option<Crossing> = None;
+    for (j, &(s_hi, m)) in at_hi.iter().enumerate() {
+        if s_hi.re < 0.0 {
+            continue;
+        }
+        let Some(s_lo) = follow(&band, (hi, s_hi), lo, m, 8) else {
+            continue;
+        };
+        if s_lo.re >= 0.0 {
+            continue;
+        }
+        let Some((c_star, root, br, br_re)) = solve_crossing(&band, m, (lo, s_lo), (hi, s_hi))
+        else {
+            continue;
+        };
+        if best.as_ref().is_none_or(|b| c_star < b.scale) {
+            let others = at_hi
+                .iter()
+                .enumerate()
+                .filter(|&(i, _)| i != j)
+                .filter_map(|(_, &(s, mi))| follow(&band, (hi, s), c_star, mi, 8))
+                .collect();
+            best = Some(Crossing {
+                scale: c_star,
+                root,
+                multiplicity: m,
+                bracket: br,
+                bracket_re: br_re,
+                others,
+            });
+        }
+    }
+    best
 }
 
 /// Regula falsi (Illinois) in `c` on `Re s(c) = 0` between two tracked points of opposite sign.
@@ -241,25 +338,52 @@ pub(super) fn certify_crossing(
     delays_s: &[f64],
     x: &Crossing,
 ) -> Option<CrossingCertificate> {
-    let scale = 1.0 + x.root.norm();
-    let separation = x.others.iter().map(|s| -s.re).fold(f64::INFINITY, f64::min);
-    let margin = if separation > 1e-9 * scale {
+    certify_at(l, delays_s, x.scale, (x.root, x.multiplicity), &x.others)
+}
+
+/// Root counts at gain scale `c_star` on the lines `Re s = ∓δ`: right of `+δ` nothing but
+/// consensus, right of `−δ` consensus and the crossing root `(s, m)` with its conjugate. `δ`
+/// is a quarter of the distance from the axis to the nearest other known root `others`; when
+/// the strip holds more roots than expected and none lies right of it, the lines move 8×
+/// closer to the axis (twice) before the certificate is refused.
+pub(super) fn certify_at(
+    l: &DMatrix<f64>,
+    delays_s: &[f64],
+    c_star: f64,
+    crossing: (Complex64, usize),
+    others: &[Complex64],
+) -> Option<CrossingCertificate> {
+    let (root, multiplicity) = crossing;
+    let scale = 1.0 + root.norm();
+    let separation = others.iter().map(|s| -s.re).fold(f64::INFINITY, f64::min);
+    let mut margin = if separation > 1e-9 * scale {
         (0.25 * separation).min(0.05 * scale)
     } else {
         1e-3 * scale
     };
-    let lc = l * x.scale;
-    let left = count_with_laplacian(&lc, delays_s, -margin).ok()?;
-    let right = count_with_laplacian(&lc, delays_s, margin).ok()?;
-    let real = x.root.im.abs() <= 1e-12 * scale;
-    let expected_left = 1 + x.multiplicity * if real { 1 } else { 2 };
-    Some(CrossingCertificate {
-        margin,
-        left,
-        right,
-        expected_left,
-        certified: left.count == expected_left && right.non_consensus() == 0,
-    })
+    let lc = l * c_star;
+    let real = root.im.abs() <= 1e-12 * scale;
+    let expected_left = 1 + multiplicity * if real { 1 } else { 2 };
+    let mut last = None;
+    for _ in 0..3 {
+        let counts = count_with_laplacian(&lc, delays_s, -margin)
+            .and_then(|left| Ok((left, count_with_laplacian(&lc, delays_s, margin)?)));
+        if let Ok((left, right)) = counts {
+            let certificate = CrossingCertificate {
+                margin,
+                left,
+                right,
+                expected_left,
+                certified: left.count == expected_left && right.non_consensus() == 0,
+            };
+            if certificate.certified || right.non_consensus() > 0 || left.count < expected_left {
+                return Some(certificate);
+            }
+            last = Some(certificate);
+        }
+        margin /= 8.0;
+    }
+    last
 }
 
 #[cfg(test)]

@@ -1,4 +1,5 @@
-//! Critical gain and delay scales, and the conservatism of Theorem 1.
+//! Critical gain and delay scales, and the conservatism of Theorem 1 (Theorem 1+ behind a
+//! leader).
 //!
 //! Scaling every gain `a_ij → c·a_ij` of eq. `chandler+` moves the non-consensus roots; the
 //! *critical gain scale* `c*` is the smallest `c` at which the spectral abscissa reaches 0
@@ -22,17 +23,27 @@
 //! followed in `c` by a predictor and the Newton step `s − m_j / (log det M)'(s)`, which
 //! converges quadratically even at the multiple roots of symmetric graphs; the scale is
 //! stepped geometrically towards the axis until a root changes side, and the crossing is
-//! solved by regula falsi (Illinois) in `c` to `1e-15` relative. The answer is then
-//! **certified once**, at `c*`, by two argument-principle counts ([`super::argument_principle`])
-//! on the lines `Re s = ∓δ` (`δ` a quarter of the distance to the next tracked root): left
-//! of the axis exactly consensus plus the crossing root(s) with their multiplicity, right of
-//! it nothing. On long rings the rightmost roots at `c = 1` are slow modes that cross late or
-//! never, while a fast mode crosses first: then the certificate counts roots right of the
-//! axis at the tracked crossing, or the continuation gives up. The first scale with a root
-//! right of the axis is then bracketed to 2 % by argument-principle counts alone (no solve),
-//! one shift-invert solve there gives the roots that crossed, and they are followed back down
-//! to `c*`. If that fails too, the search falls back to bisection with full solves down to
-//! `1e-10` relative (the method of the first version, about 15 full solves).
+//! solved by regula falsi (Illinois) in `c` to `1e-15` relative. Two tracked roots that land on
+//! one point are one root only when both were real (a real pair meeting and turning complex);
+//! two complex ones mean the corrector jumped to a neighbour of a cluster (rings with uniform
+//! gains and mixed delays have such clusters near the crossing), and the step is retried
+//! shorter. The answer is then **certified once**, at `c*`, by two argument-principle counts
+//! ([`super::argument_principle`]) on the lines `Re s = ∓δ` (`δ` a quarter of the distance to
+//! the next tracked root, moved 8× closer to the axis up to twice when the strip holds more
+//! roots than expected): left of the axis exactly consensus plus the crossing root(s) with
+//! their multiplicity, right of it nothing. On long rings the rightmost roots at `c = 1` are
+//! slow modes that cross late or never, while a fast mode crosses first: then the certificate
+//! counts roots right of the axis at the tracked crossing, or the continuation gives up. The
+//! first scale with a root right of the axis is then bracketed to 2 % by argument-principle
+//! counts alone (no solve), one shift-invert solve there gives the roots that crossed, and
+//! they are followed back down to `c*`. If that fails too, the search falls back to bisection
+//! with full solves down to `1e-10` relative (the method of the first version, about 15 full
+//! solves), whose answer gets the same certificate. A critical scale whose counts do not
+//! confirm it is reported with `certified: false`, and the command line prints UNCERTIFIED.
+//!
+//! Behind a leader (an undelayed vertex no arc enters, as [`super::analysis`] appends it) the
+//! reference is Theorem `thm.1+`, `α_j (d_j^+ + 2 b_j) < 1/2`, cycles or not; otherwise
+//! Theorem `thm.1` ([`ReferenceTheorem`]).
 //!
 //! Scaling the delays by `r` instead crosses at the same `r* = c*`, but at the frequency
 //! `ω/c*` (the substitution `s = s'/r` above): the report gives both frequencies.
@@ -54,7 +65,7 @@ mod bisection;
 mod continuation;
 
 pub(crate) use bisection::bisection_search;
-use continuation::{certify_crossing, continuation};
+use continuation::{certify_at, certify_crossing, continuation, counted_crossing};
 
 /// Failure of the critical-scale search.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -90,15 +101,20 @@ pub struct CriticalReport {
     pub strongly_connected: bool,
     /// Exact critical scale `c*` of the whole gain matrix.
     pub critical_gain_scale: f64,
-    /// Theorem-1 scale `c_T1 = 1/(2 max_j α_j d_j^+)` (eq. `degree1`).
-    pub theorem1_gain_scale: f64,
-    /// `c* / c_T1`.
+    /// The sufficient condition the exact scale is compared with: Theorem `thm.1` without a
+    /// leader, Theorem `thm.1+` behind one (cycles or not).
+    pub reference: ReferenceTheorem,
+    /// The reference's scale: `1/(2 max_j α_j d_j^+)` (Theorem 1, eq. `degree1`) or
+    /// `1/(2 max_j α_j (d_j^+ + 2 b_j))` (Theorem 1+, eq. `degree1+`), the value `check`
+    /// prints as `max_gain_scale`.
+    pub reference_gain_scale: f64,
+    /// `c* / c_ref`.
     pub conservatism_ratio: f64,
     /// Exact critical scale of all delays (equals `c*`, see module docs).
     pub critical_delay_scale: f64,
-    /// Theorem-1 delay scale (equals `c_T1`).
-    pub theorem1_delay_scale: f64,
-    /// `r* / r_T1`.
+    /// The reference's delay scale (equals `c_ref`).
+    pub reference_delay_scale: f64,
+    /// `r* / r_ref`.
     pub delay_conservatism_ratio: f64,
     /// Largest delay at the critical delay scale, `r* max_i α_i` \[s\].
     pub critical_max_delay_s: f64,
@@ -118,8 +134,61 @@ pub struct CriticalReport {
     pub full_solves: usize,
     /// How `c*` was found.
     pub method: CriticalMethod,
-    /// Argument-principle certificate at `c*` (continuation only).
+    /// Argument-principle certificate at `c*` (both searches; `None` when a count failed).
     pub certificate: Option<CrossingCertificate>,
+    /// The certificate exists and holds: exactly the crossing root(s) on the axis at `c*`,
+    /// nothing right of it. Otherwise the scale is UNCERTIFIED.
+    pub certified: bool,
+}
+
+/// The paper's sufficient condition a critical scale is measured against.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ReferenceTheorem {
+    /// Theorem `thm.1`: `α_j d_j^+ < 1/2` (no leader).
+    Theorem1,
+    /// Theorem `thm.1+`: `α_j (d_j^+ + 2 b_j) < 1/2`, the leader's pinning gains `b_j` counted
+    /// twice (a network behind a leader).
+    Theorem1Plus,
+}
+
+impl ReferenceTheorem {
+    /// The name and inequality, as the tables print them.
+    pub fn label(self) -> &'static str {
+        match self {
+            ReferenceTheorem::Theorem1 => "Theorem 1 (α_j d_j^+ < 1/2)",
+            ReferenceTheorem::Theorem1Plus => "Theorem 1+ (α_j(d_j^+ + 2b_j) < 1/2)",
+        }
+    }
+}
+
+/// The reference condition of a network and its gain scale. A leader is the one undelayed
+/// vertex no arc enters (its speed never changes; `analysis::network_matrices` appends it so):
+/// then Theorem 1+ with `b_j = a_{j,leader}` and `d_j^+` the follower arcs, so
+/// `α_j (d_j^+ + 2 b_j) = α_j (l_jj + b_j)`. Otherwise Theorem 1 on `l_jj = d_j^+` (also for
+/// a delayed driver no arc enters, such as the head of a chain without a leader: Theorem 1's
+/// form, although its graph is not strongly connected).
+pub(crate) fn reference_scale(l: &DMatrix<f64>, delays_s: &[f64]) -> (ReferenceTheorem, f64) {
+    let n = l.nrows();
+    let sources: Vec<usize> = (0..n)
+        .filter(|&i| l[(i, i)] == 0.0 && delays_s[i] == 0.0)
+        .collect();
+    let leader = match sources.as_slice() {
+        [k] if n > 1 => Some(*k),
+        _ => None,
+    };
+    let worst = (0..n)
+        .map(|i| {
+            let pinning = leader.map_or(0.0, |k| -l[(i, k)]);
+            delays_s[i] * (l[(i, i)] + pinning)
+        })
+        .fold(0.0, f64::max);
+    let reference = if leader.is_some() {
+        ReferenceTheorem::Theorem1Plus
+    } else {
+        ReferenceTheorem::Theorem1
+    };
+    (reference, 1.0 / (2.0 * worst))
 }
 
 /// How the critical scale was found.
@@ -128,6 +197,10 @@ pub struct CriticalReport {
 pub enum CriticalMethod {
     /// Newton continuation of the rightmost roots in `c`, certified at `c*`.
     Continuation,
+    /// The first crossing bracketed by root counts to `1e-6`, the roots that crossed followed
+    /// down by Newton and the crossing solved by regula falsi (when the continuation gives up
+    /// inside the counted bracket).
+    CountedBracket,
     /// Bisection with full solves (fallback).
     Bisection,
 }
@@ -223,6 +296,9 @@ pub fn critical_scale_from(
     let mut full_solves = 1;
     let mut found = None;
     let mut bracketed = false;
+    // The 2 % bracket of the first crossing from root counts, with the roots at its top.
+    let mut bracket: Option<(f64, f64)> = None;
+    let mut bracket_roots: Option<RootsReport> = None;
     for _ in 0..4 {
         let tracked: Vec<(Complex64, usize)> = start_roots
             .roots
@@ -245,15 +321,17 @@ pub fn critical_scale_from(
             Some((x, Some(c))) if c.right.non_consensus() > 0 && !increasing => x.scale,
             Some((x, Some(c))) if c.right.non_consensus() > 0 && !bracketed => {
                 bracketed = true;
-                match first_unstable_scale(&l, delays_s, start, Some(x.scale)) {
-                    Some(c) => c,
+                bracket = first_unstable_scale(&l, delays_s, start, Some(x.scale));
+                match bracket {
+                    Some((_, c)) => c,
                     None => break,
                 }
             }
             None if increasing && !bracketed => {
                 bracketed = true;
-                match first_unstable_scale(&l, delays_s, start, None) {
-                    Some(c) => c,
+                bracket = first_unstable_scale(&l, delays_s, start, None);
+                match bracket {
+                    Some((_, c)) => c,
                     None => break,
                 }
             }
@@ -262,6 +340,42 @@ pub fn critical_scale_from(
         start = restart;
         full_solves += 1;
         start_roots = roots_at(adjacency, delays_s, start, options)?;
+        if bracket.is_some_and(|b| b.1 == start) {
+            bracket_roots = Some(start_roots.clone());
+        }
+    }
+    // The continuation gave up inside the bracket: narrow it by root counts and follow the
+    // roots that crossed (no further solve).
+    if found.is_none() {
+        if let (Some(b), Some(r)) = (bracket, &bracket_roots) {
+            let roots: Vec<(Complex64, usize)> = r
+                .roots
+                .iter()
+                .map(|r| (Complex64::from(r.root), r.multiplicity))
+                .collect();
+            let unstable = |c: f64| unstable_at(&l, delays_s, c);
+            if let Some(x) = counted_crossing(&l, delays_s, b, &roots, unstable) {
+                if let Some(c) = certify_crossing(&l, delays_s, &x) {
+                    if c.certified {
+                        return Ok(CriticalReport::of_crossing(
+                            adjacency,
+                            delays_s,
+                            &l,
+                            Crossing {
+                                scale: x.scale,
+                                root: x.root,
+                                multiplicity: x.multiplicity,
+                                bracket: x.bracket,
+                                bracket_abscissae: x.bracket_re,
+                                full_solves,
+                                method: CriticalMethod::CountedBracket,
+                                certificate: Some(c),
+                            },
+                        ));
+                    }
+                }
+            }
+        }
     }
     let Some((x, certificate)) = found else {
         let mut r = fallback(adjacency, delays_s, options)?;
@@ -306,9 +420,9 @@ pub(crate) struct Crossing {
 }
 
 impl CriticalReport {
-    /// The report of a crossing of the network with Laplacian `l`: Theorem 1's scale
-    /// `1/(2 max_i α_i d_i)`, the ratios, and the delay-scale view (the same c*, the crossing
-    /// at ω/c*) are derived here once for every search.
+    /// The report of a crossing of the network with Laplacian `l`: the reference theorem's
+    /// scale ([`reference_scale`]), the ratios, and the delay-scale view (the same c*, the
+    /// crossing at ω/c*) are derived here once for every search.
     pub(crate) fn of_crossing(
         adjacency: &DMatrix<f64>,
         delays_s: &[f64],
@@ -316,18 +430,18 @@ impl CriticalReport {
         x: Crossing,
     ) -> Self {
         let n = l.nrows();
-        let worst = (0..n).map(|i| delays_s[i] * l[(i, i)]).fold(0.0, f64::max);
-        let theorem1 = 1.0 / (2.0 * worst);
+        let (reference, theorem1) = reference_scale(l, delays_s);
         let c_star = x.scale;
         let omega = x.root.im.abs();
         CriticalReport {
             vehicles: n,
             strongly_connected: strongly_connected(adjacency),
             critical_gain_scale: c_star,
-            theorem1_gain_scale: theorem1,
+            reference,
+            reference_gain_scale: theorem1,
             conservatism_ratio: c_star / theorem1,
             critical_delay_scale: c_star,
-            theorem1_delay_scale: theorem1,
+            reference_delay_scale: theorem1,
             delay_conservatism_ratio: c_star / theorem1,
             critical_max_delay_s: c_star * delays_s.iter().cloned().fold(0.0, f64::max),
             crossing_frequency_rad_s: omega,
@@ -337,6 +451,7 @@ impl CriticalReport {
             bracket_abscissae: x.bracket_abscissae,
             full_solves: x.full_solves,
             method: x.method,
+            certified: x.certificate.is_some_and(|c| c.certified),
             certificate: x.certificate,
         }
     }
@@ -372,15 +487,15 @@ fn unstable_at(l: &DMatrix<f64>, delays_s: &[f64], c: f64) -> Option<bool> {
         .map(|r| r.count > 0)
 }
 
-/// A gain scale at most 2 % above the first one at which a root reaches the right half-plane,
-/// from a stable `lo`: by counting roots ([`unstable_at`]) while multiplying the scale by 1.5
+/// A bracket `(lo, hi)`, `hi/lo ≤ 1.02`, of the first gain scale at which a root reaches the
+/// right half-plane, from a stable `lo`: by counting roots ([`unstable_at`]) while multiplying the scale by 1.5
 /// (from `hi` down when given, else from `lo` up), then bisecting in `log c`.
 fn first_unstable_scale(
     l: &DMatrix<f64>,
     delays_s: &[f64],
     lo: f64,
     hi: Option<f64>,
-) -> Option<f64> {
+) -> Option<(f64, f64)> {
     let mut lo = lo;
     let mut hi = match hi {
         Some(h) => h,
@@ -409,7 +524,7 @@ fn first_unstable_scale(
             lo = mid;
         }
     }
-    Some(hi)
+    Some((lo, hi))
 }
 
 fn fallback(
@@ -489,7 +604,7 @@ mod tests {
                 max_relative = 1e-9
             );
             assert_relative_eq!(
-                r.theorem1_gain_scale,
+                r.reference_gain_scale,
                 exact.theorem1_gain_scale,
                 max_relative = 1e-14
             );
@@ -577,6 +692,94 @@ mod tests {
                 max_relative = 1e-8
             );
         }
+    }
+
+    #[test]
+    fn clustered_crossings_are_followed_without_the_bisection() {
+        // 50 drivers on a bidirectional ring, gains 0.8/0.3, delays 0.3 + 0.05 k_i s. On these
+        // two the corrector used to jump from one root of the cluster near iω ≈ 3.3 to its
+        // neighbour; the two were merged as "roots that met", the certificate then counted the
+        // lost one, and the search fell back to bisection (16 full solves, 16 s). Now: the
+        // continuation, certified, and c* bracketed by two dense solves (another method).
+        let opts = CollocationOptions::default();
+        for digits in [
+            "04402424404022400424422400404240400402022442422442",
+            "02123002022022213402413212341240203122240313100001",
+        ] {
+            let d: Vec<f64> = digits
+                .bytes()
+                .map(|b| 0.3 + 0.05 * f64::from(b - b'0'))
+                .collect();
+            let n = d.len();
+            let mut a = DMatrix::zeros(n, n);
+            for i in 0..n {
+                a[(i, (i + n - 1) % n)] = 0.8;
+                a[(i, (i + 1) % n)] = 0.3;
+            }
+            let r = super::super::report::analyse_network(&a, &d, &opts, true)
+                .unwrap()
+                .critical
+                .unwrap();
+            assert_eq!(r.method, CriticalMethod::Continuation, "{digits}");
+            assert!(r.certified && r.full_solves <= 2, "{digits}: {r:?}");
+            let abscissa = |c: f64| rightmost_roots(&(&a * c), &d, &opts).unwrap().abscissa;
+            assert!(
+                abscissa(r.critical_gain_scale * (1.0 - 1e-7)) < 0.0,
+                "{digits}"
+            );
+            assert!(
+                abscissa(r.critical_gain_scale * (1.0 + 1e-7)) > 0.0,
+                "{digits}"
+            );
+        }
+    }
+
+    #[test]
+    fn the_counted_bracket_reaches_the_closed_form_crossing() {
+        // The path taken when the continuation gives up inside the counted bracket (a
+        // 200-vehicle bidirectional ring of the spread benchmark): bracket by counts, follow
+        // the roots that crossed, regula falsi. Against the uniform ring's closed form.
+        let ring = UniformRing::new(12, 0.8, 0.3, 0.5).unwrap();
+        let exact = ring.modes().unwrap().critical_gain_scale;
+        let (a, d) = (ring.adjacency(), ring.delays());
+        let l = laplacian(&a);
+        let b = first_unstable_scale(&l, &d, 1.0, None).unwrap();
+        assert!(b.0 < exact && exact <= b.1 && b.1 / b.0 <= 1.02 + 1e-12);
+        let roots = roots_at(&a, &d, b.1, &CollocationOptions::default()).unwrap();
+        let tracked: Vec<(Complex64, usize)> = roots
+            .roots
+            .iter()
+            .map(|r| (Complex64::from(r.root), r.multiplicity))
+            .collect();
+        let x = counted_crossing(&l, &d, b, &tracked, |c| unstable_at(&l, &d, c)).unwrap();
+        assert_relative_eq!(x.scale, exact, max_relative = 1e-10);
+        assert!(certify_crossing(&l, &d, &x).unwrap().certified);
+    }
+
+    #[test]
+    fn the_bisection_is_certified_by_the_same_counts() {
+        let ring = UniformRing::new(6, 1.0, 0.3, 0.5).unwrap();
+        let r = bisection_search(
+            &ring.adjacency(),
+            &ring.delays(),
+            &CollocationOptions::default(),
+            true,
+        )
+        .unwrap();
+        let c = r.certificate.unwrap();
+        assert!(r.certified && c.certified);
+        assert_eq!(c.expected_left, 3);
+        // A wrong c* (10 % above) is refused: roots lie right of the axis there.
+        let l = laplacian(&ring.adjacency());
+        let root = Complex64::new(0.0, r.crossing_frequency_rad_s);
+        let wrong = certify_at(
+            &l,
+            &ring.delays(),
+            1.1 * r.critical_gain_scale,
+            (root, 1),
+            &[],
+        );
+        assert!(!wrong.unwrap().certified);
     }
 
     #[test]

@@ -1,0 +1,265 @@
+//! Gap certificate of the CACC platoon (eqs. `veh1`, `veh-proto1`, `veh-proto2`): spacing
+//! errors under initial speed perturbations, a leader speed step and the scenario's own leader
+//! profile, from the linear closed loop.
+//!
+//! With `e_i = g_i − s_i` (bumper gap minus desired gap), speeds and accelerations as
+//! deviations from the leader's initial speed, the platoon is `x' = Ax + b d(t)`,
+//! `x = (e, v, a)`, `d` the leader's speed deviation: `e_i' = v_{i−1} − v_i` (`v_{−1} = d`),
+//! `v_i' = a_i`, `τ_i a_i' = μ_i (d − v_i) + η_i e_i − ν_i e_{i+1} − a_i`. It is integrated
+//! exactly on a grid of `h = 0.01 s` by the exponential of the augmented matrix (the leader's
+//! speed piecewise linear between grid points, as the profiles are with breakpoints on the
+//! grid). At rest every `a_des,i = 0`, so `η_N e_N = 0`, then `η_i e_i = ν_i e_{i+1} = 0` up the
+//! platoon: the gaps settle at the desired gaps.
+//!
+//! * `M_i = sup_t Σ_j |E_ij(t)|`, `E_ij` the spacing error of follower `i` after a unit initial
+//!   speed change of follower `j`: perturbations of at most `ε` shrink gap `i` by `≤ M_i ε`;
+//! * the leader step: `sup_t max_i |r_i(t)|` per m/s of a leader speed step;
+//! * the scenario's own run (its initial gaps and speeds, its leader profile): `min_t min_i g_i`.
+
+use nalgebra::DMatrix;
+
+use super::{GapCertificate, GapError, GAP_HORIZON_LIMIT_S, GAP_RING_LIMIT};
+use crate::scenario::CaccModel;
+use crate::Scenario;
+
+/// Grid step of the exact discretisation [s].
+const STEP_S: f64 = 0.01;
+
+/// Largest platoon certified (the step costs `O(N³)`).
+pub const CACC_GAP_LIMIT: usize = 20;
+
+/// The closed-loop matrix `A` and the input column `b` (module documentation).
+fn closed_loop(m: &CaccModel) -> (DMatrix<f64>, Vec<f64>) {
+    let n = m.mu.len();
+    let (e, v, a) = (0, n, 2 * n);
+    let mut am = DMatrix::zeros(3 * n, 3 * n);
+    let mut b = vec![0.0; 3 * n];
+    for i in 0..n {
+        if i > 0 {
+            am[(e + i, v + i - 1)] = 1.0;
+        } else {
+            b[e] = 1.0;
+        }
+        am[(e + i, v + i)] = -1.0;
+        am[(v + i, a + i)] = 1.0;
+        let tau = m.tau_s[i];
+        am[(a + i, v + i)] = -m.mu[i] / tau;
+        am[(a + i, e + i)] = m.eta[i] / tau;
+        if i + 1 < n {
+            am[(a + i, e + i + 1)] = -m.nu[i] / tau;
+        }
+        am[(a + i, a + i)] = -1.0 / tau;
+        b[a + i] = m.mu[i] / tau;
+    }
+    (am, b)
+}
+
+/// One grid step of `x' = Ax + b d`, `d` linear over the step: `(Φ, φ_d, φ_slope)` from the
+/// exponential of the augmented matrix `[[A, b, 0], [0, 0, 1], [0, 0, 0]]·h`.
+fn step_maps(am: &DMatrix<f64>, b: &[f64], h: f64) -> (DMatrix<f64>, Vec<f64>, Vec<f64>) {
+    let k = am.nrows();
+    let mut big = DMatrix::zeros(k + 2, k + 2);
+    big.view_mut((0, 0), (k, k)).copy_from(am);
+    for i in 0..k {
+        big[(i, k)] = b[i];
+    }
+    big[(k, k + 1)] = 1.0;
+    let ex = (big * h).exp();
+    let phi = ex.view((0, 0), (k, k)).into_owned();
+    let pd = (0..k).map(|i| ex[(i, k)]).collect();
+    let ps = (0..k).map(|i| ex[(i, k + 1)]).collect();
+    (phi, pd, ps)
+}
+
+/// The gap certificate of a CACC scenario.
+///
+/// # Errors
+/// [`GapError::TooLarge`] beyond [`CACC_GAP_LIMIT`] followers, [`GapError::Diverges`] for
+/// an unstable platoon.
+pub(super) fn cacc_gap_certificate(
+    sc: &Scenario,
+    m: &CaccModel,
+) -> Result<GapCertificate, GapError> {
+    let n = m.mu.len();
+    if n > CACC_GAP_LIMIT {
+        return Err(GapError::TooLarge {
+            vehicles: n,
+            limit: CACC_GAP_LIMIT,
+            ring_limit: GAP_RING_LIMIT,
+        });
+    }
+    let (am, b) = closed_loop(m);
+    let (phi, pd, ps) = step_maps(&am, &b, STEP_S);
+    let k = 3 * n;
+    // Columns: n unit speed perturbations, the leader step, the scenario's own run.
+    let c = n + 2;
+    let mut x = DMatrix::zeros(k, c);
+    for j in 0..n {
+        x[(n + j, j)] = 1.0;
+    }
+    let v_lead0 = m.leader.initial_speed();
+    let g0 = sc.initial_gap_m().to_vec();
+    for i in 0..n {
+        x[(i, n + 1)] = g0[i] - m.desired_gap_m[i];
+        x[(n + i, n + 1)] = sc.initial_speed_mps()[i] - v_lead0;
+    }
+    let d_own = |t: f64| m.leader.speed_at(t) - v_lead0;
+    let mut shrinkage = vec![0.0f64; n];
+    let mut best = (0.0f64, 0usize, 0.0f64);
+    let mut pattern = vec![0.0; n];
+    let mut step_peak = 0.0f64;
+    let mut own_min = (f64::INFINITY, 0usize, 0.0f64);
+    let mut quiet = 0.0;
+    let mut t = 0.0;
+    let window_s = 10.0;
+    let (settled, horizon_s) = loop {
+        for i in 0..n {
+            let row: f64 = (0..n).map(|j| x[(i, j)].abs()).sum();
+            shrinkage[i] = shrinkage[i].max(row);
+            if row > best.0 {
+                best = (row, i, t);
+                for (j, p) in pattern.iter_mut().enumerate() {
+                    *p = -x[(i, j)].signum() * f64::from(u8::from(x[(i, j)] != 0.0));
+                }
+            }
+            step_peak = step_peak.max(x[(i, n)].abs());
+            let gap = m.desired_gap_m[i] + x[(i, n + 1)];
+            if gap < own_min.0 {
+                own_min = (gap, i, t);
+            }
+        }
+        // The step's column settles at v = 1 (every follower at the new speed).
+        let step_size = (0..k)
+            .map(|r| (x[(r, n)] - if (n..2 * n).contains(&r) { 1.0 } else { 0.0 }).abs())
+            .fold(0.0, f64::max);
+        let size = x.columns(0, n).amax().max(step_size);
+        if !size.is_finite() || size > 1e9 {
+            return Err(GapError::Diverges { time_s: t });
+        }
+        // Unit responses and the step settled, and the own run past its horizon.
+        quiet = if size <= 1e-5 * best.0.max(1.0) {
+            quiet + STEP_S
+        } else {
+            0.0
+        };
+        if quiet >= window_s && t >= sc.horizon_s() {
+            break (true, t);
+        }
+        if t >= GAP_HORIZON_LIMIT_S {
+            break (false, t);
+        }
+        let (d0, d1) = (d_own(t), d_own(t + STEP_S));
+        let mut next = &phi * &x;
+        for i in 0..k {
+            // The leader step: d = 1 from t = 0+ on; the own run: the profile.
+            next[(i, n)] += pd[i];
+            next[(i, n + 1)] += pd[i] * d0 + ps[i] * (d1 - d0) / STEP_S;
+        }
+        x = next;
+        t += STEP_S;
+    };
+    let safe = (0..n)
+        .map(|i| g0[i] / shrinkage[i])
+        .fold(f64::INFINITY, f64::min);
+    let own_perturbation = sc
+        .initial_speed_mps()
+        .iter()
+        .map(|v| (v - v_lead0).abs())
+        .fold(0.0, f64::max);
+    Ok(GapCertificate {
+        final_gap_m: m.desired_gap_m.clone(),
+        final_speed_mps: m.leader.speed_at(horizon_s),
+        worst_shrinkage_m_per_mps: best.0,
+        shrinkage_m_per_mps: shrinkage,
+        worst_gap: best.1,
+        worst_time_s: best.2,
+        worst_pattern: pattern,
+        safe_perturbation_mps: safe,
+        own_perturbation_mps: own_perturbation,
+        own_min_gap_m: own_min.0,
+        own_min_gap_vehicle: own_min.1,
+        own_min_gap_time_s: own_min.2,
+        own_contact: own_min.0 <= 0.0,
+        initial_gap_m: g0,
+        horizon_s,
+        settled,
+        step_s: STEP_S,
+        integration_error_m_per_mps: 0.0,
+        leader_step_m_per_mps: Some(step_peak),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::gap_certificate;
+    use crate::native::{simulate, NativeOptions};
+    use crate::Scenario;
+    use approx::assert_relative_eq;
+
+    /// `scenarios/platoon-cacc.json` at a 0.01 s step, with `initial` replaced when given.
+    fn platoon(initial: Option<serde_json::Value>, constant_leader: bool) -> Scenario {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../scenarios/platoon-cacc.json"
+        );
+        let mut v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+        v["step_s"] = serde_json::json!(0.01);
+        if let Some(i) = initial {
+            v["initial"] = i;
+        }
+        if constant_leader {
+            v["model"]["leader"] = serde_json::json!({"type": "constant", "speed_mps": 20.0});
+        }
+        Scenario::from_json(&v.to_string()).unwrap()
+    }
+
+    #[test]
+    fn the_platoon_own_run_and_worst_pattern_agree_with_the_native_simulator() {
+        // The scenario's own run (perturbed speeds and gaps, the leader braking and recovering):
+        // the smallest gap, predicted exactly from the linear loop, against the native law.
+        let sc = platoon(None, false);
+        let c = gap_certificate(&sc).unwrap().unwrap();
+        assert!(c.settled && !c.own_contact);
+        let run = simulate(&sc, NativeOptions::default());
+        let t = &run.trajectory;
+        let low = (0..t.len())
+            .flat_map(|k| t.gaps(k).to_vec())
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            (low - c.own_min_gap_m).abs() < 0.01,
+            "{low} vs {}",
+            c.own_min_gap_m
+        );
+        // The worst sign pattern at the desired gaps and a constant leader shrinks the worst
+        // gap by M·ε at t*.
+        let eps = 0.5;
+        let speeds: Vec<f64> = c.worst_pattern.iter().map(|s| 20.0 + eps * s).collect();
+        let sc = platoon(Some(serde_json::json!({"speed_mps": speeds})), true);
+        let run = simulate(&sc, NativeOptions::default());
+        let t = &run.trajectory;
+        let k = (c.worst_time_s / 0.01).round() as usize;
+        let shrink = 10.0 - t.gaps(k)[c.worst_gap];
+        assert_relative_eq!(
+            shrink,
+            c.worst_shrinkage_m_per_mps * eps,
+            max_relative = 1e-2
+        );
+        // A leader step: no spacing error beyond the step bound.
+        let r = c.leader_step_m_per_mps.unwrap();
+        assert!(r > 0.0);
+        let sc = platoon(Some(serde_json::json!({"speed_mps": 20.0})), false);
+        let run = simulate(&sc, NativeOptions::default());
+        let t = &run.trajectory;
+        // The profile is a superposition of steps of total variation 16 m/s (down 8, up 8):
+        // |e_i| ≤ 16·r; and the braking alone, 8 m/s, must reach at least a step's peak.
+        let mut worst = 0.0f64;
+        for k in 0..t.len() {
+            for g in t.gaps(k) {
+                assert!((g - 10.0).abs() <= 16.0 * r * (1.0 + 1e-2), "{g}");
+                worst = worst.max((g - 10.0).abs());
+            }
+        }
+        assert!(worst > 0.0 && worst <= 16.0 * r);
+    }
+}
