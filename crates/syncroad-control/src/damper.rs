@@ -199,18 +199,38 @@ impl DamperController {
         })
     }
 
-    /// Gaps `Δx_i = q_{i−1} − q_i − ℓ_i` (plus C for vehicle 0) and leader speeds `v_{i−1}`.
     fn observe(&mut self, speeds: &[f64], positions: &[f64]) {
-        let n = speeds.len();
-        for i in 0..n {
-            let (ahead, wrap) = if i == 0 {
-                (n - 1, self.ring_length_m)
-            } else {
-                (i - 1, 0.0)
-            };
-            self.gaps_m[i] = positions[ahead] + wrap - positions[i] - self.length_m[i];
-            self.leader_speeds_mps[i] = speeds[ahead];
-        }
+        ring_view(
+            speeds,
+            positions,
+            self.ring_length_m,
+            &self.length_m,
+            &mut self.gaps_m,
+            &mut self.leader_speeds_mps,
+        );
+    }
+}
+
+/// What each vehicle of a ring sees: the gap `Δx_i = q_{i−1} − q_i − ℓ_i` (plus the
+/// circumference C for vehicle 0, which follows vehicle N−1 one lap ahead) and the leader's
+/// speed `v_{i−1}`.
+pub(crate) fn ring_view(
+    speeds: &[f64],
+    positions: &[f64],
+    ring_length_m: f64,
+    length_m: &[f64],
+    gaps_m: &mut [f64],
+    leader_speeds_mps: &mut [f64],
+) {
+    let n = speeds.len();
+    for i in 0..n {
+        let (ahead, wrap) = if i == 0 {
+            (n - 1, ring_length_m)
+        } else {
+            (i - 1, 0.0)
+        };
+        gaps_m[i] = positions[ahead] + wrap - positions[i] - length_m[i];
+        leader_speeds_mps[i] = speeds[ahead];
     }
 }
 

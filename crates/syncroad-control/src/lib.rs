@@ -14,6 +14,8 @@
 //! * [`theory`], [`ifp`], [`poly`] — the paper's sufficient conditions and the IFP index;
 //! * [`exact`] — exact stability: rightmost characteristic roots, critical gains, CACC modes
 //!   and string stability, to show how conservative the sufficient conditions are;
+//! * [`noisy_idm`] — stochastic human drivers (IDM with Flow's or a step-consistent noise),
+//!   computed by the bridge on either backend;
 //! * [`controller`] — the one law object both backends step;
 //! * [`native`] — the fixed-step simulator; [`stop`] — why a run stopped;
 //! * [`metrics`], [`congestion`], [`margins`] — the synchronization verdict, congestion
@@ -39,6 +41,7 @@ pub mod lti_network;
 pub mod margins;
 pub mod metrics;
 pub mod native;
+pub mod noisy_idm;
 pub mod outcome;
 pub mod pi_saturation;
 pub mod poly;
@@ -61,7 +64,8 @@ pub use follower_stopper::{
 };
 pub use graph::{Arc, Graph};
 pub use metrics::{sync_metrics, SyncMetrics, Verdict, VerdictThresholds};
-pub use native::{simulate, NativeOptions, NativeRun};
+pub use native::{simulate, simulate_with, NativeOptions, NativeRun};
+pub use noisy_idm::{HumanSetup, IdmParams, NoiseForm, NoisyIdm};
 pub use outcome::{evaluate, EvalOptions, Outcome, RunOutput};
 pub use pi_saturation::{
     pi_saturation_command_mps, PiSaturation, PiSaturationError, PiSaturationParams,

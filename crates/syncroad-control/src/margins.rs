@@ -78,9 +78,13 @@ impl SafetyMargins {
     }
 }
 
-/// True for a driver label of a SUMO car-following model (law and dampers are commanded).
+/// True for a driver label of a SUMO car-following model (the law, the dampers and the
+/// stochastic humans of [`crate::noisy_idm`] are commanded by the bridge).
 fn is_sumo_driver(label: &str) -> bool {
-    !(label == "law" || label.starts_with("follower-stopper") || label == "pi-saturation")
+    !(label == "law"
+        || label.starts_with("follower-stopper")
+        || label == "pi-saturation"
+        || crate::noisy_idm::is_noisy_label(label))
 }
 
 #[cfg(test)]
