@@ -13,7 +13,11 @@
 //! * **wave propagation speed** on a ring: the position of the slowest vehicle is followed
 //!   from sample to sample (unwrapped by the shortest signed displacement) and a line is fitted;
 //!   its slope [m/s] in the ground frame is negative for waves travelling against traffic.
-//!   Reported only when the amplitude exceeds 0.5 m/s.
+//!   Reported only when the amplitude exceeds 0.5 m/s;
+//! * **jam formation time** (over the whole run, warm-up included): the first sample at which
+//!   some vehicle drives below [`JAM_SPEED_MPS`] = 1 m/s (the jam threshold of Sugiyama's
+//!   ring used throughout, see `docs/human-preset.md`) after every vehicle has driven faster
+//!   than it once, so a start from rest does not count as a jam; `null` when no jam forms.
 
 use serde::Serialize;
 
@@ -21,6 +25,9 @@ use crate::trajectory::Trajectory;
 
 /// SUMO's halting-speed threshold [m/s].
 pub const STOP_SPEED_MPS: f64 = 0.1;
+
+/// Speed below which a vehicle counts as caught in a jam \[m/s\].
+pub const JAM_SPEED_MPS: f64 = 1.0;
 
 /// Congestion metrics of one run.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -47,6 +54,27 @@ pub struct CongestionMetrics {
     pub wave_amplitude_mps: f64,
     /// Wave propagation speed [m/s] (ring roads with waves only).
     pub wave_speed_mps: Option<f64>,
+    /// First time some vehicle is below 1 m/s after all have been above it \[s\].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub jam_formed_s: Option<f64>,
+}
+
+/// The jam formation time of a trajectory (see the module docs).
+pub fn jam_formed_s(traj: &Trajectory) -> Option<f64> {
+    let n = traj.n;
+    let mut moved = vec![false; n];
+    let mut all_moved = false;
+    for k in 0..traj.len() {
+        let v = traj.speeds(k);
+        if all_moved && v.iter().any(|&x| x < JAM_SPEED_MPS) {
+            return Some(traj.time_s[k]);
+        }
+        for (m, &x) in moved.iter_mut().zip(v) {
+            *m |= x > JAM_SPEED_MPS;
+        }
+        all_moved = all_moved || moved.iter().all(|&m| m);
+    }
+    None
 }
 
 /// Errors of the congestion computation.
@@ -143,6 +171,7 @@ pub fn congestion_metrics(
         stopped_fraction: stopped as f64 / count,
         wave_amplitude_mps,
         wave_speed_mps,
+        jam_formed_s: jam_formed_s(traj),
     })
 }
 
@@ -182,6 +211,23 @@ fn wave_speed(traj: &Trajectory, first: usize, len: f64) -> Option<f64> {
 mod tests {
     use super::*;
     use approx::assert_relative_eq;
+
+    #[test]
+    fn a_jam_forms_when_a_moving_ring_first_drops_below_1_mps() {
+        let mut t = Trajectory::new(2);
+        let z = [0.0, 0.0];
+        // From rest: not a jam until both have moved faster than 1 m/s.
+        t.push(0.0, &[0.0, 0.0], &z, &z, None);
+        t.push(1.0, &[2.0, 0.5], &z, &z, None);
+        t.push(2.0, &[0.9, 1.5], &z, &z, None);
+        t.push(3.0, &[0.8, 1.5], &z, &z, None);
+        t.push(4.0, &[2.0, 1.5], &z, &z, None);
+        assert_eq!(jam_formed_s(&t), Some(3.0));
+        let mut free = Trajectory::new(1);
+        free.push(0.0, &[4.0], &[0.0], &[0.0], None);
+        free.push(1.0, &[3.0], &[0.0], &[0.0], None);
+        assert_eq!(jam_formed_s(&free), None);
+    }
 
     /// Vehicles at uniform spacing driving at mean speed u; the speed field is a travelling wave
     /// v(x, t) = u + A sin(2π (x − c t)/L) with known c.
