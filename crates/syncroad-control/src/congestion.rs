@@ -14,6 +14,12 @@
 //!   from sample to sample (unwrapped by the shortest signed displacement) and a line is fitted;
 //!   its slope [m/s] in the ground frame is negative for waves travelling against traffic.
 //!   Reported only when the amplitude exceeds 0.5 m/s;
+//! * **braking events**: a vehicle's speed falls faster than [`BRAKING_DECEL_MPS2`] = 1.5 m/s²
+//!   averaged over consecutive windows of at least 1 s of samples; each run of such windows is
+//!   one event. 1.5 m/s² is the IDM's comfortable deceleration b of Flow's ring benchmark
+//!   (`IDMController`, b = 1.5) and the decel of the `human` preset: braking beyond what the
+//!   drivers themselves consider comfortable. The 1 s window keeps per-step driver noise
+//!   (σ√Δt per step) from counting as braking;
 //! * **jam formation time** (over the whole run, warm-up included): the first sample at which
 //!   some vehicle drives below [`JAM_SPEED_MPS`] = 1 m/s (the jam threshold of Sugiyama's
 //!   ring used throughout, see `docs/human-preset.md`) after every vehicle has driven faster
@@ -25,6 +31,12 @@ use crate::trajectory::Trajectory;
 
 /// SUMO's halting-speed threshold [m/s].
 pub const STOP_SPEED_MPS: f64 = 0.1;
+
+/// Deceleration above which a vehicle brakes (see the module docs) \[m/s²\].
+pub const BRAKING_DECEL_MPS2: f64 = 1.5;
+
+/// Shortest window over which a braking deceleration is measured \[s\].
+pub const BRAKING_WINDOW_S: f64 = 1.0;
 
 /// Speed below which a vehicle counts as caught in a jam \[m/s\].
 pub const JAM_SPEED_MPS: f64 = 1.0;
@@ -54,9 +66,36 @@ pub struct CongestionMetrics {
     pub wave_amplitude_mps: f64,
     /// Wave propagation speed [m/s] (ring roads with waves only).
     pub wave_speed_mps: Option<f64>,
+    /// Braking events after the warm-up (decelerations beyond 1.5 m/s² over ≥ 1 s windows).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub braking_events: Option<usize>,
     /// First time some vehicle is below 1 m/s after all have been above it \[s\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub jam_formed_s: Option<f64>,
+}
+
+/// Braking events from sample `first` on (see the module docs).
+pub fn braking_events(traj: &Trajectory, first: usize) -> usize {
+    let n = traj.n;
+    let mut events = 0;
+    for i in 0..n {
+        let mut anchor = first;
+        let mut braking = false;
+        for k in first + 1..traj.len() {
+            let dt = traj.time_s[k] - traj.time_s[anchor];
+            if dt < BRAKING_WINDOW_S - 1e-9 {
+                continue;
+            }
+            let decel = (traj.speeds_mps[anchor * n + i] - traj.speeds_mps[k * n + i]) / dt;
+            let now = decel > BRAKING_DECEL_MPS2;
+            if now && !braking {
+                events += 1;
+            }
+            braking = now;
+            anchor = k;
+        }
+    }
+    events
 }
 
 /// The jam formation time of a trajectory (see the module docs).
@@ -171,6 +210,7 @@ pub fn congestion_metrics(
         stopped_fraction: stopped as f64 / count,
         wave_amplitude_mps,
         wave_speed_mps,
+        braking_events: Some(braking_events(traj, first)),
         jam_formed_s: jam_formed_s(traj),
     })
 }
@@ -211,6 +251,23 @@ fn wave_speed(traj: &Trajectory, first: usize, len: f64) -> Option<f64> {
 mod tests {
     use super::*;
     use approx::assert_relative_eq;
+
+    #[test]
+    fn braking_events_count_onsets_of_hard_one_second_decelerations() {
+        // Samples every 0.5 s: windows of 1 s. Vehicle 0 brakes at 2 m/s² for 2 s (one
+        // event: two windows in a row), cruises, then at 1 m/s² (none); vehicle 1 flickers by
+        // ±0.6 m/s every sample (1.2 m/s per 0.5 s, but 0 per 1 s window: none).
+        let mut t = Trajectory::new(2);
+        let z = [0.0, 0.0];
+        let v0 = [10.0, 10.0, 9.0, 8.0, 7.0, 6.0, 6.0, 6.0, 5.5, 5.0, 4.5, 4.0];
+        for (k, &a) in v0.iter().enumerate() {
+            let b = if k % 2 == 0 { 5.0 } else { 5.6 };
+            t.push(k as f64 * 0.5, &[a, b], &z, &z, None);
+        }
+        assert_eq!(braking_events(&t, 0), 1);
+        // From sample 6 on only the gentle braking is left.
+        assert_eq!(braking_events(&t, 6), 0);
+    }
 
     #[test]
     fn a_jam_forms_when_a_moving_ring_first_drops_below_1_mps() {

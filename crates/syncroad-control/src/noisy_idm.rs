@@ -294,7 +294,7 @@ impl NoisyIdm {
 }
 
 /// σ of the `human-noisy` preset (step-consistent form) \[m/s^{3/2}\].
-pub const HUMAN_NOISY_SIGMA: f64 = 0.3;
+pub const HUMAN_NOISY_SIGMA: f64 = 0.2;
 
 /// Salt of the driver-noise streams, independent of the start's perturbation and of the
 /// mixed placement drawn from the same seed.

@@ -182,6 +182,9 @@ pub struct RunRecord {
     /// only when the run measured SSM (records of runs that did not keep their earlier shape).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub safety_margins: Option<SafetyMargins>,
+    /// Minimum gap and time below a safe headway, from the trajectory (every run with gaps).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gap_safety: Option<crate::margins::GapSafety>,
     /// String amplification measured behind a leader (present only for runs with a leader).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub string_amplification: Option<StringAmplification>,
@@ -237,6 +240,7 @@ impl RunRecord {
             }),
             safety_margins: facts
                 .and_then(|f| SafetyMargins::of(&run.trajectory, outcome.warmup_s, f)),
+            gap_safety: crate::margins::GapSafety::of(&run.trajectory, outcome.warmup_s),
             string_amplification: crate::string_measured::measured(&run.trajectory),
         }
     }
