@@ -11,6 +11,7 @@
 //! * [`follower_stopper`], [`pi_saturation`] — the field's wave dampers of Stern et al. (2018)
 //!   as references, with [`actuation`] turning their command velocity into the next speed,
 //!   and [`damper`] running them on a ring as a controller;
+//! * [`flow_dampers`] — the same two dampers as Flow's master code computes them;
 //! * [`theory`], [`ifp`], [`poly`] — the paper's sufficient conditions and the IFP index;
 //! * [`exact`] — exact stability: rightmost characteristic roots, critical gains, CACC modes
 //!   and string stability, to show how conservative the sufficient conditions are;
@@ -34,6 +35,7 @@ pub mod damper;
 pub mod delayed_driver;
 pub mod exact;
 pub mod facts;
+pub mod flow_dampers;
 pub mod follower_stopper;
 pub mod graph;
 pub mod ifp;

@@ -135,6 +135,8 @@ fn is_sumo_driver(label: &str) -> bool {
     !(label == "law"
         || label.starts_with("follower-stopper")
         || label == "pi-saturation"
+        || label.starts_with("flow-follower-stopper")
+        || label == "flow-pi-saturation"
         || crate::noisy_idm::is_noisy_label(label))
 }
 

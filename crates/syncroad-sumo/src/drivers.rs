@@ -1,9 +1,12 @@
 //! SUMO's own drivers as baselines: which car-following model a vehicle that the law does not
 //! command uses, and the vehicle-type attributes that select it.
 //!
-//! The point of a baseline is the traffic it makes. SUMO's default Krauss model (σ = 0.5)
-//! forms no stop-and-go waves at Sugiyama density; Krauss with σ in 0.65–1.0 and IDM do. ACC
-//! and CACC are SUMO's built-in adaptive-cruise models, the natural baselines for a platoon.
+//! The point of a baseline is the traffic it makes. Measured on the Sugiyama ring with SUMO
+//! 1.28.0 (`docs/human-preset.md`): Krauss forms no stop-and-go jam there, neither with its
+//! default σ = 0.5 nor with σ = 0.9 (the flow crawls, nobody stops); SUMO's IDM with the
+//! `human` preset's values does, from a perturbed start, and the stochastic humans computed by
+//! the bridge (`human-noisy`, `flow-idm-noise`) do from a uniform start. ACC and CACC are
+//! SUMO's built-in adaptive-cruise models, the natural baselines for a platoon.
 
 use std::fmt;
 

@@ -31,7 +31,15 @@ impl RunSpec {
                 damper: None,
             });
         }
-        if low.starts_with("follower-stopper") || low.starts_with("pi-saturation") {
+        if [
+            "follower-stopper",
+            "pi-saturation",
+            "flow-follower-stopper",
+            "flow-pi-saturation",
+        ]
+        .iter()
+        .any(|p| low.starts_with(p))
+        {
             let d = DamperSpec::parse(field, name)
                 .map_err(|e| InputError::caused(field, e))?
                 .expect("a damper name");
