@@ -45,6 +45,13 @@ pub enum SumoDriver {
     Human,
     /// The `flow-idm` preset: Flow's `IDMController` defaults ([`CarFollowing::preset`]).
     FlowIdm,
+    /// The `human` preset's IDM with SUMO's driver-state device (Ornstein–Uhlenbeck errors in
+    /// the perceived gap and speed difference, scaled by 1 − awareness), written
+    /// `driverstate-A` with the driver's constant awareness A ∈ (0, 1] (1: no error).
+    DriverState {
+        /// Initial (and minimum) awareness.
+        awareness: f64,
+    },
     /// A stochastic human computed by the bridge, not by SUMO: IDM with Gaussian noise
     /// ([`syncroad_control::noisy_idm`]), sent as a speed command every step. The presets
     /// `human-noisy` and `flow-idm-noise`, any of their values changed
@@ -60,7 +67,7 @@ pub enum SumoDriver {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum DriverError {
     /// Unknown name.
-    #[error("{flag} = {value}: unknown driver; use krauss (σ 0.5), krauss-SIGMA with SIGMA in [0, 1] (e.g. krauss-0.9), idm, acc, cacc, a preset: human (IDM calibrated on the Sugiyama ring), flow-idm, a stochastic human computed by syncroad: human-noisy, flow-idm-noise, noisy-idm:noise=..:form=flow|step, or any SUMO model with its parameters as MODEL:name=value:... (e.g. idm:accel=1.3:tau=0.8, eidm:..., w99:..., human:tau=1.2)")]
+    #[error("{flag} = {value}: unknown driver; use krauss (σ 0.5), krauss-SIGMA with SIGMA in [0, 1] (e.g. krauss-0.9), idm, acc, cacc, a preset: human (IDM calibrated on the Sugiyama ring), flow-idm, the human preset with SUMO's driver-state device: driverstate-AWARENESS (e.g. driverstate-0.5), a stochastic human computed by syncroad: human-noisy, flow-idm-noise, noisy-idm:noise=..:form=flow|step, or any SUMO model with its parameters as MODEL:name=value:... (e.g. idm:accel=1.3:tau=0.8, eidm:..., w99:..., human:tau=1.2)")]
     Unknown {
         /// Flag or field.
         flag: String,
@@ -114,6 +121,20 @@ impl SumoDriver {
             "human" => return Ok(Self::Human),
             "flow-idm" => return Ok(Self::FlowIdm),
             _ => {}
+        }
+        if let Some(a) = low
+            .strip_prefix("driverstate-")
+            .and_then(|x| x.parse::<f64>().ok())
+        {
+            return if a > 0.0 && a <= 1.0 {
+                Ok(Self::DriverState { awareness: a })
+            } else {
+                Err(DriverError::Parameter {
+                    flag: flag.into(),
+                    value: s.into(),
+                    reason: format!("awareness = {a}: valid is (0, 1] (1 = no perception error)"),
+                })
+            };
         }
         if let Some(sigma) = low
             .strip_prefix("krauss-")
@@ -213,7 +234,8 @@ impl SumoDriver {
             SumoDriver::Human
             | SumoDriver::FlowIdm
             | SumoDriver::Custom(_)
-            | SumoDriver::Noisy(_) => self.car_following().vtype_attributes(),
+            | SumoDriver::Noisy(_)
+            | SumoDriver::DriverState { .. } => self.car_following().vtype_attributes(),
         }
     }
 }
@@ -230,7 +252,7 @@ impl SumoDriver {
             SumoDriver::Idm => CarFollowing::new(CfModel::Idm),
             SumoDriver::Acc => CarFollowing::new(CfModel::Acc),
             SumoDriver::Cacc => CarFollowing::new(CfModel::Cacc),
-            SumoDriver::Human => {
+            SumoDriver::Human | SumoDriver::DriverState { .. } => {
                 CarFollowing::preset("driver", "human").expect("the human preset exists")
             }
             SumoDriver::FlowIdm => {
@@ -257,6 +279,20 @@ impl SumoDriver {
     }
 }
 
+impl SumoDriver {
+    /// `<param>` children of the driver's `vType` (SUMO's device parameters), empty for most.
+    pub fn vtype_params(&self) -> Vec<(&'static str, String)> {
+        match self {
+            SumoDriver::DriverState { awareness } => vec![
+                ("has.driverstate.device", "true".into()),
+                ("device.driverstate.initialAwareness", awareness.to_string()),
+                ("device.driverstate.minAwareness", awareness.to_string()),
+            ],
+            _ => Vec::new(),
+        }
+    }
+}
+
 impl fmt::Display for SumoDriver {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
@@ -267,6 +303,7 @@ impl fmt::Display for SumoDriver {
             SumoDriver::Cacc => write!(f, "cacc"),
             SumoDriver::Human => write!(f, "human"),
             SumoDriver::FlowIdm => write!(f, "flow-idm"),
+            SumoDriver::DriverState { awareness } => write!(f, "driverstate-{awareness}"),
             SumoDriver::Noisy(d) => match d.preset_name() {
                 Some(p) => write!(f, "{p}"),
                 None => write!(f, "{d}"),
@@ -298,6 +335,7 @@ mod tests {
             "flow-idm",
             "human-noisy",
             "flow-idm-noise",
+            "driverstate-0.5",
         ] {
             assert_eq!(
                 SumoDriver::parse("--baselines", name).unwrap().to_string(),

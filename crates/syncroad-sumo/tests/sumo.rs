@@ -466,6 +466,31 @@ mod noisy_humans {
         let run2 = run_scenario(&sc2, &o2).unwrap();
         assert_ne!(run2.trajectory(&sc2).speeds_mps, sumo.speeds_mps);
     }
+
+    /// SUMO's driver-state device on the `human` IDM: with awareness 1 (no perception error)
+    /// a uniform start stays uniform; with awareness 0.5 its errors start a jam.
+    #[test]
+    fn the_driver_state_device_makes_the_deterministic_idm_jam() {
+        let sc = uniform_ring(230.0, 300.0, 2);
+        let min_speed = |name: &str| {
+            let mut o = opts(&format!("ds-{name}"));
+            o.drivers = vec![Some(SumoDriver::parse("d", name).unwrap()); 22];
+            let run = run_scenario(&sc, &o).unwrap();
+            run.outcome().expect("horizon reached");
+            let routes = std::fs::read_to_string(&run.request.routes_file).unwrap();
+            assert!(routes.contains(r#"<param key="has.driverstate.device" value="true"/>"#));
+            let t = run.trajectory(&sc);
+            let k = t.len() - 1;
+            t.speeds_mps[(k / 2) * 22..]
+                .iter()
+                .copied()
+                .fold(f64::INFINITY, f64::min)
+        };
+        let calm = min_speed("driverstate-1");
+        let jam = min_speed("driverstate-0.5");
+        assert!(calm > 4.0, "awareness 1: min speed {calm}");
+        assert!(jam < 1.0, "awareness 0.5: min speed {jam}");
+    }
 }
 
 mod platoon {
