@@ -37,7 +37,7 @@ for p in pens:
     get = (lambda c: by[(p, "all")]) if p == 0 else (lambda c: by[(p, c)])
     law, fs, pi = (get(c) for c in ctls)
     k = round(p * 22)
-    print(f"| {p:g} ({k}) | {cell(f(law, 'congestion.speed_std_mps'), 3)} | "
+    print(f"| {p:.2g} ({k}) | {cell(f(law, 'congestion.speed_std_mps'), 3)} | "
           f"{statistics.fmean(f(law, 'safety.collision_steps')):.0f} | "
           f"{cell(f(fs, 'congestion.speed_std_mps'), 3)} | {cell(f(pi, 'congestion.speed_std_mps'), 3)} | "
           f"{cell(f(law, 'sumo.fuel_g_per_km'), 1)} | {cell(f(fs, 'sumo.fuel_g_per_km'), 1)} | "

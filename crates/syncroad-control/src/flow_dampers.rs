@@ -143,6 +143,8 @@ impl FlowPiSaturation {
     }
 
     /// One step of every vehicle.
+    // Flow's `min(max(x, 0), 1)` is kept as written (clamp differs for NaN).
+    #[allow(clippy::manual_clamp)]
     pub fn step(&mut self, speeds: &[f64], gaps: &[f64], leaders: &[f64], out: &mut [f64]) {
         let p = &self.params;
         for i in 0..speeds.len() {
@@ -245,7 +247,7 @@ mod tests {
                 let cmd = follower_stopper_command_mps(&p, v[i], g[i], l[i]);
                 if g[i] > x2 && g[i] <= x3 {
                     third += 1;
-                    let vv = l[i].max(0.0).min(4.3);
+                    let vv = l[i].clamp(0.0, 4.3);
                     let diff = (vv - v[i]) * (g[i] - x2) / (x3 - x2);
                     // Flow's speed is never negative: max(v + aΔt, 0).
                     assert_relative_eq!(b[i], (cmd + diff).max(0.0), epsilon = 1e-9);

@@ -327,7 +327,7 @@ impl Gaussian {
     }
 
     /// The next standard normal draw.
-    pub fn next(&mut self) -> f64 {
+    pub fn sample(&mut self) -> f64 {
         let u1 = 1.0 - self.rng.next_f64(); // (0, 1]
         let u2 = self.rng.next_f64();
         (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
@@ -393,7 +393,7 @@ impl SpeedController for HumanController {
         );
         for (i, d) in self.drivers.iter().enumerate() {
             if let Some(d) = d {
-                let xi = self.noise[i].next();
+                let xi = self.noise[i].sample();
                 out[i] = d.next_speed_mps(
                     speeds[i],
                     self.leader_speeds_mps[i],
@@ -465,7 +465,7 @@ mod tests {
     fn gaussian_has_normal_moments() {
         let mut g = Gaussian::new(11);
         let n = 400_000;
-        let xs: Vec<f64> = (0..n).map(|_| g.next()).collect();
+        let xs: Vec<f64> = (0..n).map(|_| g.sample()).collect();
         let m = xs.iter().sum::<f64>() / n as f64;
         let var = xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / n as f64;
         let kurt = xs.iter().map(|x| (x - m).powi(4)).sum::<f64>() / n as f64 / var.powi(2);
