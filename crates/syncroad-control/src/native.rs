@@ -357,6 +357,7 @@ mod tests {
             ring_length_m: sc.ring_length_m(),
             sumo: None,
             spread: Some(run.spread),
+            drivers: None,
         }
     }
 

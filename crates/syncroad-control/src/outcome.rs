@@ -32,6 +32,9 @@ pub struct RunOutput {
     /// The spread at every step, whatever the recording stride (the metrics are computed from
     /// it); `None`: from the recorded samples.
     pub spread: Option<SpreadSeries>,
+    /// Who drove each vehicle on the native simulator, when not the scenario's law (SUMO runs
+    /// report it in their facts); `None`: the law.
+    pub drivers: Option<Vec<String>>,
 }
 
 /// How to judge a run.

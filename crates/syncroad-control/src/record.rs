@@ -196,6 +196,7 @@ impl RunRecord {
         let facts = run.sumo.as_ref();
         let drivers = facts
             .map(|f| f.drivers.clone())
+            .or_else(|| run.drivers.clone())
             .filter(|d| !d.is_empty())
             .unwrap_or_else(|| vec!["law".to_string(); sc.vehicles()]);
         Self {

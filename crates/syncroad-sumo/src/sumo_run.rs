@@ -154,6 +154,7 @@ impl SumoRun {
             ring_length_m: self.request.layout.road.ring.then(|| self.road_length_m()),
             sumo: Some(facts),
             spread: self.spread(scenario),
+            drivers: None,
         }
     }
 

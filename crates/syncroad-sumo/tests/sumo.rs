@@ -103,6 +103,27 @@ mod rejected_before_sumo_starts {
     }
 
     #[test]
+    fn stochastic_humans_on_a_straight_road() {
+        let text = std::fs::read_to_string(
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/straight-chandler.json"),
+        )
+        .unwrap();
+        let mut file: serde_json::Value = serde_json::from_str(&text).unwrap();
+        file["sumo"] = serde_json::json!({"net": nets().join("straight-20km.net.xml")});
+        let sc = Scenario::from_json(&file.to_string()).unwrap();
+        let mut o = opts("noisy-straight");
+        o.drivers = vec![Some(SumoDriver::parse("d", "human-noisy").unwrap()); sc.vehicles()];
+        let err = run_scenario(&sc, &o).unwrap_err();
+        assert!(matches!(err, PrepareError::HumansNeedRing { .. }), "{err}");
+        assert!(
+            err.to_string().starts_with(
+                "the stochastic human drivers (human-noisy, flow-idm-noise, noisy-idm:...) drive on a ring"
+            ),
+            "{err}"
+        );
+    }
+
+    #[test]
     fn malformed_net_is_caught_by_the_parser() {
         let dir = work("malformed-parse");
         let bad = dir.join("bad.net.xml");

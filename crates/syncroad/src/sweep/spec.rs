@@ -339,12 +339,9 @@ impl Sweep {
             .into());
         }
         if backend == Backend::Native {
-            if let Some(r) = runs
-                .iter()
-                .find(|r| r.spec.damper.is_some() || r.spec.drivers.iter().any(Option::is_some))
-            {
+            if let Some(r) = runs.iter().find(|r| r.spec.native_law(&base).is_none()) {
                 return Err(bad(format!(
-                    "runs: {} has SUMO drivers or a wave damper, which run in SUMO, but backend = \"native\"; use backend \"sumo\" or only \"protocol\"",
+                    "runs: {} has SUMO drivers (or a damper or stochastic humans on a straight road), which run in SUMO, but backend = \"native\"; use backend \"sumo\", or only \"protocol\", dampers and stochastic humans (human-noisy, flow-idm-noise) on a ring",
                     r.spec.name
                 ))
                 .into());
