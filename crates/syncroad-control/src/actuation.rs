@@ -3,8 +3,9 @@
 //! The wave dampers of Stern et al. ([`follower_stopper`](crate::follower_stopper),
 //! [`pi_saturation`](crate::pi_saturation)) output a *command velocity* `v_cmd` that a
 //! lower-level controller tracks. In a fixed-step simulation the simplest tracker reaches
-//! `v_cmd` in one step, `a = (v_cmd − v)/Δt` (Flow's choice), bounded by what the vehicle can
-//! do: `−b ≤ a ≤ a_max`. [`AccelLimits::next_speed_mps`] applies exactly that, and never
+//! `v_cmd` in one step, `a = (v_cmd − v)/Δt` (Flow's choice), here bounded by what the vehicle
+//! can do: `−b ≤ a ≤ a_max` (Flow's master code does not bound it; see
+//! [`flow_dampers`](crate::flow_dampers)). [`AccelLimits::next_speed_mps`] applies exactly that, and never
 //! returns a negative speed.
 //!
 //! # Reference

@@ -13,7 +13,17 @@
 //! * **wave propagation speed** on a ring: the position of the slowest vehicle is followed
 //!   from sample to sample (unwrapped by the shortest signed displacement) and a line is fitted;
 //!   its slope [m/s] in the ground frame is negative for waves travelling against traffic.
-//!   Reported only when the amplitude exceeds 0.5 m/s.
+//!   Reported only when the amplitude exceeds 0.5 m/s;
+//! * **braking events**: a vehicle's speed falls faster than [`BRAKING_DECEL_MPS2`] = 1.5 m/s²
+//!   averaged over consecutive windows of at least 1 s of samples; each run of such windows is
+//!   one event. 1.5 m/s² is the IDM's comfortable deceleration b of Flow's ring benchmark
+//!   (`IDMController`, b = 1.5) and the decel of the `human` preset: braking beyond what the
+//!   drivers themselves consider comfortable. The 1 s window keeps per-step driver noise
+//!   (σ√Δt per step) from counting as braking;
+//! * **jam formation time** (over the whole run, warm-up included): the first sample at which
+//!   some vehicle drives below [`JAM_SPEED_MPS`] = 1 m/s (the jam threshold of Sugiyama's
+//!   ring used throughout, see `docs/human-preset.md`) after every vehicle has driven faster
+//!   than it once, so a start from rest does not count as a jam; `null` when no jam forms.
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
@@ -22,6 +32,15 @@ use crate::trajectory::Trajectory;
 
 /// SUMO's halting-speed threshold [m/s].
 pub const STOP_SPEED_MPS: f64 = 0.1;
+
+/// Deceleration above which a vehicle brakes (see the module docs) \[m/s²\].
+pub const BRAKING_DECEL_MPS2: f64 = 1.5;
+
+/// Shortest window over which a braking deceleration is measured \[s\].
+pub const BRAKING_WINDOW_S: f64 = 1.0;
+
+/// Speed below which a vehicle counts as caught in a jam \[m/s\].
+pub const JAM_SPEED_MPS: f64 = 1.0;
 
 /// Congestion metrics of one run.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
@@ -58,6 +77,56 @@ pub struct CongestionMetrics {
     /// Wave propagation speed [m/s] (ring roads with waves only).
     #[schemars(title = "wave speed")]
     pub wave_speed_mps: Option<f64>,
+    /// Braking events after the warm-up (decelerations beyond 1.5 m/s² over ≥ 1 s windows).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(title = "braking events")]
+    pub braking_events: Option<usize>,
+    /// First time some vehicle is below 1 m/s after all have been above it \[s\].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(title = "jam formed at")]
+    pub jam_formed_s: Option<f64>,
+}
+
+/// Braking events from sample `first` on (see the module docs).
+pub fn braking_events(traj: &Trajectory, first: usize) -> usize {
+    let n = traj.n;
+    let mut events = 0;
+    for i in 0..n {
+        let mut anchor = first;
+        let mut braking = false;
+        for k in first + 1..traj.len() {
+            let dt = traj.time_s[k] - traj.time_s[anchor];
+            if dt < BRAKING_WINDOW_S - 1e-9 {
+                continue;
+            }
+            let decel = (traj.speeds_mps[anchor * n + i] - traj.speeds_mps[k * n + i]) / dt;
+            let now = decel > BRAKING_DECEL_MPS2;
+            if now && !braking {
+                events += 1;
+            }
+            braking = now;
+            anchor = k;
+        }
+    }
+    events
+}
+
+/// The jam formation time of a trajectory (see the module docs).
+pub fn jam_formed_s(traj: &Trajectory) -> Option<f64> {
+    let n = traj.n;
+    let mut moved = vec![false; n];
+    let mut all_moved = false;
+    for k in 0..traj.len() {
+        let v = traj.speeds(k);
+        if all_moved && v.iter().any(|&x| x < JAM_SPEED_MPS) {
+            return Some(traj.time_s[k]);
+        }
+        for (m, &x) in moved.iter_mut().zip(v) {
+            *m |= x > JAM_SPEED_MPS;
+        }
+        all_moved = all_moved || moved.iter().all(|&m| m);
+    }
+    None
 }
 
 /// Errors of the congestion computation.
@@ -154,6 +223,8 @@ pub fn congestion_metrics(
         stopped_fraction: stopped as f64 / count,
         wave_amplitude_mps,
         wave_speed_mps,
+        braking_events: Some(braking_events(traj, first)),
+        jam_formed_s: jam_formed_s(traj),
     })
 }
 
@@ -193,6 +264,40 @@ fn wave_speed(traj: &Trajectory, first: usize, len: f64) -> Option<f64> {
 mod tests {
     use super::*;
     use approx::assert_relative_eq;
+
+    #[test]
+    fn braking_events_count_onsets_of_hard_one_second_decelerations() {
+        // Samples every 0.5 s: windows of 1 s. Vehicle 0 brakes at 2 m/s² for 2 s (one
+        // event: two windows in a row), cruises, then at 1 m/s² (none); vehicle 1 flickers by
+        // ±0.6 m/s every sample (1.2 m/s per 0.5 s, but 0 per 1 s window: none).
+        let mut t = Trajectory::new(2);
+        let z = [0.0, 0.0];
+        let v0 = [10.0, 10.0, 9.0, 8.0, 7.0, 6.0, 6.0, 6.0, 5.5, 5.0, 4.5, 4.0];
+        for (k, &a) in v0.iter().enumerate() {
+            let b = if k % 2 == 0 { 5.0 } else { 5.6 };
+            t.push(k as f64 * 0.5, &[a, b], &z, &z, None);
+        }
+        assert_eq!(braking_events(&t, 0), 1);
+        // From sample 6 on only the gentle braking is left.
+        assert_eq!(braking_events(&t, 6), 0);
+    }
+
+    #[test]
+    fn a_jam_forms_when_a_moving_ring_first_drops_below_1_mps() {
+        let mut t = Trajectory::new(2);
+        let z = [0.0, 0.0];
+        // From rest: not a jam until both have moved faster than 1 m/s.
+        t.push(0.0, &[0.0, 0.0], &z, &z, None);
+        t.push(1.0, &[2.0, 0.5], &z, &z, None);
+        t.push(2.0, &[0.9, 1.5], &z, &z, None);
+        t.push(3.0, &[0.8, 1.5], &z, &z, None);
+        t.push(4.0, &[2.0, 1.5], &z, &z, None);
+        assert_eq!(jam_formed_s(&t), Some(3.0));
+        let mut free = Trajectory::new(1);
+        free.push(0.0, &[4.0], &[0.0], &[0.0], None);
+        free.push(1.0, &[3.0], &[0.0], &[0.0], None);
+        assert_eq!(jam_formed_s(&free), None);
+    }
 
     /// Vehicles at uniform spacing driving at mean speed u; the speed field is a travelling wave
     /// v(x, t) = u + A sin(2π (x − c t)/L) with known c.

@@ -16,6 +16,7 @@ use serde::{Deserialize, Serialize};
 use crate::cacc::{CaccLaw, PlatoonView, PowertrainLag};
 use crate::damper::{DamperController, DamperError, DamperSetup};
 use crate::delayed_driver::{DelayedDriverLaw, LawError};
+use crate::noisy_idm::{HumanController, HumanSetup};
 use crate::scenario::{LeaderProfile, Model, Scenario};
 
 pub use crate::speed_controller::SpeedController;
@@ -29,6 +30,9 @@ pub enum ControllerError {
     /// A CACC platoon needs its leader on the road.
     #[error("the CACC model needs a leader vehicle: run it on a straight road (road.type = \"straight\")")]
     CaccNeedsLeader,
+    /// Stochastic humans follow a predecessor around a ring.
+    #[error("the stochastic human drivers (noisy IDM) drive on a ring (each vehicle follows its predecessor); this road is straight")]
+    HumansNeedRing,
     /// A wave damper rejected its setup.
     #[error(transparent)]
     Damper(#[from] DamperError),
@@ -48,6 +52,10 @@ pub struct LawSpec {
     /// the backend); `None`: the model's law.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub damper: Option<DamperSetup>,
+    /// Stochastic humans computed by the bridge on some vehicles of a ring
+    /// ([`crate::noisy_idm`]); `None`: none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub humans: Option<HumanSetup>,
 }
 
 impl LawSpec {
@@ -58,6 +66,7 @@ impl LawSpec {
             step_s: scenario.step_s(),
             initial_speed_mps: scenario.initial_speed_mps().to_vec(),
             damper: None,
+            humans: None,
         }
     }
 }
@@ -109,8 +118,21 @@ impl SpeedController for CaccController {
 }
 
 /// Builds the controller of a law; `leader_vehicle` says whether the leader is the first
-/// vehicle on the road.
+/// vehicle on the road. Stochastic humans, when the law has them, take over their vehicles'
+/// commands from the law or damper.
 pub fn controller_for(
+    law: &LawSpec,
+    leader_vehicle: bool,
+) -> Result<Box<dyn SpeedController>, ControllerError> {
+    let inner = law_controller(law, leader_vehicle)?;
+    match &law.humans {
+        None => Ok(inner),
+        Some(_) if leader_vehicle => Err(ControllerError::HumansNeedRing),
+        Some(h) => Ok(Box::new(HumanController::new(inner, h, law.step_s))),
+    }
+}
+
+fn law_controller(
     law: &LawSpec,
     leader_vehicle: bool,
 ) -> Result<Box<dyn SpeedController>, ControllerError> {

@@ -18,6 +18,7 @@ use std::fmt;
 use serde::{Deserialize, Serialize};
 
 use crate::actuation::AccelLimits;
+use crate::flow_dampers::{FlowFollowerStopper, FlowPiSaturation};
 use crate::follower_stopper::{FollowerStopper, FollowerStopperError, FollowerStopperParams};
 use crate::pi_saturation::{PiSaturation, PiSaturationError, PiSaturationParams};
 use crate::speed_controller::SpeedController;
@@ -35,13 +36,20 @@ pub enum DamperSpec {
     /// PI with saturation with the field experiment's parameters
     /// ([`PiSaturationParams::default`]).
     PiSaturation,
+    /// Flow's master FollowerStopper ([`crate::flow_dampers`]) with desired speed U.
+    FlowFollowerStopper {
+        /// Desired speed U \[m/s\].
+        desired_speed_mps: f64,
+    },
+    /// Flow's master PISaturation ([`crate::flow_dampers`]).
+    FlowPiSaturation,
 }
 
 /// Errors naming a damper.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum DamperError {
     /// Not a damper name.
-    #[error("{field} = {value}: unknown controller; use law, follower-stopper-U with the desired speed U in m/s (e.g. follower-stopper-4.3) or pi-saturation")]
+    #[error("{field} = {value}: unknown controller; use law, follower-stopper-U with the desired speed U in m/s (e.g. follower-stopper-4.3), pi-saturation, or Flow's versions flow-follower-stopper-U, flow-pi-saturation")]
     Unknown {
         /// Flag or field.
         field: String,
@@ -77,14 +85,20 @@ impl DamperSpec {
         let d = match low.as_str() {
             "law" => return Ok(None),
             "pi-saturation" | "pi_saturation" => DamperSpec::PiSaturation,
-            _ => match low
-                .strip_prefix("follower-stopper-")
-                .and_then(|u| u.parse::<f64>().ok())
-            {
-                Some(u) => DamperSpec::FollowerStopper {
+            "flow-pi-saturation" => DamperSpec::FlowPiSaturation,
+            _ => match (
+                low.strip_prefix("follower-stopper-")
+                    .and_then(|u| u.parse::<f64>().ok()),
+                low.strip_prefix("flow-follower-stopper-")
+                    .and_then(|u| u.parse::<f64>().ok()),
+            ) {
+                (Some(u), _) => DamperSpec::FollowerStopper {
                     desired_speed_mps: u,
                 },
-                None => {
+                (_, Some(u)) => DamperSpec::FlowFollowerStopper {
+                    desired_speed_mps: u,
+                },
+                (None, None) => {
                     return Err(DamperError::Unknown {
                         field: field.into(),
                         value: s.into(),
@@ -99,7 +113,8 @@ impl DamperSpec {
     /// Checks the parameters; `field` names where they were given.
     pub fn validate(&self, field: &str) -> Result<(), DamperError> {
         match self {
-            DamperSpec::FollowerStopper { desired_speed_mps } => {
+            DamperSpec::FollowerStopper { desired_speed_mps }
+            | DamperSpec::FlowFollowerStopper { desired_speed_mps } => {
                 FollowerStopperParams::stern2018(*desired_speed_mps)
                     .validate()
                     .map_err(|source| DamperError::FollowerStopper {
@@ -107,7 +122,7 @@ impl DamperSpec {
                         source,
                     })
             }
-            DamperSpec::PiSaturation => {
+            DamperSpec::PiSaturation | DamperSpec::FlowPiSaturation => {
                 PiSaturationParams::default().validate().map_err(|source| {
                     DamperError::PiSaturation {
                         field: field.into(),
@@ -126,6 +141,10 @@ impl fmt::Display for DamperSpec {
                 write!(f, "follower-stopper-{desired_speed_mps}")
             }
             DamperSpec::PiSaturation => write!(f, "pi-saturation"),
+            DamperSpec::FlowFollowerStopper { desired_speed_mps } => {
+                write!(f, "flow-follower-stopper-{desired_speed_mps}")
+            }
+            DamperSpec::FlowPiSaturation => write!(f, "flow-pi-saturation"),
         }
     }
 }
@@ -148,6 +167,8 @@ pub struct DamperSetup {
 enum Fleet {
     FollowerStopper(FollowerStopper),
     PiSaturation(PiSaturation),
+    FlowFollowerStopper(FlowFollowerStopper),
+    FlowPiSaturation(FlowPiSaturation),
 }
 
 /// A damper driving every vehicle of a ring (a mixed ring sends only some of its commands).
@@ -189,7 +210,17 @@ impl DamperController {
                     },
                 )?,
             ),
+            DamperSpec::FlowFollowerStopper { desired_speed_mps } => Fleet::FlowFollowerStopper(
+                FlowFollowerStopper::new(FollowerStopperParams::stern2018(desired_speed_mps), dt_s),
+            ),
+            DamperSpec::FlowPiSaturation => Fleet::FlowPiSaturation(FlowPiSaturation::new(
+                PiSaturationParams::default(),
+                n,
+                dt_s,
+                setup.accel_mps2,
+            )),
         };
+        setup.spec.validate(field)?;
         Ok(Self {
             fleet,
             ring_length_m: setup.ring_length_m,
@@ -199,15 +230,34 @@ impl DamperController {
         })
     }
 
-    /// Gaps `Δx_i = q_{i−1} − q_i − ℓ_i` (plus C for vehicle 0) and leader speeds `v_{i−1}`.
     fn observe(&mut self, speeds: &[f64], positions: &[f64]) {
-        let n = speeds.len();
-        let ring = Some(self.ring_length_m);
-        crate::road::gaps(positions, &self.length_m, None, ring, &mut self.gaps_m);
-        for i in 0..n {
-            let (j, _) = crate::road::ahead(i, n, ring).expect("a ring has a vehicle ahead");
-            self.leader_speeds_mps[i] = speeds[j];
-        }
+        ring_view(
+            speeds,
+            positions,
+            self.ring_length_m,
+            &self.length_m,
+            &mut self.gaps_m,
+            &mut self.leader_speeds_mps,
+        );
+    }
+}
+
+/// What each vehicle of a ring sees: the gap (the road's gap rule, [`crate::road::gaps`]:
+/// vehicle 0 follows vehicle N−1 one lap ahead) and the leader's speed `v_{i−1}`.
+pub(crate) fn ring_view(
+    speeds: &[f64],
+    positions: &[f64],
+    ring_length_m: f64,
+    length_m: &[f64],
+    gaps_m: &mut [f64],
+    leader_speeds_mps: &mut [f64],
+) {
+    let n = speeds.len();
+    let ring = Some(ring_length_m);
+    crate::road::gaps(positions, length_m, None, ring, gaps_m);
+    for i in 0..n {
+        let (j, _) = crate::road::ahead(i, n, ring).expect("a ring has a vehicle ahead");
+        leader_speeds_mps[i] = speeds[j];
     }
 }
 
@@ -223,6 +273,14 @@ impl SpeedController for DamperController {
             Fleet::PiSaturation(p) => p
                 .step(speeds, &self.gaps_m, &self.leader_speeds_mps, out)
                 .is_ok(),
+            Fleet::FlowFollowerStopper(f) => {
+                f.step(speeds, &self.gaps_m, &self.leader_speeds_mps, out);
+                true
+            }
+            Fleet::FlowPiSaturation(p) => {
+                p.step(speeds, &self.gaps_m, &self.leader_speeds_mps, out);
+                true
+            }
         };
         if !ok {
             out.fill(f64::NAN);
@@ -258,6 +316,10 @@ mod tests {
             }
         );
         assert_eq!(fs.to_string(), "follower-stopper-4.3");
+        for flow in ["flow-follower-stopper-4.3", "flow-pi-saturation"] {
+            let d = DamperSpec::parse("--x", flow).unwrap().unwrap();
+            assert_eq!(d.to_string(), flow);
+        }
         assert_eq!(
             DamperSpec::parse("--x", "PI-saturation").unwrap(),
             Some(DamperSpec::PiSaturation)

@@ -26,10 +26,11 @@
 //! `v`. That band then ends at `U + v − v_ego`, not `U`, so Flow's command jumps at `Δx_3`
 //! whenever the two cars drive at different speeds. **We follow Stern et al.** (continuous,
 //! `U − v`); the research group's own later code (e.g. FangChiehChou/safe_FollowerStopper,
-//! `modified_FollowerStopper2.m`) has the same `(r − v)` form. Flow also returns no command
-//! during a warm-up, on internal junction lanes and near "danger edges"; those are simulation
-//! plumbing, not part of the law, and are left out here. Flow tracks the command with
-//! `a = clip((v_cmd − v)/Δt, −b, a_max)`, which [`AccelLimits`] reproduces.
+//! `modified_FollowerStopper2.m`) has the same `(r − v)` form. Flow's master code returns no
+//! command on internal junction lanes and near "danger edges" (simulation plumbing, left out
+//! here), has no warm-up skip, applies `(v_cmd − v)/Δt` unclipped and then its
+//! `safe_velocity` failsafe (delay 1 s); here the command is tracked within the vehicle's
+//! [`AccelLimits`] and there is no failsafe in the law (see `docs/wave-dampers.md`).
 //!
 //! # Reference
 //! R. E. Stern, S. Cui, M. L. Delle Monache, R. Bhadani, M. Bunting, M. Churchill,

@@ -11,9 +11,12 @@
 //! * [`follower_stopper`], [`pi_saturation`] — the field's wave dampers of Stern et al. (2018)
 //!   as references, with [`actuation`] turning their command velocity into the next speed,
 //!   and [`damper`] running them on a ring as a controller;
+//! * [`flow_dampers`] — the same two dampers as Flow's master code computes them;
 //! * [`theory`], [`ifp`], [`poly`] — the paper's sufficient conditions and the IFP index;
 //! * [`exact`] — exact stability: rightmost characteristic roots, critical gains, CACC modes
 //!   and string stability, to show how conservative the sufficient conditions are;
+//! * [`noisy_idm`] — stochastic human drivers (IDM with Flow's or a step-consistent noise),
+//!   computed by the bridge on either backend;
 //! * [`controller`] — the one law object both backends step;
 //! * [`native`] — the fixed-step simulator; [`stop`] — why a run stopped; [`collisions`] —
 //!   vehicles the native simulator drove through each other or backwards;
@@ -34,6 +37,7 @@ pub mod damper;
 pub mod delayed_driver;
 pub mod exact;
 pub mod facts;
+pub mod flow_dampers;
 pub mod follower_stopper;
 pub mod graph;
 pub mod ifp;
@@ -41,6 +45,7 @@ pub mod lti_network;
 pub mod margins;
 pub mod metrics;
 pub mod native;
+pub mod noisy_idm;
 pub mod outcome;
 pub mod pi_saturation;
 pub mod poly;
@@ -65,7 +70,8 @@ pub use follower_stopper::{
 };
 pub use graph::{Arc, Graph};
 pub use metrics::{sync_metrics, SyncMetrics, Verdict, VerdictThresholds};
-pub use native::{simulate, NativeOptions, NativeRun};
+pub use native::{simulate, simulate_with, NativeOptions, NativeRun};
+pub use noisy_idm::{HumanSetup, IdmParams, NoiseForm, NoisyIdm};
 pub use outcome::{evaluate, EvalOptions, Outcome, RunOutput};
 pub use pi_saturation::{
     pi_saturation_command_mps, PiSaturation, PiSaturationError, PiSaturationParams,

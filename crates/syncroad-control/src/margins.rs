@@ -83,9 +83,69 @@ impl SafetyMargins {
     }
 }
 
-/// True for a driver label of a SUMO car-following model (law and dampers are commanded).
+/// Time headway below which a moving vehicle follows unsafely closely \[s\]: the IDM's safe time
+/// headway T of Flow's ring benchmark (`IDMController`, T = 1 s).
+pub const SAFE_HEADWAY_S: f64 = 1.0;
+
+/// Gap safety of every run, from the trajectory alone (no SUMO device needed), so an all-damper
+/// ring, which runs with SUMO's checks off, has its closest approach and collisions counted.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct GapSafety {
+    #[schemars(title = "min gap")]
+    /// Smallest bumper-to-bumper gap after the warm-up \[m\]; ≤ 0 means vehicles touched.
+    pub min_gap_m: f64,
+    /// Vehicle-time after the warm-up with v ≥ 1 m/s and Δx/v < [`SAFE_HEADWAY_S`] \[s\],
+    /// summed over vehicles (each sample stands for the time to the next one).
+    #[schemars(title = "time below a 1 s headway")]
+    pub time_below_safe_headway_s: f64,
+    /// Vehicle-samples with a gap ≤ 0 after the warm-up (overlaps: collisions).
+    #[schemars(title = "overlapping vehicle-samples")]
+    pub overlap_samples: usize,
+}
+
+impl GapSafety {
+    /// The gap safety of a trajectory after `warmup_s`; `None` without gaps (a road without
+    /// leaders) or samples.
+    pub fn of(traj: &Trajectory, warmup_s: f64) -> Option<Self> {
+        let first = traj.time_s.partition_point(|&t| t < warmup_s - 1e-9);
+        let n = traj.n;
+        let (mut min_gap, mut below, mut overlaps) = (f64::INFINITY, 0.0, 0usize);
+        for k in first..traj.len() {
+            let dt = if k + 1 < traj.len() {
+                traj.time_s[k + 1] - traj.time_s[k]
+            } else {
+                0.0
+            };
+            for i in 0..n {
+                let gap = traj.gaps_m.get(k * n + i).copied().unwrap_or(f64::NAN);
+                if !gap.is_finite() {
+                    continue;
+                }
+                min_gap = min_gap.min(gap);
+                overlaps += usize::from(gap <= 0.0);
+                let v = traj.speeds_mps[k * n + i];
+                if v >= HEADWAY_MIN_SPEED_MPS && gap / v < SAFE_HEADWAY_S {
+                    below += dt;
+                }
+            }
+        }
+        min_gap.is_finite().then_some(Self {
+            min_gap_m: min_gap,
+            time_below_safe_headway_s: below,
+            overlap_samples: overlaps,
+        })
+    }
+}
+
+/// True for a driver label of a SUMO car-following model (the law, the dampers and the
+/// stochastic humans of [`crate::noisy_idm`] are commanded by the bridge).
 fn is_sumo_driver(label: &str) -> bool {
-    !(label == "law" || label.starts_with("follower-stopper") || label == "pi-saturation")
+    !(label == "law"
+        || label.starts_with("follower-stopper")
+        || label == "pi-saturation"
+        || label.starts_with("flow-follower-stopper")
+        || label == "flow-pi-saturation"
+        || crate::noisy_idm::is_noisy_label(label))
 }
 
 #[cfg(test)]
@@ -100,6 +160,24 @@ mod tests {
             ssm: Some(SsmSummary::default()),
             ..SumoFacts::default()
         }
+    }
+
+    #[test]
+    fn gap_safety_counts_close_following_time_and_overlaps() {
+        let mut t = Trajectory::new(2);
+        // Before the warm-up: ignored.
+        t.push(0.0, &[5.0, 5.0], &[0.0, 0.0], &[0.1, 0.1], None);
+        // 1 s to the next sample: vehicle 0 at 4 m/s with 2 m (0.5 s headway) counts 1 s;
+        // vehicle 1 at 2 m/s with 3 m (1.5 s) does not.
+        t.push(1.0, &[4.0, 2.0], &[0.0, 0.0], &[2.0, 3.0], None);
+        // 0.5 s to the next: vehicle 0 standing (no headway), vehicle 1 overlaps.
+        t.push(2.0, &[0.5, 5.0], &[0.0, 0.0], &[2.5, -0.2], None);
+        t.push(2.5, &[0.5, 5.0], &[0.0, 0.0], &[2.5, 8.0], None);
+        let g = GapSafety::of(&t, 1.0).unwrap();
+        assert_relative_eq!(g.min_gap_m, -0.2);
+        // Vehicle 1 at 5 m/s with −0.2 m is below 1 s too: 1 s + 0.5 s.
+        assert_relative_eq!(g.time_below_safe_headway_s, 1.5);
+        assert_eq!(g.overlap_samples, 1);
     }
 
     #[test]

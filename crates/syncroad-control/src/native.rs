@@ -13,7 +13,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use crate::cacc::{CaccLaw, PlatoonView};
 use crate::collisions::Collisions;
-use crate::controller::{controller_for, LawSpec};
+use crate::controller::{controller_for, ControllerError, LawSpec};
 use crate::delayed_driver::DelayedDriverLaw;
 use crate::metrics::{speed_range, spread_of_range, SpreadSeries};
 use crate::road::{self, initial_positions, leader_start};
@@ -85,10 +85,20 @@ fn check(v: &[f64], step: usize, dt: f64) -> Option<StopReason> {
 
 /// Runs the scenario on the native simulator.
 pub fn simulate(scenario: &Scenario, opts: NativeOptions) -> NativeRun {
+    simulate_with(scenario, &LawSpec::of(scenario), opts)
+        .expect("a validated scenario builds its law")
+}
+
+/// Runs the scenario on the native simulator with `law` in place of the scenario's own (a
+/// wave damper or stochastic humans on a ring, resolved by the caller as for SUMO).
+pub fn simulate_with(
+    scenario: &Scenario,
+    law: &LawSpec,
+    opts: NativeOptions,
+) -> Result<NativeRun, ControllerError> {
     let leader = leader_start(scenario);
     let k0 = usize::from(leader.is_some());
-    let mut law = controller_for(&LawSpec::of(scenario), leader.is_some())
-        .expect("a validated scenario builds its law");
+    let mut law = controller_for(law, leader.is_some())?;
     let n = scenario.vehicles();
     let all = n + k0;
     let dt = scenario.step_s();
@@ -164,12 +174,12 @@ pub fn simulate(scenario: &Scenario, opts: NativeOptions) -> NativeRun {
             record(t, &q, &v, &mut traj);
         }
     }
-    NativeRun {
+    Ok(NativeRun {
         trajectory: traj,
         stop,
         spread,
         collisions,
-    }
+    })
 }
 
 /// Speed-only fast path for benchmarks: `steps` steps of the law on `v`, nothing recorded.
@@ -318,6 +328,7 @@ mod tests {
             sumo: None,
             spread: Some(run.spread),
             collisions: Some(run.collisions),
+            drivers: None,
         }
     }
 

@@ -36,6 +36,9 @@ pub struct RunOutput {
     /// Overlapping and reversing vehicles seen by the native simulator at every step; `None`
     /// for SUMO, whose own counters ([`SumoFacts`]) say it.
     pub collisions: Option<Collisions>,
+    /// Who drove each vehicle on the native simulator, when not the scenario's law (SUMO runs
+    /// report it in their facts); `None`: the law.
+    pub drivers: Option<Vec<String>>,
 }
 
 /// How to judge a run.

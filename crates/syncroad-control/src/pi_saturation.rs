@@ -22,13 +22,15 @@
 //! Flow's `PISaturation` (flow-project/flow, `flow/controllers/velocity_controllers.py`) has
 //! the same equations and constants (window 38 s, γ = 2, g_l = 7, g_u = 30, v_catch = 1,
 //! Δx_s = max(2Δv, 4)). It differs in three details, where **we follow the equations above**:
-//! * its speed history is cut when it reaches `int(38/Δt)` entries, so the mean runs over
-//!   one sample fewer than the window; we average exactly `round(window/Δt)` samples, the
-//!   newest being the current speed;
+//! * it drops the oldest entry of its speed history when the history reaches `int(38/Δt)`
+//!   entries, so the mean runs over `int(38/Δt) − 1` samples (379 at Δt = 0.1 s); we average
+//!   exactly `round(window/Δt)` samples, the newest being the current speed;
 //! * it starts with `v_cmd = 0`, so the first commands pull a moving vehicle towards zero;
 //!   the paper gives no initial command, and we start from the vehicle's current speed;
 //! * it bounds the resulting acceleration only from above (`min(a, a_max)`); here the
-//!   bounds are the caller's [`AccelLimits`].
+//!   bounds are the caller's [`AccelLimits`];
+//! * like every Flow controller it gives no command on junction-internal lanes (SUMO drives
+//!   the car there); here every step is commanded.
 //!
 //! We read `U` as the average of the controlled vehicle's own speed, as Flow does. The
 //! paper's full text was not at hand when this module was written, so the equations above

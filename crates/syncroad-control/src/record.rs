@@ -211,6 +211,9 @@ pub struct RunRecord {
     /// only when the run measured SSM (records of runs that did not keep their earlier shape).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub safety_margins: Option<SafetyMargins>,
+    /// Minimum gap and time below a safe headway, from the trajectory (every run with gaps).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gap_safety: Option<crate::margins::GapSafety>,
     /// String amplification measured behind a leader (present only for runs with a leader).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub string_amplification: Option<StringAmplification>,
@@ -226,6 +229,7 @@ impl RunRecord {
         let facts = run.sumo.as_ref();
         let drivers = facts
             .map(|f| f.drivers.clone())
+            .or_else(|| run.drivers.clone())
             .filter(|d| !d.is_empty())
             .unwrap_or_else(|| vec!["law".to_string(); sc.vehicles()]);
         let law_controlled = drivers.iter().filter(|d| *d == "law").count();
@@ -272,6 +276,7 @@ impl RunRecord {
             }),
             safety_margins: facts
                 .and_then(|f| SafetyMargins::of(&run.trajectory, outcome.warmup_s, f)),
+            gap_safety: crate::margins::GapSafety::of(&run.trajectory, outcome.warmup_s),
             string_amplification: crate::string_measured::measured(&run.trajectory),
             gap_certificate: all_law
                 .then(|| crate::exact::gaps::gap_certificate(sc).ok().flatten())

@@ -21,7 +21,14 @@ use crate::record::RunRecord;
 pub const SCHEMA_ID: &str = "syncroad-metrics-v1";
 
 /// Keys a record holds only when the run measured them.
-const OPTIONAL_BLOCKS: [&str; 3] = ["safety_margins", "string_amplification", "gap_certificate"];
+const OPTIONAL_BLOCKS: [&str; 6] = [
+    "safety_margins",
+    "string_amplification",
+    "gap_certificate",
+    "gap_safety",
+    "braking_events",
+    "jam_formed_s",
+];
 
 /// Unit suffixes of field names, longest first.
 const UNITS: [(&str, &str); 13] = [

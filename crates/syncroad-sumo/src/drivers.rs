@@ -1,13 +1,18 @@
 //! SUMO's own drivers as baselines: which car-following model a vehicle that the law does not
 //! command uses, and the vehicle-type attributes that select it.
 //!
-//! The point of a baseline is the traffic it makes. SUMO's default Krauss model (σ = 0.5)
-//! forms no stop-and-go waves at Sugiyama density; Krauss with σ in 0.65–1.0 and IDM do. ACC
-//! and CACC are SUMO's built-in adaptive-cruise models, the natural baselines for a platoon.
+//! The point of a baseline is the traffic it makes. Measured on the Sugiyama ring with SUMO
+//! 1.28.0 (`docs/human-preset.md`): Krauss forms no stop-and-go jam there, neither with its
+//! default σ = 0.5 nor with σ = 0.9 (the flow crawls, nobody stops); SUMO's IDM with the
+//! `human` preset's values does, from a perturbed start, and the stochastic humans computed by
+//! the bridge (`human-noisy`, `flow-idm-noise`) do from a uniform start. ACC and CACC are
+//! SUMO's built-in adaptive-cruise models, the natural baselines for a platoon.
 
 use std::fmt;
 
 use serde::{Deserialize, Serialize};
+
+use syncroad_control::noisy_idm::{NoisyIdm, NOISY_PRESETS};
 
 use crate::car_following::{CarFollowing, CfModel};
 
@@ -40,6 +45,18 @@ pub enum SumoDriver {
     Human,
     /// The `flow-idm` preset: Flow's `IDMController` defaults ([`CarFollowing::preset`]).
     FlowIdm,
+    /// The `human` preset's IDM with SUMO's driver-state device (Ornstein–Uhlenbeck errors in
+    /// the perceived gap and speed difference, scaled by 1 − awareness), written
+    /// `driverstate-A` with the driver's constant awareness A ∈ (0, 1] (1: no error).
+    DriverState {
+        /// Initial (and minimum) awareness.
+        awareness: f64,
+    },
+    /// A stochastic human computed by the bridge, not by SUMO: IDM with Gaussian noise
+    /// ([`syncroad_control::noisy_idm`]), sent as a speed command every step. The presets
+    /// `human-noisy` and `flow-idm-noise`, any of their values changed
+    /// (`human-noisy:noise=0.5`), or `noisy-idm:accel=..:...:noise=..:form=flow|step`.
+    Noisy(NoisyIdm),
     /// Any of SUMO's car-following models with its parameters, written
     /// `MODEL:name=value:name=value` (e.g. `idm:accel=1.3:tau=0.8`), or a preset with some of
     /// its values changed (`human:tau=1.2`).
@@ -50,7 +67,7 @@ pub enum SumoDriver {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum DriverError {
     /// Unknown name.
-    #[error("{flag} = {value}: unknown driver; use krauss (σ 0.5), krauss-SIGMA with SIGMA in [0, 1] (e.g. krauss-0.9), idm, acc, cacc, a preset: human (IDM calibrated on the Sugiyama ring), flow-idm, or any SUMO model with its parameters as MODEL:name=value:... (e.g. idm:accel=1.3:tau=0.8, eidm:..., w99:..., human:tau=1.2)")]
+    #[error("{flag} = {value}: unknown driver; use krauss (σ 0.5), krauss-SIGMA with SIGMA in [0, 1] (e.g. krauss-0.9), idm, acc, cacc, a preset: human (IDM calibrated on the Sugiyama ring), flow-idm, the human preset with SUMO's driver-state device: driverstate-AWARENESS (e.g. driverstate-0.5), a stochastic human computed by syncroad: human-noisy, flow-idm-noise, noisy-idm:noise=..:form=flow|step, or any SUMO model with its parameters as MODEL:name=value:... (e.g. idm:accel=1.3:tau=0.8, eidm:..., w99:..., human:tau=1.2)")]
     Unknown {
         /// Flag or field.
         flag: String,
@@ -87,6 +104,11 @@ impl SumoDriver {
     /// `flow-idm` (case-insensitive); `flag` names
     /// the flag or field in the error.
     pub fn parse(flag: &str, s: &str) -> Result<Self, DriverError> {
+        let (head, params) = s.trim().split_once(':').unwrap_or((s.trim(), ""));
+        let head_low = head.trim().to_ascii_lowercase();
+        if NOISY_PRESETS.contains(&head_low.as_str()) || head_low == "noisy-idm" {
+            return Self::noisy(flag, s, &head_low, params);
+        }
         if let Some((model, params)) = s.trim().split_once(':') {
             return Self::custom(flag, s, model, params);
         }
@@ -100,6 +122,20 @@ impl SumoDriver {
             "flow-idm" => return Ok(Self::FlowIdm),
             _ => {}
         }
+        if let Some(a) = low
+            .strip_prefix("driverstate-")
+            .and_then(|x| x.parse::<f64>().ok())
+        {
+            return if a > 0.0 && a <= 1.0 {
+                Ok(Self::DriverState { awareness: a })
+            } else {
+                Err(DriverError::Parameter {
+                    flag: flag.into(),
+                    value: s.into(),
+                    reason: format!("awareness = {a}: valid is (0, 1] (1 = no perception error)"),
+                })
+            };
+        }
         if let Some(sigma) = low
             .strip_prefix("krauss-")
             .and_then(|x| x.parse::<f64>().ok())
@@ -110,6 +146,30 @@ impl SumoDriver {
             flag: flag.into(),
             value: s.into(),
         })
+    }
+
+    /// A stochastic human: a preset or `noisy-idm` (Flow's IDM defaults without noise) with
+    /// `name=value` changes, checked.
+    fn noisy(flag: &str, s: &str, head: &str, params: &str) -> Result<Self, DriverError> {
+        let bad = |reason: String| DriverError::Parameter {
+            flag: flag.into(),
+            value: s.into(),
+            reason,
+        };
+        let mut d = NoisyIdm::preset(head).unwrap_or(NoisyIdm {
+            idm: syncroad_control::IdmParams::FLOW,
+            noise: 0.0,
+            form: syncroad_control::NoiseForm::StepConsistent,
+        });
+        for kv in params.split(':').map(str::trim).filter(|x| !x.is_empty()) {
+            let (name, value) = kv
+                .split_once('=')
+                .ok_or_else(|| bad(format!("{kv:?} is not name=value (e.g. noise=0.3)")))?;
+            d.set(name.trim(), value.trim()).map_err(bad)?;
+        }
+        d.validate(flag)
+            .map_err(|e| bad(format!("{} = {}: valid is {}", e.name, e.value, e.valid)))?;
+        Ok(Self::Noisy(d))
     }
 
     /// `MODEL:name=value:...`: a SUMO model (by its SUMO or short name) or a preset, with
@@ -171,9 +231,11 @@ impl SumoDriver {
             SumoDriver::Idm => r#"carFollowModel="IDM""#.into(),
             SumoDriver::Acc => r#"carFollowModel="ACC""#.into(),
             SumoDriver::Cacc => r#"carFollowModel="CACC""#.into(),
-            SumoDriver::Human | SumoDriver::FlowIdm | SumoDriver::Custom(_) => {
-                self.car_following().vtype_attributes()
-            }
+            SumoDriver::Human
+            | SumoDriver::FlowIdm
+            | SumoDriver::Custom(_)
+            | SumoDriver::Noisy(_)
+            | SumoDriver::DriverState { .. } => self.car_following().vtype_attributes(),
         }
     }
 }
@@ -190,12 +252,43 @@ impl SumoDriver {
             SumoDriver::Idm => CarFollowing::new(CfModel::Idm),
             SumoDriver::Acc => CarFollowing::new(CfModel::Acc),
             SumoDriver::Cacc => CarFollowing::new(CfModel::Cacc),
-            SumoDriver::Human => {
+            SumoDriver::Human | SumoDriver::DriverState { .. } => {
                 CarFollowing::preset("driver", "human").expect("the human preset exists")
             }
             SumoDriver::FlowIdm => {
                 CarFollowing::preset("driver", "flow-idm").expect("the flow-idm preset exists")
             }
+            // SUMO's IDM with the same values: what the vehicle type says; the bridge
+            // commands the vehicle, so SUMO's model never drives it.
+            SumoDriver::Noisy(d) => {
+                let p = &d.idm;
+                CarFollowing::with(
+                    CfModel::Idm,
+                    &[
+                        ("accel", p.accel_mps2),
+                        ("decel", p.decel_mps2),
+                        ("tau", p.time_headway_s),
+                        ("minGap", p.min_gap_m),
+                        ("delta", p.delta),
+                        ("maxSpeed", p.desired_speed_mps),
+                        ("length", 5.0),
+                    ],
+                )
+            }
+        }
+    }
+}
+
+impl SumoDriver {
+    /// `<param>` children of the driver's `vType` (SUMO's device parameters), empty for most.
+    pub fn vtype_params(&self) -> Vec<(&'static str, String)> {
+        match self {
+            SumoDriver::DriverState { awareness } => vec![
+                ("has.driverstate.device", "true".into()),
+                ("device.driverstate.initialAwareness", awareness.to_string()),
+                ("device.driverstate.minAwareness", awareness.to_string()),
+            ],
+            _ => Vec::new(),
         }
     }
 }
@@ -210,6 +303,11 @@ impl fmt::Display for SumoDriver {
             SumoDriver::Cacc => write!(f, "cacc"),
             SumoDriver::Human => write!(f, "human"),
             SumoDriver::FlowIdm => write!(f, "flow-idm"),
+            SumoDriver::DriverState { awareness } => write!(f, "driverstate-{awareness}"),
+            SumoDriver::Noisy(d) => match d.preset_name() {
+                Some(p) => write!(f, "{p}"),
+                None => write!(f, "{d}"),
+            },
             SumoDriver::Custom(cf) => {
                 write!(f, "{}", cf.model.sumo_name().to_ascii_lowercase())?;
                 for (name, value) in &cf.params {
@@ -235,6 +333,9 @@ mod tests {
             "cacc",
             "human",
             "flow-idm",
+            "human-noisy",
+            "flow-idm-noise",
+            "driverstate-0.5",
         ] {
             assert_eq!(
                 SumoDriver::parse("--baselines", name).unwrap().to_string(),
@@ -251,6 +352,39 @@ mod tests {
             .unwrap_err()
             .to_string()
             .starts_with("--baselines = wiedemann: unknown driver; use krauss"));
+    }
+
+    #[test]
+    fn stochastic_humans_parse_round_trip_and_name_bad_values() {
+        let d = SumoDriver::parse("--baselines", "human-noisy:noise=0.5").unwrap();
+        let SumoDriver::Noisy(n) = &d else {
+            panic!("{d:?}")
+        };
+        assert_eq!(n.noise, 0.5);
+        assert_eq!(n.idm.accel_mps2, 1.3);
+        assert_eq!(SumoDriver::parse("x", &d.to_string()).unwrap(), d);
+        assert!(d.to_string().starts_with("noisy-idm:accel=1.3:"), "{d}");
+        let f = SumoDriver::parse("x", "noisy-idm:noise=0.2:form=flow").unwrap();
+        assert_eq!(f, SumoDriver::parse("x", "flow-idm-noise").unwrap());
+        assert_eq!(f.to_string(), "flow-idm-noise");
+        for (bad, why) in [
+            (
+                "human-noisy:noise=-1",
+                "noise = -1: valid is a finite number ≥ 0",
+            ),
+            (
+                "human-noisy:form=euler",
+                "form = \"euler\": valid are flow, step",
+            ),
+            ("human-noisy:sigma=1", "no parameter \"sigma\""),
+            ("human-noisy:noise", "is not name=value"),
+        ] {
+            let e = SumoDriver::parse("--baselines", bad)
+                .unwrap_err()
+                .to_string();
+            assert!(e.starts_with(&format!("--baselines = {bad}: ")), "{e}");
+            assert!(e.contains(why), "{e}");
+        }
     }
 
     #[test]

@@ -352,9 +352,15 @@ impl Layout {
                     }
                     None => r#"sigma="0""#.to_string(),
                 };
+                let params = v
+                    .driver
+                    .as_ref()
+                    .map(|d| d.vtype_params())
+                    .unwrap_or_default();
+                let close = if params.is_empty() { "/>" } else { ">" };
                 let _ = writeln!(
                     s,
-                    r#"    <vType id="t{}" length="{}" minGap="{}" accel="{}" decel="{}" emergencyDecel="{}" maxSpeed="{}" {model} speedFactor="1" speedDev="0" emissionClass="{}"/>"#,
+                    r#"    <vType id="t{}" length="{}" minGap="{}" accel="{}" decel="{}" emergencyDecel="{}" maxSpeed="{}" {model} speedFactor="1" speedDev="0" emissionClass="{}"{close}"#,
                     types.len() - 1,
                     v.length_m,
                     own("minGap", t.min_gap_m),
@@ -364,6 +370,12 @@ impl Layout {
                     own("maxSpeed", t.max_speed_mps),
                     crate::drivers::EMISSION_CLASS,
                 );
+                if !params.is_empty() {
+                    for (key, value) in &params {
+                        let _ = writeln!(s, r#"        <param key="{key}" value="{value}"/>"#);
+                    }
+                    s.push_str("    </vType>\n");
+                }
             }
         }
         let edges = self.road.normal_edges();

@@ -11,7 +11,7 @@ use std::time::Duration;
 
 use syncroad_control::road::{initial_positions, leader_start};
 use syncroad_control::scenario::Scenario;
-use syncroad_control::{DamperSetup, DamperSpec, LawSpec};
+use syncroad_control::{DamperSetup, DamperSpec, HumanSetup, LawSpec, NoisyIdm};
 
 use crate::drivers::{DriverError, SumoDriver, MIXED_SPEED_MODE};
 use crate::layout::{ring_layout, straight_layout, Layout, LayoutError};
@@ -99,6 +99,12 @@ pub enum PrepareError {
     DamperNeedsRing {
         /// The damper.
         damper: String,
+        /// The scenario.
+        scenario: String,
+    },
+    /// Stochastic humans follow a predecessor around a ring.
+    #[error("the stochastic human drivers (human-noisy, flow-idm-noise, noisy-idm:...) drive on a ring (each vehicle follows its predecessor); scenario {scenario} is a straight road")]
+    HumansNeedRing {
         /// The scenario.
         scenario: String,
     },
@@ -345,6 +351,20 @@ fn prepare_with(
             dep.driver = d.clone();
         }
     }
+    // Stochastic humans are commanded by the bridge: SUMO sees law-driven vehicles.
+    let mut humans: Vec<Option<NoisyIdm>> = vec![None; layout.vehicles.len()];
+    for (h, dep) in humans.iter_mut().zip(layout.vehicles.iter_mut()) {
+        if let Some(SumoDriver::Noisy(d)) = &dep.driver {
+            *h = Some(*d);
+            dep.driver = None;
+        }
+    }
+    let has_humans = humans.iter().any(Option::is_some);
+    if has_humans && !layout.road.ring {
+        return Err(PrepareError::HumansNeedRing {
+            scenario: scenario.name().to_string(),
+        });
+    }
     if let (Some(d), false) = (damper, layout.road.ring) {
         return Err(PrepareError::DamperNeedsRing {
             damper: d.to_string(),
@@ -422,6 +442,12 @@ fn prepare_with(
             length_m: layout.vehicles.iter().map(|v| v.length_m).collect(),
             accel_mps2: layout.vtype.accel_mps2,
             decel_mps2: layout.vtype.decel_mps2,
+        });
+        law.humans = has_humans.then(|| HumanSetup {
+            drivers: humans,
+            ring_length_m: layout.road.length_m(),
+            length_m: layout.vehicles.iter().map(|v| v.length_m).collect(),
+            seed: scenario.seed(),
         });
         Control::Law { law: Box::new(law) }
     };

@@ -73,6 +73,17 @@ impl SumoRun {
             _ => None,
         };
         let commanded = damper.unwrap_or_else(|| "law".to_string());
+        // Stochastic humans are commanded too, labelled with their driver name.
+        let humans = match &self.request.control {
+            Control::Law { law } => law.humans.as_ref().map(|h| h.drivers.clone()),
+            _ => None,
+        };
+        let label = |j: usize| -> String {
+            match humans.as_ref().and_then(|h| h.get(j).copied().flatten()) {
+                Some(d) => crate::drivers::SumoDriver::Noisy(d).to_string(),
+                None => commanded.clone(),
+            }
+        };
         let law_driven = matches!(self.request.control, Control::Law { .. })
             && self.request.layout.vehicles[k0..]
                 .iter()
@@ -109,10 +120,11 @@ impl SumoRun {
             .into(),
             drivers: self.request.layout.vehicles[k0..]
                 .iter()
-                .map(|v| {
+                .enumerate()
+                .map(|(i, v)| {
                     v.driver
                         .as_ref()
-                        .map_or_else(|| commanded.clone(), |d| d.to_string())
+                        .map_or_else(|| label(i + k0), |d| d.to_string())
                 })
                 .collect(),
             safety: finish.map(|f| Safety {
@@ -143,6 +155,7 @@ impl SumoRun {
             sumo: Some(facts),
             spread: self.spread(scenario),
             collisions: None,
+            drivers: None,
         }
     }
 

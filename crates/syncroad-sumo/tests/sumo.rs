@@ -103,6 +103,27 @@ mod rejected_before_sumo_starts {
     }
 
     #[test]
+    fn stochastic_humans_on_a_straight_road() {
+        let text = std::fs::read_to_string(
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/straight-chandler.json"),
+        )
+        .unwrap();
+        let mut file: serde_json::Value = serde_json::from_str(&text).unwrap();
+        file["sumo"] = serde_json::json!({"net": nets().join("straight-20km.net.xml")});
+        let sc = Scenario::from_json(&file.to_string()).unwrap();
+        let mut o = opts("noisy-straight");
+        o.drivers = vec![Some(SumoDriver::parse("d", "human-noisy").unwrap()); sc.vehicles()];
+        let err = run_scenario(&sc, &o).unwrap_err();
+        assert!(matches!(err, PrepareError::HumansNeedRing { .. }), "{err}");
+        assert!(
+            err.to_string().starts_with(
+                "the stochastic human drivers (human-noisy, flow-idm-noise, noisy-idm:...) drive on a ring"
+            ),
+            "{err}"
+        );
+    }
+
+    #[test]
     fn malformed_net_is_caught_by_the_parser() {
         let dir = work("malformed-parse");
         let bad = dir.join("bad.net.xml");
@@ -384,6 +405,112 @@ mod ring {
         c.drivers = vec![Some(SumoDriver::Krauss { sigma: 0.5 }); 22];
         let rc = run_scenario(&sc2, &c).unwrap();
         assert_ne!(ra.worker.rows.speeds_mps, rc.worker.rows.speeds_mps);
+    }
+}
+
+/// Stochastic humans computed by the bridge (the noisy IDM): the same controller on both
+/// backends, so with SUMO's ballistic update and every check off (speed mode 32) SUMO
+/// reproduces the native run's speeds, noise and all.
+mod noisy_humans {
+    use super::*;
+    use syncroad_control::{native::simulate_with, HumanSetup, LawSpec};
+
+    /// 22 vehicles evenly spaced on a ring of `length_m`, at rest, no perturbation.
+    fn uniform_ring(length_m: f64, horizon_s: f64, seed: u64) -> Scenario {
+        let json = format!(
+            r#"{{"name": "noisy-ring", "backend": "sumo", "seed": {seed}, "step_s": 0.1,
+            "horizon_s": {horizon_s}, "vehicles": 22,
+            "road": {{"type": "ring", "length_m": {length_m}}},
+            "model": {{"type": "delayed_driver",
+                       "graph": {{"type": "bidirectional_ring", "gain_pred": 0.6, "gain_follow": 0.1}},
+                       "delay_s": 0.5}},
+            "initial": {{"speed_mps": 0.0}},
+            "sumo": {{"net": "{}"}}}}"#,
+            nets().join("sugiyama-ring.net.xml").display()
+        );
+        Scenario::from_json(&json).unwrap()
+    }
+
+    #[test]
+    fn sumo_reproduces_the_native_noisy_ring_run_against_run() {
+        let road = load_road(&uniform_ring(230.0, 10.0, 1)).unwrap();
+        // The scenario's ring is SUMO's (normal plus internal lanes), so gaps agree too.
+        let sc = uniform_ring(road.length_m(), 120.0, 5);
+        let driver = SumoDriver::parse("d", "human-noisy").unwrap();
+        let SumoDriver::Noisy(human) = driver.clone() else {
+            unreachable!()
+        };
+        let mut o = opts("noisy-agree");
+        o.drivers = vec![Some(driver); 22];
+        let run = run_scenario(&sc, &o).unwrap();
+        let fin = run.outcome().expect("horizon reached");
+        assert_eq!(fin.totals.overrides, 0);
+        let out = run.output(&sc);
+        let facts = out.sumo.as_ref().unwrap();
+        assert!(
+            facts.drivers.iter().all(|d| d == "human-noisy"),
+            "{:?}",
+            facts.drivers
+        );
+        assert_eq!(facts.law_speed_mode, Some(32));
+        let mut law = LawSpec::of(&sc);
+        law.humans = Some(HumanSetup {
+            drivers: vec![Some(human); 22],
+            ring_length_m: road.length_m(),
+            length_m: vec![5.0; 22],
+            seed: 5,
+        });
+        let native = simulate_with(&sc, &law, NativeOptions::default())
+            .unwrap()
+            .trajectory;
+        let sumo = run.trajectory(&sc);
+        assert_eq!(native.len(), sumo.len());
+        let worst = native
+            .speeds_mps
+            .iter()
+            .zip(&sumo.speeds_mps)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        eprintln!("noisy ring: largest SUMO-native speed difference {worst:.2e} m/s");
+        assert!(worst < 1e-9, "largest speed difference {worst} m/s");
+        // The noise acts: from a uniform start the speeds spread.
+        let k = native.len() - 1;
+        let last = &native.speeds_mps[k * 22..];
+        let (lo, hi) = last
+            .iter()
+            .fold((f64::INFINITY, 0.0f64), |(l, h), &v| (l.min(v), h.max(v)));
+        assert!(hi - lo > 0.1, "speeds {lo}..{hi}");
+        // Another seed, another run.
+        let sc2 = uniform_ring(road.length_m(), 120.0, 6);
+        let mut o2 = opts("noisy-agree-2");
+        o2.drivers = o.drivers.clone();
+        let run2 = run_scenario(&sc2, &o2).unwrap();
+        assert_ne!(run2.trajectory(&sc2).speeds_mps, sumo.speeds_mps);
+    }
+
+    /// SUMO's driver-state device on the `human` IDM: with awareness 1 (no perception error)
+    /// a uniform start stays uniform; with awareness 0.5 its errors start a jam.
+    #[test]
+    fn the_driver_state_device_makes_the_deterministic_idm_jam() {
+        let sc = uniform_ring(230.0, 300.0, 2);
+        let min_speed = |name: &str| {
+            let mut o = opts(&format!("ds-{name}"));
+            o.drivers = vec![Some(SumoDriver::parse("d", name).unwrap()); 22];
+            let run = run_scenario(&sc, &o).unwrap();
+            run.outcome().expect("horizon reached");
+            let routes = std::fs::read_to_string(&run.request.routes_file).unwrap();
+            assert!(routes.contains(r#"<param key="has.driverstate.device" value="true"/>"#));
+            let t = run.trajectory(&sc);
+            let k = t.len() - 1;
+            t.speeds_mps[(k / 2) * 22..]
+                .iter()
+                .copied()
+                .fold(f64::INFINITY, f64::min)
+        };
+        let calm = min_speed("driverstate-1");
+        let jam = min_speed("driverstate-0.5");
+        assert!(calm > 4.0, "awareness 1: min speed {calm}");
+        assert!(jam < 1.0, "awareness 0.5: min speed {jam}");
     }
 }
 

@@ -224,9 +224,12 @@ pub struct CompareArgs {
     pub out: PathBuf,
     /// Runs, comma-separated: protocol (the scenario as written: its law, or its mixed ring),
     /// SUMO drivers krauss (SUMO's default, σ 0.5), krauss-SIGMA (e.g. krauss-0.9), idm, acc,
-    /// cacc, the presets human (IDM calibrated on the Sugiyama ring) and flow-idm, and on rings
-    /// the wave dampers of Stern et al. (2018) on every vehicle: follower-stopper-U (desired
-    /// speed U in m/s, e.g. follower-stopper-4.3) and pi-saturation. Default:
+    /// cacc, the presets human (IDM calibrated on the Sugiyama ring) and flow-idm, SUMO's
+    /// driver-state device driverstate-A (awareness A), on rings the stochastic humans
+    /// computed by syncroad human-noisy and flow-idm-noise (noisy IDM, e.g.
+    /// human-noisy:noise=0.1), and the wave dampers of Stern et al. (2018) on every vehicle:
+    /// follower-stopper-U (desired speed U in m/s, e.g. follower-stopper-4.3) and
+    /// pi-saturation (flow-follower-stopper-U, flow-pi-saturation: Flow's code). Default:
     /// protocol,krauss,krauss-0.9,idm on rings; protocol,krauss,idm,acc,cacc on straight roads.
     #[arg(long)]
     pub baselines: Option<String>,

@@ -9,8 +9,10 @@
 
 use std::path::Path;
 
+use syncroad_control::controller::ControllerError;
 use syncroad_control::{
-    evaluate, simulate, EvalOptions, NativeOptions, Outcome, RunOutput, RunRecord, Scenario,
+    evaluate, simulate, simulate_with, EvalOptions, LawSpec, NativeOptions, Outcome, RunOutput,
+    RunRecord, Scenario,
 };
 use syncroad_sumo::{
     PrepareError, Prepared, Road, RunOptions, SumoRun, SupervisorError, WorkerPool,
@@ -40,7 +42,28 @@ pub fn native_with(sc: &Scenario, opts: NativeOptions<'_>) -> RunOutput {
         sumo: None,
         spread: Some(run.spread),
         collisions: Some(run.collisions),
+        drivers: None,
     }
+}
+
+/// [`native_with`] for a resolved law (a damper or stochastic humans on the ring), with the
+/// vehicles' driver labels in the record.
+pub fn native_law(
+    sc: &Scenario,
+    law: &LawSpec,
+    drivers: Vec<String>,
+    opts: NativeOptions<'_>,
+) -> Result<RunOutput, ControllerError> {
+    let run = simulate_with(sc, law, opts)?;
+    Ok(RunOutput {
+        trajectory: run.trajectory,
+        stop: run.stop,
+        ring_length_m: sc.ring_length_m(),
+        sumo: None,
+        spread: Some(run.spread),
+        collisions: Some(run.collisions),
+        drivers: Some(drivers),
+    })
 }
 
 /// A SUMO run's output, and whether the user interrupted it.

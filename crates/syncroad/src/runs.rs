@@ -1,7 +1,7 @@
 //! Who drives in a run: the scenario's law, a wave damper, one of SUMO's drivers, or a mix.
 //! `compare` and `sweep` name runs the same way.
 
-use syncroad_control::{DamperSpec, Scenario};
+use syncroad_control::{DamperSetup, DamperSpec, HumanSetup, LawSpec, Scenario};
 use syncroad_sumo::SumoDriver;
 
 use crate::error::InputError;
@@ -31,7 +31,15 @@ impl RunSpec {
                 damper: None,
             });
         }
-        if low.starts_with("follower-stopper") || low.starts_with("pi-saturation") {
+        if [
+            "follower-stopper",
+            "pi-saturation",
+            "flow-follower-stopper",
+            "flow-pi-saturation",
+        ]
+        .iter()
+        .any(|p| low.starts_with(p))
+        {
             let d = DamperSpec::parse(field, name)
                 .map_err(|e| InputError::caused(field, e))?
                 .expect("a damper name");
@@ -67,6 +75,60 @@ impl RunSpec {
             drivers,
             damper: if k > 0 { damper } else { None },
         }
+    }
+
+    /// The law of this run on the native simulator: the scenario's law with the damper and the
+    /// stochastic humans on a ring of the scenario's length; `None` when a SUMO driver takes
+    /// part (only SUMO runs it) or a damper or human is asked for on a straight road.
+    pub fn native_law(&self, sc: &Scenario) -> Option<LawSpec> {
+        let mut law = LawSpec::of(sc);
+        if self.damper.is_none() && self.drivers.iter().all(Option::is_none) {
+            return Some(law);
+        }
+        let ring = sc.ring_length_m()?;
+        let mut humans = Vec::with_capacity(self.drivers.len());
+        for d in &self.drivers {
+            humans.push(match d {
+                None => None,
+                Some(SumoDriver::Noisy(h)) => Some(*h),
+                Some(_) => return None,
+            });
+        }
+        let vt = sc.sumo().vehicle_type();
+        law.damper = self.damper.map(|spec| DamperSetup {
+            spec,
+            ring_length_m: ring,
+            length_m: sc.length_m().to_vec(),
+            accel_mps2: vt.accel_mps2,
+            decel_mps2: vt.decel_mps2,
+        });
+        if humans.iter().any(Option::is_some) {
+            law.humans = Some(HumanSetup {
+                drivers: humans,
+                ring_length_m: ring,
+                length_m: sc.length_m().to_vec(),
+                seed: sc.seed(),
+            });
+        }
+        Some(law)
+    }
+
+    /// Labels of who drives each vehicle, as SUMO runs report them (`law`, a damper's or a
+    /// driver's name).
+    pub fn labels(&self, n: usize) -> Vec<String> {
+        let commanded = self
+            .damper
+            .map_or_else(|| "law".to_string(), |d| d.to_string());
+        if self.drivers.is_empty() {
+            return vec![commanded; n];
+        }
+        self.drivers
+            .iter()
+            .map(|d| {
+                d.as_ref()
+                    .map_or_else(|| commanded.clone(), |d| d.to_string())
+            })
+            .collect()
     }
 
     /// The run's folder name: its name with every character but letters, digits and `._=+-`

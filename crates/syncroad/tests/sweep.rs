@@ -294,3 +294,60 @@ print("pandas ok")
     assert_eq!(code, 0, "{out}\n{err}");
     assert!(out.contains("pandas ok"));
 }
+
+/// The native backend runs the stochastic humans and the dampers the SUMO runs use: from the
+/// uniform start of `sugiyama-human-noisy.json` the noisy humans jam (at another time for
+/// another seed, the same time for the same seed), the PI ring stays smooth, and a SUMO-only
+/// driver is refused before anything runs.
+#[test]
+fn native_sweeps_run_stochastic_humans_and_dampers() {
+    let dir = tmpdir("sweep-native-noisy");
+    let base = repo().join("scenarios/sugiyama-human-noisy.json");
+    let body = |runs: &str| {
+        format!(
+            r#"{{"base": "{}", "backend": "native", "runs": [{runs}],
+                "seeds": [1, 2], "warmup_s": 400,
+                "metrics": ["congestion.jam_formed_s", "congestion.speed_std_mps", "gap_safety.min_gap_m"]}}"#,
+            base.display()
+        )
+    };
+    let spec = write_spec(&dir, &body(r#""human-noisy", "pi-saturation""#));
+    let out = dir.join("out");
+    let (code, stdout, err) = run(bin()
+        .arg("sweep")
+        .arg(&spec)
+        .arg("--no-plots")
+        .arg("--out")
+        .arg(&out));
+    assert_eq!(code, 0, "{stdout}{err}");
+    let text = csv(&out);
+    let jam = column(&text, "congestion.jam_formed_s");
+    let std = column(&text, "congestion.speed_std_mps");
+    // Rows: human-noisy seeds 1, 2, then pi-saturation seeds 1, 2.
+    let t: Vec<f64> = jam[..2].iter().map(|x| x.parse().unwrap()).collect();
+    assert!(t.iter().all(|&x| x > 0.0 && x < 400.0), "{jam:?}");
+    assert_ne!(t[0], t[1]);
+    assert!(
+        std[..2].iter().all(|x| x.parse::<f64>().unwrap() > 2.0),
+        "{std:?}"
+    );
+    assert!(jam[2..].iter().all(|x| x.is_empty()), "{jam:?}");
+    // The same seeds again: the same table.
+    let again = dir.join("again");
+    let (code, _, _) = run(bin()
+        .arg("sweep")
+        .arg(&spec)
+        .arg("--no-plots")
+        .arg("--out")
+        .arg(&again));
+    assert_eq!(code, 0);
+    assert_eq!(column(&csv(&again), "congestion.speed_std_mps"), std);
+    let spec = write_spec(&dir, &body(r#""human-noisy", "krauss-0.9""#));
+    let (code, _, err) = run(bin()
+        .arg("sweep")
+        .arg(&spec)
+        .arg("--out")
+        .arg(dir.join("refused")));
+    assert_ne!(code, 0);
+    assert!(err.contains("runs: krauss-0.9 has SUMO drivers"), "{err}");
+}

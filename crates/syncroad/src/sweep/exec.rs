@@ -308,14 +308,19 @@ impl Shared<'_> {
         };
         let (output, interrupted) = match sweep.backend {
             Backend::Native => {
-                let out = pipeline::native_with(
-                    &sc,
-                    NativeOptions {
-                        record_every,
-                        cancel: Some(&self.interrupt),
-                        ..NativeOptions::default()
-                    },
-                );
+                let opts = NativeOptions {
+                    record_every,
+                    cancel: Some(&self.interrupt),
+                    ..NativeOptions::default()
+                };
+                let law = choice.spec.native_law(&sc).ok_or_else(|| {
+                    InputError::new(format!(
+                        "runs: {} needs SUMO (backend \"sumo\")",
+                        choice.spec.name
+                    ))
+                })?;
+                let out = pipeline::native_law(&sc, &law, choice.spec.labels(sc.vehicles()), opts)
+                    .map_err(|e| InputError::caused("runs", e))?;
                 let interrupted = matches!(out.stop, StopReason::Interrupted { .. });
                 (out, interrupted)
             }

@@ -69,7 +69,8 @@ pub struct SpecFile {
     /// Mixed runs: fractions of law-driven vehicles, each in [0, 1].
     #[serde(default)]
     pub penetrations: Vec<f64>,
-    /// The human driver of mixed runs (default `krauss-0.9`, which forms waves at ring density).
+    /// The human driver of mixed runs (default `krauss-0.9`; it forms no stop-and-go jam on the
+    /// Sugiyama ring, see `docs/human-preset.md`: name `human` or `human-noisy` for one).
     #[serde(default)]
     pub mixed_driver: Option<String>,
     /// Who drives the automated vehicles of mixed runs: `law` (default), `follower-stopper-U`
@@ -444,12 +445,9 @@ fn runs_of(file: &SpecFile, base: &Scenario, backend: Backend) -> anyhow::Result
         .into());
     }
     if backend == Backend::Native {
-        if let Some(r) = runs
-            .iter()
-            .find(|r| r.spec.damper.is_some() || r.spec.drivers.iter().any(Option::is_some))
-        {
+        if let Some(r) = runs.iter().find(|r| r.spec.native_law(base).is_none()) {
             return Err(bad(format!(
-                "runs: {} has SUMO drivers or a wave damper, which run in SUMO, but backend = \"native\"; use backend \"sumo\" or only \"protocol\"",
+                "runs: {} has SUMO drivers (or a damper or stochastic humans on a straight road), which run in SUMO, but backend = \"native\"; use backend \"sumo\", or only \"protocol\", dampers and stochastic humans (human-noisy, flow-idm-noise) on a ring",
                 r.spec.name
             ))
             .into());
