@@ -81,8 +81,9 @@ mod tests {
         let l = [5.0; 3];
         let mut g = [0.0; 3];
         gaps(&q, &l, None, Some(100.0), &mut g);
-        // 60 − 40 − 5, 40 − 10 − 5, and vehicle 0 behind vehicle 2 one lap on: 110 − 60 − 5.
-        assert_eq!(g, [15.0, 25.0, 45.0]);
+        // Vehicle 0 behind vehicle 2 one lap on: 10 + 100 − 60 − 5; then 60 − 40 − 5 and
+        // 40 − 10 − 5.
+        assert_eq!(g, [45.0, 15.0, 25.0]);
         gaps(&q, &l, Some(70.0), None, &mut g);
         assert_eq!(g, [5.0, 15.0, 25.0]);
         gaps(&q, &l, None, None, &mut g);

@@ -23,51 +23,15 @@ use syncroad_control::{EvalOptions, NativeOptions, Scenario, StopReason};
 use syncroad_sumo::{load_road, MeasureOptions, Road, RunOptions, WorkerCommand, WorkerPool};
 
 use super::lock::{self, FolderLock};
-use super::rows::{read_rows, row_path, rows_dir};
-use super::spec::{Point, Sweep};
+use super::points::{Point, Shard};
+use super::rows::{point_cells, read_rows, row_path, rows_dir};
+use super::spec::Sweep;
 use super::table::{at_path, metric_kinds, Column, Kind, Table};
 use crate::config;
 use crate::error::InputError;
 use crate::output::write_text;
 use crate::pipeline::{self, Finished};
 use crate::progress::Progress;
-
-/// A deterministic share of the points: those with `id % count == index`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Shard {
-    /// This shard, 0-based.
-    pub index: usize,
-    /// Number of shards.
-    pub count: usize,
-}
-
-impl Shard {
-    /// Parses `I/N` with 0 ≤ I < N.
-    pub fn parse(s: &str) -> Result<Self, InputError> {
-        let bad = || {
-            InputError::new(format!(
-                "--shard = {s:?}: expected I/N with 0 ≤ I < N, e.g. 0/4 (Slurm: $SLURM_ARRAY_TASK_ID/$SLURM_ARRAY_TASK_COUNT)"
-            ))
-        };
-        let (i, n) = s.split_once('/').ok_or_else(bad)?;
-        let index: usize = i.trim().parse().map_err(|_| bad())?;
-        let count: usize = n.trim().parse().map_err(|_| bad())?;
-        if count == 0 || index >= count {
-            return Err(bad());
-        }
-        Ok(Self { index, count })
-    }
-
-    /// The whole sweep.
-    pub fn all() -> Self {
-        Self { index: 0, count: 1 }
-    }
-
-    /// Whether point `id` belongs to this shard.
-    pub fn holds(&self, id: usize) -> bool {
-        id % self.count == self.index
-    }
-}
 
 /// How to run.
 #[derive(Debug, Clone)]
@@ -138,26 +102,6 @@ pub fn columns(sweep: &Sweep) -> Vec<Column> {
         c.push(Column::new(s, Kind::Text));
     }
     c
-}
-
-/// The parameter cells of a point's row.
-pub(super) fn point_cells(sweep: &Sweep, p: &Point) -> Map<String, Value> {
-    let mut r = Map::new();
-    r.insert("point".into(), json!(p.id));
-    for (a, &k) in sweep.axes.iter().zip(&p.at) {
-        r.insert(a.field.clone(), a.values[k].clone());
-    }
-    let run = &sweep.runs[p.run];
-    r.insert("run".into(), json!(run.spec.name));
-    r.insert("penetration".into(), json!(run.penetration));
-    r.insert("seed".into(), json!(p.seed));
-    r.insert(
-        "backend".into(),
-        serde_json::to_value(sweep.backend).unwrap_or_default(),
-    );
-    r.insert("spec_hash".into(), json!(sweep.hash));
-    r.insert("syncroad_version".into(), json!(env!("CARGO_PKG_VERSION")));
-    r
 }
 
 /// The row of a point that produced a record.

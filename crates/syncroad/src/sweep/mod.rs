@@ -3,13 +3,15 @@
 //! long-lived workers; rows are kept per point so a sweep resumes and shards; the table is
 //! written as Parquet and CSV and plotted.
 //!
-//! [`spec`] (the file and its points), [`points`] (their count and their checks), [`exec`]
+//! [`spec`] (the file), [`points`] (their count, seeds and shards), [`checks`] (every point
+//! validated before anything runs), [`exec`]
 //! (running, resuming, sharding), [`rows`] (a folder's rows, each checked to be the sweep's),
 //! [`lock`] (one writer per folder), [`table`]
 //! (typed columns, Parquet and CSV), [`stats`] (mean and interval over seeds), [`plots`]
 //! and [`slurm`] (a job array that runs the shards).
 
 pub mod axis;
+pub mod checks;
 pub mod exec;
 pub mod lock;
 pub mod plots;
@@ -20,5 +22,6 @@ pub mod spec;
 pub mod stats;
 pub mod table;
 
-pub use exec::{ExecOptions, Shard};
+pub use exec::ExecOptions;
+pub use points::Shard;
 pub use spec::Sweep;

@@ -1,21 +1,11 @@
-//! How many points a sweep has, and every point checked before anything runs.
-//!
-//! The count is the product axes × runs × seeds in checked arithmetic, refused past
-//! [`MAX_POINTS`]; every point's scenario is then built and validated with its own seed (the
-//! seed draws the perturbed gaps), its warm-up and recording stride, and on SUMO its road
-//! layout and drivers (the checks a SUMO run makes before it starts), so no point of a sweep
-//! that starts can fail on its input.
+//! A sweep's points: how many there are (the product axes × runs × seeds in checked
+//! arithmetic, refused past [`MAX_POINTS`]), their seeds, one point, and a shard's share.
 
-use std::collections::{BTreeMap, BTreeSet};
-use std::path::PathBuf;
-use std::sync::Arc;
+use std::collections::BTreeSet;
 
-use syncroad_control::scenario::Backend;
-use syncroad_sumo::{load_road, MeasureOptions, Road, RunOptions, WorkerCommand};
+use serde::{Deserialize, Serialize};
 
 use super::axis::Axis;
-use super::spec::{Point, SeedsFile, SpecFile, Sweep};
-use crate::config;
 use crate::error::InputError;
 
 /// The most points one sweep may have (a sweep of more is refused before anything runs; split
@@ -60,8 +50,8 @@ pub fn seed_range(first: u64, count: u64) -> Result<Vec<u64>, InputError> {
 }
 
 /// The seeds of a spec (default: the base scenario's), each at most 2^63 − 1.
-pub fn seeds_of(file: &SpecFile, base_seed: u64) -> anyhow::Result<Vec<u64>> {
-    let seeds = match &file.seeds {
+pub fn seeds_of(seeds: Option<&SeedsFile>, base_seed: u64) -> anyhow::Result<Vec<u64>> {
+    let seeds = match seeds {
         None => vec![base_seed],
         Some(SeedsFile::List(v)) if v.is_empty() => {
             return Err(InputError::new("seeds = []: give at least one seed").into())
@@ -92,64 +82,68 @@ pub fn seeds_of(file: &SpecFile, base_seed: u64) -> anyhow::Result<Vec<u64>> {
     Ok(seeds)
 }
 
-impl Sweep {
-    /// Builds and checks every point as it will run; returns the network files the points
-    /// read (SUMO only), which the spec hash covers.
-    pub(super) fn check_points(&self) -> anyhow::Result<BTreeSet<PathBuf>> {
-        let mut roads: BTreeMap<PathBuf, Arc<Road>> = BTreeMap::new();
-        let mut seen = BTreeSet::new();
-        // The worker is never started: the options only carry the drivers to check.
-        let worker = WorkerCommand::binary("syncroad");
-        for p in self.points() {
-            let sc = self.scenario(&p)?;
-            let here = |e: anyhow::Error| e.context(self.describe(&p));
-            if seen.insert((p.at.clone(), p.seed)) {
-                config::warmup_s_as("warmup_s", self.file.warmup_s, &sc).map_err(here)?;
-                config::record_every_as("record_every", self.file.record_every, &sc)
-                    .map_err(here)?;
-            }
-            if self.backend != Backend::Sumo {
-                continue;
-            }
-            let net = syncroad_sumo::net_path(&sc)
-                .map_err(|e| InputError::caused(self.describe(&p), e))?;
-            let road = match roads.get(&net) {
-                Some(r) => r.clone(),
-                None => {
-                    let r = Arc::new(
-                        load_road(&sc).map_err(|e| InputError::caused(self.describe(&p), e))?,
-                    );
-                    roads.insert(net.clone(), r.clone());
-                    r
-                }
-            };
-            let choice = &self.runs[p.run];
-            let mut o = RunOptions::new(PathBuf::new(), worker.clone());
-            o.drivers = choice.spec.drivers.clone();
-            o.damper = choice.spec.damper;
-            o.measure = Some(MeasureOptions {
-                warmup_s: config::warmup_s_as("warmup_s", self.file.warmup_s, &sc)?,
-                emission_every: 1,
-                tripinfo: false,
-                ssm: false,
-            });
-            syncroad_sumo::check_run(&sc, &road, &o)
-                .map_err(|e| InputError::caused(self.describe(&p), e))?;
+/// Seeds as written.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum SeedsFile {
+    /// Explicit seeds.
+    List(Vec<u64>),
+    /// `count` seeds from `first` on.
+    Range {
+        /// First seed.
+        first: u64,
+        /// How many.
+        count: u64,
+    },
+}
+
+/// One point of the sweep.
+#[derive(Debug, Clone)]
+pub struct Point {
+    /// Its number in the product order.
+    pub id: usize,
+    /// Value index per axis.
+    pub at: Vec<usize>,
+    /// Run index.
+    pub run: usize,
+    /// Seed.
+    pub seed: u64,
+}
+
+/// A deterministic share of the points: those with `id % count == index`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Shard {
+    /// This shard, 0-based.
+    pub index: usize,
+    /// Number of shards.
+    pub count: usize,
+}
+
+impl Shard {
+    /// Parses `I/N` with 0 ≤ I < N.
+    pub fn parse(s: &str) -> Result<Self, InputError> {
+        let bad = || {
+            InputError::new(format!(
+                "--shard = {s:?}: expected I/N with 0 ≤ I < N, e.g. 0/4 (Slurm: $SLURM_ARRAY_TASK_ID/$SLURM_ARRAY_TASK_COUNT)"
+            ))
+        };
+        let (i, n) = s.split_once('/').ok_or_else(bad)?;
+        let index: usize = i.trim().parse().map_err(|_| bad())?;
+        let count: usize = n.trim().parse().map_err(|_| bad())?;
+        if count == 0 || index >= count {
+            return Err(bad());
         }
-        Ok(roads.into_keys().collect())
+        Ok(Self { index, count })
     }
 
-    /// `sweep point ID (axis = value, ..., run NAME, seed S)`, for errors.
-    pub fn describe(&self, p: &Point) -> String {
-        let mut parts: Vec<String> = self
-            .axes
-            .iter()
-            .zip(&p.at)
-            .map(|(a, &k)| format!("{} = {}", a.field, a.values[k]))
-            .collect();
-        parts.push(format!("run {}", self.runs[p.run].spec.name));
-        parts.push(format!("seed {}", p.seed));
-        format!("sweep point {} ({})", p.id, parts.join(", "))
+    /// The whole sweep.
+    pub fn all() -> Self {
+        Self { index: 0, count: 1 }
+    }
+
+    /// Whether point `id` belongs to this shard.
+    pub fn holds(&self, id: usize) -> bool {
+        id % self.count == self.index
     }
 }
 

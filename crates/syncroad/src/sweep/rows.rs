@@ -7,9 +7,9 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use serde_json::{Map, Value};
+use serde_json::{json, Map, Value};
 
-use super::exec::{point_cells, Shard};
+use super::points::{Point, Shard};
 use super::spec::Sweep;
 use crate::error::InputError;
 
@@ -112,4 +112,24 @@ pub fn read_rows(
         .into());
     }
     Ok(rows)
+}
+
+/// The parameter cells of a point's row.
+pub(super) fn point_cells(sweep: &Sweep, p: &Point) -> Map<String, Value> {
+    let mut r = Map::new();
+    r.insert("point".into(), json!(p.id));
+    for (a, &k) in sweep.axes.iter().zip(&p.at) {
+        r.insert(a.field.clone(), a.values[k].clone());
+    }
+    let run = &sweep.runs[p.run];
+    r.insert("run".into(), json!(run.spec.name));
+    r.insert("penetration".into(), json!(run.penetration));
+    r.insert("seed".into(), json!(p.seed));
+    r.insert(
+        "backend".into(),
+        serde_json::to_value(sweep.backend).unwrap_or_default(),
+    );
+    r.insert("spec_hash".into(), json!(sweep.hash));
+    r.insert("syncroad_version".into(), json!(env!("CARGO_PKG_VERSION")));
+    r
 }

@@ -41,6 +41,7 @@ use syncroad_sumo::SumoDriver;
 
 pub use super::axis::Axis;
 use super::axis::{set_path, AxisFile, Target};
+pub use super::points::{Point, SeedsFile};
 use crate::error::InputError;
 use crate::runs::RunSpec;
 
@@ -101,21 +102,6 @@ pub enum OneOrMany {
     Many(Vec<String>),
 }
 
-/// Seeds as written.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(untagged)]
-pub enum SeedsFile {
-    /// Explicit seeds.
-    List(Vec<u64>),
-    /// `count` seeds from `first` on.
-    Range {
-        /// First seed.
-        first: u64,
-        /// How many.
-        count: u64,
-    },
-}
-
 /// Metrics kept by default: the verdict, the spread, congestion and safety.
 pub const DEFAULT_METRICS: [&str; 13] = [
     "sync.verdict",
@@ -170,19 +156,6 @@ pub struct Sweep {
     /// SHA-256 of the spec, the base scenario as written and (SUMO) the network files the
     /// points read: what resumption checks.
     pub hash: String,
-}
-
-/// One point of the sweep.
-#[derive(Debug, Clone)]
-pub struct Point {
-    /// Its number in the product order.
-    pub id: usize,
-    /// Value index per axis.
-    pub at: Vec<usize>,
-    /// Run index.
-    pub run: usize,
-    /// Seed.
-    pub seed: u64,
 }
 
 fn bad(m: impl Into<String>) -> InputError {
@@ -243,7 +216,7 @@ impl Sweep {
                 return Err(bad(format!("axes[{}] appears twice", a.field)).into());
             }
         }
-        let seeds = super::points::seeds_of(&file, base.seed())?;
+        let seeds = super::points::seeds_of(file.seeds.as_ref(), base.seed())?;
         let runs = runs_of(&file, &base, backend)?;
         let metrics = metrics_of(&file)?;
         if file.record_every == Some(0) {

@@ -1,0 +1,77 @@
+//! Every point of a sweep checked before anything runs: each point's scenario is built and
+//! validated with its own seed (the seed draws the perturbed gaps), its warm-up and recording
+//! stride, and on SUMO its road layout and drivers (the checks a SUMO run makes before it
+//! starts), so no point of a sweep that starts can fail on its input.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use syncroad_control::scenario::Backend;
+use syncroad_sumo::{load_road, MeasureOptions, Road, RunOptions, WorkerCommand};
+
+use super::points::Point;
+use super::spec::Sweep;
+use crate::config;
+use crate::error::InputError;
+
+impl Sweep {
+    /// Builds and checks every point as it will run; returns the network files the points
+    /// read (SUMO only), which the spec hash covers.
+    pub(super) fn check_points(&self) -> anyhow::Result<BTreeSet<PathBuf>> {
+        let mut roads: BTreeMap<PathBuf, Arc<Road>> = BTreeMap::new();
+        let mut seen = BTreeSet::new();
+        // The worker is never started: the options only carry the drivers to check.
+        let worker = WorkerCommand::binary("syncroad");
+        for p in self.points() {
+            let sc = self.scenario(&p)?;
+            let here = |e: anyhow::Error| e.context(self.describe(&p));
+            if seen.insert((p.at.clone(), p.seed)) {
+                config::warmup_s_as("warmup_s", self.file.warmup_s, &sc).map_err(here)?;
+                config::record_every_as("record_every", self.file.record_every, &sc)
+                    .map_err(here)?;
+            }
+            if self.backend != Backend::Sumo {
+                continue;
+            }
+            let net = syncroad_sumo::net_path(&sc)
+                .map_err(|e| InputError::caused(self.describe(&p), e))?;
+            let road = match roads.get(&net) {
+                Some(r) => r.clone(),
+                None => {
+                    let r = Arc::new(
+                        load_road(&sc).map_err(|e| InputError::caused(self.describe(&p), e))?,
+                    );
+                    roads.insert(net.clone(), r.clone());
+                    r
+                }
+            };
+            let choice = &self.runs[p.run];
+            let mut o = RunOptions::new(PathBuf::new(), worker.clone());
+            o.drivers = choice.spec.drivers.clone();
+            o.damper = choice.spec.damper;
+            o.measure = Some(MeasureOptions {
+                warmup_s: config::warmup_s_as("warmup_s", self.file.warmup_s, &sc)?,
+                emission_every: 1,
+                tripinfo: false,
+                ssm: false,
+            });
+            syncroad_sumo::check_run(&sc, &road, &o)
+                .map_err(|e| InputError::caused(self.describe(&p), e))?;
+        }
+        Ok(roads.into_keys().collect())
+    }
+
+    /// `sweep point ID (axis = value, ..., run NAME, seed S)`, for errors.
+    pub fn describe(&self, p: &Point) -> String {
+        let mut parts: Vec<String> = self
+            .axes
+            .iter()
+            .zip(&p.at)
+            .map(|(a, &k)| format!("{} = {}", a.field, a.values[k]))
+            .collect();
+        parts.push(format!("run {}", self.runs[p.run].spec.name));
+        parts.push(format!("seed {}", p.seed));
+        format!("sweep point {} ({})", p.id, parts.join(", "))
+    }
+}
