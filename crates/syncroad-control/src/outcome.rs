@@ -48,14 +48,20 @@ pub struct EvalOptions {
     pub thresholds: VerdictThresholds,
     /// Warm-up excluded from the congestion metrics \[s\].
     pub warmup_s: f64,
+    /// Compute the gap certificate of the scenario's linear model for the record
+    /// (`exact::gaps`; a tenth of a second to seconds per scenario, so a sweep asks for it only
+    /// when one of its columns is the certificate's).
+    pub gap_certificate: bool,
 }
 
 impl EvalOptions {
-    /// The scenario's verdict thresholds and a warm-up of a quarter of the horizon.
+    /// The scenario's verdict thresholds, a warm-up of a quarter of the horizon, and the gap
+    /// certificate.
     pub fn of(scenario: &Scenario) -> Self {
         Self {
             thresholds: scenario.verdict_thresholds(),
             warmup_s: 0.25 * scenario.horizon_s(),
+            gap_certificate: true,
         }
     }
 }
@@ -71,6 +77,8 @@ pub struct Outcome {
     pub theory: TheoryReport,
     /// The warm-up used \[s\].
     pub warmup_s: f64,
+    /// Whether the record is to carry the gap certificate ([`EvalOptions::gap_certificate`]).
+    pub gap_certificate: bool,
 }
 
 /// Derives the metrics and the verdict of a run. A run that stopped early is never
@@ -111,6 +119,7 @@ pub fn evaluate(scenario: &Scenario, run: &RunOutput, opts: EvalOptions) -> Outc
         congestion: congestion_metrics(&run.trajectory, opts.warmup_s, run.ring_length_m),
         theory: theory::report(scenario),
         warmup_s: opts.warmup_s,
+        gap_certificate: opts.gap_certificate,
     }
 }
 

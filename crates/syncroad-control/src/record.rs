@@ -278,7 +278,7 @@ impl RunRecord {
                 .and_then(|f| SafetyMargins::of(&run.trajectory, outcome.warmup_s, f)),
             gap_safety: crate::margins::GapSafety::of(&run.trajectory, outcome.warmup_s),
             string_amplification: crate::string_measured::measured(&run.trajectory),
-            gap_certificate: all_law
+            gap_certificate: (all_law && outcome.gap_certificate)
                 .then(|| crate::exact::gaps::gap_certificate(sc).ok().flatten())
                 .flatten()
                 .map(|c| c.summary()),

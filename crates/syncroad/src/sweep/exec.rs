@@ -244,6 +244,12 @@ impl Shared<'_> {
         let warmup_s = config::warmup_s(sweep.file.warmup_s, &sc)?;
         let mut eval = EvalOptions::of(&sc);
         eval.warmup_s = warmup_s;
+        // The certificate costs a tenth of a second and more per point: only when a column
+        // holds it.
+        eval.gap_certificate = sweep
+            .metrics
+            .iter()
+            .any(|m| m.starts_with("gap_certificate."));
         let run_dir = self.out.join("runs").join(format!("{:07}", p.id));
         let work = if self.opts.keep_runs {
             run_dir.join("sumo")
