@@ -351,3 +351,38 @@ fn native_sweeps_run_stochastic_humans_and_dampers() {
     assert_ne!(code, 0);
     assert!(err.contains("runs: krauss-0.9 has SUMO drivers"), "{err}");
 }
+
+/// A plot that shows one axis of two averages over the other too, and says so: a mean pooled
+/// over `description`'s two values is not "a mean over seeds".
+#[test]
+fn a_plot_names_every_axis_it_pools() {
+    let dir = tmpdir("sweep-pooled");
+    let sc = uniform_ring(&dir, 0.5);
+    let spec = write_spec(
+        &dir,
+        &format!(
+            r#"{{"base": "{}", "axes": [
+                {{"field": "scale.gain", "values": [0.5, 1.0]}},
+                {{"field": "description", "values": ["first", "second"]}}],
+                "metrics": ["sync.final_spread_mps"]}}"#,
+            sc.display()
+        ),
+    );
+    let out = dir.join("out");
+    let (code, o, err) = run(bin().arg("sweep").arg(&spec).arg("--out").arg(&out));
+    assert_eq!(code, 0, "{o}\n{err}");
+    let captions: Vec<String> = std::fs::read_dir(out.join("plots"))
+        .unwrap()
+        .filter_map(|e| {
+            let p = e.ok()?.path();
+            (p.extension()? == "svg").then(|| std::fs::read_to_string(p).unwrap())
+        })
+        .collect();
+    assert!(!captions.is_empty(), "no plot drawn");
+    assert!(
+        captions
+            .iter()
+            .all(|svg| svg.contains("over seeds and description (2 values)")),
+        "every plot names the pooled axis"
+    );
+}

@@ -14,6 +14,7 @@ use syncroad_control::{DelayedDriverLaw, Graph};
 
 use crate::error::InputError;
 use crate::error::Status;
+use crate::progress::Progress;
 use crate::stdout::outln;
 
 struct Ring {
@@ -95,6 +96,9 @@ pub fn run(horizon_s: f64, sizes: &[usize]) -> anyhow::Result<Status> {
         "vehicle-steps/s",
         "max |v − v_ref| [m/s]"
     );
+    // One line on stderr per ring size (a bar on a terminal): the reference runs at Δt/16 take
+    // most of the time.
+    let progress = Progress::new("bench", sizes.len() as u64);
     for &n in sizes {
         let r = ring(n);
         let _ = timed(&r, dt, horizon_s.min(1.0)); // warm caches
@@ -107,6 +111,8 @@ pub fn run(horizon_s: f64, sizes: &[usize]) -> anyhow::Result<Status> {
             .map(|(a, b)| (a - b).abs())
             .fold(0.0, f64::max);
         outln!("{n:>7} {secs:>14.4} {rate:>18.3e} {err:>22.3e}");
+        progress.finished(&format!("N = {n}"), None);
     }
+    progress.done();
     Ok(Status::Success)
 }

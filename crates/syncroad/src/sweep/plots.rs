@@ -128,6 +128,23 @@ const PALETTE: [RGBColor; 8] = [
     RGBColor(127, 127, 127),
 ];
 
+/// What one plotted value averages over: the seeds, and every axis with several values that
+/// the plot does not show (`shown`), named so that a pooled mean is never called a mean over
+/// seeds.
+fn pooled_over(sweep: &Sweep, shown: &[&str]) -> String {
+    let others: Vec<String> = sweep
+        .axes
+        .iter()
+        .filter(|a| a.values.len() > 1 && !shown.contains(&a.field.as_str()))
+        .map(|a| format!("{} ({} values)", a.field, a.values.len()))
+        .collect();
+    if others.is_empty() {
+        "seeds".into()
+    } else {
+        format!("seeds and {}", others.join(", "))
+    }
+}
+
 /// Each metric against one axis: mean over seeds with 95 % interval bars, a line per run.
 fn line_plots(sweep: &Sweep, table: &Table, x: &str, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
     let mut files = Vec::new();
@@ -172,7 +189,11 @@ fn line_plots(sweep: &Sweep, table: &Table, x: &str, dir: &Path) -> anyhow::Resu
             1.0,
             0.0..1.0,
         ));
-        let title = format!("{} (mean, 95 % interval over seeds)", label(&metric));
+        let title = format!(
+            "{} (mean, 95 % interval over {})",
+            label(&metric),
+            pooled_over(sweep, &[x])
+        );
         let stem = file_stem(&metric);
         let drawn: anyhow::Result<Vec<PathBuf>> = render_both!(dir, stem, (1000, 650), |root| {
             let mut chart = ChartBuilder::on(root)
@@ -311,8 +332,9 @@ fn grid_plots(
                 format!("heat-{}-{}", file_stem(&metric), file_stem(run))
             };
             let title = format!(
-                "{} ({run}; mean over seeds {} … {}{})",
+                "{} ({run}; mean over {} {} … {}{})",
                 label(&metric),
+                pooled_over(sweep, &[names.0, names.1]),
                 fmt(lo),
                 fmt(hi),
                 if verdict { "; grey: no verdict" } else { "" }
