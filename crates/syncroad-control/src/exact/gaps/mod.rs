@@ -575,7 +575,7 @@ fn response_sup(
                 own_min = (gap, i, t);
             }
         }
-        if tick % 50 == 0 {
+        if tick.is_multiple_of(50) {
             let scale = |k: usize| if k % c == units { own_scale } else { 1.0 };
             let speed = (0..n * c)
                 .map(|k| (fine.v[k] - final_speed[k % c]).abs() / scale(k))

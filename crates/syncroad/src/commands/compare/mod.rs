@@ -65,8 +65,8 @@ pub struct Plan {
     pub road: Road,
 }
 
-/// Parses and checks every option before anything runs.
-pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
+/// The `--baselines` runs: the law, dampers (on a ring) and SUMO drivers, each once.
+fn baseline_runs(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Vec<RunSpec>> {
     let bad = |m: String| anyhow::Error::new(InputError::new(m));
     let n = sc.vehicles();
     let default = if sc.is_ring() {
@@ -92,6 +92,15 @@ pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
         }
         runs.push(spec);
     }
+    Ok(runs)
+}
+
+/// The `--mixed` runs (K automated vehicles of each `--mixed-controller` among
+/// `--mixed-driver` humans; the all-human ring once) with their names and counts.
+fn mixed_runs(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<MixedRuns> {
+    let bad = |m: String| anyhow::Error::new(InputError::new(m));
+    let n = sc.vehicles();
+    let mut runs: Vec<RunSpec> = Vec::new();
     let mut mixed = Vec::new();
     let mut mixed_runs = Vec::new();
     if let Some(m) = &a.mixed {
@@ -153,6 +162,18 @@ pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
             }
         }
     }
+    Ok((runs, mixed_runs))
+}
+
+/// Mixed runs and, for each, its name and count of automated vehicles.
+type MixedRuns = (Vec<RunSpec>, Vec<(String, usize)>);
+
+/// Parses and checks every option before anything runs.
+pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
+    let bad = |m: String| anyhow::Error::new(InputError::new(m));
+    let mut runs = baseline_runs(sc, a)?;
+    let (mixed, mixed_runs) = mixed_runs(sc, a)?;
+    runs.extend(mixed);
     if runs.is_empty() {
         return Err(bad(
             "--baselines is empty: name at least one run (e.g. protocol,krauss) or give --mixed"
