@@ -3,23 +3,21 @@
 //! are what `timeout`, CI cancellation and `docker stop` send; left at their default they
 //! would kill the parent and lose the run.
 //!
-//! The handler only stores two atomics (async-signal-safe); the signal's number is kept for
-//! the exit code (`128 + signal`, as a shell reports a process killed by it).
+//! The handlers are `signal-hook`'s: each signal stores its number (for the exit code,
+//! `128 + signal`, as a shell reports a process killed by it) and sets the flag; both are
+//! atomics, so the handlers are async-signal-safe.
 
-use std::sync::atomic::{AtomicBool, AtomicI32, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, OnceLock};
 
 /// The signals treated as "stop and keep what was computed".
 pub const HANDLED: [i32; 3] = [libc::SIGINT, libc::SIGTERM, libc::SIGHUP];
 
 static FLAG: OnceLock<Arc<AtomicBool>> = OnceLock::new();
-static RECEIVED: AtomicI32 = AtomicI32::new(0);
+static RECEIVED: OnceLock<Arc<AtomicUsize>> = OnceLock::new();
 
-extern "C" fn on_signal(sig: libc::c_int) {
-    RECEIVED.store(sig, Ordering::SeqCst);
-    if let Some(f) = FLAG.get() {
-        f.store(true, Ordering::SeqCst);
-    }
+fn received_cell() -> &'static Arc<AtomicUsize> {
+    RECEIVED.get_or_init(|| Arc::new(AtomicUsize::new(0)))
 }
 
 /// The process-wide stop flag; installs the handlers for [`HANDLED`] on first use.
@@ -31,20 +29,11 @@ pub fn interrupt_flag() -> Result<Arc<AtomicBool>, String> {
     INSTALLED
         .get_or_init(|| {
             for sig in HANDLED {
-                // SAFETY: a zeroed sigaction with a handler that only stores atomics.
-                let ok = unsafe {
-                    let mut sa: libc::sigaction = std::mem::zeroed();
-                    sa.sa_sigaction = on_signal as extern "C" fn(libc::c_int) as usize;
-                    sa.sa_flags = libc::SA_RESTART;
-                    libc::sigemptyset(&mut sa.sa_mask);
-                    libc::sigaction(sig, &sa, std::ptr::null_mut()) == 0
-                };
-                if !ok {
-                    return Err(format!(
-                        "cannot handle signal {sig}: {}",
-                        std::io::Error::last_os_error()
-                    ));
-                }
+                let cannot = |e: std::io::Error| format!("cannot handle signal {sig}: {e}");
+                // The number first, then the flag: whoever sees the flag finds the number.
+                signal_hook::flag::register_usize(sig, received_cell().clone(), sig as usize)
+                    .map_err(cannot)?;
+                signal_hook::flag::register(sig, flag.clone()).map_err(cannot)?;
             }
             Ok(())
         })
@@ -54,7 +43,8 @@ pub fn interrupt_flag() -> Result<Arc<AtomicBool>, String> {
 
 /// The last handled signal received, if any.
 pub fn received() -> Option<i32> {
-    Some(RECEIVED.load(Ordering::SeqCst)).filter(|&s| s != 0)
+    let s = received_cell().load(Ordering::SeqCst);
+    (s != 0).then_some(s as i32)
 }
 
 /// The received signal's name for messages (`Ctrl-C` for SIGINT).
