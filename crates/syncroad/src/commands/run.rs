@@ -59,6 +59,46 @@ fn report_files(dir: &Path, written: anyhow::Result<usize>, complete: bool) -> a
     Ok(())
 }
 
+/// The summary of a finished run on stdout: the synchronization table, then the congestion
+/// metrics of a native run or what SUMO reported of a SUMO run.
+fn print_summary(sc: &Scenario, f: &Finished) {
+    let backend = if f.output.sumo.is_some() {
+        "sumo"
+    } else {
+        "native"
+    };
+    out!(
+        "{}",
+        report::metrics_table(
+            sc,
+            backend,
+            &f.outcome.sync,
+            f.output.stop.message().as_deref(),
+            f.record.certified,
+            f.record.law_controlled_vehicles,
+        )
+    );
+    let Some(facts) = &f.output.sumo else {
+        match &f.outcome.congestion {
+            Ok(c) => out!("{}", report::congestion_lines(c)),
+            Err(e) => outln!("  congestion metrics skipped: {e}"),
+        }
+        return;
+    };
+    if let (Some(v), Some(l)) = (&facts.sumo_version, &facts.libsumo) {
+        outln!(
+            "  SUMO: {v} (libsumo {l}), ring/road length {:.4} m",
+            facts.road_length_m
+        );
+    }
+    if let Some(t) = &facts.safety {
+        outln!(
+            "  SUMO safety: {} collision steps, {} teleports, {} overridden commands (max {:.3e} m/s), {} negative commands sent as 0",
+            t.collision_steps, t.teleports, t.overridden_commands, facts.max_override_mps, t.negative_commands_clamped
+        );
+    }
+}
+
 fn verdict_status(f: &Finished) -> Status {
     Status::verdict(f.outcome.sync.verdict == Verdict::Synchronized)
 }
@@ -82,21 +122,7 @@ fn run_native(sc: &Scenario, out: &OutputArgs) -> anyhow::Result<Status> {
         &cfg.out,
         cfg.plots.then(|| format!("{} (native)", sc.name())),
     );
-    out!(
-        "{}",
-        report::metrics_table(
-            sc,
-            "native",
-            &f.outcome.sync,
-            f.output.stop.message().as_deref(),
-            f.record.certified,
-            f.record.law_controlled_vehicles,
-        )
-    );
-    match &f.outcome.congestion {
-        Ok(c) => out!("{}", report::congestion_lines(c)),
-        Err(e) => outln!("  congestion metrics skipped: {e}"),
-    }
+    print_summary(sc, &f);
     report_files(&cfg.out, written, complete)?;
     if matches!(f.output.stop, StopReason::Interrupted { .. }) {
         eprintln!("error: {}", f.output.stop.message().unwrap_or_default());
@@ -184,31 +210,7 @@ fn run_sumo(sc: &Scenario, out: &OutputArgs, args: &SumoArgs) -> anyhow::Result<
     let complete = f.output.stop.is_complete();
     let title = (cfg.plots && complete).then(|| format!("{} (SUMO)", sc.name()));
     let written = f.write(&cfg.out, title);
-    out!(
-        "{}",
-        report::metrics_table(
-            sc,
-            "sumo",
-            &f.outcome.sync,
-            f.output.stop.message().as_deref(),
-            f.record.certified,
-            f.record.law_controlled_vehicles,
-        )
-    );
-    if let Some(facts) = &f.output.sumo {
-        if let (Some(v), Some(l)) = (&facts.sumo_version, &facts.libsumo) {
-            outln!(
-                "  SUMO: {v} (libsumo {l}), ring/road length {:.4} m",
-                facts.road_length_m
-            );
-        }
-        if let Some(t) = &facts.safety {
-            outln!(
-                "  SUMO safety: {} collision steps, {} teleports, {} overridden commands (max {:.3e} m/s), {} negative commands sent as 0",
-                t.collision_steps, t.teleports, t.overridden_commands, facts.max_override_mps, t.negative_commands_clamped
-            );
-        }
-    }
+    print_summary(sc, &f);
     report_files(&cfg.out, written, complete)?;
     if run.interrupted {
         eprintln!("error: {}", f.output.stop.message().unwrap_or_default());
