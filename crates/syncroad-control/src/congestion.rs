@@ -140,6 +140,13 @@ pub enum CongestionError {
         /// The last sample time [s].
         horizon_s: f64,
     },
+    /// One sample after the warm-up: no spread over time, no stop, no wave can be measured
+    /// from it (a recording stride as long as the run).
+    #[error("only one sample after the warm-up of {warmup_s} s: the congestion metrics need at least two; record more often (a smaller --record-every or record_every)")]
+    OneSample {
+        /// The warm-up [s].
+        warmup_s: f64,
+    },
 }
 
 /// Computes the congestion metrics; `ring_length_m` enables the wave speed.
@@ -155,6 +162,9 @@ pub fn congestion_metrics(
             warmup_s,
             horizon_s,
         });
+    }
+    if first + 1 == traj.len() {
+        return Err(CongestionError::OneSample { warmup_s });
     }
     let n = traj.n;
     let ks = first..traj.len();

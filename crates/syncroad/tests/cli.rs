@@ -351,3 +351,97 @@ fn stability_certifies_the_clustered_ring_without_the_bisection() {
         "{out}"
     );
 }
+
+/// `scenarios/ring-theorem1.json` (native) with `edit` applied, written as `name` into `dir`.
+fn native_variant(
+    dir: &std::path::Path,
+    name: &str,
+    edit: impl FnOnce(&mut serde_json::Value),
+) -> std::path::PathBuf {
+    let text = std::fs::read_to_string(repo().join("scenarios/ring-theorem1.json")).unwrap();
+    let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    edit(&mut v);
+    let p = dir.join(name);
+    std::fs::write(&p, serde_json::to_string_pretty(&v).unwrap()).unwrap();
+    p
+}
+
+/// What the native simulator cannot do is refused, not silently left out: a scenario's mixed
+/// block (it once ran every vehicle with the law and said "synchronized"), a SUMO-only flag,
+/// and a fleet too large to allocate; and `check` does not certify a mixed ring.
+#[test]
+fn what_a_native_run_cannot_do_is_refused_up_front() {
+    let d = tmpdir("native-refusals");
+    let mixed = native_variant(&d, "mixed.json", |v| {
+        v["horizon_s"] = 20.into();
+        v["mixed"] = serde_json::json!({"penetration": 1.0, "controller": "follower-stopper-0"});
+    });
+    let (code, out, err) = run(bin()
+        .arg("simulate")
+        .arg(&mixed)
+        .arg("--out")
+        .arg(d.join("o1")));
+    assert_eq!(code, 2, "{out}{err}");
+    assert!(err.contains("mixed block"), "{err}");
+    assert!(!d.join("o1/metrics.json").exists());
+    let (code, _, err) = run(bin().arg("check").arg(&mixed));
+    assert_eq!(code, 1, "a mixed ring is not certified: {err}");
+    assert!(err.contains("do not certify this scenario"), "{err}");
+    let plain = native_variant(&d, "plain.json", |v| v["horizon_s"] = 20.into());
+    let (code, _, err) = run(bin()
+        .arg("run")
+        .arg(&plain)
+        .args(["--krauss-sigma", "0.5", "--out"])
+        .arg(d.join("o2")));
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--krauss-sigma: a SUMO option"), "{err}");
+    let huge = native_variant(&d, "huge.json", |v| {
+        v["vehicles"] = 100_000_000u64.into();
+        v["model"]["delay_s"] = 0.5.into();
+    });
+    let (code, _, err) = run(bin()
+        .arg("simulate")
+        .arg(&huge)
+        .arg("--out")
+        .arg(d.join("o3")));
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("vehicles = 100000000: at most 1000000"),
+        "{err}"
+    );
+}
+
+/// A second run into a folder removes the first run's plots (they would stand beside another
+/// run's record), a folder where a plot goes is refused before the run, and a recording
+/// stride as long as the run leaves the congestion metrics out instead of making them up.
+#[test]
+fn a_run_folder_holds_one_run_and_coarse_recording_reports_no_congestion() {
+    let d = tmpdir("one-run-folder");
+    let sc = native_variant(&d, "s.json", |_| {});
+    let out = d.join("out");
+    let (code, _, err) = run(bin().arg("simulate").arg(&sc).arg("--out").arg(&out));
+    assert_eq!(code, 0, "{err}");
+    assert!(out.join("time_space.png").is_file());
+    let (code, _, err) = run(bin()
+        .arg("simulate")
+        .arg(&sc)
+        .args(["--no-plots", "--record-every", "100000", "--out"])
+        .arg(&out));
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        !out.join("time_space.png").exists(),
+        "the first run's plot was left behind"
+    );
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
+    assert!(m["congestion"].is_null(), "{}", m["congestion"]);
+    assert_eq!(
+        m["sync"]["verdict"], "synchronized",
+        "the spread is kept at every step"
+    );
+    let blocked = d.join("blocked");
+    std::fs::create_dir_all(blocked.join("spread.png")).unwrap();
+    let (code, _, err) = run(bin().arg("simulate").arg(&sc).arg("--out").arg(&blocked));
+    assert_eq!(code, 2, "{err}");
+    assert!(!blocked.join("metrics.json").exists());
+}

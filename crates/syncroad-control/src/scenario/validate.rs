@@ -40,6 +40,9 @@ fn non_finite_literal(text: &str, line: usize, column: usize) -> Option<Scenario
     ))
 }
 
+/// The most vehicles a scenario may have.
+pub const MAX_VEHICLES: usize = 1_000_000;
+
 impl ScenarioFile {
     /// Parses JSON text; `origin` names the source in error messages.
     pub fn from_json(text: &str, origin: &str) -> Result<Self, ScenarioError> {
@@ -55,12 +58,22 @@ impl ScenarioFile {
     }
 
     /// Validates and resolves the scenario; `base_dir` resolves relative paths.
+    ///
+    /// At most [`MAX_VEHICLES`] vehicles.
     pub fn validate(self, base_dir: &Path) -> Result<Scenario, ScenarioError> {
         let n = self.vehicles.count();
-        let entries = self.vehicles.entries();
         if n == 0 {
             return Err(invalid("vehicles", 0, "must be ≥ 1"));
         }
+        if n > MAX_VEHICLES {
+            // 10⁸ vehicles once aborted allocating gigabytes for the graph and the histories.
+            return Err(invalid(
+                "vehicles",
+                n,
+                "at most 1000000 (the graph, the delay histories and the samples grow with it)",
+            ));
+        }
+        let entries = self.vehicles.entries();
         if !(self.step_s.is_finite() && self.step_s > 0.0 && self.step_s <= 1.0) {
             return Err(invalid(
                 "step_s",
@@ -311,14 +324,18 @@ impl ScenarioFile {
 
     /// Stable hash of the file as written: FNV-1a over its canonical JSON.
     fn hash_hex(&self) -> String {
-        let json = serde_json::to_string(self).expect("a scenario always serializes");
-        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-        for b in json.bytes() {
-            h ^= u64::from(b);
-            h = h.wrapping_mul(0x0100_0000_01b3);
-        }
-        format!("{h:016x}")
+        fnv1a_hex(&serde_json::to_string(self).expect("a scenario always serializes"))
     }
+}
+
+/// FNV-1a of `text`, as 16 hex digits.
+fn fnv1a_hex(text: &str) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in text.bytes() {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    format!("{h:016x}")
 }
 
 impl Scenario {
@@ -395,8 +412,13 @@ impl Scenario {
                 ))
             }
         }
+        // Another model is another scenario: its hash covers the file's and the new model, so
+        // two gain-scaled copies never share one.
+        let model_json = serde_json::to_string(&model).expect("a model always serializes");
+        let hash_hex = fnv1a_hex(&format!("{}{model_json}", self.hash_hex));
         Ok(Scenario {
             model,
+            hash_hex,
             ..self.clone()
         })
     }

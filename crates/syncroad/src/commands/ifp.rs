@@ -7,6 +7,15 @@ use crate::stdout::outln;
 pub fn run(eta: &[f64], rho: &[f64], json: bool) -> anyhow::Result<Status> {
     let r = syncroad_control::ifp::ifp_index(eta, rho)
         .map_err(|e| InputError::caused("--eta/--rho", e))?;
+    if !r.alpha.is_finite() {
+        // Coefficients this far apart overflow the frequency response: no index was found,
+        // and none is reported as if it had been.
+        return Err(InputError::new(format!(
+            "--eta {eta:?} --rho {rho:?}: the frequency response overflows (index {}); scale the coefficients to comparable magnitudes",
+            r.alpha
+        ))
+        .into());
+    }
     if json {
         outln!("{}", serde_json::to_string_pretty(&r)?);
     } else {

@@ -26,7 +26,10 @@ pub fn run(path: &Path, out: &OutputArgs, sumo: &SumoArgs) -> anyhow::Result<Sta
     let sc = load_scenario(path)?;
     match sc.backend() {
         Backend::Sumo => run_sumo(&sc, out, sumo),
-        Backend::Native => run_native(&sc, out),
+        Backend::Native => {
+            refuse_sumo_flags(sumo)?;
+            run_native(&sc, out)
+        }
     }
 }
 
@@ -37,11 +40,42 @@ pub fn simulate(path: &Path, out: &OutputArgs) -> anyhow::Result<Status> {
 
 /// Checks `--out` and clears the record and rows an earlier run left there.
 fn prepare_out(dir: &Path) -> anyhow::Result<()> {
-    output::prepare_dir(
-        "--out",
-        dir,
-        &[output::METRICS_FILE, output::TRAJECTORY_FILE],
-    )
+    // The plots too: a folder where one goes is refused before the run, and an earlier run's
+    // plots never stand beside this run's record.
+    let mut files = vec![output::METRICS_FILE, output::TRAJECTORY_FILE];
+    files.extend(crate::plots::RUN_PLOT_FILES);
+    output::prepare_dir("--out", dir, &files)
+}
+
+/// The SUMO options mean nothing to the native simulator: a scenario on the native backend
+/// that names one is refused rather than run as if it had not.
+fn refuse_sumo_flags(a: &SumoArgs) -> anyhow::Result<()> {
+    let given = [
+        (a.krauss_sigma.is_some(), "--krauss-sigma"),
+        (a.euler, "--euler"),
+        (a.subscriptions, "--subscriptions"),
+        (a.timeout_s.is_some(), "--timeout-s"),
+    ];
+    match given.iter().find(|(on, _)| *on) {
+        Some((_, flag)) => Err(InputError::new(format!(
+            "{flag}: a SUMO option, but the scenario's backend is \"native\"; set \"backend\": \"sumo\" in the scenario or drop {flag}"
+        ))
+        .into()),
+        None => Ok(()),
+    }
+}
+
+/// The native simulator drives every vehicle with the law: a scenario whose `mixed` block
+/// puts other drivers among them is refused, not run without them.
+fn refuse_mixed_native(sc: &Scenario) -> anyhow::Result<()> {
+    match sc.mixed() {
+        Some(_) => Err(InputError::new(format!(
+            "scenario {}: its mixed block puts other drivers among the law's vehicles, which the native simulator does not run from a scenario; run it on SUMO (\"backend\": \"sumo\", `syncroad run`), or as a native sweep with penetrations",
+            sc.name()
+        ))
+        .into()),
+        None => Ok(()),
+    }
 }
 
 /// After the summary is printed: the files written, or why they could not be.
@@ -104,6 +138,7 @@ fn verdict_status(f: &Finished) -> Status {
 }
 
 fn run_native(sc: &Scenario, out: &OutputArgs) -> anyhow::Result<Status> {
+    refuse_mixed_native(sc)?;
     let cfg = RunConfig::new(sc, out)?;
     prepare_out(&cfg.out)?;
     // Ctrl-C, SIGTERM and SIGHUP stop the loop; the steps so far are written, as on SUMO.
@@ -201,8 +236,11 @@ fn run_sumo(sc: &Scenario, out: &OutputArgs, args: &SumoArgs) -> anyhow::Result<
             run.output.stop.message().unwrap_or_default()
         );
     }
+    // The run's name says who drove: the law, SUMO's Krauss, or the scenario's mixed ring.
     let name = if args.krauss_sigma.is_some() {
         "sumo_krauss"
+    } else if sc.mixed().is_some() {
+        "mixed"
     } else {
         "law"
     };

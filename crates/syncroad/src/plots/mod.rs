@@ -71,6 +71,16 @@ macro_rules! render_both {
 }
 pub(crate) use render_both;
 
+/// The files [`RunPlots::write_all`] writes into a run's folder.
+pub const RUN_PLOT_FILES: [&str; 6] = [
+    "time_space.png",
+    "time_space.svg",
+    "speeds.png",
+    "speeds.svg",
+    "spread.png",
+    "spread.svg",
+];
+
 /// The drawings of one run.
 pub struct RunPlots<'a> {
     /// The trajectory.

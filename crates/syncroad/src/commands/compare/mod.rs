@@ -383,12 +383,10 @@ pub fn compare_into(
 ) -> anyhow::Result<(Value, Vec<RunResult>)> {
     // Every folder is checked, and an earlier comparison's files cleared, before any run.
     output::prepare_dir("--out", out, &["compare.json"])?;
+    let mut files = vec![output::METRICS_FILE, output::TRAJECTORY_FILE];
+    files.extend(crate::plots::RUN_PLOT_FILES);
     for spec in &plan.runs {
-        output::prepare_dir(
-            "--out",
-            &out.join(spec.folder()),
-            &[output::METRICS_FILE, output::TRAJECTORY_FILE],
-        )?;
+        output::prepare_dir("--out", &out.join(spec.folder()), &files)?;
     }
     let results = run_all(sc, plan, out, interrupt)?;
     if plan.plots {
