@@ -230,7 +230,8 @@ fn a_replacement_model_must_fit_the_scenario() {
     let Model::DelayedDriver(m) = s.model() else {
         panic!("delayed-driver scenario")
     };
-    // Doubled delays on the grid are accepted and change nothing else.
+    // Doubled delays on the grid are accepted and change nothing else but the hash: another
+    // model is another scenario, and records and sweep rows must not mistake one for the other.
     let mut doubled = m.clone();
     for (d, k) in doubled
         .delay_s
@@ -242,7 +243,14 @@ fn a_replacement_model_must_fit_the_scenario() {
     }
     let t = s.with_model(Model::DelayedDriver(doubled.clone())).unwrap();
     assert_eq!(t.initial_speed_mps(), s.initial_speed_mps());
-    assert_eq!(t.hash_hex(), s.hash_hex());
+    assert_ne!(t.hash_hex(), s.hash_hex());
+    assert_eq!(
+        s.with_model(Model::DelayedDriver(doubled.clone()))
+            .unwrap()
+            .hash_hex(),
+        t.hash_hex(),
+        "the same replacement gives the same hash"
+    );
     let Model::DelayedDriver(tm) = t.model() else {
         panic!("delayed-driver scenario")
     };

@@ -66,10 +66,21 @@ pub enum AnalysisError {
     /// The platoon-scaling study failed.
     #[error("platoon scaling")]
     PlatoonScaling(#[source] PlatoonScalingError),
+    /// Every gain × delay of the network is so small that its characteristic roots lie within
+    /// round-off of the origin (gains of 1e-200 once made the search run without end).
+    #[error("the largest gain × delay of the network (model.graph, model.delay_s) is {gain_delay:e}: its characteristic roots lie within round-off of s = 0, where no root count can be trusted; exact analysis needs a largest gain × delay of at least {MIN_GAIN_DELAY:e}; at such gains the paper's conditions decide (`syncroad check`)")]
+    BelowResolution {
+        /// `max_i α_i Σ_j a_ij`.
+        gain_delay: f64,
+    },
     /// Platoon scaling was asked for a model that is not a CACC platoon.
     #[error("platoon scaling needs a CACC platoon (model.type = \"cacc\")")]
     PlatoonScalingNeedsCacc,
 }
+
+/// The smallest largest gain × delay the exact analysis takes: below it the roots sit within
+/// round-off of the origin (they scale with the gains).
+pub const MIN_GAIN_DELAY: f64 = 1e-15;
 
 /// The exact verdict.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -229,6 +240,16 @@ pub fn analyse(sc: &Scenario) -> Result<StabilityReport, AnalysisError> {
     let paper = theory::report(sc);
     match sc.model() {
         Model::DelayedDriver(m) => {
+            let leader = m.leader.as_ref().map(|(_, b)| b.as_slice());
+            let gain_delay = (0..m.graph.len())
+                .map(|i| {
+                    let b = leader.map_or(0.0, |b| b[i]);
+                    m.delay_s[i] * (m.graph.in_degree(i) + b)
+                })
+                .fold(0.0, f64::max);
+            if gain_delay > 0.0 && gain_delay < MIN_GAIN_DELAY {
+                return Err(AnalysisError::BelowResolution { gain_delay });
+            }
             let ring = match uniform_ring(sc, m) {
                 Some(r) => Some(r.modes().map_err(AnalysisError::Ring)?),
                 None => None,

@@ -14,6 +14,10 @@ use crate::stdout::{out, outln};
 pub fn run(path: &Path, json: bool, platoon_scaling: bool) -> anyhow::Result<Status> {
     let sc = load_scenario(path)?;
     let r = analysis::analyse(&sc).map_err(|e| match e {
+        AnalysisError::BelowResolution { .. } => anyhow::Error::new(InputError::caused(
+            format!("scenario {}", path.display()),
+            e,
+        )),
         AnalysisError::TooLargeForFullSolve { .. } => {
             anyhow::Error::new(e).context(InputError::new(format!("scenario {}", path.display())))
         }
