@@ -21,6 +21,7 @@ use crate::actuation::AccelLimits;
 use crate::flow_dampers::{FlowFollowerStopper, FlowPiSaturation};
 use crate::follower_stopper::{FollowerStopper, FollowerStopperError, FollowerStopperParams};
 use crate::pi_saturation::{PiSaturation, PiSaturationError, PiSaturationParams};
+use crate::road::RingView;
 use crate::speed_controller::SpeedController;
 
 /// Which damper, with the parameters a user chooses (the rest are the field experiment's).
@@ -174,10 +175,7 @@ enum Fleet {
 /// A damper driving every vehicle of a ring (a mixed ring sends only some of its commands).
 pub struct DamperController {
     fleet: Fleet,
-    ring_length_m: f64,
-    length_m: Vec<f64>,
-    gaps_m: Vec<f64>,
-    leader_speeds_mps: Vec<f64>,
+    view: RingView,
 }
 
 impl DamperController {
@@ -223,62 +221,29 @@ impl DamperController {
         setup.spec.validate(field)?;
         Ok(Self {
             fleet,
-            ring_length_m: setup.ring_length_m,
-            length_m: setup.length_m.clone(),
-            gaps_m: vec![0.0; n],
-            leader_speeds_mps: vec![0.0; n],
+            view: RingView::new(setup.ring_length_m, &setup.length_m),
         })
-    }
-
-    fn observe(&mut self, speeds: &[f64], positions: &[f64]) {
-        ring_view(
-            speeds,
-            positions,
-            self.ring_length_m,
-            &self.length_m,
-            &mut self.gaps_m,
-            &mut self.leader_speeds_mps,
-        );
-    }
-}
-
-/// What each vehicle of a ring sees: the gap (the road's gap rule, [`crate::road::gaps`]:
-/// vehicle 0 follows vehicle N−1 one lap ahead) and the leader's speed `v_{i−1}`.
-pub(crate) fn ring_view(
-    speeds: &[f64],
-    positions: &[f64],
-    ring_length_m: f64,
-    length_m: &[f64],
-    gaps_m: &mut [f64],
-    leader_speeds_mps: &mut [f64],
-) {
-    let n = speeds.len();
-    let ring = Some(ring_length_m);
-    crate::road::gaps(positions, length_m, None, ring, gaps_m);
-    for i in 0..n {
-        let (j, _) = crate::road::ahead(i, n, ring).expect("a ring has a vehicle ahead");
-        leader_speeds_mps[i] = speeds[j];
     }
 }
 
 impl SpeedController for DamperController {
     fn step(&mut self, _t: f64, speeds: &[f64], positions: &[f64], out: &mut [f64]) {
-        self.observe(speeds, positions);
+        self.view.observe(speeds, positions);
         // The slices have the fleet's length by construction; a mismatch is a bug in the
         // caller, reported as NaN commands, which the loop stops on before they reach SUMO.
         let ok = match &mut self.fleet {
             Fleet::FollowerStopper(f) => f
-                .step(speeds, &self.gaps_m, &self.leader_speeds_mps, out)
+                .step(speeds, &self.view.gaps_m, &self.view.leader_speeds_mps, out)
                 .is_ok(),
             Fleet::PiSaturation(p) => p
-                .step(speeds, &self.gaps_m, &self.leader_speeds_mps, out)
+                .step(speeds, &self.view.gaps_m, &self.view.leader_speeds_mps, out)
                 .is_ok(),
             Fleet::FlowFollowerStopper(f) => {
-                f.step(speeds, &self.gaps_m, &self.leader_speeds_mps, out);
+                f.step(speeds, &self.view.gaps_m, &self.view.leader_speeds_mps, out);
                 true
             }
             Fleet::FlowPiSaturation(p) => {
-                p.step(speeds, &self.gaps_m, &self.leader_speeds_mps, out);
+                p.step(speeds, &self.view.gaps_m, &self.view.leader_speeds_mps, out);
                 true
             }
         };
@@ -354,8 +319,8 @@ mod tests {
         let v = [5.0, 5.0, 5.0];
         let mut out = [0.0; 3];
         c.step(0.0, &v, &q, &mut out);
-        assert_eq!(c.gaps_m, [45.0, 15.0, 25.0]);
-        assert_eq!(c.leader_speeds_mps, [5.0, 5.0, 5.0]);
+        assert_eq!(c.view.gaps_m, [45.0, 15.0, 25.0]);
+        assert_eq!(c.view.leader_speeds_mps, [5.0, 5.0, 5.0]);
         // Every gap is beyond Δx_3 = 6 m with Δv = 0: command U = 8, reached in one step.
         assert_eq!(out, [8.0, 8.0, 8.0]);
         // Vehicle 1 closer: gap 5.625 m (q = 60 − 5 − 5.625 = 49.375) lies in the third band

@@ -34,8 +34,8 @@ use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
-use crate::damper::ring_view;
 use crate::rng::SplitMix64;
+use crate::road::RingView;
 use crate::speed_controller::SpeedController;
 
 /// Parameters of the IDM (Flow's `IDMController` names in the docs).
@@ -354,11 +354,8 @@ pub struct HumanController {
     inner: Box<dyn SpeedController>,
     drivers: Vec<Option<NoisyIdm>>,
     noise: Vec<Gaussian>,
-    ring_length_m: f64,
-    length_m: Vec<f64>,
     dt_s: f64,
-    gaps_m: Vec<f64>,
-    leader_speeds_mps: Vec<f64>,
+    view: RingView,
 }
 
 impl HumanController {
@@ -371,11 +368,8 @@ impl HumanController {
             noise: (0..n)
                 .map(|i| Gaussian::new(vehicle_seed(setup.seed, i)))
                 .collect(),
-            ring_length_m: setup.ring_length_m,
-            length_m: setup.length_m.clone(),
             dt_s,
-            gaps_m: vec![0.0; n],
-            leader_speeds_mps: vec![0.0; n],
+            view: RingView::new(setup.ring_length_m, &setup.length_m),
         }
     }
 }
@@ -383,21 +377,14 @@ impl HumanController {
 impl SpeedController for HumanController {
     fn step(&mut self, t: f64, speeds: &[f64], positions: &[f64], out: &mut [f64]) {
         self.inner.step(t, speeds, positions, out);
-        ring_view(
-            speeds,
-            positions,
-            self.ring_length_m,
-            &self.length_m,
-            &mut self.gaps_m,
-            &mut self.leader_speeds_mps,
-        );
+        self.view.observe(speeds, positions);
         for (i, d) in self.drivers.iter().enumerate() {
             if let Some(d) = d {
                 let xi = self.noise[i].sample();
                 out[i] = d.next_speed_mps(
                     speeds[i],
-                    self.leader_speeds_mps[i],
-                    self.gaps_m[i],
+                    self.view.leader_speeds_mps[i],
+                    self.view.gaps_m[i],
                     self.dt_s,
                     xi,
                 );

@@ -70,6 +70,43 @@ pub fn gaps(
     }
 }
 
+/// What each vehicle of a ring sees, kept between steps by the controllers that drive on
+/// one (wave dampers, stochastic humans): the gap to the vehicle ahead by [`gaps`] (vehicle 0
+/// follows vehicle N−1 one lap ahead) and that vehicle's speed.
+#[derive(Debug, Clone)]
+pub struct RingView {
+    ring_length_m: f64,
+    length_m: Vec<f64>,
+    /// Bumper-to-bumper gap of each vehicle \[m\].
+    pub gaps_m: Vec<f64>,
+    /// Speed of the vehicle each one follows \[m/s\].
+    pub leader_speeds_mps: Vec<f64>,
+}
+
+impl RingView {
+    /// The view of vehicles `length_m` long on a ring of `ring_length_m`.
+    pub fn new(ring_length_m: f64, length_m: &[f64]) -> Self {
+        let n = length_m.len();
+        Self {
+            ring_length_m,
+            length_m: length_m.to_vec(),
+            gaps_m: vec![0.0; n],
+            leader_speeds_mps: vec![0.0; n],
+        }
+    }
+
+    /// Updates the gaps and leader speeds from this step's speeds and unwrapped positions.
+    pub fn observe(&mut self, speeds: &[f64], positions: &[f64]) {
+        let n = speeds.len();
+        let ring = Some(self.ring_length_m);
+        gaps(positions, &self.length_m, None, ring, &mut self.gaps_m);
+        for i in 0..n {
+            let (j, _) = ahead(i, n, ring).expect("a ring has a vehicle ahead");
+            self.leader_speeds_mps[i] = speeds[j];
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

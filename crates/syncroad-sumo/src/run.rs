@@ -319,38 +319,7 @@ fn prepare_with(
     };
     let mut layout = layout;
     let (drivers, damper) = drivers_of(scenario, opts)?;
-    if !drivers.is_empty() {
-        let k0 = usize::from(layout.leader_vehicle);
-        if drivers.len() != layout.vehicles.len() - k0 {
-            return Err(PrepareError::Drivers {
-                expected: layout.vehicles.len() - k0,
-                got: drivers.len(),
-            });
-        }
-        for (i, (dep, d)) in layout.vehicles[k0..].iter_mut().zip(&drivers).enumerate() {
-            if let Some(&preset_m) = d
-                .as_ref()
-                .and_then(|d| d.car_following().params.get("length").copied())
-                .as_ref()
-            {
-                if preset_m != dep.length_m {
-                    return Err(PrepareError::DriverLength {
-                        driver: d.as_ref().map(|d| d.to_string()).unwrap_or_default(),
-                        vehicle: i,
-                        preset_m,
-                        length_m: dep.length_m,
-                    });
-                }
-            }
-            if let Some(d) = d {
-                // Every value was checked when the driver was named; the step only now.
-                d.car_following()
-                    .validate(&format!("driver {d} of vehicle {i}"), scenario.step_s())
-                    .map_err(PrepareError::CarFollowing)?;
-            }
-            dep.driver = d.clone();
-        }
-    }
+    assign_drivers(&mut layout, &drivers, scenario.step_s())?;
     // Stochastic humans are commanded by the bridge: SUMO sees law-driven vehicles.
     let mut humans: Vec<Option<NoisyIdm>> = vec![None; layout.vehicles.len()];
     for (h, dep) in humans.iter_mut().zip(layout.vehicles.iter_mut()) {
@@ -384,45 +353,7 @@ fn prepare_with(
     };
     let measure = match &opts.measure {
         None => None,
-        Some(m) => {
-            if !(m.warmup_s.is_finite() && m.warmup_s >= 0.0 && m.warmup_s < scenario.horizon_s()) {
-                return Err(PrepareError::Measure {
-                    field: "--warmup-s",
-                    value: m.warmup_s.to_string(),
-                    expected: "must be ≥ 0 and shorter than the horizon",
-                });
-            }
-            if m.emission_every == 0 {
-                return Err(PrepareError::Measure {
-                    field: "--emission-every",
-                    value: "0".into(),
-                    expected: "must be ≥ 1 (1 = read fuel and CO2 every step)",
-                });
-            }
-            if write {
-                std::fs::create_dir_all(&opts.work_dir).map_err(|e| io(&opts.work_dir, e))?;
-            }
-            let detector_file = match loop_position(&layout.road) {
-                Some(_) if !write => None,
-                Some((lane, pos, _)) => {
-                    let f = opts.work_dir.join("detectors.add.xml");
-                    // SUMO resolves `file` relative to the additional file itself.
-                    let text = format!(
-                        "<additional>\n    <inductionLoop id=\"loop0\" lane=\"{lane}\" pos=\"{pos}\" period=\"86400\" file=\"e1.xml\"/>\n</additional>\n"
-                    );
-                    std::fs::write(&f, text).map_err(|e| io(&f, e))?;
-                    Some(f)
-                }
-                None => None,
-            };
-            Some(Measure {
-                warmup_steps: (m.warmup_s / scenario.step_s() + 1e-9).floor() as usize,
-                emission_every: m.emission_every,
-                detector_file,
-                tripinfo_file: m.tripinfo.then(|| opts.work_dir.join("tripinfo.xml")),
-                ssm_file: m.ssm.then(|| opts.work_dir.join("ssm.xml")),
-            })
-        }
+        Some(m) => Some(measure_of(m, scenario, opts, &layout, write)?),
     };
     let routes_file = if write {
         layout
@@ -470,6 +401,101 @@ fn prepare_with(
         read: opts.read,
         odometer_every: ODOMETER_EVERY,
         interleave_block: 0,
+    })
+}
+
+/// Puts each SUMO driver of `drivers` (one per scenario vehicle; empty: the law everywhere)
+/// on its vehicle of `layout`, checking lengths and the step-dependent values.
+fn assign_drivers(
+    layout: &mut Layout,
+    drivers: &[Option<SumoDriver>],
+    step_s: f64,
+) -> Result<(), PrepareError> {
+    if drivers.is_empty() {
+        return Ok(());
+    }
+    let k0 = usize::from(layout.leader_vehicle);
+    if drivers.len() != layout.vehicles.len() - k0 {
+        return Err(PrepareError::Drivers {
+            expected: layout.vehicles.len() - k0,
+            got: drivers.len(),
+        });
+    }
+    for (i, (dep, d)) in layout.vehicles[k0..].iter_mut().zip(drivers).enumerate() {
+        if let Some(&preset_m) = d
+            .as_ref()
+            .and_then(|d| d.car_following().params.get("length").copied())
+            .as_ref()
+        {
+            if preset_m != dep.length_m {
+                return Err(PrepareError::DriverLength {
+                    driver: d.as_ref().map(|d| d.to_string()).unwrap_or_default(),
+                    vehicle: i,
+                    preset_m,
+                    length_m: dep.length_m,
+                });
+            }
+        }
+        if let Some(d) = d {
+            // Every value was checked when the driver was named; the step only now.
+            d.car_following()
+                .validate(&format!("driver {d} of vehicle {i}"), step_s)
+                .map_err(PrepareError::CarFollowing)?;
+        }
+        dep.driver = d.clone();
+    }
+    Ok(())
+}
+
+/// The SUMO-side measurements of `m`: checked, with the induction loop's file written into
+/// the work folder when `write`.
+fn measure_of(
+    m: &MeasureOptions,
+    scenario: &Scenario,
+    opts: &RunOptions,
+    layout: &Layout,
+    write: bool,
+) -> Result<Measure, PrepareError> {
+    let io = |path: &Path, e: std::io::Error| PrepareError::Io {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    };
+    if !(m.warmup_s.is_finite() && m.warmup_s >= 0.0 && m.warmup_s < scenario.horizon_s()) {
+        return Err(PrepareError::Measure {
+            field: "--warmup-s",
+            value: m.warmup_s.to_string(),
+            expected: "must be ≥ 0 and shorter than the horizon",
+        });
+    }
+    if m.emission_every == 0 {
+        return Err(PrepareError::Measure {
+            field: "--emission-every",
+            value: "0".into(),
+            expected: "must be ≥ 1 (1 = read fuel and CO2 every step)",
+        });
+    }
+    if write {
+        std::fs::create_dir_all(&opts.work_dir).map_err(|e| io(&opts.work_dir, e))?;
+    }
+    let detector_file = match loop_position(&layout.road) {
+        Some(_) if !write => None,
+        Some((lane, pos, _)) => {
+            let f = opts.work_dir.join("detectors.add.xml");
+            // SUMO resolves `file` relative to the additional file itself.
+            let text = format!(
+                        "<additional>\n    <inductionLoop id=\"loop0\" lane=\"{lane}\" pos=\"{pos}\" period=\"86400\" file=\"e1.xml\"/>\n</additional>\n"
+                    );
+            std::fs::write(&f, text).map_err(|e| io(&f, e))?;
+            Some(f)
+        }
+        None => None,
+    };
+    Ok(Measure {
+        warmup_steps: (m.warmup_s / scenario.step_s() + 1e-9).floor() as usize,
+        emission_every: m.emission_every,
+        detector_file,
+        tripinfo_file: m.tripinfo.then(|| opts.work_dir.join("tripinfo.xml")),
+        ssm_file: m.ssm.then(|| opts.work_dir.join("ssm.xml")),
     })
 }
 

@@ -8,7 +8,7 @@ use std::fs::File;
 use std::os::unix::fs::{symlink, FileTypeExt};
 use std::path::{Path, PathBuf};
 
-use common::{bin, repo, run, tmpdir};
+use common::{bin, children_of, repo, run, tmpdir};
 use serde_json::{json, Value};
 
 fn write_json(path: &Path, v: &Value) -> PathBuf {
@@ -371,27 +371,6 @@ mod sweeps {
             "{e}"
         );
     }
-}
-
-/// The pids whose parent is `parent` (from /proc).
-fn children_of(parent: u32) -> Vec<i32> {
-    let mut out = Vec::new();
-    for e in std::fs::read_dir("/proc").unwrap().flatten() {
-        let Ok(pid) = e.file_name().to_string_lossy().parse::<i32>() else {
-            continue;
-        };
-        let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else {
-            continue;
-        };
-        let ppid = stat
-            .rsplit_once(')')
-            .and_then(|(_, rest)| rest.split_whitespace().nth(1))
-            .and_then(|p| p.parse::<u32>().ok());
-        if ppid == Some(parent) {
-            out.push(pid);
-        }
-    }
-    out
 }
 
 #[test]

@@ -334,28 +334,6 @@ fn a_scenario_read_from_stdin_resolves_paths_from_the_current_folder() {
     assert!(stdout.contains("verdict: synchronized"), "{stdout}");
 }
 
-/// The process ids of `parent`'s children (from /proc).
-fn children_of(parent: u32) -> Vec<i32> {
-    let mut out = Vec::new();
-    for e in std::fs::read_dir("/proc").unwrap().flatten() {
-        let Ok(pid) = e.file_name().to_string_lossy().parse::<i32>() else {
-            continue;
-        };
-        let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else {
-            continue;
-        };
-        // pid (comm) state ppid ...: comm may hold spaces, so split after its ')'.
-        let ppid = stat
-            .rsplit_once(')')
-            .and_then(|(_, rest)| rest.split_whitespace().nth(1))
-            .and_then(|p| p.parse::<u32>().ok());
-        if ppid == Some(parent) {
-            out.push(pid);
-        }
-    }
-    out
-}
-
 /// Fault injection through the CLI: the SUMO worker of a `syncroad run` is killed part-way
 /// (SIGKILL, SIGABRT, SIGSEGV twice). The run exits 3 and its folder is consistent: a
 /// `metrics.json` saying incomplete with the signal in its error and a verdict other than

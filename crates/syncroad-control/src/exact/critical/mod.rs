@@ -300,11 +300,7 @@ pub fn critical_scale_from(
     let mut bracket: Option<(f64, f64)> = None;
     let mut bracket_roots: Option<RootsReport> = None;
     for _ in 0..4 {
-        let tracked: Vec<(Complex64, usize)> = start_roots
-            .roots
-            .iter()
-            .map(|r| (Complex64::from(r.root), r.multiplicity))
-            .collect();
+        let tracked = tracked_roots(&start_roots);
         let increasing = tracked.iter().all(|t| t.0.re < 0.0);
         let ls = &l * start;
         let x = continuation(&ls, delays_s, &tracked).map(|mut x| {
@@ -348,32 +344,8 @@ pub fn critical_scale_from(
     // roots that crossed (no further solve).
     if found.is_none() {
         if let (Some(b), Some(r)) = (bracket, &bracket_roots) {
-            let roots: Vec<(Complex64, usize)> = r
-                .roots
-                .iter()
-                .map(|r| (Complex64::from(r.root), r.multiplicity))
-                .collect();
-            let unstable = |c: f64| unstable_at(&l, delays_s, c);
-            if let Some(x) = counted_crossing(&l, delays_s, b, &roots, unstable) {
-                if let Some(c) = certify_crossing(&l, delays_s, &x) {
-                    if c.certified {
-                        return Ok(CriticalReport::of_crossing(
-                            adjacency,
-                            delays_s,
-                            &l,
-                            Crossing {
-                                scale: x.scale,
-                                root: x.root,
-                                multiplicity: x.multiplicity,
-                                bracket: x.bracket,
-                                bracket_abscissae: x.bracket_re,
-                                full_solves,
-                                method: CriticalMethod::CountedBracket,
-                                certificate: Some(c),
-                            },
-                        ));
-                    }
-                }
+            if let Some(report) = counted_bracket(adjacency, delays_s, &l, b, r, full_solves) {
+                return Ok(report);
             }
         }
     }
@@ -382,21 +354,57 @@ pub fn critical_scale_from(
         r.full_solves += full_solves - 1;
         return Ok(r);
     };
+    let crossing = found_crossing(x, full_solves, CriticalMethod::Continuation, certificate);
     Ok(CriticalReport::of_crossing(
-        adjacency,
-        delays_s,
-        &l,
-        Crossing {
-            scale: x.scale,
-            root: x.root,
-            multiplicity: x.multiplicity,
-            bracket: x.bracket,
-            bracket_abscissae: x.bracket_re,
-            full_solves,
-            method: CriticalMethod::Continuation,
-            certificate: Some(certificate),
-        },
+        adjacency, delays_s, &l, crossing,
     ))
+}
+
+/// The crossing inside the counted bracket `b` (roots `r` at its top), narrowed by root
+/// counts and followed down; `None` when it cannot be certified.
+fn counted_bracket(
+    adjacency: &DMatrix<f64>,
+    delays_s: &[f64],
+    l: &DMatrix<f64>,
+    b: (f64, f64),
+    r: &RootsReport,
+    full_solves: usize,
+) -> Option<CriticalReport> {
+    let roots = tracked_roots(r);
+    let unstable = |c: f64| unstable_at(l, delays_s, c);
+    let x = counted_crossing(l, delays_s, b, &roots, unstable)?;
+    let c = certify_crossing(l, delays_s, &x).filter(|c| c.certified)?;
+    let crossing = found_crossing(x, full_solves, CriticalMethod::CountedBracket, c);
+    Some(CriticalReport::of_crossing(
+        adjacency, delays_s, l, crossing,
+    ))
+}
+
+/// The roots of a solve as the searches follow them: value and multiplicity.
+fn tracked_roots(r: &RootsReport) -> Vec<(Complex64, usize)> {
+    r.roots
+        .iter()
+        .map(|r| (Complex64::from(r.root), r.multiplicity))
+        .collect()
+}
+
+/// A crossing a search found, with its certificate, as the report's [`Crossing`].
+fn found_crossing(
+    x: continuation::Crossing,
+    full_solves: usize,
+    method: CriticalMethod,
+    certificate: CrossingCertificate,
+) -> Crossing {
+    Crossing {
+        scale: x.scale,
+        root: x.root,
+        multiplicity: x.multiplicity,
+        bracket: x.bracket,
+        bracket_abscissae: x.bracket_re,
+        full_solves,
+        method,
+        certificate: Some(certificate),
+    }
 }
 
 /// The first crossing as a search found it: everything else in a [`CriticalReport`] follows.
