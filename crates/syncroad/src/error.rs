@@ -55,3 +55,46 @@ impl Status {
         }
     }
 }
+
+/// An error and its causes on one line, `outer: cause: cause`, like `{:#}`, except that a cause
+/// whose text the line already ends with is not repeated (library errors that print their
+/// source in their own message, as `thiserror`'s `{0}` with `#[from]` does).
+pub fn describe(err: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in err.chain() {
+        let text = cause.to_string();
+        if line.ends_with(&text) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&text);
+    }
+    line
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(Debug, thiserror::Error)]
+    #[error("inner fault")]
+    struct Inner;
+
+    #[derive(Debug, thiserror::Error)]
+    #[error("outer: {0}")]
+    struct Outer(#[from] Inner);
+
+    #[test]
+    fn a_cause_is_printed_once() {
+        let e = anyhow::Error::new(Outer(Inner)).context("scenario x.json");
+        assert_eq!(
+            format!("{e:#}"),
+            "scenario x.json: outer: inner fault: inner fault"
+        );
+        assert_eq!(describe(&e), "scenario x.json: outer: inner fault");
+        let plain = anyhow::Error::new(Inner).context("a").context("b");
+        assert_eq!(describe(&plain), "b: a: inner fault");
+    }
+}

@@ -37,7 +37,7 @@ fn main() -> ExitCode {
     let cli = cli::Cli::parse();
     let result = commands::run(cli);
     if let Err(err) = &result {
-        eprintln!("error: {err:#}");
+        eprintln!("error: {}", error::describe(err));
     }
     exit_codes::of(&result)
 }

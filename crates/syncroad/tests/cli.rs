@@ -445,3 +445,60 @@ fn a_run_folder_holds_one_run_and_coarse_recording_reports_no_congestion() {
     assert_eq!(code, 2, "{err}");
     assert!(!blocked.join("metrics.json").exists());
 }
+
+/// The Sugiyama ring run natively with every gain multiplied by `scale`.
+fn sugiyama_scaled(dir: &std::path::Path, scale: f64) -> std::path::PathBuf {
+    let text = std::fs::read_to_string(repo().join("scenarios/sugiyama-ring.json")).unwrap();
+    let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    v["backend"] = "native".into();
+    v.as_object_mut().unwrap().remove("sumo");
+    for k in ["gain_pred", "gain_follow"] {
+        let g = v["model"]["graph"][k].as_f64().unwrap();
+        v["model"]["graph"][k] = (g * scale).into();
+    }
+    let path = dir.join(format!("sugiyama-x{scale:e}.json"));
+    std::fs::write(&path, v.to_string()).unwrap();
+    path
+}
+
+#[test]
+fn exact_analysis_refuses_gains_below_its_resolution_and_map_leaves_them_blank() {
+    let dir = tmpdir("tiny-gains");
+    // Largest gain × delay (0.6 + 0.1) · 1e-11 · 0.7 = 4.9e-12: the root-count certificate used
+    // to fail there on a spurious root (exit 3); it is below the documented limit 1e-8.
+    let (code, out, err) = run(bin().arg("stability").arg(sugiyama_scaled(&dir, 1e-11)));
+    assert_eq!(code, 2, "{out}{err}");
+    assert!(err.contains("model.graph"), "{err}");
+    assert!(err.contains("is 4.900e-12"), "{err}");
+    assert!(err.contains("at least 1e-8"), "{err}");
+    // The same cause is not printed twice.
+    assert_eq!(
+        err.matches("within the root searches' tolerances").count(),
+        1,
+        "{err}"
+    );
+
+    // A map whose gain axis reaches 1e-300 used to run without end. Theorem 1 certifies both
+    // columns (α d⁺ ≤ 0.49 · 1e-6); the exact verdict is blank at 1e-300 and, at 1e-6, agrees
+    // with the theorem.
+    let (code, out, err) = run(bin()
+        .args([
+            "map",
+            "--x",
+            "gain_scale=1e-300:1e-6:2",
+            "--y",
+            "delay_scale=0.5:1:2",
+        ])
+        .args(["--no-sim", "--out"])
+        .arg(dir.join("map"))
+        .arg(sugiyama_scaled(&dir, 1.0)));
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(out.contains("2 without an exact verdict"), "{out}");
+    let csv = std::fs::read_to_string(dir.join("map/map.csv")).unwrap();
+    for line in csv.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        assert_eq!(f[2], "true", "{line}");
+        let x: f64 = f[0].parse().unwrap();
+        assert_eq!(f[4], if x < 1e-100 { "" } else { "true" }, "{line}");
+    }
+}

@@ -67,8 +67,9 @@ pub enum AnalysisError {
     #[error("platoon scaling")]
     PlatoonScaling(#[source] PlatoonScalingError),
     /// Every gain × delay of the network is so small that its characteristic roots lie within
-    /// round-off of the origin (gains of 1e-200 once made the search run without end).
-    #[error("the largest gain × delay of the network (model.graph, model.delay_s) is {gain_delay:e}: its characteristic roots lie within round-off of s = 0, where no root count can be trusted; exact analysis needs a largest gain × delay of at least {MIN_GAIN_DELAY:e}; at such gains the paper's conditions decide (`syncroad check`)")]
+    /// the searches' tolerances of the origin (gains of 1e-200 once made the search run without
+    /// end; gains near 1e-11 made the root-count certificate fail on a spurious root).
+    #[error("the largest gain × delay of the network (model.graph, model.delay_s) is {gain_delay:.3e}: its characteristic roots lie within the root searches' tolerances of s = 0, where no root count can be trusted; exact analysis needs a largest gain × delay of at least {MIN_GAIN_DELAY:e}; at such gains the paper's conditions decide (`syncroad check`)")]
     BelowResolution {
         /// `max_i α_i Σ_j a_ij`.
         gain_delay: f64,
@@ -78,9 +79,32 @@ pub enum AnalysisError {
     PlatoonScalingNeedsCacc,
 }
 
-/// The smallest largest gain × delay the exact analysis takes: below it the roots sit within
-/// round-off of the origin (they scale with the gains).
-pub const MIN_GAIN_DELAY: f64 = 1e-15;
+/// The smallest largest gain × delay the exact analysis takes. The roots scale with the gains,
+/// and the root counts and searches work to absolute tolerances near 1e-11 /s: on the
+/// heterogeneous 50-vehicle rings the root-count certificate failed from 1e-10 down (a
+/// spurious root on the contour) while 1e-9 was still right, so the limit keeps a factor 100.
+/// At 1e-8 the slowest mode's time constant is about three years.
+pub const MIN_GAIN_DELAY: f64 = 1e-8;
+
+/// `max_i α_i (Σ_j a_ij + b_i)`: the largest gain × delay of a delayed-driver network, the
+/// scale of its characteristic roots.
+pub fn max_gain_delay(m: &DelayedDriverModel) -> f64 {
+    let leader = m.leader.as_ref().map(|(_, b)| b.as_slice());
+    (0..m.graph.len())
+        .map(|i| {
+            let b = leader.map_or(0.0, |b| b[i]);
+            m.delay_s[i] * (m.graph.in_degree(i) + b)
+        })
+        .fold(0.0, f64::max)
+}
+
+/// True when the network's roots lie within round-off of the origin (positive largest gain ×
+/// delay below [`MIN_GAIN_DELAY`]): no root search or count can be trusted there, and the
+/// searches would run without end.
+pub fn below_resolution(m: &DelayedDriverModel) -> bool {
+    let g = max_gain_delay(m);
+    g > 0.0 && g < MIN_GAIN_DELAY
+}
 
 /// The exact verdict.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -240,14 +264,8 @@ pub fn analyse(sc: &Scenario) -> Result<StabilityReport, AnalysisError> {
     let paper = theory::report(sc);
     match sc.model() {
         Model::DelayedDriver(m) => {
-            let leader = m.leader.as_ref().map(|(_, b)| b.as_slice());
-            let gain_delay = (0..m.graph.len())
-                .map(|i| {
-                    let b = leader.map_or(0.0, |b| b[i]);
-                    m.delay_s[i] * (m.graph.in_degree(i) + b)
-                })
-                .fold(0.0, f64::max);
-            if gain_delay > 0.0 && gain_delay < MIN_GAIN_DELAY {
+            let gain_delay = max_gain_delay(m);
+            if below_resolution(m) {
                 return Err(AnalysisError::BelowResolution { gain_delay });
             }
             let ring = match uniform_ring(sc, m) {

@@ -10,7 +10,9 @@ use anyhow::Context;
 use plotters::prelude::*;
 use rayon::prelude::*;
 use serde::Serialize;
-use syncroad_control::exact::analysis::{network_matrices, uniform_ring, FULL_SOLVE_LIMIT};
+use syncroad_control::exact::analysis::{
+    below_resolution, network_matrices, uniform_ring, FULL_SOLVE_LIMIT, MIN_GAIN_DELAY,
+};
 use syncroad_control::exact::{self, Boundaries, CollocationOptions, UniformRing};
 use syncroad_control::scenario::{DelayedDriverModel, Model};
 use syncroad_control::{theory, Scenario, Verdict};
@@ -161,13 +163,18 @@ fn evaluate_point(
 }
 
 /// Spectral abscissa of the delayed-driver network (roots other than the consensus root):
-/// the Fourier fast path for uniform rings, the full solve otherwise.
+/// the Fourier fast path for uniform rings, the full solve otherwise. None where it cannot be
+/// computed, including a point whose gain × delay is below the exact analysis' resolution
+/// (its roots lie within the searches' tolerances of the origin): the map leaves such a point blank.
 fn exact_abscissa(
     m: &DelayedDriverModel,
     ring: Option<UniformRing>,
     gain: f64,
     delay: f64,
 ) -> Option<f64> {
+    if below_resolution(m) {
+        return None;
+    }
     if let Some(r) = ring {
         let scaled = UniformRing::new(
             r.vehicles,
@@ -533,9 +540,15 @@ pub fn run(
         .iter()
         .filter(|p| p.certified && p.exact_stable == Some(false))
         .count();
+    let unknown = pts.iter().filter(|p| p.exact_stable.is_none()).count();
     outln!(
-        "{} grid points: {certified} certified by Theorem 1, {stable} exactly stable{}",
+        "{} grid points: {certified} certified by Theorem 1, {stable} exactly stable{}{}",
         pts.len(),
+        if unknown > 0 {
+            format!(", {unknown} without an exact verdict (blank: the roots could not be computed, or gain × delay is below {MIN_GAIN_DELAY:e}, where they lie within the root searches' tolerances of s = 0)")
+        } else {
+            String::new()
+        },
         if contradictions > 0 {
             format!(", {contradictions} CERTIFIED BUT UNSTABLE (please report)")
         } else {

@@ -376,9 +376,9 @@ pub fn run(
                 stopped.fetch_add(1, Ordering::SeqCst);
                 return;
             }
-            let end = shared
-                .run_point(p)
-                .unwrap_or_else(|e| PointEnd::Row(failed_row(sweep, p, &format!("{e:#}"))));
+            let end = shared.run_point(p).unwrap_or_else(|e| {
+                PointEnd::Row(failed_row(sweep, p, &crate::error::describe(&e)))
+            });
             let row = match end {
                 PointEnd::Interrupted => {
                     stopped.fetch_add(1, Ordering::SeqCst);

@@ -308,7 +308,7 @@ pub fn run_all(
                 };
                 let r = r.unwrap_or_else(|e| RunResult {
                     name: spec.name.clone(),
-                    record: Err(format!("{e:#}")),
+                    record: Err(crate::error::describe(&e)),
                     spread: Spread::default(),
                 });
                 progress.finished(&spec.name, r.error());
