@@ -15,6 +15,7 @@ mod config;
 mod error;
 mod exit_codes;
 mod gaps;
+mod lock;
 mod output;
 mod pipeline;
 mod plots;

@@ -13,6 +13,8 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use syncroad_control::{RunRecord, Trajectory};
 
+use crate::lock::FolderLock;
+
 use crate::error::InputError;
 
 /// The record of a run folder, written last.
@@ -20,11 +22,13 @@ pub const METRICS_FILE: &str = "metrics.json";
 /// The samples of a run folder.
 pub const TRAJECTORY_FILE: &str = "trajectories.csv";
 
-/// Checks the output folder `dir` (given as `flag`) before any work starts and clears the files
-/// this run will write (`files`, removed in order: list the record first), so a failed run
-/// never leaves an earlier run's record beside its own rows. Refuses an existing file as the
-/// folder and a folder where a file goes, and checks the folder is writable.
-pub fn prepare_dir(flag: &str, dir: &Path, files: &[&str]) -> anyhow::Result<()> {
+/// Checks the output folder `dir` (given as `flag`) before any work starts, takes its lock
+/// ([`crate::lock::hold`]: a second syncroad writing the same folder is refused, naming the
+/// first) and clears the files this run will write (`files`, removed in order: list the record
+/// first), so a failed run never leaves an earlier run's record beside its own rows. Refuses an
+/// existing file as the folder and a folder where a file goes, and checks the folder is
+/// writable. Hold the returned lock until the last file is written.
+pub fn prepare_dir(flag: &str, dir: &Path, files: &[&str]) -> anyhow::Result<FolderLock> {
     if dir.exists() && !dir.is_dir() {
         return Err(InputError::new(format!(
             "{flag} = {}: is an existing file, not a folder; name a folder (it is created if missing)",
@@ -38,6 +42,7 @@ pub fn prepare_dir(flag: &str, dir: &Path, files: &[&str]) -> anyhow::Result<()>
             dir.display()
         )
     })?;
+    let held = crate::lock::hold(flag, dir)?;
     for name in files {
         let path = dir.join(name);
         let Ok(meta) = std::fs::symlink_metadata(&path) else {
@@ -72,7 +77,7 @@ pub fn prepare_dir(flag: &str, dir: &Path, files: &[&str]) -> anyhow::Result<()>
         )
     })?;
     let _ = std::fs::remove_file(&probe);
-    Ok(())
+    Ok(held)
 }
 
 fn temp_name(path: &Path) -> PathBuf {

@@ -288,6 +288,63 @@ mod sweeps {
     }
 
     #[test]
+    fn run_simulate_compare_and_map_refuse_a_folder_another_syncroad_writes() {
+        let dir = tmpdir("run-lock");
+        let ring = native_ring(&dir);
+        let out = dir.join("out");
+        std::fs::create_dir_all(&out).unwrap();
+        // The other writer's record, and its lock held by this test process.
+        std::fs::write(out.join("metrics.json"), "{\"theirs\": true}\n").unwrap();
+        let held = File::create(out.join(".syncroad.lock")).unwrap();
+        held.try_lock().unwrap();
+        std::fs::write(
+            out.join(".syncroad.lock"),
+            format!("{}\nsyncroad run other.json\n", std::process::id()),
+        )
+        .unwrap();
+        // compare needs a SUMO scenario: it is refused before SUMO starts.
+        let sumo = repo().join("scenarios/sugiyama-ring.json");
+        let commands: [(&[&str], &Path); 4] = [
+            (&["run"], &ring),
+            (&["simulate"], &ring),
+            (&["compare", "--baselines", "idm"], &sumo),
+            (
+                &[
+                    "map",
+                    "--no-sim",
+                    "--x",
+                    "gain_scale=0.5:1:2",
+                    "--y",
+                    "delay_scale=0.5:1:2",
+                ],
+                &ring,
+            ),
+        ];
+        for (args, scenario) in commands {
+            let (code, o, e) = run(bin().args(args).arg(scenario).arg("--out").arg(&out));
+            assert_eq!(code, 2, "{args:?}: {o}{e}");
+            assert!(
+                e.contains(&format!(
+                    "another syncroad is writing this folder (pid {}: syncroad run other.json)",
+                    std::process::id()
+                )),
+                "{args:?}: {e}"
+            );
+            assert_eq!(
+                std::fs::read_to_string(out.join("metrics.json")).unwrap(),
+                "{\"theirs\": true}\n",
+                "{args:?} touched the other writer's record"
+            );
+        }
+        drop(held);
+        let (code, o, e) = run(bin().arg("simulate").arg(&ring).arg("--out").arg(&out));
+        assert_eq!(code, 0, "{o}{e}");
+        assert!(!std::fs::read_to_string(out.join("metrics.json"))
+            .unwrap()
+            .contains("theirs"));
+    }
+
+    #[test]
     fn every_point_is_checked_as_it_will_run_before_anything_runs() {
         let dir = tmpdir("validate-all");
         native_ring(&dir);

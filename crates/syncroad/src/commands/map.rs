@@ -223,8 +223,8 @@ fn simulate_grid(
     });
     let sweep = Sweep::new(spec, Path::new("."), "map".into())?;
     let dir = out.join("sweep");
-    // One map at a time writes into `out`; it owns `out/sweep` and starts it afresh.
-    let _lock = crate::sweep::lock::hold("--out", out)?;
+    // The caller holds `out`'s lock (one map at a time writes there); the map owns
+    // `out/sweep` and starts it afresh.
     if dir.exists() {
         std::fs::remove_dir_all(&dir)
             .with_context(|| format!("cannot remove the previous {}", dir.display()))?;
@@ -499,7 +499,7 @@ pub fn run(
     let xa = Axis::parse("--x", x)?;
     let ya = Axis::parse("--y", y)?;
     let jobs = config::jobs(jobs)?;
-    crate::output::prepare_dir("--out", out, &["map.csv"])?;
+    let _lock = crate::output::prepare_dir("--out", out, &["map.csv"])?;
     let mut pts = theory_grid(&sc, xa, ya, jobs)?;
     if !no_sim {
         for (p, v) in pts

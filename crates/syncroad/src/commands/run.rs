@@ -17,6 +17,7 @@ use syncroad_sumo::{interrupt_flag, load_road, ReadMode, RunOptions, SumoDriver,
 use crate::cli::{OutputArgs, SumoArgs};
 use crate::config::{self, load_scenario, RunConfig};
 use crate::error::{InputError, Status};
+use crate::lock::FolderLock;
 use crate::pipeline::{self, Finished};
 use crate::stdout::{out, outln};
 use crate::{output, report};
@@ -38,8 +39,8 @@ pub fn simulate(path: &Path, out: &OutputArgs) -> anyhow::Result<Status> {
     run_native(&load_scenario(path)?, out)
 }
 
-/// Checks `--out` and clears the record and rows an earlier run left there.
-fn prepare_out(dir: &Path) -> anyhow::Result<()> {
+/// Checks and locks `--out` and clears the record and rows an earlier run left there.
+fn prepare_out(dir: &Path) -> anyhow::Result<FolderLock> {
     // The plots too: a folder where one goes is refused before the run, and an earlier run's
     // plots never stand beside this run's record.
     let mut files = vec![output::METRICS_FILE, output::TRAJECTORY_FILE];
@@ -140,7 +141,7 @@ fn verdict_status(f: &Finished) -> Status {
 fn run_native(sc: &Scenario, out: &OutputArgs) -> anyhow::Result<Status> {
     refuse_mixed_native(sc)?;
     let cfg = RunConfig::new(sc, out)?;
-    prepare_out(&cfg.out)?;
+    let _lock = prepare_out(&cfg.out)?;
     // Ctrl-C, SIGTERM and SIGHUP stop the loop; the steps so far are written, as on SUMO.
     let stop = interrupt_flag()?;
     let progress = StepProgress::new(sc.step_s());
@@ -215,7 +216,7 @@ fn run_sumo(sc: &Scenario, out: &OutputArgs, args: &SumoArgs) -> anyhow::Result<
         }
     };
     let road = load_road(sc).map_err(|e| InputError::caused("before starting SUMO", e))?;
-    prepare_out(&cfg.out)?;
+    let _lock = prepare_out(&cfg.out)?;
     let worker = WorkerCommand::current_exe().context("cannot locate the syncroad executable")?;
     let mut opts = RunOptions::new(cfg.out.join("sumo"), worker);
     opts.record_every = cfg.record_every;

@@ -22,13 +22,13 @@ use syncroad_control::scenario::Backend;
 use syncroad_control::{EvalOptions, NativeOptions, Scenario, StopReason};
 use syncroad_sumo::{load_road, MeasureOptions, Road, RunOptions, WorkerCommand, WorkerPool};
 
-use super::lock::{self, FolderLock};
 use super::points::{Point, Shard};
 use super::rows::{point_cells, read_rows, row_path, rows_dir};
 use super::spec::Sweep;
 use super::table::{at_path, metric_kinds, Column, Kind, Table};
 use crate::config;
 use crate::error::InputError;
+use crate::lock::{self, FolderLock};
 use crate::output::write_text;
 use crate::pipeline::{self, Finished};
 use crate::progress::Progress;

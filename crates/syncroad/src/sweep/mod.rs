@@ -6,14 +6,13 @@
 //! [`spec`] (the file), [`points`] (their count, seeds and shards), [`checks`] (every point
 //! validated before anything runs), [`exec`]
 //! (running, resuming, sharding), [`rows`] (a folder's rows, each checked to be the sweep's),
-//! [`lock`] (one writer per folder), [`table`]
+//! [`table`]
 //! (typed columns, Parquet and CSV), [`stats`] (mean and interval over seeds), [`plots`]
 //! and [`slurm`] (a job array that runs the shards).
 
 pub mod axis;
 pub mod checks;
 pub mod exec;
-pub mod lock;
 pub mod plots;
 pub mod points;
 pub mod rows;

@@ -382,11 +382,16 @@ pub fn compare_into(
     interrupt: Arc<AtomicBool>,
 ) -> anyhow::Result<(Value, Vec<RunResult>)> {
     // Every folder is checked, and an earlier comparison's files cleared, before any run.
-    output::prepare_dir("--out", out, &["compare.json"])?;
+    // The locks are held until the last file is written.
+    let mut locks = vec![output::prepare_dir("--out", out, &["compare.json"])?];
     let mut files = vec![output::METRICS_FILE, output::TRAJECTORY_FILE];
     files.extend(crate::plots::RUN_PLOT_FILES);
     for spec in &plan.runs {
-        output::prepare_dir("--out", &out.join(spec.folder()), &files)?;
+        locks.push(output::prepare_dir(
+            "--out",
+            &out.join(spec.folder()),
+            &files,
+        )?);
     }
     let results = run_all(sc, plan, out, interrupt)?;
     if plan.plots {
@@ -408,6 +413,7 @@ pub fn compare_into(
         .map(|r| (r.name.clone(), json!(r.folder())))
         .collect::<serde_json::Map<_, _>>());
     write_json(&out.join("compare.json"), &doc)?;
+    drop(locks);
     Ok((doc, results))
 }
 

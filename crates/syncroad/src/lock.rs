@@ -1,5 +1,5 @@
 //! One writer per output folder: an advisory lock (`flock`, through std's `File::try_lock`)
-//! on `DIR/.syncroad.lock`, held while a sweep, a collect or a map writes into `DIR`.
+//! on `DIR/.syncroad.lock`, held while a command writes into `DIR` (run, simulate, compare, map, sweep, collect).
 //!
 //! The kernel releases the lock when the holding process ends, however it ends (a normal
 //! exit, an error, Ctrl-C, SIGKILL), so a stale lock file never blocks anyone; the file keeps
