@@ -18,11 +18,13 @@ fn simulate(out: &Path) -> Command {
     c
 }
 
-/// Files in `dir`, sorted.
+/// Files in `dir`, sorted, without the folder's lock file (`.syncroad.lock`, kept: removing a
+/// lock file on release would let two writers hold two different files).
 fn listing(dir: &Path) -> Vec<String> {
     let mut v: Vec<String> = std::fs::read_dir(dir)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|name| name != ".syncroad.lock")
         .collect();
     v.sort();
     v
