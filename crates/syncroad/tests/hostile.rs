@@ -639,6 +639,23 @@ mod shell {
         bash("sweep.sbatch", "1");
         bash("collect.sbatch", "");
         bash("submit.sh", "");
+        // The printed hint, typed as printed, submits too (its path is quoted).
+        let hint = o
+            .lines()
+            .find_map(|l| l.strip_prefix("submit with: "))
+            .expect("a submit hint");
+        let typed = std::process::Command::new("bash")
+            .arg("-c")
+            .arg(hint)
+            .current_dir(&dir)
+            .env("SBATCH_LOG", dir.join("sbatch.log"))
+            .env(
+                "PATH",
+                format!("{}:{}", fake.display(), std::env::var("PATH").unwrap()),
+            )
+            .output()
+            .unwrap();
+        assert!(typed.status.success(), "{hint}: {typed:?}");
         let merged = out.join("merged/results.csv");
         assert_eq!(std::fs::read_to_string(&merged).unwrap().lines().count(), 3);
         let log = std::fs::read_to_string(dir.join("sbatch.log")).unwrap();
@@ -672,6 +689,53 @@ mod shell {
             format!("syncroad-{HOSTILE}")
         );
         assert!(text.contains("#SBATCH --partition='short queue'"), "{text}");
+    }
+
+    #[test]
+    fn emitting_never_replaces_a_script_syncroad_did_not_write() {
+        let dir = tmpdir("slurm-foreign");
+        std::fs::copy(
+            repo().join("scenarios/ring-theorem1.json"),
+            dir.join("ring.json"),
+        )
+        .unwrap();
+        let spec = write_json(
+            &dir.join("spec.json"),
+            &json!({"name": "s", "base": "ring.json"}),
+        );
+        let scripts = dir.join("slurm");
+        let emit = || {
+            run(bin()
+                .arg("sweep")
+                .arg(&spec)
+                .arg("--out")
+                .arg(dir.join("out"))
+                .arg("--emit-slurm")
+                .arg(&scripts))
+        };
+        // Emitting twice replaces syncroad's own scripts.
+        for _ in 0..2 {
+            let (code, o, e) = emit();
+            assert_eq!(code, 0, "{o}{e}");
+        }
+        let mine = "#!/bin/bash\necho my own submit script\n";
+        std::fs::write(scripts.join("submit.sh"), mine).unwrap();
+        let before = std::fs::read_to_string(scripts.join("sweep.sbatch")).unwrap();
+        let (code, o, e) = emit();
+        assert_eq!(code, 2, "{o}{e}");
+        assert!(
+            e.contains("submit.sh exists and was not written by syncroad"),
+            "{e}"
+        );
+        assert_eq!(
+            std::fs::read_to_string(scripts.join("submit.sh")).unwrap(),
+            mine
+        );
+        // Refused before anything is written: the other scripts are as they were.
+        assert_eq!(
+            std::fs::read_to_string(scripts.join("sweep.sbatch")).unwrap(),
+            before
+        );
     }
 
     #[test]

@@ -154,7 +154,7 @@ fn emit(
         e.collect.display(),
         e.submit.display()
     );
-    outln!("submit with: bash {}", e.submit.display());
+    outln!("submit with: bash {}", slurm::shell_word(&e.submit));
     outln!(
         "the merged table will be {}/merged/results.parquet; submitting again resumes unfinished shards",
         out.display()

@@ -60,6 +60,38 @@ fn sbatch_value(field: &str, value: &str) -> anyhow::Result<String> {
     sh(value)
 }
 
+/// The second line of every script syncroad writes: a script that has it may be written
+/// again; any other file at a script's path is the user's and is never replaced.
+const MARKER: &str =
+    "# Written by `syncroad sweep --emit-slurm`; emitting again replaces this file.";
+
+/// Refuses to emit into `dir` when a script's path holds something syncroad did not write.
+fn refuse_foreign_scripts(dir: &Path) -> anyhow::Result<()> {
+    for name in ["sweep.sbatch", "collect.sbatch", "submit.sh"] {
+        let path = dir.join(name);
+        let Ok(meta) = std::fs::symlink_metadata(&path) else {
+            continue;
+        };
+        let ours = meta.is_file()
+            && std::fs::read_to_string(&path).is_ok_and(|t| t.lines().nth(1) == Some(MARKER));
+        if !ours {
+            return Err(InputError::new(format!(
+                "--emit-slurm = {}: {} exists and was not written by syncroad; move it away or give another --emit-slurm folder",
+                dir.display(),
+                path.display()
+            ))
+            .into());
+        }
+    }
+    Ok(())
+}
+
+/// `path` quoted as one shell word, for a command the user is told to type.
+pub fn shell_word(path: &Path) -> String {
+    let text = path.display().to_string();
+    sh(&text).unwrap_or(text)
+}
+
 fn abs(p: &Path) -> anyhow::Result<PathBuf> {
     std::path::absolute(p).with_context(|| format!("cannot resolve {}", p.display()))
 }
@@ -71,6 +103,7 @@ fn header(
     lines: &mut Vec<String>,
 ) -> anyhow::Result<()> {
     lines.push("#!/bin/bash".into());
+    lines.push(MARKER.into());
     lines.push(format!("#SBATCH --job-name={}", sbatch_value(field, name)?));
     for (flag, value) in [
         ("partition", &opts.partition),
@@ -122,6 +155,7 @@ pub fn emit(
             .into());
         }
     }
+    refuse_foreign_scripts(dir)?;
     std::fs::create_dir_all(dir.join("logs"))
         .with_context(|| format!("cannot create {}", dir.join("logs").display()))?;
     let exe = std::env::current_exe().context("cannot locate the syncroad executable")?;
@@ -182,7 +216,7 @@ pub fn emit(
 
     let submit = dir.join("submit.sh");
     let text = format!(
-        "#!/bin/bash\n# Submits the array, then the merge once every task has ended (finished or not:\n# collect reports missing points, and submitting the array again resumes them).\nset -euo pipefail\narray=$(sbatch --parsable \"$@\" {})\necho \"array job $array\"\nsbatch --dependency=afterany:\"${{array%%;*}}\" \"$@\" {}\n",
+        "#!/bin/bash\n{MARKER}\n# Submits the array, then the merge once every task has ended (finished or not:\n# collect reports missing points, and submitting the array again resumes them).\nset -euo pipefail\narray=$(sbatch --parsable \"$@\" {})\necho \"array job $array\"\nsbatch --dependency=afterany:\"${{array%%;*}}\" \"$@\" {}\n",
         s(&array)?,
         s(&collect)?
     );
