@@ -139,6 +139,33 @@ pub fn write_run_record(dir: &Path, record: &RunRecord) -> anyhow::Result<()> {
     write_json(&dir.join(METRICS_FILE), &record.to_json())
 }
 
+/// Keeps a record that could not be written to `metrics.json`: in a new file
+/// `metrics.unsaved-*.json` beside it, else in the temporary folder, else on stderr. Never
+/// replaces a file. Returns where it went, for the error message.
+pub fn rescue_record(dir: &Path, record: &RunRecord) -> String {
+    use std::io::Write as _;
+    let text = match serde_json::to_string_pretty(&record.to_json()) {
+        Ok(t) => t + "\n",
+        Err(e) => return format!("nowhere: it cannot be encoded ({e})"),
+    };
+    for folder in [dir.to_path_buf(), std::env::temp_dir()] {
+        let kept = tempfile::Builder::new()
+            .prefix("metrics.unsaved-")
+            .suffix(".json")
+            .tempfile_in(&folder)
+            .and_then(|mut f| {
+                f.write_all(text.as_bytes())?;
+                f.as_file().sync_all()?;
+                f.keep().map_err(|e| e.error)
+            });
+        if let Ok((_, path)) = kept {
+            return format!("in {}", path.display());
+        }
+    }
+    eprintln!("{text}");
+    "on stderr (above)".to_string()
+}
+
 /// Writes pretty JSON with a trailing newline, atomically.
 pub fn write_json(path: &Path, doc: &serde_json::Value) -> anyhow::Result<()> {
     write_text(path, &(serde_json::to_string_pretty(doc)? + "\n"))

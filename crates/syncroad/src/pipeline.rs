@@ -120,8 +120,20 @@ impl Finished {
     }
 
     /// Writes `trajectories.csv`, the plots under `title` when given and the run has at least
-    /// two samples, and `metrics.json` last, into `dir`. Returns the plot files.
+    /// two samples, and `metrics.json` last, into `dir`. Returns the plot files. When a file
+    /// cannot be written the record is not lost: it is kept in a new file
+    /// ([`output::rescue_record`]) that the error names.
     pub fn write(&self, dir: &Path, plots: Option<String>) -> anyhow::Result<usize> {
+        self.write_files(dir, plots).map_err(|e| {
+            let kept = output::rescue_record(dir, &self.record);
+            e.context(format!(
+                "the run's files could not all be written to {} (the run's record is kept {kept})",
+                dir.display()
+            ))
+        })
+    }
+
+    fn write_files(&self, dir: &Path, plots: Option<String>) -> anyhow::Result<usize> {
         output::write_run_rows(dir, &self.output.trajectory)?;
         let n = match plots {
             Some(title) if self.output.trajectory.len() >= 2 => RunPlots {

@@ -575,6 +575,43 @@ fn a_run_folder_keeps_a_symlinked_record_a_link() {
     assert_eq!(m["sync"]["verdict"], "synchronized");
 }
 
+#[test]
+fn a_record_that_cannot_be_written_is_kept_in_a_new_file_the_error_names() {
+    let dir = tmpdir("run-dangling");
+    let out = dir.join("out");
+    std::fs::create_dir_all(&out).unwrap();
+    // A dangling link into a folder that does not exist: metrics.json cannot be written.
+    symlink(dir.join("no-such-folder/m.json"), out.join("metrics.json")).unwrap();
+    let ring = repo().join("scenarios/ring-theorem1.json");
+    let (code, o, e) = run(bin().arg("simulate").arg(&ring).arg("--out").arg(&out));
+    assert_eq!(code, 3, "{o}{e}");
+    let kept = e
+        .split("the run's record is kept in ")
+        .nth(1)
+        .and_then(|rest| rest.split(')').next())
+        .unwrap_or_else(|| panic!("no kept record named: {e}"));
+    let kept = std::path::Path::new(kept);
+    assert!(kept.starts_with(&out), "{}", kept.display());
+    // The link is left as it was, and the kept record is the run's: the same as a run of the
+    // same scenario into a plain folder.
+    assert!(std::fs::symlink_metadata(out.join("metrics.json"))
+        .unwrap()
+        .file_type()
+        .is_symlink());
+    let read = |p: &std::path::Path| -> Value {
+        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+    };
+    let (code, o, e) = run(bin()
+        .arg("simulate")
+        .arg(&ring)
+        .arg("--out")
+        .arg(dir.join("plain")));
+    assert_eq!(code, 0, "{o}{e}");
+    let (a, b) = (read(kept), read(&dir.join("plain/metrics.json")));
+    assert_eq!(a["sync"], b["sync"]);
+    assert_eq!(a["scenario_hash"], b["scenario_hash"]);
+}
+
 mod shell {
     use super::*;
 
