@@ -6,6 +6,9 @@ use syncroad_sumo::SumoDriver;
 
 use crate::error::InputError;
 
+/// The longest run folder name [`RunSpec::folder`] gives (bytes).
+pub const FOLDER_MAX: usize = 96;
+
 /// One run: a name, who drives each scenario vehicle, and a damper in place of the law.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunSpec {
@@ -133,9 +136,12 @@ impl RunSpec {
 
     /// The run's folder name: its name with every character but letters, digits and `._=+-`
     /// replaced by `_` (`human:tau=1.2` → `human_tau=1.2`), because SUMO reads `a:b` in an
-    /// output path as host:port and a shell or a list option splits on others.
+    /// output path as host:port and a shell or a list option splits on others. A name longer
+    /// than [`FOLDER_MAX`] keeps its first characters and ends in 16 hex digits of its SHA-256,
+    /// so the folder fits a file name (255 bytes on common file systems) and stays distinct.
     pub fn folder(&self) -> String {
-        self.name
+        let safe: String = self
+            .name
             .chars()
             .map(|c| {
                 if c.is_ascii_alphanumeric() || "._=+-".contains(c) {
@@ -144,7 +150,15 @@ impl RunSpec {
                     '_'
                 }
             })
-            .collect()
+            .collect();
+        if safe.len() <= FOLDER_MAX {
+            return safe;
+        }
+        use sha2::{Digest, Sha256};
+        let digest = Sha256::digest(self.name.as_bytes());
+        let hex: String = digest[..8].iter().map(|b| format!("{b:02x}")).collect();
+        // `safe` is ASCII: any byte index is a character boundary.
+        format!("{}-{hex}", &safe[..FOLDER_MAX - 17])
     }
 
     /// Fraction of the scenario's vehicles the law or the damper drives: as the scenario says
@@ -170,6 +184,26 @@ pub fn mixed_controlled(n: usize, k: usize) -> Vec<usize> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn folders_are_safe_bounded_and_distinct() {
+        let named = |name: &str| RunSpec {
+            name: name.into(),
+            drivers: Vec::new(),
+            damper: None,
+        };
+        assert_eq!(named("human:tau=1.2").folder(), "human_tau=1.2");
+        // A 300-character driver value once gave a folder name past the 255-byte limit.
+        let long = format!("human:tau=1.{}", "0".repeat(300));
+        let other = format!("human:tau=1.{}1", "0".repeat(299));
+        let (a, b) = (named(&long).folder(), named(&other).folder());
+        assert_eq!(a.len(), FOLDER_MAX);
+        assert!(a.starts_with("human_tau=1.000"), "{a}");
+        assert_ne!(a, b);
+        assert!(a
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "._=+-".contains(c)));
+    }
 
     #[test]
     fn mixed_vehicles_are_evenly_spaced() {

@@ -382,6 +382,19 @@ pub fn compare_into(
     interrupt: Arc<AtomicBool>,
 ) -> anyhow::Result<(Value, Vec<RunResult>)> {
     // Every folder is checked, and an earlier comparison's files cleared, before any run.
+    // Two names that give one folder would write into each other's files.
+    let mut folders: std::collections::BTreeMap<String, &str> = Default::default();
+    for spec in &plan.runs {
+        if let Some(first) = folders.insert(spec.folder(), &spec.name) {
+            return Err(InputError::new(format!(
+                "the runs {first:?} and {:?} would both write into {}/{}; give one of them another name",
+                spec.name,
+                out.display(),
+                spec.folder()
+            ))
+            .into());
+        }
+    }
     // The locks are held until the last file is written.
     let mut locks = vec![output::prepare_dir("--out", out, &["compare.json"])?];
     let mut files = vec![output::METRICS_FILE, output::TRAJECTORY_FILE];
