@@ -38,8 +38,7 @@ pub fn jobs(flag: Option<usize>) -> anyhow::Result<usize> {
     }
 }
 
-/// The longest wall-clock limit of a run [s] (about 31 years; past it a limit means none).
-pub const MAX_TIMEOUT_S: f64 = 1e9;
+pub use syncroad_control::scenario::MAX_TIMEOUT_S;
 
 /// `--timeout-s`: a number of seconds in [0, [`MAX_TIMEOUT_S`]].
 pub fn timeout(flag: Option<f64>) -> anyhow::Result<Option<Duration>> {

@@ -34,7 +34,7 @@ pub use leader::LeaderProfile;
 pub use mixed::{automated_vehicles, MixedSpec};
 pub use per_vehicle::PerVehicle;
 pub use scale::Scaled;
-pub use sumo::{SumoSettings, SumoVehicleType};
+pub use sumo::{SumoSettings, SumoVehicleType, MAX_TIMEOUT_S};
 
 /// The most steps a run may take (`horizon_s / step_s`): 10⁷ steps of N vehicles already take
 /// minutes natively and hours in SUMO, and each step keeps one value of the spread.

@@ -9,6 +9,10 @@ use serde::{Deserialize, Serialize};
 
 use super::{invalid, ScenarioError, SumoSpec};
 
+/// The longest wall-clock limit of a run [s] (about 31 years; past it a limit means none): for
+/// `sumo.timeout_s` and every `--timeout-s`.
+pub const MAX_TIMEOUT_S: f64 = 1e9;
+
 /// SUMO vehicle-type values shared by every vehicle of a run (lengths may differ per vehicle).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct SumoVehicleType {
@@ -77,13 +81,14 @@ impl SumoSpec {
                 "must be a finite number ≥ 0",
             ));
         }
-        let timeout = Duration::try_from_secs_f64(self.timeout_s).map_err(|_| {
-            invalid(
+        if self.timeout_s > MAX_TIMEOUT_S {
+            return Err(invalid(
                 "sumo.timeout_s",
                 self.timeout_s,
-                "is too long to represent; use a number of seconds below 1.8e19",
-            )
-        })?;
+                format!("must be at most {MAX_TIMEOUT_S:e} s (about 31 years), like --timeout-s"),
+            ));
+        }
+        let timeout = Duration::from_secs_f64(self.timeout_s);
         let net = self.net.as_ref().map(|net| {
             if net.is_absolute() {
                 net.clone()
@@ -171,8 +176,8 @@ mod tests {
                 "sumo.accel_mps2 = -2: must be a finite number > 0",
             ),
             (
-                r#"{"timeout_s": 1e30}"#,
-                "sumo.timeout_s = 1000000000000000000000000000000: is too long to represent",
+                r#"{"timeout_s": 1e10}"#,
+                "sumo.timeout_s = 10000000000: must be at most 1e9 s (about 31 years), like --timeout-s",
             ),
         ] {
             let err = ScenarioFile::from_json(&ring(sumo), "<test>")
