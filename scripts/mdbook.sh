@@ -2,7 +2,7 @@
 # Prints the path of the pinned mdBook that builds the user guide (docs/), installing it first
 # when absent: an `mdbook` of the pinned version on PATH, else the one installed before into
 # ${XDG_CACHE_HOME:-~/.cache}/syncroad/mdbook-VERSION, else `cargo install` into that folder
-# (about two minutes of compiling on two cores, once).
+# (about 3 CPU-minutes of compiling, once).
 set -euo pipefail
 version=0.5.4
 if command -v mdbook >/dev/null 2>&1 && [ "$(mdbook --version 2>/dev/null)" = "mdbook v$version" ]; then
