@@ -4,8 +4,8 @@
 #   bash scripts/bench-sweep.sh sweep   one `syncroad sweep` (long-lived SUMO workers, all cores)
 #   bash scripts/bench-sweep.sh loop    a shell loop of `syncroad run` per point (one at a time)
 #   bash scripts/bench-sweep.sh loop2   the same loop, two points at a time (xargs -P 2)
-# Side by side, as the README quotes it (sweep and loop in turn, PAIRS times; medians and the
-# ratio of each pair):
+# Side by side, as the guide's performance chapter (docs/src/performance.md) quotes it (sweep
+# and loop in turn, PAIRS times; medians and the ratio of each pair):
 #   bash scripts/bench-sweep.sh vs loop 2      (or: vs loop2 2)
 set -euo pipefail
 cd "$(dirname "$0")/.."

@@ -13,7 +13,7 @@ cargo build --release -p syncroad
 # Mixed traffic: 0, 1, 2, 4 law-driven vehicles among Krauss σ 0.9 drivers.
 ./target/release/syncroad compare scenarios/sugiyama-ring.json --mixed 0,1,2,4 --out out/compare-mixed
 # The ring experiments a traffic researcher trusts: SUMO's calibrated human drivers (IDM,
-# docs/human-preset.md) form Sugiyama's jam on the same ring within 600 s; beside them the law
+# docs/src/human-preset.md) form Sugiyama's jam on the same ring within 600 s; beside them the law
 # and the wave dampers of Stern et al. (2018) on every vehicle, and each damper (and the law)
 # as 1, 2 or 4 automated vehicles among the humans, with SUMO's surrogate safety measures.
 # FollowerStopper's desired speed U = 4.3 m/s is the humans' uniform-flow speed on this ring.

@@ -5,7 +5,11 @@ cd "$(dirname "$0")/.."
 if [ -f python-host/bootstrap.sh ]; then
   bash python-host/bootstrap.sh
 fi
+# The user guide builds (mdBook, pinned and installed on first use).
+"$(bash scripts/mdbook.sh)" build docs
 cargo build --release --workspace --all-targets
+# Includes the guide's test (crates/syncroad/tests/guide.rs): every command example of
+# docs/src and README.md runs as printed.
 cargo test --release --workspace
 # The congestion/synchronization regression check on every committed baseline.
 for b in tests/baselines/*.json; do
@@ -14,4 +18,4 @@ done
 # A sweep sharded over a private single-node Slurm cluster (skipped, and said so, without Slurm).
 slurm="$(bash scripts/slurm-test.sh)"
 echo
-echo "summary: cargo tests passed; baselines passed; Slurm test: $(echo "$slurm" | tail -1)"
+echo "summary: guide built; cargo tests passed; baselines passed; Slurm test: $(echo "$slurm" | tail -1)"

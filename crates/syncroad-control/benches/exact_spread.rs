@@ -4,8 +4,8 @@
 //! (follower gains 0.2–0.5 of the predecessor's), per-driver gains ±20 % or uniform, delays
 //! from 0.2–0.6 s over a width of 0–0.4 s on a 0.01, 0.05 or 0.1 s grid. Prints every ring's
 //! time, search method, full solves and certificate, then the median and the worst case per
-//! group (the figures the README quotes beside the median: the worst case is what a user may
-//! meet).
+//! group (the figures the guide's performance chapter quotes beside the median: the worst
+//! case is what a user may meet).
 //!
 //! Run with `cargo bench -p syncroad-control --bench exact_spread` (about a minute); the
 //! number of rings per group with `EXACT_SPREAD_RINGS=20` (N = 50; a quarter of it at N = 200).

@@ -22,7 +22,7 @@
 //!   (σ√Δt per step) from counting as braking;
 //! * **jam formation time** (over the whole run, warm-up included): the first sample at which
 //!   some vehicle drives below [`JAM_SPEED_MPS`] = 1 m/s (the jam threshold of Sugiyama's
-//!   ring used throughout, see `docs/human-preset.md`) after every vehicle has driven faster
+//!   ring used throughout, see `docs/src/human-preset.md`) after every vehicle has driven faster
 //!   than it once, so a start from rest does not count as a jam; `null` when no jam forms.
 
 use schemars::JsonSchema;

@@ -8,7 +8,7 @@
 //! distance plus the follower's minGap).
 //!
 //! What differs from [`crate::follower_stopper`] and [`crate::pi_saturation`] (see
-//! `docs/wave-dampers.md`):
+//! `docs/src/wave-dampers.md`):
 //! * FollowerStopper: the third band `v + (U − v_ego)(Δx − Δx_2)/(Δx_3 − Δx_2)`; the
 //!   acceleration `(v_cmd − v)/Δt` unclipped; then the `safe_velocity` failsafe with Flow's
 //!   delay of 1 s, `v_safe = 2h/Δt + Δv − 2 v`: if `v + aΔt > v_safe`, `a = (v_safe − v)/Δt`

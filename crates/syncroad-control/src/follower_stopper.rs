@@ -30,7 +30,7 @@
 //! command on internal junction lanes and near "danger edges" (simulation plumbing, left out
 //! here), has no warm-up skip, applies `(v_cmd − v)/Δt` unclipped and then its
 //! `safe_velocity` failsafe (delay 1 s); here the command is tracked within the vehicle's
-//! [`AccelLimits`] and there is no failsafe in the law (see `docs/wave-dampers.md`).
+//! [`AccelLimits`] and there is no failsafe in the law (see `docs/src/wave-dampers.md`).
 //!
 //! # Reference
 //! R. E. Stern, S. Cui, M. L. Delle Monache, R. Bhadani, M. Bunting, M. Churchill,

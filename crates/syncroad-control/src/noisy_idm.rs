@@ -226,7 +226,7 @@ pub fn is_noisy_label(label: &str) -> bool {
 }
 
 impl NoisyIdm {
-    /// A named preset (documented with its measurements in `docs/human-preset.md`):
+    /// A named preset (documented with its measurements in `docs/src/human-preset.md`):
     /// * `flow-idm-noise` — Flow's `IDMController` defaults ([`IdmParams::FLOW`]) with Flow's
     ///   ring-example noise 0.2 in Flow's form;
     /// * `human-noisy` — the `human` preset's IDM (Flow's with a = 1.3 m/s², T = 0.8 s) with

@@ -2,7 +2,7 @@
 //! command uses, and the vehicle-type attributes that select it.
 //!
 //! The point of a baseline is the traffic it makes. Measured on the Sugiyama ring with SUMO
-//! 1.28.0 (`docs/human-preset.md`): Krauss forms no stop-and-go jam there, neither with its
+//! 1.28.0 (`docs/src/human-preset.md`): Krauss forms no stop-and-go jam there, neither with its
 //! default σ = 0.5 nor with σ = 0.9 (the flow crawls, nobody stops); SUMO's IDM with the
 //! `human` preset's values does, from a perturbed start, and the stochastic humans computed by
 //! the bridge (`human-noisy`, `flow-idm-noise`) do from a uniform start. ACC and CACC are

@@ -15,7 +15,7 @@ use crate::error::InputError;
 pub fn load_scenario(path: &Path) -> anyhow::Result<Scenario> {
     Scenario::load(path).map_err(|e| {
         InputError::new(format!(
-            "{e}\n  (scenario {}; fix the field named above — `syncroad --help` and README.md describe the format)",
+            "{e}\n  (scenario {}; fix the field named above — `syncroad --help` and the guide's docs/src/scenarios.md describe the format)",
             path.display()
         ))
         .into()

@@ -806,12 +806,12 @@ mod shell {
 mod up_front {
     use super::*;
 
-    /// The driver strings the README spells out (`MODEL:name=value:...`).
-    fn readme_drivers() -> Vec<String> {
-        let text = std::fs::read_to_string(repo().join("README.md")).unwrap();
+    /// The driver strings the guide's drivers chapter spells out (`MODEL:name=value:...`).
+    fn guide_drivers() -> Vec<String> {
+        let text = std::fs::read_to_string(repo().join("docs/src/drivers.md")).unwrap();
         let start = text
             .find("it can be spelled out as")
-            .expect("the README's driver paragraph");
+            .expect("the guide's driver paragraph");
         let para = &text[start..start + text[start..].find("names and ranges").unwrap()];
         para.split('`')
             .skip(1)
@@ -822,14 +822,14 @@ mod up_front {
     }
 
     #[test]
-    fn every_driver_example_of_the_readme_runs_as_printed() {
-        let drivers = readme_drivers();
+    fn every_driver_example_of_the_guide_runs_as_printed() {
+        let drivers = guide_drivers();
         assert!(drivers.len() >= 3, "{drivers:?}");
         assert!(
             drivers.contains(&"human:tau=1.2".to_string()),
             "{drivers:?}"
         );
-        let dir = tmpdir("readme-drivers");
+        let dir = tmpdir("guide-drivers");
         let sc = sugiyama(&dir, "ring.json", |s| s["horizon_s"] = json!(10));
         let out = dir.join("cmp");
         let (code, o, e) = run(bin()

@@ -134,7 +134,7 @@ impl CarFollowing {
         })
     }
 
-    /// A named preset. Every value's source is documented in `docs/human-preset.md`:
+    /// A named preset. Every value's source is documented in `docs/src/human-preset.md`:
     /// * `human` — SUMO's IDM calibrated on the Sugiyama ring (22 vehicles, 230 m): from a
     ///   near-uniform start a stop-and-go jam forms by itself (first vehicle below 1 m/s at
     ///   254–358 s over 10 seeds), vehicles stop in it, and it travels backward at 17.6 km/h

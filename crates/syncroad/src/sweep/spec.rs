@@ -71,7 +71,7 @@ pub struct SpecFile {
     #[serde(default)]
     pub penetrations: Vec<f64>,
     /// The human driver of mixed runs (default `krauss-0.9`; it forms no stop-and-go jam on the
-    /// Sugiyama ring, see `docs/human-preset.md`: name `human` or `human-noisy` for one).
+    /// Sugiyama ring, see `docs/src/human-preset.md`: name `human` or `human-noisy` for one).
     #[serde(default)]
     pub mixed_driver: Option<String>,
     /// Who drives the automated vehicles of mixed runs: `law` (default), `follower-stopper-U`
