@@ -45,7 +45,7 @@ fn char_matrix_derivative(l: &DMatrix<f64>, delays_s: &[f64], s: Complex64) -> D
 }
 
 /// Newton refinement of a root of `det M(s) = 0` on `[M(s)x = 0, cᴴx = 1]`.
-pub(super) fn newton_refine(
+pub(crate) fn newton_refine(
     l: &DMatrix<f64>,
     delays_s: &[f64],
     s0: Complex64,

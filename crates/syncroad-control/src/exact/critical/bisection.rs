@@ -3,11 +3,12 @@
 //! the continuation and its reference in tests; its answer carries the same root-count
 //! certificate.
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DMatrix;
 use num_complex::Complex64;
 
 use super::super::collocation::{
-    laplacian, rightmost_roots, validate_network, CollocationError, CollocationOptions, RootsReport,
+    laplacian, newton_refine, rightmost_roots, validate_network, CollocationError,
+    CollocationOptions, RootsReport,
 };
 use super::{certify_at, CriticalError, CriticalMethod, CriticalReport, Crossing};
 
@@ -21,49 +22,16 @@ fn abscissa_at(
     rightmost_roots(&(adjacency * c), delays_s, options)
 }
 
-/// Newton on `[M(s)x = 0, cᴴx = 1]` for gains scaled by `scale`, from `(s, x)`.
+/// The root near `s0` with gains scaled by `scale`: the bordered Newton of the collocation's
+/// refinement ([`newton_refine`]) to 1e-15, None when it does not converge.
 fn track_root(l: &DMatrix<f64>, delays_s: &[f64], scale: f64, s0: Complex64) -> Option<Complex64> {
-    let n = l.nrows();
-    let build = |s: Complex64| {
-        let mut m = DMatrix::from_fn(n, n, |i, j| {
-            Complex64::new(scale * l[(i, j)], 0.0) * (-s * delays_s[i]).exp()
-        });
-        let mut dm = DMatrix::from_fn(n, n, |i, j| {
-            -Complex64::new(scale * l[(i, j)], 0.0) * delays_s[i] * (-s * delays_s[i]).exp()
-        });
-        for i in 0..n {
-            m[(i, i)] += s;
-            dm[(i, i)] += 1.0;
-        }
-        (m, dm)
+    let options = CollocationOptions {
+        newton_tolerance: 1e-15,
+        max_newton_steps: 50,
+        ..CollocationOptions::default()
     };
-    let mut s = s0;
-    let mut x = DVector::from_fn(n, |i, _| Complex64::new(1.0, 0.1 * i as f64));
-    for _ in 0..2 {
-        let y = build(s).0.lu().solve(&x)?;
-        x = &y / Complex64::new(y.norm(), 0.0);
-    }
-    let c = x.clone();
-    for _ in 0..50 {
-        let (m, dm) = build(s);
-        let mut j = DMatrix::zeros(n + 1, n + 1);
-        j.view_mut((0, 0), (n, n)).copy_from(&m);
-        let dmx = &dm * &x;
-        for i in 0..n {
-            j[(i, n)] = dmx[i];
-            j[(n, i)] = c[i].conj();
-        }
-        let mut f = DVector::zeros(n + 1);
-        f.rows_mut(0, n).copy_from(&(&m * &x));
-        f[n] = c.dotc(&x) - 1.0;
-        let delta = j.lu().solve(&(-f))?;
-        x += delta.rows(0, n);
-        s += delta[n];
-        if delta[n].norm() <= 1e-15 * (1.0 + s.norm()) {
-            return Some(s);
-        }
-    }
-    None
+    let refined = newton_refine(&(l * scale), delays_s, s0, &options);
+    refined.converged.then(|| refined.root.into())
 }
 
 /// The first version's search: bracket and bisect with full solves, a secant on the tracked
