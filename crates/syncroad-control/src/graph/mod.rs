@@ -319,6 +319,23 @@ impl Graph {
     /// A root of a directed spanning tree, if the graph is quasi-strongly connected: a vertex
     /// from which every other vertex is reached along arcs.
     pub fn spanning_tree_root(&self) -> Option<usize> {
+        let candidate = self.source_candidate();
+        self.reachable(candidate, true)
+            .iter()
+            .all(|&b| b)
+            .then_some(candidate)
+    }
+
+    /// `None` when the graph has a directed spanning tree; otherwise a vertex that no single
+    /// vertex reaches (for error messages).
+    pub fn spanning_tree_gap(&self) -> Option<usize> {
+        self.reachable(self.source_candidate(), true)
+            .iter()
+            .position(|&b| !b)
+    }
+
+    /// A vertex of a source strongly connected component.
+    fn source_candidate(&self) -> usize {
         // Any root lies in the unique source strongly connected component; trying each vertex
         // is O(N·E), so first look for a candidate by a single sweep: the last vertex to finish
         // a DFS over the whole graph is in a source component.
@@ -346,10 +363,7 @@ impl Graph {
                 }
             }
         }
-        self.reachable(candidate, true)
-            .iter()
-            .all(|&b| b)
-            .then_some(candidate)
+        candidate
     }
 
     /// Dense adjacency matrix `A` (for small graphs).

@@ -44,8 +44,8 @@ mod refine;
 pub(crate) use generator::eigenvalues;
 use generator::{default_nodes, generator_matrix};
 pub(crate) use network::{laplacian, validate_network};
-pub(crate) use refine::newton_refine;
 pub use refine::characteristic_matrix;
+pub(crate) use refine::newton_refine;
 use refine::{assign_multiplicities, newton_on_band, root_residuals};
 
 /// Invalid network data or a failed root computation.

@@ -4,6 +4,7 @@
 use nalgebra::DMatrix;
 
 use super::CollocationError;
+use crate::graph::Graph;
 
 /// Checks the plain-data network description and returns `N`.
 pub(crate) fn validate_network(
@@ -45,56 +46,13 @@ pub(crate) fn validate_network(
             return Err(CollocationError::InvalidDelay { vehicle, delay_s });
         }
     }
-    if let Some(unreached) = spanning_tree_gap(adjacency) {
+    // Every off-diagonal weight was checked finite and ≥ 0 and the diagonal zero: the graph
+    // module's checks cannot refuse it.
+    let graph = Graph::from_dense(adjacency).expect("a validated adjacency matrix");
+    if let Some(unreached) = graph.spanning_tree_gap() {
         return Err(CollocationError::NoSpanningTree { unreached });
     }
     Ok(n)
-}
-
-/// `None` if the graph (arc `j → i` when `a_ij > 0`) has a directed spanning tree, otherwise
-/// a vehicle that the best root candidate does not reach. The candidate is the last vertex
-/// to finish a depth-first search over all vertices (it reaches everyone if anyone does).
-fn spanning_tree_gap(adjacency: &DMatrix<f64>) -> Option<usize> {
-    let n = adjacency.nrows();
-    let mut visited = vec![false; n];
-    let mut last_finished = 0;
-    for start in 0..n {
-        if visited[start] {
-            continue;
-        }
-        // Iterative DFS; a stack frame is (vertex, next successor to try).
-        let mut stack = vec![(start, 0usize)];
-        visited[start] = true;
-        while let Some(&mut (v, ref mut next)) = stack.last_mut() {
-            let mut pushed = false;
-            while *next < n {
-                let w = *next;
-                *next += 1;
-                if !visited[w] && adjacency[(w, v)] > 0.0 {
-                    visited[w] = true;
-                    stack.push((w, 0));
-                    pushed = true;
-                    break;
-                }
-            }
-            if !pushed {
-                last_finished = v;
-                stack.pop();
-            }
-        }
-    }
-    let mut reached = vec![false; n];
-    let mut queue = vec![last_finished];
-    reached[last_finished] = true;
-    while let Some(v) = queue.pop() {
-        for w in 0..n {
-            if !reached[w] && adjacency[(w, v)] > 0.0 {
-                reached[w] = true;
-                queue.push(w);
-            }
-        }
-    }
-    reached.iter().position(|&r| !r)
 }
 
 /// Weighted Laplacian `L = D − A` with `D = diag(d_i^+)`, `d_i^+ = Σ_j a_ij`.
