@@ -10,10 +10,8 @@ use anyhow::Context;
 use plotters::prelude::*;
 use rayon::prelude::*;
 use serde::Serialize;
-use syncroad_control::exact::analysis::{
-    below_resolution, network_matrices, uniform_ring, FULL_SOLVE_LIMIT, MIN_GAIN_DELAY,
-};
-use syncroad_control::exact::{self, Boundaries, CollocationOptions, UniformRing};
+use syncroad_control::exact::analysis::{FULL_SOLVE_LIMIT, MIN_GAIN_DELAY};
+use syncroad_control::exact::{self, Boundaries, Method};
 use syncroad_control::scenario::{DelayedDriverModel, Model};
 use syncroad_control::{theory, Scenario, Verdict};
 
@@ -133,7 +131,7 @@ fn scaled(m: &DelayedDriverModel, gain: f64, delay: f64, step_s: f64) -> (Delaye
 fn evaluate_point(
     sc: &Scenario,
     base: &DelayedDriverModel,
-    ring: Option<UniformRing>,
+    method: Method,
     x: (Param, f64),
     y: (Param, f64),
 ) -> Point {
@@ -150,7 +148,7 @@ fn evaluate_point(
         None => theory::theorem1(&m.graph, &m.delay_s).holds,
         Some((_, b)) => theory::theorem1_plus(&m.graph, &m.delay_s, b).holds,
     };
-    let abscissa = exact_abscissa(&m, ring, gain, delay);
+    let abscissa = method.abscissa(&m, gain, delay);
     Point {
         x: x.1,
         y: y.1,
@@ -160,38 +158,6 @@ fn evaluate_point(
         simulated: None,
         delay_rounding_s: rounding,
     }
-}
-
-/// Spectral abscissa of the delayed-driver network (roots other than the consensus root):
-/// the Fourier fast path for uniform rings, the full solve otherwise. None where it cannot be
-/// computed, including a point whose gain × delay is below the exact analysis' resolution
-/// (its roots lie within the searches' tolerances of the origin): the map leaves such a point blank.
-fn exact_abscissa(
-    m: &DelayedDriverModel,
-    ring: Option<UniformRing>,
-    gain: f64,
-    delay: f64,
-) -> Option<f64> {
-    if below_resolution(m) {
-        return None;
-    }
-    if let Some(r) = ring {
-        let scaled = UniformRing::new(
-            r.vehicles,
-            r.gain_front * gain,
-            r.gain_back * gain,
-            r.delay_s * delay,
-        )
-        .ok()?;
-        return scaled.modes().ok().map(|modes| modes.abscissa);
-    }
-    let (a, d) = network_matrices(m);
-    if let Ok(x) = exact::acyclic_roots(&a, &d) {
-        return Some(x.abscissa);
-    }
-    exact::rightmost_roots(&a, &d, &CollocationOptions::default())
-        .ok()
-        .map(|r| r.abscissa)
 }
 
 /// The native verdict at every grid point, from a sweep over `scale.gain` × `scale.delay` (the
@@ -278,12 +244,8 @@ pub fn theory_grid(sc: &Scenario, xa: Axis, ya: Axis, jobs: usize) -> anyhow::Re
         .into());
     }
     let size = base.graph.len() + usize::from(base.leader.is_some());
-    let ring = uniform_ring(sc, base);
-    let acyclic = {
-        let (a, d) = network_matrices(base);
-        exact::acyclic_roots(&a, &d).is_ok()
-    };
-    if ring.is_none() && !acyclic && size > FULL_SOLVE_LIMIT {
+    let method = Method::of(sc, base);
+    if method == Method::Network && size > FULL_SOLVE_LIMIT {
         return Err(InputError::new(format!(
             "the scenario has {size} vehicles: exact roots at every grid point need a uniform ring (any size) or at most {FULL_SOLVE_LIMIT} vehicles"
         ))
@@ -301,7 +263,7 @@ pub fn theory_grid(sc: &Scenario, xa: Axis, ya: Axis, jobs: usize) -> anyhow::Re
                 let p = evaluate_point(
                     sc,
                     base,
-                    ring,
+                    method,
                     (xa.param, xa.value(i)),
                     (ya.param, ya.value(j)),
                 );
