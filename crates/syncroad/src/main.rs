@@ -9,6 +9,7 @@
 //! * [`output`], [`plots`], [`report`], [`stability`] — files, figures and text tables;
 //! * [`error`], [`exit_codes`] — the one error funnel; only [`main`] picks the exit code.
 
+mod batch;
 mod cli;
 mod commands;
 mod config;

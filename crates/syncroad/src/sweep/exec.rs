@@ -12,11 +12,10 @@
 
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 
 use anyhow::Context;
-use rayon::prelude::*;
 use serde_json::{json, Map, Value};
 use syncroad_control::scenario::Backend;
 use syncroad_control::{EvalOptions, NativeOptions, Scenario, StopReason};
@@ -26,12 +25,12 @@ use super::points::{Point, Shard};
 use super::rows::{point_cells, read_rows, row_path, rows_dir};
 use super::spec::Sweep;
 use super::table::{at_path, metric_kinds, Column, Kind, Table};
+use crate::batch::JobEnd;
 use crate::config;
 use crate::error::InputError;
 use crate::lock::{self, FolderLock};
 use crate::output::write_text;
 use crate::pipeline::{self, Finished};
-use crate::progress::Progress;
 
 /// How to run.
 #[derive(Debug, Clone)]
@@ -360,54 +359,39 @@ pub fn run(
         roads: Mutex::new(HashMap::new()),
         interrupt: interrupt.clone(),
     };
-    let threads = rayon::ThreadPoolBuilder::new()
-        .num_threads(opts.jobs.min(todo.len()).max(1))
-        .build()?;
-    let progress = Progress::new("sweep", todo.len() as u64);
-    let (ran, failed, stopped) = (
-        AtomicUsize::new(0),
-        AtomicUsize::new(0),
-        AtomicUsize::new(0),
-    );
     let write_error: Mutex<Option<anyhow::Error>> = Mutex::new(None);
-    threads.install(|| {
-        todo.par_iter().for_each(|p| {
-            if interrupt.load(Ordering::SeqCst) {
-                stopped.fetch_add(1, Ordering::SeqCst);
-                return;
-            }
+    let ends = crate::batch::run(
+        "sweep",
+        opts.jobs,
+        &interrupt,
+        &todo,
+        |p| format!("point {}", p.id),
+        |p| {
             let end = shared.run_point(p).unwrap_or_else(|e| {
                 PointEnd::Row(failed_row(sweep, p, &crate::error::describe(&e)))
             });
-            let row = match end {
-                PointEnd::Interrupted => {
-                    stopped.fetch_add(1, Ordering::SeqCst);
-                    return;
-                }
-                PointEnd::Row(r) => r,
+            let PointEnd::Row(row) = end else {
+                return JobEnd::Interrupted;
             };
-            ran.fetch_add(1, Ordering::SeqCst);
-            let error = (row.get("status") == Some(&json!("failed"))).then(|| {
+            let failed = row.get("status") == Some(&json!("failed"));
+            let error = failed.then(|| {
                 row.get("error")
                     .and_then(Value::as_str)
                     .unwrap_or("failed")
                     .to_string()
             });
-            if error.is_some() {
-                failed.fetch_add(1, Ordering::SeqCst);
-            }
+            // The row is streamed as soon as the point ends: a stopped sweep keeps it.
             let text = serde_json::to_string(&row).expect("a row serializes") + "\n";
             if let Err(e) = write_text(&row_path(out, p.id), &text) {
                 write_error.lock().expect("error slot").get_or_insert(e);
                 interrupt.store(true, Ordering::SeqCst);
             }
-            progress.finished(&format!("point {}", p.id), error.as_deref());
-        })
-    });
-    progress.done();
-    summary.ran = ran.into_inner();
-    summary.failed = failed.into_inner();
-    summary.interrupted = stopped.into_inner();
+            JobEnd::Done(failed, error)
+        },
+    )?;
+    summary.ran = ends.iter().flatten().count();
+    summary.failed = ends.iter().flatten().filter(|&&failed| failed).count();
+    summary.interrupted = ends.iter().filter(|e| e.is_none()).count();
     summary.workers = shared.pool.as_ref().map_or(0, WorkerPool::workers_started);
     if let Some(e) = write_error.into_inner().expect("error slot") {
         return Err(e.context("a finished point's row could not be written; the sweep stopped"));

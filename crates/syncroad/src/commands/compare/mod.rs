@@ -18,7 +18,6 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use anyhow::Context;
-use rayon::prelude::*;
 use serde_json::{json, Value};
 use syncroad_control::record::SHARED_KEYS;
 use syncroad_control::scenario::Model;
@@ -28,13 +27,13 @@ use syncroad_sumo::{
     SumoDriver, WorkerCommand, EMISSION_CLASS,
 };
 
+use crate::batch::JobEnd;
 use crate::cli::CompareArgs;
 use crate::config::{self, load_scenario};
 use crate::error::{InputError, Status};
 use crate::output::{self, write_json};
 use crate::pipeline::{self, Finished};
 use crate::plots::{spread_plot, Spread, SpreadLabels};
-use crate::progress::Progress;
 use crate::runs::RunSpec;
 use crate::stdout::{out, outln};
 
@@ -286,38 +285,37 @@ pub fn run_all(
     interrupt: Arc<AtomicBool>,
 ) -> anyhow::Result<Vec<RunResult>> {
     let worker = WorkerCommand::current_exe().context("cannot locate the syncroad executable")?;
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(plan.jobs.min(plan.runs.len()).max(1))
-        .build()?;
-    let progress = Progress::new("compare", plan.runs.len() as u64);
-    let results = pool.install(|| {
-        plan.runs
-            .par_iter()
-            .map(|spec| {
-                let r = if interrupt.load(Ordering::SeqCst) {
-                    Err(anyhow::anyhow!("not started: interrupted"))
-                } else {
-                    run_one(
-                        sc,
-                        spec,
-                        plan,
-                        &out.join(spec.folder()),
-                        &worker,
-                        &interrupt,
-                    )
-                };
-                let r = r.unwrap_or_else(|e| RunResult {
+    let ends = crate::batch::run(
+        "compare",
+        plan.jobs,
+        &interrupt,
+        &plan.runs,
+        |spec| spec.name.clone(),
+        |spec| {
+            let dir = out.join(spec.folder());
+            let r =
+                run_one(sc, spec, plan, &dir, &worker, &interrupt).unwrap_or_else(|e| RunResult {
                     name: spec.name.clone(),
                     record: Err(crate::error::describe(&e)),
                     spread: Spread::default(),
                 });
-                progress.finished(&spec.name, r.error());
-                r
+            let error = r.error().map(str::to_string);
+            JobEnd::Done(r, error)
+        },
+    )?;
+    // A run the interrupt kept from starting keeps its place, marked.
+    Ok(plan
+        .runs
+        .iter()
+        .zip(ends)
+        .map(|(spec, end)| {
+            end.unwrap_or_else(|| RunResult {
+                name: spec.name.clone(),
+                record: Err("not started: interrupted".into()),
+                spread: Spread::default(),
             })
-            .collect()
-    });
-    progress.done();
-    Ok(results)
+        })
+        .collect())
 }
 
 /// The combined document: stamps once, each run's metrics without them, and for `--mixed`
