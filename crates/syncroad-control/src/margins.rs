@@ -95,9 +95,10 @@ pub struct GapSafety {
     /// Smallest bumper-to-bumper gap after the warm-up \[m\]; ≤ 0 means vehicles touched.
     pub min_gap_m: f64,
     /// Vehicle-time after the warm-up with v ≥ 1 m/s and Δx/v < [`SAFE_HEADWAY_S`] \[s\],
-    /// summed over vehicles (each sample stands for the time to the next one).
+    /// summed over vehicles (each sample stands for the time to the next one); null with fewer
+    /// than two samples after the warm-up, where no time is measured.
     #[schemars(title = "time below a 1 s headway")]
-    pub time_below_safe_headway_s: f64,
+    pub time_below_safe_headway_s: Option<f64>,
     /// Vehicle-samples with a gap ≤ 0 after the warm-up (overlaps: collisions).
     #[schemars(title = "overlapping vehicle-samples")]
     pub overlap_samples: usize,
@@ -131,7 +132,7 @@ impl GapSafety {
         }
         min_gap.is_finite().then_some(Self {
             min_gap_m: min_gap,
-            time_below_safe_headway_s: below,
+            time_below_safe_headway_s: (traj.len() >= first + 2).then_some(below),
             overlap_samples: overlaps,
         })
     }
@@ -176,8 +177,12 @@ mod tests {
         let g = GapSafety::of(&t, 1.0).unwrap();
         assert_relative_eq!(g.min_gap_m, -0.2);
         // Vehicle 1 at 5 m/s with −0.2 m is below 1 s too: 1 s + 0.5 s.
-        assert_relative_eq!(g.time_below_safe_headway_s, 1.5);
+        assert_relative_eq!(g.time_below_safe_headway_s.unwrap(), 1.5);
         assert_eq!(g.overlap_samples, 1);
+        // One sample after the warm-up measures no time: null, not 0 (the gap still counts).
+        let g = GapSafety::of(&t, 2.5).unwrap();
+        assert_eq!(g.time_below_safe_headway_s, None);
+        assert_relative_eq!(g.min_gap_m, 2.5);
     }
 
     #[test]

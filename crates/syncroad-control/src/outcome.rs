@@ -7,7 +7,7 @@
 //! [`evaluate`], so the same trajectory always gives the same metrics and verdict.
 
 use crate::collisions::Collisions;
-use crate::congestion::{congestion_metrics, CongestionError, CongestionMetrics};
+use crate::congestion::{congestion_metrics, CongestionError, CongestionMetrics, STOP_SPEED_MPS};
 use crate::facts::SumoFacts;
 use crate::metrics::{
     sync_metrics, sync_metrics_of, SpreadSeries, SyncMetrics, Verdict, VerdictThresholds,
@@ -123,8 +123,9 @@ pub fn evaluate(scenario: &Scenario, run: &RunOutput, opts: EvalOptions) -> Outc
     }
 }
 
-/// Why a "synchronized" run without a leader is a jam: every vehicle stands (|v| within the
-/// tolerance) at the last sample. Equal speeds of 0 m/s are a standstill, not the
+/// Why a "synchronized" run without a leader is a jam: every vehicle stands (|v| below
+/// [`STOP_SPEED_MPS`], the congestion metrics' stop speed, whatever the verdict's tolerance)
+/// at the last sample. Equal speeds of 0 m/s are a standstill, not the
 /// synchronized motion the verdict reports (a FollowerStopper with U = 0 stops every vehicle).
 /// Behind a leader that stops, standing still is what following means, and stays.
 pub fn standstill(traj: &Trajectory, sync: &SyncMetrics) -> Option<String> {
@@ -135,10 +136,9 @@ pub fn standstill(traj: &Trajectory, sync: &SyncMetrics) -> Option<String> {
         .speeds(traj.len() - 1)
         .iter()
         .fold(0.0, |m: f64, v| m.max(v.abs()));
-    (fastest <= sync.thresholds.tolerance_mps).then(|| {
+    (fastest < STOP_SPEED_MPS).then(|| {
         format!(
-            "every vehicle stands still at the end (fastest {fastest:.3} m/s, within the {} m/s tolerance): equal speeds of 0 m/s are a jam, not synchronized motion",
-            sync.thresholds.tolerance_mps
+            "every vehicle stands still at the end (fastest {fastest:.3} m/s, below the stop speed {STOP_SPEED_MPS} m/s): equal speeds of 0 m/s are a jam, not synchronized motion"
         )
     })
 }
@@ -223,12 +223,20 @@ mod tests {
     }
 
     fn at_speed(v: f64, leader: Option<f64>) -> (Trajectory, SyncMetrics) {
+        at_speed_within(v, leader, 0.05)
+    }
+
+    fn at_speed_within(
+        v: f64,
+        leader: Option<f64>,
+        tolerance_mps: f64,
+    ) -> (Trajectory, SyncMetrics) {
         let mut tr = Trajectory::new(2);
         for k in 0..=100 {
             tr.push(k as f64 * 0.1, &[v, v], &[0.0, 0.0], &[5.0, 5.0], leader);
         }
         let th = VerdictThresholds {
-            tolerance_mps: 0.05,
+            tolerance_mps,
             window_s: 1.0,
         };
         let m = sync_metrics(&tr, th, None, false);
@@ -244,9 +252,16 @@ mod tests {
             why.starts_with("every vehicle stands still at the end"),
             "{why}"
         );
-        // 0.04 m/s is within the 0.05 m/s tolerance of 0; 0.06 m/s is motion.
-        assert!(standstill(&at_speed(0.04, None).0, &at_speed(0.04, None).1).is_some());
-        assert!(standstill(&at_speed(0.06, None).0, &at_speed(0.06, None).1).is_none());
+        // Standing is below the congestion metrics' stop speed (0.1 m/s), whatever the
+        // verdict's tolerance: a ring cruising at 7.77 m/s with a tolerance of 10 m/s moves.
+        let stands = |v: f64, tol: f64| {
+            let (tr, m) = at_speed_within(v, None, tol);
+            standstill(&tr, &m).is_some()
+        };
+        assert!(stands(0.09, 0.05));
+        assert!(!stands(0.11, 0.05));
+        assert!(!stands(7.77, 10.0));
+        assert!(stands(0.09, 10.0));
         let (tr, m) = at_speed(0.0, Some(0.0));
         assert!(m.against_leader);
         assert!(standstill(&tr, &m).is_none());

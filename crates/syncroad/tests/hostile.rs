@@ -116,6 +116,39 @@ mod wrong_results {
         let why = m["sync"]["verdict_reason"].as_str().unwrap_or_default();
         assert!(why.contains("stands still"), "{m}");
     }
+
+    #[test]
+    fn a_loose_tolerance_is_not_a_standstill_and_one_sample_measures_no_time() {
+        let dir = tmpdir("loose");
+        let ring = repo().join("scenarios/ring-theorem1.json");
+        // A tolerance above the cruise speed once made a moving ring "stand still".
+        let (code, o, e) = run(bin()
+            .arg("simulate")
+            .arg(&ring)
+            .args(["--tolerance-mps", "10", "--no-plots", "--out"])
+            .arg(dir.join("loose")));
+        assert_eq!(code, 0, "{o}{e}");
+        let m = metrics(&dir.join("loose"));
+        assert_eq!(m["sync"]["verdict"], "synchronized", "{m}");
+        assert!(
+            m["congestion"]["mean_speed_mps"].as_f64().unwrap() > 1.0,
+            "{m}"
+        );
+        // One recorded sample after the warm-up: no congestion metrics and no headway time
+        // (both need two samples), not a made-up 0.
+        let (_, o, e) = run(bin()
+            .arg("simulate")
+            .arg(&ring)
+            .args(["--record-every", "3000", "--no-plots", "--out"])
+            .arg(dir.join("sparse")));
+        let m = metrics(&dir.join("sparse"));
+        assert!(m["congestion"].is_null(), "{o}{e}{m}");
+        assert!(
+            m["gap_safety"]["time_below_safe_headway_s"].is_null(),
+            "{m}"
+        );
+        assert!(m["gap_safety"]["min_gap_m"].as_f64().is_some(), "{m}");
+    }
 }
 
 mod sweeps {
