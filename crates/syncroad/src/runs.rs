@@ -82,8 +82,12 @@ impl RunSpec {
 
     /// The law of this run on the native simulator: the scenario's law with the damper and the
     /// stochastic humans on a ring of the scenario's length; `None` when a SUMO driver takes
-    /// part (only SUMO runs it) or a damper or human is asked for on a straight road.
+    /// part (only SUMO runs it: a run that leaves the drivers to a scenario with a `mixed`
+    /// block included) or a damper or human is asked for on a straight road.
     pub fn native_law(&self, sc: &Scenario) -> Option<LawSpec> {
+        if self.drivers.is_empty() && sc.mixed().is_some() {
+            return None;
+        }
         let mut law = LawSpec::of(sc);
         if self.damper.is_none() && self.drivers.iter().all(Option::is_none) {
             return Some(law);

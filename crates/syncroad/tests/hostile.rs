@@ -277,6 +277,39 @@ mod sweeps {
     }
 
     #[test]
+    fn a_native_sweep_never_runs_a_mixed_block_as_an_all_law_ring() {
+        let dir = tmpdir("native-mixed");
+        native_ring(&dir);
+        // A mixed.penetration axis, and a base scenario with a mixed block: both once ran
+        // every vehicle with the law and labelled the row with the penetration.
+        let axis = spec(
+            &dir,
+            "axis.json",
+            json!({"base": "ring.json", "backend": "native",
+                   "axes": [{"field": "mixed.penetration", "values": [0.5]}]}),
+        );
+        let (code, o, e) = sweep(&axis, &dir.join("out1"));
+        assert_eq!(code, 2, "{o}{e}");
+        assert!(
+            e.contains("mixed block puts SUMO drivers among the law's vehicles"),
+            "{e}"
+        );
+        let mut ring: Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join("ring.json")).unwrap()).unwrap();
+        ring["mixed"] = json!({"penetration": 0.5});
+        write_json(&dir.join("mixed.json"), &ring);
+        let base = spec(
+            &dir,
+            "base.json",
+            json!({"base": "mixed.json", "backend": "native"}),
+        );
+        let (code, o, e) = sweep(&base, &dir.join("out2"));
+        assert_eq!(code, 2, "{o}{e}");
+        assert!(e.contains("base scenario's mixed block"), "{e}");
+        assert!(!dir.join("out1/rows").exists() && !dir.join("out2/rows").exists());
+    }
+
+    #[test]
     fn a_second_writer_of_a_sweep_folder_is_refused_naming_the_holder() {
         let dir = tmpdir("lock");
         native_ring(&dir);

@@ -32,6 +32,19 @@ impl Sweep {
                     .map_err(here)?;
             }
             if self.backend != Backend::Sumo {
+                let spec = &self.runs[p.run].spec;
+                if spec.native_law(&sc).is_none() {
+                    return Err(InputError::new(format!(
+                        "{}: {}; run it with \"backend\": \"sumo\"",
+                        self.describe(&p),
+                        if sc.mixed().is_some() && spec.drivers.is_empty() {
+                            "the scenario's mixed block puts SUMO drivers among the law's vehicles, which the native simulator does not run (a native sweep mixes through its penetrations)".to_string()
+                        } else {
+                            format!("run {} needs SUMO drivers or a ring", spec.name)
+                        }
+                    ))
+                    .into());
+                }
                 continue;
             }
             let net = syncroad_sumo::net_path(&sc)

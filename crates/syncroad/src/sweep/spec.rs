@@ -419,6 +419,13 @@ fn runs_of(file: &SpecFile, base: &Scenario, backend: Backend) -> anyhow::Result
     }
     if backend == Backend::Native {
         if let Some(r) = runs.iter().find(|r| r.spec.native_law(base).is_none()) {
+            if r.spec.drivers.is_empty() && base.mixed().is_some() {
+                return Err(bad(format!(
+                    "runs: {} on the base scenario's mixed block, which puts SUMO drivers among the law's vehicles and runs in SUMO only, but backend = \"native\"; use backend \"sumo\", or remove the mixed block and give penetrations",
+                    r.spec.name
+                ))
+                .into());
+            }
             return Err(bad(format!(
                 "runs: {} has SUMO drivers (or a damper or stochastic humans on a straight road), which run in SUMO, but backend = \"native\"; use backend \"sumo\", or only \"protocol\", dampers and stochastic humans (human-noisy, flow-idm-noise) on a ring",
                 r.spec.name
