@@ -277,6 +277,48 @@ mod sweeps {
     }
 
     #[test]
+    fn map_removes_only_a_sweep_folder_an_earlier_map_wrote() {
+        let dir = tmpdir("map-foreign");
+        let ring = native_ring(&dir);
+        let map = |out: &Path| {
+            run(bin()
+                .arg("map")
+                .arg(&ring)
+                .args([
+                    "--x",
+                    "gain_scale=0.5:2:2",
+                    "--y",
+                    "delay_scale=0.5:2:2",
+                    "--out",
+                ])
+                .arg(out))
+        };
+        // The user's folder at OUT/sweep, and a file there: refused before any work.
+        let out = dir.join("out");
+        std::fs::create_dir_all(out.join("sweep")).unwrap();
+        std::fs::write(out.join("sweep/notes.txt"), "mine").unwrap();
+        let (code, o, e) = map(&out);
+        assert_eq!(code, 2, "{o}{e}");
+        assert!(e.contains("is not a sweep an earlier map wrote"), "{e}");
+        assert_eq!(
+            std::fs::read_to_string(out.join("sweep/notes.txt")).unwrap(),
+            "mine"
+        );
+        assert!(!out.join("map.csv").exists());
+        let file_out = dir.join("file-out");
+        std::fs::create_dir_all(&file_out).unwrap();
+        std::fs::write(file_out.join("sweep"), "mine").unwrap();
+        let (code, o, e) = map(&file_out);
+        assert_eq!(code, 2, "{o}{e}");
+        // Its own sweep folder is replaced: a second map into the same folder runs.
+        let fresh = dir.join("fresh");
+        for _ in 0..2 {
+            let (code, o, e) = map(&fresh);
+            assert_eq!(code, 0, "{o}{e}");
+        }
+    }
+
+    #[test]
     fn a_native_sweep_never_runs_a_mixed_block_as_an_all_law_ring() {
         let dir = tmpdir("native-mixed");
         native_ring(&dir);

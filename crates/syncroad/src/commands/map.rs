@@ -191,6 +191,7 @@ fn simulate_grid(
     let dir = out.join("sweep");
     // The caller holds `out`'s lock (one map at a time writes there); the map owns
     // `out/sweep` and starts it afresh.
+    check_sweep_folder(&dir)?;
     if dir.exists() {
         std::fs::remove_dir_all(&dir)
             .with_context(|| format!("cannot remove the previous {}", dir.display()))?;
@@ -228,6 +229,32 @@ fn simulate_grid(
     table.write_parquet(&dir.join("results.parquet"))?;
     table.write_csv(&dir.join("results.csv"))?;
     Ok(verdicts)
+}
+
+/// `OUT/sweep` is the map's own: absent, or a folder an earlier map's sweep wrote (it holds
+/// `sweep.json` with a spec named `SCENARIO map`). Anything else there is the user's and is never
+/// removed; checked before any work.
+fn check_sweep_folder(dir: &Path) -> anyhow::Result<()> {
+    let Ok(meta) = std::fs::symlink_metadata(dir) else {
+        return Ok(());
+    };
+    let ours = meta.is_dir()
+        && std::fs::read_to_string(dir.join("sweep.json"))
+            .ok()
+            .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+            .is_some_and(|v| {
+                v["spec"]["name"]
+                    .as_str()
+                    .is_some_and(|n| n.ends_with(" map"))
+            });
+    if ours {
+        return Ok(());
+    }
+    Err(InputError::new(format!(
+        "--out: {} exists and is not a sweep an earlier map wrote there; map writes its simulations into OUT/sweep, so move it away or give another --out",
+        dir.display()
+    ))
+    .into())
 }
 
 /// Theory at every grid point (Theorem 1 and the exact abscissa), in parallel over the cores,
@@ -462,6 +489,9 @@ pub fn run(
     let ya = Axis::parse("--y", y)?;
     let jobs = config::jobs(jobs)?;
     let _lock = crate::output::prepare_dir("--out", out, &["map.csv"])?;
+    if !no_sim {
+        check_sweep_folder(&out.join("sweep"))?;
+    }
     let mut pts = theory_grid(&sc, xa, ya, jobs)?;
     if !no_sim {
         for (p, v) in pts
