@@ -60,6 +60,24 @@ fn format_exception(py: Python<'_>, err: &PyErr) -> String {
     }
 }
 
+/// Where a worker imports the SUMO packages (eclipse-sumo, libsumo) from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SumoPackages {
+    /// The project's virtualenv, added to the embedded interpreter's path (see `venv`): the
+    /// worker is a Rust binary of a checkout.
+    ProjectVenv,
+    /// The running interpreter's own `sys.path`: the worker is a Python process of an
+    /// environment where the syncroad package and its pinned SUMO dependencies are installed.
+    Interpreter,
+}
+
+static PACKAGES: std::sync::OnceLock<SumoPackages> = std::sync::OnceLock::new();
+
+/// Sets where this process imports libsumo from (first call wins; default the project venv).
+pub(crate) fn use_packages(p: SumoPackages) {
+    let _ = PACKAGES.set(p);
+}
+
 /// Where the embedded interpreter found its packages (logged at start, sent to the parent).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PythonInfo {
@@ -93,13 +111,15 @@ pub fn load_libsumo(py: Python<'_>) -> Result<(Bound<'_, PyModule>, PythonInfo),
             .and_then(|x| x.extract())
             .map_err(|e| py_error(py, "sys.version_info.minor", e))?,
     );
-    let venv_dir = venv::find_venv()?;
-    let sp = venv::site_packages(&venv_dir, &format!("{major}.{minor}"))?;
-    let site = py
-        .import("site")
-        .map_err(|e| py_error(py, "import site", e))?;
-    site.call_method1("addsitedir", (sp.to_string_lossy().as_ref(),))
-        .map_err(|e| py_error(py, format!("site.addsitedir({})", sp.display()), e))?;
+    let sp = match PACKAGES.get().copied().unwrap_or(SumoPackages::ProjectVenv) {
+        SumoPackages::ProjectVenv => add_project_venv(py, &format!("{major}.{minor}"))?,
+        SumoPackages::Interpreter => py
+            .import("sysconfig")
+            .and_then(|m| m.call_method1("get_path", ("purelib",)))
+            .and_then(|p| p.extract::<String>())
+            .map(std::path::PathBuf::from)
+            .map_err(|e| py_error(py, "sysconfig.get_path('purelib')", e))?,
+    };
     let import = |module: &str| -> Result<Bound<'_, PyModule>, PythonError> {
         py.import(module).map_err(|e| {
             if e.is_instance_of::<pyo3::exceptions::PyImportError>(py) {
@@ -137,12 +157,25 @@ pub fn load_libsumo(py: Python<'_>) -> Result<(Bound<'_, PyModule>, PythonInfo),
     Ok((libsumo, info))
 }
 
+/// Adds the project virtualenv's site-packages to the interpreter's path and returns it.
+fn add_project_venv(py: Python<'_>, version: &str) -> Result<std::path::PathBuf, PythonError> {
+    let venv_dir = venv::find_venv()?;
+    let sp = venv::site_packages(&venv_dir, version)?;
+    let site = py
+        .import("site")
+        .map_err(|e| py_error(py, "import site", e))?;
+    site.call_method1("addsitedir", (sp.to_string_lossy().as_ref(),))
+        .map_err(|e| py_error(py, format!("site.addsitedir({})", sp.display()), e))?;
+    Ok(sp)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
     fn python_errors_keep_the_traceback() {
+        Python::initialize();
         Python::attach(|py| {
             let code =
                 c"def inner():\n    raise ValueError('bad speed 7')\n\ndef outer():\n    inner()\n";

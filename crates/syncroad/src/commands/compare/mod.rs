@@ -285,7 +285,7 @@ pub fn run_all(
     out: &Path,
     interrupt: Arc<AtomicBool>,
 ) -> anyhow::Result<Vec<RunResult>> {
-    let worker = WorkerCommand::current_exe().context("cannot locate the syncroad executable")?;
+    let worker = WorkerCommand::for_process().context("cannot locate the syncroad executable")?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(plan.jobs.min(plan.runs.len()).max(1))
         .build()?;

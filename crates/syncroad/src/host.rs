@@ -1,0 +1,104 @@
+//! The CLI as a function: a command line in, an exit code (and the error, and optionally what
+//! was printed) out. The `syncroad` binary is [`main`]; the Python package calls [`main`] for
+//! its console script and [`execute`] for its API, so both run the very commands of the CLI.
+
+use std::ffi::OsString;
+
+use clap::Parser;
+
+use crate::{cli, commands, config, exit_codes, stdout};
+
+/// How a command ended.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Ended {
+    /// The documented exit code (see the README's exit codes).
+    pub code: u8,
+    /// The error, with its cause chain (`{:#}`), when the command failed or the command line
+    /// was refused (then clap's message, usage included).
+    pub error: Option<String>,
+    /// What the command printed to stdout, when it was captured (else empty).
+    pub stdout: String,
+}
+
+/// Runs a command line (`args[0]` is the program name) and returns how it ended; with
+/// `capture`, what it prints is returned instead of written to stdout. Nothing is printed of
+/// the error: the caller chooses ([`main`] prints it as `error: …`).
+pub fn execute<I, T>(args: I, capture: bool) -> Ended
+where
+    I: IntoIterator<Item = T>,
+    T: Into<OsString> + Clone,
+{
+    let parsed = match cli::Cli::try_parse_from(args) {
+        Ok(c) => c,
+        Err(e) => {
+            let code = u8::try_from(e.exit_code()).unwrap_or(exit_codes::BAD_INPUT);
+            let text = e.render().to_string();
+            // --help and --version "fail" with exit code 0: their text is the output.
+            return if code == exit_codes::SUCCESS {
+                Ended {
+                    code,
+                    error: None,
+                    stdout: text,
+                }
+            } else {
+                Ended {
+                    code,
+                    error: Some(text),
+                    stdout: String::new(),
+                }
+            };
+        }
+    };
+    run_parsed(parsed, capture)
+}
+
+/// Runs a parsed command line (see [`execute`]).
+fn run_parsed(parsed: cli::Cli, capture: bool) -> Ended {
+    let run = || {
+        let result = commands::run(parsed);
+        (
+            exit_codes::of(&result),
+            result.err().map(|e| format!("{e:#}")),
+        )
+    };
+    let ((code, error), stdout) = if capture {
+        stdout::capture(run)
+    } else {
+        (run(), String::new())
+    };
+    Ended {
+        code,
+        error,
+        stdout,
+    }
+}
+
+/// The `syncroad` program: runs the command line, prints an error as `error: …` on stderr
+/// (clap's refusals and `--help` as clap prints them) and returns the exit code.
+pub fn main<I, T>(args: I) -> u8
+where
+    I: IntoIterator<Item = T>,
+    T: Into<OsString> + Clone,
+{
+    let parsed = match cli::Cli::try_parse_from(args) {
+        Ok(c) => c,
+        Err(e) => {
+            // Usage errors on stderr, --help and --version on stdout, as clap's `parse` does.
+            let _ = e.print();
+            return u8::try_from(e.exit_code()).unwrap_or(exit_codes::BAD_INPUT);
+        }
+    };
+    let ended = run_parsed(parsed, false);
+    if let Some(err) = &ended.error {
+        eprintln!("error: {err}");
+    }
+    ended.code
+}
+
+/// Loads and validates a scenario file as every command does; the error is the CLI's
+/// message, which names the field, the value and what is valid.
+pub fn validate_scenario(path: &std::path::Path) -> Result<(), String> {
+    config::load_scenario(path)
+        .map(|_| ())
+        .map_err(|e| format!("{e:#}"))
+}
