@@ -16,7 +16,7 @@ pub enum PythonError {
     #[error(transparent)]
     Venv(#[from] VenvError),
     /// A package is missing from the virtualenv.
-    #[error("Python module `{module}` is not installed in {site_packages} ({detail}); install the pinned SUMO packages with `{BOOTSTRAP_COMMAND}`")]
+    #[error("Python module `{module}` is not installed in {site_packages} ({detail}); install the pinned SUMO packages with `{install}`")]
     MissingPackage {
         /// Module name.
         module: String,
@@ -24,6 +24,8 @@ pub enum PythonError {
         site_packages: String,
         /// The ImportError message.
         detail: String,
+        /// The command that installs it.
+        install: String,
     },
     /// A Python call raised.
     #[error("Python call `{call}` failed:\n{traceback}")]
@@ -70,6 +72,10 @@ pub enum SumoPackages {
     /// environment where the syncroad package and its pinned SUMO dependencies are installed.
     Interpreter,
 }
+
+/// How the pinned SUMO packages get into an interpreter's environment: they are dependencies
+/// of the syncroad package.
+const INTERPRETER_INSTALL: &str = "pip install syncroad (or pip install . in the repository)";
 
 static PACKAGES: std::sync::OnceLock<SumoPackages> = std::sync::OnceLock::new();
 
@@ -127,6 +133,10 @@ pub fn load_libsumo(py: Python<'_>) -> Result<(Bound<'_, PyModule>, PythonInfo),
                     module: module.to_string(),
                     site_packages: sp.display().to_string(),
                     detail: e.value(py).to_string(),
+                    install: match PACKAGES.get() {
+                        Some(SumoPackages::Interpreter) => INTERPRETER_INSTALL.to_string(),
+                        _ => BOOTSTRAP_COMMAND.to_string(),
+                    },
                 }
             } else {
                 py_error(py, format!("import {module}"), e)
@@ -198,6 +208,7 @@ mod tests {
             module: "libsumo".into(),
             site_packages: "/r/.venv/lib/python3.11/site-packages".into(),
             detail: "No module named 'libsumo'".into(),
+            install: BOOTSTRAP_COMMAND.into(),
         };
         assert_eq!(
             e.to_string(),
