@@ -91,3 +91,13 @@ def test_the_wheel_installs_and_runs_without_a_rust_toolchain(tmp_path):
     assert where.stdout.startswith(str(venv)), where.stdout
     code = subprocess.run(["syncroad", "check", "scenarios/ring-unstable.json"], cwd=REPO, env=env, capture_output=True)
     assert code.returncode == cli("check", "scenarios/ring-unstable.json").returncode == 1
+
+
+def test_slurm_job_scripts_run_the_console_script(tmp_path):
+    spec = tmp_path / "spec.json"
+    spec.write_text((REPO / "sweeps/ring-gain-delay.native.json").read_text().replace("../scenarios", str(REPO / "scenarios")))
+    p = script("sweep", spec, "--out", tmp_path / "out", "--emit-slurm", tmp_path / "jobs", "--shards", "2")
+    assert p.returncode == 0, p.stderr
+    job = (tmp_path / "jobs/sweep.sbatch").read_text()
+    # Not the interpreter the console script runs in: the command itself.
+    assert f"exec {SCRIPT} sweep " in job, job

@@ -21,13 +21,19 @@ const WORKER_MODULE: &str = "syncroad._worker";
 /// How often the calling thread looks for a pending signal while a command runs.
 const POLL: Duration = Duration::from_millis(50);
 
-/// SUMO runs of this process start `sys.executable -m syncroad._worker`.
+/// SUMO runs of this process start `sys.executable -m syncroad._worker`; job scripts
+/// (`sweep --emit-slurm`) run the `syncroad` console script of this environment.
 fn set_worker(py: Python<'_>) -> PyResult<()> {
     let exe: PathBuf = py.import("sys")?.getattr("executable")?.extract()?;
     syncroad_sumo::WorkerCommand::set_for_process(syncroad_sumo::WorkerCommand::python_module(
         exe,
         WORKER_MODULE,
     ));
+    let scripts: PathBuf = py
+        .import("sysconfig")?
+        .call_method1("get_path", ("scripts",))?
+        .extract()?;
+    syncroad::host::set_program(scripts.join("syncroad"));
     Ok(())
 }
 
