@@ -7,7 +7,7 @@ from __future__ import annotations
 import json
 import tempfile
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Iterable, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import TYPE_CHECKING, Any, Dict, Iterable, List, Mapping, Optional, Sequence, Tuple, Union
 
 from syncroad import _syncroad
 from syncroad._errors import Interrupted, RunError, ScenarioError
@@ -36,6 +36,13 @@ def _flags(**options: Any) -> List[str]:
         else:
             argv += [flag, str(value)]
     return argv
+
+
+def _listed(values: Any) -> Any:
+    """A list for an iterable of values; a string (already comma-separated) or None as is."""
+    if values is None or isinstance(values, str):
+        return values
+    return list(values)
 
 
 def _execute(argv: Sequence[str], out: Optional[Path] = None) -> Tuple[int, Optional[str], str]:
@@ -125,7 +132,7 @@ def stability(scenario: ScenarioLike, platoon_scaling: bool = False) -> Record:
     return Record(json.loads(text))
 
 
-def _run_folders(out: Path) -> dict:
+def _run_folders(out: Path) -> Dict[str, Path]:
     """Each run folder under ``out`` by the run name its record gives."""
     folders = {}
     for sub in sorted(p for p in out.iterdir() if (p / METRICS_FILE).is_file()):
@@ -135,8 +142,8 @@ def _run_folders(out: Path) -> dict:
 
 def compare(
     scenario: ScenarioLike,
-    baselines: Optional[Iterable[str]] = None,
-    mixed: Optional[Iterable[int]] = None,
+    baselines: Optional[Union[str, Iterable[str]]] = None,
+    mixed: Optional[Union[str, Iterable[int]]] = None,
     out: Optional[PathLike] = None,
     *,
     mixed_driver: Optional[str] = None,
@@ -157,14 +164,12 @@ def compare(
 
     sc = as_scenario(scenario)
     folder = _out_dir(out, "compare")
-    if isinstance(mixed_controller, str):
-        mixed_controller = [mixed_controller]
     argv = ["compare", str(sc.path), "--out", str(folder)]
     argv += _flags(
-        baselines=list(baselines) if baselines is not None else None,
-        mixed=list(mixed) if mixed is not None else None,
+        baselines=_listed(baselines),
+        mixed=_listed(mixed),
         mixed_driver=mixed_driver,
-        mixed_controller=list(mixed_controller) if mixed_controller is not None else None,
+        mixed_controller=_listed(mixed_controller),
         jobs=jobs,
         warmup_s=warmup_s,
         ssm=ssm,

@@ -11,7 +11,7 @@ if TYPE_CHECKING:
     import pyarrow
 
 
-class Record(dict):
+class Record(Dict[str, Any]):
     """A JSON record of the CLI (``metrics.json``, a ``check``/``stability`` report) as a
     dict whose keys also read as attributes: ``record.sync.verdict`` is
     ``record["sync"]["verdict"]``. Its fields are those of ``docs/metrics.schema.json``."""

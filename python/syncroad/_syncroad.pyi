@@ -2,6 +2,7 @@
 
 from typing import List, Optional, Tuple
 
+__all__ = ["__version__", "execute", "main", "validate_scenario", "worker_main"]
 __version__: str
 
 def main(argv: List[str]) -> int:
