@@ -120,3 +120,44 @@ pub fn validate_scenario(path: &std::path::Path) -> Result<(), String> {
         .map(|_| ())
         .map_err(|e| format!("{e:#}"))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_refused_command_line_is_bad_input_with_claps_message() {
+        let e = execute(["syncroad", "frobnicate"], true);
+        assert_eq!(e.code, exit_codes::BAD_INPUT);
+        let err = e.error.expect("an error");
+        assert!(
+            err.contains("unrecognized subcommand 'frobnicate'"),
+            "{err}"
+        );
+        assert!(e.stdout.is_empty());
+    }
+
+    #[test]
+    fn help_is_output_with_exit_code_zero() {
+        let e = execute(["syncroad", "--help"], true);
+        assert_eq!((e.code, e.error), (exit_codes::SUCCESS, None));
+        assert!(e.stdout.contains("Usage: syncroad"), "{}", e.stdout);
+    }
+
+    #[test]
+    fn a_command_prints_into_the_capture_and_a_bad_file_is_named() {
+        let e = execute(["syncroad", "schema"], true);
+        assert_eq!((e.code, e.error), (exit_codes::SUCCESS, None));
+        let schema: serde_json::Value = serde_json::from_str(&e.stdout).expect("JSON");
+        assert_eq!(
+            e.stdout.trim_end(),
+            syncroad_control::record_schema::metrics_schema_text().trim_end()
+        );
+        assert!(schema.is_object());
+        let e = execute(["syncroad", "check", "/nonexistent/s.json"], true);
+        assert_eq!(e.code, exit_codes::BAD_INPUT);
+        assert!(e.error.expect("an error").contains("/nonexistent/s.json"));
+        let v = validate_scenario(std::path::Path::new("/nonexistent/s.json")).unwrap_err();
+        assert!(v.contains("/nonexistent/s.json"), "{v}");
+    }
+}
