@@ -1,11 +1,14 @@
 """The console script behaves like the cargo-built binary; the wheel installs into a fresh
 virtualenv with no Rust toolchain on PATH and runs the one-liner of the guide."""
 
+import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import sysconfig
+import time
 from pathlib import Path
 
 import pytest
@@ -101,3 +104,29 @@ def test_slurm_job_scripts_run_the_console_script(tmp_path):
     job = (tmp_path / "jobs/sweep.sbatch").read_text()
     # Not the interpreter the console script runs in: the command itself.
     assert f"exec {SCRIPT} sweep " in job, job
+
+
+@pytest.mark.parametrize("sig, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_the_console_script_stops_on_a_signal_as_the_binary_does(tmp_path, sig, code):
+    sc = json.loads((REPO / "scenarios/sugiyama-ring.json").read_text())
+    sc["horizon_s"] = 100000
+    sc["sumo"]["net"] = str(REPO / "sumo-nets/sugiyama-ring.net.xml")
+    path = tmp_path / "long.json"
+    path.write_text(json.dumps(sc))
+    out = tmp_path / "out"
+    child = subprocess.Popen(
+        [str(SCRIPT), "run", str(path), "--out", str(out), "--no-plots", "--record-every", "10"],
+        cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )
+    t0 = time.time()
+    while not (out / "sumo" / "sumo.log").exists() and time.time() - t0 < 60:
+        time.sleep(0.02)
+    time.sleep(2.0)
+    child.send_signal(sig)
+    _, stderr = child.communicate(timeout=120)
+    assert child.returncode == code, stderr
+    assert "Traceback" not in stderr, stderr  # the CLI's message, not Python's
+    m = json.loads((out / "metrics.json").read_text())
+    assert m["complete"] is False and "interrupted" in m["error"]
+    with open(out / "trajectories.csv") as f:
+        assert sum(1 for _ in f) - 1 >= 22 * 10
