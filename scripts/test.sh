@@ -15,7 +15,9 @@ cargo test --release --workspace
 for b in tests/baselines/*.json; do
   ./target/release/syncroad regress "$b"
 done
+# The Python package: the wheel built once, installed into .venv-py, python/tests run by pytest.
+bash scripts/python-test.sh
 # A sweep sharded over a private single-node Slurm cluster (skipped, and said so, without Slurm).
 slurm="$(bash scripts/slurm-test.sh)"
 echo
-echo "summary: guide built; cargo tests passed; baselines passed; Slurm test: $(echo "$slurm" | tail -1)"
+echo "summary: guide built; cargo tests passed; baselines passed; Python tests passed; Slurm test: $(echo "$slurm" | tail -1)"

@@ -51,12 +51,16 @@ pub use drivers::{DriverError, SumoDriver, EMISSION_CLASS};
 pub use frozen::FROZEN_LIMIT;
 pub use net::Road;
 pub use protocol::{Event, Finish, ReadMode, Request, StartInfo, Totals};
+pub use python::SumoPackages;
 pub use result_file::{write_result, write_result_via_path, ResultFileError};
 pub use run::{
     check_run, check_sumo_numbers, layout_for, load_road, loop_position, net_path, run_scenario,
     MeasureOptions, PrepareError, Prepared, RunOptions, SumoRun,
 };
-pub use signals::{received as interrupt_signal, received_name as interrupt_signal_name};
+pub use signals::{
+    clear_interrupt, host_delivers_interrupts, interrupt, received as interrupt_signal,
+    received_name as interrupt_signal_name,
+};
 pub use supervisor::{interrupt_flag, SupervisorError, WorkerCommand, WorkerPool};
 pub use venv::repo_dir;
-pub use worker::{is_worker_invocation, worker_main};
+pub use worker::{is_worker_invocation, worker_main, worker_main_with};

@@ -16,7 +16,7 @@ pub enum PythonError {
     #[error(transparent)]
     Venv(#[from] VenvError),
     /// A package is missing from the virtualenv.
-    #[error("Python module `{module}` is not installed in {site_packages} ({detail}); install the pinned SUMO packages with `{BOOTSTRAP_COMMAND}`")]
+    #[error("Python module `{module}` is not installed in {site_packages} ({detail}); install the pinned SUMO packages with `{install}`")]
     MissingPackage {
         /// Module name.
         module: String,
@@ -24,6 +24,8 @@ pub enum PythonError {
         site_packages: String,
         /// The ImportError message.
         detail: String,
+        /// The command that installs it.
+        install: String,
     },
     /// A Python call raised.
     #[error("Python call `{call}` failed:\n{traceback}")]
@@ -60,6 +62,28 @@ fn format_exception(py: Python<'_>, err: &PyErr) -> String {
     }
 }
 
+/// Where a worker imports the SUMO packages (eclipse-sumo, libsumo) from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SumoPackages {
+    /// The project's virtualenv, added to the embedded interpreter's path (see `venv`): the
+    /// worker is a Rust binary of a checkout.
+    ProjectVenv,
+    /// The running interpreter's own `sys.path`: the worker is a Python process of an
+    /// environment where the syncroad package and its pinned SUMO dependencies are installed.
+    Interpreter,
+}
+
+/// How the pinned SUMO packages get into an interpreter's environment: they are dependencies
+/// of the syncroad package.
+const INTERPRETER_INSTALL: &str = "pip install syncroad (or pip install . in the repository)";
+
+static PACKAGES: std::sync::OnceLock<SumoPackages> = std::sync::OnceLock::new();
+
+/// Sets where this process imports libsumo from (first call wins; default the project venv).
+pub(crate) fn use_packages(p: SumoPackages) {
+    let _ = PACKAGES.set(p);
+}
+
 /// Where the embedded interpreter found its packages (logged at start, sent to the parent).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PythonInfo {
@@ -93,13 +117,15 @@ pub fn load_libsumo(py: Python<'_>) -> Result<(Bound<'_, PyModule>, PythonInfo),
             .and_then(|x| x.extract())
             .map_err(|e| py_error(py, "sys.version_info.minor", e))?,
     );
-    let venv_dir = venv::find_venv()?;
-    let sp = venv::site_packages(&venv_dir, &format!("{major}.{minor}"))?;
-    let site = py
-        .import("site")
-        .map_err(|e| py_error(py, "import site", e))?;
-    site.call_method1("addsitedir", (sp.to_string_lossy().as_ref(),))
-        .map_err(|e| py_error(py, format!("site.addsitedir({})", sp.display()), e))?;
+    let sp = match PACKAGES.get().copied().unwrap_or(SumoPackages::ProjectVenv) {
+        SumoPackages::ProjectVenv => add_project_venv(py, &format!("{major}.{minor}"))?,
+        SumoPackages::Interpreter => py
+            .import("sysconfig")
+            .and_then(|m| m.call_method1("get_path", ("purelib",)))
+            .and_then(|p| p.extract::<String>())
+            .map(std::path::PathBuf::from)
+            .map_err(|e| py_error(py, "sysconfig.get_path('purelib')", e))?,
+    };
     let import = |module: &str| -> Result<Bound<'_, PyModule>, PythonError> {
         py.import(module).map_err(|e| {
             if e.is_instance_of::<pyo3::exceptions::PyImportError>(py) {
@@ -107,6 +133,10 @@ pub fn load_libsumo(py: Python<'_>) -> Result<(Bound<'_, PyModule>, PythonInfo),
                     module: module.to_string(),
                     site_packages: sp.display().to_string(),
                     detail: e.value(py).to_string(),
+                    install: match PACKAGES.get() {
+                        Some(SumoPackages::Interpreter) => INTERPRETER_INSTALL.to_string(),
+                        _ => BOOTSTRAP_COMMAND.to_string(),
+                    },
                 }
             } else {
                 py_error(py, format!("import {module}"), e)
@@ -137,12 +167,25 @@ pub fn load_libsumo(py: Python<'_>) -> Result<(Bound<'_, PyModule>, PythonInfo),
     Ok((libsumo, info))
 }
 
+/// Adds the project virtualenv's site-packages to the interpreter's path and returns it.
+fn add_project_venv(py: Python<'_>, version: &str) -> Result<std::path::PathBuf, PythonError> {
+    let venv_dir = venv::find_venv()?;
+    let sp = venv::site_packages(&venv_dir, version)?;
+    let site = py
+        .import("site")
+        .map_err(|e| py_error(py, "import site", e))?;
+    site.call_method1("addsitedir", (sp.to_string_lossy().as_ref(),))
+        .map_err(|e| py_error(py, format!("site.addsitedir({})", sp.display()), e))?;
+    Ok(sp)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
     fn python_errors_keep_the_traceback() {
+        Python::initialize();
         Python::attach(|py| {
             let code =
                 c"def inner():\n    raise ValueError('bad speed 7')\n\ndef outer():\n    inner()\n";
@@ -165,6 +208,7 @@ mod tests {
             module: "libsumo".into(),
             site_packages: "/r/.venv/lib/python3.11/site-packages".into(),
             detail: "No module named 'libsumo'".into(),
+            install: BOOTSTRAP_COMMAND.into(),
         };
         assert_eq!(
             e.to_string(),

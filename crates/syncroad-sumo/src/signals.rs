@@ -20,12 +20,42 @@ fn received_cell() -> &'static Arc<AtomicUsize> {
     RECEIVED.get_or_init(|| Arc::new(AtomicUsize::new(0)))
 }
 
-/// The process-wide stop flag; installs the handlers for [`HANDLED`] on first use.
+/// True once a host delivers the interrupts itself ([`host_delivers_interrupts`]).
+static HOST_DELIVERS: AtomicBool = AtomicBool::new(false);
+
+fn flag_cell() -> Arc<AtomicBool> {
+    FLAG.get_or_init(|| Arc::new(AtomicBool::new(false)))
+        .clone()
+}
+
+/// A host that owns the process's signals (a Python interpreter: its own SIGINT handler
+/// raises `KeyboardInterrupt`) delivers them through [`interrupt`]; [`interrupt_flag`] then
+/// installs no handler. Call before the first [`interrupt_flag`].
+pub fn host_delivers_interrupts() {
+    HOST_DELIVERS.store(true, Ordering::SeqCst);
+}
+
+/// Sets the stop flag as the handler of `signal` would (for a host that delivers interrupts).
+pub fn interrupt(signal: i32) {
+    received_cell().store(signal as usize, Ordering::SeqCst);
+    flag_cell().store(true, Ordering::SeqCst);
+}
+
+/// Clears the stop flag and the received signal, so a host's next command starts afresh
+/// (a notebook goes on after a `KeyboardInterrupt`).
+pub fn clear_interrupt() {
+    flag_cell().store(false, Ordering::SeqCst);
+    received_cell().store(0, Ordering::SeqCst);
+}
+
+/// The process-wide stop flag; installs the handlers for [`HANDLED`] on first use (unless a
+/// host delivers the interrupts: [`host_delivers_interrupts`]).
 pub fn interrupt_flag() -> Result<Arc<AtomicBool>, String> {
     static INSTALLED: OnceLock<Result<(), String>> = OnceLock::new();
-    let flag = FLAG
-        .get_or_init(|| Arc::new(AtomicBool::new(false)))
-        .clone();
+    let flag = flag_cell();
+    if HOST_DELIVERS.load(Ordering::SeqCst) {
+        return Ok(flag);
+    }
     INSTALLED
         .get_or_init(|| {
             for sig in HANDLED {

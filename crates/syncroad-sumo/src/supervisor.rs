@@ -32,7 +32,15 @@ pub struct WorkerCommand {
     pub program: PathBuf,
     /// Its arguments.
     pub args: Vec<OsString>,
+    /// The worker embeds the libpython this crate was built against (a Rust binary): it is
+    /// given that interpreter's libdir and home (see build.rs). False for a worker that is a
+    /// Python interpreter itself (`python -m syncroad._worker`), which brings its own.
+    pub embeds_build_python: bool,
 }
+
+/// The worker command of this process when it is not the running executable (set once by a
+/// host such as the Python package, whose executable is the Python interpreter).
+static PROCESS_WORKER: std::sync::OnceLock<WorkerCommand> = std::sync::OnceLock::new();
 
 impl WorkerCommand {
     /// The running executable re-executed as a worker (`<exe> __sumo-worker`); the binary must
@@ -41,6 +49,7 @@ impl WorkerCommand {
         Ok(Self {
             program: std::env::current_exe()?,
             args: vec![WORKER_ARG.into()],
+            embeds_build_python: true,
         })
     }
 
@@ -49,7 +58,54 @@ impl WorkerCommand {
         Self {
             program: program.into(),
             args: Vec::new(),
+            embeds_build_python: true,
         }
+    }
+
+    /// A Python interpreter running a module whose entry calls
+    /// [`crate::worker_main_with`]`(`[`SumoPackages::Interpreter`](crate::SumoPackages)`)`:
+    /// `python -m syncroad._worker`.
+    pub fn python_module(python: impl Into<PathBuf>, module: &str) -> Self {
+        Self {
+            program: python.into(),
+            args: vec!["-m".into(), module.into()],
+            embeds_build_python: false,
+        }
+    }
+
+    /// The worker of this process: the one set by [`WorkerCommand::set_for_process`], else
+    /// the running executable ([`WorkerCommand::current_exe`]).
+    pub fn for_process() -> std::io::Result<Self> {
+        match PROCESS_WORKER.get() {
+            Some(cmd) => Ok(cmd.clone()),
+            None => Self::current_exe(),
+        }
+    }
+
+    /// Sets the worker of every run this process starts through [`WorkerCommand::for_process`]
+    /// (once; a second call returns `false` and changes nothing).
+    pub fn set_for_process(cmd: WorkerCommand) -> bool {
+        PROCESS_WORKER.set(cmd).is_ok()
+    }
+}
+
+/// Gives a worker that embeds Python the libpython and standard library of the interpreter
+/// pyo3 was built against, not those of the first `python3` on PATH (see build.rs).
+fn pin_build_python(command: &mut Command) {
+    if let Some(libdir) = option_env!("SYNCROAD_PYTHON_LIBDIR") {
+        let mut paths = vec![PathBuf::from(libdir)];
+        if let Some(old) = std::env::var_os("LD_LIBRARY_PATH") {
+            paths.extend(std::env::split_paths(&old));
+        }
+        if let Ok(joined) = std::env::join_paths(paths) {
+            command.env("LD_LIBRARY_PATH", joined);
+        }
+    }
+    if let (None, Some(home)) = (
+        std::env::var_os("PYTHONHOME"),
+        option_env!("SYNCROAD_PYTHON_HOME"),
+    ) {
+        command.env("PYTHONHOME", home);
     }
 }
 
@@ -250,23 +306,8 @@ impl Worker {
     /// the parent).
     pub fn spawn(cmd: &WorkerCommand) -> Result<Self, SupervisorError> {
         let mut command = Command::new(&cmd.program);
-        if let Some(libdir) = option_env!("SYNCROAD_PYTHON_LIBDIR") {
-            // The libpython pyo3 was built against comes first (see build.rs).
-            let mut paths = vec![PathBuf::from(libdir)];
-            if let Some(old) = std::env::var_os("LD_LIBRARY_PATH") {
-                paths.extend(std::env::split_paths(&old));
-            }
-            if let Ok(joined) = std::env::join_paths(paths) {
-                command.env("LD_LIBRARY_PATH", joined);
-            }
-        }
-        if let (None, Some(home)) = (
-            std::env::var_os("PYTHONHOME"),
-            option_env!("SYNCROAD_PYTHON_HOME"),
-        ) {
-            // The standard library of the interpreter pyo3 was built against, not the one of
-            // the first `python3` on PATH (see build.rs).
-            command.env("PYTHONHOME", home);
+        if cmd.embeds_build_python {
+            pin_build_python(&mut command);
         }
         let mut child = command
             .args(&cmd.args)

@@ -13,6 +13,7 @@ use std::os::fd::{FromRawFd, OwnedFd};
 use std::process::ExitCode;
 
 use crate::protocol::{write_msg, Request, WorkerMsg};
+use crate::python::SumoPackages;
 
 /// First argument that turns a binary into a worker.
 pub const WORKER_ARG: &str = "__sumo-worker";
@@ -43,19 +44,30 @@ fn take_protocol_channel() -> std::io::Result<File> {
     }
 }
 
-/// The worker program: reads one [`Request`] line from stdin, runs it, streams the results.
+/// The worker program of a Rust binary: libsumo from the project's virtualenv
+/// ([`worker_main_with`]`(`[`SumoPackages::ProjectVenv`]`)`).
 pub fn worker_main() -> ExitCode {
+    ExitCode::from(worker_main_with(SumoPackages::ProjectVenv))
+}
+
+/// The worker program: reads one [`Request`] line from stdin, runs it, streams the results;
+/// returns the exit code (0, or [`EXIT_FAILED`] after a reported failure).
+/// `packages` says where libsumo is imported from. Initializes the embedded interpreter when
+/// the process has none yet (a Rust binary); inside a Python process it uses the running one.
+pub fn worker_main_with(packages: SumoPackages) -> u8 {
+    crate::python::use_packages(packages);
+    pyo3::Python::initialize();
     let proto = match take_protocol_channel() {
         Ok(f) => f,
         Err(e) => {
             eprintln!("syncroad-sumo worker: cannot set up the protocol channel: {e}");
-            return ExitCode::from(EXIT_FAILED);
+            return EXIT_FAILED;
         }
     };
     let mut out = BufWriter::with_capacity(1 << 20, proto);
     let mut input = std::io::stdin().lock();
     let mut line = String::new();
-    let mut code = ExitCode::SUCCESS;
+    let mut code = 0;
     // One request per line until the parent closes stdin; SUMO starts and closes per run.
     loop {
         line.clear();
@@ -70,7 +82,7 @@ pub fn worker_main() -> ExitCode {
                     },
                 );
                 let _ = out.flush();
-                return ExitCode::from(EXIT_FAILED);
+                return EXIT_FAILED;
             }
         }
         let result = match serde_json::from_str::<Request>(&line) {
@@ -79,17 +91,17 @@ pub fn worker_main() -> ExitCode {
             Err(e) => Err(format!("malformed request: {e}")),
         };
         code = match result {
-            Ok(()) => ExitCode::SUCCESS,
+            Ok(()) => 0,
             Err(message) => {
                 if write_msg(&mut out, &WorkerMsg::Failed { message }).is_err() {
-                    return ExitCode::from(EXIT_FAILED);
+                    return EXIT_FAILED;
                 }
-                ExitCode::from(EXIT_FAILED)
+                EXIT_FAILED
             }
         };
         if out.flush().is_err() {
             // The parent is gone.
-            return ExitCode::from(EXIT_FAILED);
+            return EXIT_FAILED;
         }
     }
 }

@@ -1,8 +1,6 @@
 //! Documented exit codes of `syncroad`, chosen in one place from a command's [`Status`] or
 //! error.
 
-use std::process::ExitCode;
-
 use crate::error::{InputError, Status};
 
 /// The run finished and the verdict is "synchronized" (for `check`: certified).
@@ -29,7 +27,7 @@ fn interrupted() -> u8 {
 /// The exit code of a command's result. A signal that arrived after the runs, while the files
 /// were written or plotted, still ends the command as interrupted (its files are whole: each
 /// is written atomically); a bad input stays a bad input.
-pub fn of(result: &anyhow::Result<Status>) -> ExitCode {
+pub fn of(result: &anyhow::Result<Status>) -> u8 {
     let bad_input = matches!(result, Err(e) if e.chain().any(|c| c.is::<InputError>()));
     if syncroad_sumo::interrupt_signal().is_some() && !bad_input {
         if !matches!(result, Ok(Status::Interrupted)) {
@@ -38,14 +36,14 @@ pub fn of(result: &anyhow::Result<Status>) -> ExitCode {
                 syncroad_sumo::interrupt_signal_name()
             );
         }
-        return ExitCode::from(interrupted());
+        return interrupted();
     }
-    ExitCode::from(match result {
+    match result {
         Ok(Status::Success) => SUCCESS,
         Ok(Status::NotSynchronized) => NOT_SYNCHRONIZED,
         Ok(Status::RunFailed) => RUN_FAILED,
         Ok(Status::Interrupted) => interrupted(),
         Err(e) if e.chain().any(|c| c.is::<InputError>()) => BAD_INPUT,
         Err(_) => RUN_FAILED,
-    })
+    }
 }

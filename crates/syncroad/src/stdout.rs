@@ -2,14 +2,41 @@
 //! stdout sent to `/dev/full`. The first failed write (EPIPE, ENOSPC, …) turns stdout off
 //! for the rest of the process; the command goes on, writes its files and exits with its own
 //! status, as `head`-friendly command-line tools do. Files and stderr are unaffected.
+//!
+//! A host that runs a command as a function ([`crate::host::execute`]) can [`capture`] what
+//! it prints instead (the Python package returns the report as a string).
 
 use std::io::Write as _;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Mutex;
 
 static CLOSED: AtomicBool = AtomicBool::new(false);
 
+/// What is printed while a [`capture`] runs (`None`: print to stdout).
+static CAPTURED: Mutex<Option<String>> = Mutex::new(None);
+
+/// One [`capture`] at a time.
+static CAPTURING: Mutex<()> = Mutex::new(());
+
+/// Runs `f` with what it prints collected instead of written to stdout, and returns both.
+pub fn capture<R>(f: impl FnOnce() -> R) -> (R, String) {
+    let _one = CAPTURING.lock().unwrap_or_else(|e| e.into_inner());
+    *CAPTURED.lock().unwrap_or_else(|e| e.into_inner()) = Some(String::new());
+    let r = f();
+    let text = CAPTURED
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .take()
+        .unwrap_or_default();
+    (r, text)
+}
+
 /// Writes to stdout unless an earlier write failed; a failure closes stdout quietly.
 pub fn write(args: std::fmt::Arguments<'_>) {
+    if let Some(buf) = CAPTURED.lock().unwrap_or_else(|e| e.into_inner()).as_mut() {
+        let _ = std::fmt::Write::write_fmt(buf, args);
+        return;
+    }
     if CLOSED.load(Ordering::Relaxed) {
         return;
     }

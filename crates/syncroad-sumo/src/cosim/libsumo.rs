@@ -208,10 +208,11 @@ impl<'a, 'py> Reader<'a, 'py> {
             .call("vehicle_getIDList", ())?
             .extract()
             .map_err(|e| py_error(self.py, "vehicle.getIDList", e))?;
-        Ok(self
-            .ids
-            .iter()
-            .position(|id| !present.iter().any(|p| id.to_str().is_ok_and(|s| s == p))))
+        Ok(self.ids.iter().position(|id| {
+            !present
+                .iter()
+                .any(|p| id.to_cow().is_ok_and(|s| s == p.as_str()))
+        }))
     }
 
     /// A failed direct call: `Some(i)` if vehicle i left the simulation, else the error.

@@ -209,6 +209,7 @@ mod tests {
 
     #[test]
     fn argument_tuples_are_refilled_only_when_unshared() {
+        Python::initialize();
         Python::attach(|py| {
             let t = PyTuple::new(py, [1.0f64, 2.0]).unwrap();
             set_item_f64(&t, 1, 7.5).unwrap();

@@ -217,7 +217,7 @@ fn run_sumo(sc: &Scenario, out: &OutputArgs, args: &SumoArgs) -> anyhow::Result<
     };
     let road = load_road(sc).map_err(|e| InputError::caused("before starting SUMO", e))?;
     let _lock = prepare_out(&cfg.out)?;
-    let worker = WorkerCommand::current_exe().context("cannot locate the syncroad executable")?;
+    let worker = WorkerCommand::for_process().context("cannot locate the syncroad executable")?;
     let mut opts = RunOptions::new(cfg.out.join("sumo"), worker);
     opts.record_every = cfg.record_every;
     opts.ballistic = !args.euler;

@@ -14,7 +14,7 @@ use crate::stdout::out;
 /// N = 2000; prints a table, optionally writes JSON.
 pub fn run(quick: bool, json_out: Option<&Path>) -> anyhow::Result<Status> {
     let repo = syncroad_sumo::repo_dir();
-    let worker = WorkerCommand::current_exe().context("cannot locate the syncroad executable")?;
+    let worker = WorkerCommand::for_process().context("cannot locate the syncroad executable")?;
     let work = std::env::temp_dir().join(format!("syncroad-sumo-bench-{}", std::process::id()));
     let mut results = Vec::new();
     for case in standard_cases(&repo.join("sumo-nets"), quick) {

@@ -347,7 +347,7 @@ pub fn run(
         return Ok(summary);
     }
     let pool = (sweep.backend == Backend::Sumo).then(|| {
-        WorkerCommand::current_exe()
+        WorkerCommand::for_process()
             .map(WorkerPool::new)
             .context("cannot locate the syncroad executable")
     });

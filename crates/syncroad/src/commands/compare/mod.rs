@@ -284,7 +284,7 @@ pub fn run_all(
     out: &Path,
     interrupt: Arc<AtomicBool>,
 ) -> anyhow::Result<Vec<RunResult>> {
-    let worker = WorkerCommand::current_exe().context("cannot locate the syncroad executable")?;
+    let worker = WorkerCommand::for_process().context("cannot locate the syncroad executable")?;
     let ends = crate::batch::run(
         "compare",
         plan.jobs,

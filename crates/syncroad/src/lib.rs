@@ -1,0 +1,32 @@
+//! `syncroad`: argument definitions plus glue. The work happens in `syncroad-control` (laws,
+//! theory, native simulator, the run outcome and record) and `syncroad-sumo` (SUMO
+//! co-simulation). The CLI is a library so that the binary (`src/main.rs`) and the Python
+//! package (`crates/syncroad-py`) run the same commands through [`host`].
+//!
+//! * [`cli`] — clap definitions, the help text;
+//! * [`config`] — options validated once, before any work starts;
+//! * [`commands`] — one module per command;
+//! * [`pipeline`] — one run, whatever runs it: backend → outcome → record → files;
+//! * [`output`], [`plots`], [`report`], [`stability`] — files, figures and text tables;
+//! * [`error`], [`exit_codes`] — the one error funnel; only [`host::execute`] picks the exit
+//!   code;
+//! * [`host`] — a command line in, an exit code out: the whole CLI as a function.
+
+mod batch;
+mod cli;
+mod commands;
+mod config;
+mod error;
+mod exit_codes;
+mod gaps;
+pub mod host;
+mod lock;
+mod output;
+mod pipeline;
+mod plots;
+mod progress;
+mod report;
+mod runs;
+mod stability;
+mod stdout;
+mod sweep;

@@ -1,0 +1,230 @@
+"""The commands of the CLI as functions: each builds the command line the CLI would be given,
+runs it in-process through the extension (the very code of the ``syncroad`` binary), and
+reads back the files and reports it wrote."""
+
+from __future__ import annotations
+
+import json
+import tempfile
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Dict, Iterable, List, Mapping, Optional, Sequence, Tuple, Union
+
+from syncroad import _syncroad
+from syncroad._errors import Interrupted, RunError, ScenarioError
+from syncroad._run import METRICS_FILE, Record, Run
+from syncroad._scenario import PathLike, ScenarioLike, as_scenario, write_spec
+
+if TYPE_CHECKING:
+    import pandas
+
+#: The CLI's exit codes (README, "Exit codes").
+SUCCESS, NOT_SYNCHRONIZED, BAD_INPUT, RUN_FAILED = 0, 1, 2, 3
+
+
+def _flags(**options: Any) -> List[str]:
+    """``--name value`` for every option given (``None``: not given; ``True``: a bare flag;
+    a list: comma-separated)."""
+    argv: List[str] = []
+    for name, value in options.items():
+        if value is None or value is False:
+            continue
+        flag = "--" + name.replace("_", "-")
+        if value is True:
+            argv.append(flag)
+        elif isinstance(value, (list, tuple)):
+            argv += [flag, ",".join(str(v) for v in value)]
+        else:
+            argv += [flag, str(value)]
+    return argv
+
+
+def _listed(values: Any) -> Any:
+    """A list for an iterable of values; a string (already comma-separated) or None as is."""
+    if values is None or isinstance(values, str):
+        return values
+    return list(values)
+
+
+def _execute(argv: Sequence[str], out: Optional[Path] = None) -> Tuple[int, Optional[str], str]:
+    """Runs ``syncroad ARGV`` in-process; bad input raises :class:`ScenarioError`, Ctrl-C
+    raises :class:`Interrupted` once the command has stopped and written its rows."""
+    try:
+        code, error, stdout = _syncroad.execute(["syncroad", *argv])
+    except KeyboardInterrupt:
+        run = None
+        if out is not None and (out / METRICS_FILE).is_file():
+            run = Run(out)
+        raise Interrupted(out, run) from None
+    if code == BAD_INPUT:
+        raise ScenarioError(error or "bad input")
+    if code >= 128:
+        # A signal the host did not deliver as KeyboardInterrupt (SIGTERM to a worker pool).
+        raise Interrupted(out)
+    return code, error, stdout
+
+
+def _out_dir(out: Optional[PathLike], prefix: str) -> Path:
+    return Path(out) if out is not None else Path(tempfile.mkdtemp(prefix=f"syncroad-{prefix}-"))
+
+
+def run(
+    scenario: ScenarioLike,
+    backend: Optional[str] = None,
+    out: Optional[PathLike] = None,
+    *,
+    plots: bool = True,
+    tolerance_mps: Optional[float] = None,
+    window_s: Optional[float] = None,
+    record_every: Optional[int] = None,
+    warmup_s: Optional[float] = None,
+    timeout_s: Optional[float] = None,
+    krauss_sigma: Optional[float] = None,
+) -> Run:
+    """Runs a scenario as ``syncroad run`` (``backend="native"``: ``syncroad simulate``)
+    and returns its :class:`Run`. ``out`` is the run's folder (default: a new temporary one);
+    the files are the CLI's. SUMO runs go to a supervised worker process.
+
+    Raises :class:`ScenarioError` for bad input, :class:`RunError` when the run failed part-way
+    (``err.run`` keeps the rows received), :class:`Interrupted` on Ctrl-C (rows kept)."""
+    sc = as_scenario(scenario)
+    if backend not in (None, "native", "sumo"):
+        raise ScenarioError(f'backend = {backend!r}: must be "native" or "sumo" (or None: the scenario\'s)')
+    folder = _out_dir(out, "run")
+    if backend == "sumo":
+        sc = sc.with_backend("sumo")
+    command = "simulate" if backend == "native" else "run"
+    sumo_flags = _flags(timeout_s=timeout_s, krauss_sigma=krauss_sigma)
+    argv = [command, str(sc.path), "--out", str(folder), *sumo_flags]
+    argv += _flags(
+        tolerance_mps=tolerance_mps,
+        window_s=window_s,
+        record_every=record_every,
+        warmup_s=warmup_s,
+        no_plots=not plots,
+    )
+    code, error, summary = _execute(argv, folder)
+    if code == RUN_FAILED or error is not None:
+        partial = Run(folder, code, summary) if (folder / METRICS_FILE).is_file() else None
+        if error is None and partial is not None:
+            error = partial.metrics.get("error")
+        raise RunError(error or f"the run failed (exit {code}); see {folder}", folder, partial)
+    return Run(folder, code, summary)
+
+
+def check(scenario: ScenarioLike) -> Record:
+    """The paper's sufficient conditions and the gap certificate (``syncroad check --json``):
+    ``report.certified``, each condition with its margin, ``report.gap_certificate``."""
+    sc = as_scenario(scenario)
+    _, error, text = _execute(["check", str(sc.path), "--json"])
+    if error is not None:
+        raise RunError(error)
+    return Record(json.loads(text))
+
+
+def stability(scenario: ScenarioLike, platoon_scaling: bool = False) -> Record:
+    """Exact stability (``syncroad stability --json``): the verdict, its certificate, the
+    rightmost roots and the critical scales; with ``platoon_scaling``, ``{"report": …,
+    "platoon_scaling": …}``."""
+    sc = as_scenario(scenario)
+    _, error, text = _execute(["stability", str(sc.path), "--json", *_flags(platoon_scaling=platoon_scaling)])
+    if error is not None:
+        raise RunError(error)
+    return Record(json.loads(text))
+
+
+def _run_folders(out: Path) -> Dict[str, Path]:
+    """Each run folder under ``out`` by the run name its record gives."""
+    folders = {}
+    for sub in sorted(p for p in out.iterdir() if (p / METRICS_FILE).is_file()):
+        folders[json.loads((sub / METRICS_FILE).read_text()).get("run")] = sub
+    return folders
+
+
+def compare(
+    scenario: ScenarioLike,
+    baselines: Optional[Union[str, Iterable[str]]] = None,
+    mixed: Optional[Union[str, Iterable[int]]] = None,
+    out: Optional[PathLike] = None,
+    *,
+    mixed_driver: Optional[str] = None,
+    mixed_controller: Optional[Union[str, Iterable[str]]] = None,
+    jobs: Optional[int] = None,
+    warmup_s: Optional[float] = None,
+    ssm: bool = False,
+    record_every: Optional[int] = None,
+    timeout_s: Optional[float] = None,
+    plots: bool = True,
+) -> "pandas.DataFrame":
+    """Runs ``syncroad compare`` (the scenario's law beside SUMO's drivers, the wave dampers
+    and mixed rings, each in its own SUMO worker) and returns one row per run, indexed by run
+    name: the flattened record (``congestion.speed_std_mps``, ``sumo.fuel_g_per_km``, …),
+    ``error`` for a run that failed, and ``out``, the run's folder (``syncroad.Run(row.out)``).
+    ``df.attrs["compare"]`` is the whole ``compare.json``."""
+    import pandas as pd
+
+    sc = as_scenario(scenario)
+    folder = _out_dir(out, "compare")
+    argv = ["compare", str(sc.path), "--out", str(folder)]
+    argv += _flags(
+        baselines=_listed(baselines),
+        mixed=_listed(mixed),
+        mixed_driver=mixed_driver,
+        mixed_controller=_listed(mixed_controller),
+        jobs=jobs,
+        warmup_s=warmup_s,
+        ssm=ssm,
+        record_every=record_every,
+        timeout_s=timeout_s,
+        no_plots=not plots,
+    )
+    code, error, _ = _execute(argv, folder)
+    doc_path = folder / "compare.json"
+    if not doc_path.is_file():
+        raise RunError(error or f"compare wrote no compare.json (exit {code})", folder)
+    doc = json.loads(doc_path.read_text())
+    folders = _run_folders(folder)
+    rows = []
+    for name, record in doc["runs"].items():
+        row = pd.json_normalize(record).iloc[0].to_dict()
+        row["run"] = name
+        row["out"] = str(folders[name]) if name in folders else None
+        rows.append(row)
+    df = pd.DataFrame(rows).set_index("run")
+    df.attrs["compare"] = doc
+    df.attrs["exit_code"] = code
+    return df
+
+
+def sweep(
+    spec: Union[PathLike, Mapping[str, Any]],
+    out: PathLike,
+    jobs: Optional[int] = None,
+    *,
+    base_dir: Optional[PathLike] = None,
+    shard: Optional[str] = None,
+    retry_failed: bool = False,
+    keep_runs: bool = False,
+    plots: bool = True,
+) -> "pandas.DataFrame":
+    """Runs a sweep spec (a file, or a dict whose relative ``base`` resolves against
+    ``base_dir``) as ``syncroad sweep SPEC --out OUT`` and returns ``results.parquet`` as a
+    DataFrame, one row per point. Resumable as the CLI's: after Ctrl-C (:class:`Interrupted`)
+    or a failed point, the same call runs only the points without a row (``retry_failed``:
+    the failed ones too). ``df.attrs["exit_code"]`` is 3 when some point failed (its row says
+    ``status == "failed"``)."""
+    import pandas as pd
+
+    folder = Path(out)
+    with tempfile.TemporaryDirectory(prefix="syncroad-spec-") as tmp:
+        path = write_spec(tmp, spec, base_dir) if isinstance(spec, Mapping) else Path(spec)
+        argv = ["sweep", str(path), "--out", str(folder)]
+        argv += _flags(jobs=jobs, shard=shard, retry_failed=retry_failed, keep_runs=keep_runs, no_plots=not plots)
+        code, error, _ = _execute(argv, folder)
+    table = folder / "results.parquet"
+    if not table.is_file():
+        raise RunError(error or f"the sweep wrote no results.parquet (exit {code})", folder)
+    df = pd.read_parquet(table)
+    df.attrs["exit_code"] = code
+    if error is not None:
+        df.attrs["error"] = error
+    return df

@@ -1,0 +1,147 @@
+"""The API's results against the CLI's on the same input, and against what the files say
+when read independently."""
+
+import csv
+import json
+import shutil
+
+import pyarrow as pa
+import pytest
+
+import syncroad
+from conftest import REPO, cli, plain, read_json
+
+
+def csv_rows(path):
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+@pytest.mark.parametrize(
+    "scenario, backend, command",
+    [
+        ("scenarios/sugiyama-ring.json", None, "run"),  # SUMO, in a worker process
+        ("scenarios/ring-theorem1.json", None, "run"),  # native
+        ("scenarios/sugiyama-ring.json", "native", "simulate"),
+    ],
+)
+def test_run_equals_the_cli(tmp_path, scenario, backend, command):
+    r = syncroad.run(scenario, backend=backend, out=tmp_path / "api")
+    p = cli(command, scenario, "--out", tmp_path / "cli")
+    assert p.returncode == r.exit_code, p.stderr
+    mine, theirs = read_json(tmp_path / "api/metrics.json"), read_json(tmp_path / "cli/metrics.json")
+    assert mine == theirs
+    assert r.metrics == theirs
+    assert (tmp_path / "api/trajectories.csv").read_bytes() == (tmp_path / "cli/trajectories.csv").read_bytes()
+    assert r.verdict == theirs["sync"]["verdict"]
+    # The summary the CLI prints, captured.
+    assert plain(r.summary, tmp_path / "api") == plain(p.stdout, tmp_path / "cli")
+    rows = csv_rows(tmp_path / "cli/trajectories.csv")
+    t = r.trajectories
+    assert isinstance(t, pa.Table)
+    assert t.num_rows == len(rows)
+    assert t.column("speed_mps").to_pylist()[-1] == pytest.approx(float(rows[-1]["speed_mps"]), rel=0, abs=0)
+    want_backend = backend or read_json(REPO / scenario)["backend"]
+    assert r.metrics.backend == want_backend
+    if want_backend == "sumo":
+        assert r.metrics.sumo_version.startswith("SUMO 1.28.0")
+
+
+def test_the_record_agrees_with_the_trajectories_it_was_computed_from(tmp_path):
+    # Independent of the record: the spread max_i v_i − min_i v_i at the last sample, computed
+    # here from the rows, is the record's final spread.
+    r = syncroad.run("scenarios/ring-theorem1.json", out=tmp_path)
+    df = r.trajectories.to_pandas()
+    last = df[df.time_s == df.time_s.max()]
+    assert len(last) == r.metrics.vehicles == 22
+    spread = last.speed_mps.max() - last.speed_mps.min()
+    assert r.metrics.sync.final_spread_mps == pytest.approx(spread, rel=1e-12)
+    assert r.verdict == "synchronized"
+    assert spread <= r.metrics.sync.thresholds["tolerance_mps"]
+
+
+def test_plots_are_the_runs_and_copy_into_a_folder(tmp_path):
+    r = syncroad.run("scenarios/ring-theorem1.json", out=tmp_path / "run")
+    found = r.plots()
+    assert set(found) == {f"{n}.{e}" for n in ("time_space", "speeds", "spread") for e in ("png", "svg")}
+    copies = r.plots(tmp_path / "figures")
+    png = copies["time_space.png"].read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and png == found["time_space.png"].read_bytes()
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine/time_space.png").write_text("not ours")
+    with pytest.raises(FileExistsError):
+        r.plots(tmp_path / "mine")
+    assert (tmp_path / "mine/time_space.png").read_text() == "not ours"
+    bare = syncroad.run("scenarios/ring-theorem1.json", out=tmp_path / "bare", plots=False)
+    with pytest.raises(FileNotFoundError):
+        bare.plots()
+
+
+def test_check_and_stability_are_the_clis_json():
+    for scenario in ("scenarios/sugiyama-ring.json", "scenarios/ring-unstable.json"):
+        rep = syncroad.check(scenario)
+        assert rep == json.loads(cli("check", scenario, "--json").stdout)
+        st = syncroad.stability(scenario)
+        assert st == json.loads(cli("stability", scenario, "--json").stdout)
+    # Theorem 1 certifies the Sugiyama ring; the exact analysis agrees.
+    assert syncroad.check("scenarios/sugiyama-ring.json").certified is True
+    assert syncroad.stability("scenarios/sugiyama-ring.json").verdict == "synchronizes"
+    assert syncroad.stability("scenarios/ring-unstable.json").verdict != "synchronizes"
+
+
+def test_compare_gives_one_row_per_run_as_each_run_recorded_it(tmp_path):
+    # Baselines as the CLI flag writes them (the guide gives a list).
+    df = syncroad.compare("scenarios/sugiyama-ring.json", baselines="protocol,krauss", out=tmp_path, jobs=2, plots=False)
+    assert list(df.index) == ["protocol", "krauss"]
+    doc = read_json(tmp_path / "compare.json")
+    assert df.attrs["compare"] == doc
+    for name in df.index:
+        rec = read_json(f"{df.loc[name, 'out']}/metrics.json")
+        assert rec["run"] == name
+        assert df.loc[name, "sync.verdict"] == rec["sync"]["verdict"]
+        assert df.loc[name, "congestion.speed_std_mps"] == rec["congestion"]["speed_std_mps"]
+    # The protocol run is the scenario's own run: the same verdict and spread as `syncroad run`.
+    solo = syncroad.run("scenarios/sugiyama-ring.json", out=tmp_path / "solo", plots=False)
+    assert df.loc["protocol", "sync.verdict"] == solo.verdict == "synchronized"
+    assert df.loc["protocol", "sync.final_spread_mps"] == solo.metrics.sync.final_spread_mps
+
+
+def small_sweep(base):
+    return {
+        "name": "small",
+        "base": base,
+        "backend": "native",
+        "axes": [
+            {"field": "scale.gain", "values": [0.5, 2.0]},
+            {"field": "scale.delay", "values": [0.5, 8.0]},
+        ],
+    }
+
+
+def test_sweep_equals_the_clis_table_and_resumes(tmp_path):
+    import pandas as pd
+
+    spec = small_sweep(str(REPO / "scenarios/ring-theorem1.json"))
+    df = syncroad.sweep(spec, out=tmp_path / "api", jobs=2)
+    (tmp_path / "spec.json").write_text(json.dumps(spec))
+    cli("sweep", tmp_path / "spec.json", "--out", tmp_path / "cli", "--jobs", "2", check_code=0)
+    theirs = pd.read_parquet(tmp_path / "cli/results.parquet")
+    pd.testing.assert_frame_equal(df, theirs, check_like=False)
+    assert len(df) == 4
+    assert df.attrs["exit_code"] == 0
+    # A relative base resolves against base_dir; a second call resumes: nothing runs again.
+    again = syncroad.sweep(small_sweep("scenarios/ring-theorem1.json"), out=tmp_path / "api", base_dir=REPO)
+    pd.testing.assert_frame_equal(again, df)
+    # Scaling every delay by 8 pushes the ring past its exact stability boundary.
+    by = df.set_index(["scale.gain", "scale.delay"])["sync.verdict"]
+    assert by[(0.5, 0.5)] == "synchronized"
+    assert by[(2.0, 8.0)] != "synchronized"
+
+
+def test_a_copied_run_folder_opens_as_a_run(tmp_path):
+    r = syncroad.run("scenarios/ring-theorem1.json", out=tmp_path / "a", plots=False)
+    shutil.copytree(tmp_path / "a", tmp_path / "b")
+    again = syncroad.Run(tmp_path / "b")
+    assert again.metrics == r.metrics and again.verdict == r.verdict
+    with pytest.raises(FileNotFoundError):
+        syncroad.Run(tmp_path)

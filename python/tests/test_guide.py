@@ -1,0 +1,41 @@
+"""The guide's "From Python" chapter (docs/src/python.md): every Python example runs, in
+order, in one namespace, from the repository root; its shell block's one-liner is the one
+test_cli_and_wheel.py runs in a fresh virtualenv."""
+
+import re
+
+from conftest import REPO
+
+PAGE = REPO / "docs" / "src" / "python.md"
+
+
+def blocks(lang):
+    return re.findall(rf"```{lang}\n(.*?)```", PAGE.read_text(), flags=re.S)
+
+
+def test_every_python_example_of_the_guide_runs(tmp_path, monkeypatch):
+    code = blocks("python")
+    assert len(code) >= 6
+    # The examples write under out/ of the current folder: here a fresh one beside links to
+    # the repository's scenarios and networks.
+    monkeypatch.chdir(tmp_path)
+    for d in ("scenarios", "sumo-nets"):
+        (tmp_path / d).symlink_to(REPO / d)
+    ns = {}
+    for i, block in enumerate(code):
+        exec(compile(block, f"{PAGE.name} python block {i + 1}", "exec"), ns)
+    # What the comments of the examples say.
+    assert ns["sc"].name == "sugiyama-ring" and ns["sc"].backend == "sumo"
+    assert ns["r"].verdict == "synchronized" and ns["st"].verdict == "synchronizes"
+    assert ns["rep"].certified is True
+    assert len(ns["df"]) == ns["r"].trajectories.num_rows
+    assert list(ns["cmp"].index) == ["protocol", "krauss"]
+    assert list(ns["table"]["scale.gain"]) == [0.5, 1.0, 2.0]
+    assert (tmp_path / "out/py-ring-figures/time_space.png").is_file()
+
+
+def test_the_guides_one_liner_is_the_one_the_wheel_test_runs():
+    from test_cli_and_wheel import ONE_LINER
+
+    (shell,) = blocks("sh")
+    assert f'python -c "{ONE_LINER}"' in shell

@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# The Python package's tests (run by scripts/test.sh): builds the wheel once with maturin,
+# installs it into .venv-py (made here, with the tools of python/tests/requirements.txt, and
+# kept between runs: a stamp records the requirements' hash), and runs python/tests with
+# pytest. Needs the cargo-built CLI (target/release/syncroad) the tests compare with.
+# Env: PYTHON (default python3), SYNCROAD_PY_VENV (default .venv-py).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+python="${PYTHON:-python3}"
+venv="${SYNCROAD_PY_VENV:-.venv-py}"
+req=python/tests/requirements.txt
+stamp="$venv/.syncroad-py.stamp"
+want="$(sha256sum "$req" | cut -d' ' -f1)"
+if [ ! -x "$venv/bin/python" ] || [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
+  echo "python-test: creating $venv"
+  "$python" -m venv "$venv"
+  "$venv/bin/python" -m pip install --disable-pip-version-check -q -r "$req"
+  echo "$want" > "$stamp"
+fi
+rm -f target/wheels/syncroad-*.whl
+nice -n 5 "$venv/bin/maturin" build --release --quiet -o target/wheels
+wheel="$(ls target/wheels/syncroad-*.whl)"
+# Dependencies once; the freshly built package every time (its version does not change).
+"$venv/bin/python" -m pip install --disable-pip-version-check -q "$wheel"
+"$venv/bin/python" -m pip install --disable-pip-version-check -q --force-reinstall --no-deps "$wheel"
+SYNCROAD_WHEEL="$PWD/$wheel" "$venv/bin/python" -m pytest -q -p no:cacheprovider python/tests "$@"
