@@ -173,6 +173,53 @@ pub fn check_ring_capacity(
     Ok(())
 }
 
+/// The farthest a vehicle's start may move forward off a junction-internal lane before the
+/// layout turns around the loop to avoid it \[m\] (the shipped rings' joints are 0.1 m).
+pub const MAX_JUNCTION_SHIFT_M: f64 = 0.5;
+
+/// Vehicles depart on normal lanes only. When a front bumper of `fronts` lies more than
+/// [`MAX_JUNCTION_SHIFT_M`] inside a junction lane, the shift along the loop (at most one lap)
+/// that puts every front bumper on a normal lane, 1 cm past a lane start; 0 when none is
+/// needed or none is found (for large fleets only vehicle 0's candidates are tried).
+fn off_junctions(road: &Road, fronts: &[f64]) -> f64 {
+    let worst = |d: f64| {
+        fronts
+            .iter()
+            .map(|f| road.junction_overlap_m(f + d))
+            .fold(0.0, f64::max)
+    };
+    if worst(0.0) <= MAX_JUNCTION_SHIFT_M {
+        return 0.0;
+    }
+    let mut starts = Vec::new();
+    let mut s = 0.0;
+    for seg in &road.segments {
+        if !seg.internal {
+            starts.push(s);
+        }
+        s += seg.length_m;
+    }
+    let tried = if fronts.len() * starts.len() > 20_000 {
+        &fronts[..1]
+    } else {
+        fronts
+    };
+    let mut best = (worst(0.0), 0.0);
+    for f in tried {
+        for st in &starts {
+            let d = (st + 0.01 - f).rem_euclid(road.length_m());
+            let w = worst(d);
+            if w < best.0 || (w == best.0 && d < best.1) {
+                best = (w, d);
+            }
+            if w == 0.0 {
+                return d;
+            }
+        }
+    }
+    best.1
+}
+
 /// Lays out `n` vehicles on a ring: vehicle 0's rear bumper at 0, vehicle i one length plus
 /// its (scaled) gap behind vehicle i−1, as in the native simulator. The scenario's gaps are
 /// scaled by one common factor so that lengths plus gaps equal SUMO's ring length.
@@ -194,12 +241,30 @@ pub fn ring_layout(
     let gap_sum: f64 = gaps_m.iter().sum();
     let gap_scale = if gap_sum > 0.0 { free / gap_sum } else { 1.0 };
     let mut vehicles = Vec::with_capacity(lengths_m.len());
+    let mut fronts = Vec::with_capacity(lengths_m.len());
     let mut q = 0.0;
     for i in 0..lengths_m.len() {
         if i > 0 {
             q -= lengths_m[i] + gaps_m[i] * gap_scale;
         }
-        let (edge_index, pos_m) = road.locate(q + lengths_m[i]);
+        fronts.push(q + lengths_m[i]);
+    }
+    let offset = off_junctions(road, &fronts);
+    let mut q = 0.0;
+    for i in 0..lengths_m.len() {
+        if i > 0 {
+            q -= lengths_m[i] + gaps_m[i] * gap_scale;
+        }
+        // Positions are relative: turning the whole layout by `offset` along the loop changes
+        // no gap; a vehicle still moved off a junction lane starts where SUMO puts it.
+        let front = q + lengths_m[i] + offset;
+        let moved = road.junction_overlap_m(front);
+        let (edge_index, pos_m) = road.locate(front);
+        let q = if moved > MAX_JUNCTION_SHIFT_M {
+            q + moved
+        } else {
+            q
+        };
         vehicles.push(Departure {
             id: format!("v{i}"),
             driver: None,
@@ -284,16 +349,21 @@ pub fn straight_layout(
             horizon_s,
         });
     }
+    // On a route of several edges the front bumper may lie on a later edge (or on a junction
+    // lane, moved to the start of the next edge as on a ring).
     let vehicles = all
         .into_iter()
-        .map(|(id, len, q, v)| Departure {
-            id,
-            driver: None,
-            length_m: len,
-            edge_index: 0,
-            pos_m: q + len + shift,
-            speed_mps: v,
-            q0_m: q,
+        .map(|(id, len, q, v)| {
+            let (edge_index, pos_m) = road.locate(q + len + shift);
+            Departure {
+                id,
+                driver: None,
+                length_m: len,
+                edge_index,
+                pos_m,
+                speed_mps: v,
+                q0_m: q,
+            }
         })
         .collect();
     Ok(Layout {
@@ -381,7 +451,11 @@ impl Layout {
         let edges = self.road.normal_edges();
         let k = edges.len();
         for start in 0..k {
-            let list: Vec<&str> = (0..k).map(|j| edges[(start + j) % k]).collect();
+            let list: Vec<&str> = if self.road.ring {
+                (0..k).map(|j| edges[(start + j) % k]).collect()
+            } else {
+                edges[start..].to_vec()
+            };
             if self.road.ring {
                 let _ = writeln!(
                     s,
@@ -404,8 +478,8 @@ impl Layout {
                 .expect("type written above");
             let _ = writeln!(
                 s,
-                r#"    <vehicle id="{}" type="t{ty}" route="r{}" depart="0" departLane="0" departPos="{}" departSpeed="{}" insertionChecks="none"/>"#,
-                v.id, v.edge_index, v.pos_m, v.speed_mps
+                r#"    <vehicle id="{}" type="t{ty}" route="r{}" depart="0" departLane="{}" departPos="{}" departSpeed="{}" insertionChecks="none"/>"#,
+                v.id, v.edge_index, self.road.lane_index, v.pos_m, v.speed_mps
             );
         }
         s.push_str("</routes>\n");

@@ -49,7 +49,7 @@ mod worker;
 pub use car_following::{CarFollowing, CarFollowingError, CfModel};
 pub use drivers::{DriverError, SumoDriver, EMISSION_CLASS};
 pub use frozen::FROZEN_LIMIT;
-pub use net::Road;
+pub use net::{read_network_road, NetReader, Road};
 pub use protocol::{Event, Finish, ReadMode, Request, StartInfo, Totals};
 pub use result_file::{write_result, write_result_via_path, ResultFileError};
 pub use run::{

@@ -15,7 +15,7 @@ use syncroad_control::{DamperSetup, DamperSpec, HumanSetup, LawSpec, NoisyIdm};
 
 use crate::drivers::{DriverError, SumoDriver, MIXED_SPEED_MODE};
 use crate::layout::{ring_layout, straight_layout, Layout, LayoutError};
-use crate::net::{read_ring, read_straight, NetError, Road};
+use crate::net::{read_network_road, read_ring, read_straight, NetError, Road};
 use crate::protocol::{Control, Measure, ReadMode, Request};
 pub use crate::sumo_run::SumoRun;
 use crate::supervisor::{run_worker, Supervision, WorkerCommand, WorkerPool};
@@ -241,6 +241,9 @@ pub fn check_sumo_numbers(scenario: &Scenario) -> Result<(), PrepareError> {
 /// Reads the scenario's network file once (every pre-start check of the road).
 pub fn load_road(scenario: &Scenario) -> Result<Road, PrepareError> {
     let net = net_path(scenario)?;
+    if scenario.road().is_network() {
+        return Ok(read_network_road(&net, scenario.road())?);
+    }
     Ok(if scenario.is_ring() {
         read_ring(&net)?
     } else {

@@ -12,14 +12,36 @@ use crate::error::InputError;
 
 /// Loads and validates a scenario; a failure is an [`InputError`] that leads with the
 /// library's message (it names the field, the value and what is valid).
+/// A loop or route through a network is checked and measured on `sumo.net`; the cycle found
+/// for `road.through` is printed to stderr.
 pub fn load_scenario(path: &Path) -> anyhow::Result<Scenario> {
-    Scenario::load(path).map_err(|e| {
-        InputError::new(format!(
+    let sc = Scenario::load_with(path, &syncroad_sumo::NetReader).map_err(|e| {
+        anyhow::Error::from(InputError::new(format!(
             "{e}\n  (scenario {}; fix the field named above — `syncroad --help` and README.md describe the format)",
             path.display()
-        ))
-        .into()
-    })
+        )))
+    })?;
+    note_measured_road(&sc);
+    Ok(sc)
+}
+
+/// Tells which cycle a `road.through` loop takes and how long it measured.
+pub fn note_measured_road(sc: &Scenario) {
+    if let (
+        Some(m),
+        syncroad_control::scenario::RoadSpec::Loop {
+            through: Some(t), ..
+        },
+    ) = (sc.measured_road(), sc.road())
+    {
+        eprintln!(
+            "road: the shortest cycle through `{t}` on lane {}: {} ({} edges, {:.3} m)",
+            m.lane,
+            m.edges.join(" "),
+            m.edges.len(),
+            m.length_m
+        );
+    }
 }
 
 /// Default sampling stride: about 2000 samples over the horizon, fewer for large fleets so a
