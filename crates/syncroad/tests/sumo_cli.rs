@@ -460,3 +460,74 @@ fn a_ring_in_uniform_flow_writes_its_whole_folder_on_both_backends() {
         );
     }
 }
+
+/// The shipped scenario of docs/src/own-network.md on a two-lane track that netconvert builds
+/// here from plain node and edge files: the cycle through `e0` is found and printed, the run
+/// synchronizes in SUMO, and a misspelt edge is refused with exit code 2 before SUMO starts.
+#[test]
+fn own_loop_from_netconvert_runs_and_a_misspelt_edge_exits_2() {
+    let dir = tmpdir("own-loop");
+    let track = dir.join("track");
+    std::fs::create_dir_all(&track).unwrap();
+    let mut nod = String::from("<nodes>\n");
+    for i in 0..8 {
+        let a = 2.0 * std::f64::consts::PI * i as f64 / 8.0;
+        nod += &format!(
+            "    <node id=\"n{i}\" x=\"{:.1}\" y=\"{:.1}\"/>\n",
+            100.0 * a.cos(),
+            100.0 * a.sin()
+        );
+    }
+    nod += "    <node id=\"pit\" x=\"250.0\" y=\"60.0\"/>\n</nodes>\n";
+    let mut edg = String::from("<edges>\n");
+    for i in 0..8 {
+        edg += &format!(
+            "    <edge id=\"e{i}\" from=\"n{i}\" to=\"n{}\" numLanes=\"2\" speed=\"20\"/>\n",
+            (i + 1) % 8
+        );
+    }
+    edg += "    <edge id=\"out\" from=\"n1\" to=\"pit\" numLanes=\"1\" speed=\"20\"/>\n</edges>\n";
+    std::fs::write(track.join("track.nod.xml"), nod).unwrap();
+    std::fs::write(track.join("track.edg.xml"), edg).unwrap();
+    let netconvert = repo().join(".venv/lib/python3.11/site-packages/sumo/bin/netconvert");
+    let (code, _, err) = run(std::process::Command::new(netconvert)
+        .current_dir(&track)
+        .args([
+            "--node-files",
+            "track.nod.xml",
+            "--edge-files",
+            "track.edg.xml",
+            "--no-turnarounds",
+            "true",
+            "-o",
+            "track.net.xml",
+        ]));
+    assert_eq!(code, 0, "{err}");
+    let scenarios = dir.join("scenarios");
+    std::fs::create_dir_all(&scenarios).unwrap();
+    let scenario = scenarios.join("own-loop.json");
+    std::fs::copy(repo().join("scenarios/own-loop.json"), &scenario).unwrap();
+    let (code, out, m) = run_backend(&["run"], &scenario, &dir.join("out"));
+    assert_eq!(code, 0, "{out}");
+    assert!(
+        out.contains(
+            "road: the shortest cycle through `e0` on lane 1: e0 e1 e2 e3 e4 e5 e6 e7 (8 edges, "
+        ),
+        "{out}"
+    );
+    assert_eq!(m["sync"]["verdict"], "synchronized");
+    assert_eq!(m["safety"]["collision_steps"], 0);
+    // A misspelt edge: exit 2, the field and the nearest ids, and SUMO never started.
+    let text = std::fs::read_to_string(&scenario)
+        .unwrap()
+        .replace(r#""through": "e0""#, r#""edges": ["e0", "e1", "e22"]"#);
+    let bad = scenarios.join("typo.json");
+    std::fs::write(&bad, text).unwrap();
+    let (code, out, _) = run_backend(&["run"], &bad, &dir.join("typo"));
+    assert_eq!(code, 2, "{out}");
+    assert!(
+        out.contains("road.edges[2] = `e22`: ") && out.contains("nearest ids: `e2`, `e0`, `e1`"),
+        "{out}"
+    );
+    assert!(!dir.join("typo/sumo.log").exists());
+}
