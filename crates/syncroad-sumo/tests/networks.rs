@@ -289,6 +289,31 @@ mod loops {
         }
     }
 
+    /// SUMO's own drivers on the two-lane loop, every other vehicle, behind law-driven ones
+    /// at 8 m/s: left to SUMO's lane-change model they would overtake on lane 0 (and the gaps
+    /// along lane 1 would turn negative); they keep lane 1 like the law's vehicles, so the
+    /// order along the loop holds and every gap stays positive.
+    #[test]
+    fn sumo_drivers_keep_the_lane_on_a_two_lane_loop() {
+        let dir = work("keep-lane");
+        two_lane_loop(&dir);
+        let road = format!(r#"{{"type": "loop", "edges": {:?}, "lane": 1}}"#, CYCLE);
+        let sc = scenario(&dir, &loop_json(&road, 8, 120.0, "")).unwrap();
+        let mut o = opts(&dir);
+        o.drivers = (0..8)
+            .map(|i| (i % 2 == 1).then(|| syncroad_sumo::SumoDriver::parse("d", "krauss").unwrap()))
+            .collect();
+        let run = run_scenario(&sc, &o).unwrap();
+        let fin = run.outcome().expect("horizon reached");
+        assert_eq!(fin.totals.collision_steps, 0);
+        let t = run.trajectory(&sc);
+        let mut min_gap = f64::INFINITY;
+        for k in 0..t.len() {
+            min_gap = t.gaps(k).iter().copied().fold(min_gap, f64::min);
+        }
+        assert!(min_gap > 0.0, "smallest gap along lane 1: {min_gap} m");
+    }
+
     /// A small OpenStreetMap file (a one-way two-lane circuit of six nodes with a side road)
     /// imported by netconvert: the cycle through its first edge is found, measured as sumolib
     /// measures it, and driven in SUMO as the native simulator drives it.

@@ -190,6 +190,11 @@ pub struct Road {
     /// Lane index the vehicles depart on and keep (0 on the built-in single-lane nets).
     #[serde(default)]
     pub lane_index: usize,
+    /// True when an edge of the road has more than one lane: every vehicle syncroad inserts
+    /// (law-driven or driven by a SUMO model) then keeps the chosen lane (lane-change mode 0),
+    /// so the vehicles stay in the order the law's graph assumes.
+    #[serde(default)]
+    pub multi_lane: bool,
 }
 
 impl Road {
@@ -412,6 +417,7 @@ pub fn read_ring(path: &Path) -> Result<Road, NetError> {
         segments,
         ring: true,
         lane_index: 0,
+        multi_lane: false,
     })
 }
 
@@ -436,6 +442,7 @@ pub fn read_straight(path: &Path) -> Result<Road, NetError> {
         }],
         ring: false,
         lane_index: 0,
+        multi_lane: false,
     })
 }
 

@@ -224,6 +224,9 @@ fn road_along(
         segments,
         ring: closed,
         lane_index: lane,
+        multi_lane: edges
+            .iter()
+            .any(|e| net.edge_lanes(e).is_some_and(|l| l.len() > 1)),
     })
 }
 
