@@ -41,6 +41,14 @@ pub enum PrepareError {
         /// The resolved path.
         path: PathBuf,
     },
+    /// A route file of the user's own traffic does not exist.
+    #[error("sumo.routes[{index}] = {path}: file not found (checked before starting SUMO)")]
+    RoutesNotFound {
+        /// Its index in `sumo.routes`.
+        index: usize,
+        /// The resolved path.
+        path: PathBuf,
+    },
     /// The network file is unusable.
     #[error(transparent)]
     Net(#[from] NetError),
@@ -385,6 +393,8 @@ fn prepare_with(
         });
         Control::Law { law: Box::new(law) }
     };
+    let extra_routes = user_routes(scenario)?;
+    let layout_multi_lane = layout.road.multi_lane;
     Ok(Request {
         layout,
         routes_file,
@@ -404,7 +414,22 @@ fn prepare_with(
         read: opts.read,
         odometer_every: ODOMETER_EVERY,
         interleave_block: 0,
+        watch_leaders: !extra_routes.is_empty() && layout_multi_lane,
+        extra_routes,
     })
+}
+
+/// The user's own route files (`sumo.routes`), checked to exist before SUMO starts.
+fn user_routes(scenario: &Scenario) -> Result<Vec<PathBuf>, PrepareError> {
+    for (i, p) in scenario.sumo().routes().iter().enumerate() {
+        if !p.is_file() {
+            return Err(PrepareError::RoutesNotFound {
+                index: i,
+                path: p.clone(),
+            });
+        }
+    }
+    Ok(scenario.sumo().routes().to_vec())
 }
 
 /// Puts each SUMO driver of `drivers` (one per scenario vehicle; empty: the law everywhere)

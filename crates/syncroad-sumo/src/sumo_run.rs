@@ -134,6 +134,7 @@ impl SumoRun {
                 emergency_braking_warnings: emergency_braking_warnings(&self.request.log_file),
                 overridden_commands: f.totals.overrides,
                 negative_commands_clamped: f.totals.negative_commands_clamped,
+                topology_changes: f.totals.topology_changes,
             }),
             max_override_mps: finish.map_or(0.0, |f| f.totals.max_override_mps),
             odometer_deviation_max_m: finish.map_or(0.0, |f| f.totals.odometer_deviation_max_m),

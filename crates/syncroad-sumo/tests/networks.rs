@@ -314,6 +314,60 @@ mod loops {
         assert!(min_gap > 0.0, "smallest gap along lane 1: {min_gap} m");
     }
 
+    /// The user's own traffic (`sumo.routes`) on lane 0 of the two-lane loop: a slow car and
+    /// faster ones behind it that overtake through lane 1, among the law's vehicles. The
+    /// vehicles ahead of the law's vehicles change, and the run counts it; without the user's
+    /// traffic nothing is watched (the graph cannot change).
+    #[test]
+    fn other_traffic_changing_into_the_controlled_lane_is_counted() {
+        let dir = work("user-traffic");
+        two_lane_loop(&dir);
+        std::fs::write(
+            dir.join("mine.rou.xml"),
+            r#"<routes>
+    <vType id="slow" maxSpeed="3" sigma="0"/>
+    <vType id="fast" maxSpeed="15" sigma="0" lcKeepRight="0" lcSpeedGain="10"/>
+    <route id="u_slow" edges="e2 e3 e4 e5 e6 e7 e0 e1"/>
+    <route id="u_fast" edges="e1 e2 e3 e4 e5 e6 e7 e0"/>
+    <vehicle id="slow" type="slow" route="u_slow" depart="0" departLane="0" departPos="5" departSpeed="3"/>
+    <flow id="fast" type="fast" route="u_fast" begin="0" end="20" number="4" departLane="0" departPos="5" departSpeed="10"/>
+</routes>
+"#,
+        )
+        .unwrap();
+        let road = format!(r#"{{"type": "loop", "edges": {:?}, "lane": 1}}"#, CYCLE);
+        let json = loop_json(&road, 6, 120.0, "").replace(
+            r#""sumo": {"net": "out.net.xml"}"#,
+            r#""sumo": {"net": "out.net.xml", "routes": ["mine.rou.xml"]}"#,
+        );
+        let sc = scenario(&dir, &json).unwrap();
+        let run = run_scenario(&sc, &opts(&dir)).unwrap();
+        let fin = run.outcome().expect("horizon reached");
+        let changes = fin.totals.topology_changes.expect("watched");
+        eprintln!("user traffic: {changes} topology changes");
+        assert!(changes > 0, "no vehicle entered the controlled lane");
+        // The same scenario alone on the road: nothing to watch; watched anyway, nothing
+        // changes (the count is not noise of getLeader).
+        let alone = scenario(&dir, &loop_json(&road, 6, 120.0, "")).unwrap();
+        let run = run_scenario(&alone, &opts(&dir)).unwrap();
+        assert_eq!(run.outcome().unwrap().totals.topology_changes, None);
+        let road_read = syncroad_sumo::load_road(&alone).unwrap();
+        let mut p = syncroad_sumo::Prepared::new(&alone, &road_read, &opts(&dir)).unwrap();
+        p.request_mut().watch_leaders = true;
+        let run = p.run();
+        assert_eq!(run.outcome().unwrap().totals.topology_changes, Some(0));
+        // A route file that is not there is refused before SUMO starts.
+        let missing = scenario(&dir, &json.replace("mine.rou.xml", "nope.rou.xml")).unwrap();
+        let e = run_scenario(&missing, &opts(&dir)).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            format!(
+                "sumo.routes[0] = {}: file not found (checked before starting SUMO)",
+                dir.join("nope.rou.xml").display()
+            )
+        );
+    }
+
     /// A small OpenStreetMap file (a one-way two-lane circuit of six nodes with a side road)
     /// imported by netconvert: the cycle through its first edge is found, measured as sumolib
     /// measures it, and driven in SUMO as the native simulator drives it.

@@ -421,6 +421,11 @@ pub struct SumoSpec {
     /// Wall-clock limit of one SUMO run [s].
     #[serde(default = "d_timeout")]
     pub timeout_s: f64,
+    /// The user's own traffic: SUMO route files (vehicle types, routes, vehicles, flows) loaded
+    /// beside syncroad's vehicles, which stay the controlled set; relative paths are resolved
+    /// against the scenario file's folder.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub routes: Vec<PathBuf>,
 }
 
 fn d_length() -> f64 {
@@ -456,6 +461,7 @@ impl Default for SumoSpec {
             emergency_decel_mps2: d_edecel(),
             max_speed_mps: d_vmax(),
             timeout_s: d_timeout(),
+            routes: Vec::new(),
         }
     }
 }

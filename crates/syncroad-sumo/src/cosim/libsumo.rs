@@ -309,7 +309,11 @@ pub fn sumo_args(req: &Request) -> Vec<String> {
         "--net-file".into(),
         req.layout.road.path.display().to_string(),
         "--route-files".into(),
-        req.routes_file.display().to_string(),
+        std::iter::once(&req.routes_file)
+            .chain(&req.extra_routes)
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(","),
         "--step-length".into(),
         format!("{}", req.step_s),
         "--seed".into(),
