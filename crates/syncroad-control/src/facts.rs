@@ -27,7 +27,7 @@ pub struct Safety {
     /// one check to the next (every 10 steps) while other traffic shared the road (`sumo.routes`
     /// on a road of several lanes); the law kept its fixed graph. `None`: not watched (no other
     /// traffic, or a single-lane road, where the graph cannot change).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default)]
     #[schemars(title = "topology changes")]
     pub topology_changes: Option<usize>,
 }

@@ -333,14 +333,14 @@ impl ScenarioFile {
             let used: f64 = gaps.iter().sum::<f64>() + length_m.iter().sum::<f64>();
             if (used - ring).abs() > 1e-6 * ring {
                 let what = if measured.is_some() {
-                    format!("the loop's length measured on its network, {ring} m")
+                    format!("on a loop, gaps plus vehicle lengths must add up to the loop's length measured on its network, {ring} m")
                 } else {
-                    format!("road.length_m = {ring} m")
+                    format!("on a ring, gaps plus vehicle lengths must add up to road.length_m = {ring} m")
                 };
                 return Err(invalid(
                     "initial.gap_m",
                     format!("{used:.3} m of gaps and vehicle lengths"),
-                    format!("on a closed road, gaps plus vehicle lengths must add up to {what} (omit initial.gap_m for even spacing)"),
+                    format!("{what} (omit initial.gap_m for even spacing)"),
                 ));
             }
         }
