@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 use syncroad_control::scenario::SumoVehicleType;
 
-use crate::net::Road;
+use crate::net::{off_junctions, Road, MAX_JUNCTION_SHIFT_M};
 
 /// Errors laying out a run.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -171,53 +171,6 @@ pub fn check_ring_capacity(
         });
     }
     Ok(())
-}
-
-/// The farthest a vehicle's start may move forward off a junction-internal lane before the
-/// layout turns around the loop to avoid it \[m\] (the shipped rings' joints are 0.1 m).
-pub const MAX_JUNCTION_SHIFT_M: f64 = 0.5;
-
-/// Vehicles depart on normal lanes only. When a front bumper of `fronts` lies more than
-/// [`MAX_JUNCTION_SHIFT_M`] inside a junction lane, the shift along the loop (at most one lap)
-/// that puts every front bumper on a normal lane, 1 cm past a lane start; 0 when none is
-/// needed or none is found (for large fleets only vehicle 0's candidates are tried).
-fn off_junctions(road: &Road, fronts: &[f64]) -> f64 {
-    let worst = |d: f64| {
-        fronts
-            .iter()
-            .map(|f| road.junction_overlap_m(f + d))
-            .fold(0.0, f64::max)
-    };
-    if worst(0.0) <= MAX_JUNCTION_SHIFT_M {
-        return 0.0;
-    }
-    let mut starts = Vec::new();
-    let mut s = 0.0;
-    for seg in &road.segments {
-        if !seg.internal {
-            starts.push(s);
-        }
-        s += seg.length_m;
-    }
-    let tried = if fronts.len() * starts.len() > 20_000 {
-        &fronts[..1]
-    } else {
-        fronts
-    };
-    let mut best = (worst(0.0), 0.0);
-    for f in tried {
-        for st in &starts {
-            let d = (st + 0.01 - f).rem_euclid(road.length_m());
-            let w = worst(d);
-            if w < best.0 || (w == best.0 && d < best.1) {
-                best = (w, d);
-            }
-            if w == 0.0 {
-                return d;
-            }
-        }
-    }
-    best.1
 }
 
 /// Lays out `n` vehicles on a ring: vehicle 0's rear bumper at 0, vehicle i one length plus

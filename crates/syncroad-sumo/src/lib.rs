@@ -35,6 +35,7 @@ mod drivers;
 mod frozen;
 mod layout;
 mod net;
+mod prepare_error;
 mod protocol;
 mod python;
 mod result_file;

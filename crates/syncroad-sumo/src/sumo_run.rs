@@ -8,8 +8,8 @@ use syncroad_control::record::{Safety, SumoFacts};
 use syncroad_control::scenario::Scenario;
 use syncroad_control::{RunOutput, StopReason, Trajectory};
 
+use crate::net::loop_position;
 use crate::protocol::{Control, Finish, Request};
-use crate::run::loop_position;
 use crate::supervisor::{SupervisorError, WorkerRun};
 
 /// The result of a SUMO run: every row received, and how the run ended.

@@ -273,6 +273,70 @@ impl Road {
     }
 }
 
+/// Where the induction loop `loop0` sits on a ring: lane, position on it \[m\] and the ring
+/// coordinate of that point \[m\] (10 m into the first normal lane, or its middle).
+pub fn loop_position(road: &Road) -> Option<(String, f64, f64)> {
+    if !road.ring {
+        return None;
+    }
+    let mut offset = 0.0;
+    for seg in &road.segments {
+        if !seg.internal {
+            let pos = (seg.length_m / 2.0).min(10.0);
+            return Some((seg.lane.clone(), pos, offset + pos));
+        }
+        offset += seg.length_m;
+    }
+    None
+}
+
+/// The farthest a vehicle's start may move forward off a junction-internal lane before the
+/// layout turns around the loop to avoid it \[m\] (the shipped rings' joints are 0.1 m).
+pub const MAX_JUNCTION_SHIFT_M: f64 = 0.5;
+
+/// Vehicles depart on normal lanes only. When a front bumper of `fronts` lies more than
+/// [`MAX_JUNCTION_SHIFT_M`] inside a junction lane, the shift along the loop (at most one lap)
+/// that puts every front bumper on a normal lane, 1 cm past a lane start; 0 when none is
+/// needed or none is found (for large fleets only vehicle 0's candidates are tried).
+pub(crate) fn off_junctions(road: &Road, fronts: &[f64]) -> f64 {
+    let worst = |d: f64| {
+        fronts
+            .iter()
+            .map(|f| road.junction_overlap_m(f + d))
+            .fold(0.0, f64::max)
+    };
+    if worst(0.0) <= MAX_JUNCTION_SHIFT_M {
+        return 0.0;
+    }
+    let mut starts = Vec::new();
+    let mut s = 0.0;
+    for seg in &road.segments {
+        if !seg.internal {
+            starts.push(s);
+        }
+        s += seg.length_m;
+    }
+    let tried = if fronts.len() * starts.len() > 20_000 {
+        &fronts[..1]
+    } else {
+        fronts
+    };
+    let mut best = (worst(0.0), 0.0);
+    for f in tried {
+        for st in &starts {
+            let d = (st + 0.01 - f).rem_euclid(road.length_m());
+            let w = worst(d);
+            if w < best.0 || (w == best.0 && d < best.1) {
+                best = (w, d);
+            }
+            if w == 0.0 {
+                return d;
+            }
+        }
+    }
+    best.1
+}
+
 /// A lane as parsed: id, length \[m\], speed limit [m/s].
 type ParsedLane = (String, f64, f64);
 
@@ -305,7 +369,7 @@ fn parse(path: &Path) -> Result<Parsed, NetError> {
         }
     }
     let mut connections = Vec::new();
-    // File order of the sources, as the old single pass read them.
+    // One fixed order of the sources (a map has none), so that every read is the same.
     let mut sources: Vec<&String> = net.connections.keys().collect();
     sources.sort();
     for from in sources {
