@@ -98,39 +98,11 @@ pub enum NetError {
         permissions: String,
     },
     /// Two consecutive edges have no connection from the chosen lane to the chosen lane.
-    #[error("{from_field} `{from}` → {to_field} `{to}`: {path} connects no lane {lane} of `{from}` to lane {lane} of `{to}`; {joined}")]
-    NoConnection {
-        /// The network.
-        path: PathBuf,
-        /// Field of the first edge.
-        from_field: String,
-        /// The first edge.
-        from: String,
-        /// Field of the second edge.
-        to_field: String,
-        /// The second edge.
-        to: String,
-        /// The lane.
-        lane: usize,
-        /// What does connect (lane pairs, or where the first edge leads).
-        joined: String,
-    },
+    #[error(transparent)]
+    NoConnection(Box<Disconnected>),
     /// The last edge of a loop does not lead back to its first.
-    #[error("road.edges: the loop does not close: {last_field} `{last}` has no connection back to road.edges[0] `{first}` on lane {lane} in {path}; {joined} (a loop lists its cycle in driving order; for an open road use road.type = \"route\")")]
-    LoopNotClosed {
-        /// The network.
-        path: PathBuf,
-        /// Field of the last edge.
-        last_field: String,
-        /// The last edge.
-        last: String,
-        /// The first edge.
-        first: String,
-        /// The lane.
-        lane: usize,
-        /// What does connect.
-        joined: String,
-    },
+    #[error(transparent)]
+    LoopNotClosed(Box<Unclosed>),
     /// An edge is listed twice.
     #[error("{field} = `{edge}` repeats {first_field}; a road passes each edge once")]
     RepeatedEdge {
@@ -161,6 +133,45 @@ pub enum NetError {
         /// Number of normal edges.
         edges: usize,
     },
+}
+
+/// Two consecutive edges of a road with no connection from the chosen lane to the same lane
+/// of the next edge.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{from_field} `{from}` → {to_field} `{to}`: {path} connects no lane {lane} of `{from}` to lane {lane} of `{to}`; {joined}")]
+pub struct Disconnected {
+    /// The network.
+    pub path: PathBuf,
+    /// Field of the first edge.
+    pub from_field: String,
+    /// The first edge.
+    pub from: String,
+    /// Field of the second edge.
+    pub to_field: String,
+    /// The second edge.
+    pub to: String,
+    /// The lane.
+    pub lane: usize,
+    /// What does connect (lane pairs, or where the first edge leads).
+    pub joined: String,
+}
+
+/// A loop whose last edge does not lead back to its first on the chosen lane.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("road.edges: the loop does not close: {last_field} `{last}` has no connection back to road.edges[0] `{first}` on lane {lane} in {path}; {joined} (a loop lists its cycle in driving order; for an open road use road.type = \"route\")")]
+pub struct Unclosed {
+    /// The network.
+    pub path: PathBuf,
+    /// Field of the last edge.
+    pub last_field: String,
+    /// The last edge.
+    pub last: String,
+    /// The first edge.
+    pub first: String,
+    /// The lane.
+    pub lane: usize,
+    /// What does connect.
+    pub joined: String,
 }
 
 /// One lane of the road in driving order.

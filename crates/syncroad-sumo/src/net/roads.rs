@@ -14,7 +14,7 @@ use petgraph::graph::{DiGraph, NodeIndex};
 use syncroad_control::scenario::{MeasuredRoad, RoadReader, RoadSpec};
 
 use super::network::{Lane, Network};
-use super::{NetError, Road, Segment};
+use super::{Disconnected, NetError, Road, Segment, Unclosed};
 
 /// Vehicle class of every vehicle syncroad inserts (SUMO's default vType class).
 pub const VEHICLE_CLASS: &str = "passenger";
@@ -183,17 +183,17 @@ fn road_along(
                 reason,
             })?,
             None if j == 0 => {
-                return Err(NetError::LoopNotClosed {
+                return Err(NetError::LoopNotClosed(Box::new(Unclosed {
                     path: path.to_path_buf(),
                     last_field: field(i),
                     last: e.clone(),
                     first: next.clone(),
                     lane,
                     joined: joined(net, e, next),
-                })
+                })))
             }
             None => {
-                return Err(NetError::NoConnection {
+                return Err(NetError::NoConnection(Box::new(Disconnected {
                     path: path.to_path_buf(),
                     from_field: field(i),
                     from: e.clone(),
@@ -201,7 +201,7 @@ fn road_along(
                     to: next.clone(),
                     lane,
                     joined: joined(net, e, next),
-                })
+                })))
             }
         };
         for il in chain {
