@@ -111,6 +111,11 @@ pub struct Layout {
     pub gap_scale: f64,
     /// How many times the ring route repeats (enough for the horizon at maxSpeed).
     pub route_repeats: usize,
+    /// How far along a loop the whole layout was turned to keep departures off junction
+    /// lanes \[m\]: SUMO's loop coordinate of a point is its trajectory coordinate plus this
+    /// (0 on the shipped rings and on straight roads).
+    #[serde(default)]
+    pub ring_offset_m: f64,
 }
 
 fn check_pos(field: &str, x: f64) -> Result<(), LayoutError> {
@@ -251,6 +256,7 @@ pub fn ring_layout(
         leader_vehicle: false,
         gap_scale,
         route_repeats: repeats as usize,
+        ring_offset_m: offset,
     })
 }
 
@@ -326,6 +332,7 @@ pub fn straight_layout(
         leader_vehicle: leader.is_some(),
         gap_scale: 1.0,
         route_repeats: 0,
+        ring_offset_m: 0.0,
     })
 }
 

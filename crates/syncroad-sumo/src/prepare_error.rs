@@ -22,9 +22,11 @@ pub enum PrepareError {
         /// The resolved path.
         path: PathBuf,
     },
-    /// A route file of the user's own traffic does not exist.
-    #[error("sumo.routes[{index}] = {path}: file not found (checked before starting SUMO)")]
-    RoutesNotFound {
+    /// A file of the user's own traffic (`sumo.routes`, `sumo.additional`) does not exist.
+    #[error("{field}[{index}] = {path}: file not found (checked before starting SUMO)")]
+    UserFileNotFound {
+        /// The scenario field.
+        field: &'static str,
         /// Its index in `sumo.routes`.
         index: usize,
         /// The resolved path.

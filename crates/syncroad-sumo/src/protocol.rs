@@ -80,6 +80,9 @@ pub struct Request {
     /// The user's own route files, loaded after syncroad's (`sumo.routes`).
     #[serde(default)]
     pub extra_routes: Vec<PathBuf>,
+    /// The user's own additional files (`sumo.additional`).
+    #[serde(default)]
+    pub extra_additional: Vec<PathBuf>,
     /// Count how often the vehicle ahead of a controlled vehicle changes (other traffic on a
     /// road of several lanes).
     #[serde(default)]

@@ -279,7 +279,8 @@ fn prepare_with(
         });
         Control::Law { law: Box::new(law) }
     };
-    let extra_routes = user_routes(scenario)?;
+    let extra_routes = user_files("sumo.routes", scenario.sumo().routes())?;
+    let extra_additional = user_files("sumo.additional", scenario.sumo().additional())?;
     let layout_multi_lane = layout.road.multi_lane;
     Ok(Request {
         layout,
@@ -302,20 +303,23 @@ fn prepare_with(
         interleave_block: 0,
         watch_leaders: !extra_routes.is_empty() && layout_multi_lane,
         extra_routes,
+        extra_additional,
     })
 }
 
-/// The user's own route files (`sumo.routes`), checked to exist before SUMO starts.
-fn user_routes(scenario: &Scenario) -> Result<Vec<PathBuf>, PrepareError> {
-    for (i, p) in scenario.sumo().routes().iter().enumerate() {
+/// The user's own files of `field` (`sumo.routes`, `sumo.additional`), checked to exist
+/// before SUMO starts.
+fn user_files(field: &'static str, files: &[PathBuf]) -> Result<Vec<PathBuf>, PrepareError> {
+    for (i, p) in files.iter().enumerate() {
         if !p.is_file() {
-            return Err(PrepareError::RoutesNotFound {
+            return Err(PrepareError::UserFileNotFound {
+                field,
                 index: i,
                 path: p.clone(),
             });
         }
     }
-    Ok(scenario.sumo().routes().to_vec())
+    Ok(files.to_vec())
 }
 
 /// Puts each SUMO driver of `drivers` (one per scenario vehicle; empty: the law everywhere)

@@ -143,7 +143,12 @@ impl SumoRun {
                 .request
                 .measure
                 .as_ref()
-                .and_then(|_| loop_position(&self.request.layout.road).map(|l| l.2)),
+                .and_then(|_| loop_position(&self.request.layout.road))
+                .map(|l| {
+                    // In the trajectory's coordinates (the layout may be turned along a loop).
+                    let road = &self.request.layout.road;
+                    (l.2 - self.request.layout.ring_offset_m).rem_euclid(road.length_m())
+                }),
             emission_class: crate::drivers::EMISSION_CLASS.to_string(),
             emission_every: self.request.measure.as_ref().map(|m| m.emission_every),
             law_speed_mode: law_driven.then_some(self.request.speed_mode),

@@ -368,6 +368,72 @@ mod loops {
         );
     }
 
+    /// A detector of the user's own (`sumo.additional`) at 10 m into lane e0_0 counts
+    /// exactly the crossings of that point that the trajectory shows: SUMO drives the lane
+    /// sequence syncroad measured, and the trajectory's loop coordinate is SUMO's (up to the
+    /// layout's turn along the loop, which keeps departures off junction lanes, here nonzero).
+    #[test]
+    fn an_additional_detector_counts_the_crossings_the_trajectory_shows() {
+        let dir = work("additional");
+        two_lane_loop(&dir);
+        std::fs::write(
+            dir.join("mine.add.xml"),
+            r#"<additional>
+    <inductionLoop id="mine" lane="e0_0" pos="10" period="1000" file="mine-e1.xml"/>
+</additional>
+"#,
+        )
+        .unwrap();
+        // Lane 0 and a fleet size whose even spacing puts a front bumper deep inside the
+        // 18 m junction lane at n1: the layout is turned along the loop.
+        let road = format!(r#"{{"type": "loop", "edges": {:?}, "lane": 0}}"#, CYCLE);
+        let with_detector = |n: usize| {
+            loop_json(&road, n, 100.0, "").replace(
+                r#""sumo": {"net": "out.net.xml"}"#,
+                r#""sumo": {"net": "out.net.xml", "additional": ["mine.add.xml"]}"#,
+            )
+        };
+        let n = (8..40)
+            .find(|&n| {
+                let sc = scenario(&dir, &with_detector(n)).unwrap();
+                let road = load_road(&sc).unwrap();
+                let p = syncroad_sumo::Prepared::new(&sc, &road, &opts(&dir)).unwrap();
+                p.request().layout.ring_offset_m > 0.0
+            })
+            .expect("a fleet whose layout is turned");
+        let json = with_detector(n);
+        let sc = scenario(&dir, &json).unwrap();
+        let run = run_scenario(&sc, &opts(&dir)).unwrap();
+        run.outcome().expect("horizon reached");
+        let out = std::fs::read_to_string(dir.join("mine-e1.xml")).unwrap();
+        let counted: i64 = out
+            .split("nVehContrib=\"")
+            .skip(1)
+            .map(|s| s[..s.find('"').unwrap()].parse::<i64>().unwrap())
+            .sum();
+        let lay = &run.request.layout;
+        let ring = lay.road.length_m();
+        // e0 is the loop's first edge: 10 m into it is SUMO's coordinate 10.
+        let x = (10.0 - lay.ring_offset_m).rem_euclid(ring);
+        let t = run.trajectory(&sc);
+        let k = t.len() - 1;
+        let lap = |q: f64| ((q + 5.0 - x) / ring).floor() as i64;
+        let crossings: i64 = (0..n)
+            .map(|i| lap(t.positions_m[k * n + i]) - lap(t.positions_m[i]))
+            .sum();
+        // SUMO also counts a vehicle that departs on top of the detector (it enters there).
+        let on_it = (0..n)
+            .filter(|&i| (t.positions_m[i] - x).rem_euclid(ring) > ring - 5.0)
+            .count() as i64;
+        let crossings = crossings + on_it;
+        eprintln!("detector: {counted} passages, trajectory: {crossings} crossings, layout turned by {:.3} m", lay.ring_offset_m);
+        assert!(crossings > n as i64, "{crossings}");
+        assert_eq!(counted, crossings);
+        let missing = scenario(&dir, &json.replace("mine.add.xml", "nope.add.xml")).unwrap();
+        let e = run_scenario(&missing, &opts(&dir)).unwrap_err().to_string();
+        assert!(e.starts_with("sumo.additional[0] = "), "{e}");
+    }
+
     /// A small OpenStreetMap file (a one-way two-lane circuit of six nodes with a side road)
     /// imported by netconvert: the cycle through its first edge is found, measured as sumolib
     /// measures it, and driven in SUMO as the native simulator drives it.

@@ -426,6 +426,10 @@ pub struct SumoSpec {
     /// against the scenario file's folder.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub routes: Vec<PathBuf>,
+    /// SUMO additional files (detectors, rerouters, traffic lights, vehicle types) loaded with
+    /// the network; relative paths are resolved against the scenario file's folder.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub additional: Vec<PathBuf>,
 }
 
 fn d_length() -> f64 {
@@ -462,6 +466,7 @@ impl Default for SumoSpec {
             max_speed_mps: d_vmax(),
             timeout_s: d_timeout(),
             routes: Vec::new(),
+            additional: Vec::new(),
         }
     }
 }

@@ -29,6 +29,7 @@ pub struct SumoVehicleType {
 pub struct SumoSettings {
     net: Option<PathBuf>,
     routes: Vec<PathBuf>,
+    additional: Vec<PathBuf>,
     vehicle_type: SumoVehicleType,
     timeout: Duration,
 }
@@ -45,6 +46,11 @@ impl SumoSettings {
     /// SUMO backend checks that they exist before it starts.
     pub fn routes(&self) -> &[PathBuf] {
         &self.routes
+    }
+
+    /// The user's additional files (`sumo.additional`), resolved like [`SumoSettings::net`].
+    pub fn additional(&self) -> &[PathBuf] {
+        &self.additional
     }
 
     /// The vehicle type every SUMO vehicle shares.
@@ -102,6 +108,7 @@ impl SumoSpec {
         Ok(SumoSettings {
             net,
             routes: self.routes.iter().map(resolve).collect(),
+            additional: self.additional.iter().map(resolve).collect(),
             vehicle_type: SumoVehicleType {
                 min_gap_m: self.min_gap_m,
                 accel_mps2: self.accel_mps2,
