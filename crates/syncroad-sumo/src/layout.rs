@@ -313,6 +313,7 @@ pub fn straight_layout(
     let vehicles = all
         .into_iter()
         .map(|(id, len, q, v)| {
+            let moved = road.junction_overlap_m(q + len + shift);
             let (edge_index, pos_m) = road.locate(q + len + shift);
             Departure {
                 id,
@@ -321,7 +322,12 @@ pub fn straight_layout(
                 edge_index,
                 pos_m,
                 speed_mps: v,
-                q0_m: q,
+                // A vehicle moved off a junction lane starts where SUMO puts it.
+                q0_m: if moved > MAX_JUNCTION_SHIFT_M {
+                    q + moved
+                } else {
+                    q
+                },
             }
         })
         .collect();
@@ -476,6 +482,58 @@ mod tests {
             &Path::new(env!("CARGO_MANIFEST_DIR")).join("../../sumo-nets/sugiyama-ring.net.xml"),
         )
         .unwrap()
+    }
+
+    /// A route of two 100 m edges joined by a 10 m junction lane.
+    fn two_edge_route() -> Road {
+        let seg = |edge: &str, len: f64, internal: bool| crate::net::Segment {
+            edge: edge.into(),
+            lane: format!("{edge}_0"),
+            length_m: len,
+            internal,
+            speed_mps: 30.0,
+        };
+        Road {
+            path: PathBuf::from("route.net.xml"),
+            segments: vec![
+                seg("a", 100.0, false),
+                seg(":j_0", 10.0, true),
+                seg("b", 100.0, false),
+            ],
+            ring: false,
+            lane_index: 1,
+            multi_lane: true,
+        }
+    }
+
+    #[test]
+    fn route_departures_lie_on_normal_lanes_at_their_true_positions() {
+        let road = two_edge_route();
+        assert_eq!(road.junction_overlap_m(104.0), 6.0);
+        assert_eq!(road.junction_overlap_m(99.0), 0.0);
+        assert_eq!(road.junction_overlap_m(110.5), 0.0);
+        // Rear bumpers at 120, 98 and 0 (native coordinates); the platoon starts 1 m into
+        // the road, so the fronts are at 126, 104 and 6.
+        let lay = straight_layout(
+            &road,
+            vt(),
+            &[5.0; 3],
+            &[120.0, 98.0, 0.0],
+            &[8.0; 3],
+            None,
+            8.0,
+            1.0,
+        )
+        .unwrap();
+        let v = &lay.vehicles;
+        assert_eq!((v[0].edge_index, v[0].pos_m), (1, 16.0));
+        assert_eq!((v[2].edge_index, v[2].pos_m), (0, 6.0));
+        // Vehicle 1's front (104) lay 4 m into the junction lane: SUMO gets it at the start of
+        // `b`, 6 m further on, and its start position says so.
+        assert_eq!((v[1].edge_index, v[1].pos_m), (1, 0.0));
+        assert_eq!(v[1].q0_m, 104.0);
+        assert!(lay.routes_xml().contains(r#"<route id="r1" edges="b"/>"#));
+        assert!(lay.routes_xml().contains(r#"departLane="1""#));
     }
 
     #[test]
