@@ -25,6 +25,16 @@ pub fn load_scenario(path: &Path) -> anyhow::Result<Scenario> {
     Ok(sc)
 }
 
+/// Tells, when the scenario brings other traffic (`sumo.routes`), that the conditions and the
+/// exact analysis printed are for the scenario's fixed graph only.
+pub fn note_fixed_graph(sc: &Scenario) {
+    if !sc.sumo().routes().is_empty() {
+        eprintln!(
+            "note: sumo.routes adds other traffic; where it changes lanes into or out of the controlled lane the graph of the law changes in SUMO (a run counts it as safety.topology_changes), and the results above hold for the scenario's fixed graph only"
+        );
+    }
+}
+
 /// Tells which cycle a `road.through` loop takes and how long it measured.
 pub fn note_measured_road(sc: &Scenario) {
     if let (

@@ -530,4 +530,21 @@ fn own_loop_from_netconvert_runs_and_a_misspelt_edge_exits_2() {
         "{out}"
     );
     assert!(!dir.join("typo/sumo.log").exists());
+    // With other traffic (sumo.routes) check and stability say their results are for the
+    // fixed graph only.
+    std::fs::write(track.join("traffic.rou.xml"), "<routes/>\n").unwrap();
+    let text = std::fs::read_to_string(&scenario).unwrap().replace(
+        r#""net": "../track/track.net.xml""#,
+        r#""net": "../track/track.net.xml", "routes": ["../track/traffic.rou.xml"]"#,
+    );
+    let traffic = scenarios.join("traffic.json");
+    std::fs::write(&traffic, text).unwrap();
+    for cmd in ["check", "stability"] {
+        let (code, _, err) = run(bin().arg(cmd).arg(&traffic));
+        assert_eq!(code, 0, "{cmd}: {err}");
+        assert!(
+            err.contains("the results above hold for the scenario's fixed graph only"),
+            "{cmd}: {err}"
+        );
+    }
 }
