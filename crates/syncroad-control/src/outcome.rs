@@ -175,6 +175,14 @@ pub fn sumo_overruled(facts: &SumoFacts, tolerance_mps: f64) -> Vec<(Verdict, St
             ),
         ));
     }
+    if let Some(c) = s.topology_changes.filter(|&c| c > 0) {
+        out.push((
+            Verdict::Inconclusive,
+            format!(
+                "the vehicle ahead of a controlled vehicle changed {c} times in SUMO (other traffic changed lanes into or out of the controlled lane) while the law kept its fixed graph; the Theorem-1 certificate and the exact analysis hold for a fixed graph only"
+            ),
+        ));
+    }
     if s.negative_commands_clamped > 0 {
         out.push((
             Verdict::Inconclusive,
@@ -313,5 +321,22 @@ mod tests {
         assert_eq!(judged(&facts(neg, 0.0)).verdict, Verdict::Inconclusive);
         let none = SumoFacts::default();
         assert_eq!(judged(&none).verdict, Verdict::Inconclusive);
+    }
+
+    #[test]
+    fn a_graph_that_changed_in_sumo_is_inconclusive_and_says_why() {
+        let watched = |c| Safety {
+            topology_changes: Some(c),
+            ..Safety::default()
+        };
+        assert_eq!(
+            judged(&facts(watched(0), 0.0)).verdict,
+            Verdict::Synchronized
+        );
+        let m = judged(&facts(watched(7), 0.0));
+        assert_eq!(m.verdict, Verdict::Inconclusive);
+        let why = m.verdict_reason.unwrap();
+        assert!(why.contains("changed 7 times in SUMO"), "{why}");
+        assert!(why.contains("hold for a fixed graph only"), "{why}");
     }
 }

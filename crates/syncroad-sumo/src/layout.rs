@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 use syncroad_control::scenario::SumoVehicleType;
 
-use crate::net::Road;
+use crate::net::{off_junctions, Road, MAX_JUNCTION_SHIFT_M};
 
 /// Errors laying out a run.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -111,6 +111,11 @@ pub struct Layout {
     pub gap_scale: f64,
     /// How many times the ring route repeats (enough for the horizon at maxSpeed).
     pub route_repeats: usize,
+    /// How far along a loop the whole layout was turned to keep departures off junction
+    /// lanes \[m\]: SUMO's loop coordinate of a point is its trajectory coordinate plus this
+    /// (0 on the shipped rings and on straight roads).
+    #[serde(default)]
+    pub ring_offset_m: f64,
 }
 
 fn check_pos(field: &str, x: f64) -> Result<(), LayoutError> {
@@ -194,12 +199,30 @@ pub fn ring_layout(
     let gap_sum: f64 = gaps_m.iter().sum();
     let gap_scale = if gap_sum > 0.0 { free / gap_sum } else { 1.0 };
     let mut vehicles = Vec::with_capacity(lengths_m.len());
+    let mut fronts = Vec::with_capacity(lengths_m.len());
     let mut q = 0.0;
     for i in 0..lengths_m.len() {
         if i > 0 {
             q -= lengths_m[i] + gaps_m[i] * gap_scale;
         }
-        let (edge_index, pos_m) = road.locate(q + lengths_m[i]);
+        fronts.push(q + lengths_m[i]);
+    }
+    let offset = off_junctions(road, &fronts);
+    let mut q = 0.0;
+    for i in 0..lengths_m.len() {
+        if i > 0 {
+            q -= lengths_m[i] + gaps_m[i] * gap_scale;
+        }
+        // Positions are relative: turning the whole layout by `offset` along the loop changes
+        // no gap; a vehicle still moved off a junction lane starts where SUMO puts it.
+        let front = q + lengths_m[i] + offset;
+        let moved = road.junction_overlap_m(front);
+        let (edge_index, pos_m) = road.locate(front);
+        let q = if moved > MAX_JUNCTION_SHIFT_M {
+            q + moved
+        } else {
+            q
+        };
         vehicles.push(Departure {
             id: format!("v{i}"),
             driver: None,
@@ -233,6 +256,7 @@ pub fn ring_layout(
         leader_vehicle: false,
         gap_scale,
         route_repeats: repeats as usize,
+        ring_offset_m: offset,
     })
 }
 
@@ -284,16 +308,27 @@ pub fn straight_layout(
             horizon_s,
         });
     }
+    // On a route of several edges the front bumper may lie on a later edge (or on a junction
+    // lane, moved to the start of the next edge as on a ring).
     let vehicles = all
         .into_iter()
-        .map(|(id, len, q, v)| Departure {
-            id,
-            driver: None,
-            length_m: len,
-            edge_index: 0,
-            pos_m: q + len + shift,
-            speed_mps: v,
-            q0_m: q,
+        .map(|(id, len, q, v)| {
+            let moved = road.junction_overlap_m(q + len + shift);
+            let (edge_index, pos_m) = road.locate(q + len + shift);
+            Departure {
+                id,
+                driver: None,
+                length_m: len,
+                edge_index,
+                pos_m,
+                speed_mps: v,
+                // A vehicle moved off a junction lane starts where SUMO puts it.
+                q0_m: if moved > MAX_JUNCTION_SHIFT_M {
+                    q + moved
+                } else {
+                    q
+                },
+            }
         })
         .collect();
     Ok(Layout {
@@ -303,6 +338,7 @@ pub fn straight_layout(
         leader_vehicle: leader.is_some(),
         gap_scale: 1.0,
         route_repeats: 0,
+        ring_offset_m: 0.0,
     })
 }
 
@@ -381,7 +417,11 @@ impl Layout {
         let edges = self.road.normal_edges();
         let k = edges.len();
         for start in 0..k {
-            let list: Vec<&str> = (0..k).map(|j| edges[(start + j) % k]).collect();
+            let list: Vec<&str> = if self.road.ring {
+                (0..k).map(|j| edges[(start + j) % k]).collect()
+            } else {
+                edges[start..].to_vec()
+            };
             if self.road.ring {
                 let _ = writeln!(
                     s,
@@ -404,8 +444,8 @@ impl Layout {
                 .expect("type written above");
             let _ = writeln!(
                 s,
-                r#"    <vehicle id="{}" type="t{ty}" route="r{}" depart="0" departLane="0" departPos="{}" departSpeed="{}" insertionChecks="none"/>"#,
-                v.id, v.edge_index, v.pos_m, v.speed_mps
+                r#"    <vehicle id="{}" type="t{ty}" route="r{}" depart="0" departLane="{}" departPos="{}" departSpeed="{}" insertionChecks="none"/>"#,
+                v.id, v.edge_index, self.road.lane_index, v.pos_m, v.speed_mps
             );
         }
         s.push_str("</routes>\n");
@@ -442,6 +482,58 @@ mod tests {
             &Path::new(env!("CARGO_MANIFEST_DIR")).join("../../sumo-nets/sugiyama-ring.net.xml"),
         )
         .unwrap()
+    }
+
+    /// A route of two 100 m edges joined by a 10 m junction lane.
+    fn two_edge_route() -> Road {
+        let seg = |edge: &str, len: f64, internal: bool| crate::net::Segment {
+            edge: edge.into(),
+            lane: format!("{edge}_0"),
+            length_m: len,
+            internal,
+            speed_mps: 30.0,
+        };
+        Road {
+            path: PathBuf::from("route.net.xml"),
+            segments: vec![
+                seg("a", 100.0, false),
+                seg(":j_0", 10.0, true),
+                seg("b", 100.0, false),
+            ],
+            ring: false,
+            lane_index: 1,
+            multi_lane: true,
+        }
+    }
+
+    #[test]
+    fn route_departures_lie_on_normal_lanes_at_their_true_positions() {
+        let road = two_edge_route();
+        assert_eq!(road.junction_overlap_m(104.0), 6.0);
+        assert_eq!(road.junction_overlap_m(99.0), 0.0);
+        assert_eq!(road.junction_overlap_m(110.5), 0.0);
+        // Rear bumpers at 120, 98 and 0 (native coordinates); the platoon starts 1 m into
+        // the road, so the fronts are at 126, 104 and 6.
+        let lay = straight_layout(
+            &road,
+            vt(),
+            &[5.0; 3],
+            &[120.0, 98.0, 0.0],
+            &[8.0; 3],
+            None,
+            8.0,
+            1.0,
+        )
+        .unwrap();
+        let v = &lay.vehicles;
+        assert_eq!((v[0].edge_index, v[0].pos_m), (1, 16.0));
+        assert_eq!((v[2].edge_index, v[2].pos_m), (0, 6.0));
+        // Vehicle 1's front (104) lay 4 m into the junction lane: SUMO gets it at the start of
+        // `b`, 6 m further on, and its start position says so.
+        assert_eq!((v[1].edge_index, v[1].pos_m), (1, 0.0));
+        assert_eq!(v[1].q0_m, 104.0);
+        assert!(lay.routes_xml().contains(r#"<route id="r1" edges="b"/>"#));
+        assert!(lay.routes_xml().contains(r#"departLane="1""#));
     }
 
     #[test]

@@ -77,6 +77,16 @@ pub struct Request {
     /// same process (0 = off).
     #[serde(default)]
     pub interleave_block: usize,
+    /// The user's own route files, loaded after syncroad's (`sumo.routes`).
+    #[serde(default)]
+    pub extra_routes: Vec<PathBuf>,
+    /// The user's own additional files (`sumo.additional`).
+    #[serde(default)]
+    pub extra_additional: Vec<PathBuf>,
+    /// Count how often the vehicle ahead of a controlled vehicle changes (other traffic on a
+    /// road of several lanes).
+    #[serde(default)]
+    pub watch_leaders: bool,
 }
 
 fn default_speed_mode() -> i32 {
@@ -214,6 +224,9 @@ pub struct Totals {
     /// The per-vehicle calls went straight to libsumo's C++ functions ([`ReadMode::Direct`]).
     #[serde(default)]
     pub direct_calls: bool,
+    /// Changes of the vehicle ahead of a controlled vehicle, when watched.
+    #[serde(default)]
+    pub topology_changes: Option<usize>,
 }
 
 /// The end of a run.

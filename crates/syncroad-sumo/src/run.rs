@@ -13,9 +13,10 @@ use syncroad_control::road::{initial_positions, leader_start};
 use syncroad_control::scenario::Scenario;
 use syncroad_control::{DamperSetup, DamperSpec, HumanSetup, LawSpec, NoisyIdm};
 
-use crate::drivers::{DriverError, SumoDriver, MIXED_SPEED_MODE};
-use crate::layout::{ring_layout, straight_layout, Layout, LayoutError};
-use crate::net::{read_ring, read_straight, NetError, Road};
+use crate::drivers::{SumoDriver, MIXED_SPEED_MODE};
+use crate::layout::{ring_layout, straight_layout, Layout};
+pub use crate::net::loop_position;
+use crate::net::{read_network_road, read_ring, read_straight, Road};
 use crate::protocol::{Control, Measure, ReadMode, Request};
 pub use crate::sumo_run::SumoRun;
 use crate::supervisor::{run_worker, Supervision, WorkerCommand, WorkerPool};
@@ -26,97 +27,7 @@ pub const OVERRIDE_TOLERANCE_MPS: f64 = 1e-6;
 /// Steps between two reads of SUMO's odometer with [`ReadMode::Getters`].
 pub const ODOMETER_EVERY: usize = 10;
 
-/// Errors found before SUMO starts.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum PrepareError {
-    /// The scenario names no network.
-    #[error("sumo.net is not set; the sumo backend needs a network file, e.g. \"sumo\": {{\"net\": \"{example}\"}} (relative to the scenario file)")]
-    NoNet {
-        /// A shipped network that fits the road type.
-        example: String,
-    },
-    /// The network file does not exist.
-    #[error("sumo.net = {path}: file not found (checked before starting SUMO)")]
-    NetNotFound {
-        /// The resolved path.
-        path: PathBuf,
-    },
-    /// The network file is unusable.
-    #[error(transparent)]
-    Net(#[from] NetError),
-    /// The vehicles do not fit.
-    #[error(transparent)]
-    Layout(#[from] LayoutError),
-    /// A number SUMO cannot represent.
-    #[error("{field} = {value}: {expected}")]
-    Unrepresentable {
-        /// Scenario field.
-        field: &'static str,
-        /// Its value.
-        value: String,
-        /// What SUMO accepts.
-        expected: &'static str,
-    },
-    /// The per-vehicle drivers do not match the scenario.
-    #[error("drivers: {got} given for {expected} vehicles; give one per scenario vehicle (leader excluded)")]
-    Drivers {
-        /// Scenario vehicles.
-        expected: usize,
-        /// Drivers given.
-        got: usize,
-    },
-    /// A measurement option is out of range.
-    #[error("{field} = {value}: {expected}")]
-    Measure {
-        /// Option.
-        field: &'static str,
-        /// Its value.
-        value: String,
-        /// What is valid.
-        expected: &'static str,
-    },
-    /// A driver's parameters do not fit the run (e.g. `actionStepLength` off the step grid).
-    #[error(transparent)]
-    CarFollowing(#[from] crate::car_following::CarFollowingError),
-    /// A driver named in the scenario is unknown.
-    #[error(transparent)]
-    Driver(#[from] DriverError),
-    /// A driver preset's length differs from the scenario's vehicle, so the run would not start
-    /// from the scenario's positions.
-    #[error("{driver}: its length {preset_m} m differs from vehicle {vehicle}'s length {length_m} m in the scenario; every run starts from the scenario's positions, so give the vehicles the preset's length (sumo.length_m)")]
-    DriverLength {
-        /// The driver.
-        driver: String,
-        /// Vehicle index.
-        vehicle: usize,
-        /// The preset's length \[m\].
-        preset_m: f64,
-        /// The scenario's length \[m\].
-        length_m: f64,
-    },
-    /// The wave dampers follow a predecessor around a ring.
-    #[error("{damper}: the wave dampers drive on a ring (each vehicle follows its predecessor); scenario {scenario} is a straight road")]
-    DamperNeedsRing {
-        /// The damper.
-        damper: String,
-        /// The scenario.
-        scenario: String,
-    },
-    /// Stochastic humans follow a predecessor around a ring.
-    #[error("the stochastic human drivers (human-noisy, flow-idm-noise, noisy-idm:...) drive on a ring (each vehicle follows its predecessor); scenario {scenario} is a straight road")]
-    HumansNeedRing {
-        /// The scenario.
-        scenario: String,
-    },
-    /// The work folder cannot be written.
-    #[error("cannot write {path}: {reason}")]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// The OS error.
-        reason: String,
-    },
-}
+pub use crate::prepare_error::PrepareError;
 
 /// Options of a SUMO run.
 #[derive(Clone)]
@@ -160,23 +71,6 @@ pub struct MeasureOptions {
     /// Also log SUMO's surrogate safety measures (`ssm.xml` in the work folder) and report
     /// time headway, gaps, TTC, DRAC and the safe-speed label in the record.
     pub ssm: bool,
-}
-
-/// Where the induction loop `loop0` sits on a ring: lane, position on it \[m\] and the ring
-/// coordinate of that point \[m\] (10 m into the first normal lane, or its middle).
-pub fn loop_position(road: &Road) -> Option<(String, f64, f64)> {
-    if !road.ring {
-        return None;
-    }
-    let mut offset = 0.0;
-    for seg in &road.segments {
-        if !seg.internal {
-            let pos = (seg.length_m / 2.0).min(10.0);
-            return Some((seg.lane.clone(), pos, offset + pos));
-        }
-        offset += seg.length_m;
-    }
-    None
 }
 
 impl RunOptions {
@@ -241,6 +135,9 @@ pub fn check_sumo_numbers(scenario: &Scenario) -> Result<(), PrepareError> {
 /// Reads the scenario's network file once (every pre-start check of the road).
 pub fn load_road(scenario: &Scenario) -> Result<Road, PrepareError> {
     let net = net_path(scenario)?;
+    if scenario.road().is_network() {
+        return Ok(read_network_road(&net, scenario.road())?);
+    }
     Ok(if scenario.is_ring() {
         read_ring(&net)?
     } else {
@@ -382,6 +279,9 @@ fn prepare_with(
         });
         Control::Law { law: Box::new(law) }
     };
+    let extra_routes = user_files("sumo.routes", scenario.sumo().routes())?;
+    let extra_additional = user_files("sumo.additional", scenario.sumo().additional())?;
+    let layout_multi_lane = layout.road.multi_lane;
     Ok(Request {
         layout,
         routes_file,
@@ -401,7 +301,25 @@ fn prepare_with(
         read: opts.read,
         odometer_every: ODOMETER_EVERY,
         interleave_block: 0,
+        watch_leaders: !extra_routes.is_empty() && layout_multi_lane,
+        extra_routes,
+        extra_additional,
     })
+}
+
+/// The user's own files of `field` (`sumo.routes`, `sumo.additional`), checked to exist
+/// before SUMO starts.
+fn user_files(field: &'static str, files: &[PathBuf]) -> Result<Vec<PathBuf>, PrepareError> {
+    for (i, p) in files.iter().enumerate() {
+        if !p.is_file() {
+            return Err(PrepareError::UserFileNotFound {
+                field,
+                index: i,
+                path: p.clone(),
+            });
+        }
+    }
+    Ok(files.to_vec())
 }
 
 /// Puts each SUMO driver of `drivers` (one per scenario vehicle; empty: the law everywhere)

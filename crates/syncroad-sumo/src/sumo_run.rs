@@ -8,8 +8,8 @@ use syncroad_control::record::{Safety, SumoFacts};
 use syncroad_control::scenario::Scenario;
 use syncroad_control::{RunOutput, StopReason, Trajectory};
 
+use crate::net::loop_position;
 use crate::protocol::{Control, Finish, Request};
-use crate::run::loop_position;
 use crate::supervisor::{SupervisorError, WorkerRun};
 
 /// The result of a SUMO run: every row received, and how the run ended.
@@ -134,6 +134,7 @@ impl SumoRun {
                 emergency_braking_warnings: emergency_braking_warnings(&self.request.log_file),
                 overridden_commands: f.totals.overrides,
                 negative_commands_clamped: f.totals.negative_commands_clamped,
+                topology_changes: f.totals.topology_changes,
             }),
             max_override_mps: finish.map_or(0.0, |f| f.totals.max_override_mps),
             odometer_deviation_max_m: finish.map_or(0.0, |f| f.totals.odometer_deviation_max_m),
@@ -142,7 +143,12 @@ impl SumoRun {
                 .request
                 .measure
                 .as_ref()
-                .and_then(|_| loop_position(&self.request.layout.road).map(|l| l.2)),
+                .and_then(|_| loop_position(&self.request.layout.road))
+                .map(|l| {
+                    // In the trajectory's coordinates (the layout may be turned along a loop).
+                    let road = &self.request.layout.road;
+                    (l.2 - self.request.layout.ring_offset_m).rem_euclid(road.length_m())
+                }),
             emission_class: crate::drivers::EMISSION_CLASS.to_string(),
             emission_every: self.request.measure.as_ref().map(|m| m.emission_every),
             law_speed_mode: law_driven.then_some(self.request.speed_mode),

@@ -12,14 +12,46 @@ use crate::error::InputError;
 
 /// Loads and validates a scenario; a failure is an [`InputError`] that leads with the
 /// library's message (it names the field, the value and what is valid).
+/// A loop or route through a network is checked and measured on `sumo.net`; the cycle found
+/// for `road.through` is printed to stderr.
 pub fn load_scenario(path: &Path) -> anyhow::Result<Scenario> {
-    Scenario::load(path).map_err(|e| {
-        InputError::new(format!(
+    let sc = Scenario::load_with(path, &syncroad_sumo::NetReader).map_err(|e| {
+        anyhow::Error::from(InputError::new(format!(
             "{e}\n  (scenario {}; fix the field named above — `syncroad --help` and the guide's docs/src/scenarios.md describe the format)",
             path.display()
-        ))
-        .into()
-    })
+        )))
+    })?;
+    note_measured_road(&sc);
+    Ok(sc)
+}
+
+/// Tells, when the scenario brings other traffic (`sumo.routes`), that the conditions and the
+/// exact analysis printed are for the scenario's fixed graph only.
+pub fn note_fixed_graph(sc: &Scenario) {
+    if !sc.sumo().routes().is_empty() {
+        eprintln!(
+            "note: sumo.routes adds other traffic; where it changes lanes into or out of the controlled lane the graph of the law changes in SUMO (a run counts it as safety.topology_changes), and the results above hold for the scenario's fixed graph only"
+        );
+    }
+}
+
+/// Tells which cycle a `road.through` loop takes and how long it measured.
+pub fn note_measured_road(sc: &Scenario) {
+    if let (
+        Some(m),
+        syncroad_control::scenario::RoadSpec::Loop {
+            through: Some(t), ..
+        },
+    ) = (sc.measured_road(), sc.road())
+    {
+        eprintln!(
+            "road: the shortest cycle through `{t}` on lane {}: {} ({} edges, {:.3} m)",
+            m.lane,
+            m.edges.join(" "),
+            m.edges.len(),
+            m.length_m
+        );
+    }
 }
 
 /// Default sampling stride: about 2000 samples over the horizon, fewer for large fleets so a

@@ -460,3 +460,71 @@ fn a_ring_in_uniform_flow_writes_its_whole_folder_on_both_backends() {
         );
     }
 }
+
+/// The shipped files of docs/src/own-network.md (`examples/track/`): netconvert builds the
+/// two-lane track from their node and edge files, the cycle through `e0` is found and printed, the run
+/// synchronizes in SUMO, and a misspelt edge is refused with exit code 2 before SUMO starts.
+#[test]
+fn own_loop_from_netconvert_runs_and_a_misspelt_edge_exits_2() {
+    let dir = tmpdir("own-loop");
+    let track = dir.join("track");
+    std::fs::create_dir_all(&track).unwrap();
+    for f in ["track.nod.xml", "track.edg.xml", "own-loop.json"] {
+        std::fs::copy(repo().join("examples/track").join(f), track.join(f)).unwrap();
+    }
+    let netconvert = repo().join(".venv/lib/python3.11/site-packages/sumo/bin/netconvert");
+    let (code, _, err) = run(std::process::Command::new(netconvert)
+        .current_dir(&track)
+        .args([
+            "--node-files",
+            "track.nod.xml",
+            "--edge-files",
+            "track.edg.xml",
+            "--no-turnarounds",
+            "true",
+            "-o",
+            "track.net.xml",
+        ]));
+    assert_eq!(code, 0, "{err}");
+    let scenario = track.join("own-loop.json");
+    let (code, out, m) = run_backend(&["run"], &scenario, &dir.join("out"));
+    assert_eq!(code, 0, "{out}");
+    assert!(
+        out.contains(
+            "road: the shortest cycle through `e0` on lane 1: e0 e1 e2 e3 e4 e5 e6 e7 (8 edges, "
+        ),
+        "{out}"
+    );
+    assert_eq!(m["sync"]["verdict"], "synchronized");
+    assert_eq!(m["safety"]["collision_steps"], 0);
+    // A misspelt edge: exit 2, the field and the nearest ids, and SUMO never started.
+    let text = std::fs::read_to_string(&scenario)
+        .unwrap()
+        .replace(r#""through": "e0""#, r#""edges": ["e0", "e1", "e22"]"#);
+    let bad = track.join("typo.json");
+    std::fs::write(&bad, text).unwrap();
+    let (code, out, _) = run_backend(&["run"], &bad, &dir.join("typo"));
+    assert_eq!(code, 2, "{out}");
+    assert!(
+        out.contains("road.edges[2] = `e22`: ") && out.contains("nearest ids: `e2`, `e0`, `e1`"),
+        "{out}"
+    );
+    assert!(!dir.join("typo/sumo.log").exists());
+    // With other traffic (sumo.routes) check and stability say their results are for the
+    // fixed graph only.
+    std::fs::write(track.join("traffic.rou.xml"), "<routes/>\n").unwrap();
+    let text = std::fs::read_to_string(&scenario).unwrap().replace(
+        r#""net": "track.net.xml""#,
+        r#""net": "track.net.xml", "routes": ["traffic.rou.xml"]"#,
+    );
+    let traffic = track.join("traffic.json");
+    std::fs::write(&traffic, text).unwrap();
+    for cmd in ["check", "stability"] {
+        let (code, _, err) = run(bin().arg(cmd).arg(&traffic));
+        assert_eq!(code, 0, "{cmd}: {err}");
+        assert!(
+            err.contains("the results above hold for the scenario's fixed graph only"),
+            "{cmd}: {err}"
+        );
+    }
+}

@@ -173,6 +173,41 @@ pub enum RoadSpec {
         #[serde(default = "default_straight_length")]
         length_m: f64,
     },
+    /// A closed loop through the network of `sumo.net`: the cycle of `edges` in driving order,
+    /// or the shortest cycle through the edge `through`, driven on lane `lane` of every edge.
+    /// Its length is measured on the network (normal plus junction-internal lanes).
+    Loop {
+        /// The normal edges of the cycle in driving order (the last one leads to the first).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        edges: Option<Vec<String>>,
+        /// One edge of the cycle: the shortest cycle through it is taken.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        through: Option<String>,
+        /// Lane index (0 = rightmost) the controlled vehicles keep on every edge.
+        #[serde(default)]
+        lane: usize,
+    },
+    /// An open route through the network of `sumo.net` (platoons, a chain behind a leader):
+    /// `edges` in driving order on lane `lane`. Its length is measured on the network.
+    Route {
+        /// The normal edges in driving order.
+        edges: Vec<String>,
+        /// Lane index (0 = rightmost) the controlled vehicles keep on every edge.
+        #[serde(default)]
+        lane: usize,
+    },
+}
+
+impl RoadSpec {
+    /// True for a road whose length comes from its network (a loop or a route).
+    pub fn is_network(&self) -> bool {
+        matches!(self, RoadSpec::Loop { .. } | RoadSpec::Route { .. })
+    }
+
+    /// True for a closed road (a ring or a loop).
+    pub fn is_closed(&self) -> bool {
+        matches!(self, RoadSpec::Ring { .. } | RoadSpec::Loop { .. })
+    }
 }
 
 fn default_straight_length() -> f64 {
@@ -386,6 +421,15 @@ pub struct SumoSpec {
     /// Wall-clock limit of one SUMO run [s].
     #[serde(default = "d_timeout")]
     pub timeout_s: f64,
+    /// The user's own traffic: SUMO route files (vehicle types, routes, vehicles, flows) loaded
+    /// beside syncroad's vehicles, which stay the controlled set; relative paths are resolved
+    /// against the scenario file's folder.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub routes: Vec<PathBuf>,
+    /// SUMO additional files (detectors, rerouters, traffic lights, vehicle types) loaded with
+    /// the network; relative paths are resolved against the scenario file's folder.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub additional: Vec<PathBuf>,
 }
 
 fn d_length() -> f64 {
@@ -421,6 +465,8 @@ impl Default for SumoSpec {
             emergency_decel_mps2: d_edecel(),
             max_speed_mps: d_vmax(),
             timeout_s: d_timeout(),
+            routes: Vec::new(),
+            additional: Vec::new(),
         }
     }
 }

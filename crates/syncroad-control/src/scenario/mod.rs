@@ -24,6 +24,7 @@ pub mod file;
 mod graph_spec;
 pub mod leader;
 pub mod mixed;
+mod network_road;
 pub mod per_vehicle;
 mod scale;
 mod sumo;
@@ -32,6 +33,7 @@ mod validate;
 pub use file::*;
 pub use leader::LeaderProfile;
 pub use mixed::{automated_vehicles, MixedSpec};
+pub use network_road::{MeasuredRoad, RoadReader};
 pub use per_vehicle::PerVehicle;
 pub use scale::Scaled;
 pub use sumo::{SumoSettings, SumoVehicleType, MAX_TIMEOUT_S};
@@ -124,6 +126,10 @@ pub enum ScenarioError {
     /// The interaction graph is malformed.
     #[error("model.graph: {0}")]
     Graph(#[from] GraphError),
+    /// The network does not hold the road of a loop or route (the network reader's message,
+    /// which names the `road.…` field).
+    #[error("{0}")]
+    Road(String),
 }
 
 pub(crate) fn invalid(
@@ -224,6 +230,7 @@ pub struct Scenario {
     steps: usize,
     model: Model,
     road: RoadSpec,
+    measured: Option<MeasuredRoad>,
     initial_speed_mps: Vec<f64>,
     initial_gap_m: Vec<f64>,
     length_m: Vec<f64>,
@@ -235,6 +242,16 @@ pub struct Scenario {
 impl Scenario {
     /// Reads and validates a scenario file.
     pub fn load(path: &Path) -> Result<Self, ScenarioError> {
+        Self::load_from(path, None)
+    }
+
+    /// [`Scenario::load`] for scenarios whose road may run through a network (`loop`,
+    /// `route`): `reader` checks and measures it on `sumo.net`.
+    pub fn load_with(path: &Path, reader: &dyn RoadReader) -> Result<Self, ScenarioError> {
+        Self::load_from(path, Some(reader))
+    }
+
+    fn load_from(path: &Path, reader: Option<&dyn RoadReader>) -> Result<Self, ScenarioError> {
         let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Io {
             path: path.to_path_buf(),
             source,
@@ -248,7 +265,7 @@ impl Scenario {
         } else {
             PathBuf::from(".")
         };
-        file.validate(&base)
+        file.validate_with(&base, reader)
     }
 
     /// Parses and validates scenario JSON text (relative paths resolve against the current folder).
@@ -341,16 +358,28 @@ impl Scenario {
         }
     }
 
-    /// True when the road is a ring.
+    /// True when the road is closed: a ring, or a loop through a network.
     pub fn is_ring(&self) -> bool {
-        matches!(self.road, RoadSpec::Ring { .. })
+        self.road.is_closed()
     }
 
-    /// The ring's nominal circumference [m], `None` on a straight road.
+    /// The closed road's length [m]: a ring's nominal circumference, a loop's length measured
+    /// on its network; `None` on an open road.
     pub fn ring_length_m(&self) -> Option<f64> {
         match self.road {
             RoadSpec::Ring { length_m } => Some(length_m),
-            RoadSpec::Straight { .. } => None,
+            RoadSpec::Loop { .. } => self.measured.as_ref().map(|m| m.length_m),
+            RoadSpec::Straight { .. } | RoadSpec::Route { .. } => None,
         }
+    }
+
+    /// The road as the scenario gives it.
+    pub fn road(&self) -> &RoadSpec {
+        &self.road
+    }
+
+    /// A loop or route as measured on its network (`None` for a ring or a straight road).
+    pub fn measured_road(&self) -> Option<&MeasuredRoad> {
+        self.measured.as_ref()
     }
 }

@@ -32,6 +32,8 @@ pub struct SumoVehicleType {
 #[derive(Debug, Clone, PartialEq)]
 pub struct SumoSettings {
     net: Option<PathBuf>,
+    routes: Vec<PathBuf>,
+    additional: Vec<PathBuf>,
     vehicle_type: SumoVehicleType,
     timeout: Duration,
 }
@@ -42,6 +44,17 @@ impl SumoSettings {
     /// backend before it starts (a native run needs no network).
     pub fn net(&self) -> Option<&Path> {
         self.net.as_deref()
+    }
+
+    /// The user's own route files (`sumo.routes`), resolved like [`SumoSettings::net`]; the
+    /// SUMO backend checks that they exist before it starts.
+    pub fn routes(&self) -> &[PathBuf] {
+        &self.routes
+    }
+
+    /// The user's additional files (`sumo.additional`), resolved like [`SumoSettings::net`].
+    pub fn additional(&self) -> &[PathBuf] {
+        &self.additional
     }
 
     /// The vehicle type every SUMO vehicle shares.
@@ -89,15 +102,18 @@ impl SumoSpec {
             ));
         }
         let timeout = Duration::from_secs_f64(self.timeout_s);
-        let net = self.net.as_ref().map(|net| {
-            if net.is_absolute() {
-                net.clone()
+        let resolve = |p: &PathBuf| {
+            if p.is_absolute() {
+                p.clone()
             } else {
-                base_dir.join(net)
+                base_dir.join(p)
             }
-        });
+        };
+        let net = self.net.as_ref().map(resolve);
         Ok(SumoSettings {
             net,
+            routes: self.routes.iter().map(resolve).collect(),
+            additional: self.additional.iter().map(resolve).collect(),
             vehicle_type: SumoVehicleType {
                 min_gap_m: self.min_gap_m,
                 accel_mps2: self.accel_mps2,

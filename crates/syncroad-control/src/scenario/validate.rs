@@ -57,10 +57,22 @@ impl ScenarioFile {
         })
     }
 
-    /// Validates and resolves the scenario; `base_dir` resolves relative paths.
+    /// Validates and resolves the scenario; `base_dir` resolves relative paths. A road through
+    /// a network (`loop`, `route`) needs [`ScenarioFile::validate_with`] and a reader.
     ///
     /// At most [`MAX_VEHICLES`] vehicles.
     pub fn validate(self, base_dir: &Path) -> Result<Scenario, ScenarioError> {
+        self.validate_with(base_dir, None)
+    }
+
+    /// [`ScenarioFile::validate`] with a reader that measures a loop or a route on `sumo.net`
+    /// (its length replaces `road.length_m`: the capacity, the even spacing and the ring
+    /// check use it).
+    pub fn validate_with(
+        self,
+        base_dir: &Path,
+        reader: Option<&dyn RoadReader>,
+    ) -> Result<Scenario, ScenarioError> {
         let n = self.vehicles.count();
         if n == 0 {
             return Err(invalid("vehicles", 0, "must be ≥ 1"));
@@ -123,11 +135,23 @@ impl ScenarioFile {
             ));
         }
         let sumo = self.sumo.validate(base_dir)?;
+        let closed = self.road.is_closed();
         if let Some(m) = &self.mixed {
-            m.validate(matches!(self.road, RoadSpec::Ring { .. }))?;
+            m.validate(closed)?;
         }
-        let road_len = match self.road {
-            RoadSpec::Ring { length_m } | RoadSpec::Straight { length_m } => length_m,
+        let measured = if self.road.is_network() {
+            Some(super::network_road::measure(
+                &self.road,
+                sumo.net(),
+                reader,
+            )?)
+        } else {
+            None
+        };
+        let road_len = match (&self.road, &measured) {
+            (RoadSpec::Ring { length_m } | RoadSpec::Straight { length_m }, _) => *length_m,
+            (_, Some(m)) => m.length_m,
+            (_, None) => unreachable!("a network road is measured above"),
         };
         if !(road_len.is_finite() && road_len > 0.0) {
             return Err(invalid(
@@ -192,7 +216,7 @@ impl ScenarioFile {
                         Some((l.speed_mps, b))
                     }
                 };
-                if matches!(self.road, RoadSpec::Ring { .. }) && leader.is_some() {
+                if closed && leader.is_some() {
                     return Err(invalid(
                         "model.leader",
                         "given",
@@ -209,8 +233,8 @@ impl ScenarioFile {
                 })
             }
             ModelSpec::Cacc(c) => {
-                if matches!(self.road, RoadSpec::Ring { .. }) {
-                    return Err(invalid("road.type", "ring", "a CACC platoon drives behind its leader on a straight road: use \"straight\""));
+                if closed {
+                    return Err(invalid("road.type", if self.road.is_network() { "loop" } else { "ring" }, "a CACC platoon drives behind its leader on a straight road: use \"straight\""));
                 }
                 c.leader.validate()?;
                 let mut nu = c.nu.resolve_nonneg("model.nu", n)?;
@@ -263,16 +287,31 @@ impl ScenarioFile {
         )?;
         let mut gaps = match (&gap_spec, &self.road, &model) {
             (Some(g), _, _) => g.resolve_nonneg("initial.gap_m", n)?,
-            (None, RoadSpec::Ring { length_m: ring }, _) => {
+            (None, _, _) if closed => {
                 let used: f64 = length_m.iter().sum();
-                vec![(ring - used) / n as f64; n]
+                vec![(road_len - used) / n as f64; n]
             }
-            (None, RoadSpec::Straight { .. }, Model::Cacc(c)) => c.desired_gap_m.clone(),
-            (None, RoadSpec::Straight { .. }, _) => vec![20.0; n],
+            (None, _, Model::Cacc(c)) => c.desired_gap_m.clone(),
+            (None, _, _) => vec![20.0; n],
         };
+        if let Some(m) = measured.as_ref().filter(|_| closed) {
+            let used: f64 = length_m.iter().sum();
+            if used > m.length_m {
+                return Err(invalid(
+                    "vehicles",
+                    n,
+                    format!(
+                        "{n} vehicles of {:.2} m in all do not fit on the loop, {:.3} m long as measured on its network; at most {} fit",
+                        used,
+                        m.length_m,
+                        (m.length_m / length_m.iter().copied().fold(0.0, f64::max)).floor()
+                    ),
+                ));
+            }
+        }
         let offsets: Vec<f64> = (0..n).map(|_| rng.symmetric(pert.gap_m)).collect();
         // On a ring the gaps must still close the circle: remove the offsets' mean.
-        let shift = if matches!(self.road, RoadSpec::Ring { .. }) {
+        let shift = if closed {
             offsets.iter().sum::<f64>() / n as f64
         } else {
             0.0
@@ -289,13 +328,19 @@ impl ScenarioFile {
                 ));
             }
         }
-        if let RoadSpec::Ring { length_m: ring } = self.road {
+        if closed {
+            let ring = road_len;
             let used: f64 = gaps.iter().sum::<f64>() + length_m.iter().sum::<f64>();
             if (used - ring).abs() > 1e-6 * ring {
+                let what = if measured.is_some() {
+                    format!("on a loop, gaps plus vehicle lengths must add up to the loop's length measured on its network, {ring} m")
+                } else {
+                    format!("on a ring, gaps plus vehicle lengths must add up to road.length_m = {ring} m")
+                };
                 return Err(invalid(
                     "initial.gap_m",
                     format!("{used:.3} m of gaps and vehicle lengths"),
-                    format!("on a ring, gaps plus vehicle lengths must add up to road.length_m = {ring} m (omit initial.gap_m for even spacing)"),
+                    format!("{what} (omit initial.gap_m for even spacing)"),
                 ));
             }
         }
@@ -310,6 +355,7 @@ impl ScenarioFile {
             steps,
             model,
             road: self.road,
+            measured,
             initial_speed_mps: speeds,
             initial_gap_m: gaps,
             length_m,

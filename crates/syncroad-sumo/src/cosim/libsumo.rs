@@ -310,7 +310,11 @@ pub fn sumo_args(req: &Request) -> Vec<String> {
         "--net-file".into(),
         req.layout.road.path.display().to_string(),
         "--route-files".into(),
-        req.routes_file.display().to_string(),
+        std::iter::once(&req.routes_file)
+            .chain(&req.extra_routes)
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(","),
         "--step-length".into(),
         format!("{}", req.step_s),
         "--seed".into(),
@@ -336,11 +340,18 @@ pub fn sumo_args(req: &Request) -> Vec<String> {
         a.push("--step-method.ballistic".into());
         a.push("true".into());
     }
+    let detector = req.measure.as_ref().and_then(|m| m.detector_file.as_ref());
+    let additional: Vec<String> = req
+        .extra_additional
+        .iter()
+        .chain(detector)
+        .map(|p| p.display().to_string())
+        .collect();
+    if !additional.is_empty() {
+        a.push("--additional-files".into());
+        a.push(additional.join(","));
+    }
     if let Some(m) = &req.measure {
-        if let Some(f) = &m.detector_file {
-            a.push("--additional-files".into());
-            a.push(f.display().to_string());
-        }
         if let Some(f) = &m.tripinfo_file {
             for x in [
                 "--device.emissions.probability",

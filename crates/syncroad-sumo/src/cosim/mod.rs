@@ -32,6 +32,7 @@ use syncroad_control::{controller_for, SpeedController};
 use crate::protocol::{write_msg, Control, Request, StartInfo, WorkerMsg};
 use crate::python::{load_libsumo, py_error, PythonError};
 
+mod leaders;
 pub(crate) mod libsumo;
 mod meter;
 mod runner;
@@ -141,12 +142,32 @@ fn run_started(
         .call("simulation_getPendingVehicles", ())?
         .extract()
         .map_err(|e| py_error(py, "simulation.getPendingVehicles", e))?;
-    let on_road = ls.count(
-        &ls.native
-            .getattr("vehicle_getIDCount")
-            .map_err(|e| py_error(py, "vehicle_getIDCount", e))?,
-        "vehicle.getIDCount",
-    )?;
+    let on_road = if req.extra_routes.is_empty() {
+        ls.count(
+            &ls.native
+                .getattr("vehicle_getIDCount")
+                .map_err(|e| py_error(py, "vehicle_getIDCount", e))?,
+            "vehicle.getIDCount",
+        )?
+    } else {
+        // The user's own traffic shares the road: count syncroad's vehicles only.
+        let all: Vec<String> = ls
+            .call("vehicle_getIDList", ())?
+            .extract()
+            .map_err(|e| py_error(py, "vehicle.getIDList", e))?;
+        let all: std::collections::HashSet<String> = all.into_iter().collect();
+        req.layout
+            .vehicles
+            .iter()
+            .filter(|v| all.contains(&v.id))
+            .count()
+    };
+    let ours: std::collections::HashSet<&str> =
+        req.layout.vehicles.iter().map(|v| v.id.as_str()).collect();
+    let pending: Vec<String> = pending
+        .into_iter()
+        .filter(|p| ours.contains(p.as_str()))
+        .collect();
     if !pending.is_empty() || on_road != n {
         return Err(CosimError::NotInserted {
             pending: n - on_road.min(n),

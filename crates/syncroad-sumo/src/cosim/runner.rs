@@ -228,6 +228,9 @@ pub(super) fn run_steps(
         recorder.observe(0.0, &sim);
         recorder.record(0.0, &sim, out)?;
     }
+    let mut watch = req
+        .watch_leaders
+        .then(|| super::leaders::LeaderWatch::new(req));
     let mut stop = StopReason::Horizon;
     let mut steps_done = 0usize;
     for step in 0..req.steps {
@@ -246,6 +249,11 @@ pub(super) fn run_steps(
             break;
         }
         steps_done = step + 1;
+        if let Some(w) = watch.as_mut() {
+            if (step + 1).is_multiple_of(super::leaders::LEADER_CHECK_EVERY) {
+                w.check(py, sim.ls)?;
+            }
+        }
         safety.after_step(&sim, step + 1, out)?;
         timing.stepped(step, &times);
         if !req.observe {
@@ -274,6 +282,7 @@ pub(super) fn run_steps(
     let mut totals = safety.totals;
     totals.negative_commands_clamped = sim.negative_commands_clamped;
     totals.odometer_deviation_max_m = sim.odometer_deviation_max_m;
+    totals.topology_changes = watch.map(|w| w.changes);
     let finish = Finish {
         stop,
         steps_done,

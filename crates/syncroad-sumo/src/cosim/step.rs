@@ -88,6 +88,15 @@ impl<'a, 'py> CoSim<'a, 'py> {
     ) -> Result<Self, CosimError> {
         let n = ids.len();
         let hold = matches!(req.control, Control::Hold);
+        // A SUMO driver on a road of several lanes keeps its lane too: a lane change would take
+        // it out of the order along the road that positions, gaps and the law's graph assume.
+        if req.layout.road.multi_lane {
+            for (id, dep) in ids.iter().zip(&req.layout.vehicles) {
+                if dep.driver.is_some() {
+                    ls.call("vehicle_setLaneChangeMode", (id.clone(), 0))?;
+                }
+            }
+        }
         if controller.is_some() || hold {
             for (id, dep) in ids.iter().zip(&req.layout.vehicles) {
                 if dep.driver.is_some() {

@@ -27,6 +27,7 @@ pub fn run(path: &Path, json: bool) -> anyhow::Result<Status> {
         out!("{}", report::theory_table(&rep));
         out!("{}", crate::gaps::gap_lines(&gaps, rep.certified));
     }
+    crate::config::note_fixed_graph(&sc);
     if let Some(m) = sc.mixed() {
         // The theorems speak of the law on every vehicle: a mixed ring is not certified by
         // them, whatever they say of its all-law version.

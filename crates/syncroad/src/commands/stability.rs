@@ -51,6 +51,7 @@ pub fn run(path: &Path, json: bool, platoon_scaling: bool) -> anyhow::Result<Sta
             out!("{}", crate::stability::scaling_table(s));
         }
     }
+    crate::config::note_fixed_graph(&sc);
     Ok(Status::verdict(
         r.verdict == ExactVerdict::Synchronizes
             && r.critical_scale_status != CriticalScaleStatus::Uncertified,

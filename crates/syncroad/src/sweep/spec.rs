@@ -202,7 +202,7 @@ impl Sweep {
             .unwrap_or_default();
         // Validated from the text just read, so the scenario and the hash see the same file.
         let base = ScenarioFile::from_json(&base_text, &base_path.display().to_string())
-            .and_then(|f| f.validate(&base_dir))
+            .and_then(|f| f.validate_with(&base_dir, Some(&syncroad_sumo::NetReader)))
             .map_err(|e| InputError::caused(format!("base = {}", file.base.display()), e))?;
         let backend = file.backend.unwrap_or(base.backend());
         let axes = file
@@ -311,7 +311,7 @@ impl Sweep {
         let file = ScenarioFile::from_json(&doc.to_string(), "<sweep point>")
             .map_err(|e| InputError::caused(format!("sweep point {} ({})", p.id, at()), e))?;
         let sc = file
-            .validate(&self.base_dir)
+            .validate_with(&self.base_dir, Some(&syncroad_sumo::NetReader))
             .map_err(|e| InputError::caused(format!("sweep point {} ({})", p.id, at()), e))?;
         if gain == 1.0 && delay == 1.0 {
             return Ok(sc);

@@ -10,6 +10,12 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+mod network;
+mod roads;
+
+use network::Network;
+pub use roads::{read_network_road, NetReader};
+
 /// Errors reading a network file.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum NetError {
@@ -55,6 +61,70 @@ pub enum NetError {
         /// Where the cycle breaks.
         reason: String,
     },
+    /// An edge of `road.edges` (or `road.through`) is not a normal edge of the network.
+    #[error("{field} = `{edge}`: {path} has no normal edge of that id; nearest ids: {nearest}")]
+    UnknownEdge {
+        /// The network.
+        path: PathBuf,
+        /// The scenario field (`road.edges[3]`).
+        field: String,
+        /// The id given.
+        edge: String,
+        /// The closest ids of the network (edit distance).
+        nearest: String,
+    },
+    /// An edge has no lane of the chosen index.
+    #[error("road.lane = {lane}: edge `{edge}` ({field}) has {lanes} lane(s), indices 0..={max}; choose a lane every edge has", max = lanes - 1)]
+    LaneOutOfRange {
+        /// The scenario field of the edge.
+        field: String,
+        /// The edge.
+        edge: String,
+        /// The lane index asked for.
+        lane: usize,
+        /// Its number of lanes.
+        lanes: usize,
+    },
+    /// A lane of the road does not admit the vehicles' class.
+    #[error("{field}: lane `{lane}` of {path} is closed to passenger cars ({permissions}); syncroad's vehicles are of class passenger, so choose another lane (road.lane) or edges open to them")]
+    LaneForbidden {
+        /// The network.
+        path: PathBuf,
+        /// The scenario field of the edge.
+        field: String,
+        /// The lane id (normal or junction-internal).
+        lane: String,
+        /// Its permissions as written.
+        permissions: String,
+    },
+    /// Two consecutive edges have no connection from the chosen lane to the chosen lane.
+    #[error(transparent)]
+    NoConnection(Box<Disconnected>),
+    /// The last edge of a loop does not lead back to its first.
+    #[error(transparent)]
+    LoopNotClosed(Box<Unclosed>),
+    /// An edge is listed twice.
+    #[error("{field} = `{edge}` repeats {first_field}; a road passes each edge once")]
+    RepeatedEdge {
+        /// The later field.
+        field: String,
+        /// The edge.
+        edge: String,
+        /// The earlier field.
+        first_field: String,
+    },
+    /// No cycle on the chosen lane passes the `through` edge.
+    #[error("road.through = `{edge}`: no cycle on lane {lane} leads back to it through the connections of {path} ({detail}); give the cycle as road.edges, another edge or another lane")]
+    NoCycle {
+        /// The network.
+        path: PathBuf,
+        /// The edge.
+        edge: String,
+        /// The lane.
+        lane: usize,
+        /// What was reached.
+        detail: String,
+    },
     /// The scenario wants a straight road but the network is not one edge.
     #[error("SUMO network {path} is not a straight road: it has {edges} normal edges, expected 1 (e.g. sumo-nets/straight-20km.net.xml)")]
     NotStraight {
@@ -63,6 +133,45 @@ pub enum NetError {
         /// Number of normal edges.
         edges: usize,
     },
+}
+
+/// Two consecutive edges of a road with no connection from the chosen lane to the same lane
+/// of the next edge.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{from_field} `{from}` → {to_field} `{to}`: {path} connects no lane {lane} of `{from}` to lane {lane} of `{to}`; {joined}")]
+pub struct Disconnected {
+    /// The network.
+    pub path: PathBuf,
+    /// Field of the first edge.
+    pub from_field: String,
+    /// The first edge.
+    pub from: String,
+    /// Field of the second edge.
+    pub to_field: String,
+    /// The second edge.
+    pub to: String,
+    /// The lane.
+    pub lane: usize,
+    /// What does connect (lane pairs, or where the first edge leads).
+    pub joined: String,
+}
+
+/// A loop whose last edge does not lead back to its first on the chosen lane.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("road.edges: the loop does not close: {last_field} `{last}` has no connection back to road.edges[0] `{first}` on lane {lane} in {path}; {joined} (a loop lists its cycle in driving order; for an open road use road.type = \"route\")")]
+pub struct Unclosed {
+    /// The network.
+    pub path: PathBuf,
+    /// Field of the last edge.
+    pub last_field: String,
+    /// The last edge.
+    pub last: String,
+    /// The first edge.
+    pub first: String,
+    /// The lane.
+    pub lane: usize,
+    /// What does connect.
+    pub joined: String,
 }
 
 /// One lane of the road in driving order.
@@ -89,6 +198,14 @@ pub struct Road {
     pub segments: Vec<Segment>,
     /// True for a ring.
     pub ring: bool,
+    /// Lane index the vehicles depart on and keep (0 on the built-in single-lane nets).
+    #[serde(default)]
+    pub lane_index: usize,
+    /// True when an edge of the road has more than one lane: every vehicle syncroad inserts
+    /// (law-driven or driven by a SUMO model) then keeps the chosen lane (lane-change mode 0),
+    /// so the vehicles stay in the order the law's graph assumes.
+    #[serde(default)]
+    pub multi_lane: bool,
 }
 
 impl Road {
@@ -98,10 +215,12 @@ impl Road {
         self.segments.iter().map(|s| s.length_m).sum()
     }
 
-    /// Lowest speed limit along the road [m/s].
+    /// Lowest speed limit of the road's normal lanes [m/s] (vehicles depart there; a
+    /// junction lane's lower turning speed binds SUMO's own drivers only).
     pub fn speed_limit_mps(&self) -> f64 {
         self.segments
             .iter()
+            .filter(|s| !s.internal)
             .map(|s| s.speed_mps)
             .fold(f64::INFINITY, f64::min)
     }
@@ -113,6 +232,31 @@ impl Road {
             .filter(|s| !s.internal)
             .map(|s| s.edge.as_str())
             .collect()
+    }
+
+    /// How far forward a point `s` \[m\] along the road moves when [`Road::locate`] puts it
+    /// on a normal edge: the rest of the junction-internal lanes it lies on, 0 on a normal lane.
+    pub fn junction_overlap_m(&self, s: f64) -> f64 {
+        let total = self.length_m();
+        let mut s = if self.ring { s.rem_euclid(total) } else { s };
+        let mut inside: Option<f64> = None;
+        for seg in &self.segments {
+            if let Some(rest) = inside.as_mut() {
+                if !seg.internal {
+                    return *rest;
+                }
+                *rest += seg.length_m;
+                continue;
+            }
+            if s < seg.length_m {
+                if !seg.internal {
+                    return 0.0;
+                }
+                inside = Some(seg.length_m - s);
+            }
+            s -= seg.length_m;
+        }
+        inside.unwrap_or(0.0)
     }
 
     /// Where a point `s` \[m\] along the road lies: (index of the normal edge in
@@ -140,9 +284,74 @@ impl Road {
     }
 }
 
+/// Where the induction loop `loop0` sits on a ring: lane, position on it \[m\] and the ring
+/// coordinate of that point \[m\] (10 m into the first normal lane, or its middle).
+pub fn loop_position(road: &Road) -> Option<(String, f64, f64)> {
+    if !road.ring {
+        return None;
+    }
+    let mut offset = 0.0;
+    for seg in &road.segments {
+        if !seg.internal {
+            let pos = (seg.length_m / 2.0).min(10.0);
+            return Some((seg.lane.clone(), pos, offset + pos));
+        }
+        offset += seg.length_m;
+    }
+    None
+}
+
+/// The farthest a vehicle's start may move forward off a junction-internal lane before the
+/// layout turns around the loop to avoid it \[m\] (the shipped rings' joints are 0.1 m).
+pub const MAX_JUNCTION_SHIFT_M: f64 = 0.5;
+
+/// Vehicles depart on normal lanes only. When a front bumper of `fronts` lies more than
+/// [`MAX_JUNCTION_SHIFT_M`] inside a junction lane, the shift along the loop (at most one lap)
+/// that puts every front bumper on a normal lane, 1 cm past a lane start; 0 when none is
+/// needed or none is found (for large fleets only vehicle 0's candidates are tried).
+pub(crate) fn off_junctions(road: &Road, fronts: &[f64]) -> f64 {
+    let worst = |d: f64| {
+        fronts
+            .iter()
+            .map(|f| road.junction_overlap_m(f + d))
+            .fold(0.0, f64::max)
+    };
+    if worst(0.0) <= MAX_JUNCTION_SHIFT_M {
+        return 0.0;
+    }
+    let mut starts = Vec::new();
+    let mut s = 0.0;
+    for seg in &road.segments {
+        if !seg.internal {
+            starts.push(s);
+        }
+        s += seg.length_m;
+    }
+    let tried = if fronts.len() * starts.len() > 20_000 {
+        &fronts[..1]
+    } else {
+        fronts
+    };
+    let mut best = (worst(0.0), 0.0);
+    for f in tried {
+        for st in &starts {
+            let d = (st + 0.01 - f).rem_euclid(road.length_m());
+            let w = worst(d);
+            if w < best.0 || (w == best.0 && d < best.1) {
+                best = (w, d);
+            }
+            if w == 0.0 {
+                return d;
+            }
+        }
+    }
+    best.1
+}
+
 /// A lane as parsed: id, length \[m\], speed limit [m/s].
 type ParsedLane = (String, f64, f64);
 
+/// A single-lane network as the built-in rings and straight roads read it.
 struct Parsed {
     /// Normal edges in file order with their lanes.
     normal: Vec<(String, Vec<ParsedLane>)>,
@@ -152,84 +361,16 @@ struct Parsed {
     connections: Vec<(String, String, Option<String>)>,
 }
 
+/// Reads a network whose normal edges all have one lane.
 fn parse(path: &Path) -> Result<Parsed, NetError> {
-    let text = std::fs::read_to_string(path).map_err(|e| NetError::Unreadable {
-        path: path.to_path_buf(),
-        reason: e.to_string(),
-    })?;
-    let doc = roxmltree::Document::parse(&text).map_err(|e| NetError::Malformed {
-        path: path.to_path_buf(),
-        reason: e.to_string(),
-    })?;
-    let invalid = |reason: String| NetError::Invalid {
-        path: path.to_path_buf(),
-        reason,
-    };
-    let root = doc.root_element();
-    if root.tag_name().name() != "net" {
-        return Err(invalid(format!(
-            "root element is <{}>, expected <net>",
-            root.tag_name().name()
-        )));
-    }
-    let mut parsed = Parsed {
-        normal: Vec::new(),
-        lane_length: HashMap::new(),
-        connections: Vec::new(),
-    };
-    for el in root.children().filter(|n| n.is_element()) {
-        match el.tag_name().name() {
-            "edge" => {
-                let id = el
-                    .attribute("id")
-                    .ok_or_else(|| invalid("an <edge> has no id".into()))?;
-                let internal = el.attribute("function") == Some("internal");
-                let mut lanes = Vec::new();
-                for lane in el.children().filter(|n| n.has_tag_name("lane")) {
-                    let lid = lane
-                        .attribute("id")
-                        .ok_or_else(|| invalid(format!("a lane of edge `{id}` has no id")))?;
-                    let len: f64 = lane
-                        .attribute("length")
-                        .and_then(|x| x.parse().ok())
-                        .filter(|x: &f64| x.is_finite() && *x >= 0.0)
-                        .ok_or_else(|| {
-                            invalid(format!("lane `{lid}` has no valid length attribute"))
-                        })?;
-                    let speed: f64 = lane
-                        .attribute("speed")
-                        .and_then(|x| x.parse().ok())
-                        .filter(|x: &f64| x.is_finite() && *x > 0.0)
-                        .ok_or_else(|| {
-                            invalid(format!("lane `{lid}` has no valid speed attribute"))
-                        })?;
-                    parsed.lane_length.insert(lid.to_string(), (len, speed));
-                    lanes.push((lid.to_string(), len, speed));
-                }
-                if lanes.is_empty() {
-                    return Err(invalid(format!("edge `{id}` has no <lane>")));
-                }
-                if !internal && el.attribute("function").is_none() {
-                    parsed.normal.push((id.to_string(), lanes));
-                }
-            }
-            "connection" => {
-                let (Some(from), Some(to)) = (el.attribute("from"), el.attribute("to")) else {
-                    return Err(invalid("a <connection> lacks from/to".into()));
-                };
-                parsed.connections.push((
-                    from.to_string(),
-                    to.to_string(),
-                    el.attribute("via").map(str::to_string),
-                ));
-            }
-            _ => {}
-        }
-    }
-    if parsed.normal.is_empty() {
-        return Err(invalid("no normal <edge> with lanes".into()));
-    }
-    for (id, lanes) in &parsed.normal {
+    let net = Network::read(path)?;
+    let lane = |l: &network::Lane| (l.id.clone(), l.length_m, l.speed_mps);
+    let normal: Vec<(String, Vec<ParsedLane>)> = net
+        .normal
+        .iter()
+        .map(|(id, lanes)| (id.clone(), lanes.iter().map(lane).collect()))
+        .collect();
+    for (id, lanes) in &normal {
         if lanes.len() != 1 {
             return Err(NetError::MultiLane {
                 path: path.to_path_buf(),
@@ -238,7 +379,24 @@ fn parse(path: &Path) -> Result<Parsed, NetError> {
             });
         }
     }
-    Ok(parsed)
+    let mut connections = Vec::new();
+    // One fixed order of the sources (a map has none), so that every read is the same.
+    let mut sources: Vec<&String> = net.connections.keys().collect();
+    sources.sort();
+    for from in sources {
+        for c in &net.connections[from] {
+            connections.push((from.clone(), c.to.clone(), c.via.clone()));
+        }
+    }
+    Ok(Parsed {
+        normal,
+        lane_length: net
+            .lanes
+            .values()
+            .map(|l| (l.id.clone(), (l.length_m, l.speed_mps)))
+            .collect(),
+        connections,
+    })
 }
 
 fn edge_of_lane(lane: &str) -> &str {
@@ -333,6 +491,8 @@ pub fn read_ring(path: &Path) -> Result<Road, NetError> {
         path: path.to_path_buf(),
         segments,
         ring: true,
+        lane_index: 0,
+        multi_lane: false,
     })
 }
 
@@ -356,6 +516,8 @@ pub fn read_straight(path: &Path) -> Result<Road, NetError> {
             speed_mps: lanes[0].2,
         }],
         ring: false,
+        lane_index: 0,
+        multi_lane: false,
     })
 }
 

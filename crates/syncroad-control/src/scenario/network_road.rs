@@ -1,0 +1,98 @@
+//! Roads through a network (`road.type` = `loop` or `route`): their shape checked here, their
+//! length measured by whoever reads network files. The maths never parses a network; the SUMO
+//! crate implements [`RoadReader`] and hands the measured length in before validation ends.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use super::{invalid, RoadSpec, ScenarioError};
+
+/// A road through a network as its reader measured it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MeasuredRoad {
+    /// The normal edges in driving order (for `through`, the cycle that was found).
+    pub edges: Vec<String>,
+    /// Lane index driven on every edge.
+    pub lane: usize,
+    /// Driven length \[m\]: normal plus junction-internal lanes, as the simulator measures it.
+    pub length_m: f64,
+}
+
+/// Reads roads through network files: checks the edges, lanes and connections of a
+/// [`RoadSpec::Loop`] or [`RoadSpec::Route`] on the network `net` and measures it. The error
+/// is the reader's own, naming the `road.…` field at fault.
+pub trait RoadReader {
+    /// The measured road, or why the network does not hold it.
+    fn measure(
+        &self,
+        road: &RoadSpec,
+        net: &Path,
+    ) -> Result<MeasuredRoad, Box<dyn std::error::Error + Send + Sync>>;
+}
+
+/// Checks the shape of a network road and measures it with `reader` on `net`.
+pub(super) fn measure(
+    road: &RoadSpec,
+    net: Option<&Path>,
+    reader: Option<&dyn RoadReader>,
+) -> Result<MeasuredRoad, ScenarioError> {
+    let (kind, edges) = match road {
+        RoadSpec::Loop { edges, through, .. } => {
+            match (edges, through) {
+                (Some(_), Some(_)) => {
+                    return Err(invalid(
+                        "road.through",
+                        "given with road.edges",
+                        "give either the cycle (road.edges) or one edge on it (road.through), not both",
+                    ))
+                }
+                (None, None) => {
+                    return Err(invalid(
+                        "road.edges",
+                        "missing",
+                        "a loop needs its edges in driving order (road.edges) or one edge on it (road.through)",
+                    ))
+                }
+                _ => {}
+            }
+            ("loop", edges.as_deref())
+        }
+        RoadSpec::Route { edges, .. } => ("route", Some(edges.as_slice())),
+        RoadSpec::Ring { .. } | RoadSpec::Straight { .. } => {
+            unreachable!("only loops and routes are measured on a network")
+        }
+    };
+    if edges.is_some_and(<[String]>::is_empty) {
+        return Err(invalid(
+            "road.edges",
+            "[]",
+            format!("a {kind} needs at least one edge"),
+        ));
+    }
+    let Some(net) = net else {
+        return Err(invalid(
+            "sumo.net",
+            "missing",
+            format!("road.type = \"{kind}\" runs through a network: name its .net.xml in sumo.net"),
+        ));
+    };
+    let Some(reader) = reader else {
+        return Err(invalid(
+            "road.type",
+            kind,
+            "a road through a network is measured on the network: load the scenario with a network reader (the syncroad command line does)",
+        ));
+    };
+    let measured = reader
+        .measure(road, net)
+        .map_err(|e| ScenarioError::Road(e.to_string()))?;
+    if !(measured.length_m.is_finite() && measured.length_m > 0.0) {
+        return Err(invalid(
+            "road",
+            measured.length_m,
+            "the network gives the road no positive length",
+        ));
+    }
+    Ok(measured)
+}

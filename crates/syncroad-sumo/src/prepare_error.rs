@@ -1,0 +1,110 @@
+//! The errors a SUMO run can meet before SUMO starts: every one names the scenario field or
+//! the option at fault and what would be valid.
+
+use std::path::PathBuf;
+
+use crate::drivers::DriverError;
+use crate::layout::LayoutError;
+use crate::net::NetError;
+
+/// Errors found before SUMO starts.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PrepareError {
+    /// The scenario names no network.
+    #[error("sumo.net is not set; the sumo backend needs a network file, e.g. \"sumo\": {{\"net\": \"{example}\"}} (relative to the scenario file)")]
+    NoNet {
+        /// A shipped network that fits the road type.
+        example: String,
+    },
+    /// The network file does not exist.
+    #[error("sumo.net = {path}: file not found (checked before starting SUMO)")]
+    NetNotFound {
+        /// The resolved path.
+        path: PathBuf,
+    },
+    /// A file of the user's own traffic (`sumo.routes`, `sumo.additional`) does not exist.
+    #[error("{field}[{index}] = {path}: file not found (checked before starting SUMO)")]
+    UserFileNotFound {
+        /// The scenario field.
+        field: &'static str,
+        /// Its index in `sumo.routes`.
+        index: usize,
+        /// The resolved path.
+        path: PathBuf,
+    },
+    /// The network file is unusable.
+    #[error(transparent)]
+    Net(#[from] NetError),
+    /// The vehicles do not fit.
+    #[error(transparent)]
+    Layout(#[from] LayoutError),
+    /// A number SUMO cannot represent.
+    #[error("{field} = {value}: {expected}")]
+    Unrepresentable {
+        /// Scenario field.
+        field: &'static str,
+        /// Its value.
+        value: String,
+        /// What SUMO accepts.
+        expected: &'static str,
+    },
+    /// The per-vehicle drivers do not match the scenario.
+    #[error("drivers: {got} given for {expected} vehicles; give one per scenario vehicle (leader excluded)")]
+    Drivers {
+        /// Scenario vehicles.
+        expected: usize,
+        /// Drivers given.
+        got: usize,
+    },
+    /// A measurement option is out of range.
+    #[error("{field} = {value}: {expected}")]
+    Measure {
+        /// Option.
+        field: &'static str,
+        /// Its value.
+        value: String,
+        /// What is valid.
+        expected: &'static str,
+    },
+    /// A driver's parameters do not fit the run (e.g. `actionStepLength` off the step grid).
+    #[error(transparent)]
+    CarFollowing(#[from] crate::car_following::CarFollowingError),
+    /// A driver named in the scenario is unknown.
+    #[error(transparent)]
+    Driver(#[from] DriverError),
+    /// A driver preset's length differs from the scenario's vehicle, so the run would not start
+    /// from the scenario's positions.
+    #[error("{driver}: its length {preset_m} m differs from vehicle {vehicle}'s length {length_m} m in the scenario; every run starts from the scenario's positions, so give the vehicles the preset's length (sumo.length_m)")]
+    DriverLength {
+        /// The driver.
+        driver: String,
+        /// Vehicle index.
+        vehicle: usize,
+        /// The preset's length \[m\].
+        preset_m: f64,
+        /// The scenario's length \[m\].
+        length_m: f64,
+    },
+    /// The wave dampers follow a predecessor around a ring.
+    #[error("{damper}: the wave dampers drive on a ring (each vehicle follows its predecessor); scenario {scenario} is a straight road")]
+    DamperNeedsRing {
+        /// The damper.
+        damper: String,
+        /// The scenario.
+        scenario: String,
+    },
+    /// Stochastic humans follow a predecessor around a ring.
+    #[error("the stochastic human drivers (human-noisy, flow-idm-noise, noisy-idm:...) drive on a ring (each vehicle follows its predecessor); scenario {scenario} is a straight road")]
+    HumansNeedRing {
+        /// The scenario.
+        scenario: String,
+    },
+    /// The work folder cannot be written.
+    #[error("cannot write {path}: {reason}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        reason: String,
+    },
+}

@@ -1,0 +1,678 @@
+//! Roads through networks made by a real tool: netconvert (from the project's virtualenv)
+//! builds every network here from plain node/edge files or an OpenStreetMap file the test
+//! writes. Lengths are checked against sumolib (SUMO's own Python network reader), runs against
+//! the native simulator, and SUMO runs are real.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use approx::assert_relative_eq;
+use syncroad_control::native::{simulate, NativeOptions};
+use syncroad_control::scenario::ScenarioFile;
+use syncroad_control::Scenario;
+use syncroad_sumo::{load_road, run_scenario, NetReader, RunOptions, WorkerCommand};
+
+fn venv() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../.venv")
+}
+
+fn work(name: &str) -> PathBuf {
+    let d = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("networks")
+        .join(name);
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn opts(dir: &Path) -> RunOptions {
+    RunOptions::new(
+        dir.join("run"),
+        WorkerCommand::binary(env!("CARGO_BIN_EXE_syncroad-sumo-worker")),
+    )
+}
+
+/// Runs the venv's netconvert with `args` in `dir`, writing `out.net.xml`.
+fn netconvert(dir: &Path, args: &[&str]) -> PathBuf {
+    let bin = venv().join("lib/python3.11/site-packages/sumo/bin/netconvert");
+    let out = dir.join("out.net.xml");
+    let st = Command::new(&bin)
+        .current_dir(dir)
+        .args(args)
+        .args(["--no-turnarounds", "true", "--no-warnings", "true", "-o"])
+        .arg(&out)
+        .output()
+        .expect("netconvert runs");
+    assert!(
+        st.status.success(),
+        "netconvert failed: {}",
+        String::from_utf8_lossy(&st.stderr)
+    );
+    out
+}
+
+/// A two-lane loop of 8 edges around an octagon (100 m radius, 20 m/s) with a one-lane branch
+/// `out` leaving it at node n1 (a junction with one road in and two out).
+fn two_lane_loop(dir: &Path) -> PathBuf {
+    let mut nod = String::from("<nodes>\n");
+    for i in 0..8 {
+        let a = 2.0 * std::f64::consts::PI * i as f64 / 8.0;
+        nod += &format!(
+            "  <node id=\"n{i}\" x=\"{:.3}\" y=\"{:.3}\"/>\n",
+            100.0 * a.cos(),
+            100.0 * a.sin()
+        );
+    }
+    nod += "  <node id=\"x\" x=\"250\" y=\"60\"/>\n</nodes>\n";
+    let mut edg = String::from("<edges>\n");
+    for i in 0..8 {
+        edg += &format!(
+            "  <edge id=\"e{i}\" from=\"n{i}\" to=\"n{}\" numLanes=\"2\" speed=\"20\"/>\n",
+            (i + 1) % 8
+        );
+    }
+    edg += "  <edge id=\"out\" from=\"n1\" to=\"x\" numLanes=\"1\" speed=\"20\"/>\n</edges>\n";
+    std::fs::write(dir.join("loop.nod.xml"), nod).unwrap();
+    std::fs::write(dir.join("loop.edg.xml"), edg).unwrap();
+    netconvert(
+        dir,
+        &[
+            "--node-files",
+            "loop.nod.xml",
+            "--edge-files",
+            "loop.edg.xml",
+        ],
+    )
+}
+
+/// A three-lane highway of four 500 m edges h0..h3 (30 m/s); with `bus_lane`, lane 0 of h2
+/// admits buses only; with `merge`, lane 2 of h2 continues onto lane 1 of h3.
+fn highway(dir: &Path, bus_lane: bool, merge: bool) -> PathBuf {
+    let nod = "<nodes>\n".to_string()
+        + &(0..5)
+            .map(|i| format!("  <node id=\"k{i}\" x=\"{}\" y=\"0\"/>\n", 500 * i))
+            .collect::<String>()
+        + "</nodes>\n";
+    let mut edg = String::from("<edges>\n");
+    for i in 0..4 {
+        let lane = if bus_lane && i == 2 {
+            "<lane index=\"0\" allow=\"bus\"/>"
+        } else {
+            ""
+        };
+        edg += &format!(
+            "  <edge id=\"h{i}\" from=\"k{i}\" to=\"k{}\" numLanes=\"3\" speed=\"30\">{lane}</edge>\n",
+            i + 1
+        );
+    }
+    edg += "</edges>\n";
+    std::fs::write(dir.join("hw.nod.xml"), nod).unwrap();
+    std::fs::write(dir.join("hw.edg.xml"), edg).unwrap();
+    let mut args = vec!["--node-files", "hw.nod.xml", "--edge-files", "hw.edg.xml"];
+    if merge {
+        std::fs::write(
+            dir.join("hw.con.xml"),
+            "<connections>\n  <connection from=\"h2\" to=\"h3\" fromLane=\"0\" toLane=\"0\"/>\n  <connection from=\"h2\" to=\"h3\" fromLane=\"1\" toLane=\"1\"/>\n  <connection from=\"h2\" to=\"h3\" fromLane=\"2\" toLane=\"1\"/>\n</connections>\n",
+        )
+        .unwrap();
+        args.extend(["--connection-files", "hw.con.xml"]);
+    }
+    netconvert(dir, &args)
+}
+
+/// The driven length along `edges` on lane `lane` (closed back to the first edge when
+/// `closed`), computed by sumolib from the same file: normal lanes plus the via lanes of the
+/// lane-to-lane connections.
+fn sumolib_length(net: &Path, edges: &[&str], lane: usize, closed: bool) -> f64 {
+    let script = r#"
+import sys, sumolib
+net = sumolib.net.readNet(sys.argv[1], withInternal=True)
+lane = int(sys.argv[2]); closed = sys.argv[3] == "1"; edges = sys.argv[4:]
+total = 0.0
+pairs = len(edges) if closed else len(edges) - 1
+for e in edges:
+    total += net.getEdge(e).getLane(lane).getLength()
+for i in range(pairs):
+    a, b = net.getEdge(edges[i]), net.getEdge(edges[(i + 1) % len(edges)])
+    c = [c for c in a.getConnections(b) if c.getFromLane().getIndex() == lane and c.getToLane().getIndex() == lane][0]
+    via = c.getViaLaneID()
+    while via:
+        total += net.getLane(via).getLength()
+        nxt = [x for x in net.getLane(via).getOutgoing() if x.getToLane().getEdge().getID() == b.getID()]
+        via = nxt[0].getViaLaneID() if nxt else ""
+print(repr(total))
+"#;
+    let out = Command::new(venv().join("bin/python"))
+        .arg("-c")
+        .arg(script)
+        .arg(net)
+        .arg(lane.to_string())
+        .arg(if closed { "1" } else { "0" })
+        .args(edges)
+        .output()
+        .expect("python runs");
+    assert!(
+        out.status.success(),
+        "sumolib: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout)
+        .unwrap()
+        .trim()
+        .parse()
+        .unwrap()
+}
+
+/// Validates scenario JSON with the network reader (relative paths from `dir`).
+fn scenario(dir: &Path, json: &str) -> Result<Scenario, String> {
+    ScenarioFile::from_json(json, "<test>")
+        .map_err(|e| e.to_string())?
+        .validate_with(dir, Some(&NetReader))
+        .map_err(|e| e.to_string())
+}
+
+fn loop_json(road: &str, vehicles: usize, horizon_s: f64, gap: &str) -> String {
+    format!(
+        r#"{{"name": "user-loop", "seed": 7, "step_s": 0.1, "horizon_s": {horizon_s},
+            "vehicles": {vehicles}, "road": {road},
+            "model": {{"type": "delayed_driver",
+                       "graph": {{"type": "bidirectional_ring", "gain_pred": 0.6, "gain_follow": 0.1}},
+                       "delay_s": 0.5}},
+            "initial": {{"speed_mps": 8.0, "perturbation": {{"speed_mps": 1.5}} {gap}}},
+            "sumo": {{"net": "out.net.xml"}}}}"#
+    )
+}
+
+fn worst_speed_difference(a: &[f64], b: &[f64]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+}
+
+mod loops {
+    use super::*;
+
+    const CYCLE: [&str; 8] = ["e0", "e1", "e2", "e3", "e4", "e5", "e6", "e7"];
+
+    #[test]
+    fn the_loop_is_measured_as_sumolib_measures_it_on_either_lane() {
+        let dir = work("measure");
+        let net = two_lane_loop(&dir);
+        for lane in [0, 1] {
+            let road = format!(
+                r#"{{"type": "loop", "edges": {:?}, "lane": {lane}}}"#,
+                CYCLE
+            );
+            let sc = scenario(&dir, &loop_json(&road, 10, 10.0, "")).unwrap();
+            let reference = sumolib_length(&net, &CYCLE, lane, true);
+            assert_relative_eq!(sc.ring_length_m().unwrap(), reference, epsilon = 1e-9);
+            let r = load_road(&sc).unwrap();
+            assert_eq!(r.lane_index, lane);
+            assert_eq!(r.normal_edges(), CYCLE.to_vec());
+            // Eight junctions, one internal lane each on this net.
+            assert_eq!(r.segments.len(), 16);
+        }
+        // The outer lane (0, the loop turns left) is the longer one.
+        let l0 = sumolib_length(&net, &CYCLE, 0, true);
+        let l1 = sumolib_length(&net, &CYCLE, 1, true);
+        assert!(l0 > l1 + 10.0, "{l0} vs {l1}");
+    }
+
+    #[test]
+    fn through_finds_the_cycle_starting_at_its_edge() {
+        let dir = work("through");
+        let net = two_lane_loop(&dir);
+        let road = r#"{"type": "loop", "through": "e3", "lane": 1}"#;
+        let sc = scenario(&dir, &loop_json(road, 10, 10.0, "")).unwrap();
+        let m = sc.measured_road().unwrap();
+        assert_eq!(
+            m.edges,
+            ["e3", "e4", "e5", "e6", "e7", "e0", "e1", "e2"].map(String::from)
+        );
+        assert_relative_eq!(
+            m.length_m,
+            sumolib_length(&net, &CYCLE, 1, true),
+            epsilon = 1e-9
+        );
+    }
+
+    /// On lane 1 of the two-lane loop (no other traffic, no lane changes) SUMO's ballistic
+    /// update is the native simulator's rule: the delayed-driver law gives the same speeds
+    /// to 1e-9 m/s, the native simulator using the loop's measured length; the vehicles keep
+    /// circling for several laps past the junction with the branch, on their lane.
+    #[test]
+    fn the_law_on_a_user_loop_reproduces_the_native_simulator() {
+        let dir = work("native");
+        two_lane_loop(&dir);
+        let road = format!(r#"{{"type": "loop", "edges": {:?}, "lane": 1}}"#, CYCLE);
+        let sc = scenario(&dir, &loop_json(&road, 16, 200.0, "")).unwrap();
+        let run = run_scenario(&sc, &opts(&dir)).unwrap();
+        let fin = run.outcome().expect("horizon reached");
+        let start = run.worker.start.as_ref().unwrap();
+        assert_relative_eq!(
+            start.road_length_m,
+            sc.ring_length_m().unwrap(),
+            epsilon = 1e-9
+        );
+        assert_eq!(start.vehicles, 16);
+        assert_eq!(fin.totals.collision_steps, 0);
+        assert_eq!(fin.totals.teleports, 0);
+        assert_eq!(fin.totals.overrides, 0);
+        let routes = std::fs::read_to_string(&run.request.routes_file).unwrap();
+        assert!(routes.contains(r#"departLane="1""#), "{routes}");
+        let native = simulate(&sc, NativeOptions::default()).trajectory;
+        let sumo = run.trajectory(&sc);
+        let worst = worst_speed_difference(&native.speeds_mps, &sumo.speeds_mps);
+        eprintln!("user loop: largest SUMO-native speed difference {worst:.2e} m/s");
+        assert!(worst < 1e-9, "largest speed difference {worst} m/s");
+        let n = 16;
+        let k = sumo.len() - 1;
+        for i in 0..n {
+            let travelled = sumo.positions_m[k * n + i] - sumo.positions_m[i];
+            assert!(
+                travelled > 2.0 * start.road_length_m,
+                "vehicle {i}: {travelled} m"
+            );
+        }
+        // Gaps close the loop at the end: lengths plus gaps are its measured length.
+        let sum: f64 = sumo.gaps(k).iter().sum::<f64>() + 5.0 * n as f64;
+        assert_relative_eq!(sum, start.road_length_m, epsilon = 1e-6);
+        // The vehicles start at the scenario's spacing (gap_scale 1: its gaps already fill the
+        // measured loop), so the gaps agree with the native simulator's at every sample.
+        assert_relative_eq!(run.request.layout.gap_scale, 1.0, epsilon = 1e-12);
+        for k in [0, k / 2, k] {
+            for (a, b) in native.gaps(k).iter().zip(sumo.gaps(k)) {
+                assert_relative_eq!(*a, b, epsilon = 1e-6);
+            }
+        }
+    }
+
+    /// SUMO's own drivers on the two-lane loop, every other vehicle, behind law-driven ones
+    /// at 8 m/s: left to SUMO's lane-change model they would overtake on lane 0 (and the gaps
+    /// along lane 1 would turn negative); they keep lane 1 like the law's vehicles, so the
+    /// order along the loop holds and every gap stays positive.
+    #[test]
+    fn sumo_drivers_keep_the_lane_on_a_two_lane_loop() {
+        let dir = work("keep-lane");
+        two_lane_loop(&dir);
+        let road = format!(r#"{{"type": "loop", "edges": {:?}, "lane": 1}}"#, CYCLE);
+        let sc = scenario(&dir, &loop_json(&road, 8, 120.0, "")).unwrap();
+        let mut o = opts(&dir);
+        o.drivers = (0..8)
+            .map(|i| (i % 2 == 1).then(|| syncroad_sumo::SumoDriver::parse("d", "krauss").unwrap()))
+            .collect();
+        let run = run_scenario(&sc, &o).unwrap();
+        let fin = run.outcome().expect("horizon reached");
+        assert_eq!(fin.totals.collision_steps, 0);
+        let t = run.trajectory(&sc);
+        let mut min_gap = f64::INFINITY;
+        for k in 0..t.len() {
+            min_gap = t.gaps(k).iter().copied().fold(min_gap, f64::min);
+        }
+        assert!(min_gap > 0.0, "smallest gap along lane 1: {min_gap} m");
+    }
+
+    /// The user's own traffic (`sumo.routes`) on lane 0 of the two-lane loop: a slow car and
+    /// faster ones behind it that overtake through lane 1, among the law's vehicles. The
+    /// vehicles ahead of the law's vehicles change, and the run counts it; without the user's
+    /// traffic nothing is watched (the graph cannot change).
+    #[test]
+    fn other_traffic_changing_into_the_controlled_lane_is_counted() {
+        let dir = work("user-traffic");
+        two_lane_loop(&dir);
+        std::fs::write(
+            dir.join("mine.rou.xml"),
+            r#"<routes>
+    <vType id="slow" maxSpeed="3" sigma="0"/>
+    <vType id="fast" maxSpeed="15" sigma="0" lcKeepRight="0" lcSpeedGain="10"/>
+    <route id="u_slow" edges="e2 e3 e4 e5 e6 e7 e0 e1"/>
+    <route id="u_fast" edges="e1 e2 e3 e4 e5 e6 e7 e0"/>
+    <vehicle id="slow" type="slow" route="u_slow" depart="0" departLane="0" departPos="5" departSpeed="3"/>
+    <flow id="fast" type="fast" route="u_fast" begin="0" end="20" number="4" departLane="0" departPos="5" departSpeed="10"/>
+</routes>
+"#,
+        )
+        .unwrap();
+        let road = format!(r#"{{"type": "loop", "edges": {:?}, "lane": 1}}"#, CYCLE);
+        let json = loop_json(&road, 6, 120.0, "").replace(
+            r#""sumo": {"net": "out.net.xml"}"#,
+            r#""sumo": {"net": "out.net.xml", "routes": ["mine.rou.xml"]}"#,
+        );
+        let sc = scenario(&dir, &json).unwrap();
+        let run = run_scenario(&sc, &opts(&dir)).unwrap();
+        let fin = run.outcome().expect("horizon reached");
+        let changes = fin.totals.topology_changes.expect("watched");
+        eprintln!("user traffic: {changes} topology changes");
+        assert!(changes > 0, "no vehicle entered the controlled lane");
+        // The same scenario alone on the road: nothing to watch; watched anyway, nothing
+        // changes (the count is not noise of getLeader).
+        let alone = scenario(&dir, &loop_json(&road, 6, 120.0, "")).unwrap();
+        let run = run_scenario(&alone, &opts(&dir)).unwrap();
+        assert_eq!(run.outcome().unwrap().totals.topology_changes, None);
+        let road_read = syncroad_sumo::load_road(&alone).unwrap();
+        let mut p = syncroad_sumo::Prepared::new(&alone, &road_read, &opts(&dir)).unwrap();
+        p.request_mut().watch_leaders = true;
+        let run = p.run();
+        assert_eq!(run.outcome().unwrap().totals.topology_changes, Some(0));
+        // A route file that is not there is refused before SUMO starts.
+        let missing = scenario(&dir, &json.replace("mine.rou.xml", "nope.rou.xml")).unwrap();
+        let e = run_scenario(&missing, &opts(&dir)).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            format!(
+                "sumo.routes[0] = {}: file not found (checked before starting SUMO)",
+                dir.join("nope.rou.xml").display()
+            )
+        );
+    }
+
+    /// A detector of the user's own (`sumo.additional`) at 10 m into lane e0_0 counts
+    /// exactly the crossings of that point that the trajectory shows: SUMO drives the lane
+    /// sequence syncroad measured, and the trajectory's loop coordinate is SUMO's (up to the
+    /// layout's turn along the loop, which keeps departures off junction lanes, here nonzero).
+    #[test]
+    fn an_additional_detector_counts_the_crossings_the_trajectory_shows() {
+        let dir = work("additional");
+        two_lane_loop(&dir);
+        std::fs::write(
+            dir.join("mine.add.xml"),
+            r#"<additional>
+    <inductionLoop id="mine" lane="e0_0" pos="10" period="1000" file="mine-e1.xml"/>
+</additional>
+"#,
+        )
+        .unwrap();
+        // Lane 0 and a fleet size whose even spacing puts a front bumper deep inside the
+        // 18 m junction lane at n1: the layout is turned along the loop.
+        let road = format!(r#"{{"type": "loop", "edges": {:?}, "lane": 0}}"#, CYCLE);
+        let with_detector = |n: usize| {
+            loop_json(&road, n, 100.0, "").replace(
+                r#""sumo": {"net": "out.net.xml"}"#,
+                r#""sumo": {"net": "out.net.xml", "additional": ["mine.add.xml"]}"#,
+            )
+        };
+        let n = (8..40)
+            .find(|&n| {
+                let sc = scenario(&dir, &with_detector(n)).unwrap();
+                let road = load_road(&sc).unwrap();
+                let p = syncroad_sumo::Prepared::new(&sc, &road, &opts(&dir)).unwrap();
+                p.request().layout.ring_offset_m > 0.0
+            })
+            .expect("a fleet whose layout is turned");
+        let json = with_detector(n);
+        let sc = scenario(&dir, &json).unwrap();
+        let run = run_scenario(&sc, &opts(&dir)).unwrap();
+        run.outcome().expect("horizon reached");
+        let out = std::fs::read_to_string(dir.join("mine-e1.xml")).unwrap();
+        let counted: i64 = out
+            .split("nVehContrib=\"")
+            .skip(1)
+            .map(|s| s[..s.find('"').unwrap()].parse::<i64>().unwrap())
+            .sum();
+        let lay = &run.request.layout;
+        let ring = lay.road.length_m();
+        // e0 is the loop's first edge: 10 m into it is SUMO's coordinate 10.
+        let x = (10.0 - lay.ring_offset_m).rem_euclid(ring);
+        let t = run.trajectory(&sc);
+        let k = t.len() - 1;
+        let lap = |q: f64| ((q + 5.0 - x) / ring).floor() as i64;
+        let crossings: i64 = (0..n)
+            .map(|i| lap(t.positions_m[k * n + i]) - lap(t.positions_m[i]))
+            .sum();
+        // SUMO also counts a vehicle that departs on top of the detector (it enters there).
+        let on_it = (0..n)
+            .filter(|&i| (t.positions_m[i] - x).rem_euclid(ring) > ring - 5.0)
+            .count() as i64;
+        let crossings = crossings + on_it;
+        eprintln!("detector: {counted} passages, trajectory: {crossings} crossings, layout turned by {:.3} m", lay.ring_offset_m);
+        assert!(crossings > n as i64, "{crossings}");
+        assert_eq!(counted, crossings);
+        let missing = scenario(&dir, &json.replace("mine.add.xml", "nope.add.xml")).unwrap();
+        let e = run_scenario(&missing, &opts(&dir)).unwrap_err().to_string();
+        assert!(e.starts_with("sumo.additional[0] = "), "{e}");
+    }
+
+    /// A small OpenStreetMap file (a one-way two-lane circuit of six nodes with a side road)
+    /// imported by netconvert: the cycle through its first edge is found, measured as sumolib
+    /// measures it, and driven in SUMO as the native simulator drives it.
+    #[test]
+    fn an_openstreetmap_circuit_runs_like_the_native_simulator() {
+        let dir = work("osm");
+        let mut osm =
+            String::from("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<osm version=\"0.6\">\n");
+        let (lat0, lon0) = (52.0, 5.0);
+        for i in 0..6 {
+            let a = 2.0 * std::f64::consts::PI * i as f64 / 6.0;
+            osm += &format!(
+                "  <node id=\"{}\" lat=\"{:.7}\" lon=\"{:.7}\" version=\"1\"/>\n",
+                i + 1,
+                lat0 + 0.0012 * a.sin(),
+                lon0 + 0.002 * a.cos()
+            );
+        }
+        osm += "  <node id=\"7\" lat=\"52.0030\" lon=\"5.0040\" version=\"1\"/>\n";
+        osm += "  <way id=\"100\" version=\"1\">\n";
+        for n in [1, 2, 3, 4, 5, 6, 1] {
+            osm += &format!("    <nd ref=\"{n}\"/>\n");
+        }
+        osm += "    <tag k=\"highway\" v=\"primary\"/>\n    <tag k=\"oneway\" v=\"yes\"/>\n    <tag k=\"lanes\" v=\"2\"/>\n    <tag k=\"maxspeed\" v=\"50\"/>\n  </way>\n";
+        osm += "  <way id=\"200\" version=\"1\">\n    <nd ref=\"2\"/>\n    <nd ref=\"7\"/>\n    <tag k=\"highway\" v=\"residential\"/>\n  </way>\n</osm>\n";
+        std::fs::write(dir.join("circuit.osm"), osm).unwrap();
+        let net = netconvert(&dir, &["--osm-files", "circuit.osm"]);
+        let text = std::fs::read_to_string(&net).unwrap();
+        let first = text
+            .split("<edge id=\"")
+            .skip(1)
+            .map(|s| &s[..s.find('"').unwrap()])
+            .find(|id| id.starts_with("100#") || *id == "100")
+            .expect("an edge of the circuit")
+            .to_string();
+        let road = format!(r#"{{"type": "loop", "through": "{first}", "lane": 0}}"#);
+        let sc = scenario(&dir, &loop_json(&road, 8, 60.0, "")).unwrap();
+        let m = sc.measured_road().unwrap().clone();
+        assert!(m.edges.len() >= 2, "{:?}", m.edges);
+        assert!(
+            m.edges.iter().all(|e| e.starts_with("100")),
+            "{:?}",
+            m.edges
+        );
+        let edges: Vec<&str> = m.edges.iter().map(String::as_str).collect();
+        assert_relative_eq!(
+            m.length_m,
+            sumolib_length(&net, &edges, 0, true),
+            epsilon = 1e-9
+        );
+        let run = run_scenario(&sc, &opts(&dir)).unwrap();
+        run.outcome().expect("horizon reached");
+        let native = simulate(&sc, NativeOptions::default()).trajectory;
+        let worst = worst_speed_difference(&native.speeds_mps, &run.trajectory(&sc).speeds_mps);
+        eprintln!("OSM circuit: largest SUMO-native speed difference {worst:.2e} m/s");
+        assert!(worst < 1e-9, "largest speed difference {worst} m/s");
+    }
+}
+
+mod routes {
+    use super::*;
+
+    /// The CACC platoon behind its braking leader on lane 1 of a three-lane highway of four
+    /// edges: the route is measured as sumolib measures it, and SUMO gives the native
+    /// simulator's speeds to 1e-9 m/s across the junctions.
+    #[test]
+    fn a_platoon_on_a_three_lane_route_follows_the_native_simulator() {
+        let dir = work("platoon");
+        let net = highway(&dir, false, false);
+        let text = std::fs::read_to_string(
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/platoon-cacc.json"),
+        )
+        .unwrap();
+        let mut file: serde_json::Value = serde_json::from_str(&text).unwrap();
+        file["horizon_s"] = 40.0.into();
+        file["road"] =
+            serde_json::json!({"type": "route", "edges": ["h0", "h1", "h2", "h3"], "lane": 1});
+        file["sumo"] = serde_json::json!({"net": "out.net.xml"});
+        let sc = scenario(&dir, &file.to_string()).unwrap();
+        let reference = sumolib_length(&net, &["h0", "h1", "h2", "h3"], 1, false);
+        assert_relative_eq!(
+            sc.measured_road().unwrap().length_m,
+            reference,
+            epsilon = 1e-9
+        );
+        let run = run_scenario(&sc, &opts(&dir)).unwrap();
+        let fin = run.outcome().expect("horizon reached");
+        assert_eq!(fin.totals.collision_steps, 0);
+        let native = simulate(&sc, NativeOptions::default()).trajectory;
+        let worst = worst_speed_difference(&native.speeds_mps, &run.trajectory(&sc).speeds_mps);
+        eprintln!("3-lane route platoon: largest SUMO-native speed difference {worst:.2e} m/s");
+        assert!(worst < 1e-9, "largest speed difference {worst} m/s");
+        // The horizon check uses the route's length: 2 km do not hold 400 s at 25 m/s.
+        file["horizon_s"] = 400.0.into();
+        let long = scenario(&dir, &file.to_string()).unwrap();
+        let err = run_scenario(&long, &opts(&dir)).unwrap_err().to_string();
+        assert!(
+            err.contains(&format!("is {:.1} m long but the run needs", reference)),
+            "{err}"
+        );
+    }
+}
+
+/// Every road error is found before SUMO starts and names the field.
+mod errors {
+    use super::*;
+
+    fn err(dir: &Path, road: &str, vehicles: usize) -> String {
+        scenario(dir, &loop_json(road, vehicles, 10.0, "")).unwrap_err()
+    }
+
+    #[test]
+    fn loop_errors_name_the_field_and_what_would_be_valid() {
+        let dir = work("errors-loop");
+        let net = two_lane_loop(&dir);
+        let net = net.display();
+        let e = err(
+            &dir,
+            r#"{"type": "loop", "edges": ["e0", "e33"], "lane": 0}"#,
+            4,
+        );
+        assert_eq!(
+            e,
+            format!("road.edges[1] = `e33`: {net} has no normal edge of that id; nearest ids: `e3`, `e0`, `e1`")
+        );
+        let e = err(
+            &dir,
+            r#"{"type": "loop", "edges": ["e0", "e1"], "lane": 2}"#,
+            4,
+        );
+        assert_eq!(
+            e,
+            "road.lane = 2: edge `e0` (road.edges[0]) has 2 lane(s), indices 0..=1; choose a lane every edge has"
+        );
+        let e = err(
+            &dir,
+            r#"{"type": "loop", "edges": ["e0", "e2", "e3"], "lane": 0}"#,
+            4,
+        );
+        assert_eq!(
+            e,
+            format!("road.edges[0] `e0` → road.edges[1] `e2`: {net} connects no lane 0 of `e0` to lane 0 of `e2`; `e0` does not lead to `e2` at all; it leads to `out`, `e1`")
+        );
+        let seven =
+            r#"{"type": "loop", "edges": ["e0", "e1", "e2", "e3", "e4", "e5", "e6"], "lane": 1}"#;
+        let e = err(&dir, seven, 4);
+        assert_eq!(
+            e,
+            format!("road.edges: the loop does not close: road.edges[6] `e6` has no connection back to road.edges[0] `e0` on lane 1 in {net}; `e6` does not lead to `e0` at all; it leads to `e7` (a loop lists its cycle in driving order; for an open road use road.type = \"route\")")
+        );
+        let e = err(
+            &dir,
+            r#"{"type": "loop", "edges": ["e0", "e1", "e0"], "lane": 0}"#,
+            4,
+        );
+        assert_eq!(
+            e,
+            "road.edges[2] = `e0` repeats road.edges[0]; a road passes each edge once"
+        );
+        let e = err(&dir, r#"{"type": "loop", "through": "out", "lane": 0}"#, 4);
+        assert_eq!(
+            e,
+            format!("road.through = `out`: no cycle on lane 0 leads back to it through the connections of {net} (0 other edges are reachable from it on that lane, none leads back); give the cycle as road.edges, another edge or another lane")
+        );
+        let e = err(
+            &dir,
+            r#"{"type": "loop", "through": "e1", "edges": ["e1"]}"#,
+            4,
+        );
+        assert!(
+            e.starts_with("road.through = given with road.edges: give either"),
+            "{e}"
+        );
+        let e = err(&dir, r#"{"type": "loop", "lane": 0}"#, 4);
+        assert!(e.starts_with("road.edges = missing: a loop needs"), "{e}");
+        let e = err(&dir, r#"{"type": "loop", "edges": [], "lane": 0}"#, 4);
+        assert_eq!(e, "road.edges = []: a loop needs at least one edge");
+    }
+
+    #[test]
+    fn vehicles_that_do_not_fit_on_the_loop_are_refused() {
+        let dir = work("errors-fit");
+        two_lane_loop(&dir);
+        let road = r#"{"type": "loop", "through": "e0", "lane": 1}"#;
+        let len = scenario(&dir, &loop_json(road, 4, 10.0, ""))
+            .unwrap()
+            .ring_length_m()
+            .unwrap();
+        let too_many = (len / 5.0).floor() as usize + 1;
+        let e = err(&dir, road, too_many);
+        assert_eq!(
+            e,
+            format!(
+                "vehicles = {too_many}: {too_many} vehicles of {:.2} m in all do not fit on the loop, {len:.3} m long as measured on its network; at most {} fit",
+                5.0 * too_many as f64,
+                too_many - 1
+            )
+        );
+        // They fit bumper to bumper but not with SUMO's minGap: refused before SUMO starts.
+        let sc = scenario(&dir, &loop_json(road, too_many - 1, 10.0, "")).unwrap();
+        let e = run_scenario(&sc, &opts(&dir)).unwrap_err().to_string();
+        assert!(e.contains("is overfull"), "{e}");
+        assert!(!dir.join("run/sumo.log").exists());
+        // Gaps that do not add up to the measured length name it.
+        let e = scenario(&dir, &loop_json(road, 4, 10.0, r#", "gap_m": 10"#)).unwrap_err();
+        assert!(
+            e.contains(&format!(
+                "must add up to the loop's length measured on its network, {len} m"
+            )),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn route_errors_name_the_lanes_that_do_connect_and_the_permissions() {
+        let dir = work("errors-route");
+        let net = highway(&dir, true, true);
+        let net = net.display();
+        let route = |lane: usize| {
+            format!(r#"{{"type": "route", "edges": ["h0", "h1", "h2", "h3"], "lane": {lane}}}"#)
+        };
+        let e = err(&dir, &route(2), 4);
+        assert_eq!(
+            e,
+            format!("road.edges[2] `h2` → road.edges[3] `h3`: {net} connects no lane 2 of `h2` to lane 2 of `h3`; its connections to `h3` join lanes 0→0, 1→1, 2→1")
+        );
+        let e = err(&dir, &route(0), 4);
+        assert_eq!(
+            e,
+            format!("road.edges[2]: lane `h2_0` of {net} is closed to passenger cars (allow=\"bus\"); syncroad's vehicles are of class passenger, so choose another lane (road.lane) or edges open to them")
+        );
+        assert!(scenario(&dir, &loop_json(&route(1), 4, 10.0, "")).is_ok());
+        // A road through a network needs one.
+        let no_net = loop_json(&route(1), 4, 10.0, "")
+            .replace(r#""sumo": {"net": "out.net.xml"}"#, r#""sumo": {}"#);
+        let e = scenario(&dir, &no_net).unwrap_err();
+        assert!(
+            e.starts_with("sumo.net = missing: road.type = \"route\" runs through a network"),
+            "{e}"
+        );
+    }
+}
