@@ -27,8 +27,15 @@ pub const TRAJECTORY_FILE: &str = "trajectories.csv";
 /// first) and clears the files this run will write (`files`, removed in order: list the record
 /// first), so a failed run never leaves an earlier run's record beside its own rows. Refuses an
 /// existing file as the folder and a folder where a file goes, and checks the folder is
-/// writable. Hold the returned lock until the last file is written.
-pub fn prepare_dir(flag: &str, dir: &Path, files: &[&str]) -> anyhow::Result<FolderLock> {
+/// writable; refuses a file to write that is one of the command's `inputs` (the scenario, its
+/// network …), before anything is removed. Hold the returned lock until the last file is
+/// written.
+pub fn prepare_dir(
+    flag: &str,
+    dir: &Path,
+    files: &[&str],
+    inputs: &Inputs,
+) -> anyhow::Result<FolderLock> {
     if dir.exists() && !dir.is_dir() {
         return Err(InputError::new(format!(
             "{flag} = {}: is an existing file, not a folder; name a folder (it is created if missing)",
@@ -42,6 +49,9 @@ pub fn prepare_dir(flag: &str, dir: &Path, files: &[&str]) -> anyhow::Result<Fol
             dir.display()
         )
     })?;
+    for name in files {
+        refuse_input(flag, &dir.join(name), inputs)?;
+    }
     let held = crate::lock::hold(flag, dir)?;
     for name in files {
         let path = dir.join(name);
@@ -78,6 +88,85 @@ pub fn prepare_dir(flag: &str, dir: &Path, files: &[&str]) -> anyhow::Result<Fol
     })?;
     let _ = std::fs::remove_file(&probe);
     Ok(held)
+}
+
+/// The files a command reads, each with what it is ("the scenario", "sumo.net" …): no output
+/// may be one of them.
+#[derive(Debug, Default, Clone)]
+pub struct Inputs(Vec<(String, PathBuf)>);
+
+impl Inputs {
+    /// No inputs worth guarding (a scenario read from stdin, a computation without files).
+    pub fn none() -> Self {
+        Self::default()
+    }
+
+    /// Adds the file `path`, described as `what`.
+    pub fn with(mut self, what: impl Into<String>, path: impl Into<PathBuf>) -> Self {
+        self.0.push((what.into(), path.into()));
+        self
+    }
+
+    /// The scenario file at `path` and the SUMO files it names.
+    pub fn scenario(path: &Path, sc: &syncroad_control::Scenario) -> Self {
+        let mut i = Self::none().with("the scenario", path);
+        let sumo = sc.sumo();
+        if let Some(net) = sumo.net() {
+            i = i.with("the scenario's sumo.net", net);
+        }
+        for (k, r) in sumo.routes().iter().enumerate() {
+            i = i.with(format!("the scenario's sumo.routes[{k}]"), r);
+        }
+        for (k, a) in sumo.additional().iter().enumerate() {
+            i = i.with(format!("the scenario's sumo.additional[{k}]"), a);
+        }
+        i
+    }
+}
+
+/// Refuses to write `out` (given as `flag`, or in the folder given as `flag`) when it is the
+/// same file as one of `inputs` (same device and inode, whatever the path: a link, `..`,
+/// another spelling): writing it would destroy what the command reads. A path that does not
+/// exist yet is never an input.
+pub fn refuse_input(flag: &str, out: &Path, inputs: &Inputs) -> Result<(), InputError> {
+    for (what, input) in &inputs.0 {
+        if same_file::is_same_file(out, input).unwrap_or(false) {
+            return Err(InputError::new(format!(
+                "{flag}: {} is {what} ({}), which this command reads; writing it would destroy it — choose another {flag}",
+                out.display(),
+                input.display()
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Checks, before any work, that the file `path` (given as `flag`) can be written where it is:
+/// not an existing folder, and its folder (a symlink's target's folder) exists.
+pub fn check_file_target(flag: &str, path: &Path) -> Result<(), InputError> {
+    let target = match std::fs::read_link(path) {
+        Ok(t) if t.is_relative() => path.parent().unwrap_or(Path::new(".")).join(t),
+        Ok(t) => t,
+        Err(_) => path.to_path_buf(),
+    };
+    if target.is_dir() {
+        return Err(InputError::new(format!(
+            "{flag} = {}: is a folder; name a file (it is created, or replaced if it is a regular file)",
+            path.display()
+        )));
+    }
+    let parent = match target.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if !parent.is_dir() {
+        return Err(InputError::new(format!(
+            "{flag} = {}: the folder {} does not exist; create it or name a file in an existing folder",
+            path.display(),
+            parent.display()
+        )));
+    }
+    Ok(())
 }
 
 fn temp_name(path: &Path) -> PathBuf {

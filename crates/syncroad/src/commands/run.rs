@@ -26,26 +26,27 @@ use crate::{output, report};
 pub fn run(path: &Path, out: &OutputArgs, sumo: &SumoArgs) -> anyhow::Result<Status> {
     let sc = load_scenario(path)?;
     match sc.backend() {
-        Backend::Sumo => run_sumo(&sc, out, sumo),
+        Backend::Sumo => run_sumo(&sc, path, out, sumo),
         Backend::Native => {
             refuse_sumo_flags(sumo)?;
-            run_native(&sc, out)
+            run_native(&sc, path, out)
         }
     }
 }
 
 /// `syncroad simulate`: the native simulator whatever the scenario's backend.
 pub fn simulate(path: &Path, out: &OutputArgs) -> anyhow::Result<Status> {
-    run_native(&load_scenario(path)?, out)
+    run_native(&load_scenario(path)?, path, out)
 }
 
-/// Checks and locks `--out` and clears the record and rows an earlier run left there.
-fn prepare_out(dir: &Path) -> anyhow::Result<FolderLock> {
+/// Checks and locks `--out` and clears the record and rows an earlier run left there; none of
+/// them may be the scenario at `path` or a file it names.
+fn prepare_out(dir: &Path, path: &Path, sc: &Scenario) -> anyhow::Result<FolderLock> {
     // The plots too: a folder where one goes is refused before the run, and an earlier run's
     // plots never stand beside this run's record.
     let mut files = vec![output::METRICS_FILE, output::TRAJECTORY_FILE];
     files.extend(crate::plots::RUN_PLOT_FILES);
-    output::prepare_dir("--out", dir, &files)
+    output::prepare_dir("--out", dir, &files, &output::Inputs::scenario(path, sc))
 }
 
 /// The SUMO options mean nothing to the native simulator: a scenario on the native backend
@@ -138,10 +139,10 @@ fn verdict_status(f: &Finished) -> Status {
     Status::verdict(f.outcome.sync.verdict == Verdict::Synchronized)
 }
 
-fn run_native(sc: &Scenario, out: &OutputArgs) -> anyhow::Result<Status> {
+fn run_native(sc: &Scenario, path: &Path, out: &OutputArgs) -> anyhow::Result<Status> {
     refuse_mixed_native(sc)?;
     let cfg = RunConfig::new(sc, out)?;
-    let _lock = prepare_out(&cfg.out)?;
+    let _lock = prepare_out(&cfg.out, path, sc)?;
     // Ctrl-C, SIGTERM and SIGHUP stop the loop; the steps so far are written, as on SUMO.
     let stop = interrupt_flag()?;
     let progress = StepProgress::new(sc.step_s());
@@ -204,7 +205,12 @@ impl StepProgress {
     }
 }
 
-fn run_sumo(sc: &Scenario, out: &OutputArgs, args: &SumoArgs) -> anyhow::Result<Status> {
+fn run_sumo(
+    sc: &Scenario,
+    path: &Path,
+    out: &OutputArgs,
+    args: &SumoArgs,
+) -> anyhow::Result<Status> {
     let cfg = RunConfig::new(sc, out)?;
     let timeout = config::timeout(args.timeout_s)?;
     let drivers = match args.krauss_sigma {
@@ -216,7 +222,7 @@ fn run_sumo(sc: &Scenario, out: &OutputArgs, args: &SumoArgs) -> anyhow::Result<
         }
     };
     let road = load_road(sc).map_err(|e| InputError::caused("before starting SUMO", e))?;
-    let _lock = prepare_out(&cfg.out)?;
+    let _lock = prepare_out(&cfg.out, path, sc)?;
     let worker = WorkerCommand::for_process().context("cannot locate the syncroad executable")?;
     let mut opts = RunOptions::new(cfg.out.join("sumo"), worker);
     opts.record_every = cfg.record_every;

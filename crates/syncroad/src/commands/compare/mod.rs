@@ -373,10 +373,12 @@ pub fn combined(sc: &Scenario, results: &[RunResult], mixed: &[(String, usize)])
 }
 
 /// Runs a comparison into `out` and returns the combined document (the CLI and `regress`).
+/// No file it writes may be one of `inputs`.
 pub fn compare_into(
     sc: &Scenario,
     plan: &Plan,
     out: &Path,
+    inputs: &output::Inputs,
     interrupt: Arc<AtomicBool>,
 ) -> anyhow::Result<(Value, Vec<RunResult>)> {
     // Every folder is checked, and an earlier comparison's files cleared, before any run.
@@ -394,7 +396,12 @@ pub fn compare_into(
         }
     }
     // The locks are held until the last file is written.
-    let mut locks = vec![output::prepare_dir("--out", out, &["compare.json"])?];
+    let mut locks = vec![output::prepare_dir(
+        "--out",
+        out,
+        &["compare.json"],
+        inputs,
+    )?];
     let mut files = vec![output::METRICS_FILE, output::TRAJECTORY_FILE];
     files.extend(crate::plots::RUN_PLOT_FILES);
     for spec in &plan.runs {
@@ -402,6 +409,7 @@ pub fn compare_into(
             "--out",
             &out.join(spec.folder()),
             &files,
+            inputs,
         )?);
     }
     let results = run_all(sc, plan, out, interrupt)?;
@@ -433,7 +441,13 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<Status> {
     let sc = load_scenario(&a.scenario)?;
     let plan = plan(&sc, a)?;
     let interrupt = interrupt_flag()?;
-    let (doc, results) = compare_into(&sc, &plan, &a.out, interrupt.clone())?;
+    let (doc, results) = compare_into(
+        &sc,
+        &plan,
+        &a.out,
+        &output::Inputs::scenario(&a.scenario, &sc),
+        interrupt.clone(),
+    )?;
     outln!(
         "{}: {} vehicles, seed {}, warm-up {} s, {}, emission class {}",
         sc.name(),

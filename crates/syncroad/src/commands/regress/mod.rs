@@ -387,7 +387,8 @@ pub fn fresh_metrics(base: &Baseline, baseline_path: &Path) -> anyhow::Result<Va
         )))
     })?;
     let flag = syncroad_sumo::interrupt_flag()?;
-    let result = super::compare::compare_into(&sc, &plan, &args.out, flag);
+    let result =
+        super::compare::compare_into(&sc, &plan, &args.out, &crate::output::Inputs::none(), flag);
     let _ = std::fs::remove_dir_all(&args.out);
     Ok(result?.0)
 }
@@ -400,6 +401,7 @@ pub fn run(
     reports: &Reports,
 ) -> anyhow::Result<Status> {
     let mut base = load(baseline_path)?;
+    check_report_paths(&base, baseline_path, metrics, reports)?;
     let fresh = match metrics {
         Some(m) => {
             let text = std::fs::read_to_string(m).map_err(|e| {
@@ -451,6 +453,46 @@ pub fn run(
         );
     }
     Ok(Status::verdict(c.failures.is_empty() && stamps_ok))
+}
+
+/// Refuses, before anything runs, a `--junit`/`--markdown` path that would destroy an input
+/// (the baseline, its scenario, `--metrics`) or the other report, that is a folder, or whose
+/// folder does not exist: a report written after minutes of simulation must not fail then.
+fn check_report_paths(
+    base: &Baseline,
+    baseline_path: &Path,
+    metrics: Option<&Path>,
+    reports: &Reports,
+) -> anyhow::Result<()> {
+    let scenario = baseline_path
+        .parent()
+        .unwrap_or(Path::new("."))
+        .join(&base.scenario);
+    let mut inputs = crate::output::Inputs::none()
+        .with("the baseline", baseline_path)
+        .with("the baseline's scenario", &scenario);
+    if let Some(m) = metrics {
+        inputs = inputs.with("--metrics", m);
+    }
+    let named = [
+        ("--junit", &reports.junit),
+        ("--markdown", &reports.markdown),
+    ];
+    for (flag, path) in named {
+        let Some(p) = path else { continue };
+        crate::output::refuse_input(flag, p, &inputs)?;
+        crate::output::check_file_target(flag, p)?;
+    }
+    if let (Some(j), Some(m)) = (&reports.junit, &reports.markdown) {
+        if j == m || same_file::is_same_file(j, m).unwrap_or(false) {
+            return Err(InputError::new(format!(
+                "--junit and --markdown are the same file ({}); give each report its own path",
+                j.display()
+            ))
+            .into());
+        }
+    }
+    Ok(())
 }
 
 /// The runs of a metrics document (one record, or compare's `runs`) that did not reach their
