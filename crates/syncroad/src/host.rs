@@ -74,10 +74,22 @@ where
 fn run_parsed(parsed: cli::Cli, capture: bool) -> Ended {
     let run = || {
         let result = commands::run(parsed);
-        (
-            exit_codes::of(&result),
-            result.err().map(|e| error::describe(&e)),
-        )
+        let code = exit_codes::of(&result);
+        let error = result.err().map(|e| error::describe(&e));
+        match (stdout::failure(), error) {
+            // The output the command printed was lost: never a success.
+            (Some(why), None) => (
+                if code == exit_codes::SUCCESS {
+                    exit_codes::RUN_FAILED
+                } else {
+                    code
+                },
+                Some(format!(
+                    "cannot write to standard output: {why}; what the command printed is incomplete (files it wrote are whole)"
+                )),
+            ),
+            (_, error) => (code, error),
+        }
     };
     let ((code, error), stdout) = if capture {
         stdout::capture(run)

@@ -1,7 +1,9 @@
 //! Standard output that survives a closed or full reader: `syncroad run … | head -1` or
 //! stdout sent to `/dev/full`. The first failed write (EPIPE, ENOSPC, …) turns stdout off
-//! for the rest of the process; the command goes on, writes its files and exits with its own
-//! status, as `head`-friendly command-line tools do. Files and stderr are unaffected.
+//! for the rest of the process; the command goes on and writes its files. A closed reader
+//! (EPIPE) is what `head` does and leaves the exit status alone; any other failure (a full
+//! disk, an I/O error) lost output the user asked for, so [`failure`] reports it and the
+//! command does not exit 0. Files and stderr are unaffected.
 //!
 //! A host that runs a command as a function ([`crate::host::execute`]) can [`capture`] what
 //! it prints instead (the Python package returns the report as a string).
@@ -11,6 +13,15 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 
 static CLOSED: AtomicBool = AtomicBool::new(false);
+
+/// The first failed write that was not a closed reader.
+static FAILED: Mutex<Option<String>> = Mutex::new(None);
+
+/// Why stdout stopped, unless it stopped because its reader closed (EPIPE): the text of the
+/// first write error (`No space left on device`, …).
+pub fn failure() -> Option<String> {
+    FAILED.lock().unwrap_or_else(|e| e.into_inner()).clone()
+}
 
 /// What is printed while a [`capture`] runs (`None`: print to stdout).
 static CAPTURED: Mutex<Option<String>> = Mutex::new(None);
@@ -41,8 +52,14 @@ pub fn write(args: std::fmt::Arguments<'_>) {
         return;
     }
     let mut out = std::io::stdout().lock();
-    if out.write_fmt(args).and_then(|()| out.flush()).is_err() {
+    if let Err(e) = out.write_fmt(args).and_then(|()| out.flush()) {
         CLOSED.store(true, Ordering::Relaxed);
+        if e.kind() != std::io::ErrorKind::BrokenPipe {
+            FAILED
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .get_or_insert(e.to_string());
+        }
     }
 }
 

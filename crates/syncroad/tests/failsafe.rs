@@ -116,18 +116,42 @@ fn a_closed_stdout_stops_printing_but_not_the_run() {
     }
 }
 
+/// A full device is not a closed reader: what the command printed is lost, so it says so and
+/// does not exit 0 — for a run (its files are whole) and for the commands whose result is
+/// what they print.
 #[test]
-fn stdout_on_a_full_device_does_not_panic() {
+fn stdout_on_a_full_device_is_an_error_not_a_success() {
+    let full = || {
+        std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .unwrap()
+    };
     let dir = tmpdir("dev-full");
-    let full = std::fs::OpenOptions::new()
-        .write(true)
-        .open("/dev/full")
-        .unwrap();
-    let o = simulate(&dir).stdout(full).output().unwrap();
+    let o = simulate(&dir).stdout(full()).output().unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!err.contains("panicked"), "{err}");
-    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    assert!(
+        err.contains("cannot write to standard output: No space left on device"),
+        "{err}"
+    );
     assert_eq!(listing(&dir), ["metrics.json", "trajectories.csv"]);
+    let scenario = repo().join("scenarios/sugiyama-ring.json");
+    for args in [vec!["schema"], vec!["check", "--json"], vec!["stability"]] {
+        let mut c = bin();
+        c.arg(args[0]);
+        if args[0] != "schema" {
+            c.arg(&scenario).args(&args[1..]);
+        }
+        let o = c.stdout(full()).output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(3), "{args:?}: {err}");
+        assert!(
+            err.contains("cannot write to standard output"),
+            "{args:?}: {err}"
+        );
+    }
 }
 
 #[test]
