@@ -28,13 +28,45 @@ pub fn hold(flag: &str, dir: &Path) -> anyhow::Result<FolderLock> {
     std::fs::create_dir_all(dir)
         .with_context(|| format!("{flag} = {}: cannot create the folder", dir.display()))?;
     let path = dir.join(LOCK_FILE);
-    let mut file = OpenOptions::new()
-        .read(true)
-        .write(true)
-        .create(true)
-        .truncate(false)
-        .open(&path)
-        .with_context(|| format!("{flag} = {}: cannot open {}", dir.display(), path.display()))?;
+    // The lock is a regular file of the folder's own: a link (which would lock, and write our
+    // pid into, whatever it points to), a FIFO or a device there is refused, not followed.
+    let not_regular = |what: &str| {
+        InputError::new(format!(
+            "{flag} = {}: {} is {what}, not the regular lock file syncroad keeps there; remove it or give another {flag}",
+            dir.display(),
+            path.display()
+        ))
+    };
+    if let Ok(meta) = std::fs::symlink_metadata(&path) {
+        let t = meta.file_type();
+        if t.is_symlink() {
+            return Err(not_regular("a symbolic link").into());
+        }
+        if !t.is_file() {
+            return Err(not_regular("a folder, FIFO, socket or device").into());
+        }
+    }
+    let mut file = {
+        use std::os::unix::fs::OpenOptionsExt;
+        OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .custom_flags(libc::O_NOFOLLOW | libc::O_NONBLOCK)
+            .open(&path)
+    }
+    .map_err(|e| match e.raw_os_error() {
+        Some(libc::ELOOP) => not_regular("a symbolic link").into(),
+        _ => anyhow::Error::new(e).context(format!(
+            "{flag} = {}: cannot open {}",
+            dir.display(),
+            path.display()
+        )),
+    })?;
+    if !file.metadata().map(|m| m.is_file()).unwrap_or(false) {
+        return Err(not_regular("not a regular file").into());
+    }
     match file.try_lock() {
         Ok(()) => {}
         Err(TryLockError::WouldBlock) => {
