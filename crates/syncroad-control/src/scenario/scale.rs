@@ -44,6 +44,25 @@ impl Scenario {
             s.delay_s[i] = steps * self.step_s;
             worst = worst.max((steps * self.step_s - exact).abs());
         }
+        // The scaled delays get their buffers like the scenario's own: the same limit.
+        if let Err(ScenarioError::DelayBufferTooLarge {
+            vehicle,
+            values,
+            min_step_s,
+            ..
+        }) = super::validate::check_delay_buffer(&s.delay_steps, &s.delay_s, self.step_s)
+        {
+            return Err(invalid(
+                "scale.delay",
+                delay,
+                format!(
+                    "scales model.delay_s[{vehicle}] to {} s, which with step_s = {} s needs a delay buffer of {values:.3e} values; at most {} are allowed (a smaller scale, or step_s ≥ {min_step_s:.3e} s)",
+                    s.delay_s[vehicle],
+                    self.step_s,
+                    super::MAX_DELAY_BUFFER
+                ),
+            ));
+        }
         let mut scenario = self.clone();
         scenario.model = Model::DelayedDriver(s);
         Ok(Scaled {
@@ -67,6 +86,20 @@ mod tests {
                 "initial": {"speed_mps": 8}}"#,
         )
         .unwrap()
+    }
+
+    /// 4 vehicles × (5·10⁷ + 2) buffer rows pass the 2²⁴-value limit (the scenario's own
+    /// check, `(max_i m_i + 2)·N`); a scale of 10⁶ on a 0.5 s delay would otherwise allocate
+    /// 1.6 GB per run.
+    #[test]
+    fn a_delay_scale_past_the_buffer_limit_is_refused_naming_the_scale() {
+        let e = ring().scaled(1.0, 1e7).unwrap_err().to_string();
+        assert!(
+            e.contains("scale.delay = 10000000") && e.contains("model.delay_s[2]"),
+            "{e}"
+        );
+        // (m + 2)·N = (10·7·10⁴ + 2)·4 < 2²⁴ passes: 10⁴ scales 0.7 s to 7000 s = 70000 steps.
+        assert!(ring().scaled(1.0, 1e4).is_ok());
     }
 
     #[test]

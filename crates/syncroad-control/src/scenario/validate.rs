@@ -472,7 +472,7 @@ impl Scenario {
 
 /// Refuses delays whose buffers would pass [`MAX_DELAY_BUFFER`] values: the law keeps
 /// `max_i m_i + 2` rows of N inputs, `m_i = α_i / Δt`.
-fn check_delay_buffer(
+pub(super) fn check_delay_buffer(
     delay_steps: &[usize],
     delay_s: &[f64],
     step_s: f64,

@@ -488,9 +488,26 @@ pub fn run(
     let xa = Axis::parse("--x", x)?;
     let ya = Axis::parse("--y", y)?;
     let jobs = config::jobs(jobs)?;
-    let _lock = crate::output::prepare_dir("--out", out, &["map.csv"])?;
+    let _lock = crate::output::prepare_dir(
+        "--out",
+        out,
+        &["map.csv"],
+        &crate::output::Inputs::scenario(path, &sc),
+    )?;
     if !no_sim {
         check_sweep_folder(&out.join("sweep"))?;
+        // The simulated grid's largest delays must fit their buffers: refused now, not after
+        // the exact analysis of every point.
+        for (flag, a) in [("--x", &xa), ("--y", &ya)] {
+            if a.param == Param::DelayScale {
+                sc.scaled(1.0, a.hi).map_err(|e| {
+                    InputError::new(format!(
+                        "{flag} = delay_scale up to {}: {e}; or give --no-sim (the exact analysis has no such limit)",
+                        a.hi
+                    ))
+                })?;
+            }
+        }
     }
     let mut pts = theory_grid(&sc, xa, ya, jobs)?;
     if !no_sim {
