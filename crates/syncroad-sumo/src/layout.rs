@@ -344,13 +344,15 @@ pub fn straight_layout(
 
 /// vType attributes written for every vehicle type; a driver's own value replaces the
 /// scenario's (`length` is the layout's).
-const BASE: [&str; 6] = [
+const BASE: [&str; 8] = [
     "length",
     "minGap",
     "accel",
     "decel",
     "emergencyDecel",
     "maxSpeed",
+    "speedFactor",
+    "speedDev",
 ];
 
 impl Layout {
@@ -396,7 +398,7 @@ impl Layout {
                 let close = if params.is_empty() { "/>" } else { ">" };
                 let _ = writeln!(
                     s,
-                    r#"    <vType id="t{}" length="{}" minGap="{}" accel="{}" decel="{}" emergencyDecel="{}" maxSpeed="{}" {model} speedFactor="1" speedDev="0" emissionClass="{}"{close}"#,
+                    r#"    <vType id="t{}" length="{}" minGap="{}" accel="{}" decel="{}" emergencyDecel="{}" maxSpeed="{}" {model} speedFactor="{}" speedDev="{}" emissionClass="{}"{close}"#,
                     types.len() - 1,
                     v.length_m,
                     own("minGap", t.min_gap_m),
@@ -404,6 +406,8 @@ impl Layout {
                     own("decel", t.decel_mps2),
                     own("emergencyDecel", t.emergency_decel_mps2),
                     own("maxSpeed", t.max_speed_mps),
+                    own("speedFactor", 1.0),
+                    own("speedDev", 0.0),
                     crate::drivers::EMISSION_CLASS,
                 );
                 if !params.is_empty() {
@@ -637,5 +641,39 @@ mod tests {
             xml.contains(r#"length="5" minGap="2" accel="1.3" decel="1.5" emergencyDecel="9" maxSpeed="30" carFollowModel="IDM" delta="4" tau="0.8" speedFactor="1""#),
             "{xml}"
         );
+    }
+
+    /// A driver's speedFactor and speedDev replace the defaults instead of being written a
+    /// second time (SUMO refuses a vType with a duplicate attribute); an XML parser, which
+    /// refuses duplicates as SUMO does, reads every type.
+    #[test]
+    fn a_drivers_speed_factor_and_deviation_are_written_once() {
+        let road = sugiyama();
+        let mut lay = ring_layout(&road, vt(), &[5.0; 4], &[20.0; 4], &[8.0; 4], 10.0).unwrap();
+        for (i, d) in [
+            "idm:speedDev=0.1",
+            "idm:speedFactor=1.2:speedDev=0.05",
+            "krauss:sigma=0.5:speedFactor=0.9",
+        ]
+        .iter()
+        .enumerate()
+        {
+            lay.vehicles[i].driver = Some(crate::drivers::SumoDriver::parse("--driver", d).unwrap());
+        }
+        let xml = lay.routes_xml();
+        let doc = roxmltree::Document::parse(&xml).unwrap_or_else(|e| panic!("{e}\n{xml}"));
+        let types: Vec<_> = doc
+            .descendants()
+            .filter(|n| n.has_tag_name("vType"))
+            .map(|n| {
+                (
+                    n.attribute("speedFactor").unwrap().to_string(),
+                    n.attribute("speedDev").unwrap().to_string(),
+                )
+            })
+            .collect();
+        assert!(types.contains(&("1".into(), "0.1".into())), "{types:?}");
+        assert!(types.contains(&("1.2".into(), "0.05".into())), "{types:?}");
+        assert!(types.contains(&("0.9".into(), "0".into())), "{types:?}");
     }
 }
