@@ -205,7 +205,7 @@ pub struct RunRecord {
     pub sumo: Option<Traffic>,
     /// SUMO's safety counters (`null` for native runs).
     pub safety: Option<Safety>,
-    /// How SUMO ran (`null` for native runs).
+    /// How SUMO ran; `null` for native runs and for SUMO runs in which SUMO never started.
     pub backend_facts: Option<BackendFacts>,
     /// Time headway, gaps, SUMO's surrogate safety measures and the safe-speed label; present
     /// only when the run measured SSM (records of runs that did not keep their earlier shape).
@@ -267,21 +267,27 @@ impl RunRecord {
                     .map(|m| Traffic::new(m, f, sc, run, outcome))
             }),
             safety: facts.and_then(|f| f.safety.clone()),
-            backend_facts: facts.map(|f| BackendFacts {
-                road_length_m: f.road_length_m,
-                gap_scale: f.gap_scale,
-                step_method: f.step_method.clone(),
-                max_override_mps: f.max_override_mps,
-                odometer_deviation_max_m: f.odometer_deviation_max_m,
-            }),
+            // What SUMO measured (its lane lengths, overrides, odometers): absent when SUMO
+            // never started, rather than zeros nobody measured.
+            backend_facts: facts
+                .filter(|f| f.sumo_version.is_some())
+                .map(|f| BackendFacts {
+                    road_length_m: f.road_length_m,
+                    gap_scale: f.gap_scale,
+                    step_method: f.step_method.clone(),
+                    max_override_mps: f.max_override_mps,
+                    odometer_deviation_max_m: f.odometer_deviation_max_m,
+                }),
             safety_margins: facts
                 .and_then(|f| SafetyMargins::of(&run.trajectory, outcome.warmup_s, f)),
             gap_safety: crate::margins::GapSafety::of(&run.trajectory, outcome.warmup_s),
             string_amplification: crate::string_measured::measured(&run.trajectory),
-            // The certificate is of the scenario's own gaps: a SUMO run that rescaled them by
+            // The certificate is of the scenario's own gaps (none for a run without a sample,
+            // like `certified`): a SUMO run that rescaled them by
             // more than 1 % to fit its network (a ring length that is not the net's) drove
             // other gaps, and gets none.
             gap_certificate: (all_law
+                && !run.trajectory.is_empty()
                 && outcome.gap_certificate
                 && facts.is_none_or(|f| (f.gap_scale - 1.0).abs() <= 0.01))
             .then(|| crate::exact::gaps::gap_certificate(sc).ok().flatten())

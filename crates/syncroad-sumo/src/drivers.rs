@@ -161,11 +161,8 @@ impl SumoDriver {
             noise: 0.0,
             form: syncroad_control::NoiseForm::StepConsistent,
         });
-        for kv in params.split(':').map(str::trim).filter(|x| !x.is_empty()) {
-            let (name, value) = kv
-                .split_once('=')
-                .ok_or_else(|| bad(format!("{kv:?} is not name=value (e.g. noise=0.3)")))?;
-            d.set(name.trim(), value.trim()).map_err(bad)?;
+        for (name, value) in name_values(params, "noise=0.3").map_err(bad)? {
+            d.set(name, value).map_err(bad)?;
         }
         d.validate(flag)
             .map_err(|e| bad(format!("{} = {}: valid is {}", e.name, e.value, e.valid)))?;
@@ -196,18 +193,29 @@ impl SumoDriver {
             };
             CarFollowing::new(m)
         };
-        for kv in params.split(':').map(str::trim).filter(|x| !x.is_empty()) {
-            let (name, value) = kv
-                .split_once('=')
-                .ok_or_else(|| bad(format!("{kv:?} is not name=value (e.g. accel=1.3)")))?;
+        for (name, value) in name_values(params, "accel=1.3").map_err(bad)? {
             let v: f64 = value
-                .trim()
                 .parse()
-                .map_err(|_| bad(format!("{}: {value:?} is not a number", name.trim())))?;
-            cf.params.insert(name.trim().to_string(), v);
+                .map_err(|_| bad(format!("{name}: {value:?} is not a number")))?;
+            cf.params.insert(name.to_string(), v);
         }
         cf.check_values(flag).map_err(|e| bad(e.to_string()))?;
         Ok(Self::Custom(cf))
+    }
+
+    /// The same driver as `other` however it was spelt (`krauss-0.9` and `krauss:sigma=0.9`,
+    /// `human` and `IDM:accel=1.3:…` with the preset's values): the same model with the same
+    /// values set, the same device parameters and, for the bridge's stochastic humans, the
+    /// same noise. (A value set to SUMO's own default still counts as a difference.)
+    pub fn same_driver(&self, other: &Self) -> bool {
+        match (self, other) {
+            (SumoDriver::Noisy(a), SumoDriver::Noisy(b)) => a == b,
+            (SumoDriver::Noisy(_), _) | (_, SumoDriver::Noisy(_)) => false,
+            _ => {
+                self.car_following() == other.car_following()
+                    && self.vtype_params() == other.vtype_params()
+            }
+        }
     }
 
     /// Krauss with driver imperfection `sigma`, checked to lie in \[0, 1\]; `flag` and
@@ -291,6 +299,25 @@ impl SumoDriver {
             _ => Vec::new(),
         }
     }
+}
+
+/// The `name=value` pairs of a driver's `:`-separated parameters, each name given once (a
+/// repeated name was a silent choice of the last value); `example` shows the form in errors.
+fn name_values<'a>(params: &'a str, example: &str) -> Result<Vec<(&'a str, &'a str)>, String> {
+    let mut pairs: Vec<(&str, &str)> = Vec::new();
+    for kv in params.split(':').map(str::trim).filter(|x| !x.is_empty()) {
+        let (name, value) = kv
+            .split_once('=')
+            .ok_or_else(|| format!("{kv:?} is not name=value (e.g. {example})"))?;
+        let (name, value) = (name.trim(), value.trim());
+        if let Some((_, first)) = pairs.iter().find(|(n, _)| *n == name) {
+            return Err(format!(
+                "{name} is given twice ({first} and {value}); give each parameter once"
+            ));
+        }
+        pairs.push((name, value));
+    }
+    Ok(pairs)
 }
 
 impl fmt::Display for SumoDriver {

@@ -658,7 +658,8 @@ mod tests {
         .iter()
         .enumerate()
         {
-            lay.vehicles[i].driver = Some(crate::drivers::SumoDriver::parse("--driver", d).unwrap());
+            lay.vehicles[i].driver =
+                Some(crate::drivers::SumoDriver::parse("--driver", d).unwrap());
         }
         let xml = lay.routes_xml();
         let doc = roxmltree::Document::parse(&xml).unwrap_or_else(|e| panic!("{e}\n{xml}"));

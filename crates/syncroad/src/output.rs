@@ -130,7 +130,7 @@ impl Inputs {
 /// exist yet is never an input.
 pub fn refuse_input(flag: &str, out: &Path, inputs: &Inputs) -> Result<(), InputError> {
     for (what, input) in &inputs.0 {
-        if same_file::is_same_file(out, input).unwrap_or(false) {
+        if same_file(out, input) {
             return Err(InputError::new(format!(
                 "{flag}: {} is {what} ({}), which this command reads; writing it would destroy it — choose another {flag}",
                 out.display(),
@@ -139,6 +139,16 @@ pub fn refuse_input(flag: &str, out: &Path, inputs: &Inputs) -> Result<(), Input
         }
     }
     Ok(())
+}
+
+/// Whether `a` and `b` are one file (device and inode, links followed), read with `stat`: never
+/// opened, so a FIFO cannot block the check. A path that does not exist is no file.
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    match (std::fs::metadata(a), std::fs::metadata(b)) {
+        (Ok(x), Ok(y)) => x.dev() == y.dev() && x.ino() == y.ino(),
+        _ => false,
+    }
 }
 
 /// Checks, before any work, that the file `path` (given as `flag`) can be written where it is:

@@ -22,6 +22,22 @@ pub struct RunSpec {
 }
 
 impl RunSpec {
+    /// Runs the same drivers as `other` (the same damper, and the same SUMO driver or the law
+    /// on every vehicle, however the drivers were spelt).
+    pub fn same_run(&self, other: &Self) -> bool {
+        self.damper == other.damper
+            && self.drivers.len() == other.drivers.len()
+            && self
+                .drivers
+                .iter()
+                .zip(&other.drivers)
+                .all(|(a, b)| match (a, b) {
+                    (None, None) => true,
+                    (Some(a), Some(b)) => a.same_driver(b),
+                    _ => false,
+                })
+    }
+
     /// `protocol` (the scenario's law), a damper (`follower-stopper-U`, `pi-saturation`) on
     /// every vehicle, or a SUMO driver name for all `n` vehicles; `field` names where the name
     /// was given, for errors.

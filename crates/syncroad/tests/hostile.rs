@@ -653,11 +653,101 @@ mod overwritten {
         assert!(std::fs::read_to_string(&target)
             .unwrap()
             .contains("ring-theorem1"));
-        // A folder is refused, not replaced.
+        // A folder is refused before anything runs, not replaced.
         let (code, _, e) = regress("--junit", &dir.join("real"));
-        assert_eq!(code, 3, "{e}");
-        assert!(e.contains("it is a folder"), "{e}");
+        assert_eq!(code, 2, "{e}");
+        assert!(e.contains("is a folder"), "{e}");
         assert!(dir.join("real").is_dir());
+        // So is a report in a folder that does not exist (it failed after the run).
+        let (code, _, e) = regress("--junit", &dir.join("missing/report.xml"));
+        assert_eq!(code, 2, "{e}");
+        assert!(e.contains("does not exist"), "{e}");
+    }
+
+    /// No output may be an input: a report that is the baseline (under another spelling, or
+    /// a hard link), the other report, or a run folder whose metrics.json is the scenario
+    /// itself. Each is refused with exit 2 and the input is untouched.
+    #[test]
+    fn no_output_is_a_file_the_command_reads() {
+        let dir = tmpdir("output-is-input");
+        let base = dir.join("baseline.json");
+        let text =
+            std::fs::read_to_string(repo().join("tests/baselines/ring-theorem1.native.json"))
+                .unwrap()
+                .replace(
+                    "../../scenarios/",
+                    &format!("{}/scenarios/", repo().display()),
+                );
+        std::fs::write(&base, &text).unwrap();
+        std::fs::hard_link(&base, dir.join("alias.json")).unwrap();
+        let spelt = dir.join("sub/../baseline.json");
+        std::fs::create_dir_all(dir.join("sub")).unwrap();
+        for (flag, path) in [
+            ("--markdown", base.clone()),
+            ("--junit", dir.join("alias.json")),
+            ("--markdown", spelt),
+        ] {
+            let (code, o, e) = run(bin().arg("regress").arg(&base).arg(flag).arg(&path));
+            assert_eq!(code, 2, "{flag} {}: {o}{e}", path.display());
+            assert!(e.contains("is the baseline"), "{e}");
+            assert_eq!(std::fs::read_to_string(&base).unwrap(), text);
+        }
+        let report = dir.join("report.txt");
+        let (code, _, e) = run(bin()
+            .arg("regress")
+            .arg(&base)
+            .arg("--junit")
+            .arg(&report)
+            .arg("--markdown")
+            .arg(&report));
+        assert_eq!(code, 2, "{e}");
+        assert!(e.contains("are the same file"), "{e}");
+        assert!(!report.exists());
+        // A run folder that holds its own scenario as metrics.json.
+        let out = dir.join("out");
+        std::fs::create_dir_all(&out).unwrap();
+        let scenario =
+            std::fs::read_to_string(repo().join("scenarios/ring-theorem1.json")).unwrap();
+        std::fs::write(out.join("metrics.json"), &scenario).unwrap();
+        let (code, _, e) = run(bin()
+            .arg("simulate")
+            .arg(out.join("metrics.json"))
+            .arg("--out")
+            .arg(&out));
+        assert_eq!(code, 2, "{e}");
+        assert!(e.contains("is the scenario"), "{e}");
+        assert_eq!(
+            std::fs::read_to_string(out.join("metrics.json")).unwrap(),
+            scenario
+        );
+    }
+
+    /// The folder lock is never followed through a link (it locked and overwrote the
+    /// target) nor opened on a FIFO (exit 3, or a hang): both are refused with exit 2.
+    #[test]
+    fn the_folder_lock_is_never_a_link_or_a_fifo() {
+        let dir = tmpdir("lock-kinds");
+        let victim = dir.join("victim.txt");
+        std::fs::write(&victim, "keep").unwrap();
+        let out = dir.join("linked");
+        std::fs::create_dir_all(&out).unwrap();
+        symlink(&victim, out.join(".syncroad.lock")).unwrap();
+        let scenario = repo().join("scenarios/ring-theorem1.json");
+        let (code, _, e) = run(bin().arg("simulate").arg(&scenario).arg("--out").arg(&out));
+        assert_eq!(code, 2, "{e}");
+        assert!(e.contains("is a symbolic link"), "{e}");
+        assert_eq!(std::fs::read_to_string(&victim).unwrap(), "keep");
+        let out = dir.join("fifo");
+        std::fs::create_dir_all(&out).unwrap();
+        assert!(std::process::Command::new("mkfifo")
+            .arg(out.join(".syncroad.lock"))
+            .status()
+            .unwrap()
+            .success());
+        let (code, _, e) = run(bin().arg("simulate").arg(&scenario).arg("--out").arg(&out));
+        assert_eq!(code, 2, "{e}");
+        assert!(e.contains("FIFO"), "{e}");
+        assert!(!out.join("metrics.json").exists());
     }
 }
 
@@ -913,6 +1003,170 @@ mod shell {
 
 mod up_front {
     use super::*;
+
+    /// Scaled delays get the scenario's delay-buffer limit (2²⁴ values): 10⁸ × 0.7 s at
+    /// 0.1 s is 1.5·10¹⁰ values, an allocation that aborted the process. Refused with exit 2
+    /// naming scale.delay, before any point runs, in a sweep and in map.
+    #[test]
+    fn scaled_delays_meet_the_delay_buffer_limit_before_anything_runs() {
+        let dir = tmpdir("scaled-buffer");
+        let base = sweeps::native_ring(&dir);
+        let spec = sweeps::spec(
+            &dir,
+            "s.json",
+            json!({"base": base, "backend": "native",
+                   "axes": [{"field": "scale.delay", "values": [1.0, 1e8]}]}),
+        );
+        let (code, _, e) = run(bin()
+            .arg("sweep")
+            .arg(&spec)
+            .arg("--out")
+            .arg(dir.join("sw"))
+            .arg("--no-plots"));
+        assert_eq!(code, 2, "{e}");
+        assert!(
+            e.contains("scale.delay = 100000000") && e.contains("delay buffer"),
+            "{e}"
+        );
+        assert!(
+            !dir.join("sw/rows").exists()
+                || std::fs::read_dir(dir.join("sw/rows")).unwrap().count() == 0
+        );
+        let (code, _, e) = run(bin()
+            .arg("map")
+            .arg(&base)
+            .args([
+                "--x",
+                "gain_scale=0.5:1:2",
+                "--y",
+                "delay_scale=0.5:1e8:2",
+                "--out",
+            ])
+            .arg(dir.join("map")));
+        assert_eq!(code, 2, "{e}");
+        assert!(e.contains("--y = delay_scale up to 100000000"), "{e}");
+        assert!(!dir.join("map/map.csv").exists());
+    }
+
+    /// One run under two labels is refused: two spellings of one driver in compare and in a
+    /// sweep's runs, a driver parameter given twice (the last one won silently), and two
+    /// scale.delay values that round every delay to the same steps (ring-theorem1's delays
+    /// 0.5–0.7 s at Δt = 0.1 s: × 1.01 rounds back to 5, 6, 7 steps) unless the spec allows it.
+    #[test]
+    fn the_same_run_under_two_labels_is_refused() {
+        let dir = tmpdir("same-run");
+        let sc = sugiyama(&dir, "ring.json", |s| s["horizon_s"] = json!(10));
+        let compare = |baselines: &str| {
+            run(bin()
+                .arg("compare")
+                .arg(&sc)
+                .args(["--baselines", baselines, "--no-plots", "--out"])
+                .arg(dir.join("cmp")))
+        };
+        let (code, _, e) = compare("krauss-0.9,krauss:sigma=0.9");
+        assert_eq!(code, 2, "{e}");
+        assert!(e.contains("are the same run"), "{e}");
+        let (code, _, e) = compare("idm:tau=0.8:tau=2.0");
+        assert_eq!(code, 2, "{e}");
+        assert!(e.contains("tau is given twice (0.8 and 2.0)"), "{e}");
+        assert!(!dir.join("cmp/compare.json").exists());
+        let base = sweeps::native_ring(&dir);
+        let body = |allow: bool| {
+            json!({"base": base, "backend": "native", "allow_alike_points": allow,
+                   "axes": [{"field": "scale.delay", "values": [1.0, 1.01]}]})
+        };
+        let spec = sweeps::spec(&dir, "alike.json", body(false));
+        let (code, _, e) = run(bin()
+            .arg("sweep")
+            .arg(&spec)
+            .arg("--out")
+            .arg(dir.join("sw"))
+            .arg("--no-plots"));
+        assert_eq!(code, 2, "{e}");
+        assert!(
+            e.contains("scale.delay = 1.0")
+                && e.contains("scale.delay = 1.01")
+                && e.contains("run the same scenario"),
+            "{e}"
+        );
+        let spec = sweeps::spec(&dir, "allowed.json", body(true));
+        let (code, _, e) = run(bin()
+            .arg("sweep")
+            .arg(&spec)
+            .arg("--out")
+            .arg(dir.join("sw2"))
+            .arg("--no-plots"));
+        assert_eq!(code, 0, "{e}");
+        // …and 1.2 is another run: 0.5 s × 1.2 is 6 steps, not 5.
+        let spec = sweeps::spec(
+            &dir,
+            "other.json",
+            json!({"base": base, "backend": "native",
+                   "axes": [{"field": "scale.delay", "values": [1.0, 1.2]}]}),
+        );
+        let (code, _, e) = run(bin()
+            .arg("sweep")
+            .arg(&spec)
+            .arg("--out")
+            .arg(dir.join("sw3"))
+            .arg("--no-plots"));
+        assert_eq!(code, 0, "{e}");
+    }
+
+    /// A run in which SUMO never started (it refused a malformed additional file) records no
+    /// SUMO facts, no certificate of its gaps and no verdict it could not have reached: nulls,
+    /// not zeros.
+    #[test]
+    fn a_run_in_which_sumo_never_started_records_nothing_sumo_measured() {
+        let dir = tmpdir("never-started");
+        std::fs::write(dir.join("bad.add.xml"), "<additional><bogus/></additional").unwrap();
+        let sc = sugiyama(&dir, "ring.json", |s| {
+            s["horizon_s"] = json!(10);
+            s["sumo"]["additional"] = json!(["bad.add.xml"]);
+        });
+        let out = dir.join("cmp");
+        let (code, _, e) = run(bin()
+            .arg("compare")
+            .arg(&sc)
+            .args(["--baselines", "protocol", "--no-plots", "--out"])
+            .arg(&out));
+        assert_eq!(code, 3, "{e}");
+        let m = metrics(&out.join("protocol"));
+        assert_eq!(m["complete"], false, "{m}");
+        assert_eq!(m["sumo_version"], Value::Null, "{m}");
+        assert_eq!(m["backend_facts"], Value::Null, "{m}");
+        assert_eq!(m["certified"], Value::Null, "{m}");
+        assert!(m.get("gap_certificate").is_none_or(Value::is_null), "{m}");
+        assert_eq!(m["sync"]["final_spread_mps"], Value::Null, "{m}");
+        assert_ne!(m["sync"]["verdict"], "synchronized", "{m}");
+    }
+
+    /// A driver's speedFactor and speedDev were written beside the vType's defaults, and SUMO
+    /// refused the duplicate attribute; now the run completes, its speeds within the
+    /// spread of speed factors it asked for.
+    #[test]
+    fn a_drivers_speed_factor_and_deviation_reach_sumo() {
+        let dir = tmpdir("speed-dev");
+        let sc = sugiyama(&dir, "ring.json", |s| s["horizon_s"] = json!(10));
+        let out = dir.join("cmp");
+        let (code, o, e) = run(bin()
+            .arg("compare")
+            .arg(&sc)
+            .args([
+                "--baselines",
+                "idm:speedFactor=1.1:speedDev=0.1",
+                "--no-plots",
+                "--out",
+            ])
+            .arg(&out));
+        assert!(code == 0 || code == 1, "{o}{e}");
+        let doc: Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("compare.json")).unwrap())
+                .unwrap();
+        let folder = doc["folders"].as_object().unwrap().values().next().unwrap();
+        let m = metrics(&out.join(folder.as_str().unwrap()));
+        assert_eq!(m["complete"], true, "{m}");
+    }
 
     /// The driver strings the guide's drivers chapter spells out (`MODEL:name=value:...`).
     fn guide_drivers() -> Vec<String> {

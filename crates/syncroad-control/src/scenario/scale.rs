@@ -41,7 +41,13 @@ impl Scenario {
             let exact = a * delay;
             let steps = (exact / self.step_s).round();
             s.delay_steps[i] = steps as usize;
-            s.delay_s[i] = steps * self.step_s;
+            // A delay that lands on its own grid point keeps its value (6·0.1 is not 0.6):
+            // scales that round to the scenario's delays give the scenario itself.
+            s.delay_s[i] = if s.delay_steps[i] == m.delay_steps[i] {
+                m.delay_s[i]
+            } else {
+                steps * self.step_s
+            };
             worst = worst.max((steps * self.step_s - exact).abs());
         }
         // The scaled delays get their buffers like the scenario's own: the same limit.

@@ -7,6 +7,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::PathBuf;
 use std::sync::Arc;
 
+use sha2::{Digest, Sha256};
 use syncroad_control::scenario::Backend;
 use syncroad_sumo::{load_road, MeasureOptions, Road, RunOptions, WorkerCommand};
 
@@ -21,10 +22,23 @@ impl Sweep {
     pub(super) fn check_points(&self) -> anyhow::Result<BTreeSet<PathBuf>> {
         let mut roads: BTreeMap<PathBuf, Arc<Road>> = BTreeMap::new();
         let mut seen = BTreeSet::new();
+        // Each point's scenario (a hash of all it holds) with its run and seed: two points
+        // alike are one run under two labels (scale.delay values that round to the same
+        // delays on the step grid, …).
+        let mut runs_alike: BTreeMap<([u8; 32], usize, u64), String> = BTreeMap::new();
         // The worker is never started: the options only carry the drivers to check.
         let worker = WorkerCommand::binary("syncroad");
         for p in self.points() {
             let sc = self.scenario(&p)?;
+            let print: [u8; 32] = Sha256::digest(format!("{sc:?}").as_bytes()).into();
+            let alike = runs_alike.insert((print, p.run, p.seed), self.describe(&p));
+            if let (Some(first), false) = (alike, self.file.allow_alike_points) {
+                return Err(InputError::new(format!(
+                    "{first} and {} run the same scenario (their axis values give identical runs, e.g. delays that round to the same steps of step_s), so one run would stand in the table twice under two labels; give one of the values, a finer step_s, or \"allow_alike_points\": true",
+                    self.describe(&p)
+                ))
+                .into());
+            }
             let here = |e: anyhow::Error| e.context(self.describe(&p));
             if seen.insert((p.at.clone(), p.seed)) {
                 config::warmup_s_as("warmup_s", self.file.warmup_s, &sc).map_err(here)?;

@@ -90,6 +90,11 @@ pub struct SpecFile {
     /// Warm-up excluded from congestion metrics [s] (default: a quarter of the horizon).
     #[serde(default)]
     pub warmup_s: Option<f64>,
+    /// Run points whose scenarios come out identical (`scale.delay` values that round to the
+    /// same delays on the step grid) under each label instead of refusing the spec; `map`
+    /// sets it, its grid records each cell's rounding.
+    #[serde(default)]
+    pub allow_alike_points: bool,
 }
 
 /// A name or a list of names.
@@ -343,8 +348,19 @@ fn runs_of(file: &SpecFile, base: &Scenario, backend: Backend) -> anyhow::Result
     });
     for name in &names {
         let spec = RunSpec::parse("runs", name, n)?;
-        if runs.iter().any(|r: &RunChoice| r.spec.name == spec.name) {
-            return Err(bad(format!("runs: {} is listed twice", spec.name)).into());
+        if let Some(r) = runs
+            .iter()
+            .find(|r: &&RunChoice| r.spec.name == spec.name || r.spec.same_run(&spec))
+        {
+            return Err(bad(if r.spec.name == spec.name {
+                format!("runs: {} is listed twice", spec.name)
+            } else {
+                format!(
+                    "runs: {} and {} are the same run (the same drivers, however spelt); list it once",
+                    r.spec.name, spec.name
+                )
+            })
+            .into());
         }
         runs.push(RunChoice {
             penetration: spec.penetration(base),

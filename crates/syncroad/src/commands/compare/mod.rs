@@ -192,6 +192,12 @@ pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
     let road = load_road(sc).map_err(before)?;
     syncroad_sumo::layout_for(sc, &road).map_err(before)?;
     for (i, r) in runs.iter().enumerate() {
+        if let Some(o) = runs[..i].iter().find(|o| o.same_run(r)) {
+            return Err(bad(format!(
+                "--baselines: {} and {} are the same run (the same drivers, however spelt); a comparison runs each once — drop one",
+                o.name, r.name
+            )));
+        }
         if let Some(o) = runs[..i].iter().find(|o| o.folder() == r.folder()) {
             return Err(bad(format!(
                 "--baselines: runs {} and {} would write the same folder {}; name one of them otherwise",

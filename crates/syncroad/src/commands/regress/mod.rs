@@ -484,7 +484,7 @@ fn check_report_paths(
         crate::output::check_file_target(flag, p)?;
     }
     if let (Some(j), Some(m)) = (&reports.junit, &reports.markdown) {
-        if j == m || same_file::is_same_file(j, m).unwrap_or(false) {
+        if j == m || crate::output::same_file(j, m) {
             return Err(InputError::new(format!(
                 "--junit and --markdown are the same file ({}); give each report its own path",
                 j.display()
