@@ -98,8 +98,20 @@ impl LeaderProfile {
             }
             Ok(())
         };
+        // A speed: ≥ 0 and at most MAX_SPEED_MPS.
+        let speed = |name: &str, x: f64| -> Result<(), ScenarioError> {
+            nonneg(name, x)?;
+            if x > super::MAX_SPEED_MPS {
+                return Err(invalid(
+                    format!("{f}.{name}"),
+                    x,
+                    format!("must be at most {} m/s", super::MAX_SPEED_MPS),
+                ));
+            }
+            Ok(())
+        };
         match self {
-            LeaderProfile::Constant { speed_mps } => nonneg("speed_mps", *speed_mps),
+            LeaderProfile::Constant { speed_mps } => speed("speed_mps", *speed_mps),
             LeaderProfile::BrakeAndRecover {
                 speed_mps,
                 start_s,
@@ -108,9 +120,9 @@ impl LeaderProfile {
                 hold_s,
                 accel_mps2,
             } => {
-                nonneg("speed_mps", *speed_mps)?;
+                speed("speed_mps", *speed_mps)?;
                 nonneg("start_s", *start_s)?;
-                nonneg("low_mps", *low_mps)?;
+                speed("low_mps", *low_mps)?;
                 nonneg("hold_s", *hold_s)?;
                 for (name, x) in [("decel_mps2", *decel_mps2), ("accel_mps2", *accel_mps2)] {
                     if !x.is_finite() || x <= 0.0 {
@@ -140,7 +152,7 @@ impl LeaderProfile {
                 }
                 for (k, p) in points.iter().enumerate() {
                     nonneg(&format!("points[{k}][0]"), p[0])?;
-                    nonneg(&format!("points[{k}][1]"), p[1])?;
+                    speed(&format!("points[{k}][1]"), p[1])?;
                     if k > 0 && p[0] <= points[k - 1][0] {
                         return Err(invalid(
                             format!("{f}.points[{k}][0]"),

@@ -46,6 +46,11 @@ pub const MAX_STEPS: usize = 10_000_000;
 /// 128 MiB).
 pub const MAX_DELAY_BUFFER: usize = 1 << 24;
 
+/// The largest speed a scenario may name [m/s] (initial speeds, leader speeds): 3600 km/h,
+/// far above any road vehicle, and low enough that positions over the longest run keep
+/// millimetre resolution in f64.
+pub const MAX_SPEED_MPS: f64 = 1000.0;
+
 /// Errors raised while reading or validating a scenario.
 #[derive(Debug, thiserror::Error)]
 pub enum ScenarioError {

@@ -198,11 +198,13 @@ impl ScenarioFile {
                 let leader = match leader {
                     None => None,
                     Some(l) => {
-                        if !(l.speed_mps.is_finite() && l.speed_mps >= 0.0) {
+                        if !(l.speed_mps.is_finite()
+                            && (0.0..=super::MAX_SPEED_MPS).contains(&l.speed_mps))
+                        {
                             return Err(invalid(
                                 "model.leader.speed_mps",
                                 l.speed_mps,
-                                "must be a finite number ≥ 0",
+                                format!("must be a finite number in [0, {}] m/s", super::MAX_SPEED_MPS),
                             ));
                         }
                         let b = l.pinning.resolve_nonneg("model.leader.pinning", n)?;
@@ -275,6 +277,26 @@ impl ScenarioFile {
         )?
         .unwrap_or(PerVehicle::Uniform(DEFAULT_SPEED_MPS))
         .resolve_nonneg("initial.speed_mps", n)?;
+        if let Some(i) = speeds.iter().position(|&v| v > super::MAX_SPEED_MPS) {
+            return Err(invalid(
+                format!("initial.speed_mps[{i}]"),
+                speeds[i],
+                format!("must be at most {} m/s", super::MAX_SPEED_MPS),
+            ));
+        }
+        // The perturbation is uniform in ±amplitude around each speed: an amplitude above the
+        // slowest speed would draw negative speeds, clamped to 0 — another distribution than
+        // the one asked for.
+        let slowest = speeds.iter().copied().fold(f64::INFINITY, f64::min);
+        if pert.speed_mps > 0.0 && pert.speed_mps > slowest {
+            return Err(invalid(
+                "initial.perturbation.speed_mps",
+                pert.speed_mps,
+                format!(
+                    "must not exceed the slowest initial speed ({slowest} m/s): a larger amplitude draws negative speeds"
+                ),
+            ));
+        }
         for v in speeds.iter_mut() {
             *v = (*v + rng.symmetric(pert.speed_mps)).max(0.0);
         }

@@ -171,6 +171,16 @@ type MixedRuns = (Vec<RunSpec>, Vec<(String, usize)>);
 pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
     let bad = |m: String| anyhow::Error::new(InputError::new(m));
     let mut runs = baseline_runs(sc, a)?;
+    // Two spellings of one driver among the named runs are one run twice. (The mixed series
+    // may repeat a named run on purpose: mixed-0, all humans, is its reference.)
+    for (i, r) in runs.iter().enumerate() {
+        if let Some(o) = runs[..i].iter().find(|o| o.same_run(r)) {
+            return Err(bad(format!(
+                "--baselines: {} and {} are the same run (the same drivers, however spelt); a comparison runs each once — drop one",
+                o.name, r.name
+            )));
+        }
+    }
     let (mixed, mixed_runs) = mixed_runs(sc, a)?;
     runs.extend(mixed);
     if runs.is_empty() {
@@ -192,12 +202,6 @@ pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
     let road = load_road(sc).map_err(before)?;
     syncroad_sumo::layout_for(sc, &road).map_err(before)?;
     for (i, r) in runs.iter().enumerate() {
-        if let Some(o) = runs[..i].iter().find(|o| o.same_run(r)) {
-            return Err(bad(format!(
-                "--baselines: {} and {} are the same run (the same drivers, however spelt); a comparison runs each once — drop one",
-                o.name, r.name
-            )));
-        }
         if let Some(o) = runs[..i].iter().find(|o| o.folder() == r.folder()) {
             return Err(bad(format!(
                 "--baselines: runs {} and {} would write the same folder {}; name one of them otherwise",
