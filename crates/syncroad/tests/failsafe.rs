@@ -83,8 +83,18 @@ fn a_full_disk_loses_no_verdict_and_leaves_no_cut_off_file_nor_an_earlier_record
         err.contains("cannot write") && err.contains("trajectories.csv"),
         "{err}"
     );
-    // No cut-off CSV, no temporary file, and the earlier run's record is gone.
-    assert_eq!(listing(&dir), Vec::<String>::new());
+    // No cut-off CSV, no temporary file, and the earlier run's record is gone; this run's
+    // record is kept whole under a new name that the error gives.
+    let left = listing(&dir);
+    assert_eq!(left.len(), 1, "{left:?}");
+    assert!(
+        left[0].starts_with("metrics.unsaved-") && left[0].ends_with(".json"),
+        "{left:?}"
+    );
+    assert!(err.contains(&left[0]), "{err}");
+    let kept: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join(&left[0])).unwrap()).unwrap();
+    assert_eq!(kept["sync"]["verdict"], "synchronized", "{kept}");
 }
 
 #[test]

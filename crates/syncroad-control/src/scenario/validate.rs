@@ -204,7 +204,10 @@ impl ScenarioFile {
                             return Err(invalid(
                                 "model.leader.speed_mps",
                                 l.speed_mps,
-                                format!("must be a finite number in [0, {}] m/s", super::MAX_SPEED_MPS),
+                                format!(
+                                    "must be a finite number in [0, {}] m/s",
+                                    super::MAX_SPEED_MPS
+                                ),
                             ));
                         }
                         let b = l.pinning.resolve_nonneg("model.leader.pinning", n)?;
