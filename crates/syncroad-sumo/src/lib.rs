@@ -56,7 +56,7 @@ pub use python::SumoPackages;
 pub use result_file::{write_result, write_result_via_path, ResultFileError};
 pub use run::{
     check_run, check_sumo_numbers, layout_for, load_road, loop_position, net_path, run_scenario,
-    MeasureOptions, PrepareError, Prepared, RunOptions, SumoRun,
+    MeasureOptions, PrepareError, Prepared, RunOptions, SumoRun, WORK_FILES,
 };
 pub use signals::{
     clear_interrupt, host_delivers_interrupts, interrupt, received as interrupt_signal,

@@ -29,6 +29,18 @@ pub const ODOMETER_EVERY: usize = 10;
 
 pub use crate::prepare_error::PrepareError;
 
+/// The files a SUMO run writes into its work folder (`RunOptions::work_dir`): the vehicles'
+/// routes, SUMO's log, the induction loop and its output, trip info and SSM output. None of
+/// them may be a file the run reads (see the CLI's input check).
+pub const WORK_FILES: [&str; 6] = [
+    "routes.rou.xml",
+    "sumo.log",
+    "detectors.add.xml",
+    "e1.xml",
+    "tripinfo.xml",
+    "ssm.xml",
+];
+
 /// Options of a SUMO run.
 #[derive(Clone)]
 pub struct RunOptions {

@@ -21,6 +21,8 @@ use crate::error::InputError;
 pub const METRICS_FILE: &str = "metrics.json";
 /// The samples of a run folder.
 pub const TRAJECTORY_FILE: &str = "trajectories.csv";
+/// A SUMO run's work folder inside its run folder (SUMO's inputs and log).
+pub const SUMO_WORK_DIR: &str = "sumo";
 
 /// Checks the output folder `dir` (given as `flag`) before any work starts, takes its lock
 /// ([`crate::lock::hold`]: a second syncroad writing the same folder is refused, naming the
@@ -51,6 +53,10 @@ pub fn prepare_dir(
     })?;
     for name in files {
         refuse_input(flag, &dir.join(name), inputs)?;
+    }
+    // What a SUMO run writes into its work folder `DIR/sumo` (its routes, log, detectors).
+    for name in syncroad_sumo::WORK_FILES {
+        refuse_input(flag, &dir.join(SUMO_WORK_DIR).join(name), inputs)?;
     }
     let held = crate::lock::hold(flag, dir)?;
     for name in files {

@@ -720,6 +720,21 @@ mod overwritten {
             std::fs::read_to_string(out.join("metrics.json")).unwrap(),
             scenario
         );
+        // A SUMO run's own routes file in its work folder `OUT/sumo` that is the user's
+        // sumo.routes.
+        let out = dir.join("sumo-out");
+        std::fs::create_dir_all(out.join("sumo")).unwrap();
+        std::fs::write(out.join("sumo/routes.rou.xml"), "<routes/>\n").unwrap();
+        let sc = sugiyama(&dir, "with-routes.json", |s| {
+            s["sumo"]["routes"] = json!(["sumo-out/sumo/routes.rou.xml"]);
+        });
+        let (code, _, e) = run(bin().arg("run").arg(&sc).arg("--out").arg(&out));
+        assert_eq!(code, 2, "{e}");
+        assert!(e.contains("is the scenario's sumo.routes[0]"), "{e}");
+        assert_eq!(
+            std::fs::read_to_string(out.join("sumo/routes.rou.xml")).unwrap(),
+            "<routes/>\n"
+        );
     }
 
     /// The folder lock is never followed through a link (it locked and overwrote the

@@ -224,7 +224,7 @@ fn run_sumo(
     let road = load_road(sc).map_err(|e| InputError::caused("before starting SUMO", e))?;
     let _lock = prepare_out(&cfg.out, path, sc)?;
     let worker = WorkerCommand::for_process().context("cannot locate the syncroad executable")?;
-    let mut opts = RunOptions::new(cfg.out.join("sumo"), worker);
+    let mut opts = RunOptions::new(cfg.out.join(output::SUMO_WORK_DIR), worker);
     opts.record_every = cfg.record_every;
     opts.ballistic = !args.euler;
     opts.drivers = drivers;

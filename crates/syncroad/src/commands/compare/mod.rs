@@ -260,7 +260,7 @@ fn run_one(
     worker: &WorkerCommand,
     interrupt: &Arc<AtomicBool>,
 ) -> anyhow::Result<RunResult> {
-    let mut opts = RunOptions::new(dir.join("sumo"), worker.clone());
+    let mut opts = RunOptions::new(dir.join(output::SUMO_WORK_DIR), worker.clone());
     opts.record_every = plan.record_every;
     opts.timeout = plan.timeout;
     opts.interrupt = Some(interrupt.clone());
