@@ -737,6 +737,49 @@ mod overwritten {
         );
     }
 
+    /// An output folder that cannot exist (a 300-byte name, a file on the way, a device) is
+    /// bad input, exit 2 with the reason, for a run and a sweep alike (it was exit 3).
+    #[test]
+    fn an_impossible_output_folder_is_bad_input() {
+        let dir = tmpdir("impossible-out");
+        let scenario = repo().join("scenarios/ring-theorem1.json");
+        let long = dir.join("x".repeat(300));
+        let (code, _, e) = run(bin().arg("simulate").arg(&scenario).arg("--out").arg(&long));
+        assert_eq!(code, 2, "{e}");
+        assert!(e.contains("longer than the file system allows"), "{e}");
+        std::fs::write(dir.join("file"), "").unwrap();
+        let (code, _, e) = run(bin()
+            .arg("simulate")
+            .arg(&scenario)
+            .arg("--out")
+            .arg(dir.join("file/run")));
+        assert_eq!(code, 2, "{e}");
+        assert!(e.contains("a part of it is a file"), "{e}");
+        let base = sweeps::native_ring(&dir);
+        let spec = sweeps::spec(
+            &dir,
+            "s.json",
+            json!({"base": base, "backend": "native",
+                   "axes": [{"field": "scale.gain", "values": [1.0]}]}),
+        );
+        let (code, _, e) = run(bin().arg("sweep").arg(&spec).arg("--out").arg(&long));
+        assert_eq!(code, 2, "{e}");
+        let (code, _, e) = run(bin()
+            .arg("sweep")
+            .arg(&spec)
+            .arg("--out")
+            .arg(dir.join("shard"))
+            .arg("--no-plots"));
+        assert_eq!(code, 0, "{e}");
+        let (code, _, e) = run(bin()
+            .args(["sweep", "collect"])
+            .arg(&spec)
+            .arg(dir.join("shard"))
+            .args(["--out", "/dev/full"]));
+        assert_eq!(code, 2, "{e}");
+        assert!(e.contains("not a folder"), "{e}");
+    }
+
     /// The folder lock is never followed through a link (it locked and overwrote the
     /// target) nor opened on a FIFO (exit 3, or a hang): both are refused with exit 2.
     #[test]
