@@ -238,12 +238,12 @@ pub struct CompareArgs {
     #[arg(long)]
     pub mixed: Option<String>,
     /// The human drivers of --mixed runs (any --baselines driver, e.g. human).
-    #[arg(long, default_value = "krauss-0.9")]
+    #[arg(long, default_value = crate::runs::DEFAULT_MIXED_DRIVER)]
     pub mixed_driver: String,
     /// What drives the K automated vehicles of --mixed runs, comma-separated: law (the
     /// scenario's), follower-stopper-U, pi-saturation. One run per controller and K > 0, named
     /// mixed-K for the law and CONTROLLER-mixed-K otherwise; mixed-0 runs once.
-    #[arg(long, default_value = "law")]
+    #[arg(long, default_value = crate::runs::DEFAULT_MIXED_CONTROLLER)]
     pub mixed_controller: String,
     /// Also measure safety margins in every run: time headway (min, mean), minimum gap, SUMO's
     /// surrogate safety measures (TTC, DRAC conflicts from its SSM device) and whether the

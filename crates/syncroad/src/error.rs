@@ -74,6 +74,33 @@ pub fn describe(err: &anyhow::Error) -> String {
     line
 }
 
+/// Why an output folder cannot be created: a path that names no possible folder (a name over
+/// the file system's limit, a file on the way, no permission, a read-only file system) is the
+/// user's to change (exit 2); anything else is a failure of the run.
+pub(crate) fn folder_error(flag: &str, dir: &std::path::Path, e: std::io::Error) -> anyhow::Error {
+    let why = match e.raw_os_error() {
+        Some(libc::ENAMETOOLONG) => {
+            Some("a name in it is longer than the file system allows (255 bytes per name)")
+        }
+        Some(libc::ENOTDIR) => Some("a part of it is a file, not a folder"),
+        Some(libc::EEXIST) => Some("it is an existing file (or device), not a folder"),
+        Some(libc::EACCES) | Some(libc::EPERM) => Some("permission denied"),
+        Some(libc::EROFS) => Some("the file system is read-only"),
+        _ => None,
+    };
+    match why {
+        Some(why) => InputError::new(format!(
+            "{flag} = {}: cannot create the output folder: {why}; choose another {flag}",
+            dir.display()
+        ))
+        .into(),
+        None => anyhow::Error::new(e).context(format!(
+            "{flag} = {}: cannot create the output folder",
+            dir.display()
+        )),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

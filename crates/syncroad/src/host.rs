@@ -8,23 +8,7 @@ use clap::Parser;
 
 use crate::{cli, commands, config, error, exit_codes, stdout};
 
-/// The program that runs this CLI when it is not the running executable (see [`program`]).
-static PROGRAM: std::sync::OnceLock<std::path::PathBuf> = std::sync::OnceLock::new();
-
-/// Sets the program that later runs of this CLI start (the job scripts of
-/// `sweep --emit-slurm`): a host whose executable is not `syncroad` (the Python package: its
-/// console script). Once; a second call changes nothing.
-pub fn set_program(path: std::path::PathBuf) {
-    let _ = PROGRAM.set(path);
-}
-
-/// The program that runs this CLI: the one [`set_program`] gave, else the running executable.
-pub fn program() -> std::io::Result<std::path::PathBuf> {
-    match PROGRAM.get() {
-        Some(p) => Ok(p.clone()),
-        None => std::env::current_exe(),
-    }
-}
+pub use crate::config::{program, set_program};
 
 /// How a command ended.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -25,7 +25,7 @@ pub struct FolderLock {
 /// Takes the lock on `dir` (created if missing), given as `flag` for errors; refuses with the
 /// holder's pid and command when another process holds it.
 pub fn hold(flag: &str, dir: &Path) -> anyhow::Result<FolderLock> {
-    std::fs::create_dir_all(dir).map_err(|e| crate::output::folder_error(flag, dir, e))?;
+    std::fs::create_dir_all(dir).map_err(|e| crate::error::folder_error(flag, dir, e))?;
     let path = dir.join(LOCK_FILE);
     // The lock is a regular file of the folder's own: a link (which would lock, and write our
     // pid into, whatever it points to), a FIFO or a device there is refused, not followed.

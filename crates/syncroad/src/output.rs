@@ -45,7 +45,7 @@ pub fn prepare_dir(
         ))
         .into());
     }
-    std::fs::create_dir_all(dir).map_err(|e| folder_error(flag, dir, e))?;
+    std::fs::create_dir_all(dir).map_err(|e| crate::error::folder_error(flag, dir, e))?;
     for name in files {
         refuse_input(flag, &dir.join(name), inputs)?;
     }
@@ -178,33 +178,6 @@ pub fn check_file_target(flag: &str, path: &Path) -> Result<(), InputError> {
         )));
     }
     Ok(())
-}
-
-/// Why an output folder cannot be created: a path that names no possible folder (a name over
-/// the file system's limit, a file on the way, no permission, a read-only file system) is the
-/// user's to change (exit 2); anything else is a failure of the run.
-pub(crate) fn folder_error(flag: &str, dir: &Path, e: std::io::Error) -> anyhow::Error {
-    let why = match e.raw_os_error() {
-        Some(libc::ENAMETOOLONG) => {
-            Some("a name in it is longer than the file system allows (255 bytes per name)")
-        }
-        Some(libc::ENOTDIR) => Some("a part of it is a file, not a folder"),
-        Some(libc::EEXIST) => Some("it is an existing file (or device), not a folder"),
-        Some(libc::EACCES) | Some(libc::EPERM) => Some("permission denied"),
-        Some(libc::EROFS) => Some("the file system is read-only"),
-        _ => None,
-    };
-    match why {
-        Some(why) => InputError::new(format!(
-            "{flag} = {}: cannot create the output folder: {why}; choose another {flag}",
-            dir.display()
-        ))
-        .into(),
-        None => anyhow::Error::new(e).context(format!(
-            "{flag} = {}: cannot create the output folder",
-            dir.display()
-        )),
-    }
 }
 
 fn temp_name(path: &Path) -> PathBuf {

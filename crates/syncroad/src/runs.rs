@@ -9,6 +9,12 @@ use crate::error::InputError;
 /// The longest run folder name [`RunSpec::folder`] gives (bytes).
 pub const FOLDER_MAX: usize = 96;
 
+/// The human driver of mixed runs unless one is named (`compare --mixed-driver`, a sweep's
+/// `mixed_driver`).
+pub const DEFAULT_MIXED_DRIVER: &str = "krauss-0.9";
+/// The automated vehicles of mixed runs unless named (`compare --mixed-controller`).
+pub const DEFAULT_MIXED_CONTROLLER: &str = "law";
+
 /// One run: a name, who drives each scenario vehicle, and a damper in place of the law.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunSpec {

@@ -158,7 +158,7 @@ pub fn emit(
     refuse_foreign_scripts(dir)?;
     std::fs::create_dir_all(dir.join("logs"))
         .with_context(|| format!("cannot create {}", dir.join("logs").display()))?;
-    let exe = crate::host::program().context("cannot locate the syncroad executable")?;
+    let exe = crate::config::program().context("cannot locate the syncroad executable")?;
     let (exe, spec, out, dir) = (abs(&exe)?, abs(spec)?, abs(out)?, abs(dir)?);
     let s = |p: &Path| sh(&p.display().to_string());
     let line = |p: &Path| sbatch_value("the script folder", &p.display().to_string());

@@ -368,7 +368,10 @@ fn runs_of(file: &SpecFile, base: &Scenario, backend: Backend) -> anyhow::Result
         });
     }
     if !file.penetrations.is_empty() {
-        let human_name = file.mixed_driver.as_deref().unwrap_or("krauss-0.9");
+        let human_name = file
+            .mixed_driver
+            .as_deref()
+            .unwrap_or(crate::runs::DEFAULT_MIXED_DRIVER);
         let human = SumoDriver::parse("mixed_driver", human_name)
             .map_err(|e| InputError::caused("mixed_driver", e))?;
         let names = match &file.mixed_controller {

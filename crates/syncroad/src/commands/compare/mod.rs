@@ -64,8 +64,74 @@ pub struct Plan {
     pub road: Road,
 }
 
+/// What a comparison runs and how, whoever asks: `syncroad compare`'s flags, or a regress
+/// baseline's `runs` and `mixed`. [`plan`] checks it against the scenario.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Request {
+    /// Run names, comma-separated (`None`: the default set for the road).
+    pub baselines: Option<String>,
+    /// Automated-vehicle counts of the mixed runs, comma-separated.
+    pub mixed: Option<String>,
+    /// The mixed runs' human driver.
+    pub mixed_driver: String,
+    /// The mixed runs' automated controllers, comma-separated.
+    pub mixed_controller: String,
+    /// Measure SUMO's surrogate safety measures.
+    pub ssm: bool,
+    /// Parallel runs (`None`: every core).
+    pub jobs: Option<usize>,
+    /// Warm-up excluded from the congestion metrics [s].
+    pub warmup_s: Option<f64>,
+    /// Read fuel and CO2 every this many steps.
+    pub emission_every: usize,
+    /// Record every this many steps.
+    pub record_every: Option<usize>,
+    /// Per-run wall-clock limit [s].
+    pub timeout_s: Option<f64>,
+    /// Draw the plots.
+    pub plots: bool,
+}
+
+impl Request {
+    /// `baselines` and `mixed` with every other choice at `syncroad compare`'s defaults, and
+    /// no plots (a regression check).
+    pub fn runs(baselines: Option<String>, mixed: Option<String>) -> Self {
+        Self {
+            baselines,
+            mixed,
+            mixed_driver: crate::runs::DEFAULT_MIXED_DRIVER.into(),
+            mixed_controller: crate::runs::DEFAULT_MIXED_CONTROLLER.into(),
+            ssm: false,
+            jobs: None,
+            warmup_s: None,
+            emission_every: 1,
+            record_every: None,
+            timeout_s: None,
+            plots: false,
+        }
+    }
+}
+
+impl From<&CompareArgs> for Request {
+    fn from(a: &CompareArgs) -> Self {
+        Self {
+            baselines: a.baselines.clone(),
+            mixed: a.mixed.clone(),
+            mixed_driver: a.mixed_driver.clone(),
+            mixed_controller: a.mixed_controller.clone(),
+            ssm: a.ssm,
+            jobs: a.jobs,
+            warmup_s: a.warmup_s,
+            emission_every: a.emission_every,
+            record_every: a.record_every,
+            timeout_s: a.timeout_s,
+            plots: !a.no_plots,
+        }
+    }
+}
+
 /// The `--baselines` runs: the law, dampers (on a ring) and SUMO drivers, each once.
-fn baseline_runs(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Vec<RunSpec>> {
+fn baseline_runs(sc: &Scenario, a: &Request) -> anyhow::Result<Vec<RunSpec>> {
     let bad = |m: String| anyhow::Error::new(InputError::new(m));
     let n = sc.vehicles();
     let default = if sc.is_ring() {
@@ -96,7 +162,7 @@ fn baseline_runs(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Vec<RunSpec>>
 
 /// The `--mixed` runs (K automated vehicles of each `--mixed-controller` among
 /// `--mixed-driver` humans; the all-human ring once) with their names and counts.
-fn mixed_runs(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<MixedRuns> {
+fn mixed_runs(sc: &Scenario, a: &Request) -> anyhow::Result<MixedRuns> {
     let bad = |m: String| anyhow::Error::new(InputError::new(m));
     let n = sc.vehicles();
     let mut runs: Vec<RunSpec> = Vec::new();
@@ -168,7 +234,7 @@ fn mixed_runs(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<MixedRuns> {
 type MixedRuns = (Vec<RunSpec>, Vec<(String, usize)>);
 
 /// Parses and checks every option before anything runs.
-pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
+pub fn plan(sc: &Scenario, a: &Request) -> anyhow::Result<Plan> {
     let bad = |m: String| anyhow::Error::new(InputError::new(m));
     let mut runs = baseline_runs(sc, a)?;
     // Two spellings of one driver among the named runs are one run twice. (The mixed series
@@ -218,7 +284,7 @@ pub fn plan(sc: &Scenario, a: &CompareArgs) -> anyhow::Result<Plan> {
         emission_every: a.emission_every,
         record_every: config::record_every(a.record_every, sc)?,
         timeout: config::timeout(a.timeout_s)?,
-        plots: !a.no_plots,
+        plots: a.plots,
         mixed_runs,
         ssm: a.ssm,
         road,
@@ -449,7 +515,7 @@ pub fn compare_into(
 /// `syncroad compare`.
 pub fn run(a: &CompareArgs) -> anyhow::Result<Status> {
     let sc = load_scenario(&a.scenario)?;
-    let plan = plan(&sc, a)?;
+    let plan = plan(&sc, &Request::from(a))?;
     let interrupt = interrupt_flag()?;
     let (doc, results) = compare_into(
         &sc,

@@ -361,26 +361,13 @@ pub fn fresh_metrics(base: &Baseline, baseline_path: &Path) -> anyhow::Result<Va
         Kind::Sumo => Some("protocol".to_string()),
         _ => base.runs.clone(),
     };
-    let args = crate::cli::CompareArgs {
-        scenario: scenario.clone(),
-        out: std::env::temp_dir().join(format!(
-            "syncroad-regress-{}-{}",
-            std::process::id(),
-            sc.name()
-        )),
-        baselines: runs,
-        mixed: base.mixed.clone(),
-        mixed_driver: "krauss-0.9".into(),
-        mixed_controller: "law".into(),
-        ssm: false,
-        jobs: None,
-        warmup_s: None,
-        emission_every: 1,
-        record_every: None,
-        timeout_s: None,
-        no_plots: true,
-    };
-    let plan = super::compare::plan(&sc, &args).map_err(|e| {
+    let out = std::env::temp_dir().join(format!(
+        "syncroad-regress-{}-{}",
+        std::process::id(),
+        sc.name()
+    ));
+    let request = super::compare::Request::runs(runs, base.mixed.clone());
+    let plan = super::compare::plan(&sc, &request).map_err(|e| {
         e.context(InputError::new(format!(
             "baseline {}",
             baseline_path.display()
@@ -388,8 +375,8 @@ pub fn fresh_metrics(base: &Baseline, baseline_path: &Path) -> anyhow::Result<Va
     })?;
     let flag = syncroad_sumo::interrupt_flag()?;
     let result =
-        super::compare::compare_into(&sc, &plan, &args.out, &crate::output::Inputs::none(), flag);
-    let _ = std::fs::remove_dir_all(&args.out);
+        super::compare::compare_into(&sc, &plan, &out, &crate::output::Inputs::none(), flag);
+    let _ = std::fs::remove_dir_all(&out);
     Ok(result?.0)
 }
 
