@@ -1,11 +1,17 @@
 """TraCI-socket reference loop for syncroad's SUMO benchmark.
 
 Drives a `sumo` subprocess through the pure-Python traci client doing, per step, the same
-reads and writes as syncroad's in-process loop: one subscription read of speed, odometer and
-lane position for every vehicle, a predecessor-following speed law, one setSpeed per
-vehicle (speed mode 32), one simulation step. Prints one JSON line with the timing.
+reads and writes as syncroad's in-process loop: speed, odometer and lane position of every
+vehicle, a predecessor-following speed law, one setSpeed per vehicle (speed mode 32), one
+simulation step. Prints one JSON line with the timing.
 
-Usage: python traci_reference.py SUMO_BINARY NET ROUTES STEP_S SEED STEPS WARMUP_STEPS
+The reads come one of two ways (READS):
+* `subscriptions` (the default): one getAllSubscriptionResults per step for every vehicle, as
+  Flow reads its vehicles: the fair anchor;
+* `per-call`: three getter calls per vehicle and step (getSpeed, getDistance,
+  getLanePosition), one socket round trip each, as a naive TraCI loop does.
+
+Usage: python traci_reference.py SUMO_BINARY NET ROUTES STEP_S SEED STEPS WARMUP_STEPS [READS]
 """
 
 import json
@@ -18,6 +24,9 @@ import traci.constants as tc
 
 def main():
     sumo, net, routes, step_s, seed, steps, warmup = sys.argv[1:8]
+    reads = sys.argv[8] if len(sys.argv) > 8 else "subscriptions"
+    if reads not in ("subscriptions", "per-call"):
+        sys.exit(f"READS = {reads!r}: expected subscriptions or per-call")
     step_s, steps, warmup = float(step_s), int(steps), int(warmup)
     traci.start([
         sumo, "--net-file", net, "--route-files", routes, "--step-length", repr(step_s),
@@ -28,7 +37,8 @@ def main():
     traci.simulationStep()  # insertion
     ids = sorted(traci.vehicle.getIDList(), key=lambda s: (s[0] != "l", int(s[1:]) if s[1:].isdigit() else 0))
     for v in ids:
-        traci.vehicle.subscribe(v, [tc.VAR_SPEED, tc.VAR_DISTANCE, tc.VAR_LANEPOSITION])
+        if reads == "subscriptions":
+            traci.vehicle.subscribe(v, [tc.VAR_SPEED, tc.VAR_DISTANCE, tc.VAR_LANEPOSITION])
         traci.vehicle.setSpeedMode(v, 32)
         traci.vehicle.setLaneChangeMode(v, 0)
     n = len(ids)
@@ -37,8 +47,15 @@ def main():
     for k in range(steps):
         if k == warmup:
             start = time.perf_counter()
-        res = traci.vehicle.getAllSubscriptionResults()
-        speeds = [res[v][tc.VAR_SPEED] for v in ids]
+        if reads == "subscriptions":
+            res = traci.vehicle.getAllSubscriptionResults()
+            speeds = [res[v][tc.VAR_SPEED] for v in ids]
+        else:
+            speeds = []
+            for v in ids:
+                speeds.append(traci.vehicle.getSpeed(v))
+                traci.vehicle.getDistance(v)
+                traci.vehicle.getLanePosition(v)
         for i, v in enumerate(ids):
             nxt = speeds[i] + step_s * gain * (speeds[i - 1] - speeds[i])
             traci.vehicle.setSpeed(v, max(nxt, 0.0))
@@ -46,7 +63,7 @@ def main():
     wall = time.perf_counter() - start
     traci.close()
     timed = steps - warmup
-    print(json.dumps({"vehicles": n, "timed_steps": timed, "wall_s": wall,
+    print(json.dumps({"vehicles": n, "reads": reads, "timed_steps": timed, "wall_s": wall,
                       "ms_per_step": 1e3 * wall / timed}))
 
 

@@ -7,8 +7,10 @@
 //!   one `setSpeed` per vehicle, rows recorded and streamed every step, the per-vehicle calls
 //!   going straight to libsumo's C++ functions ([`crate::direct`]); and the same loop with
 //!   every per-vehicle call through the Python module;
-//! * **TraCI reference** — `python-host/traci_reference.py`: the traci socket client driving a
-//!   `sumo` subprocess with the same reads and writes.
+//! * **TraCI reference** — `python-host/traci_reference.py`, run twice: reading every vehicle
+//!   through one subscription result per step (as Flow does: the fair anchor) and with one
+//!   getter call per value (a naive loop); both ratios are printed. It is the traci socket
+//!   client driving a `sumo` subprocess with the same reads and writes.
 //!
 //! Each measurement is its own process (one SUMO per process); alone and controlled are
 //! alternated `repeats` times and the fastest of each is kept. The overhead is
@@ -80,6 +82,9 @@ pub struct BenchCase {
     pub repeats: usize,
     /// Also run the TraCI reference.
     pub traci: bool,
+    /// Also run the TraCI reference with per-call reads (slow: three round trips per vehicle
+    /// and step).
+    pub traci_per_call: bool,
 }
 
 /// Timings of one case [ms per step].
@@ -115,10 +120,15 @@ pub struct BenchResult {
     pub interleaved_overhead_pct: f64,
     /// The per-repeat values of that.
     pub interleaved_samples_pct: Vec<f64>,
-    /// TraCI reference time.
+    /// TraCI reference time, every read through one subscription result per step (as Flow
+    /// reads its vehicles).
     pub traci_ms: Option<f64>,
     /// `traci / controlled`.
     pub speedup_vs_traci: Option<f64>,
+    /// TraCI reference time with one getter call per value (three per vehicle and step).
+    pub traci_per_call_ms: Option<f64>,
+    /// `traci_per_call / controlled`.
+    pub speedup_vs_traci_per_call: Option<f64>,
 }
 
 /// All vehicles start evenly spaced at 10 m/s, so the law's commands stay at 10 m/s and the
@@ -137,6 +147,7 @@ pub fn standard_cases(nets: &Path, quick: bool) -> Vec<BenchCase> {
             warmup: 500 / s,
             repeats: if quick { 2 } else { 5 },
             traci: true,
+            traci_per_call: true,
         },
         BenchCase {
             name: "ring-20km N=2000".into(),
@@ -147,6 +158,8 @@ pub fn standard_cases(nets: &Path, quick: bool) -> Vec<BenchCase> {
             warmup: 30 / s,
             repeats: if quick { 2 } else { 3 },
             traci: true,
+            // About a minute even in the quick form: the quick form skips it here.
+            traci_per_call: !quick,
         },
     ]
 }
@@ -261,7 +274,30 @@ fn median(v: &[f64]) -> f64 {
     }
 }
 
-fn traci_reference(case: &BenchCase, routes: &Path, python_host: &Path) -> Result<f64, BenchError> {
+/// How the TraCI reference reads the vehicles (`READS` of `traci_reference.py`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum TraciReads {
+    /// One subscription read per step for every vehicle, as Flow reads them.
+    Subscriptions,
+    /// Three getter calls per vehicle and step, one socket round trip each.
+    PerCall,
+}
+
+impl TraciReads {
+    fn arg(self) -> &'static str {
+        match self {
+            TraciReads::Subscriptions => "subscriptions",
+            TraciReads::PerCall => "per-call",
+        }
+    }
+}
+
+fn traci_reference(
+    case: &BenchCase,
+    routes: &Path,
+    python_host: &Path,
+    reads: TraciReads,
+) -> Result<f64, BenchError> {
     let venv = find_venv()?;
     let py = venv.join("bin").join("python");
     let sumo_home = Command::new(&py)
@@ -281,6 +317,7 @@ fn traci_reference(case: &BenchCase, routes: &Path, python_host: &Path) -> Resul
             "1".to_string(),
             (case.steps + case.warmup).to_string(),
             case.warmup.to_string(),
+            reads.arg().to_string(),
         ])
         .output()
         .map_err(|e| BenchError::Traci(e.to_string()))?;
@@ -365,20 +402,25 @@ pub fn run_case(
     }
     let best = |v: &[f64]| v.iter().copied().fold(f64::INFINITY, f64::min);
     let (a, c, sub) = (best(&alone), best(&controlled), best(&python_getters));
-    let traci_ms = if case.traci {
+    let mut traci = |reads: TraciReads| -> Result<Option<f64>, BenchError> {
+        if !case.traci || (reads == TraciReads::PerCall && !case.traci_per_call) {
+            return Ok(None);
+        }
         let t = traci_reference(
             case,
             &work_dir.join("controlled").join("routes.rou.xml"),
             python_host,
+            reads,
         )?;
         progress(&format!(
-            "{}: TraCI reference                   {t:9.4} ms/step",
-            case.name
+            "{}: TraCI reference, {:<13}    {t:9.4} ms/step",
+            case.name,
+            reads.arg()
         ));
-        Some(t)
-    } else {
-        None
+        Ok(Some(t))
     };
+    let traci_ms = traci(TraciReads::Subscriptions)?;
+    let traci_per_call_ms = traci(TraciReads::PerCall)?;
     Ok(BenchResult {
         name: case.name.clone(),
         vehicles: case.vehicles,
@@ -396,17 +438,19 @@ pub fn run_case(
         interleaved_samples_pct: interleaved_pct,
         traci_ms,
         speedup_vs_traci: traci_ms.map(|t| t / c),
+        traci_per_call_ms,
+        speedup_vs_traci_per_call: traci_per_call_ms.map(|t| t / c),
     })
 }
 
 /// A plain-text table of results.
 pub fn format_table(results: &[BenchResult]) -> String {
     let mut s = String::from(
-        "case                   alone ms/step  +controller ms/step  overhead  in-run overhead  same-process  (Python getters: ms/step  overhead)  TraCI ms/step  vs TraCI\n",
+        "case                   alone ms/step  +controller ms/step  overhead  in-run overhead  same-process  (Python getters: ms/step  overhead)  TraCI subscr. ms/step  vs TraCI  TraCI per-call ms/step  vs per-call\n",
     );
     for r in results {
         s.push_str(&format!(
-            "{:<22} {:>13.4} {:>20.4} {:>8.1}% {:>15.1}% {:>12.1}%  {:>24.4} {:>9.1}%  {:>13} {:>9}\n",
+            "{:<22} {:>13.4} {:>20.4} {:>8.1}% {:>15.1}% {:>12.1}%  {:>24.4} {:>9.1}%  {:>21} {:>9}  {:>22} {:>11}\n",
             r.name,
             r.alone_ms,
             r.controlled_ms,
@@ -417,6 +461,12 @@ pub fn format_table(results: &[BenchResult]) -> String {
             r.python_getters_overhead_pct,
             r.traci_ms.map(|t| format!("{t:.4}")).unwrap_or_default(),
             r.speedup_vs_traci
+                .map(|x| format!("{x:.1}×"))
+                .unwrap_or_default(),
+            r.traci_per_call_ms
+                .map(|t| format!("{t:.4}"))
+                .unwrap_or_default(),
+            r.speedup_vs_traci_per_call
                 .map(|x| format!("{x:.1}×"))
                 .unwrap_or_default(),
         ));
