@@ -1056,6 +1056,19 @@ mod shell {
             assert!(e.contains("holds the control character"), "{e}");
             assert!(!dir.join("slurm/sweep.sbatch").exists());
         }
+        // A script folder with a line break: refused before any folder is made.
+        let spec = write_json(&dir.join("spec.json"), &json!({"base": "ring.json"}));
+        let scripts = dir.join("slurm\nevil");
+        let (code, o, e) = run(bin()
+            .arg("sweep")
+            .arg(&spec)
+            .arg("--out")
+            .arg(dir.join("out"))
+            .arg("--emit-slurm")
+            .arg(&scripts));
+        assert_eq!(code, 2, "{o}{e}");
+        assert!(e.contains("the script folder"), "{e}");
+        assert!(!scripts.exists());
     }
 }
 

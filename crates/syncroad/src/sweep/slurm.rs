@@ -156,12 +156,18 @@ pub fn emit(
         }
     }
     refuse_foreign_scripts(dir)?;
-    std::fs::create_dir_all(dir.join("logs"))
-        .with_context(|| format!("cannot create {}", dir.join("logs").display()))?;
+    let logs = dir.join("logs");
     let exe = crate::config::program().context("cannot locate the syncroad executable")?;
     let (exe, spec, out, dir) = (abs(&exe)?, abs(spec)?, abs(out)?, abs(dir)?);
     let s = |p: &Path| sh(&p.display().to_string());
     let line = |p: &Path| sbatch_value("the script folder", &p.display().to_string());
+    // Every path that goes into a script is checked before anything is created: a refused
+    // one leaves no folder behind.
+    line(&dir)?;
+    for p in [&exe, &spec, &out, &dir] {
+        s(p)?;
+    }
+    std::fs::create_dir_all(&logs).with_context(|| format!("cannot create {}", logs.display()))?;
     let job = format!("syncroad-{name}");
 
     let mut a = Vec::new();
