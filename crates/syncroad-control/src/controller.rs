@@ -138,9 +138,7 @@ fn law_controller(
 ) -> Result<Box<dyn SpeedController>, ControllerError> {
     let n = law.initial_speed_mps.len();
     if let Some(d) = &law.damper {
-        if leader_vehicle {
-            return Err(DamperError::NotARing.into());
-        }
+        d.spec.require_ring(!leader_vehicle, "this road")?;
         return Ok(Box::new(DamperController::new(d, law.step_s)?));
     }
     match &law.model {

@@ -74,11 +74,30 @@ pub enum DamperError {
         source: PiSaturationError,
     },
     /// The dampers follow a predecessor around a ring.
-    #[error("the wave dampers drive on a ring (each vehicle follows its predecessor); this road is straight")]
-    NotARing,
+    #[error("{damper}: the wave dampers drive on a ring (each vehicle follows its predecessor); {road} is a straight road")]
+    NotARing {
+        /// The damper.
+        damper: String,
+        /// The road: `scenario NAME`, or `this road`.
+        road: String,
+    },
 }
 
 impl DamperSpec {
+    /// The one check that a damper has a ring to drive on: every command and the SUMO run ask
+    /// it, so the refusal reads the same everywhere. `road` names the road in the message
+    /// (`scenario NAME`).
+    pub fn require_ring(&self, ring: bool, road: &str) -> Result<(), DamperError> {
+        if ring {
+            Ok(())
+        } else {
+            Err(DamperError::NotARing {
+                damper: self.to_string(),
+                road: road.to_string(),
+            })
+        }
+    }
+
     /// Parses `follower-stopper-U` (U in m/s) or `pi-saturation`; `Ok(None)` for `law`.
     /// `field` names the flag or field in errors.
     pub fn parse(field: &str, s: &str) -> Result<Option<Self>, DamperError> {

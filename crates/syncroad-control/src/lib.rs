@@ -63,7 +63,7 @@ pub mod trajectory;
 pub use actuation::{AccelLimits, ActuationError};
 pub use cacc::{CaccLaw, PlatoonView, PowertrainLag};
 pub use controller::{controller_for, LawSpec, SpeedController};
-pub use damper::{DamperSetup, DamperSpec};
+pub use damper::{DamperError, DamperSetup, DamperSpec};
 pub use delayed_driver::DelayedDriverLaw;
 pub use follower_stopper::{
     follower_stopper_command_mps, FollowerStopper, FollowerStopperError, FollowerStopperParams,

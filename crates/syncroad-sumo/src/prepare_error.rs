@@ -86,13 +86,8 @@ pub enum PrepareError {
         length_m: f64,
     },
     /// The wave dampers follow a predecessor around a ring.
-    #[error("{damper}: the wave dampers drive on a ring (each vehicle follows its predecessor); scenario {scenario} is a straight road")]
-    DamperNeedsRing {
-        /// The damper.
-        damper: String,
-        /// The scenario.
-        scenario: String,
-    },
+    #[error(transparent)]
+    DamperNeedsRing(#[from] syncroad_control::DamperError),
     /// Stochastic humans follow a predecessor around a ring.
     #[error("the stochastic human drivers (human-noisy, flow-idm-noise, noisy-idm:...) drive on a ring (each vehicle follows its predecessor); scenario {scenario} is a straight road")]
     HumansNeedRing {

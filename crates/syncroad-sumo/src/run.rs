@@ -243,11 +243,8 @@ fn prepare_with(
             scenario: scenario.name().to_string(),
         });
     }
-    if let (Some(d), false) = (damper, layout.road.ring) {
-        return Err(PrepareError::DamperNeedsRing {
-            damper: d.to_string(),
-            scenario: scenario.name().to_string(),
-        });
+    if let Some(d) = damper {
+        d.require_ring(layout.road.ring, &format!("scenario {}", scenario.name()))?;
     }
     let sumo_driven = layout
         .vehicles

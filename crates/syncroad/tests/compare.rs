@@ -220,7 +220,7 @@ fn planted_gain_change_fails_the_compare_baseline() {
 #[test]
 fn bad_compare_input_is_refused_before_sumo_starts() {
     let d = tmpdir("bad");
-    let cases: [(&[&str], PathBuf, &str); 4] = [
+    let cases: [(&[&str], PathBuf, &str); 6] = [
         (
             &["--baselines", "protocol,wiedemann"],
             sugiyama(),
@@ -240,6 +240,17 @@ fn bad_compare_input_is_refused_before_sumo_starts() {
             &["--mixed", "1"],
             repo().join("scenarios/platoon-cacc-sumo.json"),
             "--mixed = 1: mixed traffic needs a ring of delayed drivers",
+        ),
+        // A damper on a straight road: one wording, whichever flag asked for it.
+        (
+            &["--baselines", "follower-stopper-4"],
+            repo().join("scenarios/platoon-cacc-sumo.json"),
+            "--baselines: follower-stopper-4: the wave dampers drive on a ring (each vehicle follows its predecessor); scenario platoon-cacc-sumo is a straight road",
+        ),
+        (
+            &["--mixed", "1", "--mixed-controller", "pi-saturation"],
+            repo().join("scenarios/platoon-cacc-sumo.json"),
+            "--mixed = 1: pi-saturation: the wave dampers drive on a ring (each vehicle follows its predecessor); scenario platoon-cacc-sumo is a straight road",
         ),
     ];
     for (args, sc, msg) in cases {

@@ -146,11 +146,9 @@ fn baseline_runs(sc: &Scenario, a: &Request) -> anyhow::Result<Vec<RunSpec>> {
     let mut runs: Vec<RunSpec> = Vec::new();
     for name in list.split(',').map(str::trim).filter(|s| !s.is_empty()) {
         let spec = RunSpec::parse("--baselines", name, n)?;
-        if spec.damper.is_some() && !sc.is_ring() {
-            return Err(bad(format!(
-                "--baselines = {name}: the wave dampers drive on a ring (each vehicle follows its predecessor); scenario {} is a straight road",
-                sc.name()
-            )));
+        if let Some(d) = &spec.damper {
+            d.require_ring(sc.is_ring(), &format!("scenario {}", sc.name()))
+                .map_err(|e| InputError::caused("--baselines", e))?;
         }
         if runs.iter().any(|r| r.name == spec.name) {
             return Err(bad(format!("--baselines: {} is listed twice", spec.name)));
@@ -188,11 +186,9 @@ fn mixed_runs(sc: &Scenario, a: &Request) -> anyhow::Result<MixedRuns> {
                 sc.name()
             )));
         }
-        if !sc.is_ring() {
-            return Err(bad(format!(
-                "--mixed = {m}: the wave dampers drive on a ring (scenario {} is a straight road)",
-                sc.name()
-            )));
+        for d in controllers.iter().flatten() {
+            d.require_ring(sc.is_ring(), &format!("scenario {}", sc.name()))
+                .map_err(|e| InputError::caused(format!("--mixed = {m}"), e))?;
         }
         let human = SumoDriver::parse("--mixed-driver", &a.mixed_driver)
             .map_err(|e| InputError::caused("--mixed-driver", e))?;
