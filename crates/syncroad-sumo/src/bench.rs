@@ -350,68 +350,15 @@ pub fn run_case(
     progress: &mut dyn FnMut(&str),
 ) -> Result<BenchResult, BenchError> {
     let sc = scenario(case)?;
-    let mut alone = Vec::new();
-    let mut controlled = Vec::new();
-    let mut python_getters = Vec::new();
-    let mut interleaved_pct = Vec::new();
-    let mut in_run = Vec::new();
-    for r in 0..case.repeats {
-        let a = timed(worker, &sc, &work_dir.join("alone"), None, case.warmup)?.ms_per_step;
-        progress(&format!(
-            "{}: SUMO alone                        {a:9.4} ms/step (run {})",
-            case.name,
-            r + 1
-        ));
-        alone.push(a);
-        let c = timed(
-            worker,
-            &sc,
-            &work_dir.join("controlled"),
-            Some(ReadMode::Direct),
-            case.warmup,
-        )?;
-        in_run.push(c.in_run_overhead_pct);
-        let c = c.ms_per_step;
-        progress(&format!(
-            "{}: SUMO + controller (direct)        {c:9.4} ms/step (run {})",
-            case.name,
-            r + 1
-        ));
-        controlled.push(c);
-        let s = timed(
-            worker,
-            &sc,
-            &work_dir.join("python-getters"),
-            Some(ReadMode::Getters),
-            case.warmup,
-        )?
-        .ms_per_step;
-        progress(&format!(
-            "{}: SUMO + controller (Python getters){s:9.4} ms/step (run {})",
-            case.name,
-            r + 1
-        ));
-        python_getters.push(s);
-        let i = interleaved(worker, &sc, &work_dir.join("interleaved"), case.warmup)?;
-        progress(&format!(
-            "{}: same-process overhead (interleaved) {i:7.1} % (run {})",
-            case.name,
-            r + 1
-        ));
-        interleaved_pct.push(i);
-    }
+    let m = repeats(case, &sc, worker, work_dir, progress)?;
     let best = |v: &[f64]| v.iter().copied().fold(f64::INFINITY, f64::min);
-    let (a, c, sub) = (best(&alone), best(&controlled), best(&python_getters));
+    let (a, c, sub) = (best(&m.alone), best(&m.controlled), best(&m.python_getters));
+    let routes = work_dir.join("controlled").join("routes.rou.xml");
     let mut traci = |reads: TraciReads| -> Result<Option<f64>, BenchError> {
         if !case.traci || (reads == TraciReads::PerCall && !case.traci_per_call) {
             return Ok(None);
         }
-        let t = traci_reference(
-            case,
-            &work_dir.join("controlled").join("routes.rou.xml"),
-            python_host,
-            reads,
-        )?;
+        let t = traci_reference(case, &routes, python_host, reads)?;
         progress(&format!(
             "{}: TraCI reference, {:<13}    {t:9.4} ms/step",
             case.name,
@@ -427,20 +374,93 @@ pub fn run_case(
         steps: case.steps,
         alone_ms: a,
         controlled_ms: c,
-        alone_samples_ms: alone,
-        controlled_samples_ms: controlled,
         overhead_pct: 100.0 * (c / a - 1.0),
-        in_run_overhead_pct: median(&in_run),
+        in_run_overhead_pct: median(&m.in_run),
         python_getters_ms: sub,
-        python_getters_samples_ms: python_getters,
         python_getters_overhead_pct: 100.0 * (sub / a - 1.0),
-        interleaved_overhead_pct: median(&interleaved_pct),
-        interleaved_samples_pct: interleaved_pct,
+        interleaved_overhead_pct: median(&m.interleaved_pct),
+        alone_samples_ms: m.alone,
+        controlled_samples_ms: m.controlled,
+        python_getters_samples_ms: m.python_getters,
+        interleaved_samples_pct: m.interleaved_pct,
         traci_ms,
         speedup_vs_traci: traci_ms.map(|t| t / c),
         traci_per_call_ms,
         speedup_vs_traci_per_call: traci_per_call_ms.map(|t| t / c),
     })
+}
+
+/// The samples of a case's repeats, one of each kind per repeat.
+struct Samples {
+    alone: Vec<f64>,
+    controlled: Vec<f64>,
+    python_getters: Vec<f64>,
+    interleaved_pct: Vec<f64>,
+    in_run: Vec<f64>,
+}
+
+/// Alternates SUMO alone, the controlled loop (direct calls), the loop through Python
+/// getters and the same-process interleaved run, `case.repeats` times.
+fn repeats(
+    case: &BenchCase,
+    sc: &Scenario,
+    worker: &WorkerCommand,
+    work_dir: &Path,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Samples, BenchError> {
+    let mut m = Samples {
+        alone: Vec::new(),
+        controlled: Vec::new(),
+        python_getters: Vec::new(),
+        interleaved_pct: Vec::new(),
+        in_run: Vec::new(),
+    };
+    for r in 0..case.repeats {
+        let a = timed(worker, sc, &work_dir.join("alone"), None, case.warmup)?.ms_per_step;
+        progress(&format!(
+            "{}: SUMO alone                        {a:9.4} ms/step (run {})",
+            case.name,
+            r + 1
+        ));
+        m.alone.push(a);
+        let c = timed(
+            worker,
+            sc,
+            &work_dir.join("controlled"),
+            Some(ReadMode::Direct),
+            case.warmup,
+        )?;
+        m.in_run.push(c.in_run_overhead_pct);
+        let c = c.ms_per_step;
+        progress(&format!(
+            "{}: SUMO + controller (direct)        {c:9.4} ms/step (run {})",
+            case.name,
+            r + 1
+        ));
+        m.controlled.push(c);
+        let s = timed(
+            worker,
+            sc,
+            &work_dir.join("python-getters"),
+            Some(ReadMode::Getters),
+            case.warmup,
+        )?
+        .ms_per_step;
+        progress(&format!(
+            "{}: SUMO + controller (Python getters){s:9.4} ms/step (run {})",
+            case.name,
+            r + 1
+        ));
+        m.python_getters.push(s);
+        let i = interleaved(worker, sc, &work_dir.join("interleaved"), case.warmup)?;
+        progress(&format!(
+            "{}: same-process overhead (interleaved) {i:7.1} % (run {})",
+            case.name,
+            r + 1
+        ));
+        m.interleaved_pct.push(i);
+    }
+    Ok(m)
 }
 
 /// A plain-text table of results.

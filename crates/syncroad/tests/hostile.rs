@@ -164,7 +164,7 @@ mod sweeps {
         write_json(&dir.join(name), &body)
     }
 
-    fn sweep(spec: &Path, out: &Path) -> (i32, String, String) {
+    pub fn sweep(spec: &Path, out: &Path) -> (i32, String, String) {
         run(bin()
             .arg("sweep")
             .arg(spec)
@@ -764,12 +764,7 @@ mod overwritten {
         );
         let (code, _, e) = run(bin().arg("sweep").arg(&spec).arg("--out").arg(&long));
         assert_eq!(code, 2, "{e}");
-        let (code, _, e) = run(bin()
-            .arg("sweep")
-            .arg(&spec)
-            .arg("--out")
-            .arg(dir.join("shard"))
-            .arg("--no-plots"));
+        let (code, _, e) = sweeps::sweep(&spec, &dir.join("shard"));
         assert_eq!(code, 0, "{e}");
         let (code, _, e) = run(bin()
             .args(["sweep", "collect"])
@@ -1088,12 +1083,7 @@ mod up_front {
             json!({"base": base, "backend": "native",
                    "axes": [{"field": "scale.delay", "values": [1.0, 1e8]}]}),
         );
-        let (code, _, e) = run(bin()
-            .arg("sweep")
-            .arg(&spec)
-            .arg("--out")
-            .arg(dir.join("sw"))
-            .arg("--no-plots"));
+        let (code, _, e) = sweeps::sweep(&spec, &dir.join("sw"));
         assert_eq!(code, 2, "{e}");
         assert!(
             e.contains("scale.delay = 100000000") && e.contains("delay buffer"),
@@ -1147,12 +1137,7 @@ mod up_front {
                    "axes": [{"field": "scale.delay", "values": [1.0, 1.01]}]})
         };
         let spec = sweeps::spec(&dir, "alike.json", body(false));
-        let (code, _, e) = run(bin()
-            .arg("sweep")
-            .arg(&spec)
-            .arg("--out")
-            .arg(dir.join("sw"))
-            .arg("--no-plots"));
+        let (code, _, e) = sweeps::sweep(&spec, &dir.join("sw"));
         assert_eq!(code, 2, "{e}");
         assert!(
             e.contains("scale.delay = 1.0")
@@ -1161,12 +1146,7 @@ mod up_front {
             "{e}"
         );
         let spec = sweeps::spec(&dir, "allowed.json", body(true));
-        let (code, _, e) = run(bin()
-            .arg("sweep")
-            .arg(&spec)
-            .arg("--out")
-            .arg(dir.join("sw2"))
-            .arg("--no-plots"));
+        let (code, _, e) = sweeps::sweep(&spec, &dir.join("sw2"));
         assert_eq!(code, 0, "{e}");
         // …and 1.2 is another run: 0.5 s × 1.2 is 6 steps, not 5.
         let spec = sweeps::spec(
@@ -1175,12 +1155,7 @@ mod up_front {
             json!({"base": base, "backend": "native",
                    "axes": [{"field": "scale.delay", "values": [1.0, 1.2]}]}),
         );
-        let (code, _, e) = run(bin()
-            .arg("sweep")
-            .arg(&spec)
-            .arg("--out")
-            .arg(dir.join("sw3"))
-            .arg("--no-plots"));
+        let (code, _, e) = sweeps::sweep(&spec, &dir.join("sw3"));
         assert_eq!(code, 0, "{e}");
     }
 

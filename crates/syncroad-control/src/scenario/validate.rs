@@ -73,6 +73,122 @@ impl ScenarioFile {
         base_dir: &Path,
         reader: Option<&dyn RoadReader>,
     ) -> Result<Scenario, ScenarioError> {
+        let (n, steps) = self.check_sizes()?;
+        let entries = self.vehicles.entries();
+        let sumo = self.sumo.validate(base_dir)?;
+        let closed = self.road.is_closed();
+        if let Some(m) = &self.mixed {
+            m.validate(closed)?;
+        }
+        let measured = if self.road.is_network() {
+            Some(super::network_road::measure(
+                &self.road,
+                sumo.net(),
+                reader,
+            )?)
+        } else {
+            None
+        };
+        let road_len = match (&self.road, &measured) {
+            (RoadSpec::Ring { length_m } | RoadSpec::Straight { length_m }, _) => *length_m,
+            (_, Some(m)) => m.length_m,
+            (_, None) => unreachable!("a network road is measured above"),
+        };
+        if !(road_len.is_finite() && road_len > 0.0) {
+            return Err(invalid(
+                "road.length_m",
+                road_len,
+                "must be a finite number > 0",
+            ));
+        }
+
+        let model = self.resolve_model(n, entries, closed)?;
+
+        let length_m = match &model {
+            Model::Cacc(c) => c.length_m.clone(),
+            Model::DelayedDriver(_) => vec![self.sumo.length_m; n],
+        };
+        let mut rng = SplitMix64::new(self.seed);
+        let pert = &self.initial.perturbation;
+        for (name, x) in [("speed_mps", pert.speed_mps), ("gap_m", pert.gap_m)] {
+            if !(x.is_finite() && x >= 0.0) {
+                return Err(invalid(
+                    format!("initial.perturbation.{name}"),
+                    x,
+                    "must be a finite amplitude ≥ 0",
+                ));
+            }
+        }
+        let speeds = self.initial_speeds(n, entries, &mut rng)?;
+        let gap_spec = merge(
+            "initial.gap_m",
+            "gap_m",
+            self.initial.gap_m.as_ref(),
+            entries,
+            |e| e.gap_m,
+        )?;
+        let mut gaps = match (&gap_spec, &self.road, &model) {
+            (Some(g), _, _) => g.resolve_nonneg("initial.gap_m", n)?,
+            (None, _, _) if closed => {
+                let used: f64 = length_m.iter().sum();
+                vec![(road_len - used) / n as f64; n]
+            }
+            (None, _, Model::Cacc(c)) => c.desired_gap_m.clone(),
+            (None, _, _) => vec![20.0; n],
+        };
+        if let Some(m) = measured.as_ref().filter(|_| closed) {
+            let used: f64 = length_m.iter().sum();
+            if used > m.length_m {
+                return Err(invalid(
+                    "vehicles",
+                    n,
+                    format!(
+                        "{n} vehicles of {:.2} m in all do not fit on the loop, {:.3} m long as measured on its network; at most {} fit",
+                        used,
+                        m.length_m,
+                        (m.length_m / length_m.iter().copied().fold(0.0, f64::max)).floor()
+                    ),
+                ));
+            }
+        }
+        let offsets: Vec<f64> = (0..n).map(|_| rng.symmetric(pert.gap_m)).collect();
+        // On a ring the gaps must still close the circle: remove the offsets' mean.
+        let shift = if closed {
+            offsets.iter().sum::<f64>() / n as f64
+        } else {
+            0.0
+        };
+        for (g, o) in gaps.iter_mut().zip(&offsets) {
+            *g += o - shift;
+        }
+        check_gaps(&gaps, &length_m, road_len, closed, measured.is_some())?;
+        let name = self.name.clone().unwrap_or_else(|| "scenario".to_string());
+        Ok(Scenario {
+            name,
+            hash_hex: self.hash_hex(),
+            seed: self.seed,
+            backend: self.backend,
+            n,
+            step_s: self.step_s,
+            steps,
+            model,
+            road: self.road,
+            measured,
+            initial_speed_mps: speeds,
+            initial_gap_m: gaps,
+            length_m,
+            verdict: VerdictThresholds {
+                tolerance_mps: self.verdict.tolerance_mps,
+                window_s: self.verdict.window_s,
+            },
+            sumo,
+            mixed: self.mixed.clone(),
+        })
+    }
+
+    /// The vehicle count, step, horizon and verdict thresholds, each within its limits;
+    /// returns the count and the number of steps.
+    fn check_sizes(&self) -> Result<(usize, usize), ScenarioError> {
         let n = self.vehicles.count();
         if n == 0 {
             return Err(invalid("vehicles", 0, "must be ≥ 1"));
@@ -85,7 +201,6 @@ impl ScenarioFile {
                 "at most 1000000 (the graph, the delay histories and the samples grow with it)",
             ));
         }
-        let entries = self.vehicles.entries();
         if !(self.step_s.is_finite() && self.step_s > 0.0 && self.step_s <= 1.0) {
             return Err(invalid(
                 "step_s",
@@ -134,34 +249,18 @@ impl ScenarioFile {
                 format!("must be > 0 and ≤ horizon_s = {}", self.horizon_s),
             ));
         }
-        let sumo = self.sumo.validate(base_dir)?;
-        let closed = self.road.is_closed();
-        if let Some(m) = &self.mixed {
-            m.validate(closed)?;
-        }
-        let measured = if self.road.is_network() {
-            Some(super::network_road::measure(
-                &self.road,
-                sumo.net(),
-                reader,
-            )?)
-        } else {
-            None
-        };
-        let road_len = match (&self.road, &measured) {
-            (RoadSpec::Ring { length_m } | RoadSpec::Straight { length_m }, _) => *length_m,
-            (_, Some(m)) => m.length_m,
-            (_, None) => unreachable!("a network road is measured above"),
-        };
-        if !(road_len.is_finite() && road_len > 0.0) {
-            return Err(invalid(
-                "road.length_m",
-                road_len,
-                "must be a finite number > 0",
-            ));
-        }
+        Ok((n, steps))
+    }
 
-        let model = match &self.model {
+    /// The model with every per-vehicle value resolved: the delayed-driver law (graph, delays
+    /// on the step grid, leader) or the CACC platoon; `closed` says the road is a ring or loop.
+    fn resolve_model(
+        &self,
+        n: usize,
+        entries: &[super::file::VehicleEntry],
+        closed: bool,
+    ) -> Result<Model, ScenarioError> {
+        Ok(match &self.model {
             ModelSpec::DelayedDriver {
                 graph,
                 delay_s,
@@ -254,23 +353,18 @@ impl ScenarioFile {
                     leader: c.leader.clone(),
                 })
             }
-        };
+        })
+    }
 
-        let length_m = match &model {
-            Model::Cacc(c) => c.length_m.clone(),
-            Model::DelayedDriver(_) => vec![self.sumo.length_m; n],
-        };
-        let mut rng = SplitMix64::new(self.seed);
+    /// The initial speeds, each within [`MAX_SPEED_MPS`], plus the seeded uniform
+    /// perturbation (drawn first from `rng`, before the gaps' offsets).
+    fn initial_speeds(
+        &self,
+        n: usize,
+        entries: &[super::file::VehicleEntry],
+        rng: &mut SplitMix64,
+    ) -> Result<Vec<f64>, ScenarioError> {
         let pert = &self.initial.perturbation;
-        for (name, x) in [("speed_mps", pert.speed_mps), ("gap_m", pert.gap_m)] {
-            if !(x.is_finite() && x >= 0.0) {
-                return Err(invalid(
-                    format!("initial.perturbation.{name}"),
-                    x,
-                    "must be a finite amplitude ≥ 0",
-                ));
-            }
-        }
         let mut speeds = merge(
             "initial.speed_mps",
             "speed_mps",
@@ -303,94 +397,7 @@ impl ScenarioFile {
         for v in speeds.iter_mut() {
             *v = (*v + rng.symmetric(pert.speed_mps)).max(0.0);
         }
-        let gap_spec = merge(
-            "initial.gap_m",
-            "gap_m",
-            self.initial.gap_m.as_ref(),
-            entries,
-            |e| e.gap_m,
-        )?;
-        let mut gaps = match (&gap_spec, &self.road, &model) {
-            (Some(g), _, _) => g.resolve_nonneg("initial.gap_m", n)?,
-            (None, _, _) if closed => {
-                let used: f64 = length_m.iter().sum();
-                vec![(road_len - used) / n as f64; n]
-            }
-            (None, _, Model::Cacc(c)) => c.desired_gap_m.clone(),
-            (None, _, _) => vec![20.0; n],
-        };
-        if let Some(m) = measured.as_ref().filter(|_| closed) {
-            let used: f64 = length_m.iter().sum();
-            if used > m.length_m {
-                return Err(invalid(
-                    "vehicles",
-                    n,
-                    format!(
-                        "{n} vehicles of {:.2} m in all do not fit on the loop, {:.3} m long as measured on its network; at most {} fit",
-                        used,
-                        m.length_m,
-                        (m.length_m / length_m.iter().copied().fold(0.0, f64::max)).floor()
-                    ),
-                ));
-            }
-        }
-        let offsets: Vec<f64> = (0..n).map(|_| rng.symmetric(pert.gap_m)).collect();
-        // On a ring the gaps must still close the circle: remove the offsets' mean.
-        let shift = if closed {
-            offsets.iter().sum::<f64>() / n as f64
-        } else {
-            0.0
-        };
-        for (g, o) in gaps.iter_mut().zip(&offsets) {
-            *g += o - shift;
-        }
-        for (i, g) in gaps.iter().enumerate() {
-            if *g < 0.0 {
-                return Err(invalid(
-                    format!("initial.gap_m[{i}]"),
-                    g,
-                    "the gap (after perturbation) must be ≥ 0: vehicles may not overlap; lower initial.perturbation.gap_m or use fewer vehicles",
-                ));
-            }
-        }
-        if closed {
-            let ring = road_len;
-            let used: f64 = gaps.iter().sum::<f64>() + length_m.iter().sum::<f64>();
-            if (used - ring).abs() > 1e-6 * ring {
-                let what = if measured.is_some() {
-                    format!("on a loop, gaps plus vehicle lengths must add up to the loop's length measured on its network, {ring} m")
-                } else {
-                    format!("on a ring, gaps plus vehicle lengths must add up to road.length_m = {ring} m")
-                };
-                return Err(invalid(
-                    "initial.gap_m",
-                    format!("{used:.3} m of gaps and vehicle lengths"),
-                    format!("{what} (omit initial.gap_m for even spacing)"),
-                ));
-            }
-        }
-        let name = self.name.clone().unwrap_or_else(|| "scenario".to_string());
-        Ok(Scenario {
-            name,
-            hash_hex: self.hash_hex(),
-            seed: self.seed,
-            backend: self.backend,
-            n,
-            step_s: self.step_s,
-            steps,
-            model,
-            road: self.road,
-            measured,
-            initial_speed_mps: speeds,
-            initial_gap_m: gaps,
-            length_m,
-            verdict: VerdictThresholds {
-                tolerance_mps: self.verdict.tolerance_mps,
-                window_s: self.verdict.window_s,
-            },
-            sumo,
-            mixed: self.mixed.clone(),
-        })
+        Ok(speeds)
     }
 
     /// Stable hash of the file as written: FNV-1a over its canonical JSON.
@@ -493,6 +500,45 @@ impl Scenario {
             ..self.clone()
         })
     }
+}
+
+/// The gaps after perturbation: none negative, and on a closed road gaps plus vehicle lengths
+/// add up to its length (`measured`: a loop measured on its network).
+fn check_gaps(
+    gaps: &[f64],
+    length_m: &[f64],
+    road_len: f64,
+    closed: bool,
+    measured: bool,
+) -> Result<(), ScenarioError> {
+    for (i, g) in gaps.iter().enumerate() {
+        if *g < 0.0 {
+            return Err(invalid(
+                    format!("initial.gap_m[{i}]"),
+                    g,
+                    "the gap (after perturbation) must be ≥ 0: vehicles may not overlap; lower initial.perturbation.gap_m or use fewer vehicles",
+                ));
+        }
+    }
+    if closed {
+        let ring = road_len;
+        let used: f64 = gaps.iter().sum::<f64>() + length_m.iter().sum::<f64>();
+        if (used - ring).abs() > 1e-6 * ring {
+            let what = if measured {
+                format!("on a loop, gaps plus vehicle lengths must add up to the loop's length measured on its network, {ring} m")
+            } else {
+                format!(
+                    "on a ring, gaps plus vehicle lengths must add up to road.length_m = {ring} m"
+                )
+            };
+            return Err(invalid(
+                "initial.gap_m",
+                format!("{used:.3} m of gaps and vehicle lengths"),
+                format!("{what} (omit initial.gap_m for even spacing)"),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Refuses delays whose buffers would pass [`MAX_DELAY_BUFFER`] values: the law keeps
