@@ -277,6 +277,94 @@ fn edges(v: &[f64]) -> Vec<(f64, f64)> {
         .collect()
 }
 
+/// Whether the two plotted axes are `scale.gain` and `scale.delay` (either order): then the
+/// plot carries Theorem 1's and the exact boundary.
+fn on_scale_axes(sweep: &Sweep, names: (&str, &str)) -> bool {
+    let t = |f: &str| {
+        sweep
+            .axes
+            .iter()
+            .find(|a| a.field == f)
+            .map(|a| a.target.clone())
+    };
+    matches!(
+        (t(names.0), t(names.1)),
+        (Some(Target::GainScale), Some(Target::DelayScale))
+            | (Some(Target::DelayScale), Some(Target::GainScale))
+    )
+}
+
+/// A cell's colour: for the verdict red (never synchronized) to blue (every seed
+/// synchronized), else viridis over `lo..hi`.
+fn cell_colour(verdict: bool, v: f64, lo: f64, hi: f64) -> RGBColor {
+    if verdict {
+        let t = v.clamp(0.0, 1.0);
+        RGBColor(
+            (220.0 * (1.0 - t) + 60.0 * t) as u8,
+            (80.0 + 40.0 * t) as u8,
+            (70.0 * (1.0 - t) + 200.0 * t) as u8,
+        )
+    } else {
+        viridis(if hi > lo { (v - lo) / (hi - lo) } else { 0.5 })
+    }
+}
+
+/// Theorem 1's and the exact stability boundary, the hyperbolas c·r = const, over a gain ×
+/// delay heat map, with their legend.
+fn draw_boundaries<'a, DB: DrawingBackend + 'a>(
+    chart: &mut ChartContext<
+        'a,
+        DB,
+        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+    >,
+    b: &syncroad_control::exact::Boundaries,
+    xr: &std::ops::Range<f64>,
+    yr: &std::ops::Range<f64>,
+) -> anyhow::Result<()> {
+    let curve = |product: f64| {
+        let (xr, yr) = (xr.clone(), yr.clone());
+        (0..=400).filter_map(move |k| {
+            let x = xr.start + (xr.end - xr.start) * k as f64 / 400.0;
+            let y = product / x;
+            (x > 0.0 && y >= yr.start && y <= yr.end).then_some((x, y))
+        })
+    };
+    // The hyperbola is symmetric in c and r: the same curve whichever is x.
+    if b.theorem1_product.is_finite() {
+        chart
+            .draw_series(LineSeries::new(
+                curve(b.theorem1_product),
+                RGBColor(20, 110, 20).stroke_width(3),
+            ))
+            .map_err(err)?
+            .label(format!(
+                "Theorem 1 boundary c·r = {:.4}",
+                b.theorem1_product
+            ))
+            .legend(|(x, y)| {
+                PathElement::new(
+                    vec![(x, y), (x + 15, y)],
+                    RGBColor(20, 110, 20).stroke_width(3),
+                )
+            });
+    }
+    if let Some(e) = b.exact_product {
+        chart
+            .draw_series(LineSeries::new(curve(e), BLACK.stroke_width(3)))
+            .map_err(err)?
+            .label(format!("exact boundary c·r = {e:.4}"))
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], BLACK.stroke_width(3)));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(err)?;
+    Ok(())
+}
+
 /// Heat maps over two axes, and the stability plot when they are the two scales.
 fn grid_plots(
     sweep: &Sweep,
@@ -291,20 +379,7 @@ fn grid_plots(
     let xr = xe[0].0..xe[xe.len() - 1].1;
     let yr = ye[0].0..ye[ye.len() - 1].1;
     let idx = |v: &[f64], x: f64| v.iter().position(|p| *p == x);
-    let scales = {
-        let t = |f: &str| {
-            sweep
-                .axes
-                .iter()
-                .find(|a| a.field == f)
-                .map(|a| a.target.clone())
-        };
-        matches!(
-            (t(names.0), t(names.1)),
-            (Some(Target::GainScale), Some(Target::DelayScale))
-                | (Some(Target::DelayScale), Some(Target::GainScale))
-        )
-    };
+    let scales = on_scale_axes(sweep, names);
     let bounds = if scales {
         gain_delay_boundaries(&sweep.base)
     } else {
@@ -362,74 +437,16 @@ fn grid_plots(
                             .fill(&RGBColor(200, 200, 200))
                             .map_err(err)?;
                     }
-                    let colour = |v: f64| {
-                        if verdict {
-                            // Red (never synchronized) to blue (every seed synchronized).
-                            let t = v.clamp(0.0, 1.0);
-                            RGBColor(
-                                (220.0 * (1.0 - t) + 60.0 * t) as u8,
-                                (80.0 + 40.0 * t) as u8,
-                                (70.0 * (1.0 - t) + 200.0 * t) as u8,
-                            )
-                        } else {
-                            viridis(if hi > lo { (v - lo) / (hi - lo) } else { 0.5 })
-                        }
-                    };
                     chart
                         .draw_series(cells.iter().map(|(i, j, m)| {
                             Rectangle::new(
                                 [(xe[*i].0, ye[*j].0), (xe[*i].1, ye[*j].1)],
-                                colour(m.mean).filled(),
+                                cell_colour(verdict, m.mean, lo, hi).filled(),
                             )
                         }))
                         .map_err(err)?;
                     if let Some(b) = bounds {
-                        // c·r = const, drawn in the plot's orientation.
-                        let curve = |product: f64| {
-                            (0..=400).filter_map(move |k| {
-                                let x = xr.start + (xr.end - xr.start) * k as f64 / 400.0;
-                                let y = product / x;
-                                (x > 0.0 && y >= yr.start && y <= yr.end).then_some((x, y))
-                            })
-                        };
-                        // The hyperbola is symmetric in c and r: the same curve whichever is x.
-                        if b.theorem1_product.is_finite() {
-                            chart
-                                .draw_series(LineSeries::new(
-                                    curve(b.theorem1_product),
-                                    RGBColor(20, 110, 20).stroke_width(3),
-                                ))
-                                .map_err(err)?
-                                .label(format!(
-                                    "Theorem 1 boundary c·r = {:.4}",
-                                    b.theorem1_product
-                                ))
-                                .legend(|(x, y)| {
-                                    PathElement::new(
-                                        vec![(x, y), (x + 15, y)],
-                                        RGBColor(20, 110, 20).stroke_width(3),
-                                    )
-                                });
-                        }
-                        if let Some(e) = b.exact_product {
-                            chart
-                                .draw_series(LineSeries::new(curve(e), BLACK.stroke_width(3)))
-                                .map_err(err)?
-                                .label(format!("exact boundary c·r = {e:.4}"))
-                                .legend(|(x, y)| {
-                                    PathElement::new(
-                                        vec![(x, y), (x + 15, y)],
-                                        BLACK.stroke_width(3),
-                                    )
-                                });
-                        }
-                        chart
-                            .configure_series_labels()
-                            .position(SeriesLabelPosition::UpperRight)
-                            .background_style(WHITE.mix(0.85))
-                            .border_style(BLACK)
-                            .draw()
-                            .map_err(err)?;
+                        draw_boundaries(&mut chart, &b, &xr, &yr)?;
                     }
                     Ok(())
                 });
