@@ -25,9 +25,10 @@ use std::process::Command;
 use serde::Serialize;
 use syncroad_control::Scenario;
 
-use crate::protocol::{Control, Finish, ReadMode, Request};
+use crate::probe::{Probe, ProbeMode, ProbeTimes};
+use crate::protocol::{Finish, JobRef, ReadMode, Request};
 use crate::run::{load_road, prepare, PrepareError, RunOptions};
-use crate::supervisor::{run_worker, Supervision, SupervisorError, WorkerCommand};
+use crate::supervisor::{run_worker_job, Supervision, SupervisorError, WorkerCommand};
 use crate::venv::{find_venv, VenvError};
 
 /// Errors of the benchmark.
@@ -129,6 +130,10 @@ pub struct BenchResult {
     pub traci_per_call_ms: Option<f64>,
     /// `traci_per_call / controlled`.
     pub speedup_vs_traci_per_call: Option<f64>,
+    /// Where a step of the fastest controlled run went, by phase and observer of the loop
+    /// [ms/step]: `simulation.step`, the law with its commands, the reads, each observer, and
+    /// the rest of the loop (the timer's own reads of the clock among it).
+    pub profile_ms: Vec<(String, f64)>,
 }
 
 /// All vehicles start evenly spaced at 10 m/s, so the law's commands stay at 10 m/s and the
@@ -184,18 +189,29 @@ fn scenario(case: &BenchCase) -> Result<Scenario, BenchError> {
     })
 }
 
-/// Runs a benchmark request in a worker; it must reach its last step.
-fn run_to_end(worker: &WorkerCommand, req: &Request, work: &Path) -> Result<Finish, BenchError> {
-    let fin = run_worker(worker, req, &Supervision::default()).result?;
+/// Runs a benchmark job in a worker; it must reach its last step.
+fn run_to_end(
+    worker: &WorkerCommand,
+    req: &Request,
+    probe: Probe,
+    work: &Path,
+) -> Result<(Finish, ProbeTimes), BenchError> {
+    let job = JobRef::Bench {
+        request: req,
+        probe,
+    };
+    let mut fin = run_worker_job(worker, job, &Supervision::default()).result?;
     if fin.steps_done != req.steps {
         return Err(BenchError::Stopped {
             name: work.display().to_string(),
             reason: format!("{:?}", fin.stop),
         });
     }
-    Ok(fin)
+    let times = fin.probe.take().unwrap_or_default();
+    Ok((fin, times))
 }
 
+/// One run of the case: SUMO alone (`read` = None) or the full loop reading by `read`.
 fn timed(
     worker: &WorkerCommand,
     sc: &Scenario,
@@ -204,32 +220,36 @@ fn timed(
     warmup: usize,
 ) -> Result<Timing, BenchError> {
     let mut opts = RunOptions::new(work, worker.clone());
-    let controlled = read.is_some();
     if let Some(r) = read {
         opts.read = r;
     }
-    let mut req = prepare(sc, &load_road(sc)?, &opts)?;
-    if !controlled {
-        req.control = Control::Hold;
-    }
-    req.observe = controlled;
-    req.untimed_steps = warmup;
-    let fin = run_to_end(worker, &req, work)?;
-    let per = |x: f64| 1e3 * x / fin.timed_steps as f64;
-    let p = &fin.phases;
-    let outside_sumo = fin.loop_wall_s - p.step_s;
-    if std::env::var_os("SYNCROAD_BENCH_PHASES").is_some() {
-        eprintln!(
-            "    phases [ms/step]: law+setSpeed {:.4}, simulation.step {:.4}, read speeds {:.4}, rest {:.4}",
-            per(p.command_s),
-            per(p.step_s),
-            per(p.read_speeds_s),
-            per(outside_sumo - p.command_s - p.read_speeds_s)
-        );
-    }
+    let req = prepare(sc, &load_road(sc)?, &opts)?;
+    let probe = Probe {
+        mode: match read {
+            Some(_) => ProbeMode::Loop,
+            None => ProbeMode::Alone,
+        },
+        untimed_steps: warmup,
+    };
+    let (_, t) = run_to_end(worker, &req, probe, work)?;
+    let per = |x: f64| 1e3 * x / t.timed_steps as f64;
+    let p = &t.phases;
+    let outside_sumo = t.loop_wall_s - p.step_s;
+    let mut profile = vec![
+        ("simulation.step".to_string(), per(p.step_s)),
+        ("law + setSpeed".to_string(), per(p.command_s)),
+        ("read speeds + odometers".to_string(), per(p.read_speeds_s)),
+    ];
+    profile.extend(p.observers.iter().map(|(n, s)| (n.clone(), per(*s))));
+    let accounted = p.command_s + p.read_speeds_s + p.observers_s();
+    profile.push((
+        "rest of the loop".to_string(),
+        per(outside_sumo - accounted),
+    ));
     Ok(Timing {
-        ms_per_step: per(fin.loop_wall_s),
+        ms_per_step: per(t.loop_wall_s),
         in_run_overhead_pct: 100.0 * outside_sumo / p.step_s,
+        profile,
     })
 }
 
@@ -245,12 +265,15 @@ fn interleaved(
     warmup: usize,
 ) -> Result<f64, BenchError> {
     let opts = RunOptions::new(work, worker.clone());
-    let mut req = prepare(sc, &load_road(sc)?, &opts)?;
-    req.observe = true;
-    req.untimed_steps = warmup;
-    req.interleave_block = INTERLEAVE_BLOCK;
-    let fin = run_to_end(worker, &req, work)?;
-    let p = &fin.phases;
+    let req = prepare(sc, &load_road(sc)?, &opts)?;
+    let probe = Probe {
+        mode: ProbeMode::Interleaved {
+            block: INTERLEAVE_BLOCK,
+        },
+        untimed_steps: warmup,
+    };
+    let (_, t) = run_to_end(worker, &req, probe, work)?;
+    let p = &t.phases;
     let bare = p.bare_wall_s / p.bare_steps.max(1) as f64;
     let controlled = p.controlled_wall_s / p.controlled_steps.max(1) as f64;
     Ok(100.0 * (controlled / bare - 1.0))
@@ -261,6 +284,8 @@ struct Timing {
     ms_per_step: f64,
     /// Time outside `simulation.step` over time inside it, in the same run [%].
     in_run_overhead_pct: f64,
+    /// Where a step's time went [ms/step], by phase and observer (full-loop runs).
+    profile: Vec<(String, f64)>,
 }
 
 fn median(v: &[f64]) -> f64 {
@@ -387,6 +412,7 @@ pub fn run_case(
         speedup_vs_traci: traci_ms.map(|t| t / c),
         traci_per_call_ms,
         speedup_vs_traci_per_call: traci_per_call_ms.map(|t| t / c),
+        profile_ms: m.profile,
     })
 }
 
@@ -397,6 +423,8 @@ struct Samples {
     python_getters: Vec<f64>,
     interleaved_pct: Vec<f64>,
     in_run: Vec<f64>,
+    /// The profile of the fastest controlled run.
+    profile: Vec<(String, f64)>,
 }
 
 /// Alternates SUMO alone, the controlled loop (direct calls), the loop through Python
@@ -414,6 +442,7 @@ fn repeats(
         python_getters: Vec::new(),
         interleaved_pct: Vec::new(),
         in_run: Vec::new(),
+        profile: Vec::new(),
     };
     for r in 0..case.repeats {
         let a = timed(worker, sc, &work_dir.join("alone"), None, case.warmup)?.ms_per_step;
@@ -431,6 +460,9 @@ fn repeats(
             case.warmup,
         )?;
         m.in_run.push(c.in_run_overhead_pct);
+        if m.controlled.iter().all(|&x| x > c.ms_per_step) {
+            m.profile = c.profile;
+        }
         let c = c.ms_per_step;
         progress(&format!(
             "{}: SUMO + controller (direct)        {c:9.4} ms/step (run {})",
@@ -461,6 +493,25 @@ fn repeats(
         m.interleaved_pct.push(i);
     }
     Ok(m)
+}
+
+/// The profile of each case: one line per phase, its time per step and its share of the step.
+pub fn format_profile(results: &[BenchResult]) -> String {
+    let mut s = String::new();
+    for r in results {
+        let total: f64 = r.profile_ms.iter().map(|(_, t)| t).sum();
+        s.push_str(&format!(
+            "{} (N = {}): {total:.4} ms/step in the fastest controlled run, SUMO alone {:.4}\n",
+            r.name, r.vehicles, r.alone_ms
+        ));
+        for (name, t) in &r.profile_ms {
+            s.push_str(&format!(
+                "  {name:<26} {t:>9.4} ms/step {:>6.1} %\n",
+                100.0 * t / total
+            ));
+        }
+    }
+    s
 }
 
 /// A plain-text table of results.

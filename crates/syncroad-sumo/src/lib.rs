@@ -36,6 +36,7 @@ mod frozen;
 mod layout;
 mod net;
 mod prepare_error;
+mod probe;
 mod protocol;
 mod python;
 mod result_file;
@@ -51,7 +52,8 @@ pub use car_following::{CarFollowing, CarFollowingError, CfModel};
 pub use drivers::{DriverError, SumoDriver, EMISSION_CLASS};
 pub use frozen::FROZEN_LIMIT;
 pub use net::{read_network_road, NetReader, Road};
-pub use protocol::{Event, Finish, ReadMode, Request, StartInfo, Totals};
+pub use probe::{PhaseTimes, Probe, ProbeMode, ProbeTimes};
+pub use protocol::{Event, Finish, Job, ReadMode, Request, StartInfo, Totals};
 pub use python::SumoPackages;
 pub use result_file::{write_result, write_result_via_path, ResultFileError};
 pub use run::{

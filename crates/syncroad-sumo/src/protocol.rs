@@ -18,6 +18,7 @@ use syncroad_control::record::Measured;
 use syncroad_control::{LawSpec, StopReason, Trajectory};
 
 use crate::layout::Layout;
+use crate::probe::{Probe, ProbeTimes};
 use crate::python::PythonInfo;
 
 /// Frame kind of a JSON message.
@@ -29,6 +30,54 @@ pub const KIND_ROWS: u8 = b'R';
 pub const KIND_RANGES: u8 = b'S';
 /// Largest frame accepted \[bytes\]; a longer length means a corrupted stream.
 pub const MAX_FRAME: usize = 1 << 30;
+
+/// One line to a worker: a run, or a run the benchmark times (what the worker reads).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(tag = "job", rename_all = "snake_case")]
+pub enum Job {
+    /// A run.
+    Run(Box<Request>),
+    /// A run under the benchmark's probe (see [`crate::probe`]).
+    Bench {
+        /// The run, as a run would send it.
+        request: Box<Request>,
+        /// What to time.
+        probe: Probe,
+    },
+}
+
+impl Job {
+    /// The run of this job.
+    pub fn request(&self) -> &Request {
+        match self {
+            Job::Run(r) | Job::Bench { request: r, .. } => r,
+        }
+    }
+}
+
+/// A [`Job`] as the parent sends it, borrowing its request.
+#[derive(Debug, Clone, Copy, Serialize)]
+#[serde(tag = "job", rename_all = "snake_case")]
+pub(crate) enum JobRef<'a> {
+    /// A run.
+    Run(&'a Request),
+    /// A run under the benchmark's probe.
+    Bench {
+        /// The run.
+        request: &'a Request,
+        /// What to time.
+        probe: Probe,
+    },
+}
+
+impl<'a> JobRef<'a> {
+    /// The run of this job.
+    pub fn request(&self) -> &'a Request {
+        match *self {
+            JobRef::Run(r) | JobRef::Bench { request: r, .. } => r,
+        }
+    }
+}
 
 /// What the worker is asked to do.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -50,16 +99,12 @@ pub struct Request {
     pub ballistic: bool,
     /// Who drives.
     pub control: Control,
-    /// Read states and stream rows (false only for the benchmark's bare-SUMO baseline).
-    pub observe: bool,
     /// Record every k-th step.
     pub record_every: usize,
     /// Records per row chunk.
     pub chunk_records: usize,
     /// A realised speed further than this from the command counts as overridden [m/s].
     pub override_tolerance_mps: f64,
-    /// Steps at the start that the loop timer leaves out (benchmark warm-up).
-    pub untimed_steps: usize,
     /// How states are read.
     #[serde(default)]
     pub read: ReadMode,
@@ -72,11 +117,6 @@ pub struct Request {
     /// What SUMO itself measures during the run (flow, time loss, fuel, CO2, braking).
     #[serde(default)]
     pub measure: Option<Measure>,
-    /// Benchmark only: alternate blocks of this many steps with SUMO alone (no law, no reads,
-    /// no commands: vehicles keep their last speed) and with the full loop, timing both in the
-    /// same process (0 = off).
-    #[serde(default)]
-    pub interleave_block: usize,
     /// The user's own route files, loaded after syncroad's (`sumo.routes`).
     #[serde(default)]
     pub extra_routes: Vec<PathBuf>,
@@ -136,10 +176,6 @@ pub enum Control {
     },
     /// SUMO's own car-following model (Krauss with the layout's σ); nothing is commanded.
     SumoModel,
-    /// Every vehicle in speed mode 32, commanded once to hold its departure speed (SUMO keeps
-    /// a `setSpeed` until it is changed). The benchmark's baseline: SUMO does the same work per
-    /// step as under the law, without the loop's per-step calls.
-    Hold,
 }
 
 /// A JSON message from the worker.
@@ -238,53 +274,12 @@ pub struct Finish {
     pub steps_done: usize,
     /// Counters.
     pub totals: Totals,
-    /// Wall time of the stepping loop after `untimed_steps` \[s\].
-    pub loop_wall_s: f64,
-    /// Steps inside that timing.
-    pub timed_steps: usize,
-    /// Where the timed wall time went.
-    pub phases: PhaseTimes,
+    /// What the benchmark's probe measured (a [`Job::Bench`] only).
+    #[serde(default)]
+    pub probe: Option<ProbeTimes>,
     /// SUMO-side measurements, when requested.
     #[serde(default)]
     pub measured: Option<Measured>,
-}
-
-/// Wall time of the timed steps by phase \[s\]; the rest of `loop_wall_s` is collision and
-/// teleport counts, odometer reads, override checks and row streaming.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-pub struct PhaseTimes {
-    /// The law plus one `setSpeed` per vehicle.
-    pub command_s: f64,
-    /// `simulation.step` (SUMO itself).
-    pub step_s: f64,
-    /// Reading every vehicle's speed.
-    pub read_speeds_s: f64,
-    /// With [`Request::interleave_block`]: wall time of the bare steps (SUMO only) and of the
-    /// controlled steps (law, commands, reads, SUMO) \[s\], over equally many timed steps.
-    #[serde(default)]
-    pub bare_wall_s: f64,
-    /// See `bare_wall_s`.
-    #[serde(default)]
-    pub controlled_wall_s: f64,
-    /// Timed steps of each kind.
-    #[serde(default)]
-    pub bare_steps: usize,
-    /// See `bare_steps`.
-    #[serde(default)]
-    pub controlled_steps: usize,
-}
-
-impl PhaseTimes {
-    /// Adds the wall time of one interleaved step.
-    pub fn add_interleaved(&mut self, bare: bool, seconds: f64) {
-        if bare {
-            self.bare_wall_s += seconds;
-            self.bare_steps += 1;
-        } else {
-            self.controlled_wall_s += seconds;
-            self.controlled_steps += 1;
-        }
-    }
 }
 
 /// Serialises the speeds, positions and commands of a wire trajectory (every vehicle on the

@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 use syncroad_control::Trajectory;
 
 use crate::frozen::FrozenWatch;
-use crate::protocol::{read_frame, Event, Finish, Frame, Request, StartInfo, WorkerMsg};
+use crate::protocol::{read_frame, Event, Finish, Frame, JobRef, Request, StartInfo, WorkerMsg};
 use crate::worker::WORKER_ARG;
 
 /// Lines of worker stderr kept for error messages.
@@ -414,6 +414,12 @@ impl Worker {
     /// the worker's `Finished` or `Failed` message; a worker that dies instead is reaped and
     /// the way it ended (signal, exit code) becomes the error.
     pub fn run(&mut self, request: &Request, limits: &Supervision) -> WorkerRun {
+        self.run_job(JobRef::Run(request), limits)
+    }
+
+    /// Runs `job` (a run, or a run under the benchmark's probe) under `limits`.
+    pub(crate) fn run_job(&mut self, job: JobRef<'_>, limits: &Supervision) -> WorkerRun {
+        let request = job.request();
         let mut run = WorkerRun::empty(
             request,
             Err(SupervisorError::Wait("not started".into())),
@@ -427,7 +433,7 @@ impl Worker {
         }
         self.runs += 1;
         let lines_before = self.stderr_lines.load(Ordering::SeqCst);
-        let line = serde_json::to_string(request).expect("a request serialises");
+        let line = serde_json::to_string(&job).expect("a job serialises");
         let sent = match self.stdin.as_mut() {
             Some(stdin) => writeln!(stdin, "{line}").and_then(|()| stdin.flush()),
             None => Err(std::io::Error::from(std::io::ErrorKind::BrokenPipe)),
@@ -583,9 +589,18 @@ fn stop_reason(
 
 /// Runs `request` in a new worker process started by `cmd`, under `limits`.
 pub fn run_worker(cmd: &WorkerCommand, request: &Request, limits: &Supervision) -> WorkerRun {
+    run_worker_job(cmd, JobRef::Run(request), limits)
+}
+
+/// Runs `job` in a new worker process started by `cmd`, under `limits`.
+pub(crate) fn run_worker_job(
+    cmd: &WorkerCommand,
+    job: JobRef<'_>,
+    limits: &Supervision,
+) -> WorkerRun {
     match Worker::spawn(cmd) {
-        Ok(mut w) => w.run(request, limits),
-        Err(e) => WorkerRun::empty(request, Err(e), 0),
+        Ok(mut w) => w.run_job(job, limits),
+        Err(e) => WorkerRun::empty(job.request(), Err(e), 0),
     }
 }
 

@@ -12,7 +12,7 @@ use std::io::{BufRead, BufWriter, Write};
 use std::os::fd::{FromRawFd, OwnedFd};
 use std::process::ExitCode;
 
-use crate::protocol::{write_msg, Request, WorkerMsg};
+use crate::protocol::{write_msg, Job, WorkerMsg};
 use crate::python::SumoPackages;
 
 /// First argument that turns a binary into a worker.
@@ -50,7 +50,7 @@ pub fn worker_main() -> ExitCode {
     ExitCode::from(worker_main_with(SumoPackages::ProjectVenv))
 }
 
-/// The worker program: reads one [`Request`] line from stdin, runs it, streams the results;
+/// The worker program: reads one [`Job`] line from stdin, runs it, streams the results;
 /// returns the exit code (0, or [`EXIT_FAILED`] after a reported failure).
 /// `packages` says where libsumo is imported from. Initializes the embedded interpreter when
 /// the process has none yet (a Rust binary); inside a Python process it uses the running one.
@@ -85,8 +85,8 @@ pub fn worker_main_with(packages: SumoPackages) -> u8 {
                 return EXIT_FAILED;
             }
         }
-        let result = match serde_json::from_str::<Request>(&line) {
-            Ok(req) => pyo3::Python::attach(|py| crate::cosim::run(py, &req, &mut out))
+        let result = match serde_json::from_str::<Job>(&line) {
+            Ok(job) => pyo3::Python::attach(|py| crate::cosim::run(py, &job, &mut out))
                 .map_err(|e| e.to_string()),
             Err(e) => Err(format!("malformed request: {e}")),
         };

@@ -787,3 +787,54 @@ fn sumo_start_errors_carry_sumos_own_reasons() {
     assert!(e.contains("SUMO said:"), "{e}");
     assert!(e.contains("is not a valid list of positions"), "{e}");
 }
+
+/// The benchmark's probe travels beside the run, not in it: a short case runs SUMO alone, the
+/// timed loop and the interleaved loop through real workers, and the profile accounts for
+/// the loop's wall time phase by phase with no phase counted twice (every share non-negative,
+/// `simulation.step` never above the whole step).
+#[test]
+fn benchmark_probe_profiles_the_loop_phase_by_phase() {
+    use syncroad_sumo::bench::{format_profile, run_case, BenchCase};
+    let case = BenchCase {
+        name: "probe".into(),
+        net: nets().join("sugiyama-ring.net.xml"),
+        vehicles: 22,
+        nominal_length_m: 230.0,
+        steps: 300,
+        warmup: 20,
+        repeats: 1,
+        traci: false,
+        traci_per_call: false,
+    };
+    let worker = WorkerCommand::binary(env!("CARGO_BIN_EXE_syncroad-sumo-worker"));
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let r = run_case(
+        &case,
+        &worker,
+        &work("bench-probe"),
+        &repo.join("python-host"),
+        &mut |_| {},
+    )
+    .unwrap();
+    let names: Vec<&str> = r.profile_ms.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "simulation.step",
+            "law + setSpeed",
+            "read speeds + odometers",
+            "safety counters",
+            "rows",
+            "rest of the loop"
+        ]
+    );
+    for (name, t) in &r.profile_ms {
+        assert!(*t >= 0.0 && t.is_finite(), "{name}: {t} ms/step");
+    }
+    let total: f64 = r.profile_ms.iter().map(|(_, t)| t).sum();
+    assert_relative_eq!(total, r.controlled_ms, max_relative = 1e-9);
+    assert!(r.profile_ms[0].1 < r.controlled_ms);
+    assert!(r.alone_ms > 0.0 && r.interleaved_samples_pct.len() == 1);
+    assert!(r.interleaved_overhead_pct.is_finite());
+    assert!(format_profile(&[r]).contains("safety counters"));
+}

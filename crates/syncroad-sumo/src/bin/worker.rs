@@ -8,7 +8,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use syncroad_sumo::bench::{format_table, run_case, standard_cases};
+use syncroad_sumo::bench::{format_profile, format_table, run_case, standard_cases};
 use syncroad_sumo::WorkerCommand;
 
 fn main() -> ExitCode {
@@ -50,6 +50,7 @@ fn main() -> ExitCode {
     }
     let _ = std::fs::remove_dir_all(&work);
     print!("{}", format_table(&results));
+    print!("\nwhere a step goes:\n{}", format_profile(&results));
     if let Some(path) = json {
         let text = serde_json::to_string_pretty(&results).expect("results serialise");
         let text = text + "\n";

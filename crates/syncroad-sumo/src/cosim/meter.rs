@@ -46,6 +46,11 @@ impl<'py> Meter<'py> {
         })
     }
 
+    /// The interpreter the meter calls into.
+    pub(super) fn py(&self) -> Python<'py> {
+        self.fuel.py()
+    }
+
     fn sum(
         &self,
         py: Python<'py>,

@@ -29,14 +29,17 @@ use pyo3::prelude::*;
 use pyo3::types::{PyString, PyTuple};
 use syncroad_control::{controller_for, SpeedController};
 
-use crate::protocol::{write_msg, Control, Request, StartInfo, WorkerMsg};
+use crate::probe::Probe;
+use crate::protocol::{write_msg, Control, Job, Request, StartInfo, WorkerMsg};
 use crate::python::{load_libsumo, py_error, PythonError};
 
 mod leaders;
 pub(crate) mod libsumo;
 mod meter;
+mod observer;
 mod runner;
 mod step;
+mod timing;
 
 pub use libsumo::sumo_args;
 use libsumo::{tail, Libsumo};
@@ -89,13 +92,18 @@ pub enum CosimError {
     Pipe(String),
 }
 
-/// Runs the request; every message goes to `out`. The returned error is also what the worker
+/// Runs the job; every message goes to `out`. The returned error is also what the worker
 /// reports as [`WorkerMsg::Failed`].
-pub fn run(py: Python<'_>, req: &Request, out: &mut impl Write) -> Result<(), CosimError> {
+pub fn run(py: Python<'_>, job: &Job, out: &mut impl Write) -> Result<(), CosimError> {
+    let req = job.request();
+    let probe = match job {
+        Job::Run(_) => None,
+        Job::Bench { probe, .. } => Some(*probe),
+    };
     // Build the law first: a law problem must not cost a SUMO start.
     let controller: Option<Box<dyn SpeedController>> = match &req.control {
         Control::Law { law } => Some(controller_for(law, req.layout.leader_vehicle)?),
-        Control::SumoModel | Control::Hold => None,
+        Control::SumoModel => None,
     };
     let (module, python) = load_libsumo(py)?;
     eprintln!(
@@ -118,7 +126,7 @@ pub fn run(py: Python<'_>, req: &Request, out: &mut impl Write) -> Result<(), Co
             log_tail: tail(&req.log_file, 20),
         });
     }
-    let result = run_started(py, &ls, req, controller, python, out);
+    let result = run_started(py, &ls, req, controller, probe, python, out);
     // Close SUMO whatever happened (the worker exits right after).
     let _ = ls.module.call_method0("close");
     result?;
@@ -132,6 +140,7 @@ fn run_started(
     ls: &Libsumo<'_>,
     req: &Request,
     controller: Option<Box<dyn SpeedController>>,
+    probe: Option<Probe>,
     python: crate::python::PythonInfo,
     out: &mut impl Write,
 ) -> Result<(), CosimError> {
@@ -219,7 +228,7 @@ fn run_started(
         .collect::<PyResult<_>>()
         .map_err(|e| py_error(py, "argument tuples", e))?;
     let sim = step::CoSim::new(py, ls, req, &ids, controller)?;
-    runner::run_steps(sim, &id_args, out)
+    runner::run_steps(sim, &id_args, probe, out)
 }
 
 #[cfg(test)]

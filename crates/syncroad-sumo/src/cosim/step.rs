@@ -20,11 +20,8 @@ use syncroad_control::{SpeedController, StopReason};
 
 use super::libsumo::{sanitize_commands, set_item_f64, tail, Libsumo, Reader};
 use super::CosimError;
-use crate::protocol::{Control, PhaseTimes, Request};
+use crate::protocol::Request;
 use crate::python::{py_error, PythonError};
-
-/// Speed mode with every safety check off: SUMO realises the command as given.
-const SPEED_MODE_RAW: i32 = 32;
 
 /// Wall time of one step's parts \[s\].
 #[derive(Debug, Clone, Copy, Default)]
@@ -33,17 +30,8 @@ pub(super) struct StepTimes {
     pub command_s: f64,
     /// `simulationStep`.
     pub step_s: f64,
-    /// Reading the speeds back.
+    /// Reading the speeds (and odometers) back.
     pub read_s: f64,
-}
-
-impl StepTimes {
-    /// Adds these times to the benchmark's phase totals.
-    pub fn add_to(&self, p: &mut PhaseTimes) {
-        p.command_s += self.command_s;
-        p.step_s += self.step_s;
-        p.read_speeds_s += self.read_s;
-    }
 }
 
 /// The co-simulation between two steps.
@@ -87,7 +75,6 @@ impl<'a, 'py> CoSim<'a, 'py> {
         controller: Option<Box<dyn SpeedController>>,
     ) -> Result<Self, CosimError> {
         let n = ids.len();
-        let hold = matches!(req.control, Control::Hold);
         // A SUMO driver on a road of several lanes keeps its lane too: a lane change would take
         // it out of the order along the road that positions, gaps and the law's graph assume.
         if req.layout.road.multi_lane {
@@ -97,17 +84,13 @@ impl<'a, 'py> CoSim<'a, 'py> {
                 }
             }
         }
-        if controller.is_some() || hold {
+        if controller.is_some() {
             for (id, dep) in ids.iter().zip(&req.layout.vehicles) {
                 if dep.driver.is_some() {
                     continue;
                 }
-                let mode = if hold { SPEED_MODE_RAW } else { req.speed_mode };
-                ls.call("vehicle_setSpeedMode", (id.clone(), mode))?;
+                ls.call("vehicle_setSpeedMode", (id.clone(), req.speed_mode))?;
                 ls.call("vehicle_setLaneChangeMode", (id.clone(), 0))?;
-                if hold {
-                    ls.call("vehicle_setSpeed", (id.clone(), dep.speed_mps))?;
-                }
             }
         }
         let speed_args = ids
@@ -146,16 +129,14 @@ impl<'a, 'py> CoSim<'a, 'py> {
             negative_commands_clamped: 0,
             odometer_deviation_max_m: 0.0,
         };
-        if req.observe {
-            if let Some(i) = sim.reader.speeds(&mut sim.v)? {
-                return Err(sim.lost(i));
-            }
-            if let Some(i) = sim.reader.odometers(&mut sim.dist)? {
-                return Err(sim.lost(i));
-            }
-            for i in 0..n {
-                sim.q[i] = sim.q0[i] + sim.dist[i];
-            }
+        if let Some(i) = sim.reader.speeds(&mut sim.v)? {
+            return Err(sim.lost(i));
+        }
+        if let Some(i) = sim.reader.odometers(&mut sim.dist)? {
+            return Err(sim.lost(i));
+        }
+        for i in 0..n {
+            sim.q[i] = sim.q0[i] + sim.dist[i];
         }
         Ok(sim)
     }
@@ -180,7 +161,7 @@ impl<'a, 'py> CoSim<'a, 'py> {
         }
     }
 
-    /// Only `simulationStep` (the benchmark's bare steps).
+    /// Only `simulationStep` (the benchmark's bare steps: vehicles keep their last command).
     pub fn step_bare(&mut self) -> Result<(), CosimError> {
         Ok(self.ls.simulation_step()?)
     }
@@ -215,14 +196,10 @@ impl<'a, 'py> CoSim<'a, 'py> {
         let t_stepped = Instant::now();
         times.command_s = (t_step - t_law).as_secs_f64();
         times.step_s = (t_stepped - t_step).as_secs_f64();
-        if !req.observe {
-            return Ok(None);
-        }
         self.v_prev.copy_from_slice(&self.v);
         if let Some(i) = self.reader.speeds(&mut self.v)? {
             return Ok(Some(self.vehicle_lost(i, step + 1)));
         }
-        times.read_s = t_stepped.elapsed().as_secs_f64();
         let dt = req.step_s;
         for i in 0..self.v.len() {
             self.q[i] += if req.ballistic {
@@ -244,6 +221,7 @@ impl<'a, 'py> CoSim<'a, 'py> {
                 self.q[i] = sumo_q;
             }
         }
+        times.read_s = t_stepped.elapsed().as_secs_f64();
         Ok(None)
     }
 

@@ -3,7 +3,7 @@
 use std::path::Path;
 
 use anyhow::Context;
-use syncroad_sumo::bench::{format_table, run_case, standard_cases};
+use syncroad_sumo::bench::{format_profile, format_table, run_case, standard_cases};
 use syncroad_sumo::WorkerCommand;
 
 use crate::error::Status;
@@ -29,6 +29,7 @@ pub fn run(quick: bool, json_out: Option<&Path>) -> anyhow::Result<Status> {
     }
     let _ = std::fs::remove_dir_all(&work);
     out!("{}", format_table(&results));
+    out!("\nwhere a step goes:\n{}", format_profile(&results));
     if let Some(p) = json_out {
         write_json(p, &serde_json::to_value(&results)?)?;
     }

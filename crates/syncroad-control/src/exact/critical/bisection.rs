@@ -34,6 +34,126 @@ fn track_root(l: &DMatrix<f64>, delays_s: &[f64], scale: f64, s0: Complex64) -> 
     refined.converged.then(|| refined.root.into())
 }
 
+/// A stable scale `lo` and an unstable scale `hi` with the full solves at both.
+struct Bracket {
+    lo: f64,
+    lo_report: RootsReport,
+    hi: f64,
+    hi_report: RootsReport,
+}
+
+impl Bracket {
+    /// From Theorem 1's scale: halve until stable, then double until unstable.
+    fn find(
+        theorem1: f64,
+        eval: &mut impl FnMut(f64) -> Result<RootsReport, CollocationError>,
+    ) -> Result<Self, CriticalError> {
+        let mut lo = theorem1;
+        let mut lo_report = eval(lo)?;
+        let mut halvings = 0;
+        while !lo_report.is_stable() {
+            halvings += 1;
+            if halvings > 60 {
+                return Err(CriticalError::UnstableAtSmallGain { scale: lo });
+            }
+            lo /= 2.0;
+            lo_report = eval(lo)?;
+        }
+        let mut hi = 2.0 * lo;
+        let mut hi_report = eval(hi)?;
+        let mut doublings = 0;
+        while hi_report.is_stable() {
+            doublings += 1;
+            if doublings > 40 {
+                return Err(CriticalError::NoCrossing { scale: hi });
+            }
+            lo = hi;
+            lo_report = hi_report;
+            hi *= 2.0;
+            hi_report = eval(hi)?;
+        }
+        Ok(Self {
+            lo,
+            lo_report,
+            hi,
+            hi_report,
+        })
+    }
+
+    /// Keeps `r`, the full solve at `c`, on its side of the bracket.
+    fn keep(&mut self, c: f64, r: RootsReport) {
+        if r.is_stable() {
+            self.lo = c;
+            self.lo_report = r;
+        } else {
+            self.hi = c;
+            self.hi_report = r;
+        }
+    }
+
+    /// Bisects with full solves to a bracket of `relative` width.
+    fn bisect_to(
+        &mut self,
+        relative: f64,
+        eval: &mut impl FnMut(f64) -> Result<RootsReport, CollocationError>,
+    ) -> Result<(), CriticalError> {
+        while (self.hi - self.lo) > relative * self.hi {
+            let mid = 0.5 * (self.lo + self.hi);
+            let r = eval(mid)?;
+            self.keep(mid, r);
+        }
+        Ok(())
+    }
+}
+
+/// Secant on the real part of the dominant root, tracked by Newton inside the bracket: the
+/// crossing `(c*, s*)` when it converges there.
+fn secant(l: &DMatrix<f64>, delays_s: &[f64], b: &Bracket) -> Option<(f64, Complex64)> {
+    let s_hi: Complex64 = b.hi_report.roots[0].root.into();
+    let s_lo = track_root(l, delays_s, b.lo, s_hi)?;
+    let (mut c0, mut g0) = (b.lo, s_lo.re);
+    let (mut c1, mut g1, mut z1) = (b.hi, s_hi.re, s_hi);
+    for _ in 0..60 {
+        if g1 == g0 {
+            return None;
+        }
+        let c2 = c1 - g1 * (c1 - c0) / (g1 - g0);
+        if !(b.lo..=b.hi).contains(&c2) {
+            return None;
+        }
+        let z2 = track_root(l, delays_s, c2, z1)?;
+        (c0, g0) = (c1, g1);
+        (c1, g1, z1) = (c2, z2.re, z2);
+        if (c1 - c0).abs() <= 1e-14 * c1 || g1.abs() <= 1e-15 * z1.norm() {
+            return Some((c1, z1));
+        }
+    }
+    None
+}
+
+/// Certifies a secant's `c*` with full computations on both sides (a root that crossed
+/// earlier inside the bracket shows up as instability below c*); true when c* is the
+/// crossing. The bracket narrows to the solves made either way.
+fn certify_secant(
+    c_star: f64,
+    b: &mut Bracket,
+    eval: &mut impl FnMut(f64) -> Result<RootsReport, CollocationError>,
+) -> Result<bool, CriticalError> {
+    let below = c_star * (1.0 - 1e-7);
+    let r_below = eval(below)?;
+    let stable_below = r_below.is_stable();
+    b.keep(below, r_below);
+    if !stable_below {
+        return Ok(false);
+    }
+    let above = c_star * (1.0 + 1e-7);
+    let r_above = eval(above)?;
+    let unstable_above = !r_above.is_stable();
+    b.keep(above, r_above);
+    // Stable above too: the tracked root did not cross here.
+    Ok(unstable_above)
+}
+
 /// The first version's search: bracket and bisect with full solves, a secant on the tracked
 /// root when `use_secant`; the fallback of [`critical_scale_from`] and its reference in tests.
 pub(crate) fn bisection_search(
@@ -54,121 +174,26 @@ pub(crate) fn bisection_search(
         full_solves += 1;
         abscissa_at(adjacency, delays_s, c, options)
     };
-    // Bracket.
-    let mut lo = theorem1;
-    let mut lo_report = eval(lo)?;
-    let mut halvings = 0;
-    while !lo_report.is_stable() {
-        halvings += 1;
-        if halvings > 60 {
-            return Err(CriticalError::UnstableAtSmallGain { scale: lo });
-        }
-        lo /= 2.0;
-        lo_report = eval(lo)?;
-    }
-    let mut hi = 2.0 * lo;
-    let mut hi_report = eval(hi)?;
-    let mut doublings = 0;
-    while hi_report.is_stable() {
-        doublings += 1;
-        if doublings > 40 {
-            return Err(CriticalError::NoCrossing { scale: hi });
-        }
-        lo = hi;
-        lo_report = hi_report;
-        hi *= 2.0;
-        hi_report = eval(hi)?;
-    }
-    // Bisect with full solves to a 1e-3 relative bracket.
-    while (hi - lo) > 1e-3 * hi {
-        let mid = 0.5 * (lo + hi);
-        let r = eval(mid)?;
-        if r.is_stable() {
-            lo = mid;
-            lo_report = r;
-        } else {
-            hi = mid;
-            hi_report = r;
+    let mut b = Bracket::find(theorem1, &mut eval)?;
+    b.bisect_to(1e-3, &mut eval)?;
+    let mut crossing = None;
+    if let Some((c, s)) = use_secant.then(|| secant(&l, delays_s, &b)).flatten() {
+        if certify_secant(c, &mut b, &mut eval)? {
+            crossing = Some((c, s));
         }
     }
-    // Secant on the real part of the dominant root, tracked by Newton inside the bracket.
-    let s_hi: Complex64 = hi_report.roots[0].root.into();
-    let mut c_star = 0.5 * (lo + hi);
-    let mut s_star = s_hi;
-    let mut secant_converged = false;
-    let tracked_lo = if use_secant {
-        track_root(&l, delays_s, lo, s_hi)
-    } else {
-        None
+    let (c_star, s_star) = match crossing {
+        Some(x) => x,
+        None => {
+            // Fall back to bisection with full solves down to 1e-10 relative.
+            b.bisect_to(1e-10, &mut eval)?;
+            (0.5 * (b.lo + b.hi), b.hi_report.roots[0].root.into())
+        }
     };
-    if let Some(s_lo) = tracked_lo {
-        let (mut c0, mut g0) = (lo, s_lo.re);
-        let (mut c1, mut g1, mut z1) = (hi, s_hi.re, s_hi);
-        for _ in 0..60 {
-            if g1 == g0 {
-                break;
-            }
-            let c2 = c1 - g1 * (c1 - c0) / (g1 - g0);
-            if !(lo..=hi).contains(&c2) {
-                break;
-            }
-            let Some(z2) = track_root(&l, delays_s, c2, z1) else {
-                break;
-            };
-            (c0, g0) = (c1, g1);
-            (c1, g1, z1) = (c2, z2.re, z2);
-            if (c1 - c0).abs() <= 1e-14 * c1 || g1.abs() <= 1e-15 * z1.norm() {
-                c_star = c1;
-                s_star = z1;
-                secant_converged = true;
-                break;
-            }
-        }
-    }
-    if secant_converged {
-        // Certify with full computations on both sides; a root that crossed earlier inside the
-        // bracket shows up as instability below c*.
-        let below = c_star * (1.0 - 1e-7);
-        let above = c_star * (1.0 + 1e-7);
-        let r_below = eval(below)?;
-        if r_below.is_stable() {
-            lo = below;
-            lo_report = r_below;
-            let r_above = eval(above)?;
-            if r_above.is_stable() {
-                secant_converged = false; // tracked root did not cross here
-                lo = above;
-                lo_report = r_above;
-            } else {
-                hi = above;
-                hi_report = r_above;
-            }
-        } else {
-            secant_converged = false;
-            hi = below;
-            hi_report = r_below;
-        }
-    }
-    if !secant_converged {
-        // Fall back to bisection with full solves down to 1e-10 relative.
-        while (hi - lo) > 1e-10 * hi {
-            let mid = 0.5 * (lo + hi);
-            let r = eval(mid)?;
-            if r.is_stable() {
-                lo = mid;
-                lo_report = r;
-            } else {
-                hi = mid;
-                hi_report = r;
-            }
-        }
-        c_star = 0.5 * (lo + hi);
-        s_star = hi_report.roots[0].root.into();
-    }
     // The same root counts as the continuation's certificate, the other roots of the last
     // solve above c* setting the margin.
-    let multiplicity = hi_report.roots[0].multiplicity;
-    let others: Vec<Complex64> = hi_report.roots[1..]
+    let multiplicity = b.hi_report.roots[0].multiplicity;
+    let others: Vec<Complex64> = b.hi_report.roots[1..]
         .iter()
         .map(|r| Complex64::from(r.root))
         .collect();
@@ -181,8 +206,8 @@ pub(crate) fn bisection_search(
             scale: c_star,
             root: s_star,
             multiplicity,
-            bracket: [lo, hi],
-            bracket_abscissae: [lo_report.abscissa, hi_report.abscissa],
+            bracket: [b.lo, b.hi],
+            bracket_abscissae: [b.lo_report.abscissa, b.hi_report.abscissa],
             full_solves,
             method: CriticalMethod::Bisection,
             certificate,

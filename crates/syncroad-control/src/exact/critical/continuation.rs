@@ -70,6 +70,111 @@ fn follow(
     follow(band, (mid, s_mid), c1, m, depth - 1)
 }
 
+/// One continuation step of root `j` from `c` to `c_next`: a secant predictor in `log c`
+/// from the step before (`prev`), Newton's corrector, and a restart off the real axis where two
+/// real roots met. None when the corrector fails or lands far from its predictor (it may have
+/// jumped to another root).
+fn correct_root(
+    band: &BandedNetwork,
+    (c, c_next): (f64, f64),
+    cur: Complex64,
+    prev: Option<(f64, Complex64)>,
+    m: usize,
+    dlog: f64,
+) -> Option<Complex64> {
+    let pred = match prev {
+        Some((cp, sp)) => cur + (cur - sp) * ((c_next / c).ln() / (c / cp).ln()),
+        None => cur,
+    };
+    let close = |s: Complex64| (s - pred).norm() <= 0.05 * (1.0 + cur.norm());
+    if let Some(s) = newton_track(band, c_next, pred, m) {
+        if close(s) {
+            return Some(s);
+        }
+    }
+    // Two real roots that meet leave the axis as a conjugate pair: restart off the axis.
+    if cur.im.abs() <= 1e-9 * (1.0 + cur.norm()) {
+        let kick = Complex64::new(pred.re, 0.1 * dlog * (1.0 + cur.norm()));
+        let s = newton_track(band, c_next, kick, m)?;
+        return close(s).then_some(s);
+    }
+    None
+}
+
+/// Roots that met (a real pair turned complex) are one root from now on: the duplicates are
+/// dropped from `next`, `cur` and `mult` alike. Two complex roots landing on one point are not
+/// a meeting but a corrector that jumped from one root of a cluster to its neighbour: then
+/// nothing is dropped and the answer is false (retry the step shorter).
+fn merge_met_roots(
+    next: &mut Vec<Complex64>,
+    cur: &mut Vec<Complex64>,
+    mult: &mut Vec<usize>,
+) -> bool {
+    let mut keep = vec![true; next.len()];
+    let real = |s: Complex64| s.im.abs() <= 1e-9 * (1.0 + s.norm());
+    for i in 0..next.len() {
+        for j in i + 1..next.len() {
+            if keep[j] && (next[i] - next[j]).norm() < 1e-6 * (1.0 + next[i].norm()) {
+                if !(real(cur[i]) && real(cur[j])) {
+                    return false;
+                }
+                keep[j] = false;
+            }
+        }
+    }
+    let mut k = keep.iter().copied();
+    next.retain(|_| k.next().unwrap_or(true));
+    let mut k = keep.iter().copied();
+    cur.retain(|_| k.next().unwrap_or(true));
+    let mut k = keep.iter().copied();
+    mult.retain(|_| k.next().unwrap_or(true));
+    true
+}
+
+/// Every root that changed side between `c` (`cur`) and `c_next` (`next`) crosses inside; the
+/// first in `c` wins, with the other roots followed to its scale.
+fn first_crossing(
+    band: &BandedNetwork,
+    (c, c_next): (f64, f64),
+    cur: &[Complex64],
+    next: &[Complex64],
+    mult: &[usize],
+) -> Option<Crossing> {
+    let mut best: Option<Crossing> = None;
+    for j in 0..next.len() {
+        if (cur[j].re < 0.0) == (next[j].re < 0.0) {
+            continue;
+        }
+        let m = mult[j];
+        let (c_star, s_star, bracket, bracket_re) =
+            solve_crossing(band, m, (c, cur[j]), (c_next, next[j]))?;
+        if best.as_ref().is_none_or(|b| c_star < b.scale) {
+            // The other roots at c*, followed from the bracket end nearer in log c; one that
+            // cannot be followed there only loosens the margin (the certificate still counts).
+            let others = (0..next.len())
+                .filter(|&i| i != j)
+                .filter_map(|i| {
+                    let (from_c, from) = if (c_star / c).ln().abs() < (c_star / c_next).ln().abs() {
+                        (c, cur[i])
+                    } else {
+                        (c_next, next[i])
+                    };
+                    follow(band, (from_c, from), c_star, mult[i], 6)
+                })
+                .collect();
+            best = Some(Crossing {
+                scale: c_star,
+                root: s_star,
+                multiplicity: m,
+                bracket,
+                bracket_re,
+                others,
+            });
+        }
+    }
+    best
+}
+
 /// Follows the tracked roots in `c` from 1 until one crosses the axis (module documentation).
 pub(super) fn continuation(
     l: &DMatrix<f64>,
@@ -92,72 +197,27 @@ pub(super) fn continuation(
             return None;
         }
         let c_next = c * (sign * dlog).exp();
-        let correct = |j: usize| -> Option<Complex64> {
-            let pred = match &prev {
-                Some((cp, sp)) if sp.len() == cur.len() => {
-                    cur[j] + (cur[j] - sp[j]) * ((c_next / c).ln() / (c / cp).ln())
-                }
-                _ => cur[j],
+        let step = |j: usize| {
+            let before = match &prev {
+                Some((cp, sp)) if sp.len() == cur.len() => Some((*cp, sp[j])),
+                _ => None,
             };
-            let close = |s: Complex64| (s - pred).norm() <= 0.05 * (1.0 + cur[j].norm());
-            if let Some(s) = newton_track(&band, c_next, pred, mult[j]) {
-                // A corrector far from its predictor may have jumped to another root.
-                if close(s) {
-                    return Some(s);
-                }
-            }
-            // Two real roots that meet leave the axis as a conjugate pair: restart off the axis.
-            if cur[j].im.abs() <= 1e-9 * (1.0 + cur[j].norm()) {
-                let kick = Complex64::new(pred.re, 0.1 * dlog * (1.0 + cur[j].norm()));
-                let s = newton_track(&band, c_next, kick, mult[j])?;
-                return close(s).then_some(s);
-            }
-            None
+            correct_root(&band, (c, c_next), cur[j], before, mult[j], dlog)
         };
-        let Some(mut next) = (0..cur.len()).map(correct).collect::<Option<Vec<_>>>() else {
+        let corrected = (0..cur.len()).map(step).collect::<Option<Vec<_>>>();
+        let Some(mut next) = corrected else {
             dlog /= 2.0;
             if dlog < 1e-9 {
                 return None;
             }
             continue;
         };
-        // Roots that met (a real pair turned complex) are one root from now on. Two complex
-        // roots landing on one point are not a meeting but a corrector that jumped from one
-        // root of a cluster to its neighbour: the step is retried shorter.
-        let mut keep = vec![true; next.len()];
-        let mut jumped = false;
-        for i in 0..next.len() {
-            for j in i + 1..next.len() {
-                if keep[j] && (next[i] - next[j]).norm() < 1e-6 * (1.0 + next[i].norm()) {
-                    let real = |s: Complex64| s.im.abs() <= 1e-9 * (1.0 + s.norm());
-                    jumped |= !(real(cur[i]) && real(cur[j]));
-                    keep[j] = false;
-                }
-            }
-        }
-        if jumped {
+        if !merge_met_roots(&mut next, &mut cur, &mut mult) {
             dlog /= 2.0;
             if dlog < 1e-9 {
                 return None;
             }
             continue;
-        }
-        if keep.iter().any(|k| !k) {
-            let mut idx = 0;
-            next.retain(|_| {
-                idx += 1;
-                keep[idx - 1]
-            });
-            let mut idx = 0;
-            cur.retain(|_| {
-                idx += 1;
-                keep[idx - 1]
-            });
-            let mut idx = 0;
-            mult.retain(|_| {
-                idx += 1;
-                keep[idx - 1]
-            });
         }
         let event = if increasing {
             next.iter().any(|s| s.re >= 0.0)
@@ -165,42 +225,7 @@ pub(super) fn continuation(
             next.iter().all(|s| s.re < 0.0)
         };
         if event {
-            // Every root that changed side crosses inside (c, c_next); the first in c wins.
-            let mut best: Option<Crossing> = None;
-            for j in 0..next.len() {
-                if (cur[j].re < 0.0) == (next[j].re < 0.0) {
-                    continue;
-                }
-                let m = mult[j];
-                let (c_star, s_star, bracket, bracket_re) =
-                    solve_crossing(&band, m, (c, cur[j]), (c_next, next[j]))?;
-                if best.as_ref().is_none_or(|b| c_star < b.scale) {
-                    // The other roots at c*, followed from the bracket end nearer in log c;
-                    // one that cannot be followed there only loosens the margin (the
-                    // certificate still counts).
-                    let others = (0..next.len())
-                        .filter(|&i| i != j)
-                        .filter_map(|i| {
-                            let (from_c, from) =
-                                if (c_star / c).ln().abs() < (c_star / c_next).ln().abs() {
-                                    (c, cur[i])
-                                } else {
-                                    (c_next, next[i])
-                                };
-                            follow(&band, (from_c, from), c_star, mult[i], 6)
-                        })
-                        .collect();
-                    best = Some(Crossing {
-                        scale: c_star,
-                        root: s_star,
-                        multiplicity: m,
-                        bracket,
-                        bracket_re,
-                        others,
-                    });
-                }
-            }
-            return best;
+            return first_crossing(&band, (c, c_next), &cur, &next, &mult);
         }
         prev = Some((c, std::mem::replace(&mut cur, next)));
         c = c_next;

@@ -1,0 +1,268 @@
+//! What watches the loop: one trait, [`StepObserver`], for everything that runs around a step
+//! without changing it — the safety counters, the recorder that streams rows, SUMO-side
+//! measurements, the watch of the vehicles ahead. The runner calls each in turn after every
+//! full step; the benchmark's probe times each by its [`StepObserver::name`].
+
+use std::io::Write;
+use std::time::{Duration, Instant};
+
+use pyo3::prelude::*;
+use pyo3::types::PyTuple;
+use syncroad_control::metrics::speed_range;
+use syncroad_control::Trajectory;
+
+use super::leaders::{LeaderWatch, LEADER_CHECK_EVERY};
+use super::meter::Meter;
+use super::step::CoSim;
+use super::CosimError;
+use crate::protocol::{write_msg, write_ranges, write_rows, Event, Totals, WorkerMsg};
+
+/// Longest time rows wait in the worker before they are sent.
+const FLUSH_INTERVAL: Duration = Duration::from_millis(200);
+/// Override events sent to the parent per run (all are counted).
+const MAX_OVERRIDE_EVENTS: usize = 20;
+
+pub(super) fn pipe(e: std::io::Error) -> CosimError {
+    CosimError::Pipe(e.to_string())
+}
+
+/// The loop as an observer sees it: the state after `steps_done` steps and the channel to the
+/// parent.
+pub(super) struct Observed<'o, 'a, 'py> {
+    /// Steps done: the state is at time `steps_done Δt`.
+    pub steps_done: usize,
+    /// The co-simulation after those steps.
+    pub sim: &'o CoSim<'a, 'py>,
+    /// Messages and rows to the parent.
+    pub out: &'o mut dyn Write,
+}
+
+impl Observed<'_, '_, '_> {
+    /// Time of the state \[s\].
+    pub fn time_s(&self) -> f64 {
+        self.steps_done as f64 * self.sim.req.step_s
+    }
+
+    /// True after the horizon's last step.
+    pub fn last(&self) -> bool {
+        self.steps_done == self.sim.req.steps
+    }
+}
+
+/// Something that runs around each step of the loop without changing it.
+pub(super) trait StepObserver {
+    /// Its name in the benchmark's profile.
+    fn name(&self) -> &'static str;
+
+    /// The state after insertion, before the first step.
+    fn start(&mut self, _at: &mut Observed<'_, '_, '_>) -> Result<(), CosimError> {
+        Ok(())
+    }
+
+    /// After each full step (the benchmark's bare steps are not observed).
+    fn after_step(&mut self, at: &mut Observed<'_, '_, '_>) -> Result<(), CosimError>;
+}
+
+/// Counts collisions, teleports and overridden commands after each step, sending the first
+/// events to the parent.
+pub(super) struct SafetyWatch {
+    pub totals: Totals,
+    override_events: usize,
+}
+
+impl SafetyWatch {
+    pub fn new(totals: Totals) -> Self {
+        Self {
+            totals,
+            override_events: 0,
+        }
+    }
+
+    fn check_overrides(&mut self, at: &mut Observed<'_, '_, '_>) -> Result<(), CosimError> {
+        let sim = at.sim;
+        let req = sim.req;
+        for (i, dep) in req.layout.vehicles.iter().enumerate() {
+            if dep.driver.is_some() {
+                continue;
+            }
+            let d = (sim.v[i] - sim.cmd[i]).abs();
+            if d > req.override_tolerance_mps {
+                self.totals.overrides += 1;
+                self.totals.max_override_mps = self.totals.max_override_mps.max(d);
+                if self.override_events < MAX_OVERRIDE_EVENTS {
+                    self.override_events += 1;
+                    let e = Event::Override {
+                        step: at.steps_done,
+                        vehicle: dep.id.clone(),
+                        commanded_mps: sim.cmd[i],
+                        realised_mps: sim.v[i],
+                    };
+                    write_msg(&mut at.out, &WorkerMsg::Event(e)).map_err(pipe)?;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+impl StepObserver for SafetyWatch {
+    fn name(&self) -> &'static str {
+        "safety counters"
+    }
+
+    fn after_step(&mut self, at: &mut Observed<'_, '_, '_>) -> Result<(), CosimError> {
+        let ls = at.sim.ls;
+        let step = at.steps_done;
+        let colliding = ls.count(&ls.colliding, "simulation.getCollidingVehiclesNumber")?;
+        if colliding > 0 {
+            self.totals.collision_steps += 1;
+            self.totals.colliding_vehicles += colliding;
+            let e = Event::Collision {
+                step,
+                vehicles: colliding,
+            };
+            write_msg(&mut at.out, &WorkerMsg::Event(e)).map_err(pipe)?;
+        }
+        let teleports = ls.count(&ls.teleports, "simulation.getStartingTeleportNumber")?;
+        if teleports > 0 {
+            self.totals.teleports += teleports;
+            let e = Event::Teleport {
+                step,
+                count: teleports,
+            };
+            write_msg(&mut at.out, &WorkerMsg::Event(e)).map_err(pipe)?;
+        }
+        if at.sim.controlled() {
+            self.check_overrides(at)?;
+        }
+        Ok(())
+    }
+}
+
+/// Records every `every`-th step and streams the rows in chunks, so a crash or Ctrl-C loses at
+/// most one chunk or [`FLUSH_INTERVAL`] of the run. The speed range of the judged vehicles is
+/// kept at every step and sent with the rows.
+pub(super) struct Recorder {
+    rows: Trajectory,
+    ranges: Vec<[f64; 3]>,
+    /// The leader vehicle's index offset (1 with a leader vehicle: it is not judged).
+    k0: usize,
+    every: usize,
+    chunk: usize,
+    last_flush: Instant,
+}
+
+impl Recorder {
+    pub fn new(sim: &CoSim<'_, '_>) -> Self {
+        let req = sim.req;
+        Self {
+            rows: Trajectory::new(sim.v.len()),
+            ranges: Vec::new(),
+            k0: usize::from(req.layout.leader_vehicle),
+            every: req.record_every.max(1),
+            chunk: req.chunk_records.max(1),
+            last_flush: Instant::now(),
+        }
+    }
+
+    fn record(&mut self, at: &mut Observed<'_, '_, '_>) -> Result<(), CosimError> {
+        let sim = at.sim;
+        let (lo, hi) = speed_range(&sim.v[self.k0.min(sim.v.len())..]);
+        let t = at.time_s();
+        self.ranges.push([t, lo, hi]);
+        if at.steps_done.is_multiple_of(self.every) || at.last() {
+            self.rows.push_commanded(t, &sim.v, &sim.q, &sim.cmd);
+            if self.rows.len() >= self.chunk || self.last_flush.elapsed() >= FLUSH_INTERVAL {
+                self.flush(&mut at.out)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Sends what is held.
+    pub fn flush(&mut self, out: &mut impl Write) -> Result<(), CosimError> {
+        write_ranges(out, &mut self.ranges).map_err(pipe)?;
+        write_rows(out, &mut self.rows).map_err(pipe)?;
+        self.last_flush = Instant::now();
+        Ok(())
+    }
+}
+
+impl StepObserver for Recorder {
+    fn name(&self) -> &'static str {
+        "rows"
+    }
+
+    fn start(&mut self, at: &mut Observed<'_, '_, '_>) -> Result<(), CosimError> {
+        self.record(at)
+    }
+
+    fn after_step(&mut self, at: &mut Observed<'_, '_, '_>) -> Result<(), CosimError> {
+        self.record(at)
+    }
+}
+
+/// SUMO-side measurements ([`Meter`]) as an observer: the per-vehicle argument tuples it calls
+/// libsumo with, and the vehicles' braking limit.
+pub(super) struct Measurements<'x, 'py> {
+    py: Python<'py>,
+    pub meter: Meter<'py>,
+    pub id_args: &'x [Bound<'py, PyTuple>],
+    warm_from_start: bool,
+}
+
+impl<'x, 'py> Measurements<'x, 'py> {
+    pub fn new(meter: Meter<'py>, id_args: &'x [Bound<'py, PyTuple>], warmup: usize) -> Self {
+        Self {
+            py: meter.py(),
+            meter,
+            id_args,
+            warm_from_start: warmup == 0,
+        }
+    }
+}
+
+impl StepObserver for Measurements<'_, '_> {
+    fn name(&self) -> &'static str {
+        "measurements"
+    }
+
+    fn start(&mut self, at: &mut Observed<'_, '_, '_>) -> Result<(), CosimError> {
+        if self.warm_from_start {
+            let req = at.sim.req;
+            let decel = req.layout.vtype.decel_mps2;
+            self.meter
+                .after_step(self.py, 0, req.step_s, self.id_args, &[], &[], decel)?;
+        }
+        Ok(())
+    }
+
+    fn after_step(&mut self, at: &mut Observed<'_, '_, '_>) -> Result<(), CosimError> {
+        let sim = at.sim;
+        let req = sim.req;
+        let decel = req.layout.vtype.decel_mps2;
+        self.meter.after_step(
+            self.py,
+            at.steps_done,
+            req.step_s,
+            self.id_args,
+            &sim.v_prev,
+            &sim.v,
+            decel,
+        )?;
+        Ok(())
+    }
+}
+
+impl StepObserver for LeaderWatch {
+    fn name(&self) -> &'static str {
+        "vehicles ahead"
+    }
+
+    fn after_step(&mut self, at: &mut Observed<'_, '_, '_>) -> Result<(), CosimError> {
+        if at.steps_done.is_multiple_of(LEADER_CHECK_EVERY) {
+            self.check(at.sim.py, at.sim.ls)?;
+        }
+        Ok(())
+    }
+}
