@@ -4,15 +4,20 @@
 #   bash scripts/bench-sweep.sh sweep   one `syncroad sweep` (long-lived SUMO workers, all cores)
 #   bash scripts/bench-sweep.sh loop    a shell loop of `syncroad run` per point (one at a time)
 #   bash scripts/bench-sweep.sh loop2   the same loop, two points at a time (xargs -P 2)
+#   bash scripts/bench-sweep.sh bound   the stepping bound: the time inside SUMO's step of
+#                                       every point's run (one worker, `syncroad sumo-bench
+#                                       --step-time`), summed and divided by the cores
 # Side by side, as the guide's performance chapter (docs/src/performance.md) quotes it (sweep
-# and loop in turn, PAIRS times; medians and the ratio of each pair):
+# and loop in turn, PAIRS times; medians and the ratio of each pair; then the bound and the
+# sweep's ratio to it):
 #   bash scripts/bench-sweep.sh vs loop 2      (or: vs loop2 2)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 repo="$(pwd)"
 bin="$repo/target/release/syncroad"
 d="${TMPDIR:-/tmp}/syncroad-bench-sweep"
-mode="${1:?usage: bench-sweep.sh sweep|loop|loop2|vs loop|loop2 [PAIRS]}"
+mode="${1:?usage: bench-sweep.sh sweep|loop|loop2|bound|vs loop|loop2 [PAIRS]}"
+cores="$(nproc)"
 if [ "$mode" = vs ]; then
     other="${2:?vs needs loop or loop2}"
     pairs="${3:-2}"
@@ -28,7 +33,11 @@ if [ "$mode" = vs ]; then
             return n % 2 ? x[(n + 1) / 2] : (x[n / 2] + x[n / 2 + 1]) / 2 }
         END { n = NR; ma = median(a, n); mb = median(b, n); mr = median(r, n);
               printf "median: sweep %.1f s (%.2f runs/s), %s %.1f s (%.2f runs/s); sweep/%s wall %.3f (%.1fx faster)\n",
-                     ma, 200 / ma, other, mb, 200 / mb, other, mr, 1 / mr }'
+                     ma, 200 / ma, other, mb, 200 / mb, other, mr, 1 / mr
+              print ma > "'"$d/sweep-median"'" }'
+    bound="$(bash "$0" bound | awk '/^bound/ { print $2 }')"
+    awk -v s="$(cat "$d/sweep-median")" -v b="$bound" -v c="$cores" \
+        'BEGIN { printf "stepping bound: %.1f s (time inside the SUMO step over the 200 points / %d cores); sweep/bound %.2f\n", b, c, s / b }'
     exit 0
 fi
 
@@ -62,5 +71,7 @@ case "$mode" in
     sweep) exec "$bin" sweep "$d/spec.json" --out "$d/out/sweep" --no-plots ;;
     loop) for k in $(seq 0 199); do "$bin" run "$d/points/$k.json" --out "$d/out/$k" --no-plots >/dev/null; done ;;
     loop2) seq 0 199 | xargs -P 2 -I{} "$bin" run "$d/points/{}.json" --out "$d/out/{}" --no-plots >/dev/null ;;
-    *) echo "usage: bench-sweep.sh sweep|loop|loop2" >&2; exit 2 ;;
+    bound) "$bin" sumo-bench --step-time $(seq -f "$d/points/%g.json" 0 199) 2>/dev/null \
+               | awk -v c="$cores" '$1 == "total" { printf "inside simulation.step over the points: %.2f s\nbound %.3f s on %d cores\n", $2, $2 / c, c }' ;;
+    *) echo "usage: bench-sweep.sh sweep|loop|loop2|bound" >&2; exit 2 ;;
 esac

@@ -58,6 +58,11 @@ pub enum Command {
         /// Also write the results as JSON to this file.
         #[arg(long)]
         json: Option<PathBuf>,
+        /// Instead of the standard cases: run each of these SUMO scenarios through one worker
+        /// and print the seconds spent inside SUMO's `simulation.step` in each, and their sum
+        /// (a sweep's stepping bound is that sum over its points divided by the cores).
+        #[arg(long, num_args = 1.., value_name = "SCENARIO")]
+        step_time: Vec<PathBuf>,
     },
     /// Run the scenario on the native fixed-step simulator; write trajectories.csv and
     /// metrics.json to --out and print the verdict.

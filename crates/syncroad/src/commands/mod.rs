@@ -26,7 +26,12 @@ pub fn run(cli: Cli) -> anyhow::Result<Status> {
             sumo,
         } => run::run(&scenario, &out, &sumo),
         Command::Compare(args) => compare::run(&args),
-        Command::SumoBench { quick, json } => sumo_bench::run(quick, json.as_deref()),
+        Command::SumoBench {
+            quick,
+            json,
+            step_time,
+        } if step_time.is_empty() => sumo_bench::run(quick, json.as_deref()),
+        Command::SumoBench { step_time, .. } => sumo_bench::step_time(&step_time),
         Command::Bench { horizon_s, sizes } => bench::run(horizon_s, &sizes),
         Command::Ifp { eta, rho, json } => ifp::run(&eta, &rho, json),
         Command::Schema => {

@@ -8,7 +8,7 @@ use syncroad_sumo::WorkerCommand;
 
 use crate::error::Status;
 use crate::output::write_json;
-use crate::stdout::out;
+use crate::stdout::{out, outln};
 
 /// The SUMO benchmark: SUMO alone vs SUMO + controller vs the TraCI reference at N = 22 and
 /// N = 2000; prints a table, optionally writes JSON.
@@ -33,5 +33,38 @@ pub fn run(quick: bool, json_out: Option<&Path>) -> anyhow::Result<Status> {
     if let Some(p) = json_out {
         write_json(p, &serde_json::to_value(&results)?)?;
     }
+    Ok(Status::Success)
+}
+
+/// `sumo-bench --step-time`: each scenario's run through one worker; prints the seconds spent
+/// inside SUMO's step in each and their sum (the stepping bound of a sweep over these points
+/// is the sum divided by the cores).
+pub fn step_time(paths: &[std::path::PathBuf]) -> anyhow::Result<Status> {
+    let scenarios = paths
+        .iter()
+        .map(|p| crate::config::load_scenario(p))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    if let Some((p, _)) = paths
+        .iter()
+        .zip(&scenarios)
+        .find(|(_, sc)| sc.backend() != syncroad_control::scenario::Backend::Sumo)
+    {
+        return Err(crate::error::InputError::new(format!(
+            "sumo-bench --step-time {}: backend is not \"sumo\"; SUMO's step is timed on SUMO scenarios only",
+            p.display()
+        ))
+        .into());
+    }
+    let worker = WorkerCommand::for_process().context("cannot locate the syncroad executable")?;
+    let work = std::env::temp_dir().join(format!("syncroad-sumo-step-time-{}", std::process::id()));
+    let mut progress =
+        |k: usize, t: f64| eprintln!("{}: inside simulation.step {t:.4} s", paths[k].display());
+    let times = syncroad_sumo::bench::step_seconds(&worker, &scenarios, &work, &mut progress);
+    let _ = std::fs::remove_dir_all(&work);
+    let times = times?;
+    for (p, t) in paths.iter().zip(&times) {
+        outln!("{}\t{t:.6}", p.display());
+    }
+    outln!("total\t{:.6}", times.iter().sum::<f64>());
     Ok(Status::Success)
 }
