@@ -18,8 +18,9 @@
 //! * [`noisy_idm`] — stochastic human drivers (IDM with Flow's or a step-consistent noise),
 //!   computed by the bridge on either backend;
 //! * [`controller`] — the one law object both backends step;
-//! * [`native`] — the fixed-step simulator; [`stop`] — why a run stopped; [`collisions`] —
-//!   vehicles the native simulator drove through each other or backwards;
+//! * [`native`] — the fixed-step simulator; [`stop`] — why a run stopped; [`observer`] — the
+//!   one trait of what watches a loop (natively and in SUMO); [`collisions`] — vehicles the
+//!   native simulator drove through each other or backwards;
 //! * [`metrics`], [`congestion`], [`margins`] — the synchronization verdict, congestion
 //!   measures and safety margins (time headway, gaps, SUMO's surrogate safety measures);
 //! * [`outcome`], [`record`] — one run, whatever ran it: output → outcome → the `metrics.json`
@@ -46,6 +47,7 @@ pub mod margins;
 pub mod metrics;
 pub mod native;
 pub mod noisy_idm;
+pub mod observer;
 pub mod outcome;
 pub mod pi_saturation;
 pub mod poly;

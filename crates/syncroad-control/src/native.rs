@@ -16,6 +16,7 @@ use crate::collisions::Collisions;
 use crate::controller::{controller_for, ControllerError, LawSpec};
 use crate::delayed_driver::DelayedDriverLaw;
 use crate::metrics::{speed_range, spread_of_range, SpreadSeries};
+use crate::observer::StepObserver;
 use crate::road::{self, initial_positions, leader_start};
 use crate::scenario::{Model, Scenario};
 pub use crate::stop::StopReason;
@@ -112,40 +113,36 @@ pub fn simulate_with(
     q.extend(initial_positions(scenario, leader.map(|l| l.0)));
     v.extend_from_slice(scenario.initial_speed_mps());
     let mut next = vec![0.0; all];
-    let mut gaps = vec![0.0; n];
-    let mut traj = Trajectory::new(n);
-    let every = opts.record_every.max(1);
-    let lengths = scenario.length_m();
-    let mut record = |t: f64, q: &[f64], v: &[f64], traj: &mut Trajectory| {
-        road::gaps(&q[k0..], lengths, leader.map(|_| q[0]), ring, &mut gaps);
-        traj.push(t, &v[k0..], &q[k0..], &gaps, scenario.leader_speed_at(t));
+    let road = RoadView {
+        scenario,
+        k0,
+        lengths: scenario.length_m(),
+        leader: leader.is_some(),
+        ring,
     };
     let steps = scenario.steps();
-    let mut spread = SpreadSeries::default();
-    spread.time_s.reserve(steps + 1);
-    spread.spread_mps.reserve(steps + 1);
-    let mut collisions = Collisions::default();
-    let mut step_gaps = vec![0.0; n];
-    let mut observe = |t: f64, q: &[f64], v: &[f64], spread: &mut SpreadSeries| {
-        let (lo, hi) = speed_range(&v[k0..]);
-        spread.push(t, spread_of_range(lo, hi, scenario.leader_speed_at(t)));
-        road::gaps(
-            &q[k0..],
-            lengths,
-            leader.map(|_| q[0]),
-            ring,
-            &mut step_gaps,
-        );
-        collisions.observe(t, &step_gaps, &v[k0..]);
+    let mut rec = Recording {
+        road,
+        every: opts.record_every.max(1),
+        traj: Trajectory::new(n),
+        gaps: vec![0.0; n],
     };
-    record(0.0, &q, &v, &mut traj);
-    observe(0.0, &q, &v, &mut spread);
+    let mut watch = Watch {
+        road,
+        spread: SpreadSeries::default(),
+        collisions: Collisions::default(),
+        gaps: vec![0.0; n],
+    };
+    watch.spread.time_s.reserve(steps + 1);
+    watch.spread.spread_mps.reserve(steps + 1);
+    let Ok(()) = rec.start(&mut NativeState::after(0, steps, dt, &q, &v));
+    let Ok(()) = watch.start(&mut NativeState::after(0, steps, dt, &q, &v));
     let mut stop = StopReason::Horizon;
     for step in 0..steps {
         if opts.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
             // The last step computed is recorded, so the files end where the run stopped.
-            if traj.time_s.last() != spread.time_s.last() {
-                record(step as f64 * dt, &q, &v, &mut traj);
+            if rec.traj.time_s.last() != watch.spread.time_s.last() {
+                rec.record(&NativeState::after(step, steps, dt, &q, &v));
             }
             stop = StopReason::Interrupted {
                 step,
@@ -168,18 +165,140 @@ pub fn simulate_with(
             q[i] += 0.5 * dt * (v[i] + next[i]);
         }
         std::mem::swap(&mut v, &mut next);
-        let t = (step + 1) as f64 * dt;
-        observe(t, &q, &v, &mut spread);
-        if (step + 1) % every == 0 || step + 1 == steps {
-            record(t, &q, &v, &mut traj);
-        }
+        let mut at = NativeState::after(step + 1, steps, dt, &q, &v);
+        let Ok(()) = watch.after_step(&mut at);
+        let Ok(()) = rec.after_step(&mut at);
     }
     Ok(NativeRun {
-        trajectory: traj,
+        trajectory: rec.traj,
         stop,
-        spread,
-        collisions,
+        spread: watch.spread,
+        collisions: watch.collisions,
     })
+}
+
+/// The native loop's state after a step, as its observers see it.
+#[derive(Debug, Clone, Copy)]
+pub struct NativeState<'s> {
+    /// Steps done.
+    pub steps_done: usize,
+    /// Time of the state \[s\].
+    pub time_s: f64,
+    /// Unwrapped positions of every vehicle on the road, the leader vehicle first when there
+    /// is one \[m\].
+    pub positions_m: &'s [f64],
+    /// Their speeds \[m/s\].
+    pub speeds_mps: &'s [f64],
+    /// The horizon's last step.
+    pub last: bool,
+}
+
+impl<'s> NativeState<'s> {
+    /// The state after `steps_done` of `steps` steps of `dt_s`.
+    fn after(
+        steps_done: usize,
+        steps: usize,
+        dt_s: f64,
+        positions_m: &'s [f64],
+        speeds_mps: &'s [f64],
+    ) -> Self {
+        Self {
+            steps_done,
+            time_s: steps_done as f64 * dt_s,
+            positions_m,
+            speeds_mps,
+            last: steps_done == steps,
+        }
+    }
+}
+
+/// What the native observers need of the road: the judged vehicles (after the leader vehicle,
+/// when there is one), their lengths and the ring's length.
+#[derive(Clone, Copy)]
+struct RoadView<'sc> {
+    scenario: &'sc Scenario,
+    k0: usize,
+    lengths: &'sc [f64],
+    leader: bool,
+    ring: Option<f64>,
+}
+
+impl RoadView<'_> {
+    /// The gaps of the judged vehicles at `at` (the one gap rule of [`road::gaps`]).
+    fn gaps(&self, at: &NativeState<'_>, out: &mut [f64]) {
+        let q = at.positions_m;
+        let front = self.leader.then(|| q[0]);
+        road::gaps(&q[self.k0..], self.lengths, front, self.ring, out);
+    }
+}
+
+/// Records every `every`-th step and the last one.
+struct Recording<'sc> {
+    road: RoadView<'sc>,
+    every: usize,
+    traj: Trajectory,
+    gaps: Vec<f64>,
+}
+
+impl Recording<'_> {
+    fn record(&mut self, at: &NativeState<'_>) {
+        let k0 = self.road.k0;
+        self.road.gaps(at, &mut self.gaps);
+        let leader_speed = self.road.scenario.leader_speed_at(at.time_s);
+        let (v, q) = (&at.speeds_mps[k0..], &at.positions_m[k0..]);
+        self.traj.push(at.time_s, v, q, &self.gaps, leader_speed);
+    }
+}
+
+impl StepObserver<NativeState<'_>> for Recording<'_> {
+    type Error = std::convert::Infallible;
+
+    fn name(&self) -> &'static str {
+        "rows"
+    }
+
+    fn start(&mut self, at: &mut NativeState<'_>) -> Result<(), Self::Error> {
+        self.record(at);
+        Ok(())
+    }
+
+    fn after_step(&mut self, at: &mut NativeState<'_>) -> Result<(), Self::Error> {
+        if at.steps_done.is_multiple_of(self.every) || at.last {
+            self.record(at);
+        }
+        Ok(())
+    }
+}
+
+/// The spread and the collision watch, at every step whatever the recording stride.
+struct Watch<'sc> {
+    road: RoadView<'sc>,
+    spread: SpreadSeries,
+    collisions: Collisions,
+    gaps: Vec<f64>,
+}
+
+impl StepObserver<NativeState<'_>> for Watch<'_> {
+    type Error = std::convert::Infallible;
+
+    fn name(&self) -> &'static str {
+        "spread and collisions"
+    }
+
+    fn start(&mut self, at: &mut NativeState<'_>) -> Result<(), Self::Error> {
+        self.after_step(at)
+    }
+
+    fn after_step(&mut self, at: &mut NativeState<'_>) -> Result<(), Self::Error> {
+        let v = &at.speeds_mps[self.road.k0..];
+        let (lo, hi) = speed_range(v);
+        let leader_speed = self.road.scenario.leader_speed_at(at.time_s);
+        self.spread
+            .push(at.time_s, spread_of_range(lo, hi, leader_speed));
+        self.road.gaps(at, &mut self.gaps);
+        self.collisions.observe(at.time_s, &self.gaps, v);
+        Ok(())
+    }
 }
 
 /// Speed-only fast path for benchmarks: `steps` steps of the law on `v`, nothing recorded.

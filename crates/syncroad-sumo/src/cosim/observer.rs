@@ -1,7 +1,8 @@
-//! What watches the loop: one trait, [`StepObserver`], for everything that runs around a step
-//! without changing it — the safety counters, the recorder that streams rows, SUMO-side
-//! measurements, the watch of the vehicles ahead. The runner calls each in turn after every
-//! full step; the benchmark's probe times each by its [`StepObserver::name`].
+//! What watches the loop: the observers of the SUMO loop under the one trait both loops use,
+//! [`StepObserver`] (syncroad-control's; the native simulator's recorder and spread watch are
+//! the others) — the safety counters, the recorder that streams rows, SUMO-side measurements,
+//! the watch of the vehicles ahead. The runner calls each in turn after every full step; the
+//! benchmark's probe times each by its [`StepObserver::name`].
 
 use std::io::Write;
 use std::time::{Duration, Instant};
@@ -9,6 +10,7 @@ use std::time::{Duration, Instant};
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 use syncroad_control::metrics::speed_range;
+use syncroad_control::observer::StepObserver;
 use syncroad_control::Trajectory;
 
 use super::leaders::{LeaderWatch, LEADER_CHECK_EVERY};
@@ -49,19 +51,10 @@ impl Observed<'_, '_, '_> {
     }
 }
 
-/// Something that runs around each step of the loop without changing it.
-pub(super) trait StepObserver {
-    /// Its name in the benchmark's profile.
-    fn name(&self) -> &'static str;
-
-    /// The state after insertion, before the first step.
-    fn start(&mut self, _at: &mut Observed<'_, '_, '_>) -> Result<(), CosimError> {
-        Ok(())
-    }
-
-    /// After each full step (the benchmark's bare steps are not observed).
-    fn after_step(&mut self, at: &mut Observed<'_, '_, '_>) -> Result<(), CosimError>;
-}
+/// An observer of the SUMO loop: [`StepObserver`] over the loop's state, for any borrow of it.
+/// `'d` is how long the observer itself lives.
+pub(super) type SumoObserver<'d, 'a, 'py> =
+    dyn for<'o> StepObserver<Observed<'o, 'a, 'py>, Error = CosimError> + 'd;
 
 /// Counts collisions, teleports and overridden commands after each step, sending the first
 /// events to the parent.
@@ -105,7 +98,9 @@ impl SafetyWatch {
     }
 }
 
-impl StepObserver for SafetyWatch {
+impl<'o, 'a, 'py> StepObserver<Observed<'o, 'a, 'py>> for SafetyWatch {
+    type Error = CosimError;
+
     fn name(&self) -> &'static str {
         "safety counters"
     }
@@ -188,7 +183,9 @@ impl Recorder {
     }
 }
 
-impl StepObserver for Recorder {
+impl<'o, 'a, 'py> StepObserver<Observed<'o, 'a, 'py>> for Recorder {
+    type Error = CosimError;
+
     fn name(&self) -> &'static str {
         "rows"
     }
@@ -222,7 +219,9 @@ impl<'x, 'py> Measurements<'x, 'py> {
     }
 }
 
-impl StepObserver for Measurements<'_, '_> {
+impl<'o, 'a, 'py> StepObserver<Observed<'o, 'a, 'py>> for Measurements<'_, '_> {
+    type Error = CosimError;
+
     fn name(&self) -> &'static str {
         "measurements"
     }
@@ -254,12 +253,14 @@ impl StepObserver for Measurements<'_, '_> {
     }
 }
 
-impl StepObserver for LeaderWatch {
+impl<'o, 'a, 'py> StepObserver<Observed<'o, 'a, 'py>> for LeaderWatch {
+    type Error = CosimError;
+
     fn name(&self) -> &'static str {
         "vehicles ahead"
     }
 
-    fn after_step(&mut self, at: &mut Observed<'_, '_, '_>) -> Result<(), CosimError> {
+    fn after_step(&mut self, at: &mut Observed<'o, 'a, 'py>) -> Result<(), CosimError> {
         if at.steps_done.is_multiple_of(LEADER_CHECK_EVERY) {
             self.check(at.sim.py, at.sim.ls)?;
         }

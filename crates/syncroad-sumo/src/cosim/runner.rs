@@ -11,7 +11,7 @@ use syncroad_control::StopReason;
 
 use super::leaders::LeaderWatch;
 use super::meter::Meter;
-use super::observer::{pipe, Measurements, Observed, Recorder, SafetyWatch, StepObserver};
+use super::observer::{pipe, Measurements, Observed, Recorder, SafetyWatch, SumoObserver};
 use super::step::{CoSim, StepTimes};
 use super::timing::ProbeTimer;
 use super::CosimError;
@@ -43,7 +43,7 @@ pub(super) fn run_steps(
     let mut recorder = Recorder::new(&sim);
     let mut timer = probe.map(ProbeTimer::new);
     let (stop, steps_done) = {
-        let mut observers: Vec<&mut dyn StepObserver> = Vec::with_capacity(4);
+        let mut observers: Vec<&mut SumoObserver<'_, '_, '_>> = Vec::with_capacity(4);
         if let Some(w) = leaders.as_mut() {
             observers.push(w);
         }
@@ -78,9 +78,9 @@ pub(super) fn run_steps(
 
 /// The steps: each full step is followed by every observer in turn; the probe's bare steps
 /// only step SUMO. Returns the stop reason and the steps done.
-fn step_loop(
-    sim: &mut CoSim<'_, '_>,
-    observers: &mut [&mut dyn StepObserver],
+fn step_loop<'a, 'py>(
+    sim: &mut CoSim<'a, 'py>,
+    observers: &mut [&mut SumoObserver<'_, 'a, 'py>],
     mut timer: Option<&mut ProbeTimer>,
     out: &mut dyn Write,
 ) -> Result<(StopReason, usize), CosimError> {
