@@ -27,6 +27,10 @@ pub fn is_worker_invocation() -> bool {
     std::env::args_os().nth(1).is_some_and(|a| a == WORKER_ARG)
 }
 
+/// Room asked for in the protocol pipe \[bytes\] (the default fs.pipe-max-size).
+#[cfg(target_os = "linux")]
+const PROTOCOL_PIPE_BYTES: libc::c_int = 1 << 20;
+
 /// Redirects descriptor 1 to stderr and returns the original stdout for the protocol.
 fn take_protocol_channel() -> std::io::Result<File> {
     // SAFETY: dup/dup2 on the process's own standard descriptors; the duplicate is owned by
@@ -40,6 +44,11 @@ fn take_protocol_channel() -> std::io::Result<File> {
             return Err(std::io::Error::last_os_error());
         }
         libc::fcntl(fd, libc::F_SETFD, libc::FD_CLOEXEC);
+        // A pipe of the default 64 KiB blocks the loop on every 256 KiB chunk of rows until the
+        // parent has read it; with room for a few chunks the loop runs on while the parent
+        // decodes. Linux only, and capped by fs.pipe-max-size: a refusal keeps the default.
+        #[cfg(target_os = "linux")]
+        libc::fcntl(fd, libc::F_SETPIPE_SZ, PROTOCOL_PIPE_BYTES);
         Ok(File::from(OwnedFd::from_raw_fd(fd)))
     }
 }
