@@ -528,3 +528,45 @@ fn own_loop_from_netconvert_runs_and_a_misspelt_edge_exits_2() {
         );
     }
 }
+
+/// `sumo-bench --step-time` times SUMO's own step of real runs: each figure is positive and
+/// below the command's whole wall time, the total is their sum, and a native scenario is
+/// refused (exit 2) naming the file and the backend before any worker starts.
+#[test]
+fn step_time_is_a_part_of_the_runs_and_refuses_native_scenarios() {
+    let ring = repo().join("scenarios/sugiyama-ring.json");
+    let t0 = std::time::Instant::now();
+    let o = bin()
+        .args(["sumo-bench", "--step-time"])
+        .arg(&ring)
+        .arg(&ring)
+        .output()
+        .unwrap();
+    let wall = t0.elapsed().as_secs_f64();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(0), "{text}");
+    let values: Vec<f64> = text
+        .lines()
+        .map(|l| l.rsplit('\t').next().unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(values.len(), 3, "{text}");
+    for v in &values[..2] {
+        assert!(
+            *v > 0.0 && *v < wall,
+            "{v} s inside SUMO's step of a {wall} s command"
+        );
+    }
+    assert!((values[2] - values[0] - values[1]).abs() <= 2e-6, "{text}");
+    let native = repo().join("scenarios/ring-theorem1.json");
+    let o = bin()
+        .args(["sumo-bench", "--step-time"])
+        .arg(&native)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("ring-theorem1.json") && err.contains("backend is not \"sumo\""),
+        "{err}"
+    );
+}
