@@ -533,6 +533,23 @@ pub fn step_seconds(
     Ok(out)
 }
 
+/// The standard cases ([`standard_cases`]) with the repository's networks and TraCI reference,
+/// `worker` starting every measurement; the work folder is removed afterwards.
+pub fn run_standard(
+    worker: &WorkerCommand,
+    quick: bool,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Vec<BenchResult>, BenchError> {
+    let repo = crate::venv::repo_dir();
+    let work = std::env::temp_dir().join(format!("syncroad-sumo-bench-{}", std::process::id()));
+    let results = standard_cases(&repo.join("sumo-nets"), quick)
+        .iter()
+        .map(|case| run_case(case, worker, &work, &repo.join("python-host"), progress))
+        .collect();
+    let _ = std::fs::remove_dir_all(&work);
+    results
+}
+
 /// The profile of each case: one line per phase, its time per step and its share of the step.
 pub fn format_profile(results: &[BenchResult]) -> String {
     let mut s = String::new();

@@ -8,7 +8,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use syncroad_sumo::bench::{format_profile, format_table, run_case, standard_cases};
+use syncroad_sumo::bench::{format_profile, format_table, run_standard};
 use syncroad_sumo::WorkerCommand;
 
 fn main() -> ExitCode {
@@ -22,7 +22,6 @@ fn main() -> ExitCode {
         .position(|a| a == "--json")
         .and_then(|i| args.get(i + 1))
         .map(PathBuf::from);
-    let repo = syncroad_sumo::repo_dir();
     let worker = match std::env::current_exe() {
         Ok(p) => WorkerCommand::binary(p),
         Err(e) => {
@@ -30,25 +29,13 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    let work = std::env::temp_dir().join(format!("syncroad-sumo-bench-{}", std::process::id()));
-    let mut results = Vec::new();
-    for case in standard_cases(&repo.join("sumo-nets"), quick) {
-        let mut progress = |l: &str| eprintln!("{l}");
-        match run_case(
-            &case,
-            &worker,
-            &work,
-            &repo.join("python-host"),
-            &mut progress,
-        ) {
-            Ok(r) => results.push(r),
-            Err(e) => {
-                eprintln!("error: {e:#}");
-                return ExitCode::FAILURE;
-            }
+    let results = match run_standard(&worker, quick, &mut |l: &str| eprintln!("{l}")) {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            return ExitCode::FAILURE;
         }
-    }
-    let _ = std::fs::remove_dir_all(&work);
+    };
     print!("{}", format_table(&results));
     print!("\nwhere a step goes:\n{}", format_profile(&results));
     if let Some(path) = json {

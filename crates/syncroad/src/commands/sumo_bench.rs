@@ -3,7 +3,7 @@
 use std::path::Path;
 
 use anyhow::Context;
-use syncroad_sumo::bench::{format_profile, format_table, run_case, standard_cases};
+use syncroad_sumo::bench::{format_profile, format_table, run_standard};
 use syncroad_sumo::WorkerCommand;
 
 use crate::error::Status;
@@ -13,21 +13,8 @@ use crate::stdout::{out, outln};
 /// The SUMO benchmark: SUMO alone vs SUMO + controller vs the TraCI reference at N = 22 and
 /// N = 2000; prints a table, optionally writes JSON.
 pub fn run(quick: bool, json_out: Option<&Path>) -> anyhow::Result<Status> {
-    let repo = syncroad_sumo::repo_dir();
     let worker = WorkerCommand::for_process().context("cannot locate the syncroad executable")?;
-    let work = std::env::temp_dir().join(format!("syncroad-sumo-bench-{}", std::process::id()));
-    let mut results = Vec::new();
-    for case in standard_cases(&repo.join("sumo-nets"), quick) {
-        let mut progress = |l: &str| eprintln!("{l}");
-        results.push(run_case(
-            &case,
-            &worker,
-            &work,
-            &repo.join("python-host"),
-            &mut progress,
-        )?);
-    }
-    let _ = std::fs::remove_dir_all(&work);
+    let results = run_standard(&worker, quick, &mut |l: &str| eprintln!("{l}"))?;
     out!("{}", format_table(&results));
     out!("\nwhere a step goes:\n{}", format_profile(&results));
     if let Some(p) = json_out {
