@@ -115,7 +115,6 @@ pub fn simulate_with(
     let mut next = vec![0.0; all];
     let road = RoadView {
         scenario,
-        k0,
         lengths: scenario.length_m(),
         leader: leader.is_some(),
         ring,
@@ -217,18 +216,22 @@ impl<'s> NativeState<'s> {
 #[derive(Clone, Copy)]
 struct RoadView<'sc> {
     scenario: &'sc Scenario,
-    k0: usize,
     lengths: &'sc [f64],
     leader: bool,
     ring: Option<f64>,
 }
 
 impl RoadView<'_> {
+    /// Index of the first judged vehicle (1 behind a leader vehicle).
+    fn k0(&self) -> usize {
+        usize::from(self.leader)
+    }
+
     /// The gaps of the judged vehicles at `at` (the one gap rule of [`road::gaps`]).
     fn gaps(&self, at: &NativeState<'_>, out: &mut [f64]) {
         let q = at.positions_m;
         let front = self.leader.then(|| q[0]);
-        road::gaps(&q[self.k0..], self.lengths, front, self.ring, out);
+        road::gaps(&q[self.k0()..], self.lengths, front, self.ring, out);
     }
 }
 
@@ -242,7 +245,7 @@ struct Recording<'sc> {
 
 impl Recording<'_> {
     fn record(&mut self, at: &NativeState<'_>) {
-        let k0 = self.road.k0;
+        let k0 = self.road.k0();
         self.road.gaps(at, &mut self.gaps);
         let leader_speed = self.road.scenario.leader_speed_at(at.time_s);
         let (v, q) = (&at.speeds_mps[k0..], &at.positions_m[k0..]);
@@ -290,7 +293,7 @@ impl StepObserver<NativeState<'_>> for Watch<'_> {
     }
 
     fn after_step(&mut self, at: &mut NativeState<'_>) -> Result<(), Self::Error> {
-        let v = &at.speeds_mps[self.road.k0..];
+        let v = &at.speeds_mps[self.road.k0()..];
         let (lo, hi) = speed_range(v);
         let leader_speed = self.road.scenario.leader_speed_at(at.time_s);
         self.spread

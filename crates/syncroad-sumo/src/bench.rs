@@ -353,17 +353,19 @@ fn traci_reference(
             String::from_utf8_lossy(&out.stderr)
         )));
     }
-    let text = String::from_utf8_lossy(&out.stdout);
-    let line = text
-        .lines()
+    ms_per_step(&String::from_utf8_lossy(&out.stdout))
+}
+
+/// The figure of the reference's output: `ms_per_step` of the last JSON line that has one
+/// (SUMO and traci print their own lines before it).
+fn ms_per_step(text: &str) -> Result<f64, BenchError> {
+    text.lines()
         .rev()
-        .find(|l| l.starts_with('{'))
-        .ok_or_else(|| BenchError::Traci(format!("no JSON line in: {text}")))?;
-    let v: serde_json::Value =
-        serde_json::from_str(line).map_err(|e| BenchError::Traci(e.to_string()))?;
-    v["ms_per_step"]
-        .as_f64()
-        .ok_or_else(|| BenchError::Traci(format!("no ms_per_step in {line}")))
+        .find_map(|l| {
+            let v: serde_json::Value = serde_json::from_str(l).ok()?;
+            v.get("ms_per_step")?.as_f64()
+        })
+        .ok_or_else(|| BenchError::Traci(format!("no JSON line with ms_per_step in: {text}")))
 }
 
 /// Runs one case; `progress` receives a line per measurement.
@@ -598,4 +600,23 @@ pub fn format_table(results: &[BenchResult]) -> String {
         ));
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_reference_figure_is_the_last_json_line_that_has_one() {
+        let text = "Loading net-file from 'ring.net.xml' ... done (3ms).\n\
+                    {\"warmup\": 5}\n\
+                    {\"ms_per_step\": 2.5, \"steps\": 100}\n\
+                    Simulation ended at time: 10.00\n";
+        assert_eq!(ms_per_step(text).unwrap(), 2.5);
+        let e = ms_per_step("Step #10.00\n{\"steps\": 100}\n").unwrap_err();
+        assert!(
+            e.to_string().contains("no JSON line with ms_per_step"),
+            "{e}"
+        );
+    }
 }

@@ -791,7 +791,9 @@ fn sumo_start_errors_carry_sumos_own_reasons() {
 /// The benchmark's probe travels beside the run, not in it: a short case runs SUMO alone, the
 /// timed loop and the interleaved loop through real workers, and the profile accounts for
 /// the loop's wall time phase by phase with no phase counted twice (every share non-negative,
-/// `simulation.step` never above the whole step).
+/// `simulation.step` never above the whole step). The profile adds up to the step by
+/// construction (its last entry is the remainder); what can fail is a phase timed twice (a
+/// negative remainder) or an observer missing or added.
 #[test]
 fn benchmark_probe_profiles_the_loop_phase_by_phase() {
     use syncroad_sumo::bench::{format_profile, run_case, BenchCase};

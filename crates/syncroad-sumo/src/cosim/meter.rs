@@ -46,6 +46,11 @@ impl<'py> Meter<'py> {
         })
     }
 
+    /// Measuring starts with the state after insertion (no warm-up).
+    pub(super) fn warm_at_start(&self) -> bool {
+        self.req.warmup_steps == 0
+    }
+
     /// The interpreter the meter calls into.
     pub(super) fn py(&self) -> Python<'py> {
         self.fuel.py()

@@ -202,21 +202,8 @@ impl<'o, 'a, 'py> StepObserver<Observed<'o, 'a, 'py>> for Recorder {
 /// SUMO-side measurements ([`Meter`]) as an observer: the per-vehicle argument tuples it calls
 /// libsumo with, and the vehicles' braking limit.
 pub(super) struct Measurements<'x, 'py> {
-    py: Python<'py>,
     pub meter: Meter<'py>,
     pub id_args: &'x [Bound<'py, PyTuple>],
-    warm_from_start: bool,
-}
-
-impl<'x, 'py> Measurements<'x, 'py> {
-    pub fn new(meter: Meter<'py>, id_args: &'x [Bound<'py, PyTuple>], warmup: usize) -> Self {
-        Self {
-            py: meter.py(),
-            meter,
-            id_args,
-            warm_from_start: warmup == 0,
-        }
-    }
 }
 
 impl<'o, 'a, 'py> StepObserver<Observed<'o, 'a, 'py>> for Measurements<'_, '_> {
@@ -227,11 +214,12 @@ impl<'o, 'a, 'py> StepObserver<Observed<'o, 'a, 'py>> for Measurements<'_, '_> {
     }
 
     fn start(&mut self, at: &mut Observed<'_, '_, '_>) -> Result<(), CosimError> {
-        if self.warm_from_start {
+        if self.meter.warm_at_start() {
             let req = at.sim.req;
             let decel = req.layout.vtype.decel_mps2;
+            let py = self.meter.py();
             self.meter
-                .after_step(self.py, 0, req.step_s, self.id_args, &[], &[], decel)?;
+                .after_step(py, 0, req.step_s, self.id_args, &[], &[], decel)?;
         }
         Ok(())
     }
@@ -241,7 +229,7 @@ impl<'o, 'a, 'py> StepObserver<Observed<'o, 'a, 'py>> for Measurements<'_, '_> {
         let req = sim.req;
         let decel = req.layout.vtype.decel_mps2;
         self.meter.after_step(
-            self.py,
+            self.meter.py(),
             at.steps_done,
             req.step_s,
             self.id_args,

@@ -33,11 +33,10 @@ pub(super) fn run_steps(
         ..Totals::default()
     });
     let mut meter = match &req.measure {
-        Some(m) => Some(Measurements::new(
-            Meter::new(sim.ls, m)?,
+        Some(m) => Some(Measurements {
+            meter: Meter::new(sim.ls, m)?,
             id_args,
-            m.warmup_steps,
-        )),
+        }),
         None => None,
     };
     let mut recorder = Recorder::new(&sim);
