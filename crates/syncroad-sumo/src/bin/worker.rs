@@ -3,7 +3,8 @@
 //!
 //! `syncroad-sumo-worker --bench [--quick] [--json FILE]` runs the SUMO benchmark (SUMO alone vs
 //! SUMO + controller vs the TraCI reference at N = 22 and N = 2000), starting itself as the
-//! worker of every measurement.
+//! worker of every measurement. Arguments are read by `lexopt` (the SUMO crate stays free of
+//! clap); a stray or misspelt one is refused with exit 2.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -11,17 +12,52 @@ use std::process::ExitCode;
 use syncroad_sumo::bench::{format_profile, format_table, run_standard};
 use syncroad_sumo::WorkerCommand;
 
-fn main() -> ExitCode {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    if args.first().map(String::as_str) != Some("--bench") {
-        return syncroad_sumo::worker_main();
+/// What the command line asks for.
+#[derive(Debug, PartialEq)]
+enum Mode {
+    /// No arguments: one co-simulation request from stdin.
+    Worker,
+    /// `--bench [--quick] [--json FILE]`.
+    Bench { quick: bool, json: Option<PathBuf> },
+}
+
+const USAGE: &str = "usage: syncroad-sumo-worker [--bench [--quick] [--json FILE]]";
+
+/// Reads the arguments; anything else (an unknown flag, `--quick` without `--bench`, `--json`
+/// without a file) is refused with the argument named rather than ignored.
+fn parse(args: impl IntoIterator<Item = std::ffi::OsString>) -> Result<Mode, String> {
+    use lexopt::prelude::*;
+    let mut parser = lexopt::Parser::from_args(args);
+    let (mut bench, mut quick, mut json) = (false, false, None);
+    while let Some(arg) = parser.next().map_err(|e| e.to_string())? {
+        match arg {
+            Long("bench") => bench = true,
+            Long("quick") => quick = true,
+            Long("json") => {
+                json = Some(PathBuf::from(parser.value().map_err(|e| e.to_string())?));
+            }
+            other => return Err(other.unexpected().to_string()),
+        }
     }
-    let quick = args.iter().any(|a| a == "--quick");
-    let json = args
-        .iter()
-        .position(|a| a == "--json")
-        .and_then(|i| args.get(i + 1))
-        .map(PathBuf::from);
+    if !bench && (quick || json.is_some()) {
+        return Err("--quick and --json apply only with --bench".into());
+    }
+    Ok(if bench {
+        Mode::Bench { quick, json }
+    } else {
+        Mode::Worker
+    })
+}
+
+fn main() -> ExitCode {
+    let (quick, json) = match parse(std::env::args_os().skip(1)) {
+        Ok(Mode::Worker) => return syncroad_sumo::worker_main(),
+        Ok(Mode::Bench { quick, json }) => (quick, json),
+        Err(e) => {
+            eprintln!("error: {e}\n{USAGE}");
+            return ExitCode::from(2);
+        }
+    };
     let worker = match std::env::current_exe() {
         Ok(p) => WorkerCommand::binary(p),
         Err(e) => {
@@ -48,4 +84,39 @@ fn main() -> ExitCode {
         }
     }
     ExitCode::SUCCESS
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse_strs(args: &[&str]) -> Result<Mode, String> {
+        parse(args.iter().map(std::ffi::OsString::from))
+    }
+
+    #[test]
+    fn arguments_are_read_and_strays_refused_by_name() {
+        assert_eq!(parse_strs(&[]), Ok(Mode::Worker));
+        assert_eq!(
+            parse_strs(&["--bench", "--json", "b.json", "--quick"]),
+            Ok(Mode::Bench {
+                quick: true,
+                json: Some("b.json".into())
+            })
+        );
+        assert_eq!(
+            parse_strs(&["--bench"]),
+            Ok(Mode::Bench {
+                quick: false,
+                json: None
+            })
+        );
+        let e = parse_strs(&["--bench", "--jsn", "b.json"]).unwrap_err();
+        assert!(e.contains("--jsn"), "{e}");
+        let e = parse_strs(&["--bench", "--json"]).unwrap_err();
+        assert!(e.contains("--json"), "{e}");
+        let e = parse_strs(&["--quick"]).unwrap_err();
+        assert!(e.contains("only with --bench"), "{e}");
+        assert!(parse_strs(&["stray"]).unwrap_err().contains("stray"));
+    }
 }
