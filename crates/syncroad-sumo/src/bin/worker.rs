@@ -25,18 +25,16 @@ const USAGE: &str = "usage: syncroad-sumo-worker [--bench [--quick] [--json FILE
 
 /// Reads the arguments; anything else (an unknown flag, `--quick` without `--bench`, `--json`
 /// without a file) is refused with the argument named rather than ignored.
-fn parse(args: impl IntoIterator<Item = std::ffi::OsString>) -> Result<Mode, String> {
+fn parse(args: impl IntoIterator<Item = std::ffi::OsString>) -> Result<Mode, lexopt::Error> {
     use lexopt::prelude::*;
     let mut parser = lexopt::Parser::from_args(args);
     let (mut bench, mut quick, mut json) = (false, false, None);
-    while let Some(arg) = parser.next().map_err(|e| e.to_string())? {
+    while let Some(arg) = parser.next()? {
         match arg {
             Long("bench") => bench = true,
             Long("quick") => quick = true,
-            Long("json") => {
-                json = Some(PathBuf::from(parser.value().map_err(|e| e.to_string())?));
-            }
-            other => return Err(other.unexpected().to_string()),
+            Long("json") => json = Some(PathBuf::from(parser.value()?)),
+            other => return Err(other.unexpected()),
         }
     }
     if !bench && (quick || json.is_some()) {
@@ -91,7 +89,7 @@ mod tests {
     use super::*;
 
     fn parse_strs(args: &[&str]) -> Result<Mode, String> {
-        parse(args.iter().map(std::ffi::OsString::from))
+        parse(args.iter().map(std::ffi::OsString::from)).map_err(|e| e.to_string())
     }
 
     #[test]
