@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Facts about SUMO's car-following models, read from the installed SUMO (not from our table).
 
-The Rust table in crates/syncroad-sumo/src/car_following.rs embeds the output of this script
+The Rust table in crates/syncroad-control/src/drive/car_following/models.rs embeds the output of this script
 in its tests, so an upgrade of SUMO that changes a fact makes those tests worth re-running:
 
     .venv/bin/python python-host/check_car_following.py

@@ -194,7 +194,7 @@ mod tests {
         let n = 22;
         let ring = 230.0;
         let setup = HumanSetup {
-            drivers: vec![NoisyIdm::preset("human-noisy"); n],
+            drivers: vec![Some(NoisyIdm::HUMAN_NOISY); n],
             ring_length_m: ring,
             length_m: vec![5.0; n],
             seed: 3,

@@ -15,6 +15,8 @@
 //! * [`theory`], [`ifp`], [`poly`] — the paper's sufficient conditions and the IFP index;
 //! * [`exact`] — exact stability: rightmost characteristic roots, critical gains, CACC modes
 //!   and string stability, to show how conservative the sufficient conditions are;
+//! * [`drive`] — who drives each vehicle as data: SUMO's car-following models and their
+//!   parameters, the named drivers (one table), the placement of automated vehicles;
 //! * [`noisy_idm`] — stochastic human drivers (IDM with Flow's or a step-consistent noise),
 //!   computed by the bridge on either backend;
 //! * [`controller`] — the one law object both backends step;
@@ -36,6 +38,7 @@ pub mod congestion;
 pub mod controller;
 pub mod damper;
 pub mod delayed_driver;
+pub mod drive;
 pub mod exact;
 pub mod facts;
 pub mod flow_dampers;
@@ -67,6 +70,7 @@ pub use cacc::{CaccLaw, PlatoonView, PowertrainLag};
 pub use controller::{controller_for, LawSpec, SpeedController};
 pub use damper::{DamperError, DamperSetup, DamperSpec};
 pub use delayed_driver::DelayedDriverLaw;
+pub use drive::{CarFollowing, CfModel, SumoDriver};
 pub use follower_stopper::{
     follower_stopper_command_mps, FollowerStopper, FollowerStopperError, FollowerStopperParams,
 };

@@ -141,12 +141,9 @@ impl GapSafety {
 /// True for a driver label of a SUMO car-following model (the law, the dampers and the
 /// stochastic humans of [`crate::noisy_idm`] are commanded by the bridge).
 fn is_sumo_driver(label: &str) -> bool {
-    !(label == "law"
-        || label.starts_with("follower-stopper")
-        || label == "pi-saturation"
-        || label.starts_with("flow-follower-stopper")
-        || label == "flow-pi-saturation"
-        || crate::noisy_idm::is_noisy_label(label))
+    // Labels are drivers' names as they print ([`SumoDriver`]'s `Display`); the law's and the
+    // dampers' names are no driver's.
+    crate::drive::SumoDriver::parse("driver", label).is_ok_and(|d| !d.commanded_by_bridge())
 }
 
 #[cfg(test)]

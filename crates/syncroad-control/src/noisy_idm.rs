@@ -217,47 +217,27 @@ impl fmt::Display for NoisyIdm {
     }
 }
 
-/// Names of the stochastic-human presets (see [`NoisyIdm::preset`]).
-pub const NOISY_PRESETS: &[&str] = &["human-noisy", "flow-idm-noise"];
-
-/// True for the driver label of a stochastic human (a preset name or `noisy-idm:...`).
-pub fn is_noisy_label(label: &str) -> bool {
-    NOISY_PRESETS.contains(&label) || label.starts_with("noisy-idm")
-}
-
 impl NoisyIdm {
-    /// A named preset (documented with its measurements in `docs/src/human-preset.md`):
-    /// * `flow-idm-noise` — Flow's `IDMController` defaults ([`IdmParams::FLOW`]) with Flow's
-    ///   ring-example noise 0.2 in Flow's form;
-    /// * `human-noisy` — the `human` preset's IDM (Flow's with a = 1.3 m/s², T = 0.8 s) with
-    ///   step-consistent noise, calibrated so that a jam forms from a uniform start.
-    pub fn preset(name: &str) -> Option<NoisyIdm> {
-        match name {
-            "flow-idm-noise" => Some(NoisyIdm {
-                idm: IdmParams::FLOW,
-                noise: 0.2,
-                form: NoiseForm::Flow,
-            }),
-            "human-noisy" => Some(NoisyIdm {
-                idm: IdmParams {
-                    accel_mps2: 1.3,
-                    time_headway_s: 0.8,
-                    ..IdmParams::FLOW
-                },
-                noise: HUMAN_NOISY_SIGMA,
-                form: NoiseForm::StepConsistent,
-            }),
-            _ => None,
-        }
-    }
+    /// The `human-noisy` preset: the `human` preset's IDM (Flow's with a = 1.3 m/s²,
+    /// T = 0.8 s) with step-consistent noise, calibrated so that a jam forms from a uniform
+    /// start (measurements in `docs/src/human-preset.md`).
+    pub const HUMAN_NOISY: NoisyIdm = NoisyIdm {
+        idm: IdmParams {
+            accel_mps2: 1.3,
+            time_headway_s: 0.8,
+            ..IdmParams::FLOW
+        },
+        noise: HUMAN_NOISY_SIGMA,
+        form: NoiseForm::StepConsistent,
+    };
 
-    /// The preset this driver equals, if any.
-    pub fn preset_name(&self) -> Option<&'static str> {
-        NOISY_PRESETS
-            .iter()
-            .copied()
-            .find(|p| NoisyIdm::preset(p).as_ref() == Some(self))
-    }
+    /// The `flow-idm-noise` preset: Flow's `IDMController` defaults ([`IdmParams::FLOW`])
+    /// with Flow's ring-example noise 0.2 in Flow's form.
+    pub const FLOW_IDM_NOISE: NoisyIdm = NoisyIdm {
+        idm: IdmParams::FLOW,
+        noise: 0.2,
+        form: NoiseForm::Flow,
+    };
 
     /// Sets one parameter by its driver-string name (`accel`, `decel`, `tau`, `minGap`,
     /// `delta`, `maxSpeed`, `noise`, `form` = `flow` | `step`); the error says what is valid.

@@ -7,9 +7,19 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
+use syncroad_control::drive::SumoDriver;
 use syncroad_control::scenario::SumoVehicleType;
 
 use crate::net::{off_junctions, Road, MAX_JUNCTION_SHIFT_M};
+
+/// Speed mode of law-commanded vehicles when SUMO drivers share the road: bit 0 only, SUMO's
+/// safe speed towards the leader is kept (accelerations are not limited). With every check off
+/// a commanded vehicle would drive into a SUMO driver that brakes.
+pub const MIXED_SPEED_MODE: i32 = 1;
+
+/// Emission class set on every vehicle type, so fuel and CO2 come from one stated model
+/// (HBEFA 4, petrol passenger car, Euro 6ab; built into SUMO 1.28).
+pub const EMISSION_CLASS: &str = "HBEFA4/PC_petrol_Euro-6ab";
 
 /// Errors laying out a run.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -81,7 +91,7 @@ pub struct Departure {
     pub id: String,
     /// SUMO's car-following model drives this vehicle (`None`: the law commands it).
     #[serde(default)]
-    pub driver: Option<crate::drivers::SumoDriver>,
+    pub driver: Option<SumoDriver>,
     /// Vehicle length \[m\].
     pub length_m: f64,
     /// Index into [`Road::normal_edges`] of the departure edge.
@@ -364,7 +374,7 @@ impl Layout {
         let t = &self.vtype;
         // One vType per (length, driver). Law-driven vehicles get σ = 0: SUMO's own model only
         // acts on them when the law does not command them, and then without randomness.
-        let mut types: Vec<(u64, Option<crate::drivers::SumoDriver>)> = Vec::new();
+        let mut types: Vec<(u64, Option<SumoDriver>)> = Vec::new();
         for v in &self.vehicles {
             let key = (v.length_m.to_bits(), v.driver.clone());
             if !types.contains(&key) {
@@ -408,7 +418,7 @@ impl Layout {
                     own("maxSpeed", t.max_speed_mps),
                     own("speedFactor", 1.0),
                     own("speedDev", 0.0),
-                    crate::drivers::EMISSION_CLASS,
+                    EMISSION_CLASS,
                 );
                 if !params.is_empty() {
                     for (key, value) in &params {
@@ -617,8 +627,8 @@ mod tests {
         let road = sugiyama();
         let n = 4;
         let mut lay = ring_layout(&road, vt(), &[5.0; 4], &[20.0; 4], &[8.0; 4], 10.0).unwrap();
-        lay.vehicles[1].driver = Some(crate::drivers::SumoDriver::Idm);
-        lay.vehicles[2].driver = Some(crate::drivers::SumoDriver::Krauss { sigma: 0.9 });
+        lay.vehicles[1].driver = Some(SumoDriver::parse("d", "idm").unwrap());
+        lay.vehicles[2].driver = Some(SumoDriver::Krauss { sigma: 0.9 });
         let xml = lay.routes_xml();
         assert_eq!(xml.matches("<vType ").count(), 3, "{xml}");
         assert_eq!(
@@ -635,7 +645,7 @@ mod tests {
         assert!(xml.contains(r#"<vehicle id="v3" type="t0""#), "{xml}");
         assert_eq!(lay.vehicles.len(), n);
         // A preset's own values replace the scenario's, each attribute written once.
-        lay.vehicles[3].driver = Some(crate::drivers::SumoDriver::Human);
+        lay.vehicles[3].driver = Some(SumoDriver::parse("d", "human").unwrap());
         let xml = lay.routes_xml();
         assert!(
             xml.contains(r#"length="5" minGap="2" accel="1.3" decel="1.5" emergencyDecel="9" maxSpeed="30" carFollowModel="IDM" delta="4" tau="0.8" speedFactor="1""#),
@@ -658,8 +668,7 @@ mod tests {
         .iter()
         .enumerate()
         {
-            lay.vehicles[i].driver =
-                Some(crate::drivers::SumoDriver::parse("--driver", d).unwrap());
+            lay.vehicles[i].driver = Some(SumoDriver::parse("--driver", d).unwrap());
         }
         let xml = lay.routes_xml();
         let doc = roxmltree::Document::parse(&xml).unwrap_or_else(|e| panic!("{e}\n{xml}"));

@@ -13,8 +13,6 @@
 //!   their tracebacks;
 //! * `net`, `layout` — network files read once and checked before SUMO starts, vehicle
 //!   departures, ring capacity, the routes file;
-//! * `car_following`, `drivers` — SUMO's car-following models with all their parameters,
-//!   validated before SUMO starts, named presets, and the short baseline names;
 //! * `ssm` — SUMO's surrogate-safety device: its options and a summary of its log;
 //! * `protocol`, `cosim`, `worker` — the worker process: one step of the co-simulation apart
 //!   from the loop that runs it;
@@ -28,10 +26,8 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod bench;
-mod car_following;
 mod cosim;
 mod direct;
-mod drivers;
 mod frozen;
 mod layout;
 mod net;
@@ -48,9 +44,8 @@ mod supervisor;
 mod venv;
 mod worker;
 
-pub use car_following::{CarFollowing, CarFollowingError, CfModel};
-pub use drivers::{DriverError, SumoDriver, EMISSION_CLASS};
 pub use frozen::FROZEN_LIMIT;
+pub use layout::EMISSION_CLASS;
 pub use net::{read_network_road, NetReader, Road};
 pub use probe::{PhaseTimes, Probe, ProbeMode, ProbeTimes};
 pub use protocol::{Event, Finish, Job, ReadMode, Request, StartInfo, Totals};

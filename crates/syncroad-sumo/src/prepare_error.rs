@@ -3,9 +3,9 @@
 
 use std::path::PathBuf;
 
-use crate::drivers::DriverError;
 use crate::layout::LayoutError;
 use crate::net::NetError;
+use syncroad_control::drive::DriverError;
 
 /// Errors found before SUMO starts.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -68,7 +68,7 @@ pub enum PrepareError {
     },
     /// A driver's parameters do not fit the run (e.g. `actionStepLength` off the step grid).
     #[error(transparent)]
-    CarFollowing(#[from] crate::car_following::CarFollowingError),
+    CarFollowing(#[from] syncroad_control::drive::CarFollowingError),
     /// A driver named in the scenario is unknown.
     #[error(transparent)]
     Driver(#[from] DriverError),

@@ -111,7 +111,7 @@ pub struct Request {
     /// With [`ReadMode::Getters`], read SUMO's odometer every this many steps.
     pub odometer_every: usize,
     /// Speed mode of the vehicles the law commands: 32 (every check off) when the law drives
-    /// all of them, [`crate::drivers::MIXED_SPEED_MODE`] when SUMO drivers share the road.
+    /// all of them, [`crate::layout::MIXED_SPEED_MODE`] when SUMO drivers share the road.
     #[serde(default = "default_speed_mode")]
     pub speed_mode: i32,
     /// What SUMO itself measures during the run (flow, time loss, fuel, CO2, braking).

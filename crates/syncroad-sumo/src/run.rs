@@ -13,13 +13,14 @@ use syncroad_control::road::{initial_positions, leader_start};
 use syncroad_control::scenario::Scenario;
 use syncroad_control::{DamperSetup, DamperSpec, HumanSetup, LawSpec, NoisyIdm};
 
-use crate::drivers::{SumoDriver, MIXED_SPEED_MODE};
+use crate::layout::MIXED_SPEED_MODE;
 use crate::layout::{ring_layout, straight_layout, Layout};
 pub use crate::net::loop_position;
 use crate::net::{read_network_road, read_ring, read_straight, Road};
 use crate::protocol::{Control, Measure, ReadMode, Request};
 pub use crate::sumo_run::SumoRun;
 use crate::supervisor::{run_worker, Supervision, WorkerCommand, WorkerPool};
+use syncroad_control::drive::SumoDriver;
 
 /// Tolerance between commanded and realised speed before a command counts as overridden [m/s].
 pub const OVERRIDE_TOLERANCE_MPS: f64 = 1e-6;

@@ -80,7 +80,7 @@ impl SumoRun {
         };
         let label = |j: usize| -> String {
             match humans.as_ref().and_then(|h| h.get(j).copied().flatten()) {
-                Some(d) => crate::drivers::SumoDriver::Noisy(d).to_string(),
+                Some(d) => syncroad_control::drive::SumoDriver::Noisy(d).to_string(),
                 None => commanded.clone(),
             }
         };
@@ -149,7 +149,7 @@ impl SumoRun {
                     let road = &self.request.layout.road;
                     (l.2 - self.request.layout.ring_offset_m).rem_euclid(road.length_m())
                 }),
-            emission_class: crate::drivers::EMISSION_CLASS.to_string(),
+            emission_class: crate::layout::EMISSION_CLASS.to_string(),
             emission_every: self.request.measure.as_ref().map(|m| m.emission_every),
             law_speed_mode: law_driven.then_some(self.request.speed_mode),
             ssm,

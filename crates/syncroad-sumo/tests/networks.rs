@@ -301,7 +301,9 @@ mod loops {
         let sc = scenario(&dir, &loop_json(&road, 8, 120.0, "")).unwrap();
         let mut o = opts(&dir);
         o.drivers = (0..8)
-            .map(|i| (i % 2 == 1).then(|| syncroad_sumo::SumoDriver::parse("d", "krauss").unwrap()))
+            .map(|i| {
+                (i % 2 == 1).then(|| syncroad_control::SumoDriver::parse("d", "krauss").unwrap())
+            })
             .collect();
         let run = run_scenario(&sc, &o).unwrap();
         let fin = run.outcome().expect("horizon reached");

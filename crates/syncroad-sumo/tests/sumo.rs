@@ -8,10 +8,9 @@ use std::time::Duration;
 
 use approx::assert_relative_eq;
 use syncroad_control::native::{simulate, NativeOptions};
-use syncroad_control::Scenario;
+use syncroad_control::{Scenario, SumoDriver};
 use syncroad_sumo::{
-    load_road, run_scenario, PrepareError, Prepared, RunOptions, SumoDriver, SupervisorError,
-    WorkerCommand,
+    load_road, run_scenario, PrepareError, Prepared, RunOptions, SupervisorError, WorkerCommand,
 };
 
 fn nets() -> PathBuf {

@@ -1,8 +1,7 @@
 //! Who drives in a run: the scenario's law, a wave damper, one of SUMO's drivers, or a mix.
 //! `compare` and `sweep` name runs the same way.
 
-use syncroad_control::{DamperSetup, DamperSpec, HumanSetup, LawSpec, Scenario};
-use syncroad_sumo::SumoDriver;
+use syncroad_control::{DamperSetup, DamperSpec, HumanSetup, LawSpec, Scenario, SumoDriver};
 
 use crate::error::InputError;
 

@@ -11,8 +11,9 @@ use std::time::Instant;
 
 use anyhow::Context;
 use syncroad_control::scenario::Backend;
+use syncroad_control::SumoDriver;
 use syncroad_control::{NativeOptions, Scenario, StopReason, Verdict};
-use syncroad_sumo::{interrupt_flag, load_road, ReadMode, RunOptions, SumoDriver, WorkerCommand};
+use syncroad_sumo::{interrupt_flag, load_road, ReadMode, RunOptions, WorkerCommand};
 
 use crate::cli::{OutputArgs, SumoArgs};
 use crate::config::{self, load_scenario, RunConfig};

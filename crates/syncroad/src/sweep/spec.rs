@@ -36,8 +36,8 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use sha2::{Digest, Sha256};
 use syncroad_control::scenario::{Backend, Model, ScenarioFile};
+use syncroad_control::SumoDriver;
 use syncroad_control::{DamperSpec, Scenario};
-use syncroad_sumo::SumoDriver;
 
 pub use super::axis::Axis;
 use super::axis::{set_path, AxisFile, Target};

@@ -21,10 +21,10 @@ use anyhow::Context;
 use serde_json::{json, Value};
 use syncroad_control::record::SHARED_KEYS;
 use syncroad_control::scenario::Model;
-use syncroad_control::{DamperSpec, EvalOptions, RunRecord, Scenario};
+use syncroad_control::{DamperSpec, EvalOptions, RunRecord, Scenario, SumoDriver};
 use syncroad_sumo::{
     check_sumo_numbers, interrupt_flag, load_road, loop_position, MeasureOptions, Road, RunOptions,
-    SumoDriver, WorkerCommand, EMISSION_CLASS,
+    WorkerCommand, EMISSION_CLASS,
 };
 
 use crate::batch::JobEnd;

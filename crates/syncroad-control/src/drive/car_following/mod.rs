@@ -81,16 +81,6 @@ pub enum CarFollowingError {
         /// The valid range, in words.
         valid: String,
     },
-    /// Not a named preset.
-    #[error("{field} = {value:?}: unknown driver preset; valid: {valid}")]
-    UnknownPreset {
-        /// Field path.
-        field: String,
-        /// The value.
-        value: String,
-        /// The valid names.
-        valid: String,
-    },
 }
 
 /// A driver: a car-following model and the values of any of its parameters (the others keep
@@ -104,9 +94,6 @@ pub struct CarFollowing {
     #[serde(default)]
     pub params: BTreeMap<String, f64>,
 }
-
-/// Named presets, see [`CarFollowing::preset`].
-pub const PRESETS: &[&str] = &["human", "flow-idm"];
 
 impl CarFollowing {
     /// A model with no parameters set.
@@ -132,42 +119,6 @@ impl CarFollowing {
             value: name.into(),
             valid: CfModel::ALL.map(CfModel::sumo_name).join(", "),
         })
-    }
-
-    /// A named preset. Every value's source is documented in `docs/src/human-preset.md`:
-    /// * `human` — SUMO's IDM calibrated on the Sugiyama ring (22 vehicles, 230 m): from a
-    ///   near-uniform start a stop-and-go jam forms by itself (first vehicle below 1 m/s at
-    ///   254–358 s over 10 seeds), vehicles stop in it, and it travels backward at 17.6 km/h
-    ///   (Sugiyama et al. 2008: about 20 km/h). Flow's IDM ring values (a = 1 m/s²,
-    ///   b = 1.5 m/s², T = 1 s, s0 = 2 m, δ = 4, v0 = 30 m/s) with a = 1.3 m/s² and T = 0.8 s,
-    ///   which move the wave from 15.3 km/h (the low edge of the target) to 17.6 km/h;
-    ///   length 5 m.
-    /// * `flow-idm` — Flow's `IDMController` defaults unchanged, run by SUMO's IDM (without
-    ///   Flow's acceleration noise, which SUMO's IDM does not have): wave 15.3 km/h.
-    pub fn preset(field: &str, name: &str) -> Result<CarFollowing, CarFollowingError> {
-        let idm = |accel: f64, tau: f64| {
-            CarFollowing::with(
-                CfModel::Idm,
-                &[
-                    ("accel", accel),
-                    ("decel", 1.5),
-                    ("tau", tau),
-                    ("minGap", 2.0),
-                    ("delta", 4.0),
-                    ("maxSpeed", 30.0),
-                    ("length", 5.0),
-                ],
-            )
-        };
-        match name.trim().to_ascii_lowercase().as_str() {
-            "human" => Ok(idm(1.3, 0.8)),
-            "flow-idm" => Ok(idm(1.0, 1.0)),
-            _ => Err(CarFollowingError::UnknownPreset {
-                field: field.into(),
-                value: name.into(),
-                valid: PRESETS.join(", "),
-            }),
-        }
     }
 
     /// Checks every parameter for a simulation with step `step_s`: known to the model
@@ -241,7 +192,6 @@ impl CarFollowing {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::drivers::SumoDriver;
 
     #[test]
     fn an_unknown_parameter_is_rejected_with_the_valid_names() {
@@ -328,37 +278,8 @@ mod tests {
     }
 
     #[test]
-    fn presets_are_valid_and_render_their_attributes() {
-        let human = CarFollowing::preset("driver", "human").unwrap();
-        human.validate("driver", 0.1).unwrap();
-        assert_eq!(
-            human.vtype_attributes(),
-            r#"carFollowModel="IDM" accel="1.3" decel="1.5" delta="4" length="5" maxSpeed="30" minGap="2" tau="0.8""#
-        );
-        let flow = CarFollowing::preset("driver", "flow-idm").unwrap();
-        assert_eq!(flow.params["accel"], 1.0);
-        assert_eq!(flow.params["tau"], 1.0);
-        assert_eq!(
-            CarFollowing::preset("driver", "sugiyama")
-                .unwrap_err()
-                .to_string(),
-            "driver = \"sugiyama\": unknown driver preset; valid: human, flow-idm"
-        );
-    }
-
-    #[test]
-    fn todays_driver_names_render_the_same_attributes() {
-        for name in ["krauss", "krauss-0.9", "idm", "acc", "cacc"] {
-            let d = SumoDriver::parse("--baselines", name).unwrap();
-            let cf = d.car_following();
-            cf.validate("--baselines", 0.1).unwrap();
-            assert_eq!(cf.vtype_attributes(), d.vtype_attributes(), "{name}");
-        }
-    }
-
-    #[test]
     fn serde_round_trip_and_unknown_fields_are_refused() {
-        let d = CarFollowing::preset("d", "human").unwrap();
+        let d = CarFollowing::with(CfModel::Idm, &[("accel", 1.3), ("tau", 0.8)]);
         let json = serde_json::to_string(&d).unwrap();
         assert_eq!(serde_json::from_str::<CarFollowing>(&json).unwrap(), d);
         assert!(serde_json::from_str::<CarFollowing>(r#"{"model":"IDM","parms":{}}"#).is_err());
