@@ -11,7 +11,8 @@ cargo build --release -p syncroad
 # compare.json and one folder per run with plots.
 ./target/release/syncroad compare scenarios/sugiyama-ring.json --out out/compare
 # Mixed traffic: 0, 1, 2, 4 law-driven vehicles among Krauss σ 0.9 drivers.
-./target/release/syncroad compare scenarios/sugiyama-ring.json --mixed 0,1,2,4 --out out/compare-mixed
+./target/release/syncroad compare scenarios/sugiyama-ring.json --mixed 0,1,2,4 --mixed-driver krauss-0.9 \
+  --out out/compare-mixed
 # The ring experiments a traffic researcher trusts: SUMO's calibrated human drivers (IDM,
 # docs/src/human-preset.md) form Sugiyama's jam on the same ring within 600 s; beside them the law
 # and the wave dampers of Stern et al. (2018) on every vehicle, and each damper (and the law)

@@ -242,8 +242,9 @@ pub struct CompareArgs {
     /// law and the others are --mixed-driver (e.g. 0,1,2,4; 0 is the all-human ring).
     #[arg(long)]
     pub mixed: Option<String>,
-    /// The human drivers of --mixed runs (any --baselines driver, e.g. human).
-    #[arg(long, default_value = crate::runs::DEFAULT_MIXED_DRIVER)]
+    /// The human drivers of --mixed runs: any --baselines driver (default human, the preset
+    /// that jams the Sugiyama ring; e.g. krauss-0.9, human-noisy).
+    #[arg(long, default_value = syncroad_control::drive::DEFAULT_HUMAN)]
     pub mixed_driver: String,
     /// What drives the K automated vehicles of --mixed runs, comma-separated: law (the
     /// scenario's), follower-stopper-U, pi-saturation. One run per controller and K > 0, named

@@ -1,6 +1,7 @@
 //! Who drives in a run: the scenario's law, a wave damper, one of SUMO's drivers, or a mix.
 //! `compare` and `sweep` name runs the same way.
 
+use syncroad_control::drive::Placement;
 use syncroad_control::{DamperSetup, DamperSpec, HumanSetup, LawSpec, Scenario, SumoDriver};
 
 use crate::error::InputError;
@@ -8,9 +9,6 @@ use crate::error::InputError;
 /// The longest run folder name [`RunSpec::folder`] gives (bytes).
 pub const FOLDER_MAX: usize = 96;
 
-/// The human driver of mixed runs unless one is named (`compare --mixed-driver`, a sweep's
-/// `mixed_driver`).
-pub const DEFAULT_MIXED_DRIVER: &str = "krauss-0.9";
 /// The automated vehicles of mixed runs unless named (`compare --mixed-controller`).
 pub const DEFAULT_MIXED_CONTROLLER: &str = "law";
 
@@ -81,7 +79,7 @@ impl RunSpec {
         })
     }
 
-    /// `k` of `n` vehicles run the law (or `damper`), spread evenly ([`mixed_controlled`]);
+    /// `k` of `n` vehicles run the law (or `damper`), spread evenly ([`Placement::Even`]);
     /// the others are `human`.
     pub fn mixed(
         name: String,
@@ -91,7 +89,7 @@ impl RunSpec {
         damper: Option<DamperSpec>,
     ) -> Self {
         let mut drivers = vec![Some(human); n];
-        for i in mixed_controlled(n, k) {
+        for i in Placement::Even.automated(n, k, 0) {
             drivers[i] = None;
         }
         Self {
@@ -201,11 +199,6 @@ impl RunSpec {
     }
 }
 
-/// Law-controlled vehicles of a mixed ring with `k` of `n`: `⌊j n / k⌋`, j = 0..k.
-pub fn mixed_controlled(n: usize, k: usize) -> Vec<usize> {
-    (0..k).map(|j| j * n / k).collect()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -228,13 +221,5 @@ mod tests {
         assert!(a
             .chars()
             .all(|c| c.is_ascii_alphanumeric() || "._=+-".contains(c)));
-    }
-
-    #[test]
-    fn mixed_vehicles_are_evenly_spaced() {
-        assert_eq!(mixed_controlled(22, 0), Vec::<usize>::new());
-        assert_eq!(mixed_controlled(22, 1), [0]);
-        assert_eq!(mixed_controlled(22, 2), [0, 11]);
-        assert_eq!(mixed_controlled(22, 4), [0, 5, 11, 16]);
     }
 }

@@ -140,7 +140,7 @@ fn half_penetration_automates_half_the_vehicles_drawn_from_the_seed() {
         let law: Vec<usize> = (0..22).filter(|&i| drivers[i] == "law").collect();
         assert_eq!(
             law,
-            syncroad_control::scenario::automated_vehicles(22, 0.5, seed)
+            syncroad_control::drive::Placement::Seeded.automated(22, 11, seed)
         );
         assert!(drivers.iter().all(|x| x == "law" || x == "human"));
     }

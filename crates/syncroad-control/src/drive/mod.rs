@@ -6,7 +6,14 @@
 //! before SUMO starts.
 
 pub mod car_following;
+pub mod placement;
 pub mod sumo_driver;
 
 pub use car_following::{CarFollowing, CarFollowingError, CfModel};
+pub use placement::{automated_count, Placement};
 pub use sumo_driver::{preset, DriverError, Preset, SumoDriver, PRESETS};
+
+/// The human driver of mixed traffic wherever none is named (a scenario's `mixed.human`,
+/// `compare --mixed-driver`, a sweep's `mixed_driver`): the `human` preset, SUMO's IDM
+/// calibrated so that the Sugiyama ring jams as the experiment did.
+pub const DEFAULT_HUMAN: &str = "human";

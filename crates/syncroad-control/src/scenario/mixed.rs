@@ -3,9 +3,11 @@
 //! the scenario's seed, so a run is reproducible and a sweep over seeds samples placements.
 //!
 //! ```json
-//! "mixed": {"penetration": 0.5, "controller": "law", "human": "human"}
+//! "mixed": {"penetration": 0.5, "controller": "law", "human": "human", "placement": "seeded"}
 //! ```
 //! * `penetration` p ∈ \[0, 1\]: `round(p N)` vehicles are automated (halves round up);
+//! * `placement`: `seeded` (default: drawn from the scenario's seed) or `even` (spread evenly,
+//!   as `compare --mixed` places them), see [`Placement`];
 //! * `controller`: `law` (the scenario's model, default), `follower-stopper-U` (desired speed
 //!   U in m/s) or `pi-saturation` — the wave dampers of Stern et al. (2018);
 //! * `human`: the SUMO driver of the other vehicles (default `human`, the calibrated preset;
@@ -15,7 +17,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{invalid, ScenarioError};
 use crate::damper::{DamperError, DamperSpec};
-use crate::rng::SplitMix64;
+use crate::drive::{automated_count, Placement, DEFAULT_HUMAN};
 
 /// Mixed traffic as written in the scenario file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -29,6 +31,9 @@ pub struct MixedSpec {
     /// SUMO driver of the other vehicles.
     #[serde(default = "default_human")]
     pub human: String,
+    /// Where the automated vehicles sit.
+    #[serde(default)]
+    pub placement: Placement,
 }
 
 fn default_controller() -> String {
@@ -36,12 +41,8 @@ fn default_controller() -> String {
 }
 
 fn default_human() -> String {
-    "human".into()
+    DEFAULT_HUMAN.into()
 }
-
-/// Salt of the placement stream, so that it is independent of the initial perturbation drawn
-/// from the same seed.
-const PLACEMENT_SALT: u64 = 0x6d69_7865_645f_7031; // "mixed_p1"
 
 impl MixedSpec {
     /// Checks the penetration rate and the controller name on a road with `n` vehicles.
@@ -80,26 +81,12 @@ impl MixedSpec {
         })
     }
 
-    /// The automated vehicles among `n`, ascending (see [`automated_vehicles`]).
+    /// The automated vehicles among `n`, ascending: `round(p n)` of them, placed by
+    /// [`Placement::automated`] (a seeded placement draws from `seed`).
     pub fn automated(&self, n: usize, seed: u64) -> Vec<usize> {
-        automated_vehicles(n, self.penetration, seed)
+        self.placement
+            .automated(n, automated_count(n, self.penetration), seed)
     }
-}
-
-/// `round(p n)` vehicles out of `n`, drawn without replacement from `seed` (a partial
-/// Fisher–Yates shuffle of SplitMix64 draws), ascending. The same seed gives the same choice on
-/// every platform.
-pub fn automated_vehicles(n: usize, penetration: f64, seed: u64) -> Vec<usize> {
-    let k = ((penetration * n as f64).round() as usize).min(n);
-    let mut rng = SplitMix64::new(seed ^ PLACEMENT_SALT);
-    let mut idx: Vec<usize> = (0..n).collect();
-    for j in 0..k {
-        let r = j + (rng.next_u64() % (n - j) as u64) as usize;
-        idx.swap(j, r);
-    }
-    let mut chosen = idx[..k].to_vec();
-    chosen.sort_unstable();
-    chosen
 }
 
 #[cfg(test)]
@@ -107,29 +94,28 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_count_is_round_p_n_and_the_choice_depends_on_the_seed_only() {
-        assert_eq!(automated_vehicles(22, 0.5, 42).len(), 11);
-        assert_eq!(automated_vehicles(22, 0.0, 42), Vec::<usize>::new());
-        assert_eq!(automated_vehicles(22, 1.0, 42), (0..22).collect::<Vec<_>>());
-        assert_eq!(automated_vehicles(21, 0.5, 1).len(), 11); // 10.5 rounds up
-        assert_eq!(automated_vehicles(22, 0.05, 1).len(), 1); // 1.1
-        let a = automated_vehicles(22, 0.5, 42);
-        assert_eq!(a, automated_vehicles(22, 0.5, 42));
-        assert_ne!(a, automated_vehicles(22, 0.5, 43));
-        assert!(a.windows(2).all(|w| w[0] < w[1]) && a.iter().all(|&i| i < 22));
-    }
-
-    #[test]
-    fn every_vehicle_is_chosen_about_equally_often() {
-        // Over 2000 seeds each of 22 vehicles is chosen with probability 1/2: the count is
-        // Binomial(2000, 1/2), mean 1000, sd 22.4; ±150 is more than 6 sd.
-        let mut hits = [0usize; 22];
-        for seed in 0..2000 {
-            for i in automated_vehicles(22, 0.5, seed) {
-                hits[i] += 1;
-            }
-        }
-        assert!(hits.iter().all(|&h| (850..=1150).contains(&h)), "{hits:?}");
+    fn the_block_places_round_p_n_vehicles_its_way() {
+        let m = |placement| MixedSpec {
+            penetration: 0.2,
+            controller: "law".into(),
+            human: DEFAULT_HUMAN.into(),
+            placement,
+        };
+        // round(0.2 · 22) = 4; even: ⌊j 22 / 4⌋.
+        assert_eq!(m(Placement::Even).automated(22, 42), [0, 5, 11, 16]);
+        let seeded = m(Placement::Seeded).automated(22, 42);
+        assert_eq!(seeded.len(), 4);
+        assert_ne!(seeded, m(Placement::Seeded).automated(22, 43));
+        let json: MixedSpec = serde_json::from_str(r#"{"penetration": 0.5}"#).unwrap();
+        assert_eq!(
+            (json.placement, json.human.as_str()),
+            (Placement::Seeded, "human")
+        );
+        let bad =
+            serde_json::from_str::<MixedSpec>(r#"{"penetration": 0.5, "placement": "random"}"#)
+                .unwrap_err()
+                .to_string();
+        assert!(bad.contains("even") && bad.contains("seeded"), "{bad}");
     }
 
     #[test]
@@ -138,6 +124,7 @@ mod tests {
             penetration: p,
             controller: c.into(),
             human: "human".into(),
+            placement: Placement::Seeded,
         };
         assert_eq!(
             m(1.5, "law").validate(true).unwrap_err().to_string(),

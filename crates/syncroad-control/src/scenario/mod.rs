@@ -32,7 +32,7 @@ mod validate;
 
 pub use file::*;
 pub use leader::LeaderProfile;
-pub use mixed::{automated_vehicles, MixedSpec};
+pub use mixed::MixedSpec;
 pub use network_road::{MeasuredRoad, RoadReader};
 pub use per_vehicle::PerVehicle;
 pub use scale::Scaled;

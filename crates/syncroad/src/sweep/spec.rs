@@ -13,7 +13,7 @@
 //!   "seeds": {"first": 1, "count": 3},
 //!   "runs": ["protocol", "krauss-0.9"],
 //!   "penetrations": [0.0, 0.25, 0.5],
-//!   "mixed_driver": "krauss-0.9",
+//!   "mixed_driver": "human",
 //!   "mixed_controller": "law",
 //!   "metrics": ["sync.verdict", "congestion.speed_std_mps"]
 //! }
@@ -70,8 +70,8 @@ pub struct SpecFile {
     /// Mixed runs: fractions of law-driven vehicles, each in [0, 1].
     #[serde(default)]
     pub penetrations: Vec<f64>,
-    /// The human driver of mixed runs (default `krauss-0.9`; it forms no stop-and-go jam on the
-    /// Sugiyama ring, see `docs/src/human-preset.md`: name `human` or `human-noisy` for one).
+    /// The human driver of mixed runs (default `human`, the preset that jams the Sugiyama ring,
+    /// `docs/src/human-preset.md`; `human-noisy` jams it from a uniform start).
     #[serde(default)]
     pub mixed_driver: Option<String>,
     /// Who drives the automated vehicles of mixed runs: `law` (default), `follower-stopper-U`
@@ -371,7 +371,7 @@ fn runs_of(file: &SpecFile, base: &Scenario, backend: Backend) -> anyhow::Result
         let human_name = file
             .mixed_driver
             .as_deref()
-            .unwrap_or(crate::runs::DEFAULT_MIXED_DRIVER);
+            .unwrap_or(syncroad_control::drive::DEFAULT_HUMAN);
         let human = SumoDriver::parse("mixed_driver", human_name)
             .map_err(|e| InputError::caused("mixed_driver", e))?;
         let names = match &file.mixed_controller {

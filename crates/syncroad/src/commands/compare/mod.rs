@@ -99,7 +99,7 @@ impl Request {
         Self {
             baselines,
             mixed,
-            mixed_driver: crate::runs::DEFAULT_MIXED_DRIVER.into(),
+            mixed_driver: syncroad_control::drive::DEFAULT_HUMAN.into(),
             mixed_controller: crate::runs::DEFAULT_MIXED_CONTROLLER.into(),
             ssm: false,
             jobs: None,

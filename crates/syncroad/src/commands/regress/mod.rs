@@ -110,6 +110,10 @@ pub struct Baseline {
     /// For `compare`: mixed-traffic counts, as `--mixed` takes them.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mixed: Option<String>,
+    /// For `compare`: the human driver of the mixed runs, as `--mixed-driver` takes it
+    /// (default: the command's default, `human`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mixed_driver: Option<String>,
     /// Scenario file, relative to the baseline's folder.
     pub scenario: String,
     /// Tolerances.
@@ -341,9 +345,9 @@ pub fn fresh_metrics(base: &Baseline, baseline_path: &Path) -> anyhow::Result<Va
     let scenario = dir.join(&base.scenario);
     let sc = load_scenario(&scenario)?;
     if base.kind == Kind::Native {
-        if base.runs.is_some() || base.mixed.is_some() {
+        if base.runs.is_some() || base.mixed.is_some() || base.mixed_driver.is_some() {
             return Err(InputError::new(format!(
-                "baseline {}: runs/mixed apply only to \"kind\": \"compare\" (this one is native)",
+                "baseline {}: runs/mixed/mixed_driver apply only to \"kind\": \"compare\" (this one is native)",
                 baseline_path.display()
             ))
             .into());
@@ -366,7 +370,10 @@ pub fn fresh_metrics(base: &Baseline, baseline_path: &Path) -> anyhow::Result<Va
         std::process::id(),
         sc.name()
     ));
-    let request = super::compare::Request::runs(runs, base.mixed.clone());
+    let mut request = super::compare::Request::runs(runs, base.mixed.clone());
+    if let Some(human) = &base.mixed_driver {
+        request.mixed_driver = human.clone();
+    }
     let plan = super::compare::plan(&sc, &request).map_err(|e| {
         e.context(InputError::new(format!(
             "baseline {}",
@@ -517,6 +524,7 @@ mod tests {
             kind: Kind::Native,
             runs: None,
             mixed: None,
+            mixed_driver: None,
             scenario: "x.json".into(),
             tolerances: Tolerances {
                 default: Tolerance {
