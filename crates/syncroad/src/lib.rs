@@ -6,6 +6,8 @@
 //! * [`cli`] — clap definitions, the help text;
 //! * [`config`] — options validated once, before any work starts;
 //! * [`commands`] — one module per command;
+//! * [`plan`] — one run as a command plans it (who drives, recording, measurements,
+//!   evaluation, time limit), built before any run starts;
 //! * [`pipeline`] — one run, whatever runs it: backend → outcome → record → files;
 //! * [`output`], [`plots`], [`report`], [`stability`] — files, figures and text tables;
 //! * [`error`], [`exit_codes`] — the one error funnel; only [`host::execute`] picks the exit
@@ -23,6 +25,7 @@ pub mod host;
 mod lock;
 mod output;
 mod pipeline;
+mod plan;
 mod plots;
 mod progress;
 mod report;

@@ -13,13 +13,15 @@ use anyhow::Context;
 use syncroad_control::scenario::Backend;
 use syncroad_control::SumoDriver;
 use syncroad_control::{NativeOptions, Scenario, StopReason, Verdict};
-use syncroad_sumo::{interrupt_flag, load_road, ReadMode, RunOptions, WorkerCommand};
+use syncroad_sumo::{interrupt_flag, load_road, ReadMode, WorkerCommand};
 
 use crate::cli::{OutputArgs, SumoArgs};
 use crate::config::{self, load_scenario, RunConfig};
 use crate::error::{InputError, Status};
 use crate::lock::FolderLock;
 use crate::pipeline::{self, Finished};
+use crate::plan::RunPlan;
+use crate::runs::RunSpec;
 use crate::stdout::{out, outln};
 use crate::{output, report};
 
@@ -224,16 +226,31 @@ fn run_sumo(
     };
     let road = load_road(sc).map_err(|e| InputError::caused("before starting SUMO", e))?;
     let _lock = prepare_out(&cfg.out, path, sc)?;
-    let worker = WorkerCommand::for_process().context("cannot locate the syncroad executable")?;
-    let mut opts = RunOptions::new(cfg.out.join(output::SUMO_WORK_DIR), worker);
-    opts.record_every = cfg.record_every;
-    opts.ballistic = !args.euler;
-    opts.drivers = drivers;
-    opts.timeout = timeout;
-    opts.interrupt = Some(interrupt_flag()?);
+    // The run's name says who drove: the law, SUMO's Krauss, or the scenario's mixed ring.
+    let name = if args.krauss_sigma.is_some() {
+        "sumo_krauss"
+    } else if sc.mixed().is_some() {
+        "mixed"
+    } else {
+        "law"
+    };
+    let spec = RunSpec {
+        name: name.into(),
+        drivers,
+        damper: None,
+    };
+    let mut plan = RunPlan::new(spec, cfg.record_every, cfg.eval);
+    plan.ballistic = !args.euler;
+    plan.timeout = timeout;
     if args.subscriptions {
-        opts.read = ReadMode::Subscriptions;
+        plan.read = ReadMode::Subscriptions;
     }
+    let worker = WorkerCommand::for_process().context("cannot locate the syncroad executable")?;
+    let opts = plan.sumo_options(
+        cfg.out.join(output::SUMO_WORK_DIR),
+        worker,
+        Some(interrupt_flag()?),
+    );
     let run = pipeline::sumo(sc, &road, &opts)
         .map_err(|e| InputError::caused("before starting SUMO", e))?;
     if run.output.trajectory.is_empty() && !run.interrupted {
@@ -244,15 +261,7 @@ fn run_sumo(
             run.output.stop.message().unwrap_or_default()
         );
     }
-    // The run's name says who drove: the law, SUMO's Krauss, or the scenario's mixed ring.
-    let name = if args.krauss_sigma.is_some() {
-        "sumo_krauss"
-    } else if sc.mixed().is_some() {
-        "mixed"
-    } else {
-        "law"
-    };
-    let f = Finished::new(sc, name, run.output, cfg.eval);
+    let f = Finished::new(sc, plan.name(), run.output, plan.eval);
     let complete = f.output.stop.is_complete();
     let title = (cfg.plots && complete).then(|| format!("{} (SUMO)", sc.name()));
     let written = f.write(&cfg.out, title);

@@ -6,22 +6,51 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::PathBuf;
 use std::sync::Arc;
+use std::time::Duration;
 
 use sha2::{Digest, Sha256};
 use syncroad_control::scenario::Backend;
-use syncroad_sumo::{load_road, MeasureOptions, Road, RunOptions, WorkerCommand};
+use syncroad_control::{EvalOptions, Scenario};
+use syncroad_sumo::{load_road, Road, WorkerCommand};
 
 use super::points::Point;
 use super::spec::Sweep;
 use crate::config;
 use crate::error::InputError;
+use crate::plan::{Measurements, RunPlan};
 
 impl Sweep {
+    /// The plan of point `p` on its scenario `sc`: the one the checks validate and the point
+    /// runs.
+    pub(super) fn plan_point(&self, p: &Point, sc: &Scenario) -> anyhow::Result<RunPlan> {
+        let record_every = config::record_every_as("record_every", self.file.record_every, sc)?;
+        let mut eval = EvalOptions::of(sc);
+        eval.warmup_s = config::warmup_s_as("warmup_s", self.file.warmup_s, sc)?;
+        // The certificate costs a tenth of a second and more per point: only when a column
+        // holds it.
+        eval.gap_certificate = self
+            .metrics
+            .iter()
+            .any(|m| m.starts_with("gap_certificate."));
+        let mut plan = RunPlan::new(self.runs[p.run].spec.clone(), record_every, eval);
+        plan.timeout = self
+            .file
+            .timeout_s
+            .and_then(|t| Duration::try_from_secs_f64(t).ok());
+        if self.backend == Backend::Sumo {
+            plan.measure = Some(Measurements {
+                emission_every: 1,
+                tripinfo: false,
+                ssm: false,
+            });
+        }
+        Ok(plan)
+    }
+
     /// Builds and checks every point as it will run; returns the network files the points
     /// read (SUMO only), which the spec hash covers.
     pub(super) fn check_points(&self) -> anyhow::Result<BTreeSet<PathBuf>> {
         let mut roads: BTreeMap<PathBuf, Arc<Road>> = BTreeMap::new();
-        let mut seen = BTreeSet::new();
         // Each point's scenario (a hash of all it holds) with its run and seed: two points
         // alike are one run under two labels (scale.delay values that round to the same
         // delays on the step grid, …).
@@ -40,11 +69,7 @@ impl Sweep {
                 .into());
             }
             let here = |e: anyhow::Error| e.context(self.describe(&p));
-            if seen.insert((p.at.clone(), p.seed)) {
-                config::warmup_s_as("warmup_s", self.file.warmup_s, &sc).map_err(here)?;
-                config::record_every_as("record_every", self.file.record_every, &sc)
-                    .map_err(here)?;
-            }
+            let plan = self.plan_point(&p, &sc).map_err(here)?;
             if self.backend != Backend::Sumo {
                 let spec = &self.runs[p.run].spec;
                 if spec.native_law(&sc).is_none() {
@@ -73,16 +98,7 @@ impl Sweep {
                     r
                 }
             };
-            let choice = &self.runs[p.run];
-            let mut o = RunOptions::new(PathBuf::new(), worker.clone());
-            o.drivers = choice.spec.drivers.clone();
-            o.damper = choice.spec.damper;
-            o.measure = Some(MeasureOptions {
-                warmup_s: config::warmup_s_as("warmup_s", self.file.warmup_s, &sc)?,
-                emission_every: 1,
-                tripinfo: false,
-                ssm: false,
-            });
+            let o = plan.sumo_options(PathBuf::new(), worker.clone(), None);
             syncroad_sumo::check_run(&sc, &road, &o)
                 .map_err(|e| InputError::caused(self.describe(&p), e))?;
         }

@@ -18,15 +18,14 @@ use std::sync::{Arc, Mutex};
 use anyhow::Context;
 use serde_json::{json, Map, Value};
 use syncroad_control::scenario::Backend;
-use syncroad_control::{EvalOptions, NativeOptions, Scenario, StopReason};
-use syncroad_sumo::{load_road, MeasureOptions, Road, RunOptions, WorkerCommand, WorkerPool};
+use syncroad_control::{NativeOptions, Scenario, StopReason};
+use syncroad_sumo::{load_road, Road, WorkerCommand, WorkerPool};
 
 use super::points::{Point, Shard};
 use super::rows::{point_cells, read_rows, row_path, rows_dir};
 use super::spec::Sweep;
 use super::table::{at_path, metric_kinds, Column, Kind, Table};
 use crate::batch::JobEnd;
-use crate::config;
 use crate::error::InputError;
 use crate::lock::{self, FolderLock};
 use crate::output::write_text;
@@ -238,17 +237,7 @@ impl Shared<'_> {
     fn run_point(&self, p: &Point) -> anyhow::Result<PointEnd> {
         let sweep = self.sweep;
         let sc = sweep.scenario(p)?;
-        let choice = &sweep.runs[p.run];
-        let record_every = config::record_every(sweep.file.record_every, &sc)?;
-        let warmup_s = config::warmup_s(sweep.file.warmup_s, &sc)?;
-        let mut eval = EvalOptions::of(&sc);
-        eval.warmup_s = warmup_s;
-        // The certificate costs a tenth of a second and more per point: only when a column
-        // holds it.
-        eval.gap_certificate = sweep
-            .metrics
-            .iter()
-            .any(|m| m.starts_with("gap_certificate."));
+        let plan = sweep.plan_point(p, &sc)?;
         let run_dir = self.out.join("runs").join(format!("{:07}", p.id));
         let work = if self.opts.keep_runs {
             run_dir.join("sumo")
@@ -258,17 +247,17 @@ impl Shared<'_> {
         let (output, interrupted) = match sweep.backend {
             Backend::Native => {
                 let opts = NativeOptions {
-                    record_every,
+                    record_every: plan.record_every,
                     cancel: Some(&self.interrupt),
                     ..NativeOptions::default()
                 };
-                let law = choice.spec.native_law(&sc).ok_or_else(|| {
+                let law = plan.spec.native_law(&sc).ok_or_else(|| {
                     InputError::new(format!(
                         "runs: {} needs SUMO (backend \"sumo\")",
-                        choice.spec.name
+                        plan.name()
                     ))
                 })?;
-                let out = pipeline::native_law(&sc, &law, choice.spec.labels(sc.vehicles()), opts)
+                let out = pipeline::native_law(&sc, &law, plan.spec.labels(sc.vehicles()), opts)
                     .map_err(|e| InputError::caused("runs", e))?;
                 let interrupted = matches!(out.stop, StopReason::Interrupted { .. });
                 (out, interrupted)
@@ -276,21 +265,11 @@ impl Shared<'_> {
             Backend::Sumo => {
                 let road = self.road(&sc)?;
                 let pool = self.pool.as_ref().expect("a SUMO sweep has a worker pool");
-                let mut o = RunOptions::new(work.clone(), pool.command().clone());
-                o.record_every = record_every;
-                o.interrupt = Some(self.interrupt.clone());
-                o.timeout = sweep
-                    .file
-                    .timeout_s
-                    .and_then(|t| std::time::Duration::try_from_secs_f64(t).ok());
-                o.drivers = choice.spec.drivers.clone();
-                o.damper = choice.spec.damper;
-                o.measure = Some(MeasureOptions {
-                    warmup_s,
-                    emission_every: 1,
-                    tripinfo: false,
-                    ssm: false,
-                });
+                let o = plan.sumo_options(
+                    work.clone(),
+                    pool.command().clone(),
+                    Some(self.interrupt.clone()),
+                );
                 let r = pipeline::sumo_pooled(&sc, &road, &o, pool)
                     .map_err(|e| InputError::caused("before starting SUMO", e))?;
                 (r.output, r.interrupted)
@@ -303,14 +282,14 @@ impl Shared<'_> {
             }
             return Ok(PointEnd::Interrupted);
         }
-        let f = Finished::new(&sc, &choice.spec.name, output, eval);
+        let f = Finished::new(&sc, plan.name(), output, plan.eval);
         if self.opts.keep_runs {
             std::fs::create_dir_all(&run_dir)
                 .with_context(|| format!("cannot create {}", run_dir.display()))?;
             let title = self
                 .opts
                 .run_plots
-                .then(|| format!("{} point {}: {}", sweep.name, p.id, choice.spec.name));
+                .then(|| format!("{} point {}: {}", sweep.name, p.id, plan.name()));
             f.write(&run_dir, title)?;
         }
         let row = row_of(sweep, p, &f.record.to_json());

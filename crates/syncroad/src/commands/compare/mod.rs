@@ -15,7 +15,6 @@
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
-use std::time::Duration;
 
 use anyhow::Context;
 use serde_json::{json, Value};
@@ -23,8 +22,8 @@ use syncroad_control::record::SHARED_KEYS;
 use syncroad_control::scenario::Model;
 use syncroad_control::{DamperSpec, EvalOptions, RunRecord, Scenario, SumoDriver};
 use syncroad_sumo::{
-    check_sumo_numbers, interrupt_flag, load_road, loop_position, MeasureOptions, Road, RunOptions,
-    WorkerCommand, EMISSION_CLASS,
+    check_sumo_numbers, interrupt_flag, load_road, loop_position, Road, WorkerCommand,
+    EMISSION_CLASS,
 };
 
 use crate::batch::JobEnd;
@@ -33,6 +32,7 @@ use crate::config::{self, load_scenario};
 use crate::error::{InputError, Status};
 use crate::output::{self, write_json};
 use crate::pipeline::{self, Finished};
+use crate::plan::{Measurements, RunPlan};
 use crate::plots::{spread_plot, Spread, SpreadLabels};
 use crate::runs::RunSpec;
 use crate::stdout::{out, outln};
@@ -42,24 +42,17 @@ mod table;
 /// A validated comparison.
 #[derive(Debug, Clone)]
 pub struct Plan {
-    /// The runs in column order.
-    pub runs: Vec<RunSpec>,
+    /// The runs in column order, each planned whole (drivers, recording, measurements,
+    /// evaluation, time limit).
+    pub runs: Vec<RunPlan>,
     /// Parallel workers.
     pub jobs: usize,
-    /// Warm-up [s].
+    /// Warm-up of every run [s].
     pub warmup_s: f64,
-    /// Emission sampling stride.
-    pub emission_every: usize,
-    /// Recording stride.
-    pub record_every: usize,
-    /// Per-run wall-clock limit.
-    pub timeout: Option<Duration>,
     /// Draw plots.
     pub plots: bool,
     /// Mixed runs: name and count of automated vehicles.
     pub mixed_runs: Vec<(String, usize)>,
-    /// Measure safety margins (SUMO's SSM device) in every run.
-    pub ssm: bool,
     /// The scenario's road, read once for every run.
     pub road: Road,
 }
@@ -273,16 +266,30 @@ pub fn plan(sc: &Scenario, a: &Request) -> anyhow::Result<Plan> {
             )));
         }
     }
+    let record_every = config::record_every(a.record_every, sc)?;
+    let timeout = config::timeout(a.timeout_s)?;
+    let mut eval = EvalOptions::of(sc);
+    eval.warmup_s = warmup_s;
+    let measure = Measurements {
+        emission_every: a.emission_every,
+        tripinfo: true,
+        ssm: a.ssm,
+    };
+    let runs = runs
+        .into_iter()
+        .map(|spec| {
+            let mut run = RunPlan::new(spec, record_every, eval);
+            run.timeout = timeout;
+            run.measure = Some(measure);
+            run
+        })
+        .collect();
     Ok(Plan {
         runs,
         jobs,
         warmup_s,
-        emission_every: a.emission_every,
-        record_every: config::record_every(a.record_every, sc)?,
-        timeout: config::timeout(a.timeout_s)?,
         plots: a.plots,
         mixed_runs,
-        ssm: a.ssm,
         road,
     })
 }
@@ -316,34 +323,25 @@ impl RunResult {
 /// One run through the pipeline, written into `dir`.
 fn run_one(
     sc: &Scenario,
-    spec: &RunSpec,
+    run: &RunPlan,
     plan: &Plan,
     dir: &Path,
     worker: &WorkerCommand,
     interrupt: &Arc<AtomicBool>,
 ) -> anyhow::Result<RunResult> {
-    let mut opts = RunOptions::new(dir.join(output::SUMO_WORK_DIR), worker.clone());
-    opts.record_every = plan.record_every;
-    opts.timeout = plan.timeout;
-    opts.interrupt = Some(interrupt.clone());
-    opts.drivers = spec.drivers.clone();
-    opts.damper = spec.damper;
-    opts.measure = Some(MeasureOptions {
-        warmup_s: plan.warmup_s,
-        emission_every: plan.emission_every,
-        tripinfo: true,
-        ssm: plan.ssm,
-    });
-    let run = pipeline::sumo(sc, &plan.road, &opts)
+    let opts = run.sumo_options(
+        dir.join(output::SUMO_WORK_DIR),
+        worker.clone(),
+        Some(interrupt.clone()),
+    );
+    let out = pipeline::sumo(sc, &plan.road, &opts)
         .map_err(|e| InputError::caused("before starting SUMO", e))?;
-    let mut eval = EvalOptions::of(sc);
-    eval.warmup_s = plan.warmup_s;
-    let f = Finished::new(sc, &spec.name, run.output, eval);
-    let title = plan.plots.then(|| format!("{}: {}", sc.name(), spec.name));
+    let f = Finished::new(sc, run.name(), out.output, run.eval);
+    let title = plan.plots.then(|| format!("{}: {}", sc.name(), run.name()));
     f.write(dir, title)?;
     Ok(RunResult {
-        name: spec.name.clone(),
-        spread: Spread::of(&spec.name, &f.output.trajectory),
+        name: run.name().to_string(),
+        spread: Spread::of(run.name(), &f.output.trajectory),
         record: Ok(f.record),
     })
 }
@@ -362,12 +360,12 @@ pub fn run_all(
         plan.jobs,
         &interrupt,
         &plan.runs,
-        |spec| spec.name.clone(),
-        |spec| {
-            let dir = out.join(spec.folder());
+        |run| run.name().to_string(),
+        |run| {
+            let dir = out.join(run.spec.folder());
             let r =
-                run_one(sc, spec, plan, &dir, &worker, &interrupt).unwrap_or_else(|e| RunResult {
-                    name: spec.name.clone(),
+                run_one(sc, run, plan, &dir, &worker, &interrupt).unwrap_or_else(|e| RunResult {
+                    name: run.name().to_string(),
                     record: Err(crate::error::describe(&e)),
                     spread: Spread::default(),
                 });
@@ -380,9 +378,9 @@ pub fn run_all(
         .runs
         .iter()
         .zip(ends)
-        .map(|(spec, end)| {
+        .map(|(run, end)| {
             end.unwrap_or_else(|| RunResult {
-                name: spec.name.clone(),
+                name: run.name().to_string(),
                 record: Err("not started: interrupted".into()),
                 spread: Spread::default(),
             })
@@ -456,13 +454,13 @@ pub fn compare_into(
     // Every folder is checked, and an earlier comparison's files cleared, before any run.
     // Two names that give one folder would write into each other's files.
     let mut folders: std::collections::BTreeMap<String, &str> = Default::default();
-    for spec in &plan.runs {
-        if let Some(first) = folders.insert(spec.folder(), &spec.name) {
+    for run in &plan.runs {
+        if let Some(first) = folders.insert(run.spec.folder(), run.name()) {
             return Err(InputError::new(format!(
                 "the runs {first:?} and {:?} would both write into {}/{}; give one of them another name",
-                spec.name,
+                run.name(),
                 out.display(),
-                spec.folder()
+                run.spec.folder()
             ))
             .into());
         }
@@ -476,10 +474,10 @@ pub fn compare_into(
     )?];
     let mut files = vec![output::METRICS_FILE, output::TRAJECTORY_FILE];
     files.extend(crate::plots::RUN_PLOT_FILES);
-    for spec in &plan.runs {
+    for run in &plan.runs {
         locks.push(output::prepare_dir(
             "--out",
-            &out.join(spec.folder()),
+            &out.join(run.spec.folder()),
             &files,
             inputs,
         )?);
@@ -496,12 +494,12 @@ pub fn compare_into(
         spread_plot(out, &labels, &spreads)?;
     }
     let mut doc = combined(sc, &results, &plan.mixed_runs);
-    doc["order"] = json!(plan.runs.iter().map(|r| r.name.clone()).collect::<Vec<_>>());
+    doc["order"] = json!(plan.runs.iter().map(RunPlan::name).collect::<Vec<_>>());
     // Each run's folder under --out (its name made safe for paths).
     doc["folders"] = json!(plan
         .runs
         .iter()
-        .map(|r| (r.name.clone(), json!(r.folder())))
+        .map(|r| (r.name().to_string(), json!(r.spec.folder())))
         .collect::<serde_json::Map<_, _>>());
     write_json(&out.join("compare.json"), &doc)?;
     drop(locks);
@@ -558,7 +556,7 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<Status> {
         a.out.display(),
         plan.runs
             .iter()
-            .map(|r| r.folder())
+            .map(|r| r.spec.folder())
             .collect::<Vec<_>>()
             .join(", ")
     );
