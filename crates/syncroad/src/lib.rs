@@ -6,6 +6,8 @@
 //! * [`cli`] — clap definitions, the help text;
 //! * [`config`] — options validated once, before any work starts;
 //! * [`commands`] — one module per command;
+//! * [`comparison`] — one scenario under several drivers, planned and run as one batch (the
+//!   `compare` command and `regress` baselines of kind compare);
 //! * [`plan`] — one run as a command plans it (who drives, recording, measurements,
 //!   evaluation, time limit), built before any run starts;
 //! * [`pipeline`] — one run, whatever runs it: backend → outcome → record → files;
@@ -17,6 +19,7 @@
 mod batch;
 mod cli;
 mod commands;
+mod comparison;
 mod config;
 mod error;
 mod exit_codes;

@@ -370,11 +370,11 @@ pub fn fresh_metrics(base: &Baseline, baseline_path: &Path) -> anyhow::Result<Va
         std::process::id(),
         sc.name()
     ));
-    let mut request = super::compare::Request::runs(runs, base.mixed.clone());
+    let mut request = crate::comparison::Request::runs(runs, base.mixed.clone());
     if let Some(human) = &base.mixed_driver {
         request.mixed_driver = human.clone();
     }
-    let plan = super::compare::plan(&sc, &request).map_err(|e| {
+    let plan = crate::comparison::plan(&sc, &request).map_err(|e| {
         e.context(InputError::new(format!(
             "baseline {}",
             baseline_path.display()
@@ -382,7 +382,7 @@ pub fn fresh_metrics(base: &Baseline, baseline_path: &Path) -> anyhow::Result<Va
     })?;
     let flag = syncroad_sumo::interrupt_flag()?;
     let result =
-        super::compare::compare_into(&sc, &plan, &out, &crate::output::Inputs::none(), flag);
+        crate::comparison::compare_into(&sc, &plan, &out, &crate::output::Inputs::none(), flag);
     let _ = std::fs::remove_dir_all(&out);
     Ok(result?.0)
 }
