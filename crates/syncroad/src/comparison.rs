@@ -19,7 +19,7 @@ use anyhow::Context;
 use serde_json::{json, Value};
 use syncroad_control::record::SHARED_KEYS;
 use syncroad_control::scenario::Model;
-use syncroad_control::{DamperSpec, EvalOptions, RunRecord, Scenario, SumoDriver};
+use syncroad_control::{EvalOptions, RunRecord, Scenario, SumoDriver};
 use syncroad_sumo::{check_sumo_numbers, load_road, Road, WorkerCommand, EMISSION_CLASS};
 
 use crate::batch::JobEnd;
@@ -134,18 +134,8 @@ fn mixed_runs(sc: &Scenario, a: &Request) -> anyhow::Result<MixedRuns> {
     let mut mixed = Vec::new();
     let mut mixed_runs = Vec::new();
     if let Some(m) = &a.mixed {
-        let mut controllers: Vec<Option<DamperSpec>> = Vec::new();
-        for c in a.mixed_controller.split(',').map(str::trim) {
-            let d = DamperSpec::parse("--mixed-controller", c)
-                .map_err(|e| InputError::caused("--mixed-controller", e))?;
-            if controllers.contains(&d) {
-                return Err(bad(format!(
-                    "--mixed-controller = {}: {c} is listed twice",
-                    a.mixed_controller
-                )));
-            }
-            controllers.push(d);
-        }
+        let names: Vec<&str> = a.mixed_controller.split(',').collect();
+        let controllers = crate::runs::mixed_controllers("--mixed-controller", &names)?;
         let law = controllers.contains(&None);
         if law && (!sc.is_ring() || !matches!(sc.model(), Model::DelayedDriver(_))) {
             return Err(bad(format!(
@@ -174,19 +164,9 @@ fn mixed_runs(sc: &Scenario, a: &Request) -> anyhow::Result<MixedRuns> {
                 return Err(bad(format!("--mixed = {m}: {k} is listed twice")));
             }
             mixed.push(k);
-            // The all-human ring is the same whatever would control: it runs once.
-            let with = if k == 0 {
-                &controllers[..1]
-            } else {
-                &controllers[..]
-            };
-            for d in with {
-                let name = match d {
-                    Some(d) if k > 0 => format!("{d}-mixed-{k}"),
-                    _ => format!("mixed-{k}"),
-                };
-                mixed_runs.push((name.clone(), k));
-                runs.push(RunSpec::mixed(name, n, k, human.clone(), *d));
+            for run in crate::runs::mixed_series(n, k, &k.to_string(), &controllers, &human) {
+                mixed_runs.push((run.name.clone(), k));
+                runs.push(run);
             }
         }
     }

@@ -199,6 +199,55 @@ impl RunSpec {
     }
 }
 
+/// The controllers of a mixed series by name: `law` or a damper ([`DamperSpec::parse`]), each
+/// once, at least one; `field` names where they were given.
+pub fn mixed_controllers<S: AsRef<str>>(
+    field: &str,
+    names: &[S],
+) -> Result<Vec<Option<DamperSpec>>, InputError> {
+    let mut out = Vec::new();
+    for c in names.iter().map(|c| c.as_ref().trim()) {
+        let d = DamperSpec::parse(field, c).map_err(|e| InputError::caused(field, e))?;
+        if out.contains(&d) {
+            return Err(InputError::new(format!("{field}: {c} is listed twice")));
+        }
+        out.push(d);
+    }
+    if out.is_empty() {
+        return Err(InputError::new(format!(
+            "{field} is empty: name at least one controller (e.g. law)"
+        )));
+    }
+    Ok(out)
+}
+
+/// The mixed runs with `k` of `n` vehicles automated among `human` drivers, `label` naming
+/// the share (`2` vehicles in `compare`, `0.25` of them in a sweep): one run per controller,
+/// `mixed-LABEL` for the law and `CONTROLLER-mixed-LABEL` for a damper. The all-human ring
+/// (`k = 0`) is the same whatever would control, so it is one run, `mixed-LABEL`.
+pub fn mixed_series(
+    n: usize,
+    k: usize,
+    label: &str,
+    controllers: &[Option<DamperSpec>],
+    human: &SumoDriver,
+) -> Vec<RunSpec> {
+    let with = if k == 0 {
+        &controllers[..controllers.len().min(1)]
+    } else {
+        controllers
+    };
+    with.iter()
+        .map(|d| {
+            let name = match d {
+                Some(d) if k > 0 => format!("{d}-mixed-{label}"),
+                _ => format!("mixed-{label}"),
+            };
+            RunSpec::mixed(name, n, k, human.clone(), *d)
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -221,5 +270,34 @@ mod tests {
         assert!(a
             .chars()
             .all(|c| c.is_ascii_alphanumeric() || "._=+-".contains(c)));
+    }
+
+    #[test]
+    fn a_mixed_series_names_each_controller_and_runs_the_all_human_ring_once() {
+        let human = SumoDriver::parse("d", "human").unwrap();
+        let c = mixed_controllers("--mixed-controller", &["law", "pi-saturation"]).unwrap();
+        let names = |k| -> Vec<String> {
+            mixed_series(22, k, &k.to_string(), &c, &human)
+                .into_iter()
+                .map(|r| r.name)
+                .collect()
+        };
+        assert_eq!(names(0), ["mixed-0"]);
+        assert_eq!(names(2), ["mixed-2", "pi-saturation-mixed-2"]);
+        let runs = mixed_series(22, 2, "2", &c, &human);
+        // k of n vehicles are the controller's, spread evenly (vehicles 0 and 11); the
+        // damper drives them in the second run only.
+        for r in &runs {
+            let automated: Vec<usize> = (0..22).filter(|&i| r.drivers[i].is_none()).collect();
+            assert_eq!(automated, [0, 11]);
+        }
+        assert_eq!((runs[0].damper, runs[1].damper.is_some()), (None, true));
+        assert_eq!(
+            mixed_controllers("mixed_controller", &["law", "law"])
+                .unwrap_err()
+                .to_string(),
+            "mixed_controller: law is listed twice"
+        );
+        assert!(mixed_controllers::<&str>("mixed_controller", &[]).is_err());
     }
 }

@@ -36,8 +36,8 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use sha2::{Digest, Sha256};
 use syncroad_control::scenario::{Backend, Model, ScenarioFile};
+use syncroad_control::Scenario;
 use syncroad_control::SumoDriver;
-use syncroad_control::{DamperSpec, Scenario};
 
 pub use super::axis::Axis;
 use super::axis::{set_path, AxisFile, Target};
@@ -379,24 +379,13 @@ fn runs_of(file: &SpecFile, base: &Scenario, backend: Backend) -> anyhow::Result
             Some(OneOrMany::One(c)) => vec![c.clone()],
             Some(OneOrMany::Many(v)) => v.clone(),
         };
-        let mut controllers = Vec::new();
-        for c in &names {
-            let d = DamperSpec::parse("mixed_controller", c)
-                .map_err(|e| InputError::caused("mixed_controller", e))?;
-            if controllers.contains(&d) {
-                return Err(bad(format!("mixed_controller: {c} is listed twice")).into());
-            }
-            controllers.push(d);
-        }
-        if controllers.is_empty() {
-            return Err(bad("mixed_controller = []: name at least one (e.g. \"law\")").into());
-        }
+        let controllers = crate::runs::mixed_controllers("mixed_controller", &names)?;
         let mut counts: Vec<(usize, f64)> = Vec::new();
         for &p in &file.penetrations {
             if !(0.0..=1.0).contains(&p) {
                 return Err(bad(format!("penetrations: {p} is not a fraction in [0, 1]")).into());
             }
-            let k = (p * n as f64).round() as usize;
+            let k = syncroad_control::drive::automated_count(n, p);
             if let Some((_, q)) = counts.iter().find(|(j, _)| *j == k) {
                 return Err(bad(format!(
                     "penetrations: {q} and {p} both give {k} of {n} automated vehicles, so the same run twice; give one of them"
@@ -404,18 +393,7 @@ fn runs_of(file: &SpecFile, base: &Scenario, backend: Backend) -> anyhow::Result
                 .into());
             }
             counts.push((k, p));
-            // The all-human ring is the same whatever would control: it runs once.
-            let with = if k == 0 {
-                &controllers[..1]
-            } else {
-                &controllers[..]
-            };
-            for &controller in with {
-                let name = match controller {
-                    Some(d) if k > 0 => format!("{d}-mixed-{p}"),
-                    _ => format!("mixed-{p}"),
-                };
-                let spec = RunSpec::mixed(name, n, k, human.clone(), controller);
+            for spec in crate::runs::mixed_series(n, k, &p.to_string(), &controllers, &human) {
                 if runs.iter().any(|r| r.spec.name == spec.name) {
                     return Err(bad(format!(
                         "penetrations: {p} gives {} again (listed twice)",
