@@ -16,6 +16,7 @@ use serde::{Deserialize, Serialize};
 use crate::cacc::{CaccLaw, PlatoonView, PowertrainLag};
 use crate::damper::{DamperController, DamperError, DamperSetup};
 use crate::delayed_driver::{DelayedDriverLaw, LawError};
+use crate::drive::{Drive, SumoDriver};
 use crate::noisy_idm::{HumanController, HumanSetup};
 use crate::scenario::{LeaderProfile, Model, Scenario};
 
@@ -68,6 +69,46 @@ impl LawSpec {
             damper: None,
             humans: None,
         }
+    }
+
+    /// The law of the run `drive` on the native simulator: the scenario's law with the damper and the
+    /// stochastic humans on a ring of the scenario's length; `None` when a SUMO driver takes
+    /// part (only SUMO runs it: a run that leaves the drivers to a scenario with a `mixed`
+    /// block included) or a damper or human is asked for on a straight road.
+    pub fn of_drive(sc: &Scenario, drive: &Drive) -> Option<Self> {
+        if drive.drivers.is_empty() && sc.mixed().is_some() {
+            return None;
+        }
+        let mut law = Self::of(sc);
+        if drive.damper.is_none() && drive.drivers.iter().all(Option::is_none) {
+            return Some(law);
+        }
+        let ring = sc.ring_length_m()?;
+        let mut humans = Vec::with_capacity(drive.drivers.len());
+        for d in &drive.drivers {
+            humans.push(match d {
+                None => None,
+                Some(SumoDriver::Noisy(h)) => Some(*h),
+                Some(_) => return None,
+            });
+        }
+        let vt = sc.sumo().vehicle_type();
+        law.damper = drive.damper.map(|spec| DamperSetup {
+            spec,
+            ring_length_m: ring,
+            length_m: sc.length_m().to_vec(),
+            accel_mps2: vt.accel_mps2,
+            decel_mps2: vt.decel_mps2,
+        });
+        if humans.iter().any(Option::is_some) {
+            law.humans = Some(HumanSetup {
+                drivers: humans,
+                ring_length_m: ring,
+                length_m: sc.length_m().to_vec(),
+                seed: sc.seed(),
+            });
+        }
+        Some(law)
     }
 }
 

@@ -249,7 +249,7 @@ pub struct CompareArgs {
     /// What drives the K automated vehicles of --mixed runs, comma-separated: law (the
     /// scenario's), follower-stopper-U, pi-saturation. One run per controller and K > 0, named
     /// mixed-K for the law and CONTROLLER-mixed-K otherwise; mixed-0 runs once.
-    #[arg(long, default_value = crate::runs::DEFAULT_MIXED_CONTROLLER)]
+    #[arg(long, default_value = syncroad_control::drive::DEFAULT_MIXED_CONTROLLER)]
     pub mixed_controller: String,
     /// Also measure safety margins in every run: time headway (min, mean), minimum gap, SUMO's
     /// surrogate safety measures (TTC, DRAC conflicts from its SSM device) and whether the

@@ -17,6 +17,7 @@ use std::sync::Arc;
 
 use anyhow::Context;
 use serde_json::{json, Value};
+use syncroad_control::drive::{mixed_controllers, mixed_series, Drive, DEFAULT_MIXED_CONTROLLER};
 use syncroad_control::record::SHARED_KEYS;
 use syncroad_control::scenario::Model;
 use syncroad_control::{EvalOptions, RunRecord, Scenario, SumoDriver};
@@ -27,9 +28,8 @@ use crate::config;
 use crate::error::InputError;
 use crate::output::{self, write_json};
 use crate::pipeline::{self, Finished};
-use crate::plan::{Measurements, RunPlan};
+use crate::plan::{folder_name, Measurements, RunPlan};
 use crate::plots::{spread_plot, Spread, SpreadLabels};
-use crate::runs::RunSpec;
 
 /// A validated comparison.
 #[derive(Debug, Clone)]
@@ -85,7 +85,7 @@ impl Request {
             baselines,
             mixed,
             mixed_driver: syncroad_control::drive::DEFAULT_HUMAN.into(),
-            mixed_controller: crate::runs::DEFAULT_MIXED_CONTROLLER.into(),
+            mixed_controller: DEFAULT_MIXED_CONTROLLER.into(),
             ssm: false,
             jobs: None,
             warmup_s: None,
@@ -98,7 +98,7 @@ impl Request {
 }
 
 /// The `--baselines` runs: the law, dampers (on a ring) and SUMO drivers, each once.
-fn baseline_runs(sc: &Scenario, a: &Request) -> anyhow::Result<Vec<RunSpec>> {
+fn baseline_runs(sc: &Scenario, a: &Request) -> anyhow::Result<Vec<Drive>> {
     let bad = |m: String| anyhow::Error::new(InputError::new(m));
     let n = sc.vehicles();
     let default = if sc.is_ring() {
@@ -110,9 +110,10 @@ fn baseline_runs(sc: &Scenario, a: &Request) -> anyhow::Result<Vec<RunSpec>> {
         .baselines
         .as_deref()
         .unwrap_or(if a.mixed.is_some() { "" } else { default });
-    let mut runs: Vec<RunSpec> = Vec::new();
+    let mut runs: Vec<Drive> = Vec::new();
     for name in list.split(',').map(str::trim).filter(|s| !s.is_empty()) {
-        let spec = RunSpec::parse("--baselines", name, n)?;
+        let spec = Drive::parse("--baselines", name, n)
+            .map_err(|e| InputError::caused("--baselines", e))?;
         if let Some(d) = &spec.damper {
             d.require_ring(sc.is_ring(), &format!("scenario {}", sc.name()))
                 .map_err(|e| InputError::caused("--baselines", e))?;
@@ -130,12 +131,13 @@ fn baseline_runs(sc: &Scenario, a: &Request) -> anyhow::Result<Vec<RunSpec>> {
 fn mixed_runs(sc: &Scenario, a: &Request) -> anyhow::Result<MixedRuns> {
     let bad = |m: String| anyhow::Error::new(InputError::new(m));
     let n = sc.vehicles();
-    let mut runs: Vec<RunSpec> = Vec::new();
+    let mut runs: Vec<Drive> = Vec::new();
     let mut mixed = Vec::new();
     let mut mixed_runs = Vec::new();
     if let Some(m) = &a.mixed {
         let names: Vec<&str> = a.mixed_controller.split(',').collect();
-        let controllers = crate::runs::mixed_controllers("--mixed-controller", &names)?;
+        let controllers = mixed_controllers("--mixed-controller", &names)
+            .map_err(|e| InputError::caused("--mixed-controller", e))?;
         let law = controllers.contains(&None);
         if law && (!sc.is_ring() || !matches!(sc.model(), Model::DelayedDriver(_))) {
             return Err(bad(format!(
@@ -164,7 +166,7 @@ fn mixed_runs(sc: &Scenario, a: &Request) -> anyhow::Result<MixedRuns> {
                 return Err(bad(format!("--mixed = {m}: {k} is listed twice")));
             }
             mixed.push(k);
-            for run in crate::runs::mixed_series(n, k, &k.to_string(), &controllers, &human) {
+            for run in mixed_series(n, k, &k.to_string(), &controllers, &human) {
                 mixed_runs.push((run.name.clone(), k));
                 runs.push(run);
             }
@@ -174,7 +176,7 @@ fn mixed_runs(sc: &Scenario, a: &Request) -> anyhow::Result<MixedRuns> {
 }
 
 /// Mixed runs and, for each, its name and count of automated vehicles.
-type MixedRuns = (Vec<RunSpec>, Vec<(String, usize)>);
+type MixedRuns = (Vec<Drive>, Vec<(String, usize)>);
 
 /// Parses and checks every option before anything runs.
 pub fn plan(sc: &Scenario, a: &Request) -> anyhow::Result<Plan> {
@@ -211,12 +213,15 @@ pub fn plan(sc: &Scenario, a: &Request) -> anyhow::Result<Plan> {
     let road = load_road(sc).map_err(before)?;
     syncroad_sumo::layout_for(sc, &road).map_err(before)?;
     for (i, r) in runs.iter().enumerate() {
-        if let Some(o) = runs[..i].iter().find(|o| o.folder() == r.folder()) {
+        if let Some(o) = runs[..i]
+            .iter()
+            .find(|o| folder_name(&o.name) == folder_name(&r.name))
+        {
             return Err(bad(format!(
                 "--baselines: runs {} and {} would write the same folder {}; name one of them otherwise",
                 o.name,
                 r.name,
-                r.folder()
+                folder_name(&r.name)
             )));
         }
     }
@@ -316,7 +321,7 @@ pub fn run_all(
         &plan.runs,
         |run| run.name().to_string(),
         |run| {
-            let dir = out.join(run.spec.folder());
+            let dir = out.join(run.folder());
             let r =
                 run_one(sc, run, plan, &dir, &worker, &interrupt).unwrap_or_else(|e| RunResult {
                     name: run.name().to_string(),
@@ -409,12 +414,12 @@ pub fn compare_into(
     // Two names that give one folder would write into each other's files.
     let mut folders: std::collections::BTreeMap<String, &str> = Default::default();
     for run in &plan.runs {
-        if let Some(first) = folders.insert(run.spec.folder(), run.name()) {
+        if let Some(first) = folders.insert(run.folder(), run.name()) {
             return Err(InputError::new(format!(
                 "the runs {first:?} and {:?} would both write into {}/{}; give one of them another name",
                 run.name(),
                 out.display(),
-                run.spec.folder()
+                run.folder()
             ))
             .into());
         }
@@ -431,7 +436,7 @@ pub fn compare_into(
     for run in &plan.runs {
         locks.push(output::prepare_dir(
             "--out",
-            &out.join(run.spec.folder()),
+            &out.join(run.folder()),
             &files,
             inputs,
         )?);
@@ -453,7 +458,7 @@ pub fn compare_into(
     doc["folders"] = json!(plan
         .runs
         .iter()
-        .map(|r| (r.name().to_string(), json!(r.spec.folder())))
+        .map(|r| (r.name().to_string(), json!(r.folder())))
         .collect::<serde_json::Map<_, _>>());
     write_json(&out.join("compare.json"), &doc)?;
     drop(locks);

@@ -32,7 +32,6 @@ mod plan;
 mod plots;
 mod progress;
 mod report;
-mod runs;
 mod stability;
 mod stdout;
 mod sweep;

@@ -1,4 +1,4 @@
-//! One run as a command plans it, before any run starts: who drives ([`RunSpec`]), how often
+//! One run as a command plans it, before any run starts: who drives ([`Drive`]), how often
 //! it is recorded, what SUMO measures, how it is evaluated and how long it may take. `run`,
 //! `compare` and `sweep` each build a [`RunPlan`] per run (a sweep's checks and its runs build
 //! the same plan for a point), and a run's SUMO options come from [`RunPlan::sumo_options`]
@@ -12,7 +12,36 @@ use std::time::Duration;
 use syncroad_control::EvalOptions;
 use syncroad_sumo::{MeasureOptions, ReadMode, RunOptions, WorkerCommand};
 
-use crate::runs::RunSpec;
+use syncroad_control::drive::Drive;
+
+/// The longest run folder name [`folder_name`] gives (bytes).
+pub const FOLDER_MAX: usize = 96;
+
+/// A run's folder name: its name with every character but letters, digits and `._=+-`
+/// replaced by `_` (`human:tau=1.2` → `human_tau=1.2`), because SUMO reads `a:b` in an
+/// output path as host:port and a shell or a list option splits on others. A name longer
+/// than [`FOLDER_MAX`] keeps its first characters and ends in 16 hex digits of its SHA-256,
+/// so the folder fits a file name (255 bytes on common file systems) and stays distinct.
+pub fn folder_name(name: &str) -> String {
+    let safe: String = name
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || "._=+-".contains(c) {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    if safe.len() <= FOLDER_MAX {
+        return safe;
+    }
+    use sha2::{Digest, Sha256};
+    let digest = Sha256::digest(name.as_bytes());
+    let hex: String = digest[..8].iter().map(|b| format!("{b:02x}")).collect();
+    // `safe` is ASCII: any byte index is a character boundary.
+    format!("{}-{hex}", &safe[..FOLDER_MAX - 17])
+}
 
 /// SUMO's measurements of a run beyond its trajectory (the warm-up is the evaluation's).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -29,7 +58,7 @@ pub struct Measurements {
 #[derive(Debug, Clone)]
 pub struct RunPlan {
     /// Who drives: the run's name, SUMO drivers, a damper.
-    pub spec: RunSpec,
+    pub drive: Drive,
     /// Record every this many steps.
     pub record_every: usize,
     /// Wall-clock limit; `None` takes the scenario's `sumo.timeout_s`.
@@ -47,9 +76,9 @@ pub struct RunPlan {
 impl RunPlan {
     /// `spec` recorded every `record_every` steps and judged by `eval`, with no time limit
     /// beyond the scenario's, no measurements, the ballistic update and direct reads.
-    pub fn new(spec: RunSpec, record_every: usize, eval: EvalOptions) -> Self {
+    pub fn new(drive: Drive, record_every: usize, eval: EvalOptions) -> Self {
         Self {
-            spec,
+            drive,
             record_every,
             timeout: None,
             eval,
@@ -61,7 +90,12 @@ impl RunPlan {
 
     /// The run's name.
     pub fn name(&self) -> &str {
-        &self.spec.name
+        &self.drive.name
+    }
+
+    /// The run's folder under a command's output folder ([`folder_name`] of its name).
+    pub fn folder(&self) -> String {
+        folder_name(&self.drive.name)
     }
 
     /// The options of this run in SUMO: its work folder, the worker to start and the interrupt
@@ -78,8 +112,8 @@ impl RunPlan {
         o.timeout = self.timeout;
         o.interrupt = interrupt;
         o.read = self.read;
-        o.drivers = self.spec.drivers.clone();
-        o.damper = self.spec.damper;
+        o.drivers = self.drive.drivers.clone();
+        o.damper = self.drive.damper;
         o.measure = self.measure.map(|m| MeasureOptions {
             warmup_s: self.eval.warmup_s,
             emission_every: m.emission_every,
@@ -101,7 +135,7 @@ mod tests {
             "/../../scenarios/ring-theorem1.json"
         );
         let sc = syncroad_control::Scenario::load(std::path::Path::new(path)).unwrap();
-        let spec = RunSpec::parse("--baselines", "idm", sc.vehicles()).unwrap();
+        let spec = Drive::parse("--baselines", "idm", sc.vehicles()).unwrap();
         let mut eval = EvalOptions::of(&sc);
         eval.warmup_s = 40.0;
         let mut plan = RunPlan::new(spec.clone(), 5, eval);
@@ -124,5 +158,20 @@ mod tests {
             .sumo_options("w".into(), WorkerCommand::binary("syncroad"), None)
             .measure
             .is_none());
+    }
+
+    #[test]
+    fn folders_are_safe_bounded_and_distinct() {
+        assert_eq!(folder_name("human:tau=1.2"), "human_tau=1.2");
+        // A 300-character driver value once gave a folder name past the 255-byte limit.
+        let long = format!("human:tau=1.{}", "0".repeat(300));
+        let other = format!("human:tau=1.{}1", "0".repeat(299));
+        let (a, b) = (folder_name(&long), folder_name(&other));
+        assert_eq!(a.len(), FOLDER_MAX);
+        assert!(a.starts_with("human_tau=1.000"), "{a}");
+        assert_ne!(a, b);
+        assert!(a
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "._=+-".contains(c)));
     }
 }

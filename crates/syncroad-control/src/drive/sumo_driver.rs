@@ -48,6 +48,11 @@ pub enum SumoDriver {
     Model(CarFollowing),
 }
 
+/// The human driver of mixed traffic wherever none is named (a scenario's `mixed.human`,
+/// `compare --mixed-driver`, a sweep's `mixed_driver`): the `human` preset, SUMO's IDM
+/// calibrated so that the Sugiyama ring jams as the experiment did.
+pub const DEFAULT_HUMAN: &str = "human";
+
 /// A named driver: one entry of [`PRESETS`].
 #[derive(Debug, Clone, Copy)]
 pub struct Preset {

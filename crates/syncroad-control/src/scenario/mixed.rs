@@ -17,7 +17,8 @@ use serde::{Deserialize, Serialize};
 
 use super::{invalid, ScenarioError};
 use crate::damper::{DamperError, DamperSpec};
-use crate::drive::{automated_count, Placement, DEFAULT_HUMAN};
+use crate::drive::placement::{automated_count, Placement};
+use crate::drive::sumo_driver::DEFAULT_HUMAN;
 
 /// Mixed traffic as written in the scenario file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -10,6 +10,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::Context;
+use syncroad_control::drive::Drive;
 use syncroad_control::scenario::Backend;
 use syncroad_control::SumoDriver;
 use syncroad_control::{NativeOptions, Scenario, StopReason, Verdict};
@@ -21,7 +22,6 @@ use crate::error::{InputError, Status};
 use crate::lock::FolderLock;
 use crate::pipeline::{self, Finished};
 use crate::plan::RunPlan;
-use crate::runs::RunSpec;
 use crate::stdout::{out, outln};
 use crate::{output, report};
 
@@ -234,12 +234,12 @@ fn run_sumo(
     } else {
         "law"
     };
-    let spec = RunSpec {
+    let drive = Drive {
         name: name.into(),
         drivers,
         damper: None,
     };
-    let mut plan = RunPlan::new(spec, cfg.record_every, cfg.eval);
+    let mut plan = RunPlan::new(drive, cfg.record_every, cfg.eval);
     plan.ballistic = !args.euler;
     plan.timeout = timeout;
     if args.subscriptions {

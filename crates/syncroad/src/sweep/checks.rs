@@ -10,7 +10,7 @@ use std::time::Duration;
 
 use sha2::{Digest, Sha256};
 use syncroad_control::scenario::Backend;
-use syncroad_control::{EvalOptions, Scenario};
+use syncroad_control::{EvalOptions, LawSpec, Scenario};
 use syncroad_sumo::{load_road, Road, WorkerCommand};
 
 use super::points::Point;
@@ -72,7 +72,7 @@ impl Sweep {
             let plan = self.plan_point(&p, &sc).map_err(here)?;
             if self.backend != Backend::Sumo {
                 let spec = &self.runs[p.run].spec;
-                if spec.native_law(&sc).is_none() {
+                if LawSpec::of_drive(&sc, spec).is_none() {
                     return Err(InputError::new(format!(
                         "{}: {}; run it with \"backend\": \"sumo\"",
                         self.describe(&p),

@@ -18,7 +18,7 @@ use std::sync::{Arc, Mutex};
 use anyhow::Context;
 use serde_json::{json, Map, Value};
 use syncroad_control::scenario::Backend;
-use syncroad_control::{NativeOptions, Scenario, StopReason};
+use syncroad_control::{LawSpec, NativeOptions, Scenario, StopReason};
 use syncroad_sumo::{load_road, Road, WorkerCommand, WorkerPool};
 
 use super::points::{Point, Shard};
@@ -251,13 +251,13 @@ impl Shared<'_> {
                     cancel: Some(&self.interrupt),
                     ..NativeOptions::default()
                 };
-                let law = plan.spec.native_law(&sc).ok_or_else(|| {
+                let law = LawSpec::of_drive(&sc, &plan.drive).ok_or_else(|| {
                     InputError::new(format!(
                         "runs: {} needs SUMO (backend \"sumo\")",
                         plan.name()
                     ))
                 })?;
-                let out = pipeline::native_law(&sc, &law, plan.spec.labels(sc.vehicles()), opts)
+                let out = pipeline::native_law(&sc, &law, plan.drive.labels(sc.vehicles()), opts)
                     .map_err(|e| InputError::caused("runs", e))?;
                 let interrupted = matches!(out.stop, StopReason::Interrupted { .. });
                 (out, interrupted)

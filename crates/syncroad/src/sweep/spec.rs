@@ -35,15 +35,15 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use sha2::{Digest, Sha256};
+use syncroad_control::drive::{mixed_controllers, mixed_series, Drive};
 use syncroad_control::scenario::{Backend, Model, ScenarioFile};
-use syncroad_control::Scenario;
 use syncroad_control::SumoDriver;
+use syncroad_control::{LawSpec, Scenario};
 
 pub use super::axis::Axis;
 use super::axis::{set_path, AxisFile, Target};
 pub use super::points::{Point, SeedsFile};
 use crate::error::InputError;
-use crate::runs::RunSpec;
 
 /// The spec as written.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -128,7 +128,7 @@ pub const DEFAULT_METRICS: [&str; 13] = [
 #[derive(Debug, Clone)]
 pub struct RunChoice {
     /// The run spec (name and per-vehicle drivers).
-    pub spec: RunSpec,
+    pub spec: Drive,
     /// Fraction of vehicles running the law.
     pub penetration: f64,
 }
@@ -347,7 +347,7 @@ fn runs_of(file: &SpecFile, base: &Scenario, backend: Backend) -> anyhow::Result
         }
     });
     for name in &names {
-        let spec = RunSpec::parse("runs", name, n)?;
+        let spec = Drive::parse("runs", name, n).map_err(|e| InputError::caused("runs", e))?;
         if let Some(r) = runs
             .iter()
             .find(|r: &&RunChoice| r.spec.name == spec.name || r.spec.same_run(&spec))
@@ -363,7 +363,7 @@ fn runs_of(file: &SpecFile, base: &Scenario, backend: Backend) -> anyhow::Result
             .into());
         }
         runs.push(RunChoice {
-            penetration: spec.penetration(base),
+            penetration: penetration(&spec, base),
             spec,
         });
     }
@@ -379,7 +379,8 @@ fn runs_of(file: &SpecFile, base: &Scenario, backend: Backend) -> anyhow::Result
             Some(OneOrMany::One(c)) => vec![c.clone()],
             Some(OneOrMany::Many(v)) => v.clone(),
         };
-        let controllers = crate::runs::mixed_controllers("mixed_controller", &names)?;
+        let controllers = mixed_controllers("mixed_controller", &names)
+            .map_err(|e| InputError::caused("mixed_controller", e))?;
         let mut counts: Vec<(usize, f64)> = Vec::new();
         for &p in &file.penetrations {
             if !(0.0..=1.0).contains(&p) {
@@ -393,7 +394,7 @@ fn runs_of(file: &SpecFile, base: &Scenario, backend: Backend) -> anyhow::Result
                 .into());
             }
             counts.push((k, p));
-            for spec in crate::runs::mixed_series(n, k, &p.to_string(), &controllers, &human) {
+            for spec in mixed_series(n, k, &p.to_string(), &controllers, &human) {
                 if runs.iter().any(|r| r.spec.name == spec.name) {
                     return Err(bad(format!(
                         "penetrations: {p} gives {} again (listed twice)",
@@ -415,7 +416,10 @@ fn runs_of(file: &SpecFile, base: &Scenario, backend: Backend) -> anyhow::Result
         .into());
     }
     if backend == Backend::Native {
-        if let Some(r) = runs.iter().find(|r| r.spec.native_law(base).is_none()) {
+        if let Some(r) = runs
+            .iter()
+            .find(|r| LawSpec::of_drive(base, &r.spec).is_none())
+        {
             if r.spec.drivers.is_empty() && base.mixed().is_some() {
                 return Err(bad(format!(
                     "runs: {} on the base scenario's mixed block, which puts SUMO drivers among the law's vehicles and runs in SUMO only, but backend = \"native\"; use backend \"sumo\", or remove the mixed block and give penetrations",
@@ -431,6 +435,20 @@ fn runs_of(file: &SpecFile, base: &Scenario, backend: Backend) -> anyhow::Result
         }
     }
     Ok(runs)
+}
+
+/// Fraction of the scenario's vehicles the law or the damper drives in `drive`: as the scenario says
+/// when the run does not choose (its `mixed` block puts humans among the law's vehicles).
+fn penetration(drive: &Drive, sc: &Scenario) -> f64 {
+    let n = sc.vehicles().max(1) as f64;
+    if drive.drivers.is_empty() {
+        return match sc.mixed() {
+            // round(p N) vehicles whatever the seed, which only chooses which.
+            Some(m) => m.automated(sc.vehicles(), sc.seed()).len() as f64 / n,
+            None => 1.0,
+        };
+    }
+    drive.drivers.iter().filter(|d| d.is_none()).count() as f64 / n
 }
 
 /// The metric paths a spec keeps, each a metric of `metrics.json`.

@@ -88,7 +88,7 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<Status> {
         a.out.display(),
         plan.runs
             .iter()
-            .map(|r| r.spec.folder())
+            .map(|r| r.folder())
             .collect::<Vec<_>>()
             .join(", ")
     );

@@ -1,0 +1,235 @@
+//! Who drives a run ([`Drive`]): the scenario's law, a wave damper, one of SUMO's drivers on
+//! every vehicle, or a mixed series of automated vehicles among humans. Every command names
+//! and builds its runs here; the native simulator's law for a run is
+//! [`LawSpec::of_drive`](crate::controller::LawSpec::of_drive).
+
+use super::placement::Placement;
+use super::sumo_driver::{DriverError, SumoDriver};
+use crate::damper::{DamperError, DamperSpec};
+
+/// What drives the automated vehicles of mixed runs unless named (`compare
+/// --mixed-controller`, a sweep's `mixed_controller`).
+pub const DEFAULT_MIXED_CONTROLLER: &str = "law";
+
+/// Errors naming who drives.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum DriveError {
+    /// A damper name that does not parse.
+    #[error(transparent)]
+    Damper(#[from] DamperError),
+    /// A driver name that does not parse.
+    #[error(transparent)]
+    Driver(#[from] DriverError),
+    /// A controller named twice in one mixed series.
+    #[error("{0} is listed twice")]
+    Twice(String),
+    /// A mixed series without a controller.
+    #[error("no controller is named; name at least one (e.g. law)")]
+    NoController,
+}
+
+/// Who drives one run: its name, the driver of each scenario vehicle, and a damper in place of
+/// the law.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Drive {
+    /// Folder and column name (`protocol`, `krauss-0.9`, `mixed-2`, ...).
+    pub name: String,
+    /// Per scenario vehicle: `None` = the law, `Some` = that SUMO model; empty: as the
+    /// scenario says (its law, or its `mixed` ring).
+    pub drivers: Vec<Option<SumoDriver>>,
+    /// A wave damper in place of the law on the law's vehicles.
+    pub damper: Option<DamperSpec>,
+}
+
+impl Drive {
+    /// Runs the same drivers as `other` (the same damper, and the same SUMO driver or the law
+    /// on every vehicle, however the drivers were spelt).
+    pub fn same_run(&self, other: &Self) -> bool {
+        self.damper == other.damper
+            && self.drivers.len() == other.drivers.len()
+            && self
+                .drivers
+                .iter()
+                .zip(&other.drivers)
+                .all(|(a, b)| match (a, b) {
+                    (None, None) => true,
+                    (Some(a), Some(b)) => a.same_driver(b),
+                    _ => false,
+                })
+    }
+
+    /// `protocol` (the scenario's law), a damper (`follower-stopper-U`, `pi-saturation`) on
+    /// every vehicle, or a SUMO driver name for all `n` vehicles; `field` names where the name
+    /// was given, for errors.
+    pub fn parse(field: &str, name: &str, n: usize) -> Result<Self, DriveError> {
+        let low = name.to_ascii_lowercase();
+        if low == "protocol" {
+            return Ok(Self {
+                name: "protocol".into(),
+                drivers: Vec::new(),
+                damper: None,
+            });
+        }
+        if [
+            "follower-stopper",
+            "pi-saturation",
+            "flow-follower-stopper",
+            "flow-pi-saturation",
+        ]
+        .iter()
+        .any(|p| low.starts_with(p))
+        {
+            let d = DamperSpec::parse(field, name)?.expect("a damper name");
+            return Ok(Self {
+                name: d.to_string(),
+                drivers: vec![None; n],
+                damper: Some(d),
+            });
+        }
+        let d = SumoDriver::parse(field, name)?;
+        Ok(Self {
+            name: d.to_string(),
+            drivers: vec![Some(d); n],
+            damper: None,
+        })
+    }
+
+    /// `k` of `n` vehicles run the law (or `damper`), spread evenly ([`Placement::Even`]);
+    /// the others are `human`.
+    pub fn mixed(
+        name: String,
+        n: usize,
+        k: usize,
+        human: SumoDriver,
+        damper: Option<DamperSpec>,
+    ) -> Self {
+        let mut drivers = vec![Some(human); n];
+        for i in Placement::Even.automated(n, k, 0) {
+            drivers[i] = None;
+        }
+        Self {
+            name,
+            drivers,
+            damper: if k > 0 { damper } else { None },
+        }
+    }
+
+    /// Labels of who drives each vehicle, as SUMO runs report them (`law`, a damper's or a
+    /// driver's name).
+    pub fn labels(&self, n: usize) -> Vec<String> {
+        let commanded = self
+            .damper
+            .map_or_else(|| "law".to_string(), |d| d.to_string());
+        if self.drivers.is_empty() {
+            return vec![commanded; n];
+        }
+        self.drivers
+            .iter()
+            .map(|d| {
+                d.as_ref()
+                    .map_or_else(|| commanded.clone(), |d| d.to_string())
+            })
+            .collect()
+    }
+}
+
+/// The controllers of a mixed series by name: `law` or a damper ([`DamperSpec::parse`]), each
+/// once, at least one; `field` names where they were given.
+pub fn mixed_controllers<S: AsRef<str>>(
+    field: &str,
+    names: &[S],
+) -> Result<Vec<Option<DamperSpec>>, DriveError> {
+    let mut out = Vec::new();
+    for c in names.iter().map(|c| c.as_ref().trim()) {
+        let d = DamperSpec::parse(field, c)?;
+        if out.contains(&d) {
+            return Err(DriveError::Twice(c.to_string()));
+        }
+        out.push(d);
+    }
+    if out.is_empty() {
+        return Err(DriveError::NoController);
+    }
+    Ok(out)
+}
+
+/// The mixed runs with `k` of `n` vehicles automated among `human` drivers, `label` naming
+/// the share (`2` vehicles in `compare`, `0.25` of them in a sweep): one run per controller,
+/// `mixed-LABEL` for the law and `CONTROLLER-mixed-LABEL` for a damper. The all-human ring
+/// (`k = 0`) is the same whatever would control, so it is one run, `mixed-LABEL`.
+pub fn mixed_series(
+    n: usize,
+    k: usize,
+    label: &str,
+    controllers: &[Option<DamperSpec>],
+    human: &SumoDriver,
+) -> Vec<Drive> {
+    let with = if k == 0 {
+        &controllers[..controllers.len().min(1)]
+    } else {
+        controllers
+    };
+    with.iter()
+        .map(|d| {
+            let name = match d {
+                Some(d) if k > 0 => format!("{d}-mixed-{label}"),
+                _ => format!("mixed-{label}"),
+            };
+            Drive::mixed(name, n, k, human.clone(), *d)
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_mixed_series_names_each_controller_and_runs_the_all_human_ring_once() {
+        let human = SumoDriver::parse("d", "human").unwrap();
+        let c = mixed_controllers("--mixed-controller", &["law", "pi-saturation"]).unwrap();
+        let names = |k| -> Vec<String> {
+            mixed_series(22, k, &k.to_string(), &c, &human)
+                .into_iter()
+                .map(|r| r.name)
+                .collect()
+        };
+        assert_eq!(names(0), ["mixed-0"]);
+        assert_eq!(names(2), ["mixed-2", "pi-saturation-mixed-2"]);
+        let runs = mixed_series(22, 2, "2", &c, &human);
+        // k of n vehicles are the controller's, spread evenly (vehicles 0 and 11); the
+        // damper drives them in the second run only.
+        for r in &runs {
+            let automated: Vec<usize> = (0..22).filter(|&i| r.drivers[i].is_none()).collect();
+            assert_eq!(automated, [0, 11]);
+        }
+        assert_eq!((runs[0].damper, runs[1].damper.is_some()), (None, true));
+        assert_eq!(
+            mixed_controllers("mixed_controller", &["law", "law"]),
+            Err(DriveError::Twice("law".into()))
+        );
+        assert_eq!(
+            mixed_controllers::<&str>("mixed_controller", &[]),
+            Err(DriveError::NoController)
+        );
+    }
+
+    #[test]
+    fn runs_parse_by_name_and_spellings_of_one_driver_are_the_same_run() {
+        let p = Drive::parse("--baselines", "protocol", 22).unwrap();
+        assert!(p.drivers.is_empty() && p.damper.is_none());
+        let d = Drive::parse("--baselines", "pi-saturation", 22).unwrap();
+        assert_eq!((d.drivers.len(), d.damper.is_some()), (22, true));
+        let a = Drive::parse("--baselines", "krauss-0.9", 22).unwrap();
+        let b = Drive::parse("--baselines", "krauss:sigma=0.9", 22).unwrap();
+        assert!(a.same_run(&b) && !a.same_run(&p));
+        assert!(matches!(
+            Drive::parse("--baselines", "wiedemann", 22),
+            Err(DriveError::Driver(_))
+        ));
+        assert_eq!(a.labels(22), vec!["krauss-0.9".to_string(); 22]);
+        assert_eq!(d.labels(22), vec!["pi-saturation".to_string(); 22]);
+        // The scenario's own law (no drivers given) labels the n vehicles it drives.
+        assert_eq!(p.labels(2), ["law", "law"]);
+    }
+}
