@@ -26,7 +26,7 @@
 //! * [`metrics`], [`congestion`], [`margins`] — the synchronization verdict, congestion
 //!   measures and safety margins (time headway, gaps, SUMO's surrogate safety measures);
 //! * [`outcome`], [`record`] — one run, whatever ran it: output → outcome → the `metrics.json`
-//!   record.
+//!   record (with the SUMO facts and the derived schema in `record/`).
 #![warn(missing_docs)]
 // Numerical loops index several arrays at once; an index reads clearer than zipped iterators.
 #![allow(clippy::needless_range_loop)]
@@ -40,7 +40,6 @@ pub mod damper;
 pub mod delayed_driver;
 pub mod drive;
 pub mod exact;
-pub mod facts;
 pub mod flow_dampers;
 pub mod follower_stopper;
 pub mod graph;
@@ -55,7 +54,6 @@ pub mod outcome;
 pub mod pi_saturation;
 pub mod poly;
 pub mod record;
-pub mod record_schema;
 pub mod rng;
 pub mod road;
 pub mod scenario;

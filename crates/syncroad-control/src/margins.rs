@@ -17,8 +17,8 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-pub use crate::facts::SsmSummary;
-use crate::facts::SumoFacts;
+pub use crate::record::facts::SsmSummary;
+use crate::record::facts::SumoFacts;
 use crate::trajectory::Trajectory;
 
 /// Speed below which a sample has no meaningful time headway \[m/s\].

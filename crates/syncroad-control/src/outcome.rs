@@ -8,10 +8,10 @@
 
 use crate::collisions::Collisions;
 use crate::congestion::{congestion_metrics, CongestionError, CongestionMetrics, STOP_SPEED_MPS};
-use crate::facts::SumoFacts;
 use crate::metrics::{
     sync_metrics, sync_metrics_of, SpreadSeries, SyncMetrics, Verdict, VerdictThresholds,
 };
+use crate::record::facts::SumoFacts;
 use crate::scenario::{Model, Scenario};
 use crate::stop::StopReason;
 use crate::theory::{self, TheoryReport};
@@ -198,8 +198,8 @@ pub fn sumo_overruled(facts: &SumoFacts, tolerance_mps: f64) -> Vec<(Verdict, St
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::facts::Safety;
     use crate::metrics::VerdictThresholds;
+    use crate::record::facts::Safety;
     use crate::trajectory::Trajectory;
 
     fn flat() -> SyncMetrics {

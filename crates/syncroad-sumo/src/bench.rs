@@ -25,9 +25,9 @@ use std::process::Command;
 use serde::Serialize;
 use syncroad_control::Scenario;
 
+use crate::prepare::{load_road, prepare, PrepareError, RunOptions};
 use crate::probe::{Probe, ProbeMode, ProbeTimes};
 use crate::protocol::{Finish, JobRef, ReadMode, Request};
-use crate::run::{load_road, prepare, PrepareError, RunOptions};
 use crate::supervisor::{run_worker_job, Supervision, SupervisorError, WorkerCommand};
 use crate::venv::{find_venv, VenvError};
 

@@ -16,7 +16,7 @@
 //! * `ssm` — SUMO's surrogate-safety device: its options and a summary of its log;
 //! * `protocol`, `cosim`, `worker` — the worker process: one step of the co-simulation apart
 //!   from the loop that runs it;
-//! * `supervisor`, `run` — the parent: [`Prepared::new`] checks everything it can before SUMO
+//! * `supervisor`, `prepare`, `output` — the parent: [`Prepared::new`] checks everything it can before SUMO
 //!   starts, [`Prepared::run`] supervises the worker, [`SumoRun::output`] is the
 //!   [`RunOutput`](syncroad_control::RunOutput) every backend returns;
 //! * `result_file` — the one writer of every result file: atomic replacement of regular
@@ -31,15 +31,15 @@ mod direct;
 mod frozen;
 mod layout;
 mod net;
+mod output;
+mod prepare;
 mod prepare_error;
 mod probe;
 mod protocol;
 mod python;
 mod result_file;
-mod run;
 mod signals;
 mod ssm;
-mod sumo_run;
 mod supervisor;
 mod venv;
 mod worker;
@@ -47,14 +47,14 @@ mod worker;
 pub use frozen::FROZEN_LIMIT;
 pub use layout::EMISSION_CLASS;
 pub use net::{read_network_road, NetReader, Road};
+pub use prepare::{
+    check_run, check_sumo_numbers, layout_for, load_road, loop_position, net_path, run_scenario,
+    MeasureOptions, PrepareError, Prepared, RunOptions, SumoRun, WORK_FILES,
+};
 pub use probe::{PhaseTimes, Probe, ProbeMode, ProbeTimes};
 pub use protocol::{Event, Finish, Job, ReadMode, Request, StartInfo, Totals};
 pub use python::SumoPackages;
 pub use result_file::{write_result, write_result_via_path, ResultFileError};
-pub use run::{
-    check_run, check_sumo_numbers, layout_for, load_road, loop_position, net_path, run_scenario,
-    MeasureOptions, PrepareError, Prepared, RunOptions, SumoRun, WORK_FILES,
-};
 pub use signals::{
     clear_interrupt, host_delivers_interrupts, interrupt, received as interrupt_signal,
     received_name as interrupt_signal_name,

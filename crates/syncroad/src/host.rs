@@ -147,7 +147,7 @@ mod tests {
         let schema: serde_json::Value = serde_json::from_str(&e.stdout).expect("JSON");
         assert_eq!(
             e.stdout.trim_end(),
-            syncroad_control::record_schema::metrics_schema_text().trim_end()
+            syncroad_control::record::schema::metrics_schema_text().trim_end()
         );
         assert!(schema.is_object());
         let e = execute(["syncroad", "check", "/nonexistent/s.json"], true);

@@ -11,7 +11,7 @@
 //! * [`plan`] — one run as a command plans it (who drives, recording, measurements,
 //!   evaluation, time limit), built before any run starts;
 //! * [`pipeline`] — one run, whatever runs it: backend → outcome → record → files;
-//! * [`output`], [`plots`], [`report`], [`stability`] — files, figures and text tables;
+//! * [`output`], [`plots`], [`tables`], [`stability`] — files, figures and text tables;
 //! * [`error`], [`exit_codes`] — the one error funnel; only [`host::execute`] picks the exit
 //!   code;
 //! * [`host`] — a command line in, an exit code out: the whole CLI as a function.
@@ -31,7 +31,7 @@ mod pipeline;
 mod plan;
 mod plots;
 mod progress;
-mod report;
 mod stability;
 mod stdout;
 mod sweep;
+mod tables;

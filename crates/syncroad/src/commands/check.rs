@@ -8,8 +8,8 @@ use syncroad_control::theory;
 
 use crate::config::load_scenario;
 use crate::error::Status;
-use crate::report;
 use crate::stdout::{out, outln};
+use crate::tables;
 
 /// Prints the theory report and the gap certificate (table or JSON); success when certified.
 pub fn run(path: &Path, json: bool) -> anyhow::Result<Status> {
@@ -24,7 +24,7 @@ pub fn run(path: &Path, json: bool) -> anyhow::Result<Status> {
         };
         outln!("{}", serde_json::to_string_pretty(&v)?);
     } else {
-        out!("{}", report::theory_table(&rep));
+        out!("{}", tables::theory_table(&rep));
         out!("{}", crate::gaps::gap_lines(&gaps, rep.certified));
     }
     crate::config::note_fixed_graph(&sc);

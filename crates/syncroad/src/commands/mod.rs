@@ -8,10 +8,10 @@ mod bench;
 mod check;
 mod compare;
 mod ifp;
-mod map;
 mod regress;
 mod run;
 mod stability;
+mod stability_map;
 mod sumo_bench;
 mod sweep;
 
@@ -35,7 +35,10 @@ pub fn run(cli: Cli) -> anyhow::Result<Status> {
         Command::Bench { horizon_s, sizes } => bench::run(horizon_s, &sizes),
         Command::Ifp { eta, rho, json } => ifp::run(&eta, &rho, json),
         Command::Schema => {
-            crate::stdout::out!("{}", syncroad_control::record_schema::metrics_schema_text());
+            crate::stdout::out!(
+                "{}",
+                syncroad_control::record::schema::metrics_schema_text()
+            );
             Ok(Status::Success)
         }
         Command::Stability {
@@ -50,7 +53,7 @@ pub fn run(cli: Cli) -> anyhow::Result<Status> {
             out,
             no_sim,
             jobs,
-        } => map::run(&scenario, &x, &y, &out, no_sim, jobs),
+        } => stability_map::run(&scenario, &x, &y, &out, no_sim, jobs),
         Command::Sweep(args) => sweep::run(&args),
         Command::Regress {
             baseline,

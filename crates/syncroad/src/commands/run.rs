@@ -23,7 +23,7 @@ use crate::lock::FolderLock;
 use crate::pipeline::{self, Finished};
 use crate::plan::RunPlan;
 use crate::stdout::{out, outln};
-use crate::{output, report};
+use crate::{output, tables};
 
 /// `syncroad run`: the scenario's backend.
 pub fn run(path: &Path, out: &OutputArgs, sumo: &SumoArgs) -> anyhow::Result<Status> {
@@ -108,7 +108,7 @@ fn print_summary(sc: &Scenario, f: &Finished) {
     };
     out!(
         "{}",
-        report::metrics_table(
+        tables::metrics_table(
             sc,
             backend,
             &f.outcome.sync,
@@ -119,7 +119,7 @@ fn print_summary(sc: &Scenario, f: &Finished) {
     );
     let Some(facts) = &f.output.sumo else {
         match &f.outcome.congestion {
-            Ok(c) => out!("{}", report::congestion_lines(c)),
+            Ok(c) => out!("{}", tables::congestion_lines(c)),
             Err(e) => outln!("  congestion metrics skipped: {e}"),
         }
         return;

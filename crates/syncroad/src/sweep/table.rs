@@ -10,7 +10,7 @@ use std::sync::{Arc, OnceLock};
 use arrow_array::{ArrayRef, BooleanArray, Float64Array, Int64Array, RecordBatch, StringArray};
 use arrow_schema::{DataType, Field, Schema};
 use serde_json::{Map, Value};
-use syncroad_control::record_schema::{metric_infos, MetricInfo};
+use syncroad_control::record::schema::{metric_infos, MetricInfo};
 
 use crate::output::write_result;
 

@@ -2,7 +2,7 @@
 //! row names its metric by the record's path only to take the title and unit the record's
 //! schema gives it; the value comes from the typed field.
 
-use syncroad_control::record_schema::{metric_infos, MetricInfo};
+use syncroad_control::record::schema::{metric_infos, MetricInfo};
 use syncroad_control::{RunRecord, Verdict};
 
 /// One cell's value.
@@ -32,7 +32,7 @@ fn traffic(r: &RunRecord, f: fn(&syncroad_control::record::Traffic) -> Option<f6
     Cell::Num(r.sumo.as_ref().and_then(f))
 }
 
-fn safety(r: &RunRecord, f: fn(&syncroad_control::facts::Safety) -> usize) -> Cell {
+fn safety(r: &RunRecord, f: fn(&syncroad_control::record::facts::Safety) -> usize) -> Cell {
     Cell::Count(r.safety.as_ref().map(f))
 }
 

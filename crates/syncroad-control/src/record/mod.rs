@@ -1,5 +1,7 @@
 //! The record of one run: the one `metrics.json` schema every command writes
-//! (published as `docs/metrics.schema.json`), and the plain facts a SUMO run reports.
+//! (published as `docs/metrics.schema.json`). The folder holds the whole record: this file
+//! (`RunRecord`), [`facts`] (the plain facts a SUMO run reports) and [`schema`] (the JSON
+//! Schema derived from the type, with each metric's title and unit).
 //!
 //! Stamps (`syncroad_version`, `platform`, `sumo_version`) say what produced the record;
 //! everything else is a result. Every key is always present (`null` where it does not apply),
@@ -10,7 +12,6 @@ use serde::{Deserialize, Serialize};
 
 use crate::congestion::CongestionMetrics;
 use crate::exact::gaps::GapSummary;
-pub use crate::facts::{Measured, Safety, SumoFacts};
 use crate::margins::SafetyMargins;
 use crate::metrics::SyncMetrics;
 use crate::outcome::{Outcome, RunOutput};
@@ -18,6 +19,11 @@ use crate::scenario::{Backend, Scenario};
 use crate::stop::StopReason;
 use crate::string_measured::StringAmplification;
 use crate::trajectory::Trajectory;
+
+pub mod facts;
+pub mod schema;
+
+pub use facts::{Measured, Safety, SumoFacts};
 
 /// Stamps: the keys that say what produced a record (`regress --strict` holds a baseline to
 /// them).

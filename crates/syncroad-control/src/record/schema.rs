@@ -306,7 +306,7 @@ mod tests {
     /// `syncroad schema > docs/metrics.schema.json` after changing the record.
     #[test]
     fn the_published_schema_is_the_derived_one() {
-        let published = include_str!("../../../docs/metrics.schema.json");
+        let published = include_str!("../../../../docs/metrics.schema.json");
         assert!(
             published == metrics_schema_text(),
             "docs/metrics.schema.json differs from the record's type: run `syncroad schema > docs/metrics.schema.json`"

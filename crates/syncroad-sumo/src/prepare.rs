@@ -17,8 +17,8 @@ use crate::layout::MIXED_SPEED_MODE;
 use crate::layout::{ring_layout, straight_layout, Layout};
 pub use crate::net::loop_position;
 use crate::net::{read_network_road, read_ring, read_straight, Road};
+pub use crate::output::SumoRun;
 use crate::protocol::{Control, Measure, ReadMode, Request};
-pub use crate::sumo_run::SumoRun;
 use crate::supervisor::{run_worker, Supervision, WorkerCommand, WorkerPool};
 use syncroad_control::drive::SumoDriver;
 
