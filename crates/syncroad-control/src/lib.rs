@@ -26,7 +26,7 @@
 //! * [`metrics`], [`congestion`], [`margins`] — the synchronization verdict, congestion
 //!   measures and safety margins (time headway, gaps, SUMO's surrogate safety measures);
 //! * [`outcome`], [`record`] — one run, whatever ran it: output → outcome → the `metrics.json`
-//!   record (with the SUMO facts and the derived schema in `record/`).
+//!   record (its derived schema in `record/`), with [`sumo_facts`], what a SUMO run reports.
 #![warn(missing_docs)]
 // Numerical loops index several arrays at once; an index reads clearer than zipped iterators.
 #![allow(clippy::needless_range_loop)]
@@ -60,6 +60,7 @@ pub mod scenario;
 pub mod speed_controller;
 pub mod stop;
 pub mod string_measured;
+pub mod sumo_facts;
 pub mod theory;
 pub mod trajectory;
 

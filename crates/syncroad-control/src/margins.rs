@@ -17,8 +17,8 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-pub use crate::record::facts::SsmSummary;
-use crate::record::facts::SumoFacts;
+pub use crate::sumo_facts::SsmSummary;
+use crate::sumo_facts::SumoFacts;
 use crate::trajectory::Trajectory;
 
 /// Speed below which a sample has no meaningful time headway \[m/s\].

@@ -11,9 +11,9 @@ use crate::congestion::{congestion_metrics, CongestionError, CongestionMetrics, 
 use crate::metrics::{
     sync_metrics, sync_metrics_of, SpreadSeries, SyncMetrics, Verdict, VerdictThresholds,
 };
-use crate::record::facts::SumoFacts;
 use crate::scenario::{Model, Scenario};
 use crate::stop::StopReason;
+use crate::sumo_facts::SumoFacts;
 use crate::theory::{self, TheoryReport};
 use crate::trajectory::Trajectory;
 
@@ -199,7 +199,7 @@ pub fn sumo_overruled(facts: &SumoFacts, tolerance_mps: f64) -> Vec<(Verdict, St
 mod tests {
     use super::*;
     use crate::metrics::VerdictThresholds;
-    use crate::record::facts::Safety;
+    use crate::sumo_facts::Safety;
     use crate::trajectory::Trajectory;
 
     fn flat() -> SyncMetrics {

@@ -29,9 +29,9 @@ use super::report::{
 };
 use super::ring_modes::{RingError, RingModes, UniformRing};
 use super::string_stability::{chandler_string_peak, StringStabilityOptions};
+use crate::scenario::Scenario;
 use crate::scenario::{CaccModel, DelayedDriverModel, GraphShape, Model};
 use crate::theory::{self, TheoryReport};
-use crate::Scenario;
 
 /// Largest network (vehicles, leader included) for the dense collocation solve
 /// ([`super::rightmost_roots`]): `map` at every grid point, and the fallback of the

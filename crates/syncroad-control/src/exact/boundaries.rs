@@ -8,8 +8,9 @@ use serde::Serialize;
 
 use super::analysis::{below_resolution, network_matrices, uniform_ring};
 use super::{acyclic_roots, critical_scale, rightmost_roots, CollocationOptions, UniformRing};
+use crate::scenario::Scenario;
 use crate::scenario::{DelayedDriverModel, Model};
-use crate::{theory, Scenario};
+use crate::theory;
 
 /// How the exact roots of a delayed-driver network are computed, chosen once from its
 /// structure: the one dispatch behind the boundaries and `map`'s grid.

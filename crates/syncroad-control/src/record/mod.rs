@@ -1,7 +1,7 @@
 //! The record of one run: the one `metrics.json` schema every command writes
-//! (published as `docs/metrics.schema.json`). The folder holds the whole record: this file
-//! (`RunRecord`), [`facts`] (the plain facts a SUMO run reports) and [`schema`] (the JSON
-//! Schema derived from the type, with each metric's title and unit).
+//! (published as `docs/metrics.schema.json`), and beside it [`schema`], the JSON Schema derived
+//! from the type with each metric's title and unit. The plain facts a SUMO run reports, which
+//! the outcome reads before any record exists, are [`crate::sumo_facts`].
 //!
 //! Stamps (`syncroad_version`, `platform`, `sumo_version`) say what produced the record;
 //! everything else is a result. Every key is always present (`null` where it does not apply),
@@ -20,10 +20,9 @@ use crate::stop::StopReason;
 use crate::string_measured::StringAmplification;
 use crate::trajectory::Trajectory;
 
-pub mod facts;
 pub mod schema;
 
-pub use facts::{Measured, Safety, SumoFacts};
+pub use crate::sumo_facts::{Measured, Safety, SumoFacts};
 
 /// Stamps: the keys that say what produced a record (`regress --strict` holds a baseline to
 /// them).

@@ -20,7 +20,7 @@ use nalgebra::DMatrix;
 
 use super::{GapCertificate, GapError, GAP_HORIZON_LIMIT_S, GAP_RING_LIMIT};
 use crate::scenario::CaccModel;
-use crate::Scenario;
+use crate::scenario::Scenario;
 
 /// Grid step of the exact discretisation [s].
 const STEP_S: f64 = 0.01;
@@ -193,7 +193,7 @@ pub(super) fn cacc_gap_certificate(
 mod tests {
     use super::super::gap_certificate;
     use crate::native::{simulate, NativeOptions};
-    use crate::Scenario;
+    use crate::scenario::Scenario;
     use approx::assert_relative_eq;
 
     /// `scenarios/platoon-cacc.json` at a 0.01 s step, with `initial` replaced when given.

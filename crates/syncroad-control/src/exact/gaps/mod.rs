@@ -35,8 +35,8 @@ use serde::{Deserialize, Serialize};
 mod cacc;
 
 use super::analysis::uniform_ring;
+use crate::scenario::Scenario;
 use crate::scenario::{DelayedDriverModel, HistorySpec, Model};
-use crate::Scenario;
 
 /// Largest network whose full response matrix `H(t)` is computed (its cost grows like `N²`).
 pub const GAP_SOLVE_LIMIT: usize = 60;

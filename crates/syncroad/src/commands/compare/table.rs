@@ -32,7 +32,7 @@ fn traffic(r: &RunRecord, f: fn(&syncroad_control::record::Traffic) -> Option<f6
     Cell::Num(r.sumo.as_ref().and_then(f))
 }
 
-fn safety(r: &RunRecord, f: fn(&syncroad_control::record::facts::Safety) -> usize) -> Cell {
+fn safety(r: &RunRecord, f: fn(&syncroad_control::sumo_facts::Safety) -> usize) -> Cell {
     Cell::Count(r.safety.as_ref().map(f))
 }
 
