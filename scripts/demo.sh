@@ -34,5 +34,8 @@ g = df.groupby(["controller", "penetration"])
 m = g[["congestion.speed_std_mps", "sumo.fuel_g_per_km", "congestion.stopped_fraction"]]
 half = 2.262 * m.std() / g.size().pow(0.5).values[:, None]   # t(0.975, 9): 10 seeds
 print("mean over 10 seeds (± half-width of the 95 % interval):")
-print((m.mean().round(3).astype(str) + " ± " + half.round(3).astype(str)).to_string())
+print((m.mean().round(3).astype(str) + " ± " + half.round(3).astype(str)).to_string(), flush=True)
+# pyarrow can abort at interpreter shutdown after the work is done (apache/arrow#34314).
+import os
+os._exit(0)
 PY

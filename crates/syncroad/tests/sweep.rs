@@ -285,7 +285,12 @@ assert list(df.columns) == list(csv.columns), (list(df.columns), list(csv.column
 assert str(df["scale.gain"].dtype) == "float64" and str(df["seed"].dtype) == "int64"
 assert (df["sync.final_spread_mps"] == csv["sync.final_spread_mps"]).all()
 assert set(df["run"]) == {{"protocol", "krauss-0.9"}}
-print("pandas ok")
+print("pandas ok", flush=True)
+# pyarrow can abort at interpreter shutdown after the work is done ("terminate called without
+# an active exception" from a parquet thread, apache/arrow#34314): every check above has run,
+# so leave without the teardown.
+import os
+os._exit(0)
 "#,
         whole.join("results.parquet").display(),
         whole.join("results.csv").display()
