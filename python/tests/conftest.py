@@ -39,3 +39,22 @@ def read_json(path):
 def _in_repo(monkeypatch):
     """Relative scenario paths are the repository's, as in the guide's examples."""
     monkeypatch.chdir(REPO)
+
+
+def pytest_sessionfinish(session, exitstatus):
+    session.config._syncroad_exitstatus = int(exitstatus)
+
+
+@pytest.hookimpl(trylast=True)
+def pytest_unconfigure(config):
+    """Leaves with pytest's own exit status once everything is reported: pyarrow (which reads
+    the sweeps' Parquet tables here) can abort at interpreter shutdown, after the work is done,
+    with "terminate called without an active exception" (apache/arrow#34314), which would turn
+    a passed run into exit 134."""
+    status = getattr(config, "_syncroad_exitstatus", None)
+    if status is not None:
+        import sys
+
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(status)
