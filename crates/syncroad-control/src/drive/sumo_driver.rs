@@ -437,6 +437,7 @@ mod tests {
 
     #[test]
     fn every_preset_parses_to_its_driver_and_keeps_its_name() {
+        let unknown = SumoDriver::parse("x", "wiedemann").unwrap_err().to_string();
         for p in PRESETS {
             let d = SumoDriver::parse("--baselines", p.name).unwrap();
             assert_eq!(d, p.driver(), "{}", p.name);
@@ -446,8 +447,7 @@ mod tests {
                 d
             );
             // The unknown-driver message lists it.
-            let e = SumoDriver::parse("x", "wiedemann").unwrap_err().to_string();
-            assert!(e.contains(&format!("{} (", p.name)), "{e}");
+            assert!(unknown.contains(&format!("{} (", p.name)), "{unknown}");
         }
         let names: Vec<_> = PRESETS.iter().map(|p| p.name).collect();
         let mut unique = names.clone();
