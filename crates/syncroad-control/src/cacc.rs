@@ -10,6 +10,7 @@
 //! the last vehicle.
 
 use crate::scenario::CaccModel;
+use crate::sensed::{Neighbors, Sensed};
 
 /// Measured state of the platoon at one instant.
 #[derive(Debug, Clone, Copy)]
@@ -68,18 +69,42 @@ impl CaccLaw {
 
     /// Desired accelerations a_des,i (eqs. `veh-proto1`, `veh-proto2`) into `out`.
     pub fn desired_accelerations(&self, view: &PlatoonView<'_>, out: &mut [f64]) {
+        self.accelerations(view, None, out);
+    }
+
+    /// The same with the graph taken from the simulator: follower i is vehicle i + 1 of
+    /// `neighbors` (the leader is vehicle 0); the η-term takes the gap to whoever is ahead of
+    /// it now and the ν-term the gap of whoever is behind it, with the desired gaps of the
+    /// platoon's places ([`crate::sensed`]); a term with nobody there drops.
+    pub fn desired_accelerations_sensed(
+        &self,
+        view: &PlatoonView<'_>,
+        neighbors: &Neighbors,
+        out: &mut [f64],
+    ) {
+        self.accelerations(view, Some(neighbors), out);
+    }
+
+    fn accelerations(&self, view: &PlatoonView<'_>, sensed: Option<&Neighbors>, out: &mut [f64]) {
         let n = self.len();
         assert_eq!(view.positions_m.len(), n);
         assert_eq!(view.speeds_mps.len(), n);
         assert_eq!(out.len(), n);
-        let mut gap_i = self.gap_m(view, 0);
+        // The gap on one side of follower i as sensed, else its layout gap `layout(i)`.
+        let side = |s: Option<Sensed>, layout: usize| match s {
+            Some(Sensed::Other { gap_m, .. }) => Some(gap_m),
+            Some(Sensed::Nobody) => None,
+            Some(Sensed::Layout) | None => Some(self.gap_m(view, layout)),
+        };
         for i in 0..n {
-            let mut a = self.mu[i] * (view.leader_speed_mps - view.speeds_mps[i])
-                + self.eta[i] * (gap_i - self.gap[i]);
+            let mut a = self.mu[i] * (view.leader_speed_mps - view.speeds_mps[i]);
+            if let Some(g) = side(sensed.map(|nb| nb.ahead[i + 1]), i) {
+                a += self.eta[i] * (g - self.gap[i]);
+            }
             if i + 1 < n {
-                let gap_next = self.gap_m(view, i + 1);
-                a += self.nu[i] * (self.gap[i + 1] - gap_next);
-                gap_i = gap_next;
+                if let Some(g) = side(sensed.map(|nb| nb.behind[i + 1]), i + 1) {
+                    a += self.nu[i] * (self.gap[i + 1] - g);
+                }
             }
             out[i] = a;
         }
@@ -182,6 +207,39 @@ mod tests {
         assert_relative_eq!(a[0], 0.05 * 1.0);
         assert_relative_eq!(a[1], -0.1 * 1.0);
         assert_relative_eq!(a[2], 0.0);
+    }
+
+    /// A car cuts in 6 m ahead of follower 2 (index 1), 9 m behind follower 1: follower 2's
+    /// η-term takes the 6 m gap, follower 1's ν-term the 9 m gap, each against its own place's
+    /// desired gap; everyone where the layout put them is the fixed graph's law exactly.
+    #[test]
+    fn a_cut_in_retargets_the_gap_terms_of_both_sides() {
+        let law = CaccLaw::new(&model(3));
+        let q = [85.0, 71.0, 56.0];
+        let v = [20.0, 19.0, 21.0];
+        let view = PlatoonView {
+            leader_position_m: 100.0,
+            leader_speed_mps: 20.0,
+            positions_m: &q,
+            speeds_mps: &v,
+        };
+        let (mut fixed, mut sensed) = ([0.0; 3], [0.0; 3]);
+        law.desired_accelerations(&view, &mut fixed);
+        let mut nb = Neighbors::layout(4, false);
+        law.desired_accelerations_sensed(&view, &nb, &mut sensed);
+        assert_eq!(fixed, sensed);
+        let cut = |gap_m| Sensed::Other {
+            speed_mps: 15.0,
+            gap_m,
+        };
+        nb.ahead[2] = cut(6.0);
+        nb.behind[1] = cut(9.0);
+        law.desired_accelerations_sensed(&view, &nb, &mut sensed);
+        // Follower 1: μ (20 − 20) + η (gap 10 − 10) + ν (10 − 9).
+        assert_relative_eq!(sensed[0], 0.05 * (10.0 - 9.0), epsilon = 1e-15);
+        // Follower 2: μ (20 − 19) + η (6 − 10) + ν (10 − its follower's layout gap 10).
+        assert_relative_eq!(sensed[1], 1.0 + 0.1 * (6.0 - 10.0), epsilon = 1e-15);
+        assert_eq!(sensed[2], fixed[2]);
     }
 
     #[test]

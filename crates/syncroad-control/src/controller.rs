@@ -19,6 +19,7 @@ use crate::delayed_driver::{DelayedDriverLaw, LawError};
 use crate::drive::{Drive, SumoDriver};
 use crate::noisy_idm::{HumanController, HumanSetup};
 use crate::scenario::{LeaderProfile, Model, Scenario};
+use crate::sensed::Neighbors;
 
 pub use crate::speed_controller::SpeedController;
 
@@ -130,6 +131,10 @@ impl SpeedController for DelayedDriverController {
             out[0] = self.v0.unwrap_or(speeds[0]);
         }
     }
+
+    fn sense(&mut self, neighbors: &Neighbors) {
+        self.law.sense(neighbors, usize::from(self.leader_vehicle));
+    }
 }
 
 /// The bidirectional CACC law with the powertrain lag `τ_i q''' + q'' = a_des` integrated
@@ -141,6 +146,8 @@ pub struct CaccController {
     dt_s: f64,
     a_des: Vec<f64>,
     next: Vec<f64>,
+    /// The graph from the simulator this step (the leader is vehicle 0); `None`: fixed.
+    sensed: Option<Neighbors>,
 }
 
 impl SpeedController for CaccController {
@@ -151,10 +158,22 @@ impl SpeedController for CaccController {
             positions_m: &positions[1..],
             speeds_mps: &speeds[1..],
         };
-        self.law.desired_accelerations(&view, &mut self.a_des);
+        match &self.sensed {
+            None => self.law.desired_accelerations(&view, &mut self.a_des),
+            Some(nb) => self
+                .law
+                .desired_accelerations_sensed(&view, nb, &mut self.a_des),
+        }
         self.lag.step(&self.a_des, &speeds[1..], &mut self.next);
         out[1..].copy_from_slice(&self.next);
         out[0] = self.profile.speed_at(t + self.dt_s);
+    }
+
+    fn sense(&mut self, neighbors: &Neighbors) {
+        match &mut self.sensed {
+            Some(nb) => nb.clone_from(neighbors),
+            None => self.sensed = Some(neighbors.clone()),
+        }
     }
 }
 
@@ -203,6 +222,7 @@ fn law_controller(
                 dt_s: law.step_s,
                 a_des: vec![0.0; n],
                 next: vec![0.0; n],
+                sensed: None,
             }))
         }
     }

@@ -270,6 +270,10 @@ impl SpeedController for DamperController {
             out.fill(f64::NAN);
         }
     }
+
+    fn sense(&mut self, neighbors: &crate::sensed::Neighbors) {
+        self.view.sense(neighbors);
+    }
 }
 
 #[cfg(test)]

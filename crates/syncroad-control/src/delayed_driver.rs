@@ -19,6 +19,7 @@
 
 use crate::graph::Graph;
 use crate::scenario::{DelayedDriverModel, HistorySpec};
+use crate::sensed::{Neighbors, Sensed};
 
 /// Errors raised when building a [`DelayedDriverLaw`].
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -62,6 +63,20 @@ pub struct DelayedDriverLaw {
     steps_done: usize,
     /// Pre-history `u = 0` (no pending reaction): stencils must not reach across t = 0.
     no_reaction: bool,
+    /// Where each edge points this step when the graph is taken from the simulator
+    /// ([`DelayedDriverLaw::sense`]); `None`: the fixed graph.
+    sensed: Option<Vec<Source>>,
+}
+
+/// What the speed `v_j` of one edge `a_ij (v_j − v_i)` is, when the graph is sensed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Source {
+    /// The measured speed of the edge's own vehicle `j`.
+    Measured,
+    /// The speed of another vehicle in `j`'s place.
+    Other(f64),
+    /// Nobody there: the term drops.
+    Dropped,
 }
 
 impl DelayedDriverLaw {
@@ -121,6 +136,7 @@ impl DelayedDriverLaw {
             predicted: vec![0.0; n],
             steps_done: 0,
             no_reaction: history == HistorySpec::NoReaction,
+            sensed: None,
         };
         if history == HistorySpec::ConstantSpeeds {
             let mut u0 = vec![0.0; n];
@@ -167,17 +183,56 @@ impl DelayedDriverLaw {
         self.dt_s
     }
 
+    /// Takes the graph from the simulator for the next [`DelayedDriverLaw::step`]: driver i
+    /// is vehicle `i + offset` of `neighbors` (offset 1 behind a leader vehicle), and each
+    /// edge to its layout predecessor or follower points at whoever is there now
+    /// ([`crate::sensed`]). The inputs computed at this step keep what the drivers saw: each
+    /// acts on its own after its delay, whoever is ahead by then.
+    pub fn sense(&mut self, neighbors: &Neighbors, offset: usize) {
+        let mut src = self.sensed.take().unwrap_or_default();
+        src.clear();
+        for i in 0..self.n {
+            for k in self.row_start[i]..self.row_start[i + 1] {
+                src.push(match neighbors.edge(i + offset, self.cols[k] + offset) {
+                    Sensed::Layout => Source::Measured,
+                    Sensed::Other { speed_mps, .. } => Source::Other(speed_mps),
+                    Sensed::Nobody => Source::Dropped,
+                });
+            }
+        }
+        self.sensed = Some(src);
+    }
+
     /// Computes the inputs `u_i = Σ_j a_ij (v_j − v_i) + b_i (v_0 − v_i)` (eq. `proto-lin+`).
     #[inline]
     fn inputs(&self, v: &[f64], v0: f64, u: &mut [f64]) {
         let rs = &self.row_start;
-        for i in 0..self.n {
-            let vi = v[i];
-            let mut acc = 0.0;
-            for k in rs[i]..rs[i + 1] {
-                acc += self.weights[k] * (v[self.cols[k]] - vi);
+        match &self.sensed {
+            None => {
+                for i in 0..self.n {
+                    let vi = v[i];
+                    let mut acc = 0.0;
+                    for k in rs[i]..rs[i + 1] {
+                        acc += self.weights[k] * (v[self.cols[k]] - vi);
+                    }
+                    u[i] = acc;
+                }
             }
-            u[i] = acc;
+            Some(src) => {
+                for i in 0..self.n {
+                    let vi = v[i];
+                    let mut acc = 0.0;
+                    for k in rs[i]..rs[i + 1] {
+                        let vj = match src[k] {
+                            Source::Measured => v[self.cols[k]],
+                            Source::Other(s) => s,
+                            Source::Dropped => continue,
+                        };
+                        acc += self.weights[k] * (vj - vi);
+                    }
+                    u[i] = acc;
+                }
+            }
         }
         if !self.pinning.is_empty() {
             for i in 0..self.n {
@@ -331,6 +386,70 @@ mod tests {
     ) -> DelayedDriverLaw {
         let g = Graph::unidirectional_ring(n, &vec![k; n]).unwrap();
         DelayedDriverLaw::new(&g, &vec![m; n], dt, None, v, None, h).unwrap()
+    }
+
+    /// The graph from the simulator: with everyone where the layout put them the law is the
+    /// fixed graph's law bit for bit; with another vehicle ahead of driver 2 and nobody behind
+    /// driver 0, the inputs are the paper's sum over the edges as they point now, by hand.
+    #[test]
+    fn a_sensed_graph_retargets_the_edges_to_the_neighbours_only() {
+        // Driver `to` observes vehicle `from` with gain `weight`.
+        let arc = |to, from, weight| crate::graph::Arc { from, to, weight };
+        let g = Graph::from_arcs(
+            4,
+            &[
+                arc(1, 0, 0.6),
+                arc(2, 1, 0.6),
+                arc(3, 2, 0.6),
+                arc(0, 3, 0.6),
+                arc(0, 1, 0.1),
+                arc(1, 2, 0.1),
+                arc(2, 0, 0.25),
+            ],
+        )
+        .unwrap();
+        let v0 = [8.0, 9.0, 7.5, 10.0];
+        let mk = || {
+            DelayedDriverLaw::new(
+                &g,
+                &[2; 4],
+                0.1,
+                None,
+                &v0,
+                None,
+                HistorySpec::ConstantSpeeds,
+            )
+            .unwrap()
+        };
+        let (mut fixed, mut sensed) = (mk(), mk());
+        let layout = Neighbors::layout(4, true);
+        let (mut v, mut a, mut b) = (v0.to_vec(), vec![0.0; 4], vec![0.0; 4]);
+        for _ in 0..50 {
+            fixed.step(&v, 0.0, &mut a);
+            sensed.sense(&layout, 0);
+            sensed.step(&v, 0.0, &mut b);
+            assert_eq!(a, b);
+            v.copy_from_slice(&a);
+        }
+        let mut nb = layout.clone();
+        nb.ahead[2] = Sensed::Other {
+            speed_mps: 3.0,
+            gap_m: 12.0,
+        };
+        nb.behind[0] = Sensed::Nobody;
+        sensed.sense(&nb, 0);
+        sensed.step(&v, 0.0, &mut b);
+        let u = sensed.latest_inputs();
+        // Driver 0: 0.6 (v3 − v0), its look behind at vehicle 1 dropped.
+        assert_eq!(u[0], 0.6 * (v[3] - v[0]));
+        assert_eq!(u[1], 0.6 * (v[0] - v[1]) + 0.1 * (v[2] - v[1]));
+        // Driver 2: 0.6 toward the other vehicle's 3 m/s, and the radio link to vehicle 0 stays.
+        assert_relative_eq!(
+            u[2],
+            0.6 * (3.0 - v[2]) + 0.25 * (v[0] - v[2]),
+            epsilon = 1e-15
+        );
+        assert_eq!(u[3], 0.6 * (v[2] - v[3]));
     }
 
     #[test]

@@ -19,7 +19,8 @@
 //!   parameters, the named drivers (one table), the placement of automated vehicles;
 //! * [`noisy_idm`] — stochastic human drivers (IDM with Flow's or a step-consistent noise),
 //!   computed by the bridge on either backend;
-//! * [`controller`] — the one law object both backends step;
+//! * [`controller`] — the one law object both backends step; [`sensed`] — its graph as SUMO
+//!   sees it each step, when other traffic shares the road;
 //! * [`native`] — the fixed-step simulator; [`stop`] — why a run stopped; [`observer`] — the
 //!   one trait of what watches a loop (natively and in SUMO); [`collisions`] — vehicles the
 //!   native simulator drove through each other or backwards;
@@ -57,6 +58,7 @@ pub mod record;
 pub mod rng;
 pub mod road;
 pub mod scenario;
+pub mod sensed;
 pub mod speed_controller;
 pub mod stop;
 pub mod string_measured;

@@ -371,6 +371,11 @@ impl SpeedController for HumanController {
             }
         }
     }
+
+    fn sense(&mut self, neighbors: &crate::sensed::Neighbors) {
+        self.inner.sense(neighbors);
+        self.view.sense(neighbors);
+    }
 }
 
 #[cfg(test)]

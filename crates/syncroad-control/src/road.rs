@@ -8,6 +8,7 @@
 //! vehicle 0 follows vehicle N−1 one lap ahead.
 
 use crate::scenario::{Model, Scenario};
+use crate::sensed::{Neighbors, Sensed};
 
 /// Initial unwrapped positions (rear bumpers) from the gaps: vehicle 0 at 0 (or one gap behind
 /// the leader's rear bumper at `leader_position_m`), each next vehicle one length plus one gap
@@ -81,6 +82,8 @@ pub struct RingView {
     pub gaps_m: Vec<f64>,
     /// Speed of the vehicle each one follows \[m/s\].
     pub leader_speeds_mps: Vec<f64>,
+    /// The graph from the simulator this step ([`RingView::sense`]); `None`: the layout's.
+    sensed: Option<Neighbors>,
 }
 
 impl RingView {
@@ -92,6 +95,7 @@ impl RingView {
             length_m: length_m.to_vec(),
             gaps_m: vec![0.0; n],
             leader_speeds_mps: vec![0.0; n],
+            sensed: None,
         }
     }
 
@@ -103,6 +107,25 @@ impl RingView {
         for i in 0..n {
             let (j, _) = ahead(i, n, ring).expect("a ring has a vehicle ahead");
             self.leader_speeds_mps[i] = speeds[j];
+        }
+        if let Some(nb) = &self.sensed {
+            for (i, s) in nb.ahead.iter().enumerate() {
+                if let Sensed::Other { speed_mps, gap_m } = *s {
+                    self.gaps_m[i] = gap_m;
+                    self.leader_speeds_mps[i] = speed_mps;
+                }
+            }
+        }
+    }
+
+    /// Takes the graph from the simulator for the next [`RingView::observe`]: a vehicle with
+    /// another one ahead of it follows that one (its gap and speed). Nobody ahead cannot
+    /// happen on a ring whose vehicles keep their lane (the layout predecessor is there); it
+    /// keeps the layout's.
+    pub fn sense(&mut self, neighbors: &Neighbors) {
+        match &mut self.sensed {
+            Some(nb) => nb.clone_from(neighbors),
+            None => self.sensed = Some(neighbors.clone()),
         }
     }
 }
@@ -128,5 +151,25 @@ mod tests {
         assert_eq!(ahead(0, 3, Some(100.0)), Some((2, 100.0)));
         assert_eq!(ahead(2, 3, None), Some((1, 0.0)));
         assert_eq!(ahead(0, 3, None), None);
+    }
+
+    #[test]
+    fn a_ring_view_follows_the_vehicle_sensed_ahead() {
+        // The three cars of the test above; a car cuts in 4 m ahead of vehicle 1 at 2 m/s.
+        let (q, v) = ([60.0, 40.0, 10.0], [5.0, 6.0, 7.0]);
+        let mut view = RingView::new(100.0, &[5.0; 3]);
+        let mut nb = Neighbors::layout(3, true);
+        view.sense(&nb);
+        view.observe(&v, &q);
+        assert_eq!(view.gaps_m, [45.0, 15.0, 25.0]);
+        assert_eq!(view.leader_speeds_mps, [7.0, 5.0, 6.0]);
+        nb.ahead[1] = Sensed::Other {
+            speed_mps: 2.0,
+            gap_m: 4.0,
+        };
+        view.sense(&nb);
+        view.observe(&v, &q);
+        assert_eq!(view.gaps_m, [45.0, 4.0, 25.0]);
+        assert_eq!(view.leader_speeds_mps, [7.0, 2.0, 6.0]);
     }
 }

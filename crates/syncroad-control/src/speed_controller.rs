@@ -1,6 +1,8 @@
 //! The seam every law drives through: one step of commanded speeds. The laws ([`crate::controller`])
 //! and the wave dampers ([`crate::damper`]) implement it; both backends step it.
 
+use crate::sensed::Neighbors;
+
 /// A law that commands speeds one step ahead.
 pub trait SpeedController: Send {
     /// From the state at time `time_s` = t_n (speeds \[m/s\] and unwrapped rear-bumper positions
@@ -13,4 +15,11 @@ pub trait SpeedController: Send {
         positions_m: &[f64],
         next_speeds_mps: &mut [f64],
     );
+
+    /// Who is directly ahead of and behind each vehicle on its lane at this step, as the
+    /// simulator sees it, given before [`SpeedController::step`] when other traffic shares the
+    /// road: the edges to a vehicle's layout neighbours point at whoever is there now
+    /// ([`crate::sensed`]). A controller that is never given one runs its fixed graph; one that
+    /// has no neighbours to retarget keeps the default, which ignores it.
+    fn sense(&mut self, _neighbors: &Neighbors) {}
 }
