@@ -176,10 +176,13 @@ pub fn sumo_overruled(facts: &SumoFacts, tolerance_mps: f64) -> Vec<(Verdict, St
         ));
     }
     if let Some(c) = s.topology_changes.filter(|&c| c > 0) {
+        // The law followed SUMO's graph, so the speeds are the law's and the verdict stands;
+        // what no longer applies is the theory of the scenario's graph.
         out.push((
-            Verdict::Inconclusive,
+            Verdict::Synchronized,
             format!(
-                "the vehicle ahead of a controlled vehicle changed {c} times in SUMO (other traffic changed lanes into or out of the controlled lane) while the law kept its fixed graph; the Theorem-1 certificate and the exact analysis hold for a fixed graph only"
+                "the vehicle ahead of a controlled vehicle changed {c} time{} in SUMO (other traffic changed lanes into or out of the controlled lane, or merged into it) and the law took its graph from SUMO each step; the Theorem-1 certificate and the exact analysis hold for the scenario's fixed graph only",
+                if c == 1 { "" } else { "s" }
             ),
         ));
     }
@@ -324,7 +327,7 @@ mod tests {
     }
 
     #[test]
-    fn a_graph_that_changed_in_sumo_is_inconclusive_and_says_why() {
+    fn a_graph_that_changed_in_sumo_keeps_the_verdict_and_says_the_theory_is_for_a_fixed_graph() {
         let watched = |c| Safety {
             topology_changes: Some(c),
             ..Safety::default()
@@ -334,9 +337,17 @@ mod tests {
             Verdict::Synchronized
         );
         let m = judged(&facts(watched(7), 0.0));
-        assert_eq!(m.verdict, Verdict::Inconclusive);
+        assert_eq!(m.verdict, Verdict::Synchronized);
         let why = m.verdict_reason.unwrap();
         assert!(why.contains("changed 7 times in SUMO"), "{why}");
-        assert!(why.contains("hold for a fixed graph only"), "{why}");
+        assert!(why.contains("took its graph from SUMO"), "{why}");
+        assert!(
+            why.contains("hold for the scenario's fixed graph only"),
+            "{why}"
+        );
+        // A verdict already lowered stays lowered.
+        let mut both = watched(7);
+        both.negative_commands_clamped = 1;
+        assert_eq!(judged(&facts(both, 0.0)).verdict, Verdict::Inconclusive);
     }
 }

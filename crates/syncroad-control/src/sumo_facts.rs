@@ -23,10 +23,11 @@ pub struct Safety {
     pub overridden_commands: usize,
     /// Negative commands sent as 0 (SUMO reads a negative speed as "release control").
     pub negative_commands_clamped: usize,
-    /// How often the vehicle SUMO sees ahead of a controlled vehicle on its lane changed from
-    /// one check to the next (every 10 steps) while other traffic shared the road (`sumo.routes`
-    /// on a road of several lanes); the law kept its fixed graph. `None`: not watched (no other
-    /// traffic, or a single-lane road, where the graph cannot change).
+    /// How often the vehicle SUMO sees ahead of one of syncroad's vehicles on its lane changed
+    /// from one step to the next while other traffic shared the road (`sumo.routes` or
+    /// `sumo.additional`); the law took its graph from SUMO each step
+    /// (`syncroad_control::sensed`). `None`: no other traffic, the graph cannot change and the
+    /// law ran the scenario's.
     #[serde(default)]
     #[schemars(title = "topology changes")]
     pub topology_changes: Option<usize>,

@@ -46,7 +46,7 @@ mod worker;
 
 pub use frozen::FROZEN_LIMIT;
 pub use layout::EMISSION_CLASS;
-pub use net::{read_network_road, NetReader, Road};
+pub use net::{read_config, read_network_road, ConfigError, NetReader, Road};
 pub use prepare::{
     check_run, check_sumo_numbers, layout_for, load_road, loop_position, net_path, run_scenario,
     MeasureOptions, PrepareError, Prepared, RunOptions, SumoRun, WORK_FILES,

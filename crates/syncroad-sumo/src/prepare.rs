@@ -291,7 +291,6 @@ fn prepare_with(
     };
     let extra_routes = user_files("sumo.routes", scenario.sumo().routes())?;
     let extra_additional = user_files("sumo.additional", scenario.sumo().additional())?;
-    let layout_multi_lane = layout.road.multi_lane;
     Ok(Request {
         layout,
         routes_file,
@@ -308,7 +307,9 @@ fn prepare_with(
         override_tolerance_mps: OVERRIDE_TOLERANCE_MPS,
         read: opts.read,
         odometer_every: ODOMETER_EVERY,
-        watch_leaders: !extra_routes.is_empty() && layout_multi_lane,
+        // Other traffic may change lanes into the controlled lane, merge into it at a junction
+        // or be inserted on it: the law's graph is SUMO's.
+        sense_graph: !extra_routes.is_empty() || !extra_additional.is_empty(),
         extra_routes,
         extra_additional,
     })

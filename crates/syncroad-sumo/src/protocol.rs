@@ -123,10 +123,10 @@ pub struct Request {
     /// The user's own additional files (`sumo.additional`).
     #[serde(default)]
     pub extra_additional: Vec<PathBuf>,
-    /// Count how often the vehicle ahead of a controlled vehicle changes (other traffic on a
-    /// road of several lanes).
+    /// Take the law's graph from SUMO each step and count how often the vehicle ahead of one
+    /// of syncroad's vehicles changes (other traffic shares the road).
     #[serde(default)]
-    pub watch_leaders: bool,
+    pub sense_graph: bool,
 }
 
 fn default_speed_mode() -> i32 {

@@ -348,16 +348,21 @@ mod loops {
         let changes = fin.totals.topology_changes.expect("watched");
         eprintln!("user traffic: {changes} topology changes");
         assert!(changes > 0, "no vehicle entered the controlled lane");
-        // The same scenario alone on the road: nothing to watch; watched anyway, nothing
-        // changes (the count is not noise of getLeader).
+        // The same scenario alone on the road: the graph cannot change and is not read.
+        // Read from SUMO anyway, nothing changes (the count is not noise of SUMO's lists),
+        // and the law with its graph from SUMO drives exactly as with its fixed graph.
         let alone = scenario(&dir, &loop_json(&road, 6, 120.0, "")).unwrap();
-        let run = run_scenario(&alone, &opts(&dir)).unwrap();
-        assert_eq!(run.outcome().unwrap().totals.topology_changes, None);
+        let fixed = run_scenario(&alone, &opts(&dir)).unwrap();
+        assert_eq!(fixed.outcome().unwrap().totals.topology_changes, None);
         let road_read = syncroad_sumo::load_road(&alone).unwrap();
         let mut p = syncroad_sumo::Prepared::new(&alone, &road_read, &opts(&dir)).unwrap();
-        p.request_mut().watch_leaders = true;
+        p.request_mut().sense_graph = true;
         let run = p.run();
         assert_eq!(run.outcome().unwrap().totals.topology_changes, Some(0));
+        assert_eq!(
+            run.trajectory(&alone).speeds_mps,
+            fixed.trajectory(&alone).speeds_mps
+        );
         // A route file that is not there is refused before SUMO starts.
         let missing = scenario(&dir, &json.replace("mine.rou.xml", "nope.rou.xml")).unwrap();
         let e = run_scenario(&missing, &opts(&dir)).unwrap_err().to_string();
@@ -366,6 +371,149 @@ mod loops {
             format!(
                 "sumo.routes[0] = {}: file not found (checked before starting SUMO)",
                 dir.join("nope.rou.xml").display()
+            )
+        );
+    }
+
+    /// A slow car of the user's (`sumo.routes`, 4 m/s) starts on lane 1 of the two-lane loop
+    /// and SUMO's keep-right rule moves it onto lane 0 among six law-driven vehicles at 8 m/s.
+    /// With the graph taken from SUMO, the driver behind it follows it: the car is the root of
+    /// every path of the graph and its speed is constant, so the delayed drivers synchronize to
+    /// its 4 m/s (consensus with a leader, the paper's pinned case; the chain's loop gain
+    /// 0.7 · 0.5 s lies far below π/2). On the scenario's fixed graph the law ignores the car
+    /// and its vehicles keep the consensus of their own speeds, about 8 m/s, into its back.
+    #[test]
+    fn the_law_follows_a_car_that_changes_into_its_lane() {
+        let dir = work("cut-in");
+        two_lane_loop(&dir);
+        std::fs::write(
+            dir.join("slow.rou.xml"),
+            r#"<routes>
+    <vType id="slow" maxSpeed="4" sigma="0" minGap="2"/>
+    <route id="u_slow" edges="e4 e5 e6 e7 e0 e1 e2 e3" repeat="5"/>
+    <vehicle id="slow" type="slow" route="u_slow" depart="0" departLane="1" departPos="20" departSpeed="4"/>
+</routes>
+"#,
+        )
+        .unwrap();
+        let road = format!(r#"{{"type": "loop", "edges": {:?}, "lane": 0}}"#, CYCLE);
+        let json = loop_json(&road, 6, 240.0, "").replace(
+            r#""sumo": {"net": "out.net.xml"}"#,
+            r#""sumo": {"net": "out.net.xml", "routes": ["slow.rou.xml"]}"#,
+        );
+        let sc = scenario(&dir, &json).unwrap();
+        let run = run_scenario(&sc, &opts(&dir)).unwrap();
+        let fin = run.outcome().expect("horizon reached");
+        let changes = fin.totals.topology_changes.expect("graph from SUMO");
+        assert!(changes >= 1, "the slow car never entered lane 0");
+        assert_eq!(fin.totals.collision_steps, 0);
+        let t = run.trajectory(&sc);
+        let last = t.speeds(t.len() - 1);
+        eprintln!("cut-in: {changes} topology changes, final speeds {last:?}");
+        for (i, v) in last.iter().enumerate() {
+            assert!((v - 4.0).abs() < 0.05, "vehicle {i} ends at {v} m/s");
+        }
+        // The fixed graph: nobody follows the car.
+        let road_read = syncroad_sumo::load_road(&sc).unwrap();
+        let mut o = opts(&dir);
+        o.work_dir = dir.join("fixed");
+        let mut p = syncroad_sumo::Prepared::new(&sc, &road_read, &o).unwrap();
+        p.request_mut().sense_graph = false;
+        let fixed = p.run();
+        let ft = fixed.trajectory(&sc);
+        let fastest = ft.speeds(ft.len() - 1).iter().copied().fold(0.0, f64::max);
+        let hit = fixed.outcome().map_or(true, |f| {
+            f.totals.collision_steps > 0 || f.totals.teleports > 0
+        });
+        assert!(
+            hit || fastest > 6.0,
+            "the fixed graph also slowed to {fastest} m/s without a collision"
+        );
+    }
+
+    /// A whole SUMO configuration (`sumo.config`) in a folder of its own, naming the network and
+    /// the slow car's route file relative to itself, with a step length and an output of its
+    /// own: the run is the run of the same files named one by one (`sumo.net`, `sumo.routes`),
+    /// speed for speed; its other options are listed as ignored and its output is not
+    /// written. A scenario naming the network in both places is refused before SUMO starts.
+    #[test]
+    fn a_sumo_config_runs_as_its_files_named_one_by_one() {
+        let dir = work("config");
+        two_lane_loop(&dir);
+        std::fs::write(
+            dir.join("slow.rou.xml"),
+            r#"<routes>
+    <vType id="slow" maxSpeed="4" sigma="0"/>
+    <route id="u_slow" edges="e4 e5 e6 e7 e0 e1 e2 e3" repeat="5"/>
+    <vehicle id="slow" type="slow" route="u_slow" depart="0" departLane="1" departPos="20" departSpeed="4"/>
+</routes>
+"#,
+        )
+        .unwrap();
+        std::fs::create_dir_all(dir.join("cfg")).unwrap();
+        std::fs::write(
+            dir.join("cfg/track.sumocfg"),
+            r#"<?xml version="1.0" encoding="UTF-8"?>
+<configuration>
+    <input>
+        <net-file value="../out.net.xml"/>
+        <route-files value="../slow.rou.xml"/>
+    </input>
+    <time>
+        <step-length value="1"/>
+    </time>
+    <output>
+        <fcd-output value="fcd.xml"/>
+    </output>
+</configuration>
+"#,
+        )
+        .unwrap();
+        let road = format!(r#"{{"type": "loop", "edges": {:?}, "lane": 0}}"#, CYCLE);
+        let files = loop_json(&road, 6, 60.0, "").replace(
+            r#""sumo": {"net": "out.net.xml"}"#,
+            r#""sumo": {"net": "out.net.xml", "routes": ["slow.rou.xml"]}"#,
+        );
+        let config = loop_json(&road, 6, 60.0, "").replace(
+            r#""sumo": {"net": "out.net.xml"}"#,
+            r#""sumo": {"config": "cfg/track.sumocfg"}"#,
+        );
+        let by_files = scenario(&dir, &files).unwrap();
+        let by_config = scenario(&dir, &config).unwrap();
+        assert_eq!(
+            by_config.sumo().net(),
+            Some(dir.join("cfg/../out.net.xml").as_path())
+        );
+        assert_eq!(
+            by_config.sumo().config_ignored(),
+            ["step-length = 1", "fcd-output = fcd.xml"]
+        );
+        let a = run_scenario(&by_files, &opts(&dir)).unwrap();
+        let mut o = opts(&dir);
+        o.work_dir = dir.join("by-config");
+        let b = run_scenario(&by_config, &o).unwrap();
+        assert!(b
+            .outcome()
+            .expect("horizon reached")
+            .totals
+            .topology_changes
+            .is_some());
+        assert_eq!(
+            a.trajectory(&by_files).speeds_mps,
+            b.trajectory(&by_config).speeds_mps
+        );
+        assert!(!dir.join("cfg/fcd.xml").exists() && !dir.join("by-config/fcd.xml").exists());
+        let both = config.replace(
+            r#""config": "cfg/track.sumocfg""#,
+            r#""config": "cfg/track.sumocfg", "net": "out.net.xml""#,
+        );
+        assert_eq!(
+            scenario(&dir, &both).unwrap_err(),
+            format!(
+                "sumo.net = {}: sumo.config {} names a network too (net-file {}); give the network once, in either",
+                dir.join("out.net.xml").display(),
+                dir.join("cfg/track.sumocfg").display(),
+                dir.join("cfg/../out.net.xml").display()
             )
         );
     }

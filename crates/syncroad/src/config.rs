@@ -22,17 +22,33 @@ pub fn load_scenario(path: &Path) -> anyhow::Result<Scenario> {
         )))
     })?;
     note_measured_road(&sc);
+    note_config(&sc);
     Ok(sc)
 }
 
-/// Tells, when the scenario brings other traffic (`sumo.routes`), that the conditions and the
-/// exact analysis printed are for the scenario's fixed graph only.
-pub fn note_fixed_graph(sc: &Scenario) {
-    if !sc.sumo().routes().is_empty() {
+/// Tells which options of `sumo.config` syncroad did not give SUMO.
+pub fn note_config(sc: &Scenario) {
+    let s = sc.sumo();
+    if let (Some(c), false) = (s.config(), s.config_ignored().is_empty()) {
         eprintln!(
-            "note: sumo.routes adds other traffic; where it changes lanes into or out of the controlled lane the graph of the law changes in SUMO (a run counts it as safety.topology_changes), and the results above hold for the scenario's fixed graph only"
+            "note: sumo.config {}: syncroad takes its net-file, route-files and additional-files; not given to SUMO (the scenario sets time, step and seed, and outputs go to the run folder): {}",
+            c.display(),
+            s.config_ignored().join(", ")
         );
     }
+}
+
+/// Tells, when the scenario brings other traffic (`sumo.routes`, `sumo.additional`), that the
+/// conditions and the exact analysis printed are for the scenario's fixed graph only.
+pub fn note_fixed_graph(sc: &Scenario) {
+    let field = match (sc.sumo().routes(), sc.sumo().additional()) {
+        (r, _) if !r.is_empty() => "sumo.routes",
+        (_, a) if !a.is_empty() => "sumo.additional",
+        _ => return,
+    };
+    eprintln!(
+        "note: {field} adds other traffic; in SUMO the law takes its graph from the road each step (who is ahead of and behind each vehicle on its lane), so where that traffic changes lanes into or out of the controlled lane or merges into it the graph changes (a run counts it as safety.topology_changes and leaves `certified` empty), and the results above hold for the scenario's fixed graph only"
+    );
 }
 
 /// Tells which cycle a `road.through` loop takes and how long it measured.

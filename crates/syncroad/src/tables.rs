@@ -171,9 +171,14 @@ pub fn metrics_table(
     backend: &str,
     m: &SyncMetrics,
     stopped_early: Option<&str>,
-    certified: Option<bool>,
-    law_vehicles: usize,
+    record: &syncroad_control::record::RunRecord,
 ) -> String {
+    let law_vehicles = record.law_controlled_vehicles;
+    let graph_changes = record
+        .safety
+        .as_ref()
+        .and_then(|s| s.topology_changes)
+        .filter(|&c| c > 0);
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -231,8 +236,12 @@ pub fn metrics_table(
     let _ = writeln!(
         s,
         "  certified by the paper's conditions: {}",
-        match certified {
+        match record.certified {
             Some(c) => yes(c).to_string(),
+            None if graph_changes.is_some() => {
+                "does not apply (the graph changed in SUMO; the conditions are for a fixed graph)"
+                    .to_string()
+            }
             None if law_vehicles < sc.vehicles() => format!(
                 "does not apply (the law drives {law_vehicles} of {} vehicles)",
                 sc.vehicles()
@@ -242,7 +251,13 @@ pub fn metrics_table(
     );
     let _ = writeln!(s, "verdict: {}", m.verdict);
     if let Some(why) = &m.verdict_reason {
-        let _ = writeln!(s, "  because {why}");
+        // A synchronized verdict keeps its reasons as notes (nothing lowered it).
+        let lead = if m.verdict == syncroad_control::Verdict::Synchronized {
+            "note:"
+        } else {
+            "because"
+        };
+        let _ = writeln!(s, "  {lead} {why}");
     }
     s
 }

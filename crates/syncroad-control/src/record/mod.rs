@@ -194,7 +194,8 @@ pub struct RunRecord {
     pub stop: StopReason,
     /// Certified by the paper's sufficient conditions: `null` when they do not speak of this
     /// run (some vehicle is not driven by the law — a human or a damper is outside the
-    /// theorem's graph — or the run produced no sample).
+    /// theorem's graph —, the graph changed in SUMO, `safety.topology_changes` > 0, while the
+    /// theorem is for a fixed graph, or the run produced no sample).
     pub certified: Option<bool>,
     /// Warm-up excluded from congestion and SUMO measures \[s\].
     pub warmup_s: f64,
@@ -238,7 +239,13 @@ impl RunRecord {
             .filter(|d| !d.is_empty())
             .unwrap_or_else(|| vec!["law".to_string(); sc.vehicles()]);
         let law_controlled = drivers.iter().filter(|d| *d == "law").count();
-        let all_law = sc.mixed().is_none() && law_controlled == sc.vehicles();
+        // The theory is for the scenario's fixed graph: a run whose graph changed in SUMO is
+        // outside it.
+        let fixed_graph = facts
+            .and_then(|f| f.safety.as_ref())
+            .and_then(|s| s.topology_changes)
+            .is_none_or(|c| c == 0);
+        let all_law = sc.mixed().is_none() && law_controlled == sc.vehicles() && fixed_graph;
         Self {
             syncroad_version: env!("CARGO_PKG_VERSION").to_string(),
             platform: format!("{}-{}", std::env::consts::ARCH, std::env::consts::OS),

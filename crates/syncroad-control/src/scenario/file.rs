@@ -430,6 +430,12 @@ pub struct SumoSpec {
     /// the network; relative paths are resolved against the scenario file's folder.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub additional: Vec<PathBuf>,
+    /// A whole SUMO configuration (`.sumocfg`): its input section (`net-file`, `route-files`,
+    /// `additional-files`, relative to the configuration's folder as SUMO resolves them) adds
+    /// to `net`, `routes` and `additional`; its other options are listed as ignored, since the
+    /// scenario sets the time, the step and the outputs. Relative to the scenario's folder.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub config: Option<PathBuf>,
 }
 
 fn d_length() -> f64 {
@@ -467,6 +473,7 @@ impl Default for SumoSpec {
             timeout_s: d_timeout(),
             routes: Vec::new(),
             additional: Vec::new(),
+            config: None,
         }
     }
 }

@@ -33,7 +33,7 @@ mod validate;
 pub use file::*;
 pub use leader::LeaderProfile;
 pub use mixed::MixedSpec;
-pub use network_road::{MeasuredRoad, RoadReader};
+pub use network_road::{ConfigInputs, MeasuredRoad, RoadReader};
 pub use per_vehicle::PerVehicle;
 pub use scale::Scaled;
 pub use sumo::{SumoSettings, SumoVehicleType, MAX_TIMEOUT_S};
@@ -131,8 +131,8 @@ pub enum ScenarioError {
     /// The interaction graph is malformed.
     #[error("model.graph: {0}")]
     Graph(#[from] GraphError),
-    /// The network does not hold the road of a loop or route (the network reader's message,
-    /// which names the `road.…` field).
+    /// The network does not hold the road of a loop or route, or a SUMO configuration cannot be
+    /// read (the network reader's message, which names the `road.…` or `sumo.config` field).
     #[error("{0}")]
     Road(String),
 }

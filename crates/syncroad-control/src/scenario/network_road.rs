@@ -19,6 +19,19 @@ pub struct MeasuredRoad {
     pub length_m: f64,
 }
 
+/// The input section of a SUMO configuration file (`sumo.config`), as its reader found it.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ConfigInputs {
+    /// `net-file`, resolved against the configuration's folder.
+    pub net: Option<std::path::PathBuf>,
+    /// `route-files`, in their order.
+    pub routes: Vec<std::path::PathBuf>,
+    /// `additional-files`, in their order.
+    pub additional: Vec<std::path::PathBuf>,
+    /// Every other option, as `name = value`: not passed to SUMO.
+    pub ignored: Vec<String>,
+}
+
 /// Reads roads through network files: checks the edges, lanes and connections of a
 /// [`RoadSpec::Loop`] or [`RoadSpec::Route`] on the network `net` and measures it. The error
 /// is the reader's own, naming the `road.…` field at fault.
@@ -29,6 +42,13 @@ pub trait RoadReader {
         road: &RoadSpec,
         net: &Path,
     ) -> Result<MeasuredRoad, Box<dyn std::error::Error + Send + Sync>>;
+
+    /// The input section of the SUMO configuration file `config`. The error is the reader's
+    /// own, naming `sumo.config`.
+    fn read_config(
+        &self,
+        config: &Path,
+    ) -> Result<ConfigInputs, Box<dyn std::error::Error + Send + Sync>>;
 }
 
 /// Checks the shape of a network road and measures it with `reader` on `net`.

@@ -7,7 +7,25 @@ use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
 
-use super::{invalid, ScenarioError, SumoSpec};
+use super::{invalid, ConfigInputs, RoadReader, ScenarioError, SumoSpec};
+
+/// The input section of `sumo.config`, read by `reader` (the SUMO crate's: the maths reads no
+/// XML).
+fn read_config(
+    config: &Path,
+    reader: Option<&dyn RoadReader>,
+) -> Result<ConfigInputs, ScenarioError> {
+    let Some(reader) = reader else {
+        return Err(invalid(
+            "sumo.config",
+            config.display(),
+            "a SUMO configuration is read by the SUMO backend's reader: load the scenario with a network reader (the syncroad command line does)",
+        ));
+    };
+    reader
+        .read_config(config)
+        .map_err(|e| ScenarioError::Road(e.to_string()))
+}
 
 /// The longest wall-clock limit of a run [s] (about 31 years; past it a limit means none): for
 /// `sumo.timeout_s` and every `--timeout-s`.
@@ -36,6 +54,8 @@ pub struct SumoSettings {
     additional: Vec<PathBuf>,
     vehicle_type: SumoVehicleType,
     timeout: Duration,
+    config: Option<PathBuf>,
+    config_ignored: Vec<String>,
 }
 
 impl SumoSettings {
@@ -66,11 +86,27 @@ impl SumoSettings {
     pub fn timeout(&self) -> Duration {
         self.timeout
     }
+
+    /// The SUMO configuration file (`sumo.config`) whose input section was merged into
+    /// [`SumoSettings::net`], [`SumoSettings::routes`] and [`SumoSettings::additional`].
+    pub fn config(&self) -> Option<&Path> {
+        self.config.as_deref()
+    }
+
+    /// The configuration's other options (`name = value`), which SUMO is not given.
+    pub fn config_ignored(&self) -> &[String] {
+        &self.config_ignored
+    }
 }
 
 impl SumoSpec {
-    /// Checks every number of the section; `base_dir` resolves a relative `net`.
-    pub(super) fn validate(&self, base_dir: &Path) -> Result<SumoSettings, ScenarioError> {
+    /// Checks every number of the section; `base_dir` resolves a relative `net`; `reader`
+    /// reads a `config`.
+    pub(super) fn validate(
+        &self,
+        base_dir: &Path,
+        reader: Option<&dyn RoadReader>,
+    ) -> Result<SumoSettings, ScenarioError> {
         for (name, x) in [
             ("length_m", self.length_m),
             ("accel_mps2", self.accel_mps2),
@@ -109,11 +145,41 @@ impl SumoSpec {
                 base_dir.join(p)
             }
         };
-        let net = self.net.as_ref().map(resolve);
+        let mut net = self.net.as_ref().map(resolve);
+        let mut routes: Vec<PathBuf> = Vec::new();
+        let mut additional: Vec<PathBuf> = Vec::new();
+        let config = self.config.as_ref().map(resolve);
+        let mut config_ignored = Vec::new();
+        if let Some(c) = &config {
+            let inputs = read_config(c, reader)?;
+            match (&net, inputs.net) {
+                (Some(n), Some(cn)) => {
+                    return Err(invalid(
+                        "sumo.net",
+                        n.display(),
+                        format!(
+                            "sumo.config {} names a network too (net-file {}); give the network once, in either",
+                            c.display(),
+                            cn.display()
+                        ),
+                    ))
+                }
+                (None, cn) => net = cn,
+                _ => {}
+            }
+            // The configuration's files first, as if SUMO had read it before the command line.
+            routes = inputs.routes;
+            additional = inputs.additional;
+            config_ignored = inputs.ignored;
+        }
+        routes.extend(self.routes.iter().map(resolve));
+        additional.extend(self.additional.iter().map(resolve));
         Ok(SumoSettings {
             net,
-            routes: self.routes.iter().map(resolve).collect(),
-            additional: self.additional.iter().map(resolve).collect(),
+            routes,
+            additional,
+            config,
+            config_ignored,
             vehicle_type: SumoVehicleType {
                 min_gap_m: self.min_gap_m,
                 accel_mps2: self.accel_mps2,

@@ -75,7 +75,7 @@ impl ScenarioFile {
     ) -> Result<Scenario, ScenarioError> {
         let (n, steps) = self.check_sizes()?;
         let entries = self.vehicles.entries();
-        let sumo = self.sumo.validate(base_dir)?;
+        let sumo = self.sumo.validate(base_dir, reader)?;
         let closed = self.road.is_closed();
         if let Some(m) = &self.mixed {
             m.validate(closed)?;

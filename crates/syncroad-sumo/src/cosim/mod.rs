@@ -33,13 +33,13 @@ use crate::probe::Probe;
 use crate::protocol::{write_msg, Control, Job, Request, StartInfo, WorkerMsg};
 use crate::python::{load_libsumo, py_error, PythonError};
 
-mod leaders;
 pub(crate) mod libsumo;
 mod meter;
 mod observer;
 mod runner;
 mod step;
 mod timing;
+mod topology;
 
 pub use libsumo::sumo_args;
 use libsumo::{tail, Libsumo};

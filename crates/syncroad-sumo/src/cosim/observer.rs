@@ -13,7 +13,6 @@ use syncroad_control::metrics::speed_range;
 use syncroad_control::observer::StepObserver;
 use syncroad_control::Trajectory;
 
-use super::leaders::{LeaderWatch, LEADER_CHECK_EVERY};
 use super::meter::Meter;
 use super::step::CoSim;
 use super::CosimError;
@@ -237,21 +236,6 @@ impl<'o, 'a, 'py> StepObserver<Observed<'o, 'a, 'py>> for Measurements<'_, '_> {
             &sim.v,
             decel,
         )?;
-        Ok(())
-    }
-}
-
-impl<'o, 'a, 'py> StepObserver<Observed<'o, 'a, 'py>> for LeaderWatch {
-    type Error = CosimError;
-
-    fn name(&self) -> &'static str {
-        "vehicles ahead"
-    }
-
-    fn after_step(&mut self, at: &mut Observed<'o, 'a, 'py>) -> Result<(), CosimError> {
-        if at.steps_done.is_multiple_of(LEADER_CHECK_EVERY) {
-            self.check(at.sim.py, at.sim.ls)?;
-        }
         Ok(())
     }
 }

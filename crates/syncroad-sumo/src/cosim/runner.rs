@@ -9,7 +9,6 @@ use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 use syncroad_control::StopReason;
 
-use super::leaders::LeaderWatch;
 use super::meter::Meter;
 use super::observer::{pipe, Measurements, Observed, Recorder, SafetyWatch, SumoObserver};
 use super::step::{CoSim, StepTimes};
@@ -27,7 +26,6 @@ pub(super) fn run_steps(
 ) -> Result<(), CosimError> {
     let req = sim.req;
     let py = sim.py;
-    let mut leaders = req.watch_leaders.then(|| LeaderWatch::new(req));
     let mut safety = SafetyWatch::new(Totals {
         direct_calls: sim.direct_calls(),
         ..Totals::default()
@@ -42,10 +40,7 @@ pub(super) fn run_steps(
     let mut recorder = Recorder::new(&sim);
     let mut timer = probe.map(ProbeTimer::new);
     let (stop, steps_done) = {
-        let mut observers: Vec<&mut SumoObserver<'_, '_, '_>> = Vec::with_capacity(4);
-        if let Some(w) = leaders.as_mut() {
-            observers.push(w);
-        }
+        let mut observers: Vec<&mut SumoObserver<'_, '_, '_>> = Vec::with_capacity(3);
         observers.push(&mut safety);
         if let Some(m) = meter.as_mut() {
             observers.push(m);
@@ -63,7 +58,7 @@ pub(super) fn run_steps(
     let mut totals = safety.totals;
     totals.negative_commands_clamped = sim.negative_commands_clamped;
     totals.odometer_deviation_max_m = sim.odometer_deviation_max_m;
-    totals.topology_changes = leaders.map(|w| w.changes);
+    totals.topology_changes = sim.topology.as_ref().map(|t| t.changes);
     let finish = Finish {
         stop,
         steps_done,

@@ -19,6 +19,7 @@ use pyo3::types::{PyString, PyTuple};
 use syncroad_control::{SpeedController, StopReason};
 
 use super::libsumo::{sanitize_commands, set_item_f64, tail, Libsumo, Reader};
+use super::topology::Topology;
 use super::CosimError;
 use crate::protocol::Request;
 use crate::python::{py_error, PythonError};
@@ -63,6 +64,9 @@ pub(super) struct CoSim<'a, 'py> {
     pub negative_commands_clamped: usize,
     /// Largest odometer deviation from the integrated positions \[m\].
     pub odometer_deviation_max_m: f64,
+    /// The law's graph as SUMO sees it, read before each step when other traffic shares the
+    /// road.
+    pub topology: Option<Topology>,
 }
 
 impl<'a, 'py> CoSim<'a, 'py> {
@@ -128,6 +132,7 @@ impl<'a, 'py> CoSim<'a, 'py> {
             cmd: vec![f64::NAN; n],
             negative_commands_clamped: 0,
             odometer_deviation_max_m: 0.0,
+            topology: req.sense_graph.then(|| Topology::new(req)),
         };
         if let Some(i) = sim.reader.speeds(&mut sim.v)? {
             return Err(sim.lost(i));
@@ -177,6 +182,12 @@ impl<'a, 'py> CoSim<'a, 'py> {
     ) -> Result<Option<StopReason>, CosimError> {
         let req = self.req;
         let t_law = Instant::now();
+        if let Some(t) = self.topology.as_mut() {
+            t.sense(self.py, self.ls)?;
+            if let Some(c) = self.controller.as_deref_mut() {
+                c.sense(&t.neighbors);
+            }
+        }
         if let Some(c) = self.controller.as_deref_mut() {
             c.step(step as f64 * req.step_s, &self.v, &self.q, &mut self.next);
             match sanitize_commands(&mut self.next, &self.law_driven) {

@@ -10,9 +10,11 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+mod config;
 mod network;
 mod roads;
 
+pub use config::{read_config, ConfigError};
 use network::Network;
 pub use roads::{read_network_road, NetReader};
 

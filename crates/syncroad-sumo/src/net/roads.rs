@@ -11,7 +11,7 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use petgraph::graph::{DiGraph, NodeIndex};
-use syncroad_control::scenario::{MeasuredRoad, RoadReader, RoadSpec};
+use syncroad_control::scenario::{ConfigInputs, MeasuredRoad, RoadReader, RoadSpec};
 
 use super::network::{Lane, Network};
 use super::{Disconnected, NetError, Road, Segment, Unclosed};
@@ -309,5 +309,12 @@ impl RoadReader for NetReader {
             lane: r.lane_index,
             length_m: r.length_m(),
         })
+    }
+
+    fn read_config(
+        &self,
+        config: &Path,
+    ) -> Result<ConfigInputs, Box<dyn std::error::Error + Send + Sync>> {
+        Ok(super::read_config(config)?)
     }
 }

@@ -113,8 +113,7 @@ fn print_summary(sc: &Scenario, f: &Finished) {
             backend,
             &f.outcome.sync,
             f.output.stop.message().as_deref(),
-            f.record.certified,
-            f.record.law_controlled_vehicles,
+            &f.record,
         )
     );
     let Some(facts) = &f.output.sumo else {

@@ -1,0 +1,254 @@
+//! The law's graph taken from SUMO each step: when other traffic shares the road (the user's
+//! `sumo.routes` or `sumo.additional`), a vehicle the law does not know may change lanes into
+//! or out of the controlled lane, or merge into it at a junction, and become the one a
+//! controlled vehicle follows.
+//!
+//! Before each step of the law the vehicles on the road's lanes are read in driving order
+//! (`lane.getLastStepVehicleIDs` of each normal and internal lane, each list ordered by
+//! position), and for each of syncroad's vehicles the one directly ahead and directly behind
+//! is found. Where that is the layout's neighbour the fixed graph holds; where it is another
+//! vehicle, its speed (`vehicle.getSpeed`) and the bumper-to-bumper gap (front positions
+//! `vehicle.getLanePosition` along the road's lane sequence, its length `vehicle.getLength`)
+//! go to the law as [`Sensed::Other`] (see `syncroad_control::sensed`). Each time the vehicle
+//! ahead of one of syncroad's vehicles differs from the step before counts as one topology
+//! change. (`vehicle.getLeader` was tried first: with libsumo 1.28.0 it returned no leader at
+//! some steps on a two-lane loop with nobody else on the road, which would count changes
+//! that never happened.)
+
+use std::collections::HashMap;
+
+use pyo3::prelude::*;
+use syncroad_control::sensed::{Neighbors, Sensed};
+
+use super::libsumo::Libsumo;
+use crate::protocol::Request;
+use crate::python::{py_error, PythonError};
+
+/// Who is seen on one side of a vehicle, for counting changes.
+#[derive(Debug, Clone, PartialEq)]
+enum Who {
+    /// One of syncroad's vehicles (its layout index).
+    Ours(usize),
+    /// Another vehicle (its id).
+    Other(String),
+    /// Nobody on the road's lanes.
+    Nobody,
+}
+
+/// The vehicles along the road, read each step, and the graph they give.
+pub(crate) struct Topology {
+    /// The road's lanes in driving order, with where each starts along the road \[m\].
+    lanes: Vec<(String, f64)>,
+    /// The road's length \[m\] (a closed road wraps).
+    length_m: f64,
+    ring: bool,
+    /// syncroad's vehicles: id → layout index.
+    ours: HashMap<String, usize>,
+    /// Their ids by layout index.
+    our_ids: Vec<String>,
+    /// Their lengths \[m\].
+    our_length_m: Vec<f64>,
+    /// Lengths of the others met so far \[m\].
+    other_length_m: HashMap<String, f64>,
+    /// The vehicle seen ahead of each of ours at the step before.
+    seen_ahead: Vec<Who>,
+    /// This step's road order: (id, lane index).
+    order: Vec<(String, usize)>,
+    /// Place of each id in `order`.
+    place: HashMap<String, usize>,
+    /// What the law gets this step.
+    pub neighbors: Neighbors,
+    /// Changes of the vehicle ahead counted so far.
+    pub changes: usize,
+}
+
+impl Topology {
+    /// The topology of the request's road, starting from the layout's order (vehicle i behind
+    /// i − 1, vehicle 0 behind N − 1 on a loop).
+    pub fn new(req: &Request) -> Self {
+        let v = &req.layout.vehicles;
+        let n = v.len();
+        let ring = req.layout.road.ring;
+        let neighbors = Neighbors::layout(n, ring);
+        let seen_ahead = (0..n)
+            .map(|i| neighbors.layout_ahead(i).map_or(Who::Nobody, Who::Ours))
+            .collect();
+        let mut start = 0.0;
+        let lanes = req
+            .layout
+            .road
+            .segments
+            .iter()
+            .map(|s| {
+                let at = start;
+                start += s.length_m;
+                (s.lane.clone(), at)
+            })
+            .collect();
+        Self {
+            lanes,
+            length_m: start,
+            ring,
+            ours: v
+                .iter()
+                .enumerate()
+                .map(|(i, d)| (d.id.clone(), i))
+                .collect(),
+            our_ids: v.iter().map(|d| d.id.clone()).collect(),
+            place: HashMap::new(),
+            our_length_m: v.iter().map(|d| d.length_m).collect(),
+            other_length_m: HashMap::new(),
+            seen_ahead,
+            order: Vec::new(),
+            neighbors,
+            changes: 0,
+        }
+    }
+
+    /// Reads the road's order from SUMO and fills [`Topology::neighbors`]; counts the changes
+    /// of the vehicles ahead.
+    pub fn sense(&mut self, py: Python<'_>, ls: &Libsumo<'_>) -> Result<(), PythonError> {
+        self.read_order(py, ls)?;
+        let n = self.neighbors.len();
+        for i in 0..n {
+            // A vehicle of ours not on the road's lanes (lost: the step reports it) keeps the
+            // layout's neighbours.
+            let Some(&k) = self.place.get(&self.our_ids[i]) else {
+                self.neighbors.ahead[i] = Sensed::Layout;
+                self.neighbors.behind[i] = Sensed::Layout;
+                continue;
+            };
+            let ahead = self.at(k, true);
+            let behind = self.at(k, false);
+            let who = self.who(ahead);
+            if self.neighbors.layout_ahead(i).is_some() && who != self.seen_ahead[i] {
+                self.changes += 1;
+            }
+            self.neighbors.ahead[i] = self.sensed(py, ls, i, k, ahead, who.clone(), true)?;
+            self.seen_ahead[i] = who;
+            let who = self.who(behind);
+            self.neighbors.behind[i] = self.sensed(py, ls, i, k, behind, who, false)?;
+        }
+        Ok(())
+    }
+
+    /// The place ahead of (or behind) place `k` in the road order; a closed road wraps.
+    fn at(&self, k: usize, ahead: bool) -> Option<usize> {
+        let m = self.order.len();
+        match (ahead, k) {
+            (true, k) if k + 1 < m => Some(k + 1),
+            (true, _) if self.ring && m > 1 => Some(0),
+            (false, k) if k > 0 => Some(k - 1),
+            (false, _) if self.ring && m > 1 => Some(m - 1),
+            _ => None,
+        }
+    }
+
+    fn who(&self, place: Option<usize>) -> Who {
+        match place {
+            None => Who::Nobody,
+            Some(p) => {
+                let id = &self.order[p].0;
+                match self.ours.get(id) {
+                    Some(&j) => Who::Ours(j),
+                    None => Who::Other(id.clone()),
+                }
+            }
+        }
+    }
+
+    /// What vehicle `i` (at place `k`) senses on one side, `who` being at place `other`.
+    #[allow(clippy::too_many_arguments)]
+    fn sensed(
+        &mut self,
+        py: Python<'_>,
+        ls: &Libsumo<'_>,
+        i: usize,
+        k: usize,
+        other: Option<usize>,
+        who: Who,
+        ahead: bool,
+    ) -> Result<Sensed, PythonError> {
+        let layout = if ahead {
+            self.neighbors.layout_ahead(i)
+        } else {
+            self.neighbors.layout_behind(i)
+        };
+        let Some(p) = other else {
+            return Ok(Sensed::Nobody);
+        };
+        if let Who::Ours(j) = who {
+            if Some(j) == layout {
+                return Ok(Sensed::Layout);
+            }
+        }
+        let id = self.order[p].0.clone();
+        let speed_mps: f64 = ls
+            .call("vehicle_getSpeed", (id.as_str(),))?
+            .extract()
+            .map_err(|e| py_error(py, format!("vehicle.getSpeed({id})"), e))?;
+        let front_other = self.front(py, ls, p)?;
+        let front_ours = self.front(py, ls, k)?;
+        // From the rear bumper of the one in front to the front of the one behind.
+        let (front, back, front_length_m) = if ahead {
+            (front_other, front_ours, self.length(py, ls, p)?)
+        } else {
+            (front_ours, front_other, self.our_length_m[i])
+        };
+        let mut d = front - back;
+        if self.ring && d < 0.0 {
+            d += self.length_m;
+        }
+        Ok(Sensed::Other {
+            speed_mps,
+            gap_m: d - front_length_m,
+        })
+    }
+
+    /// The front bumper of the vehicle at place `p` along the road \[m\].
+    fn front(&self, py: Python<'_>, ls: &Libsumo<'_>, p: usize) -> Result<f64, PythonError> {
+        let (id, lane) = &self.order[p];
+        let pos: f64 = ls
+            .call("vehicle_getLanePosition", (id.as_str(),))?
+            .extract()
+            .map_err(|e| py_error(py, format!("vehicle.getLanePosition({id})"), e))?;
+        Ok(self.lanes[*lane].1 + pos)
+    }
+
+    /// The length of the vehicle at place `p` \[m\] (asked once per vehicle).
+    fn length(&mut self, py: Python<'_>, ls: &Libsumo<'_>, p: usize) -> Result<f64, PythonError> {
+        let id = &self.order[p].0;
+        if let Some(&j) = self.ours.get(id) {
+            return Ok(self.our_length_m[j]);
+        }
+        if let Some(&l) = self.other_length_m.get(id) {
+            return Ok(l);
+        }
+        let l: f64 = ls
+            .call("vehicle_getLength", (id.as_str(),))?
+            .extract()
+            .map_err(|e| py_error(py, format!("vehicle.getLength({id})"), e))?;
+        self.other_length_m.insert(id.clone(), l);
+        Ok(l)
+    }
+
+    /// The vehicles on the road's lanes in driving order.
+    fn read_order(&mut self, py: Python<'_>, ls: &Libsumo<'_>) -> Result<(), PythonError> {
+        self.order.clear();
+        self.place.clear();
+        for (k, (lane, _)) in self.lanes.iter().enumerate() {
+            let ids: Vec<String> = ls
+                .call("lane_getLastStepVehicleIDs", (lane.as_str(),))?
+                .extract()
+                .map_err(|e| py_error(py, format!("lane.getLastStepVehicleIDs({lane})"), e))?;
+            for id in ids {
+                // A vehicle listed on two lanes keeps its first place.
+                if !self.place.contains_key(&id) {
+                    self.place.insert(id.clone(), self.order.len());
+                    self.order.push((id, k));
+                }
+            }
+        }
+        Ok(())
+    }
+}
