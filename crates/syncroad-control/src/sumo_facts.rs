@@ -88,6 +88,38 @@ pub struct SumoFacts {
     /// SUMO's surrogate safety measures, when measured.
     #[serde(default)]
     pub ssm: Option<SsmSummary>,
+    /// Every vehicle in the network, syncroad's and the user's own, from SUMO's summary
+    /// output; present when other traffic shares the road.
+    #[serde(default)]
+    pub all_vehicles: Option<AllVehicles>,
+}
+
+/// Every vehicle in SUMO's network after the warm-up, syncroad's and the user's own traffic
+/// (`sumo.routes`, `sumo.additional`, `sumo.config`), from SUMO's summary output
+/// (`--summary-output`, one `<step>` per simulation step, speeds to SUMO's output precision of
+/// 0.01 m/s).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct AllVehicles {
+    /// Time measured, from the first state after the warm-up to the last \[s\].
+    pub measured_s: f64,
+    /// Mean number of vehicles running.
+    #[schemars(title = "vehicles (all) mean")]
+    pub vehicles_mean: f64,
+    /// Largest number of vehicles running.
+    #[schemars(title = "vehicles (all) max")]
+    pub vehicles_max: usize,
+    /// Mean speed over vehicles and time, Σ running · meanSpeed / Σ running \[m/s\]; `null`
+    /// when nobody ran.
+    #[schemars(title = "mean speed (all)")]
+    pub mean_speed_mps: Option<f64>,
+    /// Mean number of halting vehicles (SUMO: speed below 0.1 m/s).
+    #[schemars(title = "halting (all) mean")]
+    pub halting_mean: f64,
+    /// Vehicles that reached the end of their route.
+    pub arrived: usize,
+    /// Collisions SUMO counted among all vehicles.
+    #[schemars(title = "collisions (all)")]
+    pub collisions: usize,
 }
 
 /// What SUMO's SSM device logged after the warm-up: conflicts (one `<conflict>` record per

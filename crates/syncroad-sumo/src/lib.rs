@@ -14,6 +14,7 @@
 //! * `net`, `layout` — network files read once and checked before SUMO starts, vehicle
 //!   departures, ring capacity, the routes file;
 //! * `ssm` — SUMO's surrogate-safety device: its options and a summary of its log;
+//! * `summary` — SUMO's summary output: the metrics of every vehicle in the network;
 //! * `protocol`, `cosim`, `worker` — the worker process: one step of the co-simulation apart
 //!   from the loop that runs it;
 //! * `supervisor`, `prepare`, `output` — the parent: [`Prepared::new`] checks everything it can before SUMO
@@ -40,6 +41,7 @@ mod python;
 mod result_file;
 mod signals;
 mod ssm;
+mod summary;
 mod supervisor;
 mod venv;
 mod worker;

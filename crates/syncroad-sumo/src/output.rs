@@ -107,6 +107,20 @@ impl SumoRun {
                     None
                 }
             });
+        let all_vehicles = self
+            .request
+            .summary_file
+            .as_ref()
+            .filter(|_| finish.is_some())
+            .and_then(
+                |f| match crate::summary::read(f, warmup_s, self.request.step_s) {
+                    Ok(a) => Some(a),
+                    Err(e) => {
+                        eprintln!("warning: {e}; the record has no metrics of all vehicles");
+                        None
+                    }
+                },
+            );
         let facts = SumoFacts {
             sumo_version: start.map(|s| s.python.sumo_version.clone()),
             libsumo: start.map(|s| s.python.libsumo_file.clone()),
@@ -153,6 +167,7 @@ impl SumoRun {
             emission_every: self.request.measure.as_ref().map(|m| m.emission_every),
             law_speed_mode: law_driven.then_some(self.request.speed_mode),
             ssm,
+            all_vehicles,
         };
         RunOutput {
             trajectory: self.trajectory(scenario),

@@ -31,15 +31,16 @@ pub const ODOMETER_EVERY: usize = 10;
 pub use crate::prepare_error::PrepareError;
 
 /// The files a SUMO run writes into its work folder (`RunOptions::work_dir`): the vehicles'
-/// routes, SUMO's log, the induction loop and its output, trip info and SSM output. None of
+/// routes, SUMO's log, the induction loop and its output, trip info, SSM and summary output. None of
 /// them may be a file the run reads (see the CLI's input check).
-pub const WORK_FILES: [&str; 6] = [
+pub const WORK_FILES: [&str; 7] = [
     "routes.rou.xml",
     "sumo.log",
     "detectors.add.xml",
     "e1.xml",
     "tripinfo.xml",
     "ssm.xml",
+    "summary.xml",
 ];
 
 /// Options of a SUMO run.
@@ -291,6 +292,7 @@ fn prepare_with(
     };
     let extra_routes = user_files("sumo.routes", scenario.sumo().routes())?;
     let extra_additional = user_files("sumo.additional", scenario.sumo().additional())?;
+    let other_traffic = !extra_routes.is_empty() || !extra_additional.is_empty();
     Ok(Request {
         layout,
         routes_file,
@@ -309,7 +311,9 @@ fn prepare_with(
         odometer_every: ODOMETER_EVERY,
         // Other traffic may change lanes into the controlled lane, merge into it at a junction
         // or be inserted on it: the law's graph is SUMO's.
-        sense_graph: !extra_routes.is_empty() || !extra_additional.is_empty(),
+        sense_graph: other_traffic,
+        // The metrics of every vehicle, when there are others than syncroad's.
+        summary_file: other_traffic.then(|| opts.work_dir.join("summary.xml")),
         extra_routes,
         extra_additional,
     })

@@ -127,6 +127,10 @@ pub struct Request {
     /// of syncroad's vehicles changes (other traffic shares the road).
     #[serde(default)]
     pub sense_graph: bool,
+    /// SUMO's summary output (every vehicle in the network), written when other traffic
+    /// shares the road.
+    #[serde(default)]
+    pub summary_file: Option<PathBuf>,
 }
 
 fn default_speed_mode() -> i32 {

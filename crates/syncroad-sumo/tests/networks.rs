@@ -413,6 +413,24 @@ mod loops {
         for (i, v) in last.iter().enumerate() {
             assert!((v - 4.0).abs() < 0.05, "vehicle {i} ends at {v} m/s");
         }
+        // Every vehicle, from SUMO's summary output: the six and the car, all the time; their
+        // mean speed is the trajectory's six with the car's constant 4 m/s, up to the 0.01 m/s
+        // SUMO prints.
+        let all = run
+            .output(&sc)
+            .sumo
+            .unwrap()
+            .all_vehicles
+            .expect("other traffic");
+        assert_eq!((all.vehicles_max, all.vehicles_mean), (7, 7.0));
+        let mean: f64 = (0..t.len())
+            .map(|k| (t.speeds(k).iter().sum::<f64>() + 4.0) / 7.0)
+            .sum::<f64>()
+            / t.len() as f64;
+        let got = all.mean_speed_mps.unwrap();
+        eprintln!("cut-in: all vehicles' mean speed {got} m/s, trajectory and car {mean} m/s");
+        assert!((got - mean).abs() < 0.01, "{got} vs {mean}");
+        assert_eq!(all.collisions, 0);
         // The fixed graph: nobody follows the car.
         let road_read = syncroad_sumo::load_road(&sc).unwrap();
         let mut o = opts(&dir);

@@ -227,6 +227,11 @@ pub struct RunRecord {
     /// of the scenario's law on every vehicle that it covers.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gap_certificate: Option<GapSummary>,
+    /// Every vehicle in SUMO's network, syncroad's and the user's own traffic (SUMO's summary
+    /// output after the warm-up), when other traffic shared the road; the other metrics are of
+    /// syncroad's vehicles.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub all_vehicles: Option<crate::sumo_facts::AllVehicles>,
 }
 
 impl RunRecord {
@@ -293,6 +298,7 @@ impl RunRecord {
             safety_margins: facts
                 .and_then(|f| SafetyMargins::of(&run.trajectory, outcome.warmup_s, f)),
             gap_safety: crate::margins::GapSafety::of(&run.trajectory, outcome.warmup_s),
+            all_vehicles: facts.and_then(|f| f.all_vehicles.clone()),
             string_amplification: crate::string_measured::measured(&run.trajectory),
             // The certificate is of the scenario's own gaps (none for a run without a sample,
             // like `certified`): a SUMO run that rescaled them by

@@ -351,6 +351,9 @@ pub fn sumo_args(req: &Request) -> Vec<String> {
         a.push("--additional-files".into());
         a.push(additional.join(","));
     }
+    if let Some(f) = &req.summary_file {
+        a.extend(crate::summary::summary_args(f));
+    }
     if let Some(m) = &req.measure {
         if let Some(f) = &m.tripinfo_file {
             for x in [

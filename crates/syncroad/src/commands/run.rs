@@ -135,6 +135,18 @@ fn print_summary(sc: &Scenario, f: &Finished) {
             t.collision_steps, t.teleports, t.overridden_commands, facts.max_override_mps, t.negative_commands_clamped
         );
     }
+    if let Some(a) = &facts.all_vehicles {
+        outln!(
+            "  all vehicles (SUMO's summary over {:.1} s): {:.2} running (max {}), mean speed {}, {:.2} halting, {} arrived, {} collisions",
+            a.measured_s,
+            a.vehicles_mean,
+            a.vehicles_max,
+            a.mean_speed_mps.map_or("—".to_string(), |v| format!("{v:.2} m/s")),
+            a.halting_mean,
+            a.arrived,
+            a.collisions
+        );
+    }
 }
 
 fn verdict_status(f: &Finished) -> Status {
