@@ -319,7 +319,7 @@ mod loops {
     /// The user's own traffic (`sumo.routes`) on lane 0 of the two-lane loop: a slow car and
     /// faster ones behind it that overtake through lane 1, among the law's vehicles. The
     /// vehicles ahead of the law's vehicles change, and the run counts it; without the user's
-    /// traffic nothing is watched (the graph cannot change).
+    /// traffic the graph is not read from SUMO (it cannot change).
     #[test]
     fn other_traffic_changing_into_the_controlled_lane_is_counted() {
         let dir = work("user-traffic");

@@ -20,8 +20,9 @@
 
 //!
 //! The folder: [`libsumo`](self::libsumo) (handles and reading states), `step` (one step, apart
-//! from the loop), `runner` (the loop: horizon, observers, stop reason) and `meter`
-//! (SUMO-side measurements).
+//! from the loop), `runner` (the loop: horizon, observers, stop reason), `meter`
+//! (SUMO-side measurements) and `topology` (the law's graph read from SUMO before each step
+//! when other traffic shares the road).
 
 use std::io::Write;
 

@@ -1,7 +1,8 @@
 //! What watches the loop: the observers of the SUMO loop under the one trait both loops use,
 //! [`StepObserver`] (syncroad-control's; the native simulator's recorder and spread watch are
-//! the others) — the safety counters, the recorder that streams rows, SUMO-side measurements,
-//! the watch of the vehicles ahead. The runner calls each in turn after every full step; the
+//! the others) — the safety counters, the recorder that streams rows, SUMO-side measurements.
+//! (The law's graph from SUMO is read before a step, not after it: `super::topology`.) The
+//! runner calls each in turn after every full step; the
 //! benchmark's probe times each by its [`StepObserver::name`].
 
 use std::io::Write;

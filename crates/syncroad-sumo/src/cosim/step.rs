@@ -1,5 +1,5 @@
-//! One step of the co-simulation, apart from the loop that runs it: read → law → command →
-//! `simulationStep` → read back. [`CoSim`] holds the state between steps; the runner
+//! One step of the co-simulation, apart from the loop that runs it: (the graph from SUMO, when
+//! other traffic shares the road) → law → command → `simulationStep` → read back. [`CoSim`] holds the state between steps; the runner
 //! (`super::runner`) owns the horizon, the observers and the stop reason.
 //!
 //! # Timing (measured with libsumo 1.28.0, see `tests/sumo.rs::actuation_timing`)
@@ -66,7 +66,7 @@ pub(super) struct CoSim<'a, 'py> {
     pub odometer_deviation_max_m: f64,
     /// The law's graph as SUMO sees it, read before each step when other traffic shares the
     /// road.
-    pub topology: Option<Topology>,
+    pub topology: Option<Topology<'py>>,
 }
 
 impl<'a, 'py> CoSim<'a, 'py> {
@@ -132,7 +132,10 @@ impl<'a, 'py> CoSim<'a, 'py> {
             cmd: vec![f64::NAN; n],
             negative_commands_clamped: 0,
             odometer_deviation_max_m: 0.0,
-            topology: req.sense_graph.then(|| Topology::new(req)),
+            topology: match req.sense_graph {
+                true => Some(Topology::new(ls, req)?),
+                false => None,
+            },
         };
         if let Some(i) = sim.reader.speeds(&mut sim.v)? {
             return Err(sim.lost(i));

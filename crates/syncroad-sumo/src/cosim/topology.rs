@@ -18,6 +18,7 @@
 use std::collections::HashMap;
 
 use pyo3::prelude::*;
+use pyo3::types::{PyString, PyTuple};
 use syncroad_control::sensed::{Neighbors, Sensed};
 
 use super::libsumo::Libsumo;
@@ -35,10 +36,22 @@ enum Who {
     Nobody,
 }
 
+/// A place in the road's order: one of syncroad's vehicles (its layout index) or another
+/// (its index in this step's list of others).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Slot {
+    Ours(usize),
+    Other(usize),
+}
+
 /// The vehicles along the road, read each step, and the graph they give.
-pub(crate) struct Topology {
+pub(crate) struct Topology<'py> {
     /// The road's lanes in driving order, with where each starts along the road \[m\].
     lanes: Vec<(String, f64)>,
+    /// The same lane ids as Python strings, made once.
+    lane_args: Vec<Bound<'py, PyTuple>>,
+    /// `lane.getLastStepVehicleIDs`, looked up once.
+    lane_vehicles: Bound<'py, PyAny>,
     /// The road's length \[m\] (a closed road wraps).
     length_m: f64,
     ring: bool,
@@ -52,20 +65,23 @@ pub(crate) struct Topology {
     other_length_m: HashMap<String, f64>,
     /// The vehicle seen ahead of each of ours at the step before.
     seen_ahead: Vec<Who>,
-    /// This step's road order: (id, lane index).
-    order: Vec<(String, usize)>,
-    /// Place of each id in `order`.
-    place: HashMap<String, usize>,
+    /// This step's road order: (who, lane index).
+    order: Vec<(Slot, usize)>,
+    /// The others on the road this step (ids).
+    others: Vec<String>,
+    /// Place in `order` of each of ours.
+    our_place: Vec<Option<usize>>,
     /// What the law gets this step.
     pub neighbors: Neighbors,
     /// Changes of the vehicle ahead counted so far.
     pub changes: usize,
 }
 
-impl Topology {
+impl<'py> Topology<'py> {
     /// The topology of the request's road, starting from the layout's order (vehicle i behind
     /// i − 1, vehicle 0 behind N − 1 on a loop).
-    pub fn new(req: &Request) -> Self {
+    pub fn new(ls: &Libsumo<'py>, req: &Request) -> Result<Self, PythonError> {
+        let py = ls.py;
         let v = &req.layout.vehicles;
         let n = v.len();
         let ring = req.layout.road.ring;
@@ -74,7 +90,7 @@ impl Topology {
             .map(|i| neighbors.layout_ahead(i).map_or(Who::Nobody, Who::Ours))
             .collect();
         let mut start = 0.0;
-        let lanes = req
+        let lanes: Vec<(String, f64)> = req
             .layout
             .road
             .segments
@@ -85,8 +101,19 @@ impl Topology {
                 (s.lane.clone(), at)
             })
             .collect();
-        Self {
+        let lane_args = lanes
+            .iter()
+            .map(|(l, _): &(String, f64)| PyTuple::new(py, [PyString::intern(py, l)]))
+            .collect::<PyResult<_>>()
+            .map_err(|e| py_error(py, "argument tuples", e))?;
+        let lane_vehicles = ls
+            .native
+            .getattr("lane_getLastStepVehicleIDs")
+            .map_err(|e| py_error(py, "_libsumo.lane_getLastStepVehicleIDs", e))?;
+        Ok(Self {
             lanes,
+            lane_args,
+            lane_vehicles,
             length_m: start,
             ring,
             ours: v
@@ -95,25 +122,26 @@ impl Topology {
                 .map(|(i, d)| (d.id.clone(), i))
                 .collect(),
             our_ids: v.iter().map(|d| d.id.clone()).collect(),
-            place: HashMap::new(),
+            our_place: vec![None; n],
             our_length_m: v.iter().map(|d| d.length_m).collect(),
             other_length_m: HashMap::new(),
             seen_ahead,
             order: Vec::new(),
+            others: Vec::new(),
             neighbors,
             changes: 0,
-        }
+        })
     }
 
     /// Reads the road's order from SUMO and fills [`Topology::neighbors`]; counts the changes
     /// of the vehicles ahead.
     pub fn sense(&mut self, py: Python<'_>, ls: &Libsumo<'_>) -> Result<(), PythonError> {
-        self.read_order(py, ls)?;
+        self.read_order(py)?;
         let n = self.neighbors.len();
         for i in 0..n {
             // A vehicle of ours not on the road's lanes (lost: the step reports it) keeps the
             // layout's neighbours.
-            let Some(&k) = self.place.get(&self.our_ids[i]) else {
+            let Some(k) = self.our_place[i] else {
                 self.neighbors.ahead[i] = Sensed::Layout;
                 self.neighbors.behind[i] = Sensed::Layout;
                 continue;
@@ -145,15 +173,18 @@ impl Topology {
     }
 
     fn who(&self, place: Option<usize>) -> Who {
-        match place {
+        match place.map(|p| self.order[p].0) {
             None => Who::Nobody,
-            Some(p) => {
-                let id = &self.order[p].0;
-                match self.ours.get(id) {
-                    Some(&j) => Who::Ours(j),
-                    None => Who::Other(id.clone()),
-                }
-            }
+            Some(Slot::Ours(j)) => Who::Ours(j),
+            Some(Slot::Other(x)) => Who::Other(self.others[x].clone()),
+        }
+    }
+
+    /// The id of the vehicle at place `p`.
+    fn id(&self, p: usize) -> &str {
+        match self.order[p].0 {
+            Slot::Ours(j) => &self.our_ids[j],
+            Slot::Other(x) => &self.others[x],
         }
     }
 
@@ -182,7 +213,7 @@ impl Topology {
                 return Ok(Sensed::Layout);
             }
         }
-        let id = self.order[p].0.clone();
+        let id = self.id(p).to_string();
         let speed_mps: f64 = ls
             .call("vehicle_getSpeed", (id.as_str(),))?
             .extract()
@@ -207,21 +238,21 @@ impl Topology {
 
     /// The front bumper of the vehicle at place `p` along the road \[m\].
     fn front(&self, py: Python<'_>, ls: &Libsumo<'_>, p: usize) -> Result<f64, PythonError> {
-        let (id, lane) = &self.order[p];
+        let (id, lane) = (self.id(p), self.order[p].1);
         let pos: f64 = ls
-            .call("vehicle_getLanePosition", (id.as_str(),))?
+            .call("vehicle_getLanePosition", (id,))?
             .extract()
             .map_err(|e| py_error(py, format!("vehicle.getLanePosition({id})"), e))?;
-        Ok(self.lanes[*lane].1 + pos)
+        Ok(self.lanes[lane].1 + pos)
     }
 
     /// The length of the vehicle at place `p` \[m\] (asked once per vehicle).
     fn length(&mut self, py: Python<'_>, ls: &Libsumo<'_>, p: usize) -> Result<f64, PythonError> {
-        let id = &self.order[p].0;
-        if let Some(&j) = self.ours.get(id) {
+        if let Slot::Ours(j) = self.order[p].0 {
             return Ok(self.our_length_m[j]);
         }
-        if let Some(&l) = self.other_length_m.get(id) {
+        let id = self.id(p).to_string();
+        if let Some(&l) = self.other_length_m.get(&id) {
             return Ok(l);
         }
         let l: f64 = ls
@@ -232,21 +263,39 @@ impl Topology {
         Ok(l)
     }
 
-    /// The vehicles on the road's lanes in driving order.
-    fn read_order(&mut self, py: Python<'_>, ls: &Libsumo<'_>) -> Result<(), PythonError> {
+    /// The vehicles on the road's lanes in driving order (one call per lane; ids compared
+    /// as borrowed text, only the others' copied).
+    fn read_order(&mut self, py: Python<'_>) -> Result<(), PythonError> {
         self.order.clear();
-        self.place.clear();
-        for (k, (lane, _)) in self.lanes.iter().enumerate() {
-            let ids: Vec<String> = ls
-                .call("lane_getLastStepVehicleIDs", (lane.as_str(),))?
-                .extract()
-                .map_err(|e| py_error(py, format!("lane.getLastStepVehicleIDs({lane})"), e))?;
-            for id in ids {
+        self.others.clear();
+        self.our_place.fill(None);
+        for (k, args) in self.lane_args.iter().enumerate() {
+            let err = |e| {
+                py_error(
+                    py,
+                    format!("lane.getLastStepVehicleIDs({})", self.lanes[k].0),
+                    e,
+                )
+            };
+            let ids = self.lane_vehicles.call1(args).map_err(err)?;
+            for item in ids.try_iter().map_err(err)? {
+                let item = item.map_err(err)?;
+                let id = item.cast::<PyString>().map_err(|e| err(e.into()))?;
+                let id = id.to_str().map_err(err)?;
                 // A vehicle listed on two lanes keeps its first place.
-                if !self.place.contains_key(&id) {
-                    self.place.insert(id.clone(), self.order.len());
-                    self.order.push((id, k));
-                }
+                let slot = match self.ours.get(id) {
+                    Some(&j) if self.our_place[j].is_none() => {
+                        self.our_place[j] = Some(self.order.len());
+                        Slot::Ours(j)
+                    }
+                    Some(_) => continue,
+                    None if self.others.iter().any(|o| o == id) => continue,
+                    None => {
+                        self.others.push(id.to_string());
+                        Slot::Other(self.others.len() - 1)
+                    }
+                };
+                self.order.push((slot, k));
             }
         }
         Ok(())
