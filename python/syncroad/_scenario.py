@@ -45,8 +45,8 @@ class Scenario:
 
     @classmethod
     def load(cls, path: PathLike) -> "Scenario":
-        """Reads and validates a scenario file; relative paths inside it (``sumo.net``)
-        resolve against its folder. Raises :class:`ScenarioError` with the CLI's message."""
+        """Reads and validates a scenario file; relative paths inside it (``sumo.net``,
+        ``sumo.config``, ``sumo.routes``, ``sumo.additional``) resolve against its folder. Raises :class:`ScenarioError` with the CLI's message."""
         p = Path(path)
         error = _syncroad.validate_scenario(str(p))
         if error is not None:
@@ -55,14 +55,23 @@ class Scenario:
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], base_dir: Optional[PathLike] = None) -> "Scenario":
-        """Validates a scenario given as a dict (the JSON file's content). A relative
-        ``sumo.net`` resolves against ``base_dir`` (default: the current folder). Raises
+        """Validates a scenario given as a dict (the JSON file's content). Relative files of
+        the ``sumo`` section (``net``, ``config``, ``routes``, ``additional``) resolve against
+        ``base_dir`` (default: the current folder). Raises
         :class:`ScenarioError` with the CLI's message."""
         d = json.loads(json.dumps(data))  # a deep copy that is also checked to be JSON
         base = Path(base_dir) if base_dir is not None else Path.cwd()
         sumo = d.get("sumo")
-        if isinstance(sumo, dict) and isinstance(sumo.get("net"), str):
-            sumo["net"] = _absolute(sumo["net"], base)
+        if isinstance(sumo, dict):
+            # Every file the section names: the network, a SUMO configuration, the user's
+            # own route and additional files.
+            for key in ("net", "config"):
+                if isinstance(sumo.get(key), str):
+                    sumo[key] = _absolute(sumo[key], base)
+            for key in ("routes", "additional"):
+                files = sumo.get(key)
+                if isinstance(files, list):
+                    sumo[key] = [_absolute(f, base) if isinstance(f, str) else f for f in files]
         name = str(d.get("name") or "scenario")
         safe = "".join(c if c.isalnum() or c in "._-" else "_" for c in name)
         sc = cls.__new__(cls)

@@ -3,6 +3,7 @@ and keeps its rows; Ctrl-C stops a run, keeps its rows and raises Interrupted.""
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -61,6 +62,22 @@ def test_a_relative_net_of_a_dict_resolves_against_base_dir(tmp_path):
     assert Path(ok.data["sumo"]["net"]).is_file()
     with pytest.raises(syncroad.ScenarioError, match="sumo"):
         syncroad.run(syncroad.Scenario.from_dict(sc, base_dir=tmp_path))
+    # The user's own files and a SUMO configuration resolve the same way: a configuration
+    # is read when the scenario is validated, so a relative one must be found there.
+    (tmp_path / "cfg").mkdir()
+    shutil.copy(REPO / "sumo-nets/sugiyama-ring.net.xml", tmp_path / "ring.net.xml")
+    (tmp_path / "mine.rou.xml").write_text("<routes/>\n")
+    (tmp_path / "cfg/ring.sumocfg").write_text(
+        '<configuration><input><net-file value="../ring.net.xml"/></input></configuration>\n'
+    )
+    own = dict(sc)
+    own["sumo"] = {k: v for k, v in sc["sumo"].items() if k != "net"}
+    own["sumo"].update({"config": "cfg/ring.sumocfg", "routes": ["mine.rou.xml"]})
+    ok = syncroad.Scenario.from_dict(own, base_dir=tmp_path)
+    assert Path(ok.data["sumo"]["config"]) == tmp_path / "cfg/ring.sumocfg"
+    assert ok.data["sumo"]["routes"] == [str(tmp_path / "mine.rou.xml")]
+    with pytest.raises(syncroad.ScenarioError, match="sumo.config"):
+        syncroad.Scenario.from_dict(own, base_dir=REPO)
 
 
 def test_options_are_checked_as_the_cli_checks_its_flags():

@@ -81,8 +81,14 @@ impl Neighbors {
 
     /// The layout predecessor of vehicle `i`: i − 1, vehicle N − 1 for vehicle 0 on a closed
     /// road, nobody for vehicle 0 on an open one.
+    /// (The rule of `road::ahead`, which reads this module's types: kept apart to keep the
+    /// two files out of a circle.)
     pub fn layout_ahead(&self, i: usize) -> Option<usize> {
-        crate::road::ahead(i, self.len(), self.ring.then_some(0.0)).map(|(j, _)| j)
+        match i {
+            0 if self.ring => self.len().checked_sub(1),
+            0 => None,
+            _ => Some(i - 1),
+        }
     }
 
     /// The layout follower of vehicle `i`: i + 1, vehicle 0 for vehicle N − 1 on a closed road.

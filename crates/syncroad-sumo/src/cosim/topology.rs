@@ -281,7 +281,9 @@ impl<'py> Topology<'py> {
             for item in ids.try_iter().map_err(err)? {
                 let item = item.map_err(err)?;
                 let id = item.cast::<PyString>().map_err(|e| err(e.into()))?;
-                let id = id.to_str().map_err(err)?;
+                // Borrowed text, except under the stable ABI of the Python package's build.
+                let id = id.to_cow().map_err(err)?;
+                let id: &str = &id;
                 // A vehicle listed on two lanes keeps its first place.
                 let slot = match self.ours.get(id) {
                     Some(&j) if self.our_place[j].is_none() => {
