@@ -108,7 +108,8 @@ impl Inputs {
         self
     }
 
-    /// The scenario file at `path` and the SUMO files it names.
+    /// The scenario file at `path` and the SUMO files it names (those of `sumo.config`
+    /// included: they are merged into its network, routes and additional files).
     pub fn scenario(path: &Path, sc: &syncroad_control::Scenario) -> Self {
         let mut i = Self::none().with("the scenario", path);
         let sumo = sc.sumo();
@@ -120,6 +121,9 @@ impl Inputs {
         }
         for (k, a) in sumo.additional().iter().enumerate() {
             i = i.with(format!("the scenario's sumo.additional[{k}]"), a);
+        }
+        if let Some(c) = sumo.config() {
+            i = i.with("the scenario's sumo.config", c);
         }
         i
     }

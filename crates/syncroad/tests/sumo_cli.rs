@@ -527,6 +527,28 @@ fn own_loop_from_netconvert_runs_and_a_misspelt_edge_exits_2() {
             "{cmd}: {err}"
         );
     }
+    // The run with the (empty) traffic file: its record, `all_vehicles` included, is in the
+    // published shape, and every vehicle is syncroad's, so SUMO's mean over all vehicles is the
+    // trajectory's mean speed (to SUMO's printed 0.01 m/s).
+    let (code, out, m) = run_backend(&["run"], &traffic, &dir.join("traffic"));
+    assert_eq!(code, 0, "{out}");
+    let v = schema_violations(&metrics_schema(), &m);
+    assert!(v.is_empty(), "{v:#?}");
+    let all = &m["all_vehicles"];
+    assert_eq!(all["vehicles_max"], 16, "{all}");
+    let rows = std::fs::read_to_string(dir.join("traffic/trajectories.csv")).unwrap();
+    let speeds: Vec<f64> = rows
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(2).unwrap().parse().unwrap())
+        .collect();
+    let mean = speeds.iter().sum::<f64>() / speeds.len() as f64;
+    let got = all["mean_speed_mps"].as_f64().unwrap();
+    assert!(
+        (got - mean).abs() < 0.01,
+        "SUMO {got} m/s, trajectory {mean} m/s"
+    );
+    assert!(out.contains("all vehicles (SUMO's summary over "), "{out}");
 }
 
 /// `sumo-bench --step-time` times SUMO's own step of real runs: each figure is positive and
