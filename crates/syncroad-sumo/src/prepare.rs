@@ -292,6 +292,9 @@ fn prepare_with(
     };
     let extra_routes = user_files("sumo.routes", scenario.sumo().routes())?;
     let extra_additional = user_files("sumo.additional", scenario.sumo().additional())?;
+    let ours = layout.routes_xml();
+    no_clashing_ids(&ours, "sumo.routes", &extra_routes)?;
+    no_clashing_ids(&ours, "sumo.additional", &extra_additional)?;
     let other_traffic = !extra_routes.is_empty() || !extra_additional.is_empty();
     Ok(Request {
         layout,
@@ -332,6 +335,67 @@ fn user_files(field: &'static str, files: &[PathBuf]) -> Result<Vec<PathBuf>, Pr
         }
     }
     Ok(files.to_vec())
+}
+
+/// Refuses a user file of `field` that defines a vehicle, vehicle type or route with an id of
+/// syncroad's own (read from `ours`, the routes file syncroad writes). A file that is not XML,
+/// or too large to read whole here ([`CLASH_CHECK_MAX_BYTES`]), is left to SUMO, whose
+/// message names the id.
+/// Largest user file whose ids are checked before SUMO starts (a parsed document takes several
+/// times its size in memory; SUMO streams larger demand files and reports a clash itself).
+const CLASH_CHECK_MAX_BYTES: u64 = 64 << 20;
+
+fn no_clashing_ids(ours: &str, field: &'static str, files: &[PathBuf]) -> Result<(), PrepareError> {
+    const KINDS: [(&str, &[&str]); 3] = [
+        ("vehicles", &["vehicle", "trip"]),
+        ("vehicle types", &["vType"]),
+        ("routes", &["route"]),
+    ];
+    let Ok(doc) = roxmltree::Document::parse(ours) else {
+        return Ok(());
+    };
+    let ids_of = |tags: &[&str]| -> Vec<String> {
+        doc.descendants()
+            .filter(|n| tags.contains(&n.tag_name().name()))
+            .filter_map(|n| n.attribute("id").map(str::to_string))
+            .collect()
+    };
+    let ours: Vec<(&str, &[&str], Vec<String>)> = KINDS
+        .iter()
+        .map(|&(k, tags)| (k, tags, ids_of(tags)))
+        .collect();
+    for (index, path) in files.iter().enumerate() {
+        let small = std::fs::metadata(path).is_ok_and(|m| m.len() <= CLASH_CHECK_MAX_BYTES);
+        let Some(text) = small.then(|| std::fs::read_to_string(path).ok()).flatten() else {
+            continue;
+        };
+        let Ok(user) = roxmltree::Document::parse(&text) else {
+            continue;
+        };
+        for n in user.descendants().filter(|n| n.is_element()) {
+            let (Some(id), tag) = (n.attribute("id"), n.tag_name().name()) else {
+                continue;
+            };
+            for (kind, tags, ids) in &ours {
+                if tags.contains(&tag) && ids.iter().any(|o| o == id) {
+                    return Err(PrepareError::IdClash {
+                        field,
+                        index,
+                        path: path.clone(),
+                        tag: tag.to_string(),
+                        id: id.to_string(),
+                        kind,
+                        ours: match ids.as_slice() {
+                            [one] => one.clone(),
+                            [first, .., last] => format!("{first} … {last}"),
+                            [] => String::new(),
+                        },
+                    });
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Puts each SUMO driver of `drivers` (one per scenario vehicle; empty: the law everywhere)

@@ -32,6 +32,25 @@ pub enum PrepareError {
         /// The resolved path.
         path: PathBuf,
     },
+    /// A file of the user's own traffic defines an id syncroad's vehicles use: SUMO would
+    /// refuse to start ("Another vehicle with the id … exists").
+    #[error("{field}[{index}] = {path}: <{tag} id=\"{id}\"> uses an id of syncroad's own {kind} ({ours}); rename it in your file (checked before starting SUMO)")]
+    IdClash {
+        /// The scenario field.
+        field: &'static str,
+        /// Its index.
+        index: usize,
+        /// The resolved path.
+        path: PathBuf,
+        /// The element.
+        tag: String,
+        /// The id.
+        id: String,
+        /// `vehicles`, `vehicle types` or `routes`.
+        kind: &'static str,
+        /// syncroad's ids of that kind, first and last.
+        ours: String,
+    },
     /// The network file is unusable.
     #[error(transparent)]
     Net(#[from] NetError),

@@ -363,6 +363,25 @@ mod loops {
             run.trajectory(&alone).speeds_mps,
             fixed.trajectory(&alone).speeds_mps
         );
+        // A vehicle of the user's with the id of one of syncroad's: refused before SUMO starts
+        // (SUMO itself would stop at start-up with "Another vehicle with the id 'v0' exists").
+        std::fs::write(
+            dir.join("clash.rou.xml"),
+            r#"<routes><route id="mine" edges="e0 e1"/><vehicle id="v0" route="mine" depart="0"/></routes>"#,
+        )
+        .unwrap();
+        let mut o = opts(&dir);
+        o.work_dir = dir.join("clash");
+        let clash = scenario(&dir, &json.replace("mine.rou.xml", "clash.rou.xml")).unwrap();
+        let e = run_scenario(&clash, &o).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            format!(
+                "sumo.routes[0] = {}: <vehicle id=\"v0\"> uses an id of syncroad's own vehicles (v0 … v5); rename it in your file (checked before starting SUMO)",
+                dir.join("clash.rou.xml").display()
+            )
+        );
+        assert!(!dir.join("clash/sumo.log").exists());
         // A route file that is not there is refused before SUMO starts.
         let missing = scenario(&dir, &json.replace("mine.rou.xml", "nope.rou.xml")).unwrap();
         let e = run_scenario(&missing, &opts(&dir)).unwrap_err().to_string();

@@ -94,7 +94,7 @@ pub(super) fn measure(
         return Err(invalid(
             "sumo.net",
             "missing",
-            format!("road.type = \"{kind}\" runs through a network: name its .net.xml in sumo.net"),
+            format!("road.type = \"{kind}\" runs through a network: name its .net.xml in sumo.net (or as net-file in sumo.config)"),
         ));
     };
     let Some(reader) = reader else {

@@ -43,7 +43,7 @@ pub enum ConfigError {
         file: String,
     },
     /// An option of the input section without a value.
-    #[error("sumo.config = {path}: option <{option}> has no value attribute (SUMO reads options as <{option} value=\"…\"/>)")]
+    #[error("sumo.config = {path}: option <{option}> has no value (SUMO reads options as <{option} value=\"…\"/>, a file list separated by commas)")]
     NoValue {
         /// The file.
         path: String,
@@ -109,6 +109,12 @@ pub fn read_config(path: &Path) -> Result<ConfigInputs, ConfigError> {
             continue;
         };
         if taken {
+            if files(value).is_empty() {
+                return Err(ConfigError::NoValue {
+                    path: shown,
+                    option: name.to_string(),
+                });
+            }
             if let Some(f) = files(value).iter().find(|f| !f.exists()) {
                 return Err(ConfigError::Missing {
                     path: shown,
@@ -217,9 +223,17 @@ mod tests {
         assert_eq!(
             read_config(&p).unwrap_err().to_string(),
             format!(
-                "sumo.config = {}: option <net-file> has no value attribute (SUMO reads options as <net-file value=\"…\"/>)",
+                "sumo.config = {}: option <net-file> has no value (SUMO reads options as <net-file value=\"…\"/>, a file list separated by commas)",
                 p.display()
             )
         );
+        let p = write(
+            "emptyvalue.sumocfg",
+            "<configuration><input><route-files value=\" , \"/></input></configuration>",
+        );
+        assert!(read_config(&p)
+            .unwrap_err()
+            .to_string()
+            .contains("option <route-files> has no value"));
     }
 }
