@@ -28,7 +28,7 @@ pub const OVERRIDE_TOLERANCE_MPS: f64 = 1e-6;
 /// Steps between two reads of SUMO's odometer with [`ReadMode::Getters`].
 pub const ODOMETER_EVERY: usize = 10;
 
-pub use crate::prepare_error::PrepareError;
+pub use crate::prepare_error::{IdClash, PrepareError};
 
 /// The files a SUMO run writes into its work folder (`RunOptions::work_dir`): the vehicles'
 /// routes, SUMO's log, the induction loop and its output, trip info, SSM and summary output. None of
@@ -378,7 +378,7 @@ fn no_clashing_ids(ours: &str, field: &'static str, files: &[PathBuf]) -> Result
             };
             for (kind, tags, ids) in &ours {
                 if tags.contains(&tag) && ids.iter().any(|o| o == id) {
-                    return Err(PrepareError::IdClash {
+                    return Err(PrepareError::IdClash(Box::new(IdClash {
                         field,
                         index,
                         path: path.clone(),
@@ -390,7 +390,7 @@ fn no_clashing_ids(ours: &str, field: &'static str, files: &[PathBuf]) -> Result
                             [first, .., last] => format!("{first} … {last}"),
                             [] => String::new(),
                         },
-                    });
+                    })));
                 }
             }
         }

@@ -34,23 +34,8 @@ pub enum PrepareError {
     },
     /// A file of the user's own traffic defines an id syncroad's vehicles use: SUMO would
     /// refuse to start ("Another vehicle with the id … exists").
-    #[error("{field}[{index}] = {path}: <{tag} id=\"{id}\"> uses an id of syncroad's own {kind} ({ours}); rename it in your file (checked before starting SUMO)")]
-    IdClash {
-        /// The scenario field.
-        field: &'static str,
-        /// Its index.
-        index: usize,
-        /// The resolved path.
-        path: PathBuf,
-        /// The element.
-        tag: String,
-        /// The id.
-        id: String,
-        /// `vehicles`, `vehicle types` or `routes`.
-        kind: &'static str,
-        /// syncroad's ids of that kind, first and last.
-        ours: String,
-    },
+    #[error("{}[{}] = {}: <{} id=\"{}\"> uses an id of syncroad's own {} ({}); rename it in your file (checked before starting SUMO)", .0.field, .0.index, .0.path.display(), .0.tag, .0.id, .0.kind, .0.ours)]
+    IdClash(Box<IdClash>),
     /// The network file is unusable.
     #[error(transparent)]
     Net(#[from] NetError),
@@ -121,4 +106,23 @@ pub enum PrepareError {
         /// The OS error.
         reason: String,
     },
+}
+
+/// A user file's id that syncroad's own vehicles use ([`PrepareError::IdClash`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct IdClash {
+    /// The scenario field.
+    pub field: &'static str,
+    /// Its index.
+    pub index: usize,
+    /// The resolved path.
+    pub path: PathBuf,
+    /// The element.
+    pub tag: String,
+    /// The id.
+    pub id: String,
+    /// `vehicles`, `vehicle types` or `routes`.
+    pub kind: &'static str,
+    /// syncroad's ids of that kind, first and last.
+    pub ours: String,
 }
