@@ -96,11 +96,11 @@ pub struct SumoFacts {
 
 /// Every vehicle in SUMO's network after the warm-up, syncroad's and the user's own traffic
 /// (`sumo.routes`, `sumo.additional`, `sumo.config`), from SUMO's summary output
-/// (`--summary-output`, one `<step>` per simulation step, speeds to SUMO's output precision of
-/// 0.01 m/s).
+/// (`--summary-output`, one `<step>` per sample at the trajectory's stride, speeds to SUMO's
+/// output precision of 0.01 m/s; means are over the samples).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct AllVehicles {
-    /// Time measured, from the first state after the warm-up to the last \[s\].
+    /// Time measured, from the first sample after the warm-up to the last \[s\].
     pub measured_s: f64,
     /// Mean number of vehicles running.
     #[schemars(title = "vehicles (all) mean")]

@@ -14,9 +14,16 @@ use std::path::Path;
 
 use syncroad_control::sumo_facts::AllVehicles;
 
-/// The SUMO options that write the summary to `file`.
-pub fn summary_args(file: &Path) -> Vec<String> {
-    vec!["--summary-output".into(), file.display().to_string()]
+/// The SUMO options that write the summary to `file`, every `every` steps of `step_s` (the
+/// trajectory's stride: formatting a `<step>` costs SUMO more than a small network's step, and
+/// a run of the CLI records about 2000 samples whatever its length).
+pub fn summary_args(file: &Path, step_s: f64, every: usize) -> Vec<String> {
+    let mut a = vec!["--summary-output".into(), file.display().to_string()];
+    if every > 1 {
+        a.push("--summary-output.period".into());
+        a.push(format!("{}", step_s * every as f64));
+    }
+    a
 }
 
 /// Errors reading the summary.
@@ -40,7 +47,8 @@ pub enum SummaryError {
     },
 }
 
-/// Reads the summary `path` over the steps at or after `warmup_s`, each `step_s` long.
+/// Reads the summary `path` over the samples at or after `warmup_s` (`step_s` is the run's step:
+/// times are compared to half a step).
 pub fn read(path: &Path, warmup_s: f64, step_s: f64) -> Result<AllVehicles, SummaryError> {
     let shown = path.display().to_string();
     let text = std::fs::read_to_string(path).map_err(|e| SummaryError::Io {
@@ -63,6 +71,7 @@ pub fn summarize(text: &str, warmup_s: f64, step_s: f64) -> Result<AllVehicles, 
             .map_err(|e| format!("<step {a}>: {e}"))
     };
     let mut out = AllVehicles::default();
+    let mut span: Option<(f64, f64)> = None;
     let (mut steps, mut running_sum, mut speed_sum, mut halting_sum) = (0usize, 0.0, 0.0, 0.0);
     // Totals at the last step before the warm-up ended.
     let (mut arrived0, mut collisions0) = (0.0, 0.0);
@@ -79,6 +88,7 @@ pub fn summarize(text: &str, warmup_s: f64, step_s: f64) -> Result<AllVehicles, 
             continue;
         }
         let running = num(&s, "running")?;
+        span = Some(span.map_or((t, t), |(a, _)| (a, t)));
         steps += 1;
         running_sum += running;
         halting_sum += num(&s, "halting")?;
@@ -88,8 +98,7 @@ pub fn summarize(text: &str, warmup_s: f64, step_s: f64) -> Result<AllVehicles, 
         out.vehicles_max = out.vehicles_max.max(running as usize);
     }
     if steps > 0 {
-        // States at both ends: one step fewer between them.
-        out.measured_s = (steps - 1) as f64 * step_s;
+        out.measured_s = span.map_or(0.0, |(a, b)| b - a);
         out.vehicles_mean = running_sum / steps as f64;
         out.halting_mean = halting_sum / steps as f64;
         out.mean_speed_mps = (running_sum > 0.0).then(|| speed_sum / running_sum);

@@ -352,7 +352,11 @@ pub fn sumo_args(req: &Request) -> Vec<String> {
         a.push(additional.join(","));
     }
     if let Some(f) = &req.summary_file {
-        a.extend(crate::summary::summary_args(f));
+        a.extend(crate::summary::summary_args(
+            f,
+            req.step_s,
+            req.record_every,
+        ));
     }
     if let Some(m) = &req.measure {
         if let Some(f) = &m.tripinfo_file {
