@@ -170,10 +170,7 @@ impl SpeedController for CaccController {
     }
 
     fn sense(&mut self, neighbors: &Neighbors) {
-        match &mut self.sensed {
-            Some(nb) => nb.clone_from(neighbors),
-            None => self.sensed = Some(neighbors.clone()),
-        }
+        neighbors.keep_in(&mut self.sensed);
     }
 }
 

@@ -175,7 +175,8 @@ pub fn sumo_overruled(facts: &SumoFacts, tolerance_mps: f64) -> Vec<(Verdict, St
             ),
         ));
     }
-    if let Some(c) = s.topology_changes.filter(|&c| c > 0) {
+    if s.graph_changed() {
+        let c = s.topology_changes.unwrap_or_default();
         // The law followed SUMO's graph, so the speeds are the law's and the verdict stands;
         // what no longer applies is the theory of the scenario's graph.
         out.push((

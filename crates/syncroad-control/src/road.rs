@@ -123,10 +123,7 @@ impl RingView {
     /// happen on a ring whose vehicles keep their lane (the layout predecessor is there); it
     /// keeps the layout's.
     pub fn sense(&mut self, neighbors: &Neighbors) {
-        match &mut self.sensed {
-            Some(nb) => nb.clone_from(neighbors),
-            None => self.sensed = Some(neighbors.clone()),
-        }
+        neighbors.keep_in(&mut self.sensed);
     }
 }
 

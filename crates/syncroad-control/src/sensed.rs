@@ -71,6 +71,15 @@ impl Neighbors {
         self.ahead.is_empty()
     }
 
+    /// Copies `self` into `slot`, reusing what the slot holds (a controller keeps this step's
+    /// neighbours until its next step).
+    pub fn keep_in(&self, slot: &mut Option<Neighbors>) {
+        match slot {
+            Some(nb) => nb.clone_from(self),
+            None => *slot = Some(self.clone()),
+        }
+    }
+
     /// Every vehicle sees its layout neighbours (the fixed graph holds this step).
     pub fn is_layout(&self) -> bool {
         self.ahead

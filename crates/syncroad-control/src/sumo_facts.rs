@@ -33,6 +33,14 @@ pub struct Safety {
     pub topology_changes: Option<usize>,
 }
 
+impl Safety {
+    /// The vehicle ahead of one of syncroad's vehicles changed in SUMO at least once: the run
+    /// is outside the theory of the scenario's fixed graph.
+    pub fn graph_changed(&self) -> bool {
+        self.topology_changes.is_some_and(|c| c > 0)
+    }
+}
+
 /// What SUMO measured after the warm-up.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct Measured {

@@ -292,10 +292,12 @@ fn prepare_with(
     };
     let extra_routes = user_files("sumo.routes", scenario.sumo().routes())?;
     let extra_additional = user_files("sumo.additional", scenario.sumo().additional())?;
-    let ours = layout.routes_xml();
-    no_clashing_ids(&ours, "sumo.routes", &extra_routes)?;
-    no_clashing_ids(&ours, "sumo.additional", &extra_additional)?;
-    let other_traffic = !extra_routes.is_empty() || !extra_additional.is_empty();
+    let other_traffic = scenario.sumo().other_traffic();
+    if other_traffic {
+        let ours = layout.routes_xml();
+        no_clashing_ids(&ours, "sumo.routes", &extra_routes)?;
+        no_clashing_ids(&ours, "sumo.additional", &extra_additional)?;
+    }
     Ok(Request {
         layout,
         routes_file,
@@ -337,14 +339,14 @@ fn user_files(field: &'static str, files: &[PathBuf]) -> Result<Vec<PathBuf>, Pr
     Ok(files.to_vec())
 }
 
-/// Refuses a user file of `field` that defines a vehicle, vehicle type or route with an id of
-/// syncroad's own (read from `ours`, the routes file syncroad writes). A file that is not XML,
-/// or too large to read whole here ([`CLASH_CHECK_MAX_BYTES`]), is left to SUMO, whose
-/// message names the id.
 /// Largest user file whose ids are checked before SUMO starts (a parsed document takes several
 /// times its size in memory; SUMO streams larger demand files and reports a clash itself).
 const CLASH_CHECK_MAX_BYTES: u64 = 64 << 20;
 
+/// Refuses a user file of `field` that defines a vehicle, vehicle type or route with an id of
+/// syncroad's own (read from `ours`, the routes file syncroad writes). A file that is not XML,
+/// or too large to read whole here ([`CLASH_CHECK_MAX_BYTES`]), is left to SUMO, whose
+/// message names the id.
 fn no_clashing_ids(ours: &str, field: &'static str, files: &[PathBuf]) -> Result<(), PrepareError> {
     const KINDS: [(&str, &[&str]); 3] = [
         ("vehicles", &["vehicle", "trip"]),

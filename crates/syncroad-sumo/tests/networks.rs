@@ -183,6 +183,21 @@ fn loop_json(road: &str, vehicles: usize, horizon_s: f64, gap: &str) -> String {
     )
 }
 
+/// The user's own slow car (`slow.rou.xml` in `dir`): 4 m/s, departing on lane 1 of the
+/// two-lane loop, five laps (the file of `examples/track/slow.rou.xml`).
+fn slow_car(dir: &Path) {
+    std::fs::write(
+        dir.join("slow.rou.xml"),
+        r#"<routes>
+    <vType id="slow" maxSpeed="4" sigma="0"/>
+    <route id="u_slow" edges="e4 e5 e6 e7 e0 e1 e2 e3" repeat="5"/>
+    <vehicle id="slow" type="slow" route="u_slow" depart="0" departLane="1" departPos="20" departSpeed="4"/>
+</routes>
+"#,
+    )
+    .unwrap();
+}
+
 fn worst_speed_difference(a: &[f64], b: &[f64]) -> f64 {
     assert_eq!(a.len(), b.len());
     a.iter()
@@ -405,16 +420,7 @@ mod loops {
     fn the_law_follows_a_car_that_changes_into_its_lane() {
         let dir = work("cut-in");
         two_lane_loop(&dir);
-        std::fs::write(
-            dir.join("slow.rou.xml"),
-            r#"<routes>
-    <vType id="slow" maxSpeed="4" sigma="0" minGap="2"/>
-    <route id="u_slow" edges="e4 e5 e6 e7 e0 e1 e2 e3" repeat="5"/>
-    <vehicle id="slow" type="slow" route="u_slow" depart="0" departLane="1" departPos="20" departSpeed="4"/>
-</routes>
-"#,
-        )
-        .unwrap();
+        slow_car(&dir);
         let road = format!(r#"{{"type": "loop", "edges": {:?}, "lane": 0}}"#, CYCLE);
         let json = loop_json(&road, 6, 240.0, "").replace(
             r#""sumo": {"net": "out.net.xml"}"#,
@@ -477,16 +483,7 @@ mod loops {
     fn a_sumo_config_runs_as_its_files_named_one_by_one() {
         let dir = work("config");
         two_lane_loop(&dir);
-        std::fs::write(
-            dir.join("slow.rou.xml"),
-            r#"<routes>
-    <vType id="slow" maxSpeed="4" sigma="0"/>
-    <route id="u_slow" edges="e4 e5 e6 e7 e0 e1 e2 e3" repeat="5"/>
-    <vehicle id="slow" type="slow" route="u_slow" depart="0" departLane="1" departPos="20" departSpeed="4"/>
-</routes>
-"#,
-        )
-        .unwrap();
+        slow_car(&dir);
         std::fs::create_dir_all(dir.join("cfg")).unwrap();
         std::fs::write(
             dir.join("cfg/track.sumocfg"),

@@ -174,11 +174,10 @@ pub fn metrics_table(
     record: &syncroad_control::record::RunRecord,
 ) -> String {
     let law_vehicles = record.law_controlled_vehicles;
-    let graph_changes = record
+    let graph_changed = record
         .safety
         .as_ref()
-        .and_then(|s| s.topology_changes)
-        .filter(|&c| c > 0);
+        .is_some_and(syncroad_control::sumo_facts::Safety::graph_changed);
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -238,7 +237,7 @@ pub fn metrics_table(
         "  certified by the paper's conditions: {}",
         match record.certified {
             Some(c) => yes(c).to_string(),
-            None if graph_changes.is_some() => {
+            None if graph_changed => {
                 "does not apply (the graph changed in SUMO; the conditions are for a fixed graph)"
                     .to_string()
             }

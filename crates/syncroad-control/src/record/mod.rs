@@ -246,10 +246,9 @@ impl RunRecord {
         let law_controlled = drivers.iter().filter(|d| *d == "law").count();
         // The theory is for the scenario's fixed graph: a run whose graph changed in SUMO is
         // outside it.
-        let fixed_graph = facts
+        let fixed_graph = !facts
             .and_then(|f| f.safety.as_ref())
-            .and_then(|s| s.topology_changes)
-            .is_none_or(|c| c == 0);
+            .is_some_and(Safety::graph_changed);
         let all_law = sc.mixed().is_none() && law_controlled == sc.vehicles() && fixed_graph;
         Self {
             syncroad_version: env!("CARGO_PKG_VERSION").to_string(),

@@ -77,6 +77,12 @@ impl SumoSettings {
         &self.additional
     }
 
+    /// The user's own traffic shares the road (route or additional files, of `sumo.config`
+    /// too): the law's graph in SUMO is the road's, and the run measures every vehicle.
+    pub fn other_traffic(&self) -> bool {
+        !self.routes.is_empty() || !self.additional.is_empty()
+    }
+
     /// The vehicle type every SUMO vehicle shares.
     pub fn vehicle_type(&self) -> &SumoVehicleType {
         &self.vehicle_type

@@ -1,6 +1,7 @@
 //! One step of the co-simulation, apart from the loop that runs it: (the graph from SUMO, when
-//! other traffic shares the road) → law → command → `simulationStep` → read back. [`CoSim`] holds the state between steps; the runner
-//! (`super::runner`) owns the horizon, the observers and the stop reason.
+//! other traffic shares the road) → law → command → `simulationStep` → read back. [`CoSim`]
+//! holds the state between steps; the runner (`super::runner`) owns the horizon, the
+//! observers and the stop reason.
 //!
 //! # Timing (measured with libsumo 1.28.0, see `tests/sumo.rs::actuation_timing`)
 //! A speed set with `setSpeed` (speed mode 32) before `simulationStep` is the speed `getSpeed`

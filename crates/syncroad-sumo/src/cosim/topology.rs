@@ -152,10 +152,9 @@ impl<'py> Topology<'py> {
             if self.neighbors.layout_ahead(i).is_some() && who != self.seen_ahead[i] {
                 self.changes += 1;
             }
-            self.neighbors.ahead[i] = self.sensed(py, ls, i, k, ahead, who.clone(), true)?;
             self.seen_ahead[i] = who;
-            let who = self.who(behind);
-            self.neighbors.behind[i] = self.sensed(py, ls, i, k, behind, who, false)?;
+            self.neighbors.ahead[i] = self.sensed(py, ls, i, k, ahead, true)?;
+            self.neighbors.behind[i] = self.sensed(py, ls, i, k, behind, false)?;
         }
         Ok(())
     }
@@ -188,8 +187,7 @@ impl<'py> Topology<'py> {
         }
     }
 
-    /// What vehicle `i` (at place `k`) senses on one side, `who` being at place `other`.
-    #[allow(clippy::too_many_arguments)]
+    /// What vehicle `i` (at place `k`) senses on one side, the vehicle at place `other`.
     fn sensed(
         &mut self,
         py: Python<'_>,
@@ -197,7 +195,6 @@ impl<'py> Topology<'py> {
         i: usize,
         k: usize,
         other: Option<usize>,
-        who: Who,
         ahead: bool,
     ) -> Result<Sensed, PythonError> {
         let layout = if ahead {
@@ -208,7 +205,7 @@ impl<'py> Topology<'py> {
         let Some(p) = other else {
             return Ok(Sensed::Nobody);
         };
-        if let Who::Ours(j) = who {
+        if let Slot::Ours(j) = self.order[p].0 {
             if Some(j) == layout {
                 return Ok(Sensed::Layout);
             }

@@ -97,40 +97,34 @@ pub fn read_config(path: &Path) -> Result<ConfigInputs, ConfigError> {
     });
     for o in options {
         let name = o.tag_name().name();
-        let taken = NET.contains(&name) || ROUTES.contains(&name) || ADDITIONAL.contains(&name);
-        let Some(value) = o.attribute("value") else {
-            if taken {
-                return Err(ConfigError::NoValue {
-                    path: shown,
-                    option: name.to_string(),
-                });
-            }
-            inputs.ignored.push(name.to_string());
+        let value = o.attribute("value");
+        if !(NET.contains(&name) || ROUTES.contains(&name) || ADDITIONAL.contains(&name)) {
+            inputs.ignored.push(match value {
+                Some(v) => format!("{name} = {v}"),
+                None => name.to_string(),
+            });
             continue;
-        };
-        if taken {
-            if files(value).is_empty() {
-                return Err(ConfigError::NoValue {
-                    path: shown,
-                    option: name.to_string(),
-                });
-            }
-            if let Some(f) = files(value).iter().find(|f| !f.exists()) {
-                return Err(ConfigError::Missing {
-                    path: shown,
-                    option: name.to_string(),
-                    file: f.display().to_string(),
-                });
-            }
+        }
+        let listed = value.map(files).unwrap_or_default();
+        if listed.is_empty() {
+            return Err(ConfigError::NoValue {
+                path: shown,
+                option: name.to_string(),
+            });
+        }
+        if let Some(f) = listed.iter().find(|f| !f.exists()) {
+            return Err(ConfigError::Missing {
+                path: shown,
+                option: name.to_string(),
+                file: f.display().to_string(),
+            });
         }
         if NET.contains(&name) {
-            inputs.net = files(value).into_iter().next();
+            inputs.net = listed.into_iter().next();
         } else if ROUTES.contains(&name) {
-            inputs.routes.extend(files(value));
-        } else if ADDITIONAL.contains(&name) {
-            inputs.additional.extend(files(value));
+            inputs.routes.extend(listed);
         } else {
-            inputs.ignored.push(format!("{name} = {value}"));
+            inputs.additional.extend(listed);
         }
     }
     Ok(inputs)
