@@ -100,6 +100,10 @@ pub struct SumoFacts {
     /// output; present when other traffic shares the road.
     #[serde(default)]
     pub all_vehicles: Option<AllVehicles>,
+    /// The user's own vehicles the law drove (`sumo.controlled`), in the law's order (vehicle
+    /// 0 in front); empty when syncroad inserted its own.
+    #[serde(default)]
+    pub controlled: Vec<String>,
 }
 
 /// Every vehicle in SUMO's network after the warm-up, syncroad's and the user's own traffic

@@ -370,6 +370,12 @@ impl Layout {
     /// text; vehicles depart at t = 0 at their exact positions and speeds
     /// (`insertionChecks="none"`: the layout has already been checked).
     pub fn routes_xml(&self) -> String {
+        self.routes_xml_with(true)
+    }
+
+    /// [`Layout::routes_xml`], with syncroad's vehicles or without them (the law then drives
+    /// the user's own, `sumo.controlled`: the file keeps the routes their adoption sets).
+    pub fn routes_xml_with(&self, vehicles: bool) -> String {
         let mut s = String::from("<routes>\n");
         let t = &self.vtype;
         // One vType per (length, driver). Law-driven vehicles get σ = 0: SUMO's own model only
@@ -451,7 +457,7 @@ impl Layout {
                 );
             }
         }
-        for v in &self.vehicles {
+        for v in self.vehicles.iter().filter(|_| vehicles) {
             let ty = types
                 .iter()
                 .position(|k| k.0 == v.length_m.to_bits() && k.1 == v.driver)
@@ -466,11 +472,11 @@ impl Layout {
         s
     }
 
-    /// Writes [`Layout::routes_xml`] to `dir/routes.rou.xml` and returns the path.
-    pub fn write_routes(&self, dir: &Path) -> std::io::Result<PathBuf> {
+    /// Writes [`Layout::routes_xml_with`] to `dir/routes.rou.xml` and returns the path.
+    pub fn write_routes(&self, dir: &Path, vehicles: bool) -> std::io::Result<PathBuf> {
         std::fs::create_dir_all(dir)?;
         let p = dir.join("routes.rou.xml");
-        std::fs::write(&p, self.routes_xml())?;
+        std::fs::write(&p, self.routes_xml_with(vehicles))?;
         Ok(p)
     }
 }

@@ -13,6 +13,8 @@
 //!   their tracebacks;
 //! * `net`, `layout` — network files read once and checked before SUMO starts, vehicle
 //!   departures, ring capacity, the routes file;
+//! * `controlled` — the user's own vehicles the law drives (`sumo.controlled`), checked in
+//!   their files before SUMO starts;
 //! * `ssm` — SUMO's surrogate-safety device: its options and a summary of its log;
 //! * `summary` — SUMO's summary output: the metrics of every vehicle in the network;
 //! * `protocol`, `cosim`, `worker` — the worker process: one step of the co-simulation apart
@@ -27,6 +29,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod bench;
+mod controlled;
 mod cosim;
 mod direct;
 mod frozen;

@@ -168,6 +168,7 @@ impl SumoRun {
             law_speed_mode: law_driven.then_some(self.request.speed_mode),
             ssm,
             all_vehicles,
+            controlled: start.map(|s| s.controlled.clone()).unwrap_or_default(),
         };
         RunOutput {
             trajectory: self.trajectory(scenario),

@@ -230,6 +230,19 @@ fn prepare_with(
     };
     let mut layout = layout;
     let (drivers, damper) = drivers_of(scenario, opts)?;
+    let adopt = scenario.sumo().controlled();
+    if let (Some(sel), true) = (
+        adopt,
+        drivers
+            .iter()
+            .flatten()
+            .any(|d| !matches!(d, SumoDriver::Noisy(_))),
+    ) {
+        return Err(PrepareError::Controlled {
+            selector: sel.to_string(),
+            reason: "the law drives the vehicles you choose, and your other vehicles drive by their own vehicle types: give no SUMO drivers (`drivers`, `mixed`)".into(),
+        });
+    }
     assign_drivers(&mut layout, &drivers, scenario.step_s())?;
     // Stochastic humans are commanded by the bridge: SUMO sees law-driven vehicles.
     let mut humans: Vec<Option<NoisyIdm>> = vec![None; layout.vehicles.len()];
@@ -265,7 +278,7 @@ fn prepare_with(
     };
     let routes_file = if write {
         layout
-            .write_routes(&opts.work_dir)
+            .write_routes(&opts.work_dir, adopt.is_none())
             .map_err(|e| io(&opts.work_dir, e))?
     } else {
         opts.work_dir.join("routes.rou.xml")
@@ -294,9 +307,18 @@ fn prepare_with(
     let extra_additional = user_files("sumo.additional", scenario.sumo().additional())?;
     let other_traffic = scenario.sumo().other_traffic();
     if other_traffic {
-        let ours = layout.routes_xml();
+        let ours = layout.routes_xml_with(adopt.is_none());
         no_clashing_ids(&ours, "sumo.routes", &extra_routes)?;
         no_clashing_ids(&ours, "sumo.additional", &extra_additional)?;
+    }
+    if let Some(sel) = adopt {
+        let n = layout.vehicles.len();
+        let wanted = match layout.leader_vehicle {
+            true => format!("{n} vehicles (`vehicles` = {} and the leader)", n - 1),
+            false => format!("{n} vehicles (`vehicles` = {n})"),
+        };
+        let files = [extra_routes.as_slice(), extra_additional.as_slice()].concat();
+        crate::controlled::check(sel, &files, n, &wanted, layout.road.lane_index)?;
     }
     Ok(Request {
         layout,
@@ -321,6 +343,7 @@ fn prepare_with(
         summary_file: other_traffic.then(|| opts.work_dir.join("summary.xml")),
         extra_routes,
         extra_additional,
+        adopt: adopt.cloned(),
     })
 }
 

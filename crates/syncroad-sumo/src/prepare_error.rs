@@ -36,6 +36,14 @@ pub enum PrepareError {
     /// refuse to start ("Another vehicle with the id … exists").
     #[error("{}[{}] = {}: <{} id=\"{}\"> uses an id of syncroad's own {} ({}); rename it in your file (checked before starting SUMO)", .0.field, .0.index, .0.path.display(), .0.tag, .0.id, .0.kind, .0.ours)]
     IdClash(Box<IdClash>),
+    /// `sumo.controlled` does not choose the run's vehicles, as far as the user's files show.
+    #[error("sumo.controlled = {selector}: {reason} (checked before starting SUMO)")]
+    Controlled {
+        /// The selection, as JSON.
+        selector: String,
+        /// What is wrong and what would be valid.
+        reason: String,
+    },
     /// The network file is unusable.
     #[error(transparent)]
     Net(#[from] NetError),

@@ -131,6 +131,11 @@ pub struct Request {
     /// shares the road.
     #[serde(default)]
     pub summary_file: Option<PathBuf>,
+    /// The law drives these of the user's own vehicles (`sumo.controlled`), bound after
+    /// insertion in their order along the road; syncroad inserts no vehicle, and
+    /// `layout.vehicles` holds placeholders until the worker has bound them.
+    #[serde(default)]
+    pub adopt: Option<syncroad_control::scenario::VehicleSelector>,
 }
 
 fn default_speed_mode() -> i32 {
@@ -210,6 +215,10 @@ pub struct StartInfo {
     pub vehicles: usize,
     /// Process id of the worker.
     pub pid: u32,
+    /// The user's vehicles the law drives (`sumo.controlled`), in the layout's order (empty:
+    /// syncroad's own).
+    #[serde(default)]
+    pub controlled: Vec<String>,
 }
 
 /// A step event.

@@ -474,6 +474,118 @@ mod loops {
         );
     }
 
+    /// syncroad's own vehicles of `routes` (the routes file of a run) as the user's: vehicles
+    /// `cav0`…, of a vType `cav` with syncroad's values (`cav_length` long), each on a route of
+    /// one lap from its edge, written back to front; and the slow car's lines.
+    fn as_users_own(routes: &str, cav_length: &str) -> String {
+        let mut out = vec!["<routes>".to_string()];
+        let mut vehicles = Vec::new();
+        for l in routes.lines() {
+            if l.contains("<vType id=\"t0\"") {
+                let l = l.replace("id=\"t0\"", "id=\"cav\"");
+                let at = l.find("length=\"").unwrap() + 8;
+                let end = at + l[at..].find('"').unwrap();
+                out.push(format!("{}{cav_length}{}", &l[..at], &l[end..]));
+            } else if let Some(rest) = l.trim().strip_prefix("<route id=\"r") {
+                let k = &rest[..rest.find('"').unwrap()];
+                let e = rest.find("edges=\"").unwrap() + 7;
+                let edges = &rest[e..e + rest[e..].find('"').unwrap()];
+                out.push(format!(r#"    <route id="u{k}" edges="{edges}"/>"#));
+            } else if l.contains("<vehicle id=\"v") {
+                let l = l.replacen("<vehicle id=\"v", "<vehicle id=\"cav", 1);
+                vehicles.push(
+                    l.replace("type=\"t0\"", "type=\"cav\"")
+                        .replace("route=\"r", "route=\"u"),
+                );
+            }
+        }
+        vehicles.reverse();
+        out.extend(vehicles);
+        out.push(r#"    <vType id="slow" maxSpeed="4" sigma="0"/>"#.into());
+        out.push(r#"    <route id="u_slow" edges="e4 e5 e6 e7 e0 e1 e2 e3" repeat="5"/>"#.into());
+        out.push(r#"    <vehicle id="slow" type="slow" route="u_slow" depart="0" departLane="1" departPos="20" departSpeed="4"/>"#.into());
+        out.push("</routes>\n".into());
+        out.join("\n")
+    }
+
+    /// The law drives the user's own vehicles (`sumo.controlled`): six of type `cav` in the
+    /// user's route file, placed where syncroad placed its own in a run of the same scenario,
+    /// written back to front, each on a route of one lap, beside the slow car that changes
+    /// into their lane. They are bound front to back and keep circling for several laps: the
+    /// run is the run of syncroad's own vehicles, speed for speed. Too many of them for the
+    /// scenario is refused before SUMO starts; a length that is not the scenario's is
+    /// refused by the worker, which sees SUMO's vehicles.
+    #[test]
+    fn the_law_drives_the_users_own_vehicles_chosen_by_type() {
+        let dir = work("controlled");
+        two_lane_loop(&dir);
+        slow_car(&dir);
+        let road = format!(r#"{{"type": "loop", "edges": {:?}, "lane": 0}}"#, CYCLE);
+        let base = loop_json(&road, 6, 400.0, "");
+        let json = base.replace(
+            r#""sumo": {"net": "out.net.xml"}"#,
+            r#""sumo": {"net": "out.net.xml", "routes": ["slow.rou.xml"]}"#,
+        );
+        let sc = scenario(&dir, &json).unwrap();
+        let own = run_scenario(&sc, &opts(&dir)).unwrap();
+        let own_fin = own.outcome().expect("horizon reached");
+        let routes = std::fs::read_to_string(dir.join("run/routes.rou.xml")).unwrap();
+        std::fs::write(dir.join("cav.rou.xml"), as_users_own(&routes, "5")).unwrap();
+        let users = base.replace(
+            r#""sumo": {"net": "out.net.xml"}"#,
+            r#""sumo": {"net": "out.net.xml", "routes": ["cav.rou.xml"], "controlled": {"vtype": "cav"}}"#,
+        );
+        let sc_users = scenario(&dir, &users).unwrap();
+        let mut o = opts(&dir);
+        o.work_dir = dir.join("users");
+        let run = run_scenario(&sc_users, &o).unwrap();
+        let fin = run
+            .outcome()
+            .expect("horizon reached: the vehicles kept circling");
+        let facts = run.output(&sc_users).sumo.unwrap();
+        let front_to_back: Vec<String> = (0..6).map(|i| format!("cav{i}")).collect();
+        assert_eq!(facts.controlled, front_to_back);
+        let (a, b) = (own.trajectory(&sc), run.trajectory(&sc_users));
+        let n = b.positions_m.len();
+        let laps = b.positions_m[n - 1] - b.positions_m[5];
+        eprintln!(
+            "controlled: {laps:.1} m driven, {:?} topology changes",
+            fin.totals.topology_changes
+        );
+        assert!(laps > 1.5 * facts.road_length_m, "only {laps} m driven");
+        assert_eq!(a.speeds_mps, b.speeds_mps);
+        // Positions are SUMO's lane positions summed along the loop, against the layout's
+        // placement: equal up to the rounding of the two sums.
+        let dq = worst_speed_difference(&a.positions_m, &b.positions_m);
+        let dg = worst_speed_difference(&a.gaps_m, &b.gaps_m);
+        eprintln!("controlled: positions within {dq:.1e} m, gaps within {dg:.1e} m");
+        assert!(dq < 1e-9 && dg < 1e-9, "{dq} {dg}");
+        assert_eq!(fin.totals.topology_changes, own_fin.totals.topology_changes);
+        assert!(fin.totals.topology_changes.unwrap() >= 1);
+        // syncroad inserted none of its own.
+        assert!(!std::fs::read_to_string(dir.join("users/routes.rou.xml"))
+            .unwrap()
+            .contains("<vehicle"));
+        // Before SUMO starts: six of them for a scenario of five.
+        let five = scenario(&dir, &users.replace(r#""vehicles": 6"#, r#""vehicles": 5"#)).unwrap();
+        let err = syncroad_sumo::check_run(&five, &load_road(&five).unwrap(), &o)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            err,
+            r#"sumo.controlled = {"vtype":"cav"}: 6 of your vehicles depart at t = 0 and match (cav5 … cav0), but the run drives 5 vehicles (`vehicles` = 5): give as many vehicles in the scenario as your files start with (checked before starting SUMO)"#
+        );
+        // In the worker: a vehicle type of another length.
+        std::fs::write(dir.join("cav.rou.xml"), as_users_own(&routes, "4")).unwrap();
+        o.work_dir = dir.join("short");
+        let short = run_scenario(&sc_users, &o).unwrap();
+        let msg = short.failure().expect("refused").to_string();
+        assert!(
+            msg.contains(r#"sumo.controlled = {"vtype":"cav"}: vehicle cav0 (the law's vehicle 0) is 4 m long, but the scenario's vehicles are 5 m (sumo.length_m)"#),
+            "{msg}"
+        );
+    }
+
     /// A whole SUMO configuration (`sumo.config`) in a folder of its own, naming the network and
     /// the slow car's route file relative to itself, with a step length and an output of its
     /// own: the run is the run of the same files named one by one (`sumo.net`, `sumo.routes`),

@@ -232,6 +232,11 @@ pub struct RunRecord {
     /// syncroad's vehicles.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub all_vehicles: Option<crate::sumo_facts::AllVehicles>,
+    /// The user's own SUMO vehicles the law drove (`sumo.controlled`), in the law's order:
+    /// vehicle 0 in front, each following the one before; present only for such runs. Their
+    /// start is the user's files', not the scenario's `initial`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub controlled_vehicles: Option<Vec<String>>,
 }
 
 impl RunRecord {
@@ -298,15 +303,20 @@ impl RunRecord {
                 .and_then(|f| SafetyMargins::of(&run.trajectory, outcome.warmup_s, f)),
             gap_safety: crate::margins::GapSafety::of(&run.trajectory, outcome.warmup_s),
             all_vehicles: facts.and_then(|f| f.all_vehicles.clone()),
+            controlled_vehicles: facts
+                .map(|f| f.controlled.clone())
+                .filter(|c| !c.is_empty()),
             string_amplification: crate::string_measured::measured(&run.trajectory),
             // The certificate is of the scenario's own gaps (none for a run without a sample,
             // like `certified`): a SUMO run that rescaled them by
             // more than 1 % to fit its network (a ring length that is not the net's) drove
-            // other gaps, and gets none.
+            // other gaps, and gets none; so does a run of the user's own vehicles.
             gap_certificate: (all_law
                 && !run.trajectory.is_empty()
                 && outcome.gap_certificate
-                && facts.is_none_or(|f| (f.gap_scale - 1.0).abs() <= 0.01))
+                && facts.is_none_or(|f| (f.gap_scale - 1.0).abs() <= 0.01)
+                // The user's own vehicles started from their own gaps.
+                && facts.is_none_or(|f| f.controlled.is_empty()))
             .then(|| crate::exact::gaps::gap_certificate(sc).ok().flatten())
             .flatten()
             .map(|c| c.summary()),

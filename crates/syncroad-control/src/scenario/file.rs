@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use super::{invalid, LeaderProfile, MixedSpec, PerVehicle, ScenarioError};
+use super::{invalid, LeaderProfile, MixedSpec, PerVehicle, ScenarioError, VehicleSelector};
 
 /// Where a run executes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
@@ -436,6 +436,11 @@ pub struct SumoSpec {
     /// scenario sets the time, the step and the outputs. Relative to the scenario's folder.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub config: Option<PathBuf>,
+    /// The law drives these of the user's own vehicles (`{"vtype": …}`, `{"id": …}` or both)
+    /// instead of vehicles syncroad inserts: the ones on the road when the run starts, in
+    /// their order along it. Needs `routes` or `config`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub controlled: Option<VehicleSelector>,
 }
 
 fn d_length() -> f64 {
@@ -474,6 +479,7 @@ impl Default for SumoSpec {
             routes: Vec::new(),
             additional: Vec::new(),
             config: None,
+            controlled: None,
         }
     }
 }

@@ -27,6 +27,7 @@ pub mod mixed;
 mod network_road;
 pub mod per_vehicle;
 mod scale;
+mod select;
 mod sumo;
 mod validate;
 
@@ -36,6 +37,7 @@ pub use mixed::MixedSpec;
 pub use network_road::{ConfigInputs, MeasuredRoad, RoadReader};
 pub use per_vehicle::PerVehicle;
 pub use scale::Scaled;
+pub use select::{SelectorMatch, VehicleSelector};
 pub use sumo::{SumoSettings, SumoVehicleType, MAX_TIMEOUT_S};
 
 /// The most steps a run may take (`horizon_s / step_s`): 10⁷ steps of N vehicles already take

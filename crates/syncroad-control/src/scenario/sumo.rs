@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
 
-use super::{invalid, ConfigInputs, RoadReader, ScenarioError, SumoSpec};
+use super::{invalid, ConfigInputs, RoadReader, ScenarioError, SumoSpec, VehicleSelector};
 
 /// The input section of `sumo.config`, read by `reader` (the SUMO crate's: the maths reads no
 /// XML).
@@ -56,6 +56,7 @@ pub struct SumoSettings {
     timeout: Duration,
     config: Option<PathBuf>,
     config_ignored: Vec<String>,
+    controlled: Option<VehicleSelector>,
 }
 
 impl SumoSettings {
@@ -97,6 +98,12 @@ impl SumoSettings {
     /// [`SumoSettings::net`], [`SumoSettings::routes`] and [`SumoSettings::additional`].
     pub fn config(&self) -> Option<&Path> {
         self.config.as_deref()
+    }
+
+    /// The user's own vehicles the law drives (`sumo.controlled`), instead of vehicles
+    /// syncroad inserts; `None`: syncroad inserts the scenario's vehicles.
+    pub fn controlled(&self) -> Option<&VehicleSelector> {
+        self.controlled.as_ref()
     }
 
     /// The configuration's other options (`name = value`), which SUMO is not given.
@@ -180,7 +187,18 @@ impl SumoSpec {
         }
         routes.extend(self.routes.iter().map(resolve));
         additional.extend(self.additional.iter().map(resolve));
+        if let Some(c) = &self.controlled {
+            c.check()?;
+            if routes.is_empty() && additional.is_empty() {
+                return Err(invalid(
+                    "sumo.controlled",
+                    c,
+                    "chooses among your own vehicles, but the scenario names none: give their route file in sumo.routes (or a sumo.config naming it)",
+                ));
+            }
+        }
         Ok(SumoSettings {
+            controlled: self.controlled.clone(),
             net,
             routes,
             additional,
@@ -232,6 +250,39 @@ mod tests {
         assert_eq!(s.timeout(), Duration::from_millis(2500));
         assert_eq!(s.vehicle_type().min_gap_m, 0.0);
         assert_eq!(s.vehicle_type().max_speed_mps, 30.0);
+    }
+
+    #[test]
+    fn controlled_vehicles_are_chosen_among_the_users_own() {
+        let validate = |sumo: &str| {
+            ScenarioFile::from_json(&ring(sumo), "<test>")
+                .map_err(|e| e.to_string())?
+                .validate(Path::new("/data"))
+                .map_err(|e| e.to_string())
+        };
+        let sc =
+            validate(r#"{"routes": ["cav.rou.xml"], "controlled": {"vtype": "cav"}}"#).unwrap();
+        let c = sc.sumo().controlled().unwrap();
+        assert_eq!(c.vtype.as_deref(), Some("cav"));
+        assert!(validate(r#"{"routes": ["r.xml"]}"#)
+            .unwrap()
+            .sumo()
+            .controlled()
+            .is_none());
+        assert_eq!(
+            validate(r#"{"controlled": {"id": "cav.*"}}"#).unwrap_err(),
+            r#"sumo.controlled = {"id":"cav.*"}: chooses among your own vehicles, but the scenario names none: give their route file in sumo.routes (or a sumo.config naming it)"#
+        );
+        assert!(
+            validate(r#"{"routes": ["r.xml"], "controlled": {"id": "(("}}"#)
+                .unwrap_err()
+                .starts_with("sumo.controlled.id = ((: must be a regular expression")
+        );
+        assert!(
+            validate(r#"{"routes": ["r.xml"], "controlled": {"type": "cav"}}"#)
+                .unwrap_err()
+                .contains("unknown field `type`")
+        );
     }
 
     #[test]

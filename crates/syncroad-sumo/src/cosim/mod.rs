@@ -34,6 +34,7 @@ use crate::probe::Probe;
 use crate::protocol::{write_msg, Control, Job, Request, StartInfo, WorkerMsg};
 use crate::python::{load_libsumo, py_error, PythonError};
 
+mod adopt;
 pub(crate) mod libsumo;
 mod meter;
 mod observer;
@@ -88,6 +89,14 @@ pub enum CosimError {
     /// The law could not be built.
     #[error(transparent)]
     Controller(#[from] syncroad_control::controller::ControllerError),
+    /// The user's vehicles `sumo.controlled` chooses are not the run's.
+    #[error("sumo.controlled = {selector}: {reason}")]
+    Controlled {
+        /// The selection, as JSON.
+        selector: String,
+        /// What is wrong and what would be valid.
+        reason: String,
+    },
     /// The pipe to the parent broke (the parent is gone).
     #[error("writing to the parent failed: {0}")]
     Pipe(String),
@@ -148,6 +157,16 @@ fn run_started(
     let n = req.layout.vehicles.len();
     // Insertion happens in the first step; states after it are the initial conditions.
     ls.simulation_step()?;
+    // The user's own vehicles the law drives, bound now that SUMO has inserted them.
+    let bound;
+    let (req, controlled) = match &req.adopt {
+        Some(sel) => {
+            bound = adopt::bind(ls, req, sel)?;
+            let ids = bound.layout.vehicles.iter().map(|v| v.id.clone()).collect();
+            (&bound, ids)
+        }
+        None => (req, Vec::new()),
+    };
     let pending: Vec<String> = ls
         .call("simulation_getPendingVehicles", ())?
         .extract()
@@ -215,6 +234,7 @@ fn run_started(
         road_length_m: road_length,
         vehicles: on_road,
         pid: std::process::id(),
+        controlled,
     };
     write_msg(out, &WorkerMsg::Started(started)).map_err(|e| CosimError::Pipe(e.to_string()))?;
     let ids: Vec<Bound<'_, PyString>> = req

@@ -135,6 +135,12 @@ fn print_summary(sc: &Scenario, f: &Finished) {
             t.collision_steps, t.teleports, t.overridden_commands, facts.max_override_mps, t.negative_commands_clamped
         );
     }
+    if !facts.controlled.is_empty() {
+        outln!(
+            "  the law drove your vehicles (sumo.controlled), front to back: {}",
+            facts.controlled.join(", ")
+        );
+    }
     if let Some(a) = &facts.all_vehicles {
         outln!(
             "  all vehicles (SUMO's summary over {:.1} s): {:.2} running (max {}), mean speed {}, {:.2} halting, {} arrived, {} collisions",
