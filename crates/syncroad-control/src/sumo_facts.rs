@@ -100,10 +100,22 @@ pub struct SumoFacts {
     /// output; present when other traffic shares the road.
     #[serde(default)]
     pub all_vehicles: Option<AllVehicles>,
-    /// The user's own vehicles the law drove (`sumo.controlled`), in the law's order (vehicle
-    /// 0 in front); empty when syncroad inserted its own.
+    /// The user's own vehicles the law drove (`sumo.controlled`); `None` when syncroad
+    /// inserted its own.
     #[serde(default)]
-    pub controlled: Vec<String>,
+    pub controlled: Option<Controlled>,
+}
+
+/// The user's own vehicles the law drove (`sumo.controlled`).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct Controlled {
+    /// Their ids in the law's order, the trajectory's vehicle order: vehicle 0 in front (on a
+    /// loop the first from the start of its first edge on), each following the one before.
+    pub vehicles: Vec<String>,
+    /// Vehicles the selection chooses that came onto the road after the start: the law runs
+    /// on the vehicles of the start, so SUMO drove these by their own vehicle type; `null`
+    /// when the worker never reported its end.
+    pub later: Option<usize>,
 }
 
 /// Every vehicle in SUMO's network after the warm-up, syncroad's and the user's own traffic

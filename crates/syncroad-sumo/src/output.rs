@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use syncroad_control::metrics::{spread_of_range, SpreadSeries};
-use syncroad_control::record::{Safety, SumoFacts};
+use syncroad_control::record::{Controlled, Safety, SumoFacts};
 use syncroad_control::scenario::Scenario;
 use syncroad_control::{RunOutput, StopReason, Trajectory};
 
@@ -168,7 +168,10 @@ impl SumoRun {
             law_speed_mode: law_driven.then_some(self.request.speed_mode),
             ssm,
             all_vehicles,
-            controlled: start.map(|s| s.controlled.clone()).unwrap_or_default(),
+            controlled: self.request.adopt.as_ref().map(|_| Controlled {
+                vehicles: start.map(|s| s.controlled.clone()).unwrap_or_default(),
+                later: finish.and_then(|f| f.totals.chosen_later),
+            }),
         };
         RunOutput {
             trajectory: self.trajectory(scenario),

@@ -276,6 +276,10 @@ pub struct Totals {
     /// Changes of the vehicle ahead of a controlled vehicle, when watched.
     #[serde(default)]
     pub topology_changes: Option<usize>,
+    /// Vehicles `sumo.controlled` chooses that came onto the road after the start and were
+    /// driven by their own vehicle type, when the law drove the user's own.
+    #[serde(default)]
+    pub chosen_later: Option<usize>,
 }
 
 /// The end of a run.

@@ -544,7 +544,9 @@ mod loops {
             .expect("horizon reached: the vehicles kept circling");
         let facts = run.output(&sc_users).sumo.unwrap();
         let front_to_back: Vec<String> = (0..6).map(|i| format!("cav{i}")).collect();
-        assert_eq!(facts.controlled, front_to_back);
+        let controlled = facts.controlled.clone().expect("the user's own vehicles");
+        assert_eq!(controlled.vehicles, front_to_back);
+        assert_eq!(controlled.later, Some(0));
         let (a, b) = (own.trajectory(&sc), run.trajectory(&sc_users));
         let n = b.positions_m.len();
         let laps = b.positions_m[n - 1] - b.positions_m[5];
@@ -575,6 +577,23 @@ mod loops {
             err,
             r#"sumo.controlled = {"vtype":"cav"}: 6 of your vehicles depart at t = 0 and match (cav5 … cav0), but the run drives 5 vehicles (`vehicles` = 5): give as many vehicles in the scenario as your files start with (checked before starting SUMO)"#
         );
+        // A chosen vehicle departing later, onto the law's lane: counted, driven by SUMO.
+        let later = as_users_own(&routes, "5").replace(
+            "</routes>",
+            r#"    <vehicle id="cav9" type="cav" route="u0" depart="20" departLane="0" departPos="free"/>
+</routes>"#,
+        );
+        std::fs::write(dir.join("cav.rou.xml"), later).unwrap();
+        o.work_dir = dir.join("later");
+        let short_horizon = scenario(
+            &dir,
+            &users.replace(r#""horizon_s": 400"#, r#""horizon_s": 60"#),
+        )
+        .unwrap();
+        let run = run_scenario(&short_horizon, &o).unwrap();
+        run.outcome().expect("horizon reached");
+        let c = run.output(&short_horizon).sumo.unwrap().controlled.unwrap();
+        assert_eq!((c.vehicles.len(), c.later), (6, Some(1)));
         // In the worker: a vehicle type of another length.
         std::fs::write(dir.join("cav.rou.xml"), as_users_own(&routes, "4")).unwrap();
         o.work_dir = dir.join("short");

@@ -22,7 +22,7 @@ use crate::trajectory::Trajectory;
 
 pub mod schema;
 
-pub use crate::sumo_facts::{Measured, Safety, SumoFacts};
+pub use crate::sumo_facts::{Controlled, Measured, Safety, SumoFacts};
 
 /// Stamps: the keys that say what produced a record (`regress --strict` holds a baseline to
 /// them).
@@ -232,11 +232,10 @@ pub struct RunRecord {
     /// syncroad's vehicles.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub all_vehicles: Option<crate::sumo_facts::AllVehicles>,
-    /// The user's own SUMO vehicles the law drove (`sumo.controlled`), in the law's order:
-    /// vehicle 0 in front, each following the one before; present only for such runs. Their
-    /// start is the user's files', not the scenario's `initial`.
+    /// The user's own SUMO vehicles the law drove (`sumo.controlled`); present only for such
+    /// runs. Their start is the user's files', not the scenario's `initial`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub controlled_vehicles: Option<Vec<String>>,
+    pub controlled: Option<crate::sumo_facts::Controlled>,
 }
 
 impl RunRecord {
@@ -303,9 +302,7 @@ impl RunRecord {
                 .and_then(|f| SafetyMargins::of(&run.trajectory, outcome.warmup_s, f)),
             gap_safety: crate::margins::GapSafety::of(&run.trajectory, outcome.warmup_s),
             all_vehicles: facts.and_then(|f| f.all_vehicles.clone()),
-            controlled_vehicles: facts
-                .map(|f| f.controlled.clone())
-                .filter(|c| !c.is_empty()),
+            controlled: facts.and_then(|f| f.controlled.clone()),
             string_amplification: crate::string_measured::measured(&run.trajectory),
             // The certificate is of the scenario's own gaps (none for a run without a sample,
             // like `certified`): a SUMO run that rescaled them by
@@ -316,7 +313,7 @@ impl RunRecord {
                 && outcome.gap_certificate
                 && facts.is_none_or(|f| (f.gap_scale - 1.0).abs() <= 0.01)
                 // The user's own vehicles started from their own gaps.
-                && facts.is_none_or(|f| f.controlled.is_empty()))
+                && facts.is_none_or(|f| f.controlled.is_none()))
             .then(|| crate::exact::gaps::gap_certificate(sc).ok().flatten())
             .flatten()
             .map(|c| c.summary()),

@@ -40,7 +40,8 @@ fn get_string(ls: &Libsumo<'_>, name: &str, id: &str) -> Result<String, CosimErr
         .map_err(|e| py_error(ls.py, format!("{name}({id})"), e).into())
 }
 
-/// The request with the chosen vehicles as its layout's; their routes set to the road's.
+/// The request with the chosen vehicles as its layout's (bound: the worker binds once); their
+/// routes set to the road's.
 pub(super) fn bind(
     ls: &Libsumo<'_>,
     req: &Request,
@@ -139,6 +140,6 @@ pub(super) fn bind(
             speed_mps: c.speed_mps,
         };
     }
-    bound.adopt = None;
+    // `adopt` stays: the topology counts chosen vehicles that come onto the road later.
     Ok(bound)
 }

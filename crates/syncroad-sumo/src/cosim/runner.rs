@@ -59,6 +59,12 @@ pub(super) fn run_steps(
     totals.negative_commands_clamped = sim.negative_commands_clamped;
     totals.odometer_deviation_max_m = sim.odometer_deviation_max_m;
     totals.topology_changes = sim.topology.as_ref().map(|t| t.changes);
+    totals.chosen_later = sim
+        .req
+        .adopt
+        .as_ref()
+        .and(sim.topology.as_ref())
+        .map(|t| t.chosen_later);
     let finish = Finish {
         stop,
         steps_done,

@@ -15,10 +15,11 @@
 //! some steps on a two-lane loop with nobody else on the road, which would count changes
 //! that never happened.)
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use pyo3::prelude::*;
 use pyo3::types::{PyString, PyTuple};
+use syncroad_control::scenario::SelectorMatch;
 use syncroad_control::sensed::{Neighbors, Sensed};
 
 use super::libsumo::Libsumo;
@@ -75,6 +76,13 @@ pub(crate) struct Topology<'py> {
     pub neighbors: Neighbors,
     /// Changes of the vehicle ahead counted so far.
     pub changes: usize,
+    /// `sumo.controlled`'s selection, when the law drives the user's own vehicles.
+    chosen: Option<SelectorMatch>,
+    /// Others whose vehicle type was looked up for it.
+    typed: HashSet<String>,
+    /// Vehicles the selection chooses that came onto the road after the start (SUMO drives
+    /// them, by their own vehicle type).
+    pub chosen_later: usize,
 }
 
 impl<'py> Topology<'py> {
@@ -130,6 +138,9 @@ impl<'py> Topology<'py> {
             others: Vec::new(),
             neighbors,
             changes: 0,
+            chosen: req.adopt.as_ref().and_then(|s| s.matcher().ok()),
+            typed: HashSet::new(),
+            chosen_later: 0,
         })
     }
 
@@ -137,6 +148,17 @@ impl<'py> Topology<'py> {
     /// of the vehicles ahead.
     pub fn sense(&mut self, py: Python<'_>, ls: &Libsumo<'_>) -> Result<(), PythonError> {
         self.read_order(py)?;
+        if let Some(m) = &self.chosen {
+            for id in &self.others {
+                if self.typed.insert(id.clone()) {
+                    let t: String = ls
+                        .call("vehicle_getTypeID", (id.as_str(),))?
+                        .extract()
+                        .map_err(|e| py_error(py, format!("vehicle.getTypeID({id})"), e))?;
+                    self.chosen_later += usize::from(m.matches(id, &t));
+                }
+            }
+        }
         let n = self.neighbors.len();
         for i in 0..n {
             // A vehicle of ours not on the road's lanes (lost: the step reports it) keeps the

@@ -135,11 +135,14 @@ fn print_summary(sc: &Scenario, f: &Finished) {
             t.collision_steps, t.teleports, t.overridden_commands, facts.max_override_mps, t.negative_commands_clamped
         );
     }
-    if !facts.controlled.is_empty() {
+    if let Some(c) = &facts.controlled {
         outln!(
             "  the law drove your vehicles (sumo.controlled), front to back: {}",
-            facts.controlled.join(", ")
+            c.vehicles.join(", ")
         );
+        if let Some(k) = c.later.filter(|&k| k > 0) {
+            outln!("  note: {k} more of the vehicles sumo.controlled chooses came onto the road after the start; the law drives the vehicles of the start, so SUMO drove these by their own vehicle type");
+        }
     }
     if let Some(a) = &facts.all_vehicles {
         outln!(
