@@ -813,7 +813,8 @@ mod routes {
 
     /// The CACC platoon behind its braking leader on lane 1 of a three-lane highway of four
     /// edges: the route is measured as sumolib measures it, and SUMO gives the native
-    /// simulator's speeds to 1e-9 m/s across the junctions.
+    /// simulator's speeds to 1e-9 m/s across the junctions; so it does when the platoon is
+    /// the user's own vehicles, chosen by an id pattern (`sumo.controlled`).
     #[test]
     fn a_platoon_on_a_three_lane_route_follows_the_native_simulator() {
         let dir = work("platoon");
@@ -840,6 +841,38 @@ mod routes {
         let native = simulate(&sc, NativeOptions::default()).trajectory;
         let worst = worst_speed_difference(&native.speeds_mps, &run.trajectory(&sc).speeds_mps);
         eprintln!("3-lane route platoon: largest SUMO-native speed difference {worst:.2e} m/s");
+        assert!(worst < 1e-9, "largest speed difference {worst} m/s");
+        // The same platoon as the user's own vehicles `p0` (the leader) … `p8`, chosen by an
+        // id pattern: bound front to back, the leader follows its profile, and SUMO still
+        // gives the native simulator's speeds.
+        let mut routes = std::fs::read_to_string(dir.join("run/routes.rou.xml"))
+            .unwrap()
+            .replace("<vType id=\"t", "<vType id=\"ut")
+            .replace("type=\"t", "type=\"ut")
+            .replace("<route id=\"r", "<route id=\"ur")
+            .replace("route=\"r", "route=\"ur")
+            .replace("<vehicle id=\"leader\"", "<vehicle id=\"p0\"");
+        let n = sc.vehicles();
+        for k in (0..n).rev() {
+            routes = routes.replace(
+                &format!("<vehicle id=\"v{k}\""),
+                &format!("<vehicle id=\"p{}\"", k + 1),
+            );
+        }
+        std::fs::write(dir.join("platoon.rou.xml"), routes).unwrap();
+        let mut own = file.clone();
+        own["sumo"] = serde_json::json!({"net": "out.net.xml", "routes": ["platoon.rou.xml"],
+                                         "controlled": {"id": "p\\d+"}});
+        let own = scenario(&dir, &own.to_string()).unwrap();
+        let mut o = opts(&dir);
+        o.work_dir = dir.join("own");
+        let run = run_scenario(&own, &o).unwrap();
+        run.outcome().expect("horizon reached");
+        let c = run.output(&own).sumo.unwrap().controlled.unwrap();
+        let ids: Vec<String> = (0..=n).map(|k| format!("p{k}")).collect();
+        assert_eq!(c.vehicles, ids);
+        let worst = worst_speed_difference(&native.speeds_mps, &run.trajectory(&own).speeds_mps);
+        eprintln!("the user's own platoon: largest SUMO-native speed difference {worst:.2e} m/s");
         assert!(worst < 1e-9, "largest speed difference {worst} m/s");
         // The horizon check uses the route's length: 2 km do not hold 400 s at 25 m/s.
         file["horizon_s"] = 400.0.into();
