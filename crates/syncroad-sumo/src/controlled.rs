@@ -5,8 +5,10 @@
 
 use std::path::PathBuf;
 
+use syncroad_control::drive::SumoDriver;
 use syncroad_control::scenario::VehicleSelector;
 
+use crate::layout::Layout;
 use crate::prepare_error::PrepareError;
 
 /// Files above this size are left to the worker's check (a parse here takes several times the
@@ -72,9 +74,37 @@ fn scan(sel: &VehicleSelector, files: &[PathBuf]) -> Found {
     found
 }
 
+/// Every check of `sumo.controlled` before SUMO starts: no SUMO drivers among the scenario's
+/// `drivers` (the user's other vehicles have their own types; the bridge's stochastic humans
+/// are the law's), and the user's `files` start with the layout's number of chosen vehicles
+/// on its lane.
+pub(crate) fn check_run(
+    sel: &VehicleSelector,
+    drivers: &[Option<SumoDriver>],
+    layout: &Layout,
+    files: &[PathBuf],
+) -> Result<(), PrepareError> {
+    if drivers
+        .iter()
+        .flatten()
+        .any(|d| !matches!(d, SumoDriver::Noisy(_)))
+    {
+        return Err(PrepareError::Controlled {
+            selector: sel.to_string(),
+            reason: "the law drives the vehicles you choose, and your other vehicles drive by their own vehicle types: give no SUMO drivers (`drivers`, `mixed`)".into(),
+        });
+    }
+    let n = layout.vehicles.len();
+    let wanted = match layout.leader_vehicle {
+        true => format!("{n} vehicles (`vehicles` = {} and the leader)", n - 1),
+        false => format!("{n} vehicles (`vehicles` = {n})"),
+    };
+    check(sel, files, n, &wanted, layout.road.lane_index)
+}
+
 /// Checks the user's `files` against `sel`: `wanted` vehicles must depart at t = 0, on lane
 /// `lane` of the road.
-pub(crate) fn check(
+fn check(
     sel: &VehicleSelector,
     files: &[PathBuf],
     wanted: usize,

@@ -231,18 +231,6 @@ fn prepare_with(
     let mut layout = layout;
     let (drivers, damper) = drivers_of(scenario, opts)?;
     let adopt = scenario.sumo().controlled();
-    if let (Some(sel), true) = (
-        adopt,
-        drivers
-            .iter()
-            .flatten()
-            .any(|d| !matches!(d, SumoDriver::Noisy(_))),
-    ) {
-        return Err(PrepareError::Controlled {
-            selector: sel.to_string(),
-            reason: "the law drives the vehicles you choose, and your other vehicles drive by their own vehicle types: give no SUMO drivers (`drivers`, `mixed`)".into(),
-        });
-    }
     assign_drivers(&mut layout, &drivers, scenario.step_s())?;
     // Stochastic humans are commanded by the bridge: SUMO sees law-driven vehicles.
     let mut humans: Vec<Option<NoisyIdm>> = vec![None; layout.vehicles.len()];
@@ -312,13 +300,8 @@ fn prepare_with(
         no_clashing_ids(&ours, "sumo.additional", &extra_additional)?;
     }
     if let Some(sel) = adopt {
-        let n = layout.vehicles.len();
-        let wanted = match layout.leader_vehicle {
-            true => format!("{n} vehicles (`vehicles` = {} and the leader)", n - 1),
-            false => format!("{n} vehicles (`vehicles` = {n})"),
-        };
         let files = [extra_routes.as_slice(), extra_additional.as_slice()].concat();
-        crate::controlled::check(sel, &files, n, &wanted, layout.road.lane_index)?;
+        crate::controlled::check_run(sel, &drivers, &layout, &files)?;
     }
     Ok(Request {
         layout,
