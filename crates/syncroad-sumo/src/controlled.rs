@@ -91,7 +91,7 @@ pub(crate) fn check_run(
     {
         return Err(PrepareError::Controlled {
             selector: sel.to_string(),
-            reason: "the law drives the vehicles you choose, and your other vehicles drive by their own vehicle types: give no SUMO drivers (`drivers`, `mixed`)".into(),
+            reason: "the law drives the vehicles you choose, and your other vehicles drive by their own vehicle types, so no SUMO driver (`drivers`, `mixed`, compare's baselines) takes a vehicle of the run: run the law alone; for a baseline, give your vehicles the driver's vehicle type in your file and run without sumo.controlled".into(),
         });
     }
     let n = layout.vehicles.len();

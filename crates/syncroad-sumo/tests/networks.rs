@@ -577,6 +577,18 @@ mod loops {
             err,
             r#"sumo.controlled = {"vtype":"cav"}: 6 of your vehicles depart at t = 0 and match (cav5 … cav0), but the run drives 5 vehicles (`vehicles` = 5): give as many vehicles in the scenario as your files start with (checked before starting SUMO)"#
         );
+        // A SUMO driver (as compare's baselines give) does not take a chosen vehicle.
+        let mut with_drivers = o.clone();
+        with_drivers.drivers =
+            vec![Some(syncroad_control::drive::SumoDriver::parse("drivers", "idm").unwrap()); 6];
+        let err =
+            syncroad_sumo::check_run(&sc_users, &load_road(&sc_users).unwrap(), &with_drivers)
+                .unwrap_err()
+                .to_string();
+        assert!(
+            err.contains("no SUMO driver (`drivers`, `mixed`, compare's baselines) takes a vehicle of the run"),
+            "{err}"
+        );
         // A chosen vehicle departing later, onto the law's lane: counted, driven by SUMO.
         let later = as_users_own(&routes, "5").replace(
             "</routes>",
