@@ -87,6 +87,15 @@ class Run:
             self._trajectories = csv.read_csv(str(self.out / TRAJECTORY_FILE))
         return self._trajectories
 
+    @property
+    def vehicle_ids(self) -> Optional[List[str]]:
+        """The SUMO ids of the trajectory's vehicles, by its ``vehicle`` index, when the law
+        drove vehicles of your own (``sumo.controlled``; ``record.controlled.vehicles``):
+        ``df["id"] = df["vehicle"].map(dict(enumerate(run.vehicle_ids)))``. ``None`` for a
+        run of syncroad's own vehicles."""
+        c = self.metrics.get("controlled")
+        return None if c is None else [str(v) for v in c["vehicles"]]
+
     def plots(self, out: "Optional[str | Path]" = None) -> Dict[str, Path]:
         """The run's plots (time-space diagram, speeds, spread; PNG and SVG), drawn by the
         CLI when the run was written, keyed ``"time_space.png"`` etc.; with ``out``, copied

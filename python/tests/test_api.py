@@ -145,3 +145,41 @@ def test_a_copied_run_folder_opens_as_a_run(tmp_path):
     assert again.metrics == r.metrics and again.verdict == r.verdict
     with pytest.raises(FileNotFoundError):
         syncroad.Run(tmp_path)
+
+
+def test_the_trajectory_of_your_own_vehicles_names_them(tmp_path):
+    """``sumo.controlled`` on the shipped ring: three vehicles of the user's file, written out of
+    order, are the trajectory's vehicles 0, 1, 2 in ring order, and each starts at the speed
+    its own line of the file gives."""
+    sc = json.loads((REPO / "scenarios/sugiyama-ring.json").read_text())
+    shutil.copy(REPO / "sumo-nets/sugiyama-ring.net.xml", tmp_path / "ring.net.xml")
+    depart = {"mine.b": ("arc1", 30.0, 6.0), "mine.a": ("arc0", 10.0, 7.0), "mine.c": ("arc2", 20.0, 5.0)}
+    lines = [
+        '<routes>',
+        '    <vType id="mine" length="5" sigma="0"/>',
+        '    <route id="all" edges="arc0 arc1 arc2 arc3 arc0 arc1 arc2 arc3 arc0 arc1 arc2 arc3"/>',
+        '    <route id="from1" edges="arc1 arc2 arc3 arc0"/>',
+        '    <route id="from2" edges="arc2 arc3 arc0 arc1"/>',
+    ]
+    route = {"arc0": "all", "arc1": "from1", "arc2": "from2"}
+    for vid, (edge, pos, v) in depart.items():
+        lines.append(
+            f'    <vehicle id="{vid}" type="mine" route="{route[edge]}" depart="0" departLane="0" '
+            f'departPos="{pos}" departSpeed="{v}"/>'
+        )
+    lines.append("</routes>")
+    (tmp_path / "mine.rou.xml").write_text("\n".join(lines) + "\n")
+    sc.update(vehicles=3, horizon_s=60)
+    sc["model"]["delay_s"] = 0.5
+    sc["sumo"] = {"net": "ring.net.xml", "routes": ["mine.rou.xml"], "controlled": {"id": r"mine\.[a-z]"}}
+    run = syncroad.run(syncroad.Scenario.from_dict(sc, base_dir=tmp_path), out=tmp_path / "run", plots=False)
+    assert run.complete
+    # Ring order from the start of arc0: a (arc0), then back around: c (arc2), b (arc1).
+    assert run.vehicle_ids == ["mine.a", "mine.c", "mine.b"]
+    df = run.trajectories.to_pandas()
+    df["id"] = df["vehicle"].map(dict(enumerate(run.vehicle_ids)))
+    first = df[df["time_s"] == df["time_s"].min()].set_index("id")["speed_mps"]
+    for vid, (_, _, v) in depart.items():
+        assert first[vid] == pytest.approx(v, abs=1e-9), vid
+    ours = syncroad.run("scenarios/ring-theorem1.json", out=tmp_path / "ours", plots=False)
+    assert ours.vehicle_ids is None
