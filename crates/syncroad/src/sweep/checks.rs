@@ -37,7 +37,15 @@ impl Sweep {
             .file
             .timeout_s
             .and_then(|t| Duration::try_from_secs_f64(t).ok());
-        if self.backend == Backend::Sumo {
+        // SUMO's own measurements (the record's `sumo` block: flow, time loss, fuel, CO2,
+        // braking) read every vehicle's fuel and CO2 each step, a fifth of a small ring's
+        // sweep: only when a column holds them. The dynamics, and so every other column, are
+        // the same either way.
+        let measured = self
+            .metrics
+            .iter()
+            .any(|m| m.starts_with("sumo.") || m == "emission_every");
+        if self.backend == Backend::Sumo && measured {
             plan.measure = Some(Measurements {
                 emission_every: 1,
                 tripinfo: false,
