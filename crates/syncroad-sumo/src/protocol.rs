@@ -4,7 +4,8 @@
 //! its protocol channel (its original stdout; SUMO's own console output is diverted to stderr)
 //! with frames `[kind: u8][len: u32 LE][payload]`:
 //! * kind `J`: a JSON [`WorkerMsg`] (start info, events, the end of the run);
-//! * kind `R`: a binary chunk of trajectory rows, see [`encode_rows`].
+//! * kind `R`: a binary chunk of trajectory rows, see [`RowChunk`]: `n: u32, records: u32`, then
+//!   per record `t, speeds, positions, commands` as little-endian f64.
 //!
 //! Rows stream in chunks while the control loop runs inside the worker, so the parent holds
 //! every row received so far whatever happens to the worker.
@@ -299,25 +300,6 @@ pub struct Finish {
     pub measured: Option<Measured>,
 }
 
-/// Serialises the speeds, positions and commands of a wire trajectory (every vehicle on the
-/// road, no gaps): `n: u32, records: u32`, then per record `t, speeds, positions, commands` as
-/// little-endian f64.
-pub fn encode_rows(rows: &Trajectory) -> Vec<u8> {
-    let n = rows.n;
-    let mut out = Vec::with_capacity(8 + rows.len() * (1 + 3 * n) * 8);
-    out.extend_from_slice(&(n as u32).to_le_bytes());
-    out.extend_from_slice(&(rows.len() as u32).to_le_bytes());
-    for k in 0..rows.len() {
-        out.extend_from_slice(&rows.time_s[k].to_le_bytes());
-        for arr in [&rows.speeds_mps, &rows.positions_m, &rows.commands_mps] {
-            for x in &arr[k * n..(k + 1) * n] {
-                out.extend_from_slice(&x.to_le_bytes());
-            }
-        }
-    }
-    out
-}
-
 /// Writes the speed ranges gathered since the last call (`t, lo, hi` triplets) and empties
 /// them.
 pub fn write_ranges(w: &mut impl Write, ranges: &mut Vec<[f64; 3]>) -> io::Result<()> {
@@ -351,7 +333,7 @@ fn decode_ranges(bytes: &[u8]) -> Result<Vec<[f64; 3]>, ProtocolError> {
         .collect())
 }
 
-/// Inverse of [`encode_rows`].
+/// Reads the payload of a [`RowChunk`] frame.
 pub fn decode_rows(bytes: &[u8]) -> Result<Trajectory, ProtocolError> {
     let word = |i: usize| -> usize {
         bytes
@@ -435,14 +417,62 @@ pub fn write_msg(w: &mut impl Write, msg: &WorkerMsg) -> io::Result<()> {
     w.flush()
 }
 
-/// Writes a row chunk frame and empties the chunk.
-pub fn write_rows(w: &mut impl Write, rows: &mut Trajectory) -> io::Result<()> {
-    if rows.is_empty() {
-        return Ok(());
+/// The worker's chunk of rows, encoded as it is recorded (the format is in the module's
+/// documentation), built in one buffer that every chunk of the run reuses (no copy of the
+/// rows into a trajectory first, no allocation per chunk).
+#[derive(Debug)]
+pub struct RowChunk {
+    n: usize,
+    records: usize,
+    payload: Vec<u8>,
+}
+
+impl RowChunk {
+    /// An empty chunk for `n` vehicles, with room for `records` records.
+    pub fn new(n: usize, records: usize) -> Self {
+        let mut payload = Vec::with_capacity(8 + records * (1 + 3 * n) * 8);
+        payload.extend_from_slice(&(n as u32).to_le_bytes());
+        payload.extend_from_slice(&0u32.to_le_bytes());
+        Self {
+            n,
+            records: 0,
+            payload,
+        }
     }
-    write_frame(w, KIND_ROWS, &encode_rows(rows))?;
-    rows.clear();
-    w.flush()
+
+    /// Records held.
+    pub fn len(&self) -> usize {
+        self.records
+    }
+
+    /// True when nothing is held.
+    pub fn is_empty(&self) -> bool {
+        self.records == 0
+    }
+
+    /// Appends the record at time `t`: each slice has one value per vehicle.
+    pub fn push(&mut self, t: f64, speeds: &[f64], positions: &[f64], commands: &[f64]) {
+        debug_assert!([speeds.len(), positions.len(), commands.len()] == [self.n; 3]);
+        self.payload.extend_from_slice(&t.to_le_bytes());
+        for arr in [speeds, positions, commands] {
+            for x in arr {
+                self.payload.extend_from_slice(&x.to_le_bytes());
+            }
+        }
+        self.records += 1;
+    }
+
+    /// Writes the held records as one frame (nothing when empty) and empties the chunk.
+    pub fn write(&mut self, w: &mut impl Write) -> io::Result<()> {
+        if self.is_empty() {
+            return Ok(());
+        }
+        self.payload[4..8].copy_from_slice(&(self.records as u32).to_le_bytes());
+        write_frame(w, KIND_ROWS, &self.payload)?;
+        self.payload.truncate(8);
+        self.records = 0;
+        w.flush()
+    }
 }
 
 /// A decoded frame.
@@ -493,15 +523,55 @@ pub fn read_frame(r: &mut impl Read) -> Result<Option<Frame>, ProtocolError> {
 mod tests {
     use super::*;
 
+    /// The row format written out from a whole trajectory, the reference [`RowChunk`] is
+    /// checked against: `n: u32, records: u32`, then per record `t, speeds, positions,
+    /// commands` as little-endian f64.
+    fn encode_rows(rows: &Trajectory) -> Vec<u8> {
+        let n = rows.n;
+        let mut out = Vec::with_capacity(8 + rows.len() * (1 + 3 * n) * 8);
+        out.extend_from_slice(&(n as u32).to_le_bytes());
+        out.extend_from_slice(&(rows.len() as u32).to_le_bytes());
+        for k in 0..rows.len() {
+            out.extend_from_slice(&rows.time_s[k].to_le_bytes());
+            for arr in [&rows.speeds_mps, &rows.positions_m, &rows.commands_mps] {
+                for x in &arr[k * n..(k + 1) * n] {
+                    out.extend_from_slice(&x.to_le_bytes());
+                }
+            }
+        }
+        out
+    }
+
     #[test]
     fn rows_round_trip_through_frames() {
         let mut c = Trajectory::new(2);
         c.push_commanded(0.0, &[1.0, 2.0], &[0.0, -7.5], &[f64::NAN, 2.0]);
         c.push_commanded(0.1, &[1.5, 2.5], &[0.1, -7.3], &[1.5, 2.5]);
         let copy = c.clone();
+        let mut chunk = RowChunk::new(2, 1);
+        for k in 0..c.len() {
+            let at = k * 2..k * 2 + 2;
+            chunk.push(
+                c.time_s[k],
+                &c.speeds_mps[at.clone()],
+                &c.positions_m[at.clone()],
+                &c.commands_mps[at],
+            );
+        }
         let mut buf = Vec::new();
-        write_rows(&mut buf, &mut c).unwrap();
-        assert!(c.is_empty());
+        chunk.write(&mut buf).unwrap();
+        assert!(chunk.is_empty());
+        // The chunk built in place is the format's encoding of the same records.
+        assert_eq!(&buf[5..], encode_rows(&c).as_slice());
+        // An empty chunk writes nothing; the reused buffer encodes the next chunk afresh.
+        chunk.write(&mut buf).unwrap();
+        assert_eq!(buf.len(), 5 + encode_rows(&c).len());
+        chunk.push(0.2, &[3.0, 4.0], &[0.4, -7.1], &[3.0, 4.0]);
+        let mut next = Vec::new();
+        chunk.write(&mut next).unwrap();
+        let one = decode_rows(&next[5..]).unwrap();
+        assert_eq!((one.len(), one.speeds_mps.clone()), (1, vec![3.0, 4.0]));
+        c.clear();
         write_msg(
             &mut buf,
             &WorkerMsg::Failed {
