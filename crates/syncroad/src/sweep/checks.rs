@@ -126,3 +126,39 @@ impl Sweep {
         format!("sweep point {} ({})", p.id, parts.join(", "))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use super::*;
+
+    fn sweep(backend: &str, metrics: &[&str]) -> Sweep {
+        let raw = serde_json::json!({
+            "base": "sugiyama-ring.json", "backend": backend,
+            "axes": [{"field": "model.graph.gain_pred", "values": [0.6]}],
+            "metrics": metrics,
+        });
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios");
+        Sweep::new(raw, &dir, "t".into()).unwrap()
+    }
+
+    fn measure(s: &Sweep) -> Option<Measurements> {
+        let p = s.point(0);
+        let sc = s.scenario(&p).unwrap();
+        s.plan_point(&p, &sc).unwrap().measure
+    }
+
+    #[test]
+    fn sumo_measures_its_own_quantities_only_when_a_column_shows_them() {
+        // A verdict or a spread needs only the trajectory: SUMO reads no fuel or CO2.
+        let plain = sweep("sumo", &["sync.verdict", "sync.final_spread_mps"]);
+        assert!(measure(&plain).is_none());
+        // A column of the record's `sumo` block needs them, every step.
+        let fuel = sweep("sumo", &["sync.verdict", "sumo.fuel_g_per_km"]);
+        let m = measure(&fuel).expect("a sumo.* column measures");
+        assert_eq!((m.emission_every, m.tripinfo, m.ssm), (1, false, false));
+        // The native simulator has no SUMO to measure.
+        assert!(measure(&sweep("native", &["sync.verdict"])).is_none());
+    }
+}
