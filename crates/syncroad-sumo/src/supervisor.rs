@@ -309,6 +309,11 @@ impl Worker {
         if cmd.embeds_build_python {
             pin_build_python(&mut command);
         }
+        // libsumo imports numpy, whose OpenBLAS starts a thread per core that the worker never
+        // uses; in a sweep those threads took cycles from the other workers' SUMO steps.
+        if std::env::var_os("OPENBLAS_NUM_THREADS").is_none() {
+            command.env("OPENBLAS_NUM_THREADS", "1");
+        }
         let mut child = command
             .args(&cmd.args)
             .stdin(Stdio::piped())
