@@ -52,6 +52,11 @@ impl SumoRun {
         self.worker.result.as_ref().err()
     }
 
+    /// Seconds spent inside SUMO's step, when the worker finished its report.
+    pub fn step_s(&self) -> Option<f64> {
+        self.worker.result.as_ref().ok().map(|f| f.step_s)
+    }
+
     /// SUMO's road length, or the parsed one if SUMO never started.
     pub fn road_length_m(&self) -> f64 {
         self.worker

@@ -298,6 +298,10 @@ pub struct Finish {
     /// SUMO-side measurements, when requested.
     #[serde(default)]
     pub measured: Option<Measured>,
+    /// Wall time spent inside SUMO's `simulation.step` over the run's full steps \[s\]: what
+    /// a sweep's stepping bound is made of. A timing, so never part of a run's record.
+    #[serde(default)]
+    pub step_s: f64,
 }
 
 /// Writes the speed ranges gathered since the last call (`t, lo, hi` triplets) and empties

@@ -72,6 +72,8 @@ pub struct SumoOutput {
     pub output: RunOutput,
     /// Ctrl-C (or a signal) stopped it.
     pub interrupted: bool,
+    /// Seconds inside SUMO's step, when the worker reported its end (a timing: not recorded).
+    pub step_s: Option<f64>,
 }
 
 /// Runs a scenario in one supervised SUMO worker on a road read once. Errors are the checks
@@ -94,6 +96,7 @@ fn sumo_output(sc: &Scenario, run: SumoRun) -> SumoOutput {
     SumoOutput {
         output: run.output(sc),
         interrupted: matches!(run.failure(), Some(SupervisorError::Interrupted { .. })),
+        step_s: run.step_s(),
     }
 }
 

@@ -39,7 +39,8 @@ pub(super) fn run_steps(
     };
     let mut recorder = Recorder::new(&sim);
     let mut timer = probe.map(ProbeTimer::new);
-    let (stop, steps_done) = {
+    sim.phase_times = timer.is_some();
+    let (stop, steps_done, step_s) = {
         let mut observers: Vec<&mut SumoObserver<'_, '_, '_>> = Vec::with_capacity(3);
         observers.push(&mut safety);
         if let Some(m) = meter.as_mut() {
@@ -71,20 +72,23 @@ pub(super) fn run_steps(
         totals,
         probe: timer.map(|t| t.finish(steps_done)),
         measured,
+        step_s,
     };
     write_msg(out, &WorkerMsg::Finished(finish)).map_err(pipe)?;
     Ok(())
 }
 
 /// The steps: each full step is followed by every observer in turn; the probe's bare steps
-/// only step SUMO. Returns the stop reason and the steps done.
+/// only step SUMO. Returns the stop reason, the steps done and the time inside SUMO's full
+/// steps.
 fn step_loop<'a, 'py>(
     sim: &mut CoSim<'a, 'py>,
     observers: &mut [&mut SumoObserver<'_, 'a, 'py>],
     mut timer: Option<&mut ProbeTimer>,
     out: &mut dyn Write,
-) -> Result<(StopReason, usize), CosimError> {
+) -> Result<(StopReason, usize, f64), CosimError> {
     let steps = sim.req.steps;
+    let mut step_s = 0.0;
     let mut at = Observed {
         steps_done: 0,
         sim: &*sim,
@@ -102,13 +106,15 @@ fn step_loop<'a, 'py>(
             }
         }
         let mut times = StepTimes::default();
-        if let Some(s) = sim.step(step, &mut times)? {
+        let stopped = sim.step(step, &mut times)?;
+        step_s += times.step_s;
+        if let Some(s) = stopped {
             // A command that never reached SUMO leaves the step undone.
             let done = match s {
                 StopReason::NonFiniteCommand { .. } => step,
                 _ => step + 1,
             };
-            return Ok((s, done));
+            return Ok((s, done, step_s));
         }
         let mut at = Observed {
             steps_done: step + 1,
@@ -126,5 +132,5 @@ fn step_loop<'a, 'py>(
             t.stepped(step, &times);
         }
     }
-    Ok((StopReason::Horizon, steps))
+    Ok((StopReason::Horizon, steps, step_s))
 }

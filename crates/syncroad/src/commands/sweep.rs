@@ -88,6 +88,22 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<Status> {
                 String::new()
             }
         );
+        if summary.sumo_step_s > 0.0 {
+            // The points' time inside SUMO's step, spread over the jobs that could step at
+            // once (no more than the points and the cores), is the least wall time these runs
+            // could take: the rest is syncroad's loop, starts and evaluation.
+            let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+            let lanes = opts.jobs.min(summary.ran).min(cores).max(1);
+            let bound = summary.sumo_step_s / lanes as f64;
+            outln!(
+                "  inside SUMO's step: {:.1} s over the points; stepped {} at a time at least {:.1} s, this sweep {:.1} s ({:.2}x its stepping bound)",
+                summary.sumo_step_s,
+                lanes,
+                bound,
+                wall,
+                wall / bound
+            );
+        }
     }
     outln!(
         "wrote {} rows to {}/results.parquet and results.csv",

@@ -61,6 +61,9 @@ pub struct Summary {
     pub interrupted: usize,
     /// Worker processes started.
     pub workers: usize,
+    /// Seconds the points run now spent inside SUMO's step (0 on the native simulator): the
+    /// sweep's stepping bound on J jobs is this over J.
+    pub sumo_step_s: f64,
 }
 
 /// The table's columns: point, axes, run, penetration, seed, status, the metrics, stamps.
@@ -211,6 +214,8 @@ struct Shared<'a> {
     pool: Option<WorkerPool>,
     roads: Mutex<HashMap<PathBuf, Arc<Road>>>,
     interrupt: Arc<AtomicBool>,
+    /// Σ of the points' time inside SUMO's step.
+    step_s: Mutex<f64>,
 }
 
 enum PointEnd {
@@ -272,6 +277,7 @@ impl Shared<'_> {
                 );
                 let r = pipeline::sumo_pooled(&sc, &road, &o, pool)
                     .map_err(|e| InputError::caused("before starting SUMO", e))?;
+                *self.step_s.lock().expect("step time") += r.step_s.unwrap_or(0.0);
                 (r.output, r.interrupted)
             }
         };
@@ -337,6 +343,7 @@ pub fn run(
         pool: pool.transpose()?,
         roads: Mutex::new(HashMap::new()),
         interrupt: interrupt.clone(),
+        step_s: Mutex::new(0.0),
     };
     let write_error: Mutex<Option<anyhow::Error>> = Mutex::new(None);
     let ends = crate::batch::run(
@@ -372,6 +379,7 @@ pub fn run(
     summary.failed = ends.iter().flatten().filter(|&&failed| failed).count();
     summary.interrupted = ends.iter().filter(|e| e.is_none()).count();
     summary.workers = shared.pool.as_ref().map_or(0, WorkerPool::workers_started);
+    summary.sumo_step_s = *shared.step_s.lock().expect("step time");
     if let Some(e) = write_error.into_inner().expect("error slot") {
         return Err(e.context("a finished point's row could not be written; the sweep stopped"));
     }
