@@ -1,6 +1,7 @@
 // Batch calls into the C++ API of the libsumo that CPython has loaded (syncroad, direct.rs).
 //
-// libsumo's Python module is a SWIG wrapper around the static functions of libsumo::Vehicle;
+// libsumo's Python module is a SWIG wrapper around the static functions of libsumo::Vehicle
+// and libsumo::Simulation;
 // its shared object exports them. Calling them through these shims skips one interpreter
 // round trip per vehicle and step, on the same simulation the Python module started.
 // Every exception stops the batch and is reported with the index of the vehicle.
@@ -14,6 +15,7 @@
 namespace {
 using GetF64 = double (*)(const std::string&);
 using SetF64 = void (*)(const std::string&, double);
+using GetInt = int (*)();
 
 void copy_message(const char* what, char* err, std::size_t errlen) {
     if (err == nullptr || errlen == 0) {
@@ -59,6 +61,21 @@ std::size_t sr_get_f64(void* fn, const sr_ids* ids, double* out, char* err, std:
     } catch (...) {
         copy_message("unknown C++ exception", err, errlen);
         return i + 1;
+    }
+    return 0;
+}
+
+// *out = fn() for a count of the simulation; returns 0, or 1 if the call threw.
+std::size_t sr_get_int(void* fn, int* out, char* err, std::size_t errlen) {
+    auto f = reinterpret_cast<GetInt>(fn);
+    try {
+        *out = f();
+    } catch (const std::exception& e) {
+        copy_message(e.what(), err, errlen);
+        return 1;
+    } catch (...) {
+        copy_message("unknown C++ exception", err, errlen);
+        return 1;
     }
     return 0;
 }

@@ -20,6 +20,8 @@ const GET_DISTANCE: &str =
     "_ZN7libsumo7Vehicle11getDistanceERKNSt7__cxx1112basic_stringIcSt11char_traitsIcESaIcEEE";
 const SET_SPEED: &str =
     "_ZN7libsumo7Vehicle8setSpeedERKNSt7__cxx1112basic_stringIcSt11char_traitsIcESaIcEEEd";
+const COLLIDING: &str = "_ZN7libsumo10Simulation26getCollidingVehiclesNumberEv";
+const TELEPORTS: &str = "_ZN7libsumo10Simulation25getStartingTeleportNumberEv";
 
 #[repr(C)]
 struct SrIds {
@@ -36,6 +38,7 @@ extern "C" {
         err: *mut c_char,
         errlen: usize,
     ) -> usize;
+    fn sr_get_int(f: *mut c_void, out: *mut i32, err: *mut c_char, errlen: usize) -> usize;
     fn sr_set_f64(
         f: *mut c_void,
         ids: *const SrIds,
@@ -59,6 +62,8 @@ pub struct Direct {
     get_speed: *mut c_void,
     get_distance: *mut c_void,
     set_speed: *mut c_void,
+    colliding: *mut c_void,
+    teleports: *mut c_void,
     ids: *mut SrIds,
     n: usize,
 }
@@ -82,6 +87,7 @@ impl Direct {
         };
         let (get_speed, get_distance, set_speed) =
             (sym(GET_SPEED)?, sym(GET_DISTANCE)?, sym(SET_SPEED)?);
+        let (colliding, teleports) = (sym(COLLIDING)?, sym(TELEPORTS)?);
         let ptrs: Vec<*const c_char> = ids.iter().map(|s| s.as_ptr().cast()).collect();
         let lens: Vec<usize> = ids.iter().map(String::len).collect();
         // SAFETY: `ptrs[i]` points at `lens[i]` bytes of `ids[i]`, alive during the call; the
@@ -94,6 +100,8 @@ impl Direct {
             get_speed,
             get_distance,
             set_speed,
+            colliding,
+            teleports,
             ids: handle_ids,
             n: ids.len(),
         })
@@ -130,6 +138,25 @@ impl Direct {
     /// `vehicle.getDistance` (odometer) of every vehicle.
     pub fn odometers(&self, out: &mut [f64]) -> Result<(), DirectError> {
         self.get(self.get_distance, out)
+    }
+
+    fn count(f: *mut c_void) -> Result<usize, String> {
+        let mut n = 0i32;
+        let mut err = [0 as c_char; 512];
+        // SAFETY: `f` is `int()` from the loaded libsumo; the shim catches every exception.
+        let r = unsafe { sr_get_int(f, &mut n, err.as_mut_ptr(), err.len()) };
+        Self::check(r, &err).map_err(|e| e.message)?;
+        Ok(usize::try_from(n).unwrap_or(0))
+    }
+
+    /// `simulation.getCollidingVehiclesNumber`: vehicles in a collision this step.
+    pub fn colliding(&self) -> Result<usize, String> {
+        Self::count(self.colliding)
+    }
+
+    /// `simulation.getStartingTeleportNumber`: teleports that started this step.
+    pub fn teleports(&self) -> Result<usize, String> {
+        Self::count(self.teleports)
     }
 
     /// `vehicle.setSpeed` of every vehicle.

@@ -107,9 +107,8 @@ impl<'o, 'a, 'py> StepObserver<Observed<'o, 'a, 'py>> for SafetyWatch {
     }
 
     fn after_step(&mut self, at: &mut Observed<'_, '_, '_>) -> Result<(), CosimError> {
-        let ls = at.sim.ls;
         let step = at.steps_done;
-        let colliding = ls.count(&ls.colliding, "simulation.getCollidingVehiclesNumber")?;
+        let (colliding, teleports) = at.sim.safety_counts()?;
         if colliding > 0 {
             self.totals.collision_steps += 1;
             self.totals.colliding_vehicles += colliding;
@@ -119,7 +118,6 @@ impl<'o, 'a, 'py> StepObserver<Observed<'o, 'a, 'py>> for SafetyWatch {
             };
             write_msg(&mut at.out, &WorkerMsg::Event(e)).map_err(pipe)?;
         }
-        let teleports = ls.count(&ls.teleports, "simulation.getStartingTeleportNumber")?;
         if teleports > 0 {
             self.totals.teleports += teleports;
             let e = Event::Teleport {

@@ -159,6 +159,28 @@ impl<'a, 'py> CoSim<'a, 'py> {
         self.reader.direct.is_some()
     }
 
+    /// SUMO's counts after the last step: vehicles in a collision, teleports that started. One
+    /// C++ call each with the batch calls in use, else through the Python module.
+    pub fn safety_counts(&self) -> Result<(usize, usize), CosimError> {
+        let ls = self.ls;
+        let Some(d) = &self.reader.direct else {
+            return Ok((
+                ls.count(&ls.colliding, "simulation.getCollidingVehiclesNumber")?,
+                ls.count(&ls.teleports, "simulation.getStartingTeleportNumber")?,
+            ));
+        };
+        let failed = |call: &str, m: String| PythonError::Call {
+            call: format!("libsumo::Simulation::{call}() (direct)"),
+            traceback: format!("C++ exception: {m}"),
+        };
+        Ok((
+            d.colliding()
+                .map_err(|m| failed("getCollidingVehiclesNumber", m))?,
+            d.teleports()
+                .map_err(|m| failed("getStartingTeleportNumber", m))?,
+        ))
+    }
+
     /// A law drives some vehicles.
     pub fn controlled(&self) -> bool {
         self.controller.is_some()
