@@ -121,6 +121,13 @@ pub struct BenchResult {
     pub interleaved_overhead_pct: f64,
     /// The per-repeat values of that.
     pub interleaved_samples_pct: Vec<f64>,
+    /// Median over the interleaved runs of the full steps' time outside `simulation.step` over
+    /// the time inside it [%], with no phase or observer timers: the clocks of an ordinary run
+    /// only (the profiled runs read seven more clocks per step, a visible share on small rings).
+    pub in_run_untimed_pct: f64,
+    /// The floor: libsumo's own read and command calls (the profile's law + `setSpeed` and
+    /// reads) over `simulation.step` [%].
+    pub floor_pct: f64,
     /// TraCI reference time, every read through one subscription result per step (as Flow
     /// reads its vehicles).
     pub traci_ms: Option<f64>,
@@ -257,13 +264,14 @@ fn timed(
 const INTERLEAVE_BLOCK: usize = 25;
 
 /// One run alternating blocks of SUMO alone and the full controller loop in the same process:
-/// `controlled / bare − 1` [%] of the mean wall time per step.
+/// `controlled / bare − 1` [%] of the mean wall time per step, and the full steps' time outside
+/// `simulation.step` over the time inside it [%].
 fn interleaved(
     worker: &WorkerCommand,
     sc: &Scenario,
     work: &Path,
     warmup: usize,
-) -> Result<f64, BenchError> {
+) -> Result<(f64, f64), BenchError> {
     let opts = RunOptions::new(work, worker.clone());
     let req = prepare(sc, &load_road(sc)?, &opts)?;
     let probe = Probe {
@@ -276,7 +284,8 @@ fn interleaved(
     let p = &t.phases;
     let bare = p.bare_wall_s / p.bare_steps.max(1) as f64;
     let controlled = p.controlled_wall_s / p.controlled_steps.max(1) as f64;
-    Ok(100.0 * (controlled / bare - 1.0))
+    let in_run = 100.0 * (p.controlled_wall_s - p.step_s) / p.step_s;
+    Ok((100.0 * (controlled / bare - 1.0), in_run))
 }
 
 /// One timed worker run.
@@ -410,6 +419,8 @@ pub fn run_case(
         controlled_samples_ms: m.controlled,
         python_getters_samples_ms: m.python_getters,
         interleaved_samples_pct: m.interleaved_pct,
+        in_run_untimed_pct: median(&m.in_run_untimed),
+        floor_pct: floor_pct(&m.profile),
         traci_ms,
         speedup_vs_traci: traci_ms.map(|t| t / c),
         traci_per_call_ms,
@@ -424,6 +435,7 @@ struct Samples {
     controlled: Vec<f64>,
     python_getters: Vec<f64>,
     interleaved_pct: Vec<f64>,
+    in_run_untimed: Vec<f64>,
     in_run: Vec<f64>,
     /// The profile of the fastest controlled run.
     profile: Vec<(String, f64)>,
@@ -443,6 +455,7 @@ fn repeats(
         controlled: Vec::new(),
         python_getters: Vec::new(),
         interleaved_pct: Vec::new(),
+        in_run_untimed: Vec::new(),
         in_run: Vec::new(),
         profile: Vec::new(),
     };
@@ -486,13 +499,14 @@ fn repeats(
             r + 1
         ));
         m.python_getters.push(s);
-        let i = interleaved(worker, sc, &work_dir.join("interleaved"), case.warmup)?;
+        let (i, untimed) = interleaved(worker, sc, &work_dir.join("interleaved"), case.warmup)?;
         progress(&format!(
             "{}: same-process overhead (interleaved) {i:7.1} % (run {})",
             case.name,
             r + 1
         ));
         m.interleaved_pct.push(i);
+        m.in_run_untimed.push(untimed);
     }
     Ok(m)
 }
@@ -552,6 +566,17 @@ pub fn run_standard(
     results
 }
 
+/// libsumo's own calls (law + `setSpeed`, reads) over `simulation.step` in `profile` [%].
+fn floor_pct(profile: &[(String, f64)]) -> f64 {
+    let of = |name: &str| {
+        profile
+            .iter()
+            .find(|(n, _)| n == name)
+            .map_or(0.0, |(_, t)| *t)
+    };
+    100.0 * (of("law + setSpeed") + of("read speeds + odometers")) / of("simulation.step")
+}
+
 /// The profile of each case: one line per phase, its time per step and its share of the step.
 pub fn format_profile(results: &[BenchResult]) -> String {
     let mut s = String::new();
@@ -567,6 +592,12 @@ pub fn format_profile(results: &[BenchResult]) -> String {
                 100.0 * t / total
             ));
         }
+        s.push_str(&format!(
+            "  floor (libsumo's calls): {:.1} % of SUMO's step; the loop without the profile's timers costs {:.1} % of it, {:.2}x the floor\n",
+            r.floor_pct,
+            r.in_run_untimed_pct,
+            r.in_run_untimed_pct / r.floor_pct
+        ));
     }
     s
 }
@@ -605,6 +636,20 @@ pub fn format_table(results: &[BenchResult]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_floor_is_libsumos_calls_over_sumos_step() {
+        let profile = [
+            ("simulation.step", 0.040),
+            ("law + setSpeed", 0.0025),
+            ("read speeds + odometers", 0.0015),
+            ("rows", 0.0005),
+            ("rest of the loop", 0.0002),
+        ]
+        .map(|(n, t)| (n.to_string(), t));
+        // (2.5 + 1.5) µs of libsumo calls on a 40 µs step; the rows are syncroad's own.
+        assert!((floor_pct(&profile) - 10.0).abs() < 1e-9);
+    }
 
     #[test]
     fn the_reference_figure_is_the_last_json_line_that_has_one() {
