@@ -36,7 +36,7 @@ if [ "$mode" = vs ]; then
         echo "$t0 $t1 $t2 $(awk '$1 == "bound" { printf "%s ", $3 }' "$d/bound-$i") $inrun"
     done | awk -v other="$other" -v c="$cores" '
         { a[NR] = $2 - $1; b[NR] = $3 - $2; r[NR] = a[NR] / b[NR];
-          ba[NR] = a[NR] / $4; bl[NR] = a[NR] / $5; bi[NR] = a[NR] / ($6 / c);
+          ba[NR] = a[NR] / $4; bl[NR] = a[NR] / $5; bi[NR] = $6 > 0 ? a[NR] / ($6 / c) : 0;
           printf "pair %d: sweep %.1f s, %s %.1f s, ratio %.3f; bound alone %.1f s (sweep/bound %.2f), every core stepping %.1f s (sweep/bound %.2f), in the sweep itself %.1f s (sweep/bound %.2f)\n", NR, a[NR], other, b[NR], r[NR], $4, ba[NR], $5, bl[NR], $6 / c, bi[NR] }
         function median(x, n,   i, j, t) {
             for (i = 1; i <= n; i++) for (j = i + 1; j <= n; j++) if (x[j] < x[i]) { t = x[i]; x[i] = x[j]; x[j] = t }

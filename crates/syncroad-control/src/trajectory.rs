@@ -78,17 +78,6 @@ impl Trajectory {
         self.commands_mps.append(&mut other.commands_mps);
     }
 
-    /// Drops every sample, keeping N and the buffers (the SUMO worker reuses one trajectory
-    /// for every chunk it streams).
-    pub fn clear(&mut self) {
-        self.time_s.clear();
-        self.speeds_mps.clear();
-        self.positions_m.clear();
-        self.gaps_m.clear();
-        self.leader_speed_mps.clear();
-        self.commands_mps.clear();
-    }
-
     /// Speeds of sample `k`.
     pub fn speeds(&self, k: usize) -> &[f64] {
         &self.speeds_mps[k * self.n..(k + 1) * self.n]

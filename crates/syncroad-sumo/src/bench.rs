@@ -512,8 +512,8 @@ fn repeats(
 }
 
 /// SUMO's own stepping time of each scenario's run: the run as `syncroad run` makes it, through
-/// one long-lived worker under the [`ProbeMode::Loop`] probe, and the wall time spent inside
-/// `simulation.step` \[s\] (the same traffic as the real run; holding speeds instead would let
+/// one long-lived worker, and the wall time spent inside `simulation.step` \[s\] as every run
+/// reports it ([`Finish::step_s`], the figure a sweep sums), without the profile's timers (the same traffic as the real run; holding speeds instead would let
 /// a perturbed ring's vehicles drive into each other and time SUMO's collision handling).
 /// Summed over a sweep's points and divided by the cores, it is the sweep's stepping bound:
 /// what SUMO needs to step every point.
@@ -528,23 +528,17 @@ pub fn step_seconds(
     for (k, sc) in scenarios.iter().enumerate() {
         let opts = RunOptions::new(work.join(k.to_string()), worker.clone());
         let req = prepare(sc, &load_road(sc)?, &opts)?;
-        let job = JobRef::Bench {
-            request: &req,
-            probe: Probe {
-                mode: ProbeMode::Loop,
-                untimed_steps: 0,
-            },
-        };
-        let fin = w.run_job(job, &Supervision::default()).result?;
+        let fin = w
+            .run_job(JobRef::Run(&req), &Supervision::default())
+            .result?;
         if fin.steps_done != req.steps {
             return Err(BenchError::Stopped {
                 name: sc.name().to_string(),
                 reason: format!("{:?}", fin.stop),
             });
         }
-        let t = fin.probe.map_or(0.0, |p| p.phases.step_s);
-        progress(k, t);
-        out.push(t);
+        progress(k, fin.step_s);
+        out.push(fin.step_s);
     }
     Ok(out)
 }

@@ -267,8 +267,17 @@ mod ring {
     fn vehicles_keep_circling_past_one_lap() {
         let sc = ring_scenario(22, 90.0, &nets().join("sugiyama-ring.net.xml"), 1);
         let o = opts("circling");
+        let wall = std::time::Instant::now();
         let run = run_scenario(&sc, &o).unwrap();
+        let wall = wall.elapsed().as_secs_f64();
         let fin = run.outcome().expect("horizon reached");
+        // The time inside SUMO's step (a sweep's stepping bound) is part of the run's wall
+        // time, and SUMO cannot step 22 vehicles 900 times in under a microsecond a step.
+        assert!(
+            fin.step_s > 1e-6 * sc.steps() as f64 && fin.step_s < wall,
+            "step_s {} of a {wall} s run",
+            fin.step_s
+        );
         let start = run.worker.start.as_ref().unwrap();
         assert_relative_eq!(
             start.road_length_m,

@@ -134,8 +134,8 @@ impl<'o, 'a, 'py> StepObserver<Observed<'o, 'a, 'py>> for SafetyWatch {
 }
 
 /// Records every `every`-th step and streams the rows in chunks, so a crash or Ctrl-C loses at
-/// most one chunk or [`FLUSH_INTERVAL`] (looked at every [`CLOCK_EVERY`] records) of the run. The speed range of the judged vehicles is
-/// kept at every step and sent with the rows.
+/// most one chunk or [`FLUSH_INTERVAL`] (looked at every [`CLOCK_EVERY`] records) of the run.
+/// The speed range of the judged vehicles is kept at every step and sent with the rows.
 pub(super) struct Recorder {
     rows: RowChunk,
     ranges: Vec<[f64; 3]>,
