@@ -62,6 +62,14 @@ pub enum BenchError {
     /// The TraCI reference failed.
     #[error("TraCI reference failed: {0}")]
     Traci(String),
+    /// `--case` names no standard case.
+    #[error("--case {case:?}: no benchmark case starts with it; the cases are {valid}")]
+    UnknownCase {
+        /// What was asked for.
+        case: String,
+        /// The case names.
+        valid: String,
+    },
 }
 
 /// One benchmark case.
@@ -543,16 +551,61 @@ pub fn step_seconds(
     Ok(out)
 }
 
-/// The standard cases ([`standard_cases`]) with the repository's networks and TraCI reference,
-/// `worker` starting every measurement; the work folder is removed afterwards.
+/// Which of the standard cases run, and how.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Selection {
+    /// Shorter runs (a smoke test of the benchmark).
+    pub quick: bool,
+    /// Only the case whose name starts with this (`sugiyama-ring`, `ring-20km`).
+    pub case: Option<String>,
+    /// Leave out the TraCI reference (the loop's own figures only, in a fraction of the time).
+    pub no_traci: bool,
+}
+
+impl Selection {
+    /// Refuses a case name that selects nothing (before any measurement).
+    pub fn check(&self) -> Result<(), BenchError> {
+        select_cases(Path::new("."), self).map(|_| ())
+    }
+}
+
+/// The standard cases that `sel` selects; an unknown case name is refused with the names.
+pub fn select_cases(nets: &Path, sel: &Selection) -> Result<Vec<BenchCase>, BenchError> {
+    let mut cases = standard_cases(nets, sel.quick);
+    if let Some(want) = &sel.case {
+        let names: Vec<String> = cases
+            .iter()
+            .map(|c| c.name.split(' ').next().unwrap_or_default().to_string())
+            .collect();
+        cases.retain(|c| c.name.starts_with(want.as_str()) && !want.is_empty());
+        if cases.is_empty() {
+            return Err(BenchError::UnknownCase {
+                case: want.clone(),
+                valid: names.join(", "),
+            });
+        }
+    }
+    if sel.no_traci {
+        for c in &mut cases {
+            c.traci = false;
+            c.traci_per_call = false;
+        }
+    }
+    Ok(cases)
+}
+
+/// The standard cases ([`standard_cases`]) that `sel` selects, with the repository's networks
+/// and TraCI reference, `worker` starting every measurement; the work folder is removed
+/// afterwards.
 pub fn run_standard(
     worker: &WorkerCommand,
-    quick: bool,
+    sel: &Selection,
     progress: &mut dyn FnMut(&str),
 ) -> Result<Vec<BenchResult>, BenchError> {
     let repo = crate::venv::repo_dir();
+    let cases = select_cases(&repo.join("sumo-nets"), sel)?;
     let work = std::env::temp_dir().join(format!("syncroad-sumo-bench-{}", std::process::id()));
-    let results = standard_cases(&repo.join("sumo-nets"), quick)
+    let results = cases
         .iter()
         .map(|case| run_case(case, worker, &work, &repo.join("python-host"), progress))
         .collect();
@@ -630,6 +683,32 @@ pub fn format_table(results: &[BenchResult]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_selection_keeps_the_named_case_and_can_leave_traci_out() {
+        let nets = Path::new("nets");
+        let all = select_cases(nets, &Selection::default()).unwrap();
+        assert_eq!(all.len(), 2);
+        assert!(all.iter().all(|c| c.traci));
+        let sel = Selection {
+            case: Some("sugiyama".into()),
+            no_traci: true,
+            ..Selection::default()
+        };
+        let one = select_cases(nets, &sel).unwrap();
+        assert_eq!(one.len(), 1);
+        assert_eq!(one[0].vehicles, 22);
+        assert!(!one[0].traci && !one[0].traci_per_call);
+        for bad in ["ring-2km", ""] {
+            let sel = Selection {
+                case: Some(bad.into()),
+                ..Selection::default()
+            };
+            let e = select_cases(nets, &sel).unwrap_err().to_string();
+            assert!(e.contains(&format!("{bad:?}")), "{e}");
+            assert!(e.contains("sugiyama-ring, ring-20km"), "{e}");
+        }
+    }
 
     #[test]
     fn the_floor_is_libsumos_calls_over_sumos_step() {

@@ -53,10 +53,17 @@ pub enum Command {
     /// and commanded every step) vs a TraCI-socket loop doing the same, at N = 22 and N = 2000.
     SumoBench {
         /// Shorter runs (a smoke test of the benchmark).
-        #[arg(long)]
+        #[arg(long, conflicts_with = "step_time")]
         quick: bool,
+        /// Only the case whose name starts with this: `sugiyama-ring` (N = 22) or `ring-20km`
+        /// (N = 2000).
+        #[arg(long, value_name = "NAME", conflicts_with = "step_time")]
+        case: Option<String>,
+        /// Leave out the TraCI reference: the loop's own figures in a fraction of the time.
+        #[arg(long, conflicts_with = "step_time")]
+        no_traci: bool,
         /// Also write the results as JSON to this file.
-        #[arg(long)]
+        #[arg(long, conflicts_with = "step_time")]
         json: Option<PathBuf>,
         /// Instead of the standard cases: run each of these SUMO scenarios through one worker
         /// and print the seconds spent inside SUMO's `simulation.step` in each, and their sum

@@ -591,4 +591,26 @@ fn step_time_is_a_part_of_the_runs_and_refuses_native_scenarios() {
         err.contains("ring-theorem1.json") && err.contains("backend is not \"sumo\""),
         "{err}"
     );
+    let o = bin()
+        .args(["sumo-bench", "--case", "ring-2km"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("\"ring-2km\"") && err.contains("sugiyama-ring, ring-20km"),
+        "{err}"
+    );
+    // The standard cases' options do not apply to --step-time: refused, not ignored.
+    for extra in [&["--quick"][..], &["--no-traci"], &["--case", "ring-20km"]] {
+        let o = bin()
+            .args(["sumo-bench", "--step-time"])
+            .arg(&native)
+            .args(extra)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains(extra[0]) && err.contains("--step-time"), "{err}");
+    }
 }

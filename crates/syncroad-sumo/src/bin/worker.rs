@@ -1,15 +1,15 @@
 //! `syncroad-sumo-worker`: without arguments, runs one SUMO co-simulation request read from
 //! stdin (see `syncroad_sumo::worker_main`; started by the supervisor, never by hand).
 //!
-//! `syncroad-sumo-worker --bench [--quick] [--json FILE]` runs the SUMO benchmark (SUMO alone vs
-//! SUMO + controller vs the TraCI reference at N = 22 and N = 2000), starting itself as the
-//! worker of every measurement. Arguments are read by `lexopt` (the SUMO crate stays free of
+//! `syncroad-sumo-worker --bench [--quick] [--case NAME] [--no-traci] [--json FILE]` runs the
+//! SUMO benchmark (SUMO alone vs SUMO + controller vs the TraCI reference at N = 22 and
+//! N = 2000, or the one case named), starting itself as the worker of every measurement. Arguments are read by `lexopt` (the SUMO crate stays free of
 //! clap); a stray or misspelt one is refused with exit 2.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use syncroad_sumo::bench::{format_profile, format_table, run_standard};
+use syncroad_sumo::bench::{format_profile, format_table, run_standard, Selection};
 use syncroad_sumo::WorkerCommand;
 
 /// What the command line asks for.
@@ -17,40 +17,46 @@ use syncroad_sumo::WorkerCommand;
 enum Mode {
     /// No arguments: one co-simulation request from stdin.
     Worker,
-    /// `--bench [--quick] [--json FILE]`.
-    Bench { quick: bool, json: Option<PathBuf> },
+    /// `--bench [--quick] [--case NAME] [--no-traci] [--json FILE]`.
+    Bench {
+        sel: Selection,
+        json: Option<PathBuf>,
+    },
 }
 
-const USAGE: &str = "usage: syncroad-sumo-worker [--bench [--quick] [--json FILE]]";
+const USAGE: &str =
+    "usage: syncroad-sumo-worker [--bench [--quick] [--case NAME] [--no-traci] [--json FILE]]";
 
-/// Reads the arguments; anything else (an unknown flag, `--quick` without `--bench`, `--json`
-/// without a file) is refused with the argument named rather than ignored.
+/// Reads the arguments; anything else (an unknown flag, a benchmark option without `--bench`,
+/// `--json` without a file) is refused with the argument named rather than ignored.
 fn parse(args: impl IntoIterator<Item = std::ffi::OsString>) -> Result<Mode, lexopt::Error> {
     use lexopt::prelude::*;
     let mut parser = lexopt::Parser::from_args(args);
-    let (mut bench, mut quick, mut json) = (false, false, None);
+    let (mut bench, mut sel, mut json) = (false, Selection::default(), None);
     while let Some(arg) = parser.next()? {
         match arg {
             Long("bench") => bench = true,
-            Long("quick") => quick = true,
+            Long("quick") => sel.quick = true,
+            Long("no-traci") => sel.no_traci = true,
+            Long("case") => sel.case = Some(parser.value()?.string()?),
             Long("json") => json = Some(PathBuf::from(parser.value()?)),
             other => return Err(other.unexpected()),
         }
     }
-    if !bench && (quick || json.is_some()) {
-        return Err("--quick and --json apply only with --bench".into());
+    if !bench && (sel != Selection::default() || json.is_some()) {
+        return Err("--quick, --case, --no-traci and --json apply only with --bench".into());
     }
     Ok(if bench {
-        Mode::Bench { quick, json }
+        Mode::Bench { sel, json }
     } else {
         Mode::Worker
     })
 }
 
 fn main() -> ExitCode {
-    let (quick, json) = match parse(std::env::args_os().skip(1)) {
+    let (sel, json) = match parse(std::env::args_os().skip(1)) {
         Ok(Mode::Worker) => return syncroad_sumo::worker_main(),
-        Ok(Mode::Bench { quick, json }) => (quick, json),
+        Ok(Mode::Bench { sel, json }) => (sel, json),
         Err(e) => {
             eprintln!("error: {e}\n{USAGE}");
             return ExitCode::from(2);
@@ -63,7 +69,7 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    let results = match run_standard(&worker, quick, &mut |l: &str| eprintln!("{l}")) {
+    let results = match run_standard(&worker, &sel, &mut |l: &str| eprintln!("{l}")) {
         Ok(r) => r,
         Err(e) => {
             eprintln!("error: {e:#}");
@@ -98,14 +104,28 @@ mod tests {
         assert_eq!(
             parse_strs(&["--bench", "--json", "b.json", "--quick"]),
             Ok(Mode::Bench {
-                quick: true,
+                sel: Selection {
+                    quick: true,
+                    ..Selection::default()
+                },
                 json: Some("b.json".into())
+            })
+        );
+        assert_eq!(
+            parse_strs(&["--bench", "--case", "sugiyama-ring", "--no-traci"]),
+            Ok(Mode::Bench {
+                sel: Selection {
+                    quick: false,
+                    case: Some("sugiyama-ring".into()),
+                    no_traci: true,
+                },
+                json: None
             })
         );
         assert_eq!(
             parse_strs(&["--bench"]),
             Ok(Mode::Bench {
-                quick: false,
+                sel: Selection::default(),
                 json: None
             })
         );
@@ -113,8 +133,12 @@ mod tests {
         assert!(e.contains("--jsn"), "{e}");
         let e = parse_strs(&["--bench", "--json"]).unwrap_err();
         assert!(e.contains("--json"), "{e}");
-        let e = parse_strs(&["--quick"]).unwrap_err();
-        assert!(e.contains("only with --bench"), "{e}");
+        for alone in [&["--quick"][..], &["--no-traci"], &["--case", "ring-20km"]] {
+            let e = parse_strs(alone).unwrap_err();
+            assert!(e.contains("only with --bench"), "{e}");
+        }
+        let e = parse_strs(&["--bench", "--case"]).unwrap_err();
+        assert!(e.contains("--case"), "{e}");
         assert!(parse_strs(&["stray"]).unwrap_err().contains("stray"));
     }
 }

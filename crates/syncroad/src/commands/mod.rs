@@ -28,9 +28,18 @@ pub fn run(cli: Cli) -> anyhow::Result<Status> {
         Command::Compare(args) => compare::run(&args),
         Command::SumoBench {
             quick,
+            case,
+            no_traci,
             json,
             step_time,
-        } if step_time.is_empty() => sumo_bench::run(quick, json.as_deref()),
+        } if step_time.is_empty() => {
+            let sel = syncroad_sumo::bench::Selection {
+                quick,
+                case,
+                no_traci,
+            };
+            sumo_bench::run(&sel, json.as_deref())
+        }
         Command::SumoBench { step_time, .. } => sumo_bench::step_time(&step_time),
         Command::Bench { horizon_s, sizes } => bench::run(horizon_s, &sizes),
         Command::Ifp { eta, rho, json } => ifp::run(&eta, &rho, json),
