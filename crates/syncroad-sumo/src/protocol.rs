@@ -304,21 +304,85 @@ pub struct Finish {
     pub step_s: f64,
 }
 
-/// Writes the speed ranges gathered since the last call (`t, lo, hi` triplets) and empties
-/// them.
-pub fn write_ranges(w: &mut impl Write, ranges: &mut Vec<[f64; 3]>) -> io::Result<()> {
-    if ranges.is_empty() {
-        return Ok(());
+/// One frame built in place, header first (`[kind][len]`, the length patched when it is
+/// written), so that a frame goes out in one write with no copy of its payload; the buffer is
+/// reused frame after frame.
+#[derive(Debug)]
+struct FrameBuf {
+    bytes: Vec<u8>,
+}
+
+/// Bytes of a frame's header: kind and length.
+const FRAME_HEAD: usize = 5;
+
+impl FrameBuf {
+    fn new(kind: u8, payload: usize) -> Self {
+        let mut bytes = Vec::with_capacity(FRAME_HEAD + payload);
+        bytes.push(kind);
+        bytes.extend_from_slice(&0u32.to_le_bytes());
+        Self { bytes }
     }
-    let mut out = Vec::with_capacity(ranges.len() * 24);
-    for r in ranges.iter() {
-        for x in r {
-            out.extend_from_slice(&x.to_le_bytes());
+
+    /// The payload so far.
+    fn payload_mut(&mut self) -> &mut [u8] {
+        &mut self.bytes[FRAME_HEAD..]
+    }
+
+    /// Appends `xs` as little-endian f64: one copy of the slice's bytes on a little-endian
+    /// machine.
+    fn extend_f64(&mut self, xs: &[f64]) {
+        #[cfg(target_endian = "little")]
+        self.bytes.extend_from_slice(bytemuck::cast_slice(xs));
+        #[cfg(not(target_endian = "little"))]
+        for x in xs {
+            self.bytes.extend_from_slice(&x.to_le_bytes());
         }
     }
-    write_frame(w, KIND_RANGES, &out)?;
-    ranges.clear();
-    Ok(())
+
+    /// Writes the frame in one `write_all`, then keeps the first `keep` payload bytes for the
+    /// next frame.
+    fn write(&mut self, w: &mut impl Write, keep: usize) -> io::Result<()> {
+        let len = (self.bytes.len() - FRAME_HEAD) as u32;
+        self.bytes[1..FRAME_HEAD].copy_from_slice(&len.to_le_bytes());
+        w.write_all(&self.bytes)?;
+        self.bytes.truncate(FRAME_HEAD + keep);
+        Ok(())
+    }
+}
+
+/// The speed ranges of the steps since the last frame (`t, lo, hi` triplets), encoded as they
+/// come into one reused frame.
+#[derive(Debug)]
+pub struct RangeChunk {
+    frame: FrameBuf,
+}
+
+impl Default for RangeChunk {
+    fn default() -> Self {
+        Self {
+            frame: FrameBuf::new(KIND_RANGES, 24 * 1024),
+        }
+    }
+}
+
+impl RangeChunk {
+    /// Appends the range of one step.
+    pub fn push(&mut self, t: f64, lo: f64, hi: f64) {
+        self.frame.extend_f64(&[t, lo, hi]);
+    }
+
+    /// True when nothing is held.
+    pub fn is_empty(&self) -> bool {
+        self.frame.bytes.len() == FRAME_HEAD
+    }
+
+    /// Writes the held ranges as one frame (nothing when empty) and empties the chunk.
+    pub fn write(&mut self, w: &mut impl Write) -> io::Result<()> {
+        if self.is_empty() {
+            return Ok(());
+        }
+        self.frame.write(w, 0)
+    }
 }
 
 fn decode_ranges(bytes: &[u8]) -> Result<Vec<[f64; 3]>, ProtocolError> {
@@ -422,25 +486,26 @@ pub fn write_msg(w: &mut impl Write, msg: &WorkerMsg) -> io::Result<()> {
 }
 
 /// The worker's chunk of rows, encoded as it is recorded (the format is in the module's
-/// documentation), built in one buffer that every chunk of the run reuses (no copy of the
-/// rows into a trajectory first, no allocation per chunk).
+/// documentation) into the frame's own buffer, which every chunk of the run reuses: no copy of
+/// the rows into a trajectory first, no allocation per chunk, and the frame goes out in one
+/// write.
 #[derive(Debug)]
 pub struct RowChunk {
     n: usize,
     records: usize,
-    payload: Vec<u8>,
+    frame: FrameBuf,
 }
 
 impl RowChunk {
     /// An empty chunk for `n` vehicles, with room for `records` records.
     pub fn new(n: usize, records: usize) -> Self {
-        let mut payload = Vec::with_capacity(8 + records * (1 + 3 * n) * 8);
-        payload.extend_from_slice(&(n as u32).to_le_bytes());
-        payload.extend_from_slice(&0u32.to_le_bytes());
+        let mut frame = FrameBuf::new(KIND_ROWS, 8 + records * (1 + 3 * n) * 8);
+        frame.bytes.extend_from_slice(&(n as u32).to_le_bytes());
+        frame.bytes.extend_from_slice(&0u32.to_le_bytes());
         Self {
             n,
             records: 0,
-            payload,
+            frame,
         }
     }
 
@@ -457,11 +522,9 @@ impl RowChunk {
     /// Appends the record at time `t`: each slice has one value per vehicle.
     pub fn push(&mut self, t: f64, speeds: &[f64], positions: &[f64], commands: &[f64]) {
         debug_assert!([speeds.len(), positions.len(), commands.len()] == [self.n; 3]);
-        self.payload.extend_from_slice(&t.to_le_bytes());
+        self.frame.extend_f64(&[t]);
         for arr in [speeds, positions, commands] {
-            for x in arr {
-                self.payload.extend_from_slice(&x.to_le_bytes());
-            }
+            self.frame.extend_f64(arr);
         }
         self.records += 1;
     }
@@ -471,9 +534,9 @@ impl RowChunk {
         if self.is_empty() {
             return Ok(());
         }
-        self.payload[4..8].copy_from_slice(&(self.records as u32).to_le_bytes());
-        write_frame(w, KIND_ROWS, &self.payload)?;
-        self.payload.truncate(8);
+        let records = (self.records as u32).to_le_bytes();
+        self.frame.payload_mut()[4..8].copy_from_slice(&records);
+        self.frame.write(w, 8)?;
         self.records = 0;
         w.flush()
     }
@@ -564,8 +627,10 @@ mod tests {
         let mut buf = Vec::new();
         chunk.write(&mut buf).unwrap();
         assert!(chunk.is_empty());
-        // The chunk built in place is the format's encoding of the same records.
-        assert_eq!(&buf[5..], encode_rows(&c).as_slice());
+        // The frame built in place is the format's frame of the same records, header and all.
+        let mut reference = Vec::new();
+        write_frame(&mut reference, KIND_ROWS, &encode_rows(&c)).unwrap();
+        assert_eq!(buf, reference);
         // An empty chunk writes nothing; the reused buffer encodes the next chunk afresh.
         chunk.write(&mut buf).unwrap();
         assert_eq!(buf.len(), 5 + encode_rows(&c).len());
@@ -593,6 +658,40 @@ mod tests {
             Some(Frame::Msg(WorkerMsg::Failed { .. }))
         ));
         assert!(read_frame(&mut r).unwrap().is_none());
+    }
+
+    #[test]
+    fn ranges_round_trip_through_a_reused_frame() {
+        let steps = [[0.0, 1.0, 2.5], [0.1, -0.0, f64::MAX], [0.2, f64::NAN, 3.0]];
+        let mut chunk = RangeChunk::default();
+        let mut buf = Vec::new();
+        chunk.write(&mut buf).unwrap();
+        assert!(buf.is_empty(), "an empty chunk writes nothing");
+        for r in &steps[..2] {
+            chunk.push(r[0], r[1], r[2]);
+        }
+        chunk.write(&mut buf).unwrap();
+        assert!(chunk.is_empty());
+        chunk.push(steps[2][0], steps[2][1], steps[2][2]);
+        chunk.write(&mut buf).unwrap();
+        // The reference encoding: each value as little-endian bytes, one frame per write.
+        let mut reference = Vec::new();
+        for part in [&steps[..2], &steps[2..]] {
+            let payload: Vec<u8> = part.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
+            write_frame(&mut reference, KIND_RANGES, &payload).unwrap();
+        }
+        assert_eq!(buf, reference);
+        let mut r = buf.as_slice();
+        let mut got = Vec::new();
+        while let Some(f) = read_frame(&mut r).unwrap() {
+            let Frame::Ranges(v) = f else {
+                panic!("ranges expected")
+            };
+            got.extend(v);
+        }
+        assert_eq!(got.len(), 3);
+        let bits = |v: &[[f64; 3]]| -> Vec<u64> { v.iter().flatten().map(|x| x.to_bits()).collect() };
+        assert_eq!(bits(&got), bits(&steps));
     }
 
     #[test]

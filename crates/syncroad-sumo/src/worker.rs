@@ -27,6 +27,10 @@ pub fn is_worker_invocation() -> bool {
     std::env::args_os().nth(1).is_some_and(|a| a == WORKER_ARG)
 }
 
+/// The protocol writer's buffer \[bytes\]: below a chunk of rows (`prepare::chunk_records`), so
+/// that a chunk is not copied into it first.
+const OUT_BUFFER_BYTES: usize = 64 * 1024;
+
 /// Room asked for in the protocol pipe \[bytes\] (the default fs.pipe-max-size).
 #[cfg(target_os = "linux")]
 const PROTOCOL_PIPE_BYTES: libc::c_int = 1 << 20;
@@ -73,7 +77,9 @@ pub fn worker_main_with(packages: SumoPackages) -> u8 {
             return EXIT_FAILED;
         }
     };
-    let mut out = BufWriter::with_capacity(1 << 20, proto);
+    // Small messages are gathered into one write; a frame at least this long (a full chunk of
+    // rows, about 256 KiB) skips the buffer and goes to the pipe from its own bytes.
+    let mut out = BufWriter::with_capacity(OUT_BUFFER_BYTES, proto);
     let mut input = std::io::stdin().lock();
     let mut line = String::new();
     let mut code = 0;

@@ -16,7 +16,7 @@ use syncroad_control::observer::StepObserver;
 use super::meter::Meter;
 use super::step::CoSim;
 use super::CosimError;
-use crate::protocol::{write_msg, write_ranges, Event, RowChunk, Totals, WorkerMsg};
+use crate::protocol::{write_msg, Event, RangeChunk, RowChunk, Totals, WorkerMsg};
 
 /// Longest time rows wait in the worker before they are sent.
 const FLUSH_INTERVAL: Duration = Duration::from_millis(200);
@@ -138,7 +138,7 @@ impl<'o, 'a, 'py> StepObserver<Observed<'o, 'a, 'py>> for SafetyWatch {
 /// The speed range of the judged vehicles is kept at every step and sent with the rows.
 pub(super) struct Recorder {
     rows: RowChunk,
-    ranges: Vec<[f64; 3]>,
+    ranges: RangeChunk,
     /// The leader vehicle's index offset (1 with a leader vehicle: it is not judged).
     k0: usize,
     every: usize,
@@ -152,7 +152,7 @@ impl Recorder {
         let chunk = req.chunk_records.max(1);
         Self {
             rows: RowChunk::new(sim.v.len(), chunk),
-            ranges: Vec::new(),
+            ranges: RangeChunk::default(),
             k0: usize::from(req.layout.leader_vehicle),
             every: req.record_every.max(1),
             chunk,
@@ -164,7 +164,7 @@ impl Recorder {
         let sim = at.sim;
         let (lo, hi) = speed_range(&sim.v[self.k0.min(sim.v.len())..]);
         let t = at.time_s();
-        self.ranges.push([t, lo, hi]);
+        self.ranges.push(t, lo, hi);
         if at.steps_done.is_multiple_of(self.every) || at.last() {
             self.rows.push(t, &sim.v, &sim.q, &sim.cmd);
             // The clock is read every CLOCK_EVERY records only: a small ring records a step
@@ -181,7 +181,7 @@ impl Recorder {
 
     /// Sends what is held.
     pub fn flush(&mut self, out: &mut impl Write) -> Result<(), CosimError> {
-        write_ranges(out, &mut self.ranges).map_err(pipe)?;
+        self.ranges.write(out).map_err(pipe)?;
         self.rows.write(out).map_err(pipe)?;
         self.last_flush = Instant::now();
         Ok(())
