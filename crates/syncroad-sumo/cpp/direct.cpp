@@ -65,17 +65,20 @@ std::size_t sr_get_f64(void* fn, const sr_ids* ids, double* out, char* err, std:
     return 0;
 }
 
-// *out = fn() for a count of the simulation; returns 0, or 1 if the call threw.
-std::size_t sr_get_int(void* fn, int* out, char* err, std::size_t errlen) {
-    auto f = reinterpret_cast<GetInt>(fn);
+// out[k] = fns[k]() for n counts of the simulation; returns 0, or 1 + the index of the call
+// that threw.
+std::size_t sr_get_ints(void* const* fns, int* out, std::size_t n, char* err, std::size_t errlen) {
+    std::size_t k = 0;
     try {
-        *out = f();
+        for (; k < n; ++k) {
+            out[k] = reinterpret_cast<GetInt>(fns[k])();
+        }
     } catch (const std::exception& e) {
         copy_message(e.what(), err, errlen);
-        return 1;
+        return k + 1;
     } catch (...) {
         copy_message("unknown C++ exception", err, errlen);
-        return 1;
+        return k + 1;
     }
     return 0;
 }

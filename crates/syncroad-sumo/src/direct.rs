@@ -12,6 +12,7 @@
 //! `None` and the loop keeps the Python getters.
 
 use std::ffi::{c_char, c_void, CStr, CString};
+use std::mem::MaybeUninit;
 
 /// Mangled names of the functions used (GCC's C++11 ABI, as in the pinned wheels).
 const GET_SPEED: &str =
@@ -38,7 +39,13 @@ extern "C" {
         err: *mut c_char,
         errlen: usize,
     ) -> usize;
-    fn sr_get_int(f: *mut c_void, out: *mut i32, err: *mut c_char, errlen: usize) -> usize;
+    fn sr_get_ints(
+        fns: *const *mut c_void,
+        out: *mut i32,
+        n: usize,
+        err: *mut c_char,
+        errlen: usize,
+    ) -> usize;
     fn sr_set_f64(
         f: *mut c_void,
         ids: *const SrIds,
@@ -57,13 +64,41 @@ pub struct DirectError {
     pub message: String,
 }
 
+/// Room for the message of a C++ exception. Left uninitialised: the shim writes it, NUL
+/// terminated, only when a call throws, and it is read only then (the calls run every step;
+/// zeroing 512 bytes each time showed in the loop's profile).
+struct ErrBuf([MaybeUninit<c_char>; 512]);
+
+impl ErrBuf {
+    fn new() -> Self {
+        Self([MaybeUninit::uninit(); 512])
+    }
+
+    fn ptr(&mut self) -> *mut c_char {
+        self.0.as_mut_ptr().cast()
+    }
+
+    fn len(&self) -> usize {
+        self.0.len()
+    }
+
+    /// The message, once a shim reported a failure (and so wrote it).
+    fn message(&self) -> String {
+        // SAFETY: the shim strncpy's the message (padding with NULs) and NUL-terminates the
+        // buffer's last byte whenever it reports an error, the only time this is called.
+        unsafe { CStr::from_ptr(self.0.as_ptr().cast()) }
+            .to_string_lossy()
+            .into_owned()
+    }
+}
+
 /// Resolved functions and the vehicle ids as C++ strings.
 pub struct Direct {
     get_speed: *mut c_void,
     get_distance: *mut c_void,
     set_speed: *mut c_void,
-    colliding: *mut c_void,
-    teleports: *mut c_void,
+    /// `getCollidingVehiclesNumber`, `getStartingTeleportNumber`.
+    counts: [*mut c_void; 2],
     ids: *mut SrIds,
     n: usize,
 }
@@ -100,8 +135,7 @@ impl Direct {
             get_speed,
             get_distance,
             set_speed,
-            colliding,
-            teleports,
+            counts: [colliding, teleports],
             ids: handle_ids,
             n: ids.len(),
         })
@@ -109,24 +143,20 @@ impl Direct {
 
     fn get(&self, f: *mut c_void, out: &mut [f64]) -> Result<(), DirectError> {
         assert_eq!(out.len(), self.n, "one value per vehicle");
-        let mut err = [0 as c_char; 512];
+        let mut err = ErrBuf::new();
         // SAFETY: `f` is `double(const std::string&)` from the loaded libsumo, `self.ids` holds
         // `n` strings and `out` has room for `n` values; the shim catches every exception.
-        let r = unsafe { sr_get_f64(f, self.ids, out.as_mut_ptr(), err.as_mut_ptr(), err.len()) };
+        let r = unsafe { sr_get_f64(f, self.ids, out.as_mut_ptr(), err.ptr(), err.len()) };
         Self::check(r, &err)
     }
 
-    fn check(r: usize, err: &[c_char]) -> Result<(), DirectError> {
+    fn check(r: usize, err: &ErrBuf) -> Result<(), DirectError> {
         if r == 0 {
             return Ok(());
         }
-        // SAFETY: the shim always NUL-terminates the buffer when it reports an error.
-        let message = unsafe { CStr::from_ptr(err.as_ptr()) }
-            .to_string_lossy()
-            .into_owned();
         Err(DirectError {
             vehicle: r - 1,
-            message,
+            message: err.message(),
         })
     }
 
@@ -140,36 +170,41 @@ impl Direct {
         self.get(self.get_distance, out)
     }
 
-    fn count(f: *mut c_void) -> Result<usize, String> {
-        let mut n = 0i32;
-        let mut err = [0 as c_char; 512];
-        // SAFETY: `f` is `int()` from the loaded libsumo; the shim catches every exception.
-        let r = unsafe { sr_get_int(f, &mut n, err.as_mut_ptr(), err.len()) };
-        Self::check(r, &err).map_err(|e| e.message)?;
-        Ok(usize::try_from(n).unwrap_or(0))
-    }
-
-    /// `simulation.getCollidingVehiclesNumber`: vehicles in a collision this step.
-    pub fn colliding(&self) -> Result<usize, String> {
-        Self::count(self.colliding)
-    }
-
-    /// `simulation.getStartingTeleportNumber`: teleports that started this step.
-    pub fn teleports(&self) -> Result<usize, String> {
-        Self::count(self.teleports)
+    /// `simulation.getCollidingVehiclesNumber` (vehicles in a collision this step) and
+    /// `simulation.getStartingTeleportNumber` (teleports that started this step), in one call.
+    /// A failure names the call: `Err((k, message))`, k = 0 for the first, 1 for the second.
+    pub fn safety_counts(&self) -> Result<(usize, usize), (usize, String)> {
+        let mut n = [0i32; 2];
+        let mut err = ErrBuf::new();
+        // SAFETY: both functions are `int()` from the loaded libsumo, `n` has room for both;
+        // the shim catches every exception.
+        let r = unsafe {
+            sr_get_ints(
+                self.counts.as_ptr(),
+                n.as_mut_ptr(),
+                2,
+                err.ptr(),
+                err.len(),
+            )
+        };
+        if r != 0 {
+            return Err((r - 1, err.message()));
+        }
+        let count = |k: usize| usize::try_from(n[k]).unwrap_or(0);
+        Ok((count(0), count(1)))
     }
 
     /// `vehicle.setSpeed` of every vehicle.
     pub fn set_speeds(&self, speeds: &[f64]) -> Result<(), DirectError> {
         assert_eq!(speeds.len(), self.n, "one command per vehicle");
-        let mut err = [0 as c_char; 512];
+        let mut err = ErrBuf::new();
         // SAFETY: as in `get`, with `void(const std::string&, double)`.
         let r = unsafe {
             sr_set_f64(
                 self.set_speed,
                 self.ids,
                 speeds.as_ptr(),
-                err.as_mut_ptr(),
+                err.ptr(),
                 err.len(),
             )
         };

@@ -75,12 +75,16 @@ impl SafetyWatch {
     fn check_overrides(&mut self, at: &mut Observed<'_, '_, '_>) -> Result<(), CosimError> {
         let sim = at.sim;
         let req = sim.req;
-        for (i, dep) in req.layout.vehicles.iter().enumerate() {
-            if dep.driver.is_some() {
+        // The law's flags, not the layout's vehicles: this runs every step, and a flag per
+        // vehicle is all it needs until a command was overridden.
+        let cases = sim.law_driven().iter().zip(&sim.v).zip(&sim.cmd);
+        for (i, ((&law, v), c)) in cases.enumerate() {
+            if !law {
                 continue;
             }
-            let d = (sim.v[i] - sim.cmd[i]).abs();
+            let d = (v - c).abs();
             if d > req.override_tolerance_mps {
+                let dep = &req.layout.vehicles[i];
                 self.totals.overrides += 1;
                 self.totals.max_override_mps = self.totals.max_override_mps.max(d);
                 if self.override_events < MAX_OVERRIDE_EVENTS {

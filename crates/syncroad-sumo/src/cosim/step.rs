@@ -160,7 +160,7 @@ impl<'a, 'py> CoSim<'a, 'py> {
     }
 
     /// SUMO's counts after the last step: vehicles in a collision, teleports that started. One
-    /// C++ call each with the batch calls in use, else through the Python module.
+    /// C++ call for both with the batch calls in use, else one Python call each.
     pub fn safety_counts(&self) -> Result<(usize, usize), CosimError> {
         let ls = self.ls;
         let Some(d) = &self.reader.direct else {
@@ -169,16 +169,19 @@ impl<'a, 'py> CoSim<'a, 'py> {
                 ls.count(&ls.teleports, "simulation.getStartingTeleportNumber")?,
             ));
         };
-        let failed = |call: &str, m: String| PythonError::Call {
-            call: format!("libsumo::Simulation::{call}() (direct)"),
-            traceback: format!("C++ exception: {m}"),
-        };
-        Ok((
-            d.colliding()
-                .map_err(|m| failed("getCollidingVehiclesNumber", m))?,
-            d.teleports()
-                .map_err(|m| failed("getStartingTeleportNumber", m))?,
-        ))
+        d.safety_counts().map_err(|(k, m)| {
+            let call = ["getCollidingVehiclesNumber", "getStartingTeleportNumber"][k];
+            PythonError::Call {
+                call: format!("libsumo::Simulation::{call}() (direct)"),
+                traceback: format!("C++ exception: {m}"),
+            }
+            .into()
+        })
+    }
+
+    /// Per vehicle: the law drives it (SUMO drives the others).
+    pub fn law_driven(&self) -> &[bool] {
+        &self.law_driven
     }
 
     /// A law drives some vehicles.
