@@ -9,6 +9,7 @@
 #include <cstddef>
 #include <cstring>
 #include <exception>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -100,4 +101,7 @@ std::size_t sr_set_f64(void* fn, const sr_ids* ids, const double* in, char* err,
     }
     return 0;
 }
+
+// For the shims' own tests: throws as libsumo does for an unknown vehicle.
+int sr_test_throw() { throw std::runtime_error("Vehicle 'ghost' is not known"); }
 }

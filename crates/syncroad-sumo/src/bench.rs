@@ -133,6 +133,11 @@ pub struct BenchResult {
     /// the time inside it [%], with no phase or observer timers: the clocks of an ordinary run
     /// only (the profiled runs read seven more clocks per step, a visible share on small rings).
     pub in_run_untimed_pct: f64,
+    /// Median over runs of the full loop with an ordinary run's clocks only (no interleaving,
+    /// no clock per step beyond the two around SUMO's step) of the time outside
+    /// `simulation.step` over the time inside it [%]: the loop's cost as a user's run pays it.
+    #[serde(default)]
+    pub in_run_plain_pct: f64,
     /// The floor: libsumo's own read and command calls (the profile's law + `setSpeed` and
     /// reads) over `simulation.step` [%].
     pub floor_pct: f64,
@@ -296,6 +301,25 @@ fn interleaved(
     Ok((100.0 * (controlled / bare - 1.0), in_run))
 }
 
+/// One run of the full loop with an ordinary run's clocks only ([`ProbeMode::Plain`]): its
+/// time outside `simulation.step` over the time inside it [%].
+fn plain(
+    worker: &WorkerCommand,
+    sc: &Scenario,
+    work: &Path,
+    warmup: usize,
+) -> Result<f64, BenchError> {
+    let opts = RunOptions::new(work, worker.clone());
+    let req = prepare(sc, &load_road(sc)?, &opts)?;
+    let probe = Probe {
+        mode: ProbeMode::Plain,
+        untimed_steps: warmup,
+    };
+    let (_, t) = run_to_end(worker, &req, probe, work)?;
+    let p = &t.phases;
+    Ok(100.0 * (t.loop_wall_s - p.step_s) / p.step_s)
+}
+
 /// One timed worker run.
 struct Timing {
     ms_per_step: f64,
@@ -428,6 +452,7 @@ pub fn run_case(
         python_getters_samples_ms: m.python_getters,
         interleaved_samples_pct: m.interleaved_pct,
         in_run_untimed_pct: median(&m.in_run_untimed),
+        in_run_plain_pct: median(&m.in_run_plain),
         floor_pct: floor_pct(&m.profile),
         traci_ms,
         speedup_vs_traci: traci_ms.map(|t| t / c),
@@ -444,6 +469,7 @@ struct Samples {
     python_getters: Vec<f64>,
     interleaved_pct: Vec<f64>,
     in_run_untimed: Vec<f64>,
+    in_run_plain: Vec<f64>,
     in_run: Vec<f64>,
     /// The profile of the fastest controlled run.
     profile: Vec<(String, f64)>,
@@ -464,6 +490,7 @@ fn repeats(
         python_getters: Vec::new(),
         interleaved_pct: Vec::new(),
         in_run_untimed: Vec::new(),
+        in_run_plain: Vec::new(),
         in_run: Vec::new(),
         profile: Vec::new(),
     };
@@ -515,6 +542,13 @@ fn repeats(
         ));
         m.interleaved_pct.push(i);
         m.in_run_untimed.push(untimed);
+        let p = plain(worker, sc, &work_dir.join("plain"), case.warmup)?;
+        progress(&format!(
+            "{}: loop over SUMO's step (plain run)   {p:7.1} % (run {})",
+            case.name,
+            r + 1
+        ));
+        m.in_run_plain.push(p);
     }
     Ok(m)
 }
@@ -640,8 +674,10 @@ pub fn format_profile(results: &[BenchResult]) -> String {
             ));
         }
         s.push_str(&format!(
-            "  floor (libsumo's calls): {:.1} % of SUMO's step; the loop without the profile's timers costs {:.1} % of it, {:.2}x the floor\n",
+            "  floor (libsumo's calls): {:.1} % of SUMO's step; the loop costs {:.1} % of it in a plain run, {:.2}x the floor ({:.1} %, {:.2}x, in the interleaved runs)\n",
             r.floor_pct,
+            r.in_run_plain_pct,
+            r.in_run_plain_pct / r.floor_pct,
             r.in_run_untimed_pct,
             r.in_run_untimed_pct / r.floor_pct
         ));

@@ -175,21 +175,7 @@ impl Direct {
     /// A failure names the call: `Err((k, message))`, k = 0 for the first, 1 for the second.
     pub fn safety_counts(&self) -> Result<(usize, usize), (usize, String)> {
         let mut n = [0i32; 2];
-        let mut err = ErrBuf::new();
-        // SAFETY: both functions are `int()` from the loaded libsumo, `n` has room for both;
-        // the shim catches every exception.
-        let r = unsafe {
-            sr_get_ints(
-                self.counts.as_ptr(),
-                n.as_mut_ptr(),
-                2,
-                err.ptr(),
-                err.len(),
-            )
-        };
-        if r != 0 {
-            return Err((r - 1, err.message()));
-        }
+        get_ints(&self.counts, &mut n)?;
         let count = |k: usize| usize::try_from(n[k]).unwrap_or(0);
         Ok((count(0), count(1)))
     }
@@ -212,9 +198,59 @@ impl Direct {
     }
 }
 
+/// `out[k] = fns[k]()` for `int()` functions, in one call into the shim; a failure names the
+/// call that threw: `Err((k, message))`.
+fn get_ints(fns: &[*mut c_void], out: &mut [i32]) -> Result<(), (usize, String)> {
+    assert_eq!(fns.len(), out.len(), "one value per function");
+    let mut err = ErrBuf::new();
+    // SAFETY: each of `fns` is an `int()` function (libsumo's counts), `out` has room for one
+    // value each; the shim catches every exception.
+    let r = unsafe {
+        sr_get_ints(
+            fns.as_ptr(),
+            out.as_mut_ptr(),
+            fns.len(),
+            err.ptr(),
+            err.len(),
+        )
+    };
+    match r {
+        0 => Ok(()),
+        k => Err((k - 1, err.message())),
+    }
+}
+
 impl Drop for Direct {
     fn drop(&mut self) {
         // SAFETY: `ids` came from sr_ids_new and is freed once.
         unsafe { sr_ids_free(self.ids) }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    extern "C" fn seven() -> i32 {
+        7
+    }
+
+    extern "C" {
+        fn sr_test_throw() -> i32;
+    }
+
+    /// The counts come back through the shim, and a C++ exception's message arrives whole in
+    /// the buffer that is left uninitialised until the shim writes it.
+    #[test]
+    fn counts_and_a_thrown_message_come_back_through_the_shim() {
+        let ok = seven as extern "C" fn() -> i32 as *mut c_void;
+        let throws = sr_test_throw as unsafe extern "C" fn() -> i32 as *mut c_void;
+        let mut out = [0i32; 2];
+        assert_eq!(get_ints(&[ok, ok], &mut out), Ok(()));
+        assert_eq!(out, [7, 7]);
+        let mut out = [0i32; 3];
+        let e = get_ints(&[ok, throws, ok], &mut out).unwrap_err();
+        assert_eq!(e, (1, "Vehicle 'ghost' is not known".to_string()));
+        assert_eq!(out[0], 7, "the calls before the failure are kept");
     }
 }

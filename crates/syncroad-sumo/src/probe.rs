@@ -15,6 +15,10 @@ pub enum ProbeMode {
     Alone,
     /// The full loop on every step, each phase and each observer timed.
     Loop,
+    /// The full loop on every step with only an ordinary run's clocks (the two around SUMO's
+    /// step, and the start and end of the timed steps): the loop's cost as a user's run pays
+    /// it, over SUMO's step in the same run.
+    Plain,
     /// Blocks of `block` steps alternate between SUMO alone and the full loop in one process,
     /// so both kinds of step share caches, frequency and neighbours (same-process overhead).
     Interleaved {
@@ -39,7 +43,7 @@ impl Probe {
     pub fn full_step(&self, step: usize) -> bool {
         match self.mode {
             ProbeMode::Alone => step == 0,
-            ProbeMode::Loop => true,
+            ProbeMode::Loop | ProbeMode::Plain => true,
             ProbeMode::Interleaved { block } => !(step / block.max(1)).is_multiple_of(2),
         }
     }
@@ -119,6 +123,17 @@ mod tests {
         let f = false;
         let t = true;
         assert_eq!(full, [f, f, f, t, t, t, f, f, f, t, t, t]);
+    }
+
+    #[test]
+    fn plain_and_loop_run_every_step_in_full() {
+        for mode in [ProbeMode::Plain, ProbeMode::Loop] {
+            let p = Probe {
+                mode,
+                untimed_steps: 5,
+            };
+            assert!((0..100).all(|s| p.full_step(s)), "{mode:?}");
+        }
     }
 
     #[test]
