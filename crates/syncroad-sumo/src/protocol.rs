@@ -677,7 +677,11 @@ mod tests {
         // The reference encoding: each value as little-endian bytes, one frame per write.
         let mut reference = Vec::new();
         for part in [&steps[..2], &steps[2..]] {
-            let payload: Vec<u8> = part.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
+            let payload: Vec<u8> = part
+                .iter()
+                .flatten()
+                .flat_map(|x| x.to_le_bytes())
+                .collect();
             write_frame(&mut reference, KIND_RANGES, &payload).unwrap();
         }
         assert_eq!(buf, reference);
@@ -690,7 +694,8 @@ mod tests {
             got.extend(v);
         }
         assert_eq!(got.len(), 3);
-        let bits = |v: &[[f64; 3]]| -> Vec<u64> { v.iter().flatten().map(|x| x.to_bits()).collect() };
+        let bits =
+            |v: &[[f64; 3]]| -> Vec<u64> { v.iter().flatten().map(|x| x.to_bits()).collect() };
         assert_eq!(bits(&got), bits(&steps));
     }
 

@@ -854,5 +854,8 @@ fn benchmark_probe_profiles_the_loop_phase_by_phase() {
         r.in_run_plain_pct
     );
     let text = format_profile(&[r]);
-    assert!(text.contains("safety counters") && text.contains("in a plain run"), "{text}");
+    assert!(
+        text.contains("safety counters") && text.contains("in a plain run"),
+        "{text}"
+    );
 }

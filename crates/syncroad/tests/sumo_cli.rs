@@ -611,6 +611,9 @@ fn step_time_is_a_part_of_the_runs_and_refuses_native_scenarios() {
             .unwrap();
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{err}");
-        assert!(err.contains(extra[0]) && err.contains("--step-time"), "{err}");
+        assert!(
+            err.contains(extra[0]) && err.contains("--step-time"),
+            "{err}"
+        );
     }
 }
