@@ -139,8 +139,19 @@ pub struct BenchResult {
     #[serde(default)]
     pub in_run_plain_pct: f64,
     /// The floor: libsumo's own read and command calls (the profile's law + `setSpeed` and
-    /// reads) over `simulation.step` [%].
+    /// reads) over `simulation.step` [%], median over the repeats' profiled runs.
     pub floor_pct: f64,
+    /// That floor in each repeat [%].
+    #[serde(default)]
+    pub floor_samples_pct: Vec<f64>,
+    /// The loop's cost in the plain run over the floor of the same repeat's profiled run,
+    /// median over the repeats (runs next to each other in time share this machine's speed
+    /// of the moment).
+    #[serde(default)]
+    pub plain_over_floor: f64,
+    /// The same with the interleaved runs' cost.
+    #[serde(default)]
+    pub interleaved_over_floor: f64,
     /// TraCI reference time, every read through one subscription result per step (as Flow
     /// reads its vehicles).
     pub traci_ms: Option<f64>,
@@ -329,6 +340,12 @@ struct Timing {
     profile: Vec<(String, f64)>,
 }
 
+/// Median over the repeats of `cost[r] / floor[r]`.
+fn median_ratio(cost: &[f64], floor: &[f64]) -> f64 {
+    let r: Vec<f64> = cost.iter().zip(floor).map(|(c, f)| c / f).collect();
+    median(&r)
+}
+
 fn median(v: &[f64]) -> f64 {
     let mut s = v.to_vec();
     s.sort_by(f64::total_cmp);
@@ -453,7 +470,10 @@ pub fn run_case(
         interleaved_samples_pct: m.interleaved_pct,
         in_run_untimed_pct: median(&m.in_run_untimed),
         in_run_plain_pct: median(&m.in_run_plain),
-        floor_pct: floor_pct(&m.profile),
+        floor_pct: median(&m.floors),
+        plain_over_floor: median_ratio(&m.in_run_plain, &m.floors),
+        interleaved_over_floor: median_ratio(&m.in_run_untimed, &m.floors),
+        floor_samples_pct: m.floors,
         traci_ms,
         speedup_vs_traci: traci_ms.map(|t| t / c),
         traci_per_call_ms,
@@ -470,6 +490,8 @@ struct Samples {
     interleaved_pct: Vec<f64>,
     in_run_untimed: Vec<f64>,
     in_run_plain: Vec<f64>,
+    /// The floor of each repeat's profiled run [%].
+    floors: Vec<f64>,
     in_run: Vec<f64>,
     /// The profile of the fastest controlled run.
     profile: Vec<(String, f64)>,
@@ -491,6 +513,7 @@ fn repeats(
         interleaved_pct: Vec::new(),
         in_run_untimed: Vec::new(),
         in_run_plain: Vec::new(),
+        floors: Vec::new(),
         in_run: Vec::new(),
         profile: Vec::new(),
     };
@@ -510,6 +533,7 @@ fn repeats(
             case.warmup,
         )?;
         m.in_run.push(c.in_run_overhead_pct);
+        m.floors.push(floor_pct(&c.profile));
         if m.controlled.iter().all(|&x| x > c.ms_per_step) {
             m.profile = c.profile;
         }
@@ -674,12 +698,12 @@ pub fn format_profile(results: &[BenchResult]) -> String {
             ));
         }
         s.push_str(&format!(
-            "  floor (libsumo's calls): {:.1} % of SUMO's step; the loop costs {:.1} % of it in a plain run, {:.2}x the floor ({:.1} %, {:.2}x, in the interleaved runs)\n",
+            "  floor (libsumo's calls): {:.1} % of SUMO's step; the loop costs {:.1} % of it in a plain run, {:.2}x the floor ({:.1} %, {:.2}x, in the interleaved runs; medians over the repeats, each run over its own repeat's floor)\n",
             r.floor_pct,
             r.in_run_plain_pct,
-            r.in_run_plain_pct / r.floor_pct,
+            r.plain_over_floor,
             r.in_run_untimed_pct,
-            r.in_run_untimed_pct / r.floor_pct
+            r.interleaved_over_floor
         ));
     }
     s
@@ -758,6 +782,17 @@ mod tests {
         .map(|(n, t)| (n.to_string(), t));
         // (2.5 + 1.5) µs of libsumo calls on a 40 µs step; the rows are syncroad's own.
         assert!((floor_pct(&profile) - 10.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn each_repeat_is_set_against_its_own_floor() {
+        // The machine changes speed between repeats (SUMO's step half as long in the second,
+        // so both shares move): each pair keeps its ratio (1.2, 1.2, 1.5), median 1.2. The
+        // cost over one run's floor would give anything from 0.6 to 3.0 here.
+        let cost = [12.0, 6.0, 15.0];
+        let floor = [10.0, 5.0, 10.0];
+        assert!((median_ratio(&cost, &floor) - 1.2).abs() < 1e-12);
+        assert!((median_ratio(&[11.0, 13.0], &[10.0, 10.0]) - 1.2).abs() < 1e-12);
     }
 
     #[test]
