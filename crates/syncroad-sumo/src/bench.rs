@@ -620,13 +620,6 @@ pub struct Selection {
     pub no_traci: bool,
 }
 
-impl Selection {
-    /// Refuses a case name that selects nothing (before any measurement).
-    pub fn check(&self) -> Result<(), BenchError> {
-        select_cases(Path::new("."), self).map(|_| ())
-    }
-}
-
 /// The standard cases that `sel` selects; an unknown case name is refused with the names.
 pub fn select_cases(nets: &Path, sel: &Selection) -> Result<Vec<BenchCase>, BenchError> {
     let mut cases = standard_cases(nets, sel.quick);
@@ -635,7 +628,7 @@ pub fn select_cases(nets: &Path, sel: &Selection) -> Result<Vec<BenchCase>, Benc
             .iter()
             .map(|c| c.name.split(' ').next().unwrap_or_default().to_string())
             .collect();
-        cases.retain(|c| c.name.starts_with(want.as_str()) && !want.is_empty());
+        cases.retain(|c| !want.is_empty() && c.name.starts_with(want.as_str()));
         if cases.is_empty() {
             return Err(BenchError::UnknownCase {
                 case: want.clone(),
@@ -654,7 +647,8 @@ pub fn select_cases(nets: &Path, sel: &Selection) -> Result<Vec<BenchCase>, Benc
 
 /// The standard cases ([`standard_cases`]) that `sel` selects, with the repository's networks
 /// and TraCI reference, `worker` starting every measurement; the work folder is removed
-/// afterwards.
+/// afterwards. A case name that selects nothing is refused ([`BenchError::UnknownCase`])
+/// before any measurement.
 pub fn run_standard(
     worker: &WorkerCommand,
     sel: &Selection,

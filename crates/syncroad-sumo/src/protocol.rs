@@ -555,7 +555,7 @@ pub enum Frame {
 
 /// Reads one frame; `Ok(None)` at a clean end of stream.
 pub fn read_frame(r: &mut impl Read) -> Result<Option<Frame>, ProtocolError> {
-    let mut head = [0u8; 5];
+    let mut head = [0u8; FRAME_HEAD];
     match r.read_exact(&mut head[..1]) {
         Ok(()) => {}
         Err(e) if e.kind() == io::ErrorKind::UnexpectedEof => return Ok(None),
@@ -566,7 +566,7 @@ pub fn read_frame(r: &mut impl Read) -> Result<Option<Frame>, ProtocolError> {
             len: 0,
             reason: e.to_string(),
         })?;
-    let len = u32::from_le_bytes(head[1..5].try_into().expect("4 bytes")) as usize;
+    let len = u32::from_le_bytes(head[1..FRAME_HEAD].try_into().expect("4 bytes")) as usize;
     if len > MAX_FRAME {
         return Err(ProtocolError::TooLong(len));
     }

@@ -579,38 +579,32 @@ fn step_time_is_a_part_of_the_runs_and_refuses_native_scenarios() {
         );
     }
     assert!((values[2] - values[0] - values[1]).abs() <= 2e-6, "{text}");
+    // Refused with exit 2 before any worker starts; the message is returned.
+    let refused = |args: &[&std::ffi::OsStr]| -> String {
+        let o = bin().arg("sumo-bench").args(args).output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        err
+    };
     let native = repo().join("scenarios/ring-theorem1.json");
-    let o = bin()
-        .args(["sumo-bench", "--step-time"])
-        .arg(&native)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
+    let step_time = |extra: &[&str]| {
+        let mut a = vec![std::ffi::OsStr::new("--step-time"), native.as_os_str()];
+        a.extend(extra.iter().map(std::ffi::OsStr::new));
+        refused(&a)
+    };
+    let err = step_time(&[]);
     assert!(
         err.contains("ring-theorem1.json") && err.contains("backend is not \"sumo\""),
         "{err}"
     );
-    let o = bin()
-        .args(["sumo-bench", "--case", "ring-2km"])
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
+    let err = refused(&["--case", "ring-2km"].map(std::ffi::OsStr::new));
     assert!(
         err.contains("\"ring-2km\"") && err.contains("sugiyama-ring, ring-20km"),
         "{err}"
     );
     // The standard cases' options do not apply to --step-time: refused, not ignored.
     for extra in [&["--quick"][..], &["--no-traci"], &["--case", "ring-20km"]] {
-        let o = bin()
-            .args(["sumo-bench", "--step-time"])
-            .arg(&native)
-            .args(extra)
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{err}");
+        let err = step_time(extra);
         assert!(
             err.contains(extra[0]) && err.contains("--step-time"),
             "{err}"

@@ -3,13 +3,14 @@
 //!
 //! `syncroad-sumo-worker --bench [--quick] [--case NAME] [--no-traci] [--json FILE]` runs the
 //! SUMO benchmark (SUMO alone vs SUMO + controller vs the TraCI reference at N = 22 and
-//! N = 2000, or the one case named), starting itself as the worker of every measurement. Arguments are read by `lexopt` (the SUMO crate stays free of
-//! clap); a stray or misspelt one is refused with exit 2.
+//! N = 2000, or the one case named), starting itself as the worker of every measurement.
+//! Arguments are read by `lexopt` (the SUMO crate stays free of clap); a stray or misspelt one
+//! is refused with exit 2.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use syncroad_sumo::bench::{format_profile, format_table, run_standard, Selection};
+use syncroad_sumo::bench::{format_profile, format_table, run_standard, BenchError, Selection};
 use syncroad_sumo::WorkerCommand;
 
 /// What the command line asks for.
@@ -73,7 +74,11 @@ fn main() -> ExitCode {
         Ok(r) => r,
         Err(e) => {
             eprintln!("error: {e:#}");
-            return ExitCode::FAILURE;
+            // An unknown case is bad input, refused before any measurement, like a stray flag.
+            return match e {
+                BenchError::UnknownCase { .. } => ExitCode::from(2),
+                _ => ExitCode::FAILURE,
+            };
         }
     };
     print!("{}", format_table(&results));

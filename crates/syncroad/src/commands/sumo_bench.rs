@@ -3,7 +3,7 @@
 use std::path::Path;
 
 use anyhow::Context;
-use syncroad_sumo::bench::{format_profile, format_table, run_standard, Selection};
+use syncroad_sumo::bench::{format_profile, format_table, run_standard, BenchError, Selection};
 use syncroad_sumo::WorkerCommand;
 
 use crate::error::Status;
@@ -13,10 +13,14 @@ use crate::stdout::{out, outln};
 /// The SUMO benchmark: SUMO alone vs SUMO + controller vs the TraCI reference at N = 22 and
 /// N = 2000 (or the cases `sel` keeps); prints a table, optionally writes JSON.
 pub fn run(sel: &Selection, json_out: Option<&Path>) -> anyhow::Result<Status> {
-    sel.check()
-        .map_err(|e| crate::error::InputError::new(format!("sumo-bench {e}")))?;
     let worker = WorkerCommand::for_process().context("cannot locate the syncroad executable")?;
-    let results = run_standard(&worker, sel, &mut |l: &str| eprintln!("{l}"))?;
+    let results = match run_standard(&worker, sel, &mut |l: &str| eprintln!("{l}")) {
+        // Refused before any measurement: bad input (exit 2), not a failed run.
+        Err(e @ BenchError::UnknownCase { .. }) => {
+            return Err(crate::error::InputError::new(format!("sumo-bench {e}")).into())
+        }
+        r => r?,
+    };
     out!("{}", format_table(&results));
     out!("\nwhere a step goes:\n{}", format_profile(&results));
     if let Some(p) = json_out {
