@@ -79,13 +79,22 @@ def run(
     warmup_s: Optional[float] = None,
     timeout_s: Optional[float] = None,
     krauss_sigma: Optional[float] = None,
+    progress: Optional[str] = None,
 ) -> Run:
     """Runs a scenario as ``syncroad run`` (``backend="native"``: ``syncroad simulate``)
     and returns its :class:`Run`. ``out`` is the run's folder (default: a new temporary one);
-    the files are the CLI's. SUMO runs go to a supervised worker process.
+    the files are the CLI's. SUMO runs go to a supervised worker process. ``progress`` is the
+    CLI's ``--progress``: ``"auto"`` (the default: a line redrawn on a terminal's stderr),
+    ``"lines"`` (plain lines on stderr, for logs) or ``"never"``.
 
     Raises :class:`ScenarioError` for bad input, :class:`RunError` when the run failed part-way
-    (``err.run`` keeps the rows received), :class:`Interrupted` on Ctrl-C (rows kept)."""
+    (``err.run`` keeps the rows received), :class:`Interrupted` on Ctrl-C (rows kept).
+
+    Ctrl-C reaches a run the way it reaches any Python code: through the interpreter's
+    ``KeyboardInterrupt``. A process started with SIGINT ignored (``nohup``, or ``python … &``
+    in a script, where the shell ignores SIGINT for background jobs) ignores it during a run
+    too, as Python itself does. Code that wants Ctrl-C there restores the handler first:
+    ``signal.signal(signal.SIGINT, signal.default_int_handler)``."""
     sc = as_scenario(scenario)
     if backend not in (None, "native", "sumo"):
         raise ScenarioError(f'backend = {backend!r}: must be "native" or "sumo" (or None: the scenario\'s)')
@@ -101,6 +110,7 @@ def run(
         record_every=record_every,
         warmup_s=warmup_s,
         no_plots=not plots,
+        progress=progress,
     )
     code, error, summary = _execute(argv, folder)
     if code == RUN_FAILED or error is not None:

@@ -3,12 +3,11 @@ and keeps its rows; Ctrl-C stops a run, keeps its rows and raises Interrupted.""
 
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
 import sys
-import threading
-import time
 from pathlib import Path
 
 import pytest
@@ -113,43 +112,79 @@ def long_sugiyama(tmp_path):
     return syncroad.Scenario.from_dict(sc, base_dir=REPO / "scenarios")
 
 
+def samples_in(line):
+    """The samples a progress line (``run: t = … s (…%), N samples recorded; …``) reports."""
+    m = re.search(r"(\d+) samples recorded", line)
+    return int(m.group(1)) if m else None
+
+
+def wait_for_samples(child, samples, seen):
+    """Reads the child's stderr until a progress line reports at least ``samples`` recorded:
+    the test acts on what the run has done, never after a guessed delay."""
+    for line in child.stderr:
+        seen.append(line)
+        n = samples_in(line)
+        if n is not None and n >= samples:
+            return n
+    raise AssertionError("the run ended without reporting its samples:\n" + "".join(seen))
+
+
+def start_child(code, args, sigint=signal.SIG_DFL):
+    """A Python child running ``code`` in the repository, with SIGINT at ``sigint`` whatever
+    this process inherited (a suite started as a background job inherits it ignored)."""
+    return subprocess.Popen(
+        [sys.executable, "-c", code, *args],
+        cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, sigint),
+    )
+
+
+CRASH = """
+import json, sys, syncroad
+sc = syncroad.Scenario.from_dict(json.loads(sys.argv[1]), base_dir=sys.argv[2])
+try:
+    syncroad.run(sc, out=sys.argv[3], record_every=10, plots=False, progress="lines")
+    print(json.dumps({"raised": False}))
+except syncroad.RunError as e:
+    partial = e.run
+    after = syncroad.run("scenarios/ring-theorem1.json", out=sys.argv[3] + "-after")
+    print(json.dumps({"raised": True, "message": str(e), "exit_code": e.exit_code, "out": str(e.out),
+                      "partial": partial is not None, "complete": partial.complete,
+                      "error": partial.metrics.error, "verdict": partial.verdict,
+                      "rows": partial.trajectories.num_rows, "after": after.verdict}))
+"""
+
+
 def test_a_crashing_worker_raises_and_keeps_its_rows(tmp_path):
+    sc = scenario("scenarios/sugiyama-ring.json")
+    sc["horizon_s"] = 100000
     out = tmp_path / "out"
-    killed = []
-
-    def kill_when_running():
-        t0 = time.time()
-        while not (out / "sumo" / "sumo.log").exists() and time.time() - t0 < 60:
-            time.sleep(0.02)
-        time.sleep(2.5)
-        for pid in workers_of(os.getpid()):
-            os.kill(pid, signal.SIGSEGV)
-            killed.append(pid)
-
-    killer = threading.Thread(target=kill_when_running)
-    killer.start()
-    with pytest.raises(syncroad.RunError) as e:
-        syncroad.run(long_sugiyama(tmp_path), out=out, record_every=10, plots=False)
-    killer.join()
-    assert len(killed) == 1, "one worker process, a child of this one"
-    assert "SIGSEGV" in str(e.value)
-    assert e.value.exit_code == 3 and e.value.out == out
-    partial = e.value.run
-    assert partial is not None and not partial.complete
-    assert "SIGSEGV" in partial.metrics.error
-    assert partial.verdict != "synchronized"
-    rows = partial.trajectories.num_rows
-    assert rows >= 22 * 10 and rows % 22 == 0
+    child = start_child(CRASH, [json.dumps(sc), str(REPO / "scenarios"), str(out)])
+    seen = []
+    reported = wait_for_samples(child, 10, seen)
+    workers = workers_of(child.pid)
+    assert len(workers) == 1, "one worker process, a child of the API's process"
+    os.kill(workers[0], signal.SIGSEGV)
+    stdout, stderr = child.communicate(timeout=120)
+    assert child.returncode == 0, "".join(seen) + stderr
+    got = json.loads(stdout.strip().splitlines()[-1])
+    assert got["raised"] and "SIGSEGV" in got["message"], got
+    assert got["exit_code"] == 3 and got["out"] == str(out)
+    assert got["partial"] and got["complete"] is False
+    assert "SIGSEGV" in got["error"]
+    assert got["verdict"] != "synchronized"
+    rows = got["rows"]
+    assert rows >= 22 * reported and rows % 22 == 0
     # The API goes on: the next run works.
-    assert syncroad.run("scenarios/ring-theorem1.json", out=tmp_path / "next").verdict == "synchronized"
+    assert got["after"] == "synchronized"
 
 
 CTRL_C = """
 import json, sys, syncroad
 sc = syncroad.Scenario.from_dict(json.loads(sys.argv[1]), base_dir=sys.argv[2])
 try:
-    syncroad.run(sc, out=sys.argv[3], record_every=10, plots=False)
-    print(json.dumps({"interrupted": False}))
+    run = syncroad.run(sc, out=sys.argv[3], record_every=10, plots=False, progress="lines")
+    print(json.dumps({"interrupted": False, "complete": run.complete}))
 except syncroad.Interrupted as e:
     after = syncroad.run("scenarios/ring-theorem1.json", out=sys.argv[3] + "-after")
     print(json.dumps({"interrupted": True, "is_keyboard_interrupt": isinstance(e, KeyboardInterrupt),
@@ -162,19 +197,30 @@ def test_ctrl_c_stops_a_run_keeps_its_rows_and_raises(tmp_path):
     sc = scenario("scenarios/sugiyama-ring.json")
     sc["horizon_s"] = 100000
     out = tmp_path / "out"
-    child = subprocess.Popen(
-        [sys.executable, "-c", CTRL_C, json.dumps(sc), str(REPO / "scenarios"), str(out)],
-        cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-    )
-    t0 = time.time()
-    while not (out / "sumo" / "sumo.log").exists() and time.time() - t0 < 60:
-        time.sleep(0.02)
-    time.sleep(2.0)
+    # SIGINT at its default, as in an interactive session.
+    child = start_child(CTRL_C, [json.dumps(sc), str(REPO / "scenarios"), str(out)])
+    seen = []
+    reported = wait_for_samples(child, 10, seen)
     child.send_signal(signal.SIGINT)
     stdout, stderr = child.communicate(timeout=120)
-    assert child.returncode == 0, stderr
+    assert child.returncode == 0, "".join(seen) + stderr
     got = json.loads(stdout.strip().splitlines()[-1])
     assert got["interrupted"] and got["is_keyboard_interrupt"], got
     assert got["complete"] is False and "interrupted" in got["error"]
-    assert got["rows"] >= 22 * 10
+    assert got["rows"] >= 22 * reported
     assert got["after"] == "synchronized"  # the flag was cleared for the next command
+
+
+def test_a_process_that_ignores_ctrl_c_runs_on_as_python_does(tmp_path):
+    # Started with SIGINT ignored (nohup, `cmd &` in a script): the run goes on to its horizon.
+    sc = scenario("scenarios/sugiyama-ring.json")
+    sc["horizon_s"] = 3000
+    out = tmp_path / "out"
+    child = start_child(CTRL_C, [json.dumps(sc), str(REPO / "scenarios"), str(out)], sigint=signal.SIG_IGN)
+    seen = []
+    wait_for_samples(child, 10, seen)
+    child.send_signal(signal.SIGINT)
+    stdout, stderr = child.communicate(timeout=300)
+    assert child.returncode == 0, "".join(seen) + stderr
+    got = json.loads(stdout.strip().splitlines()[-1])
+    assert got == {"interrupted": False, "complete": True}, got

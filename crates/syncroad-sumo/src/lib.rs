@@ -64,6 +64,8 @@ pub use signals::{
     clear_interrupt, host_delivers_interrupts, interrupt, received as interrupt_signal,
     received_name as interrupt_signal_name,
 };
-pub use supervisor::{interrupt_flag, SupervisorError, WorkerCommand, WorkerPool};
+pub use supervisor::{
+    interrupt_flag, RowsHook, RowsProgress, StartHook, SupervisorError, WorkerCommand, WorkerPool,
+};
 pub use venv::repo_dir;
 pub use worker::{is_worker_invocation, worker_main, worker_main_with};

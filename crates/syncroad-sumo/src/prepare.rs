@@ -63,6 +63,8 @@ pub struct RunOptions {
     pub read: ReadMode,
     /// Called when SUMO runs in the worker.
     pub on_start: Option<crate::supervisor::StartHook>,
+    /// Called after each chunk of rows received from the worker.
+    pub on_rows: Option<crate::supervisor::RowsHook>,
     /// Per scenario vehicle (the leader excluded): `Some` lets that SUMO model drive it instead
     /// of the law. Empty: the law drives every vehicle. The leader always follows its profile.
     pub drivers: Vec<Option<SumoDriver>>,
@@ -99,6 +101,7 @@ impl RunOptions {
             interrupt: None,
             read: ReadMode::Direct,
             on_start: None,
+            on_rows: None,
             drivers: Vec::new(),
             measure: None,
             damper: None,
@@ -547,6 +550,7 @@ impl Prepared {
                 timeout,
                 interrupt: opts.interrupt.clone(),
                 on_start: opts.on_start.clone(),
+                on_rows: opts.on_rows.clone(),
             },
             worker: opts.worker.clone(),
         })

@@ -112,6 +112,23 @@ fn pin_build_python(command: &mut Command) {
 /// Called once SUMO runs in the worker (e.g. to show progress).
 pub type StartHook = Arc<dyn Fn(&StartInfo) + Send + Sync>;
 
+/// Where a run stands each time a chunk of rows arrives from the worker.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RowsProgress {
+    /// The worker's process id.
+    pub pid: u32,
+    /// Samples (recorded steps) received so far; each is whole, and each is kept whatever
+    /// happens to the run after this call.
+    pub records: usize,
+    /// Simulated time of the last sample received \[s\].
+    pub time_s: f64,
+}
+
+/// Called after each chunk of rows the worker sends (at most every 200 ms of the worker's
+/// wall time, and at the end): progress reports, and tests that must act once a run has
+/// recorded something rather than after a guessed delay.
+pub type RowsHook = Arc<dyn Fn(&RowsProgress) + Send + Sync>;
+
 /// Limits of one supervised run.
 #[derive(Clone, Default)]
 pub struct Supervision {
@@ -121,6 +138,8 @@ pub struct Supervision {
     pub interrupt: Option<Arc<AtomicBool>>,
     /// Called when the worker reports that SUMO started.
     pub on_start: Option<StartHook>,
+    /// Called after each chunk of rows received.
+    pub on_rows: Option<RowsHook>,
 }
 
 impl std::fmt::Debug for Supervision {
@@ -129,6 +148,7 @@ impl std::fmt::Debug for Supervision {
             .field("timeout", &self.timeout)
             .field("interrupt", &self.interrupt)
             .field("on_start", &self.on_start.as_ref().map(|_| "hook"))
+            .field("on_rows", &self.on_rows.as_ref().map(|_| "hook"))
             .finish()
     }
 }
@@ -451,7 +471,17 @@ impl Worker {
         let mut eof = sent.is_err();
         let handle =
             |f: Frame, run: &mut WorkerRun, end: &mut Option<Result<Finish, String>>| match f {
-                Frame::Rows(mut c) => run.rows.append(&mut c),
+                Frame::Rows(mut c) => {
+                    let time_s = c.time_s.last().copied();
+                    run.rows.append(&mut c);
+                    if let (Some(hook), Some(time_s)) = (&limits.on_rows, time_s) {
+                        hook(&RowsProgress {
+                            pid: run.pid,
+                            records: run.rows.len(),
+                            time_s,
+                        });
+                    }
+                }
                 Frame::Ranges(mut r) => run.ranges.append(&mut r),
                 Frame::Msg(WorkerMsg::Started(s)) => {
                     if let Some(hook) = &limits.on_start {

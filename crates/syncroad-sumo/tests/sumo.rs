@@ -13,6 +13,20 @@ use syncroad_sumo::{
     load_road, run_scenario, PrepareError, Prepared, RunOptions, SupervisorError, WorkerCommand,
 };
 
+/// A rows hook that calls `act` once, when the run has recorded at least `min` samples: tests
+/// act on what the run has done, never after a guessed delay.
+fn once_recorded(
+    min: usize,
+    act: impl Fn(&syncroad_sumo::RowsProgress) + Send + Sync + 'static,
+) -> syncroad_sumo::RowsHook {
+    let done = AtomicBool::new(false);
+    Arc::new(move |p: &syncroad_sumo::RowsProgress| {
+        if p.records >= min && !done.swap(true, Ordering::SeqCst) {
+            act(p);
+        }
+    })
+}
+
 fn nets() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../sumo-nets")
@@ -213,13 +227,11 @@ mod supervision {
     fn crash_mid_run_keeps_the_rows() {
         let sc = ring_scenario(22, 100_000.0, &nets().join("sugiyama-ring.net.xml"), 1);
         let mut o = opts("crash-mid-run");
-        o.on_start = Some(Arc::new(|s: &syncroad_sumo::StartInfo| {
-            let pid = s.pid as i32;
-            std::thread::spawn(move || {
-                std::thread::sleep(Duration::from_secs(2));
-                // SAFETY: signals our own child worker.
-                unsafe { libc::kill(pid, libc::SIGABRT) };
-            });
+        // Once rows have arrived (not after a guessed delay: a loaded machine may take seconds
+        // to start Python).
+        o.on_rows = Some(once_recorded(20, |p| {
+            // SAFETY: signals our own child worker.
+            unsafe { libc::kill(p.pid as i32, libc::SIGABRT) };
         }));
         let run = run_scenario(&sc, &o).unwrap();
         let err = run.failure().unwrap();
@@ -230,7 +242,10 @@ mod supervision {
             }
             other => panic!("unexpected: {other}"),
         }
-        assert!(run.worker.rows.len() > 10, "rows streamed before the crash");
+        assert!(
+            run.worker.rows.len() >= 20,
+            "rows streamed before the crash"
+        );
         assert!(
             err.to_string().contains("crashed with signal 6 (SIGABRT)"),
             "{err}"
@@ -244,19 +259,13 @@ mod supervision {
         let flag = Arc::new(AtomicBool::new(false));
         o.interrupt = Some(flag.clone());
         let f = flag.clone();
-        // Ctrl-C two seconds after SUMO started (not after the worker was spawned: on a busy
-        // machine starting Python alone can take seconds).
-        o.on_start = Some(Arc::new(move |_: &syncroad_sumo::StartInfo| {
-            let f = f.clone();
-            std::thread::spawn(move || {
-                std::thread::sleep(Duration::from_secs(2));
-                f.store(true, Ordering::SeqCst);
-            });
-        }));
+        // Ctrl-C once the run has recorded rows (not after a delay: on a busy machine starting
+        // Python alone can take seconds).
+        o.on_rows = Some(once_recorded(20, move |_| f.store(true, Ordering::SeqCst)));
         let run = run_scenario(&sc, &o).unwrap();
         let err = run.failure().unwrap();
         assert_eq!(err.exit_code(), Some(130), "{err}");
-        assert!(run.worker.rows.len() > 10);
+        assert!(run.worker.rows.len() >= 20);
     }
 }
 

@@ -4,6 +4,8 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
 
+use crate::progress::ProgressMode;
+
 /// Velocity-synchronization experiments on ring roads and platoons (Proskurnikov & Mazo's
 /// delayed-driver and bidirectional CACC protocols), natively and in SUMO.
 ///
@@ -205,6 +207,25 @@ pub struct OutputArgs {
     /// Do not draw the plots (time-space diagram, speeds, spread; PNG and SVG).
     #[arg(long)]
     pub no_plots: bool,
+    /// Progress on stderr: `auto` redraws one line on a terminal once the run lasts over 2 s
+    /// (nothing in a log or a pipe); `lines` prints a line as soon as the first samples are
+    /// recorded, then one every 5 s, wherever stderr goes (batch logs); `never`.
+    #[arg(long, value_enum, default_value_t = ProgressMode::Auto, value_name = "WHEN")]
+    pub progress: ProgressMode,
+    /// No progress on stderr (the same as `--progress never`).
+    #[arg(long, short, conflicts_with = "progress")]
+    pub quiet: bool,
+}
+
+impl OutputArgs {
+    /// How the run shows its progress (`--quiet` is `--progress never`).
+    pub fn progress_mode(&self) -> ProgressMode {
+        if self.quiet {
+            ProgressMode::Never
+        } else {
+            self.progress
+        }
+    }
 }
 
 /// Options of the SUMO backend.

@@ -65,3 +65,141 @@ impl Progress {
         }
     }
 }
+
+/// When one run shows its progress on stderr (`--progress` of `run` and `simulate`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum ProgressMode {
+    /// A line redrawn in place once the run has lasted [`RunProgress::BAR_AFTER_S`] when stderr
+    /// is a terminal; nothing when it is not (a log, a pipe, a notebook).
+    #[default]
+    Auto,
+    /// Plain lines, whatever stderr is: one as soon as the first samples are recorded, then
+    /// one every [`RunProgress::LINE_EVERY_S`] (for the logs of batch jobs, and for scripts
+    /// that act once a run is under way).
+    Lines,
+    /// Nothing.
+    Never,
+}
+
+enum Shown {
+    Bar(Option<ProgressBar>),
+    Lines(Option<Instant>),
+    Off,
+}
+
+/// Progress of one run: simulated time against the horizon, the samples recorded so far
+/// (each of them kept in the files whatever stops the run after the report), the speed and
+/// the time left. Fed by the native loop or by the SUMO supervisor as rows arrive.
+pub struct RunProgress {
+    label: &'static str,
+    horizon_s: f64,
+    start: Instant,
+    shown: std::sync::Mutex<Shown>,
+}
+
+impl RunProgress {
+    /// Wall seconds before a terminal's bar appears (short runs show none).
+    pub const BAR_AFTER_S: f64 = 2.0;
+    /// Wall seconds between two plain lines.
+    pub const LINE_EVERY_S: f64 = 5.0;
+
+    /// Reports the run `label` (`run`, `simulate`) of `horizon_s` simulated seconds.
+    pub fn new(mode: ProgressMode, label: &'static str, horizon_s: f64) -> Self {
+        let shown = match mode {
+            ProgressMode::Auto if std::io::stderr().is_terminal() => Shown::Bar(None),
+            ProgressMode::Lines => Shown::Lines(None),
+            ProgressMode::Auto | ProgressMode::Never => Shown::Off,
+        };
+        Self {
+            label,
+            horizon_s,
+            start: Instant::now(),
+            shown: std::sync::Mutex::new(shown),
+        }
+    }
+
+    /// The run has reached `time_s` with `samples` recorded.
+    pub fn update(&self, time_s: f64, samples: usize) {
+        let Ok(mut shown) = self.shown.lock() else {
+            return;
+        };
+        let elapsed = self.start.elapsed().as_secs_f64();
+        match &mut *shown {
+            Shown::Off => {}
+            Shown::Lines(last) => {
+                if last.is_some_and(|l| l.elapsed().as_secs_f64() < Self::LINE_EVERY_S) {
+                    return;
+                }
+                *last = Some(Instant::now());
+                eprintln!("{}: {}", self.label, self.status(time_s, samples, elapsed));
+            }
+            Shown::Bar(bar) => {
+                if bar.is_none() && elapsed >= Self::BAR_AFTER_S {
+                    let b = ProgressBar::new(1000);
+                    b.set_style(
+                        ProgressStyle::with_template("{prefix} [{bar:30}] {msg}")
+                            .expect("a valid template")
+                            .progress_chars("=> "),
+                    );
+                    b.set_prefix(self.label);
+                    *bar = Some(b);
+                }
+                if let Some(b) = bar {
+                    b.set_position((1000.0 * self.fraction(time_s)) as u64);
+                    b.set_message(self.status(time_s, samples, elapsed));
+                }
+            }
+        }
+    }
+
+    /// The run ended: the bar is cleared (the summary follows).
+    pub fn finish(&self) {
+        if let Ok(mut shown) = self.shown.lock() {
+            if let Shown::Bar(Some(b)) = &mut *shown {
+                b.finish_and_clear();
+            }
+        }
+    }
+
+    fn fraction(&self, time_s: f64) -> f64 {
+        if self.horizon_s > 0.0 {
+            (time_s / self.horizon_s).clamp(0.0, 1.0)
+        } else {
+            1.0
+        }
+    }
+
+    fn status(&self, time_s: f64, samples: usize, elapsed: f64) -> String {
+        let f = self.fraction(time_s);
+        let left = if f > 0.0 {
+            format!("about {:.0} s left", elapsed * (1.0 - f) / f)
+        } else {
+            "time left not known yet".to_string()
+        };
+        format!(
+            "t = {time_s:.1} of {:.1} s ({:.0}%), {samples} samples recorded; {elapsed:.1} s elapsed, {:.0}x real time, {left}",
+            self.horizon_s,
+            100.0 * f,
+            time_s / elapsed.max(1e-9),
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_status_line_says_where_the_run_stands_and_what_is_left() {
+        let p = RunProgress::new(ProgressMode::Never, "run", 300.0);
+        // A quarter of the horizon in 10 s: three times as long again.
+        let s = p.status(75.0, 751, 10.0);
+        assert_eq!(
+            s,
+            "t = 75.0 of 300.0 s (25%), 751 samples recorded; 10.0 s elapsed, 8x real time, about 30 s left"
+        );
+        assert!(p.status(0.0, 1, 1.0).ends_with("time left not known yet"));
+        // Past the horizon (the last step's time rounds up): never over 100 %.
+        assert!(p.status(300.1, 3002, 40.0).contains("(100%)"));
+    }
+}

@@ -421,16 +421,18 @@ fn an_interrupted_regress_exits_130_and_leaves_the_baseline_whole() {
         if update {
             cmd.arg("--update");
         }
-        let child = cmd
+        let mut child = cmd
             .stdout(std::process::Stdio::piped())
             .stderr(std::process::Stdio::piped())
             .spawn()
             .unwrap();
-        std::thread::sleep(std::time::Duration::from_millis(2000));
+        // Once its first run has finished (the batch's progress line), with others to come.
+        let mut lines = StderrLines::of(&mut child);
+        lines.wait_for(|l| l.contains(" done, "));
         // SAFETY: signalling a child this test started.
         assert_eq!(unsafe { libc::kill(child.id() as i32, libc::SIGINT) }, 0);
         let o = child.wait_with_output().unwrap();
-        let err = String::from_utf8_lossy(&o.stderr);
+        let err = lines.rest();
         assert_eq!(o.status.code(), Some(130), "update {update}: {err}");
         assert!(err.contains("interrupted"), "{err}");
         assert_eq!(std::fs::read_to_string(&path).unwrap(), before);

@@ -353,21 +353,23 @@ fn termination_signals_stop_a_long_native_run_and_keep_its_rows() {
         (libc::SIGINT, 130),
     ] {
         let out = dir.join(format!("out-{sig}"));
-        let child = bin()
+        let mut child = bin()
             .arg("simulate")
             .arg(&long)
             .arg("--out")
             .arg(&out)
-            .arg("--no-plots")
+            .args(["--no-plots", "--progress", "lines"])
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
             .unwrap();
-        std::thread::sleep(std::time::Duration::from_millis(1500));
+        // Mid-run: once the run reports its first 10⁴ steps, whatever the machine's load.
+        let mut lines = StderrLines::of(&mut child);
+        lines.wait_for(|l| l.starts_with("simulate: t = "));
         // SAFETY: signalling our own child by its pid.
         unsafe { libc::kill(child.id() as i32, sig) };
         let o = child.wait_with_output().unwrap();
-        let err = String::from_utf8_lossy(&o.stderr);
+        let err = lines.rest();
         assert_eq!(o.status.code(), Some(code), "signal {sig}: {err}");
         assert!(err.contains("error: interrupted at t = "), "{err}");
         let m: serde_json::Value =

@@ -388,7 +388,11 @@ mod sweeps {
             .arg(dir.join("killed"))
             .spawn()
             .unwrap();
-        std::thread::sleep(std::time::Duration::from_millis(300));
+        // Killed while it holds the lock.
+        let t0 = std::time::Instant::now();
+        while !dir.join("killed/.syncroad.lock").exists() && t0.elapsed().as_secs() < 120 {
+            std::thread::sleep(std::time::Duration::from_millis(10));
+        }
         let _ = child.kill();
         child.wait().unwrap();
         let (code, o, e) = sweep(&p, &dir.join("killed"));

@@ -193,21 +193,23 @@ fn sigterm_and_sighup_keep_the_rows_like_ctrl_c() {
         let dir = tmpdir(&format!("signal-{sig}"));
         let scenario = sugiyama_variant(&dir, |s| s["horizon_s"] = 6000.into());
         let out = dir.join("out");
-        let child = bin()
+        let mut child = bin()
             .arg("run")
             .arg(&scenario)
             .arg("--out")
             .arg(&out)
-            .arg("--no-plots")
+            .args(["--no-plots", "--progress", "lines"])
             .stdout(std::process::Stdio::piped())
             .stderr(std::process::Stdio::piped())
             .spawn()
             .unwrap();
-        std::thread::sleep(std::time::Duration::from_millis(2000));
+        // Once the run reports recorded samples, whatever the machine's load.
+        let mut stderr = StderrLines::of(&mut child);
+        let reported = stderr.wait_for_samples(11);
         // SAFETY: signalling a child this test started.
         assert_eq!(unsafe { libc::kill(child.id() as i32, sig) }, 0);
         let o = child.wait_with_output().unwrap();
-        let err = String::from_utf8_lossy(&o.stderr);
+        let err = stderr.rest();
         assert_eq!(o.status.code(), Some(code), "signal {sig}: {err}");
         let m: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap())
@@ -218,7 +220,8 @@ fn sigterm_and_sighup_keep_the_rows_like_ctrl_c() {
             .unwrap()
             .lines()
             .count();
-        assert!(rows > 22 * 10, "signal {sig}: {rows} rows kept");
+        // The header and every sample reported before the signal, at least.
+        assert!(rows > 22 * reported, "signal {sig}: {rows} rows kept");
         assert_ne!(m["sync"]["verdict"], "synchronized");
     }
 }
@@ -355,37 +358,38 @@ fn a_worker_killed_part_way_leaves_a_consistent_folder() {
     .enumerate()
     {
         let out = dir.join(format!("out-{k}"));
-        let child = bin()
-            .args(["run", "--no-plots", "--record-every", "10", "--out"])
+        let mut child = bin()
+            .args([
+                "run",
+                "--no-plots",
+                "--record-every",
+                "10",
+                "--progress",
+                "lines",
+            ])
+            .arg("--out")
             .arg(&out)
             .arg(&sc)
             .stdout(std::process::Stdio::piped())
             .stderr(std::process::Stdio::piped())
             .spawn()
             .unwrap();
-        // Wait for SUMO to run (its log exists), then a little longer.
-        let t0 = std::time::Instant::now();
-        while !out.join("sumo/sumo.log").exists() && t0.elapsed().as_secs() < 60 {
-            std::thread::sleep(std::time::Duration::from_millis(20));
-        }
-        std::thread::sleep(std::time::Duration::from_millis(2500 + 300 * k as u64));
+        // Once the run reports recorded samples (a different count each time).
+        let mut lines = StderrLines::of(&mut child);
+        lines.wait_for_samples(10 + 40 * k);
         let workers = children_of(child.id());
         assert_eq!(workers.len(), 1, "one worker process: {workers:?}");
-        for _ in 0..2 {
+        // Until it is gone: a SIGSEGV sent with kill is survived once (see the SUMO crate's
+        // fault-injection test), and two signals sent close together may arrive as one.
+        while running(workers[0]) {
             // SAFETY: signals the worker our child started.
             unsafe { libc::kill(workers[0], signal) };
             std::thread::sleep(std::time::Duration::from_millis(50));
         }
         let done = child.wait_with_output().unwrap();
-        let stderr = String::from_utf8_lossy(&done.stderr);
+        let stderr = lines.rest();
         assert_eq!(done.status.code(), Some(3), "{name}: {stderr}");
-        if !out.join("metrics.json").exists() {
-            // Killed before SUMO reported its start (a loaded machine): nothing was run, and
-            // the folder holds no partial record or rows.
-            assert!(stderr.contains(name), "{name}: {stderr}");
-            assert!(!out.join("trajectories.csv").exists(), "{name}");
-            continue;
-        }
+        assert!(stderr.contains(name), "{name}: {stderr}");
         recorded += 1;
         let m: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap())
@@ -412,7 +416,7 @@ fn a_worker_killed_part_way_leaves_a_consistent_folder() {
             assert!(*times.last().unwrap() <= t + 1e-9, "{name}");
         }
     }
-    assert!(recorded > 0, "every kill came before SUMO started");
+    assert_eq!(recorded, 3);
 }
 
 /// Uniform flow — the most basic experiment: every vehicle at the same speed and gap, no

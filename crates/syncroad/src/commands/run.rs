@@ -5,16 +5,15 @@
 //! capacity, road length); a run that fails part-way still writes every row received, marked
 //! incomplete.
 
-use std::cell::Cell;
 use std::path::Path;
-use std::time::Instant;
+use std::sync::Arc;
 
 use anyhow::Context;
 use syncroad_control::drive::Drive;
 use syncroad_control::scenario::Backend;
 use syncroad_control::SumoDriver;
 use syncroad_control::{NativeOptions, Scenario, StopReason, Verdict};
-use syncroad_sumo::{interrupt_flag, load_road, ReadMode, WorkerCommand};
+use syncroad_sumo::{interrupt_flag, load_road, ReadMode, RowsProgress, WorkerCommand};
 
 use crate::cli::{OutputArgs, SumoArgs};
 use crate::config::{self, load_scenario, RunConfig};
@@ -22,6 +21,7 @@ use crate::error::{InputError, Status};
 use crate::lock::FolderLock;
 use crate::pipeline::{self, Finished};
 use crate::plan::RunPlan;
+use crate::progress::RunProgress;
 use crate::stdout::{out, outln};
 use crate::{output, tables};
 
@@ -168,14 +168,21 @@ fn run_native(sc: &Scenario, path: &Path, out: &OutputArgs) -> anyhow::Result<St
     let _lock = prepare_out(&cfg.out, path, sc)?;
     // Ctrl-C, SIGTERM and SIGHUP stop the loop; the steps so far are written, as on SUMO.
     let stop = interrupt_flag()?;
-    let progress = StepProgress::new(sc.step_s());
-    let report = |done: usize, total: usize| progress.report(done, total);
+    let progress = RunProgress::new(out.progress_mode(), "simulate", sc.horizon_s());
+    let every = cfg.record_every.max(1);
+    // The native loop records step 0 and every k-th step; an interrupted run also keeps the
+    // step it stopped at.
+    let report = |done: usize, _total: usize| {
+        progress.update(done as f64 * sc.step_s(), done / every + 1);
+    };
     let opts = NativeOptions {
         record_every: cfg.record_every,
         cancel: Some(&stop),
         progress: Some(&report),
     };
-    let f = Finished::new(sc, "law", pipeline::native_with(sc, opts), cfg.eval);
+    let output = pipeline::native_with(sc, opts);
+    progress.finish();
+    let f = Finished::new(sc, "law", output, cfg.eval);
     let complete = f.output.stop.is_complete();
     // The summary is printed even when a file cannot be written (a full disk).
     let written = f.write(
@@ -189,43 +196,6 @@ fn run_native(sc: &Scenario, path: &Path, out: &OutputArgs) -> anyhow::Result<St
         return Ok(Status::Interrupted);
     }
     Ok(verdict_status(&f))
-}
-
-/// Progress of a long native run on stderr: a line every [`StepProgress::EVERY_S`] of wall
-/// time (so a run of a few seconds prints nothing), with the simulated time and an estimate
-/// of the time left.
-struct StepProgress {
-    step_s: f64,
-    start: Instant,
-    last: Cell<Instant>,
-}
-
-impl StepProgress {
-    const EVERY_S: f64 = 5.0;
-
-    fn new(step_s: f64) -> Self {
-        let now = Instant::now();
-        Self {
-            step_s,
-            start: now,
-            last: Cell::new(now),
-        }
-    }
-
-    fn report(&self, done: usize, total: usize) {
-        if self.last.get().elapsed().as_secs_f64() < Self::EVERY_S {
-            return;
-        }
-        self.last.set(Instant::now());
-        let elapsed = self.start.elapsed().as_secs_f64();
-        let left = elapsed * (total - done) as f64 / done.max(1) as f64;
-        eprintln!(
-            "simulate: step {done} of {total} ({:.0}%), t = {:.1} of {:.1} s; {elapsed:.0} s elapsed, about {left:.0} s left",
-            100.0 * done as f64 / total as f64,
-            done as f64 * self.step_s,
-            total as f64 * self.step_s,
-        );
-    }
 }
 
 fn run_sumo(
@@ -266,13 +236,19 @@ fn run_sumo(
         plan.read = ReadMode::Subscriptions;
     }
     let worker = WorkerCommand::for_process().context("cannot locate the syncroad executable")?;
-    let opts = plan.sumo_options(
+    let mut opts = plan.sumo_options(
         cfg.out.join(output::SUMO_WORK_DIR),
         worker,
         Some(interrupt_flag()?),
     );
-    let run = pipeline::sumo(sc, &road, &opts)
-        .map_err(|e| InputError::caused("before starting SUMO", e))?;
+    let progress = Arc::new(RunProgress::new(out.progress_mode(), "run", sc.horizon_s()));
+    let shown = progress.clone();
+    opts.on_rows = Some(Arc::new(move |p: &RowsProgress| {
+        shown.update(p.time_s, p.records)
+    }));
+    let run = pipeline::sumo(sc, &road, &opts);
+    progress.finish();
+    let run = run.map_err(|e| InputError::caused("before starting SUMO", e))?;
     if run.output.trajectory.is_empty() && !run.interrupted {
         // SUMO never ran (no Python, no libsumo, a network SUMO refuses): there is no run to
         // judge, so no verdict and no record, only the reason (exit 3).

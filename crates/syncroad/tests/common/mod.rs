@@ -72,3 +72,80 @@ pub fn children_of(parent: u32) -> Vec<i32> {
     }
     out
 }
+
+/// A child's stderr read line by line on a thread, so a test can act once the child has said
+/// something (a progress line: the run is under way and has recorded samples) instead of after
+/// a guessed delay, which a loaded machine or a slow start can outlast.
+pub struct StderrLines {
+    lines: std::sync::mpsc::Receiver<String>,
+    seen: Vec<String>,
+}
+
+impl StderrLines {
+    /// Takes the piped stderr of `child`.
+    pub fn of(child: &mut std::process::Child) -> Self {
+        use std::io::BufRead;
+        let err = child.stderr.take().expect("stderr is piped");
+        let (tx, lines) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            for line in std::io::BufReader::new(err).lines().map_while(Result::ok) {
+                if tx.send(line).is_err() {
+                    break;
+                }
+            }
+        });
+        Self {
+            lines,
+            seen: Vec::new(),
+        }
+    }
+
+    /// Waits for the first line that satisfies `pred` and returns it; panics with everything
+    /// seen when the child closes stderr first, or after two minutes.
+    pub fn wait_for(&mut self, pred: impl Fn(&str) -> bool) -> String {
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(120);
+        loop {
+            let left = deadline.saturating_duration_since(std::time::Instant::now());
+            match self.lines.recv_timeout(left) {
+                Ok(line) => {
+                    self.seen.push(line.clone());
+                    if pred(&line) {
+                        return line;
+                    }
+                }
+                Err(e) => panic!(
+                    "no such line on stderr ({e}); it said:\n{}",
+                    self.seen.join("\n")
+                ),
+            }
+        }
+    }
+
+    /// Waits for a progress line (`--progress lines`) that reports at least `samples`
+    /// recorded samples; returns how many it reports.
+    pub fn wait_for_samples(&mut self, samples: usize) -> usize {
+        let line = self.wait_for(|l| samples_in(l).is_some_and(|n| n >= samples));
+        samples_in(&line).expect("a progress line")
+    }
+
+    /// All of stderr, once the child has closed it (it has exited).
+    pub fn rest(mut self) -> String {
+        self.seen.extend(self.lines.iter());
+        self.seen.join("\n")
+    }
+}
+
+/// The samples a progress line (`run: t = … s (…%), N samples recorded; …`) reports.
+pub fn samples_in(line: &str) -> Option<usize> {
+    let (before, _) = line.split_once(" samples recorded")?;
+    before.rsplit(' ').next()?.parse().ok()
+}
+
+/// True while process `pid` exists and has not exited (a zombie waiting for its parent has).
+pub fn running(pid: i32) -> bool {
+    std::fs::read_to_string(format!("/proc/{pid}/stat")).is_ok_and(|stat| {
+        stat.rsplit_once(')')
+            .and_then(|(_, rest)| rest.split_whitespace().next())
+            .is_some_and(|state| state != "Z")
+    })
+}
