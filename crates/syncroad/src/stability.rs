@@ -102,6 +102,13 @@ pub fn table(r: &StabilityReport) -> String {
         );
         let _ = write!(s, "{n}");
     }
+    if let Some(g) = &r.no_spanning_tree {
+        let _ = writeln!(
+            s,
+            "\nno directed spanning tree: no single vehicle reaches every other through the graph (vehicle {} is missed), so the consensus root s = 0 has multiplicity {} (one per group of vehicles that nobody outside it influences) and each group keeps its own speed",
+            g.unreached, g.consensus_multiplicity
+        );
+    }
     if let Some(c) = &r.cacc {
         let _ = writeln!(s, "\nCACC platoon:");
         let _ = write!(s, "{c}");

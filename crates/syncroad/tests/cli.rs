@@ -192,6 +192,47 @@ fn stability_of_the_unstable_ring_matches_the_closed_form_critical_gain() {
 }
 
 #[test]
+fn a_graph_without_a_spanning_tree_does_not_synchronize_on_any_path() {
+    // 22 drivers on a ring of which only 1 and 3 see anybody (0 → 1, 2 → 3): acyclic, so the
+    // per-driver factors once read the twenty d_i = 0 drivers' roots s = 0 as consensus.
+    let dir = tmpdir("no-spanning-tree");
+    let mut sc: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(repo().join("scenarios/ring-theorem1.json")).unwrap(),
+    )
+    .unwrap();
+    sc["model"]["graph"] = serde_json::json!({"type": "edges", "edges": [
+        {"from": 0, "to": 1, "weight": 0.5}, {"from": 2, "to": 3, "weight": 0.5}]});
+    let path = dir.join("two-edges.json");
+    std::fs::write(&path, sc.to_string()).unwrap();
+    let (code, out, err) = run(bin().arg("stability").arg(&path));
+    assert_eq!(code, 1, "{out}{err}");
+    assert!(out.contains("exact: does NOT synchronize"), "{out}");
+    // One zero root per driver nobody influences: 0, 2 and 4 … 21.
+    assert!(out.contains("has multiplicity 20"), "{out}");
+    let (_, json, _) = run(bin().args(["stability", "--json"]).arg(&path));
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(v["verdict"], "does_not_synchronize", "{v}");
+    assert_eq!(v["no_spanning_tree"]["consensus_multiplicity"], 20);
+    // The independent witness: simulated, the initial spread stays (drivers 4 … 21 never
+    // change speed), where a synchronizing ring ends below the tolerance.
+    let (code, out, err) = run(bin()
+        .arg("simulate")
+        .arg(&path)
+        .arg("--out")
+        .arg(dir.join("sim"))
+        .arg("--no-plots"));
+    assert_eq!(code, 1, "{out}{err}");
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("sim/metrics.json")).unwrap())
+            .unwrap();
+    let (initial, last) = (
+        m["sync"]["initial_spread_mps"].as_f64().unwrap(),
+        m["sync"]["final_spread_mps"].as_f64().unwrap(),
+    );
+    assert!(last > 0.5 * initial, "{initial} → {last}");
+}
+
+#[test]
 fn stability_of_chandler_chain_is_exact_and_map_draws_both_boundaries() {
     let (code, out, _) = run(bin()
         .args(["stability", "--json"])

@@ -161,6 +161,18 @@ pub struct DriverPeak {
     pub peak: f64,
 }
 
+/// A network whose graph has no directed spanning tree: the consensus root `s = 0` is
+/// multiple, one per source component, and each component keeps its own speed.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct NoSpanningTree {
+    /// A vehicle that no single vehicle reaches through the graph (the leader, when there is
+    /// one, is vehicle N).
+    pub unreached: usize,
+    /// Multiplicity of the root `s = 0`: the number of groups of vehicles that no vehicle
+    /// outside the group influences ([`crate::graph::Graph::source_components`]).
+    pub consensus_multiplicity: usize,
+}
+
 /// Everything `syncroad stability` reports.
 #[derive(Debug, Clone, Serialize)]
 pub struct StabilityReport {
@@ -188,6 +200,10 @@ pub struct StabilityReport {
     pub exactly_stable: bool,
     /// Whether the critical scale printed is certified.
     pub critical_scale_status: CriticalScaleStatus,
+    /// Set when the graph has no directed spanning tree: the velocities cannot synchronize,
+    /// whatever the roots off zero, and no other analysis is made.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub no_spanning_tree: Option<NoSpanningTree>,
     /// The paper's conditions certify it.
     pub certified: bool,
 }
@@ -255,6 +271,15 @@ fn chain_string_stability(a: &DMatrix<f64>, d: &[f64]) -> Option<ChainStringStab
     })
 }
 
+/// `Some` when the network (adjacency `a`, leader included) has no directed spanning tree.
+fn no_spanning_tree(a: &DMatrix<f64>) -> Option<NoSpanningTree> {
+    let graph = crate::graph::Graph::from_dense(a).ok()?;
+    graph.spanning_tree_gap().map(|unreached| NoSpanningTree {
+        unreached,
+        consensus_multiplicity: graph.source_components(),
+    })
+}
+
 /// Runs the exact analysis of a scenario.
 ///
 /// # Errors
@@ -274,6 +299,25 @@ pub fn analyse(sc: &Scenario) -> Result<StabilityReport, AnalysisError> {
             };
             let size = m.graph.len() + usize::from(m.leader.is_some());
             let (a, d) = network_matrices(m);
+            // Consensus needs the root s = 0 to be simple: checked before any path, since
+            // each (the acyclic factors above all) reads its roots off zero only.
+            if let Some(gap) = no_spanning_tree(&a) {
+                return Ok(StabilityReport {
+                    scenario: sc.name().to_string(),
+                    certified: paper.certified,
+                    critical_scale_status: CriticalScaleStatus::None,
+                    paper,
+                    ring: None,
+                    acyclic: None,
+                    chain_string_stability: None,
+                    leader_amplification: None,
+                    network: None,
+                    cacc: None,
+                    exactly_stable: false,
+                    verdict: ExactVerdict::DoesNotSynchronize,
+                    no_spanning_tree: Some(gap),
+                });
+            }
             let acyclic = acyclic_roots(&a, &d).ok();
             let network = if acyclic.is_some() {
                 None
@@ -334,6 +378,7 @@ pub fn analyse(sc: &Scenario) -> Result<StabilityReport, AnalysisError> {
                 cacc: None,
                 exactly_stable: verdict == ExactVerdict::Synchronizes,
                 verdict,
+                no_spanning_tree: None,
             })
         }
         Model::Cacc(c) => {
@@ -358,6 +403,7 @@ pub fn analyse(sc: &Scenario) -> Result<StabilityReport, AnalysisError> {
                 critical_scale_status: CriticalScaleStatus::None,
                 verdict,
                 cacc: Some(r),
+                no_spanning_tree: None,
             })
         }
     }

@@ -334,6 +334,37 @@ impl Graph {
             .position(|&b| !b)
     }
 
+    /// The number of source strongly connected components: groups of vertices that reach
+    /// each other and that no vertex outside reaches ("reaches" in the consensus
+    /// literature). It is the multiplicity of the Laplacian's zero eigenvalue, algebraic and
+    /// geometric alike, so the consensus root `s = 0` is simple exactly when it is 1: when the
+    /// graph has a directed spanning tree.
+    ///
+    /// # Reference
+    /// J. S. Caughman, J. J. P. Veerman, "Kernels of directed graph Laplacians", Electron. J.
+    /// Combin. 13 (2006) R39.
+    pub fn source_components(&self) -> usize {
+        let mut assigned = vec![false; self.n];
+        let mut count = 0;
+        for v in 0..self.n {
+            if assigned[v] {
+                continue;
+            }
+            let from = self.reachable(v, true);
+            let to = self.reachable(v, false);
+            // v's component is a source when everything that reaches v is reached from v.
+            if (0..self.n).all(|u| !to[u] || from[u]) {
+                count += 1;
+                for u in 0..self.n {
+                    if from[u] && to[u] {
+                        assigned[u] = true;
+                    }
+                }
+            }
+        }
+        count
+    }
+
     /// A vertex of a source strongly connected component.
     fn source_candidate(&self) -> usize {
         // Any root lies in the unique source strongly connected component; trying each vertex
@@ -464,6 +495,54 @@ mod tests {
         assert!(!g.is_strongly_connected());
         assert_eq!(g.spanning_tree_root(), Some(0));
         assert_eq!(g.left_null_vector().unwrap(), None);
+    }
+
+    #[test]
+    fn source_components_are_the_laplacians_zero_eigenvalues() {
+        use nalgebra::DMatrix;
+        // Independent oracle: the number of zero singular values of L = D − A.
+        let zeros = |a: &DMatrix<f64>| {
+            let mut l = -a.clone();
+            for i in 0..a.nrows() {
+                l[(i, i)] = a.row(i).iter().sum::<f64>();
+            }
+            l.singular_values()
+                .iter()
+                .filter(|s| s.abs() < 1e-9)
+                .count()
+        };
+        let mut cases = Vec::new();
+        // A ring of 22 drivers of which only 1 and 3 see anybody (0 → 1, 2 → 3).
+        let mut two_edges = DMatrix::zeros(22, 22);
+        two_edges[(1, 0)] = 0.5;
+        two_edges[(3, 2)] = 0.5;
+        cases.push((two_edges, 20));
+        // Two 2-cycles that do not see each other, and one that sees both.
+        let mut cycles = DMatrix::zeros(5, 5);
+        for (i, j) in [(0, 1), (1, 0), (2, 3), (3, 2), (4, 0), (4, 2)] {
+            cycles[(i, j)] = 0.7;
+        }
+        cases.push((cycles, 2));
+        // A bidirectional ring: one component.
+        let mut ring = DMatrix::zeros(6, 6);
+        for i in 0..6 {
+            ring[(i, (i + 5) % 6)] = 0.4;
+            ring[(i, (i + 1) % 6)] = 0.1;
+        }
+        cases.push((ring, 1));
+        // A chain behind its head, and nobody seeing anybody.
+        let mut chain = DMatrix::zeros(4, 4);
+        for i in 1..4 {
+            chain[(i, i - 1)] = 1.0;
+        }
+        cases.push((chain, 1));
+        cases.push((DMatrix::zeros(3, 3), 3));
+        for (a, want) in cases {
+            let g = Graph::from_dense(&a).unwrap();
+            assert_eq!(g.source_components(), want, "{a}");
+            assert_eq!(zeros(&a), want, "{a}");
+            assert_eq!(g.spanning_tree_gap().is_none(), want == 1, "{a}");
+        }
     }
 
     #[test]
