@@ -536,9 +536,44 @@ mod sweeps {
         let (code, o, e) = sweep(&p, &out);
         assert_eq!(code, 2, "{o}{e}");
         assert!(
-            e.contains("holds a sweep of another spec, base scenario or network"),
+            e.contains("holds a sweep of another spec, base scenario or input file"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn a_resumed_sumo_sweep_refuses_edited_route_and_additional_files() {
+        let dir = tmpdir("inputs-hash");
+        let routes = dir.join("traffic.rou.xml");
+        let additional = dir.join("extra.add.xml");
+        std::fs::write(&routes, "<routes>\n</routes>\n").unwrap();
+        std::fs::write(&additional, "<additional>\n</additional>\n").unwrap();
+        let sc = sugiyama(&dir, "ring.json", |s| {
+            s["horizon_s"] = json!(20);
+            s["sumo"]["routes"] = json!([routes]);
+            s["sumo"]["additional"] = json!([additional]);
+        });
+        let p = spec(&dir, "spec.json", json!({"base": sc, "seeds": [1]}));
+        let out = dir.join("out");
+        let (code, o, e) = sweep(&p, &out);
+        assert_eq!(code, 0, "{o}{e}");
+        // Unchanged files: the sweep resumes (nothing left to run).
+        let (code, o, e) = sweep(&p, &out);
+        assert_eq!(code, 0, "{o}{e}");
+        assert!(o.contains("1 finished before"), "{o}");
+        for file in [&routes, &additional] {
+            let before = std::fs::read_to_string(file).unwrap();
+            std::fs::write(file, format!("{before}<!-- edited -->\n")).unwrap();
+            let (code, o, e) = sweep(&p, &out);
+            assert_eq!(code, 2, "{}: {o}{e}", file.display());
+            assert!(
+                e.contains("holds a sweep of another spec, base scenario or input file"),
+                "{e}"
+            );
+            std::fs::write(file, before).unwrap();
+        }
+        let (code, o, e) = sweep(&p, &out);
+        assert_eq!(code, 0, "restored files resume: {o}{e}");
     }
 }
 

@@ -4,7 +4,7 @@
 //! starts), so no point of a sweep that starts can fail on its input.
 
 use std::collections::{BTreeMap, BTreeSet};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -57,6 +57,8 @@ impl Sweep {
 
     /// Builds and checks every point as it will run; returns the network files the points
     /// read (SUMO only), which the spec hash covers.
+    /// Checks every point as it will run, before anything runs; returns every file the points
+    /// read (networks, route, additional and configuration files).
     pub(super) fn check_points(&self) -> anyhow::Result<BTreeSet<PathBuf>> {
         let mut roads: BTreeMap<PathBuf, Arc<Road>> = BTreeMap::new();
         // Each point's scenario (a hash of all it holds) with its run and seed: two points
@@ -65,6 +67,9 @@ impl Sweep {
         let mut runs_alike: BTreeMap<([u8; 32], usize, u64), String> = BTreeMap::new();
         // The worker is never started: the options only carry the drivers to check.
         let worker = WorkerCommand::binary("syncroad");
+        // Every file a SUMO point reads besides its network: route, additional and
+        // configuration files are as much the experiment as the net.
+        let mut inputs: BTreeSet<PathBuf> = BTreeSet::new();
         for p in self.points() {
             let sc = self.scenario(&p)?;
             let print: [u8; 32] = Sha256::digest(format!("{sc:?}").as_bytes()).into();
@@ -96,6 +101,10 @@ impl Sweep {
             }
             let net = syncroad_sumo::net_path(&sc)
                 .map_err(|e| InputError::caused(self.describe(&p), e))?;
+            let files = sc.sumo();
+            inputs.extend(files.routes().iter().cloned());
+            inputs.extend(files.additional().iter().cloned());
+            inputs.extend(files.config().map(Path::to_path_buf));
             let road = match roads.get(&net) {
                 Some(r) => r.clone(),
                 None => {
@@ -110,7 +119,8 @@ impl Sweep {
             syncroad_sumo::check_run(&sc, &road, &o)
                 .map_err(|e| InputError::caused(self.describe(&p), e))?;
         }
-        Ok(roads.into_keys().collect())
+        inputs.extend(roads.into_keys());
+        Ok(inputs)
     }
 
     /// `sweep point ID (axis = value, ..., run NAME, seed S)`, for errors.

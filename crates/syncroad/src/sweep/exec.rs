@@ -164,7 +164,7 @@ pub fn open_out(sweep: &Sweep, out: &Path, shard: Shard) -> anyhow::Result<Folde
             .with_context(|| format!("{} is not valid JSON", meta.display()))?;
         if old["spec_hash"] != doc["spec_hash"] {
             return Err(InputError::new(format!(
-                "--out = {}: holds a sweep of another spec, base scenario or network (hash {} here, {} now); give a new folder, or remove it to start over",
+                "--out = {}: holds a sweep of another spec, base scenario or input file (network, route, additional or configuration file; hash {} here, {} now); give a new folder, or remove it to start over",
                 out.display(),
                 old["spec_hash"].as_str().unwrap_or("?"),
                 sweep.hash

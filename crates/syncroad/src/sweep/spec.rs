@@ -253,11 +253,13 @@ impl Sweep {
             count,
             hash: String::new(),
         };
-        // Every point is checked as it will run before anything runs; the networks they read
-        // are part of what a resumed sweep must match.
-        for net in sweep.check_points()? {
-            let bytes = std::fs::read(&net)
-                .map_err(|e| bad(format!("cannot read the network {}: {e}", net.display())))?;
+        // Every point is checked as it will run before anything runs; every file they read
+        // (networks, route, additional and configuration files: their contents, so a moved folder
+        // still resumes) is part of
+        // what a resumed sweep must match.
+        for file in sweep.check_points()? {
+            let bytes = std::fs::read(&file)
+                .map_err(|e| bad(format!("cannot read {}: {e}", file.display())))?;
             h.update([0]);
             h.update(&bytes);
         }
