@@ -35,8 +35,9 @@ fn scan(sel: &VehicleSelector, files: &[PathBuf]) -> Found {
     };
     let mut found = Found::default();
     for path in files {
-        let small = std::fs::metadata(path).is_ok_and(|x| x.len() <= USER_FILE_CHECK_MAX_BYTES);
-        let text = small.then(|| std::fs::read_to_string(path).ok()).flatten();
+        let text = crate::input_file::read_text(path, Some(USER_FILE_CHECK_MAX_BYTES))
+            .ok()
+            .flatten();
         let Some(doc) = text
             .as_deref()
             .and_then(|t| roxmltree::Document::parse(t).ok())

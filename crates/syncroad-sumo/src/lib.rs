@@ -33,6 +33,7 @@ mod controlled;
 mod cosim;
 mod direct;
 mod frozen;
+mod input_file;
 mod layout;
 mod net;
 mod output;

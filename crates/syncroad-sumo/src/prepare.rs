@@ -120,6 +120,13 @@ pub fn net_path(scenario: &Scenario) -> Result<PathBuf, PrepareError> {
             },
         });
     };
+    if let Some(what) = crate::input_file::not_regular(net) {
+        return Err(PrepareError::NotARegularFile {
+            field: "sumo.net".into(),
+            path: net.to_path_buf(),
+            what,
+        });
+    }
     if !net.is_file() {
         return Err(PrepareError::NetNotFound {
             path: net.to_path_buf(),
@@ -337,6 +344,13 @@ fn prepare_with(
 /// before SUMO starts.
 fn user_files(field: &'static str, files: &[PathBuf]) -> Result<Vec<PathBuf>, PrepareError> {
     for (i, p) in files.iter().enumerate() {
+        if let Some(what) = crate::input_file::not_regular(p) {
+            return Err(PrepareError::NotARegularFile {
+                field: format!("{field}[{i}]"),
+                path: p.clone(),
+                what,
+            });
+        }
         if !p.is_file() {
             return Err(PrepareError::UserFileNotFound {
                 field,
@@ -376,8 +390,7 @@ fn no_clashing_ids(ours: &str, field: &'static str, files: &[PathBuf]) -> Result
         .map(|&(k, tags)| (k, tags, ids_of(tags)))
         .collect();
     for (index, path) in files.iter().enumerate() {
-        let small = std::fs::metadata(path).is_ok_and(|m| m.len() <= CLASH_CHECK_MAX_BYTES);
-        let Some(text) = small.then(|| std::fs::read_to_string(path).ok()).flatten() else {
+        let Ok(Some(text)) = crate::input_file::read_text(path, Some(CLASH_CHECK_MAX_BYTES)) else {
             continue;
         };
         let Ok(user) = roxmltree::Document::parse(&text) else {

@@ -22,6 +22,17 @@ pub enum PrepareError {
         /// The resolved path.
         path: PathBuf,
     },
+    /// An input file that is not a regular file (a FIFO, a device, a folder): SUMO would read
+    /// it to its end, which for a FIFO never comes.
+    #[error("{field} = {path}: {what}, not a regular file: SUMO reads its input files to their end; give a file (checked before starting SUMO)")]
+    NotARegularFile {
+        /// The scenario field (`sumo.net`, `sumo.routes[0]`, …).
+        field: String,
+        /// The resolved path.
+        path: PathBuf,
+        /// What it is instead.
+        what: &'static str,
+    },
     /// A file of the user's own traffic (`sumo.routes`, `sumo.additional`) does not exist.
     #[error("{field}[{index}] = {path}: file not found (checked before starting SUMO)")]
     UserFileNotFound {

@@ -1109,6 +1109,72 @@ mod shell {
 mod up_front {
     use super::*;
 
+    /// A FIFO named as a network, route or additional file: reading it never ends (a loop
+    /// road read its network at load and hung). Every command refuses it with exit 2, naming
+    /// what it is, before SUMO starts.
+    #[test]
+    fn input_files_that_are_not_regular_files_are_refused_not_read() {
+        let dir = tmpdir("fifo-inputs");
+        let fifo = dir.join("fifo.xml");
+        let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+        // SAFETY: mkfifo on a path in the test's own folder.
+        assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+        let ring_net = sugiyama(&dir, "ring-net.json", |s| s["sumo"]["net"] = json!(fifo));
+        let routes = sugiyama(&dir, "routes.json", |s| s["sumo"]["routes"] = json!([fifo]));
+        let additional = sugiyama(&dir, "add.json", |s| {
+            s["sumo"]["additional"] = json!([fifo])
+        });
+        let mut own: Value = serde_json::from_str(
+            &std::fs::read_to_string(repo().join("examples/track/own-loop.json")).unwrap(),
+        )
+        .unwrap();
+        own["sumo"] = json!({"net": fifo});
+        let loop_net = write_json(&dir.join("loop-net.json"), &own);
+        let cases: [(&Path, &[&str], &str); 6] = [
+            (&ring_net, &["run", "--no-plots"], "sumo.net = "),
+            (&ring_net, &["compare", "--no-plots"], "sumo.net = "),
+            (&routes, &["run", "--no-plots"], "sumo.routes[0] = "),
+            (&additional, &["run", "--no-plots"], "sumo.additional[0] = "),
+            (&loop_net, &["check"], "cannot read SUMO network"),
+            (
+                &loop_net,
+                &["run", "--no-plots"],
+                "cannot read SUMO network",
+            ),
+        ];
+        for (k, (scenario, args, field)) in cases.into_iter().enumerate() {
+            let mut cmd = bin();
+            cmd.args(args).arg(scenario);
+            if args[0] != "check" {
+                cmd.arg("--out").arg(dir.join(format!("out-{k}")));
+            }
+            let mut child = cmd
+                .stdout(std::process::Stdio::null())
+                .stderr(std::process::Stdio::piped())
+                .spawn()
+                .unwrap();
+            let t0 = std::time::Instant::now();
+            let status = loop {
+                if let Some(s) = child.try_wait().unwrap() {
+                    break s;
+                }
+                if t0.elapsed().as_secs() > 120 {
+                    let _ = child.kill();
+                    panic!("case {k} ({args:?}): still reading the FIFO after 120 s");
+                }
+                std::thread::sleep(std::time::Duration::from_millis(20));
+            };
+            let mut err = String::new();
+            std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();
+            assert_eq!(status.code(), Some(2), "case {k} ({args:?}): {err}");
+            assert!(err.contains(field), "case {k}: {err}");
+            assert!(
+                err.contains("a FIFO (named pipe), not a regular file"),
+                "case {k}: {err}"
+            );
+        }
+    }
+
     /// Scaled delays get the scenario's delay-buffer limit (2²⁴ values): 10⁸ × 0.7 s at
     /// 0.1 s is 1.5·10¹⁰ values, an allocation that aborted the process. Refused with exit 2
     /// naming scale.delay, before any point runs, in a sweep and in map.

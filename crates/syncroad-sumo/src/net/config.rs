@@ -60,13 +60,12 @@ const ADDITIONAL: [&str; 2] = ["additional-files", "a"];
 /// Reads the input section of the configuration `path`.
 pub fn read_config(path: &Path) -> Result<ConfigInputs, ConfigError> {
     let shown = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| ConfigError::Unreadable {
-        path: shown.clone(),
-        reason: match e.kind() {
-            std::io::ErrorKind::NotFound => "file not found".to_string(),
-            _ => e.to_string(),
-        },
-    })?;
+    let text = crate::input_file::read_text(path, None)
+        .map_err(|reason| ConfigError::Unreadable {
+            path: shown.clone(),
+            reason,
+        })?
+        .unwrap_or_default();
     let doc = roxmltree::Document::parse(&text).map_err(|e| ConfigError::NotAConfiguration {
         path: shown.clone(),
         reason: format!("not XML ({e})"),

@@ -84,10 +84,12 @@ impl Network {
     /// Reads and parses `path`. Malformed XML and missing attributes are refused here: libsumo
     /// crashes the whole process on them.
     pub fn read(path: &Path) -> Result<Self, NetError> {
-        let text = std::fs::read_to_string(path).map_err(|e| NetError::Unreadable {
-            path: path.to_path_buf(),
-            reason: e.to_string(),
-        })?;
+        let text = crate::input_file::read_text(path, None)
+            .map_err(|reason| NetError::Unreadable {
+                path: path.to_path_buf(),
+                reason,
+            })?
+            .unwrap_or_default();
         Self::parse(path, &text)
     }
 
