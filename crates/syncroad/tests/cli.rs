@@ -160,6 +160,49 @@ fn planted_regression_fails_with_a_readable_diff() {
 }
 
 #[test]
+fn a_tolerance_for_a_metric_the_baseline_lacks_is_refused_naming_the_nearest() {
+    let dir = tmpdir("tolerance-typo");
+    let mut b: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(repo().join("tests/baselines/ring-theorem1.native.json")).unwrap(),
+    )
+    .unwrap();
+    b["scenario"] = repo()
+        .join("scenarios/ring-theorem1.json")
+        .display()
+        .to_string()
+        .into();
+    let write = |b: &serde_json::Value| {
+        let p = dir.join("baseline.json");
+        std::fs::write(&p, serde_json::to_string(b).unwrap()).unwrap();
+        p
+    };
+    // A typo, and a prefix under which no metric lies: each would silently keep the default.
+    for (key, says) in [
+        (
+            "sync.spread_l3",
+            "no metric of the baseline is called that; the nearest is sync.spread_l2",
+        ),
+        (
+            "syncc.*",
+            "no metric of the baseline is under that prefix; the nearest is sync.*",
+        ),
+    ] {
+        b["tolerances"]["keys"] = serde_json::json!({ key: {"abs": 1.0, "rel": 0.0} });
+        let (code, out, err) = run(bin().arg("regress").arg(write(&b)));
+        assert_eq!(code, 2, "{key}: {out}{err}");
+        assert!(
+            err.contains(&format!("tolerances.keys.{key}: {says}")),
+            "{err}"
+        );
+    }
+    // Real keys and prefixes pass.
+    b["tolerances"]["keys"] = serde_json::json!({
+        "sync.spread_l2": {"abs": 1e-6, "rel": 0.0}, "congestion.*": {"abs": 1e-6, "rel": 0.0}});
+    let (code, out, err) = run(bin().arg("regress").arg(write(&b)));
+    assert_eq!(code, 0, "{out}{err}");
+}
+
+#[test]
 fn ifp_command_reproduces_the_cacc_index_and_rejects_non_hurwitz_rho() {
     // CACC agent with μ = 1.25, τ = 0.2 (μτ < 1/2): α = 1/μ² = 0.64 (proof of Theorem thm.cacc).
     let (code, out, _) = run(bin().args(["ifp", "--eta", "1", "--rho", "1.25,1,0.2", "--json"]));
