@@ -18,7 +18,13 @@ if [ ! -x "$venv/bin/python" ] || [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; 
   echo "$want" > "$stamp"
 fi
 rm -f target/wheels/syncroad-*.whl
-nice -n 5 "$venv/bin/maturin" build --release --quiet -o target/wheels
+# The interpreter the CLI was built against (scripts/test.sh exports it): maturin passes it to
+# pyo3 as PYO3_PYTHON, so the two builds share what they have in common.
+interp=()
+if [ -n "${PYO3_PYTHON:-}" ]; then
+  interp=(-i "$PYO3_PYTHON")
+fi
+nice -n 5 "$venv/bin/maturin" build --release --quiet "${interp[@]}" -o target/wheels
 wheel="$(ls target/wheels/syncroad-*.whl)"
 # Dependencies once; the freshly built package every time (its version does not change).
 "$venv/bin/python" -m pip install --disable-pip-version-check -q "$wheel"

@@ -2,6 +2,10 @@
 # Sets everything up and runs every test of syncroad (this is what CI runs).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# One interpreter for every build: the CLI's (cargo) and the wheel's (maturin) builds of the
+# SUMO crate then agree on PYO3_PYTHON, and neither rebuilds what the other built.
+PYO3_PYTHON="${PYO3_PYTHON:-$("${PYTHON:-python3}" -c 'import sys; print(sys.executable)')}"
+export PYO3_PYTHON
 if [ -f python-host/bootstrap.sh ]; then
   bash python-host/bootstrap.sh
 fi
