@@ -397,6 +397,21 @@ mod sweeps {
         child.wait().unwrap();
         let (code, o, e) = sweep(&p, &dir.join("killed"));
         assert_eq!(code, 0, "{o}{e}");
+        // Killed at the worst moment of its start: the lock taken, sweep.json half written
+        // (its temporary file in place). The folder is still the sweep's to start.
+        let started = dir.join("killed-at-start");
+        std::fs::create_dir_all(&started).unwrap();
+        std::fs::write(started.join(".syncroad.lock"), "").unwrap();
+        std::fs::write(started.join(".sweep.json.Ab12Cd.tmp"), "{\"spec\"").unwrap();
+        let (code, o, e) = sweep(&p, &started);
+        assert_eq!(code, 0, "{o}{e}");
+        // Anything else there is not ours: still refused.
+        let foreign = dir.join("foreign");
+        std::fs::create_dir_all(&foreign).unwrap();
+        std::fs::write(foreign.join("notes.txt"), "mine").unwrap();
+        let (code, _, e) = sweep(&p, &foreign);
+        assert_eq!(code, 2, "{e}");
+        assert!(e.contains("exists and is not a sweep folder"), "{e}");
     }
 
     #[test]

@@ -184,7 +184,7 @@ pub fn open_out(sweep: &Sweep, out: &Path, shard: Shard) -> anyhow::Result<Folde
         }
     } else if std::fs::read_dir(out)
         .with_context(|| format!("cannot read {}", out.display()))?
-        .any(|e| e.is_ok_and(|e| e.file_name() != lock::LOCK_FILE))
+        .any(|e| e.is_ok_and(|e| !left_by_a_start(&e)))
     {
         return Err(InputError::new(format!(
             "--out = {}: exists and is not a sweep folder (no sweep.json); give a new or empty folder",
@@ -192,10 +192,20 @@ pub fn open_out(sweep: &Sweep, out: &Path, shard: Shard) -> anyhow::Result<Folde
         ))
         .into());
     }
+    // sweep.json first: a sweep stopped before it is written leaves nothing but the lock (and
+    // perhaps the temporary file of that write), which the next start takes as empty.
+    write_text(&meta, &(serde_json::to_string_pretty(&doc)? + "\n"))?;
     std::fs::create_dir_all(rows_dir(out))
         .with_context(|| format!("cannot create {}", rows_dir(out).display()))?;
-    write_text(&meta, &(serde_json::to_string_pretty(&doc)? + "\n"))?;
     Ok(held)
+}
+
+/// What a sweep killed while it started (before `sweep.json` was in place) leaves in its
+/// folder: the lock file, and the temporary file of an unfinished write of `sweep.json`.
+fn left_by_a_start(e: &std::fs::DirEntry) -> bool {
+    let name = e.file_name();
+    let name = name.to_string_lossy();
+    name == lock::LOCK_FILE || (name.starts_with(".sweep.json.") && name.ends_with(".tmp"))
 }
 
 /// The table of the rows in `out`, in point order.
