@@ -262,6 +262,34 @@ pub struct WorkerRun {
 }
 
 impl WorkerRun {
+    /// Keeps what one frame of the worker brings (rows, ranges, events; the end in `end`) and
+    /// calls the hooks of `limits` for it.
+    fn take(&mut self, f: Frame, limits: &Supervision, end: &mut Option<Result<Finish, String>>) {
+        match f {
+            Frame::Rows(mut c) => {
+                let time_s = c.time_s.last().copied();
+                self.rows.append(&mut c);
+                if let (Some(hook), Some(time_s)) = (&limits.on_rows, time_s) {
+                    hook(&RowsProgress {
+                        pid: self.pid,
+                        records: self.rows.len(),
+                        time_s,
+                    });
+                }
+            }
+            Frame::Ranges(mut r) => self.ranges.append(&mut r),
+            Frame::Msg(WorkerMsg::Started(s)) => {
+                if let Some(hook) = &limits.on_start {
+                    hook(&s);
+                }
+                self.start = Some(s);
+            }
+            Frame::Msg(WorkerMsg::Event(e)) => self.events.push(e),
+            Frame::Msg(WorkerMsg::Finished(f)) => *end = Some(Ok(f)),
+            Frame::Msg(WorkerMsg::Failed { message }) => *end = Some(Err(message)),
+        }
+    }
+
     /// A run with nothing received yet.
     fn empty(request: &Request, result: Result<Finish, SupervisorError>, pid: u32) -> Self {
         Self {
@@ -469,30 +497,9 @@ impl Worker {
         let mut protocol: Option<crate::protocol::ProtocolError> = None;
         let mut stopped: Option<SupervisorError> = None;
         let mut eof = sent.is_err();
-        let handle =
-            |f: Frame, run: &mut WorkerRun, end: &mut Option<Result<Finish, String>>| match f {
-                Frame::Rows(mut c) => {
-                    let time_s = c.time_s.last().copied();
-                    run.rows.append(&mut c);
-                    if let (Some(hook), Some(time_s)) = (&limits.on_rows, time_s) {
-                        hook(&RowsProgress {
-                            pid: run.pid,
-                            records: run.rows.len(),
-                            time_s,
-                        });
-                    }
-                }
-                Frame::Ranges(mut r) => run.ranges.append(&mut r),
-                Frame::Msg(WorkerMsg::Started(s)) => {
-                    if let Some(hook) = &limits.on_start {
-                        hook(&s);
-                    }
-                    run.start = Some(s);
-                }
-                Frame::Msg(WorkerMsg::Event(e)) => run.events.push(e),
-                Frame::Msg(WorkerMsg::Finished(f)) => *end = Some(Ok(f)),
-                Frame::Msg(WorkerMsg::Failed { message }) => *end = Some(Err(message)),
-            };
+        let handle = |f: Frame, run: &mut WorkerRun, end: &mut Option<Result<Finish, String>>| {
+            run.take(f, limits, end)
+        };
         while !eof {
             match self.frames.recv_timeout(Duration::from_millis(50)) {
                 Ok(Ok(Some(frame))) => {

@@ -271,6 +271,27 @@ fn chain_string_stability(a: &DMatrix<f64>, d: &[f64]) -> Option<ChainStringStab
     })
 }
 
+impl StabilityReport {
+    /// The report of a network without a directed spanning tree: nothing else is analysed.
+    fn unsynchronizable(sc: &Scenario, paper: TheoryReport, gap: NoSpanningTree) -> Self {
+        Self {
+            scenario: sc.name().to_string(),
+            certified: paper.certified,
+            critical_scale_status: CriticalScaleStatus::None,
+            paper,
+            ring: None,
+            acyclic: None,
+            chain_string_stability: None,
+            leader_amplification: None,
+            network: None,
+            cacc: None,
+            exactly_stable: false,
+            verdict: ExactVerdict::DoesNotSynchronize,
+            no_spanning_tree: Some(gap),
+        }
+    }
+}
+
 /// `Some` when the network (adjacency `a`, leader included) has no directed spanning tree.
 fn no_spanning_tree(a: &DMatrix<f64>) -> Option<NoSpanningTree> {
     let graph = crate::graph::Graph::from_dense(a).ok()?;
@@ -302,21 +323,7 @@ pub fn analyse(sc: &Scenario) -> Result<StabilityReport, AnalysisError> {
             // Consensus needs the root s = 0 to be simple: checked before any path, since
             // each (the acyclic factors above all) reads its roots off zero only.
             if let Some(gap) = no_spanning_tree(&a) {
-                return Ok(StabilityReport {
-                    scenario: sc.name().to_string(),
-                    certified: paper.certified,
-                    critical_scale_status: CriticalScaleStatus::None,
-                    paper,
-                    ring: None,
-                    acyclic: None,
-                    chain_string_stability: None,
-                    leader_amplification: None,
-                    network: None,
-                    cacc: None,
-                    exactly_stable: false,
-                    verdict: ExactVerdict::DoesNotSynchronize,
-                    no_spanning_tree: Some(gap),
-                });
+                return Ok(StabilityReport::unsynchronizable(sc, paper, gap));
             }
             let acyclic = acyclic_roots(&a, &d).ok();
             let network = if acyclic.is_some() {

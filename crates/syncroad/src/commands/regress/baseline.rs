@@ -118,42 +118,7 @@ pub fn load(path: &Path) -> anyhow::Result<Baseline> {
             .into());
         }
     }
-    check_tolerance_keys(path, &b)?;
     Ok(b)
-}
-
-/// Every tolerance override names a metric of the baseline (an exact key, or a prefix ending
-/// in `*` that some key starts with): a typo would silently leave the metric at the default.
-fn check_tolerance_keys(path: &Path, b: &Baseline) -> anyhow::Result<()> {
-    let keys = super::diff::flatten(&b.metrics);
-    for k in b.tolerances.keys.keys() {
-        let known = match k.strip_suffix('*') {
-            Some(prefix) => keys.keys().any(|m| m.starts_with(prefix)),
-            None => keys.contains_key(k),
-        };
-        if known {
-            continue;
-        }
-        // A prefix is matched against the metrics' own prefixes (`sync.`, `congestion.`, …).
-        let candidates: std::collections::BTreeSet<String> = match k.strip_suffix('*') {
-            Some(_) => keys
-                .keys()
-                .flat_map(|m| m.match_indices('.').map(|(i, _)| format!("{}*", &m[..=i])))
-                .collect(),
-            None => keys.keys().cloned().collect(),
-        };
-        let nearest = candidates
-            .iter()
-            .min_by_key(|m| strsim::levenshtein(k, m))
-            .map_or(String::new(), |m| format!("; the nearest is {m}"));
-        return Err(InputError::new(format!(
-            "baseline {}: tolerances.keys.{k}: no metric of the baseline is {}{nearest} (keys are dotted paths of its metrics, or prefixes ending in *)",
-            path.display(),
-            if k.ends_with('*') { "under that prefix" } else { "called that" },
-        ))
-        .into());
-    }
-    Ok(())
 }
 
 /// Writes a baseline file (pretty JSON, trailing newline), atomically: an interrupted or

@@ -95,6 +95,7 @@ pub fn run(
     reports: &Reports,
 ) -> anyhow::Result<Status> {
     let mut base = load(baseline_path)?;
+    diff::check_tolerance_keys(baseline_path, &base)?;
     check_report_paths(&base, baseline_path, metrics, reports)?;
     let fresh = match metrics {
         Some(m) => {
