@@ -20,6 +20,7 @@ use crate::drive::{Drive, SumoDriver};
 use crate::noisy_idm::{HumanController, HumanSetup};
 use crate::scenario::{LeaderProfile, Model, Scenario};
 use crate::sensed::Neighbors;
+use crate::user_law::{LawHost, PythonSetup};
 
 pub use crate::speed_controller::SpeedController;
 
@@ -38,6 +39,21 @@ pub enum ControllerError {
     /// A wave damper rejected its setup.
     #[error(transparent)]
     Damper(#[from] DamperError),
+    /// A Python controller where nothing embeds Python to build it.
+    #[error("controller.python = {python}: this caller cannot run Python controllers; run the scenario with the syncroad CLI, its Python package or a SUMO worker")]
+    NoPythonHost {
+        /// As written.
+        python: String,
+    },
+    /// The user's Python controller could not be built (missing file, class or method; its
+    /// `__init__` raised).
+    #[error("controller.python = {python}: {reason}")]
+    Python {
+        /// As written.
+        python: String,
+        /// What went wrong, with the Python traceback.
+        reason: String,
+    },
 }
 
 /// Everything a backend needs to build the law of a scenario, resolved: what a SUMO worker
@@ -58,17 +74,41 @@ pub struct LawSpec {
     /// ([`crate::noisy_idm`]); `None`: none.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub humans: Option<HumanSetup>,
+    /// The user's Python controller in place of the model's law ([`crate::user_law`]), resolved
+    /// by the backend; a damper, when named, drives instead.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub python: Option<PythonSetup>,
 }
 
 impl LawSpec {
-    /// The law of a validated scenario.
+    /// The law of a validated scenario, on the native simulator.
     pub fn of(scenario: &Scenario) -> Self {
+        let leader = crate::road::leader_start(scenario).is_some();
+        let python = scenario.controller().map(|law| {
+            let mut ids: Vec<String> = leader.then(|| "leader".to_string()).into_iter().collect();
+            ids.extend((0..scenario.vehicles()).map(|i| format!("v{i}")));
+            // The leader vehicle is placed as if it were as long as vehicle 0.
+            let mut length_m: Vec<f64> = Vec::new();
+            if leader {
+                length_m.push(scenario.length_m()[0]);
+            }
+            length_m.extend_from_slice(scenario.length_m());
+            PythonSetup {
+                law: law.clone(),
+                step_s: scenario.step_s(),
+                controlled: vec![true; ids.len()],
+                ids,
+                length_m,
+                ring_length_m: scenario.ring_length_m(),
+            }
+        });
         Self {
             model: scenario.model().clone(),
             step_s: scenario.step_s(),
             initial_speed_mps: scenario.initial_speed_mps().to_vec(),
             damper: None,
             humans: None,
+            python,
         }
     }
 
@@ -101,6 +141,11 @@ impl LawSpec {
             accel_mps2: vt.accel_mps2,
             decel_mps2: vt.decel_mps2,
         });
+        if let Some(p) = law.python.as_mut() {
+            for (c, h) in p.controlled.iter_mut().zip(&humans) {
+                *c = h.is_none();
+            }
+        }
         if humans.iter().any(Option::is_some) {
             law.humans = Some(HumanSetup {
                 drivers: humans,
@@ -181,7 +226,17 @@ pub fn controller_for(
     law: &LawSpec,
     leader_vehicle: bool,
 ) -> Result<Box<dyn SpeedController>, ControllerError> {
-    let inner = law_controller(law, leader_vehicle)?;
+    controller_for_in(law, leader_vehicle, None)
+}
+
+/// [`controller_for`] with a host that builds the user's Python controller, when the law has
+/// one (without a host such a law is refused with [`ControllerError::NoPythonHost`]).
+pub fn controller_for_in(
+    law: &LawSpec,
+    leader_vehicle: bool,
+    host: Option<&dyn LawHost>,
+) -> Result<Box<dyn SpeedController>, ControllerError> {
+    let inner = law_controller(law, leader_vehicle, host)?;
     match &law.humans {
         None => Ok(inner),
         Some(_) if leader_vehicle => Err(ControllerError::HumansNeedRing),
@@ -192,11 +247,20 @@ pub fn controller_for(
 fn law_controller(
     law: &LawSpec,
     leader_vehicle: bool,
+    host: Option<&dyn LawHost>,
 ) -> Result<Box<dyn SpeedController>, ControllerError> {
     let n = law.initial_speed_mps.len();
     if let Some(d) = &law.damper {
         d.spec.require_ring(!leader_vehicle, "this road")?;
         return Ok(Box::new(DamperController::new(d, law.step_s)?));
+    }
+    if let Some(p) = &law.python {
+        return match host {
+            Some(h) => h.python(p),
+            None => Err(ControllerError::NoPythonHost {
+                python: p.law.python.clone(),
+            }),
+        };
     }
     match &law.model {
         Model::DelayedDriver(m) => {

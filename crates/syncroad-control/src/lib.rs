@@ -20,7 +20,8 @@
 //! * [`noisy_idm`] — stochastic human drivers (IDM with Flow's or a step-consistent noise),
 //!   computed by the bridge on either backend;
 //! * [`controller`] — the one law object both backends step; [`sensed`] — its graph as SUMO
-//!   sees it each step, when other traffic shares the road;
+//!   sees it each step, when other traffic shares the road; [`user_law`] — the user's own
+//!   Python controller as data, built by a [`LawHost`] of a crate that embeds Python;
 //! * [`native`] — the fixed-step simulator; [`stop`] — why a run stopped; [`observer`] — the
 //!   one trait of what watches a loop (natively and in SUMO); [`collisions`] — vehicles the
 //!   native simulator drove through each other or backwards;
@@ -65,10 +66,11 @@ pub mod string_measured;
 pub mod sumo_facts;
 pub mod theory;
 pub mod trajectory;
+pub mod user_law;
 
 pub use actuation::{AccelLimits, ActuationError};
 pub use cacc::{CaccLaw, PlatoonView, PowertrainLag};
-pub use controller::{controller_for, LawSpec, SpeedController};
+pub use controller::{controller_for, controller_for_in, LawSpec, SpeedController};
 pub use damper::{DamperError, DamperSetup, DamperSpec};
 pub use delayed_driver::DelayedDriverLaw;
 pub use drive::{CarFollowing, CfModel, SumoDriver};
@@ -77,7 +79,7 @@ pub use follower_stopper::{
 };
 pub use graph::{Arc, Graph};
 pub use metrics::{sync_metrics, SyncMetrics, Verdict, VerdictThresholds};
-pub use native::{simulate, simulate_with, NativeOptions, NativeRun};
+pub use native::{simulate, simulate_controller, simulate_with, NativeOptions, NativeRun};
 pub use noisy_idm::{HumanSetup, IdmParams, NoiseForm, NoisyIdm};
 pub use outcome::{evaluate, EvalOptions, Outcome, RunOutput};
 pub use pi_saturation::{
@@ -87,3 +89,4 @@ pub use record::{RunRecord, SumoFacts};
 pub use scenario::{Scenario, ScenarioError, ScenarioFile};
 pub use stop::StopReason;
 pub use trajectory::Trajectory;
+pub use user_law::{LawHost, PythonLaw, PythonSetup};

@@ -13,14 +13,16 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use crate::cacc::{CaccLaw, PlatoonView};
 use crate::collisions::Collisions;
-use crate::controller::{controller_for, ControllerError, LawSpec};
+use crate::controller::{controller_for_in, ControllerError, LawSpec};
 use crate::delayed_driver::DelayedDriverLaw;
 use crate::metrics::{speed_range, spread_of_range, SpreadSeries};
 use crate::observer::StepObserver;
 use crate::road::{self, initial_positions, leader_start};
 use crate::scenario::{Model, Scenario};
+use crate::speed_controller::SpeedController;
 pub use crate::stop::StopReason;
 use crate::trajectory::Trajectory;
+use crate::user_law::LawHost;
 
 /// Speeds beyond this magnitude [m/s] count as divergence.
 pub const DIVERGENCE_MPS: f64 = 1e6;
@@ -36,6 +38,9 @@ pub struct NativeOptions<'a> {
     pub cancel: Option<&'a AtomicBool>,
     /// Called every [`PROGRESS_EVERY`] steps with (steps done, steps in the run).
     pub progress: Option<&'a dyn Fn(usize, usize)>,
+    /// Builds the user's Python controller when the scenario names one
+    /// ([`crate::user_law`]); without it such a scenario's law is refused.
+    pub host: Option<&'a dyn LawHost>,
 }
 
 /// Steps between two calls of [`NativeOptions::progress`].
@@ -47,6 +52,7 @@ impl Default for NativeOptions<'_> {
             record_every: 1,
             cancel: None,
             progress: None,
+            host: None,
         }
     }
 }
@@ -57,6 +63,7 @@ impl std::fmt::Debug for NativeOptions<'_> {
             .field("record_every", &self.record_every)
             .field("cancel", &self.cancel)
             .field("progress", &self.progress.is_some())
+            .field("host", &self.host.is_some())
             .finish()
     }
 }
@@ -84,10 +91,18 @@ fn check(v: &[f64], step: usize, dt: f64) -> Option<StopReason> {
         })
 }
 
-/// Runs the scenario on the native simulator.
+/// Runs the scenario on the native simulator. A law that cannot be built (a Python controller
+/// without [`NativeOptions::host`], or one whose class fails) gives a run of no steps that
+/// stopped with [`StopReason::Failed`] naming why.
 pub fn simulate(scenario: &Scenario, opts: NativeOptions) -> NativeRun {
-    simulate_with(scenario, &LawSpec::of(scenario), opts)
-        .expect("a validated scenario builds its law")
+    simulate_with(scenario, &LawSpec::of(scenario), opts).unwrap_or_else(|e| NativeRun {
+        trajectory: Trajectory::new(scenario.vehicles()),
+        stop: StopReason::Failed {
+            error: e.to_string(),
+        },
+        spread: SpreadSeries::default(),
+        collisions: Collisions::default(),
+    })
 }
 
 /// Runs the scenario on the native simulator with `law` in place of the scenario's own (a
@@ -97,9 +112,21 @@ pub fn simulate_with(
     law: &LawSpec,
     opts: NativeOptions,
 ) -> Result<NativeRun, ControllerError> {
+    let leader = leader_start(scenario).is_some();
+    let law = controller_for_in(law, leader, opts.host)?;
+    Ok(simulate_controller(scenario, law, opts))
+}
+
+/// Runs the scenario on the native simulator with a controller of the caller's (a Rust user's
+/// own law): it is stepped with every vehicle on the road, the leader vehicle first when the
+/// scenario has one.
+pub fn simulate_controller(
+    scenario: &Scenario,
+    mut law: Box<dyn SpeedController>,
+    opts: NativeOptions,
+) -> NativeRun {
     let leader = leader_start(scenario);
     let k0 = usize::from(leader.is_some());
-    let mut law = controller_for(law, leader.is_some())?;
     let n = scenario.vehicles();
     let all = n + k0;
     let dt = scenario.step_s();
@@ -156,6 +183,14 @@ pub fn simulate_with(
             p(step, steps);
         }
         law.step(step as f64 * dt, &v, &q, &mut next);
+        if let Some(error) = law.failure() {
+            stop = StopReason::ControllerFailed {
+                step,
+                time_s: step as f64 * dt,
+                error,
+            };
+            break;
+        }
         if let Some(s) = check(&next[k0..], step + 1, dt) {
             stop = s;
             break;
@@ -168,12 +203,12 @@ pub fn simulate_with(
         let Ok(()) = watch.after_step(&mut at);
         let Ok(()) = rec.after_step(&mut at);
     }
-    Ok(NativeRun {
+    NativeRun {
         trajectory: rec.traj,
         stop,
         spread: watch.spread,
         collisions: watch.collisions,
-    })
+    }
 }
 
 /// The native loop's state after a step, as its observers see it.
@@ -506,6 +541,7 @@ mod tests {
                 record_every: 1000,
                 cancel: Some(&flag),
                 progress: Some(&raise),
+                host: None,
             },
         );
         // The flag is seen at the next step's check.

@@ -376,6 +376,10 @@ impl SpeedController for HumanController {
         self.inner.sense(neighbors);
         self.view.sense(neighbors);
     }
+
+    fn failure(&mut self) -> Option<String> {
+        self.inner.failure()
+    }
 }
 
 #[cfg(test)]

@@ -22,4 +22,12 @@ pub trait SpeedController: Send {
     /// ([`crate::sensed`]). A controller that is never given one runs its fixed graph; one that
     /// has no neighbours to retarget keeps the default, which ignores it.
     fn sense(&mut self, _neighbors: &Neighbors) {}
+
+    /// Why this controller cannot go on (the user's controller raised, or returned commands
+    /// that are not speeds), asked after every step; both loops then stop with
+    /// [`crate::StopReason::ControllerFailed`] and keep every row before it. The built-in laws
+    /// never fail.
+    fn failure(&mut self) -> Option<String> {
+        None
+    }
 }

@@ -46,6 +46,16 @@ pub enum StopReason {
         /// Time reached \[s\].
         time_s: f64,
     },
+    /// The controller failed: the user's controller raised or returned commands that are not
+    /// speeds. The steps before it are kept.
+    ControllerFailed {
+        /// Step index n (the commands were for step n+1).
+        step: usize,
+        /// Time \[s\].
+        time_s: f64,
+        /// What went wrong, with the controller's traceback.
+        error: String,
+    },
     /// The run failed: the worker crashed, timed out, was interrupted or SUMO refused to start.
     Failed {
         /// What happened, with its cause.
@@ -91,6 +101,13 @@ impl StopReason {
             )),
             StopReason::Interrupted { step, time_s } => Some(format!(
                 "interrupted at t = {time_s:.3} s (step {step}); the rows so far are written, marked incomplete"
+            )),
+            StopReason::ControllerFailed {
+                step,
+                time_s,
+                error,
+            } => Some(format!(
+                "the controller failed at t = {time_s:.3} s (step {step}); the rows before it are written, marked incomplete:\n{error}"
             )),
             StopReason::Failed { error } => Some(error.clone()),
         }

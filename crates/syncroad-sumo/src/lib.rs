@@ -47,6 +47,7 @@ mod signals;
 mod ssm;
 mod summary;
 mod supervisor;
+mod user_law;
 mod venv;
 mod worker;
 
@@ -68,5 +69,6 @@ pub use signals::{
 pub use supervisor::{
     interrupt_flag, RowsHook, RowsProgress, StartHook, SupervisorError, WorkerCommand, WorkerPool,
 };
+pub use user_law::{PythonController, PythonHost};
 pub use venv::repo_dir;
 pub use worker::{is_worker_invocation, worker_main, worker_main_with};

@@ -293,6 +293,17 @@ fn prepare_with(
             accel_mps2: layout.vtype.accel_mps2,
             decel_mps2: layout.vtype.decel_mps2,
         });
+        if let Some(p) = law.python.as_mut() {
+            p.ids = layout.vehicles.iter().map(|v| v.id.clone()).collect();
+            p.length_m = layout.vehicles.iter().map(|v| v.length_m).collect();
+            p.ring_length_m = layout.road.ring.then(|| layout.road.length_m());
+            p.controlled = layout
+                .vehicles
+                .iter()
+                .zip(&humans)
+                .map(|(v, h)| v.driver.is_none() && h.is_none())
+                .collect();
+        }
         law.humans = has_humans.then(|| HumanSetup {
             drivers: humans,
             ring_length_m: layout.road.length_m(),

@@ -101,8 +101,10 @@ pub struct PythonInfo {
     pub sumo_home: String,
 }
 
-/// Adds the virtualenv's site-packages to the embedded interpreter and imports libsumo.
-pub fn load_libsumo(py: Python<'_>) -> Result<(Bound<'_, PyModule>, PythonInfo), PythonError> {
+/// Puts the SUMO environment's packages on the interpreter's path (the project virtualenv's
+/// site-packages for a Rust binary; nothing to add inside a Python process) and returns that
+/// folder. Adding it twice is harmless.
+pub fn add_packages(py: Python<'_>) -> Result<std::path::PathBuf, PythonError> {
     let sys = py
         .import("sys")
         .map_err(|e| py_error(py, "import sys", e))?;
@@ -117,15 +119,23 @@ pub fn load_libsumo(py: Python<'_>) -> Result<(Bound<'_, PyModule>, PythonInfo),
             .and_then(|x| x.extract())
             .map_err(|e| py_error(py, "sys.version_info.minor", e))?,
     );
-    let sp = match PACKAGES.get().copied().unwrap_or(SumoPackages::ProjectVenv) {
-        SumoPackages::ProjectVenv => add_project_venv(py, &format!("{major}.{minor}"))?,
+    match PACKAGES.get().copied().unwrap_or(SumoPackages::ProjectVenv) {
+        SumoPackages::ProjectVenv => add_project_venv(py, &format!("{major}.{minor}")),
         SumoPackages::Interpreter => py
             .import("sysconfig")
             .and_then(|m| m.call_method1("get_path", ("purelib",)))
             .and_then(|p| p.extract::<String>())
             .map(std::path::PathBuf::from)
-            .map_err(|e| py_error(py, "sysconfig.get_path('purelib')", e))?,
-    };
+            .map_err(|e| py_error(py, "sysconfig.get_path('purelib')", e)),
+    }
+}
+
+/// Adds the virtualenv's site-packages to the embedded interpreter and imports libsumo.
+pub fn load_libsumo(py: Python<'_>) -> Result<(Bound<'_, PyModule>, PythonInfo), PythonError> {
+    let sys = py
+        .import("sys")
+        .map_err(|e| py_error(py, "import sys", e))?;
+    let sp = add_packages(py)?;
     let import = |module: &str| -> Result<Bound<'_, PyModule>, PythonError> {
         py.import(module).map_err(|e| {
             if e.is_instance_of::<pyo3::exceptions::PyImportError>(py) {

@@ -868,3 +868,6 @@ fn benchmark_probe_profiles_the_loop_phase_by_phase() {
         "{text}"
     );
 }
+
+#[path = "sumo/user_law.rs"]
+mod user_law;

@@ -15,7 +15,7 @@ use syncroad_control::{
     RunRecord, Scenario,
 };
 use syncroad_sumo::{
-    PrepareError, Prepared, Road, RunOptions, SumoRun, SupervisorError, WorkerPool,
+    PrepareError, Prepared, PythonHost, Road, RunOptions, SumoRun, SupervisorError, WorkerPool,
 };
 
 use crate::output;
@@ -34,7 +34,7 @@ pub fn native(sc: &Scenario, record_every: usize) -> RunOutput {
 
 /// [`native`] with every option: a stop flag (signals) and a progress callback.
 pub fn native_with(sc: &Scenario, opts: NativeOptions<'_>) -> RunOutput {
-    let run = simulate(sc, opts);
+    let run = simulate(sc, hosted(opts));
     RunOutput {
         trajectory: run.trajectory,
         stop: run.stop,
@@ -54,7 +54,7 @@ pub fn native_law(
     drivers: Vec<String>,
     opts: NativeOptions<'_>,
 ) -> Result<RunOutput, ControllerError> {
-    let run = simulate_with(sc, law, opts)?;
+    let run = simulate_with(sc, law, hosted(opts))?;
     Ok(RunOutput {
         trajectory: run.trajectory,
         stop: run.stop,
@@ -64,6 +64,12 @@ pub fn native_law(
         collisions: Some(run.collisions),
         drivers: Some(drivers),
     })
+}
+
+/// `opts` with this process's Python building the user's controllers, when none was given.
+fn hosted(mut opts: NativeOptions<'_>) -> NativeOptions<'_> {
+    opts.host = opts.host.or(Some(&PythonHost));
+    opts
 }
 
 /// A SUMO run's output, and whether the user interrupted it.

@@ -237,6 +237,10 @@ pub fn metrics_table(
         "  certified by the paper's conditions: {}",
         match record.certified {
             Some(c) => yes(c).to_string(),
+            None if record.controller.is_some() => format!(
+                "does not apply (they are for the scenario's model law; {} drove)",
+                record.controller.as_ref().map_or("", |c| c.label.as_str())
+            ),
             None if graph_changed => {
                 "does not apply (the graph changed in SUMO; the conditions are for a fixed graph)"
                     .to_string()

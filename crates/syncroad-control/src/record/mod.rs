@@ -236,6 +236,41 @@ pub struct RunRecord {
     /// runs. Their start is the user's files', not the scenario's `initial`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub controlled: Option<crate::sumo_facts::Controlled>,
+    /// The user's own controller that drove in place of the model's law (`controller` in the
+    /// scenario); present only for such runs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub controller: Option<ControllerRecord>,
+}
+
+/// The user's controller of a run, as the record names it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct ControllerRecord {
+    /// Its driver label in `drivers` (`python:Class`).
+    pub label: String,
+    /// As written in the scenario (`FILE.py:Class` or `module:Class`).
+    pub python: String,
+    /// The source file read (`null` for a module).
+    pub source_file: Option<String>,
+    /// FNV-1a (64 bits, hex) of the source file and pickled state as read (`null` for a
+    /// module without a state: the interpreter found its source).
+    pub source_hash: Option<String>,
+    /// The keyword arguments it was built with.
+    pub params: serde_json::Value,
+}
+
+impl ControllerRecord {
+    fn of(law: &crate::user_law::PythonLaw) -> Self {
+        Self {
+            label: law.label(),
+            python: law.python.clone(),
+            source_file: match &law.source {
+                crate::user_law::PythonSource::File { path } => Some(path.display().to_string()),
+                crate::user_law::PythonSource::Module { .. } => None,
+            },
+            source_hash: law.source_hash.clone(),
+            params: law.params.clone(),
+        }
+    }
 }
 
 impl RunRecord {
@@ -248,12 +283,27 @@ impl RunRecord {
             .filter(|d| !d.is_empty())
             .unwrap_or_else(|| vec!["law".to_string(); sc.vehicles()]);
         let law_controlled = drivers.iter().filter(|d| *d == "law").count();
+        // The user's controller drives where the law would: its label replaces `law`.
+        let drivers = match sc.controller() {
+            None => drivers,
+            Some(c) => {
+                let label = c.label();
+                drivers
+                    .into_iter()
+                    .map(|d| if d == "law" { label.clone() } else { d })
+                    .collect()
+            }
+        };
         // The theory is for the scenario's fixed graph: a run whose graph changed in SUMO is
         // outside it.
         let fixed_graph = !facts
             .and_then(|f| f.safety.as_ref())
             .is_some_and(Safety::graph_changed);
-        let all_law = sc.mixed().is_none() && law_controlled == sc.vehicles() && fixed_graph;
+        // The theory is of the scenario's model law: a user's controller is outside it.
+        let all_law = sc.mixed().is_none()
+            && sc.controller().is_none()
+            && law_controlled == sc.vehicles()
+            && fixed_graph;
         Self {
             syncroad_version: env!("CARGO_PKG_VERSION").to_string(),
             platform: format!("{}-{}", std::env::consts::ARCH, std::env::consts::OS),
@@ -303,6 +353,7 @@ impl RunRecord {
             gap_safety: crate::margins::GapSafety::of(&run.trajectory, outcome.warmup_s),
             all_vehicles: facts.and_then(|f| f.all_vehicles.clone()),
             controlled: facts.and_then(|f| f.controlled.clone()),
+            controller: sc.controller().map(ControllerRecord::of),
             string_amplification: crate::string_measured::measured(&run.trajectory),
             // The certificate is of the scenario's own gaps (none for a run without a sample,
             // like `certified`): a SUMO run that rescaled them by

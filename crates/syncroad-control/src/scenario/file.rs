@@ -57,6 +57,10 @@ pub struct ScenarioFile {
     /// SUMO drivers ([`MixedSpec`]; SUMO backend, rings only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mixed: Option<MixedSpec>,
+    /// The user's own controller in place of the model's law ([`crate::user_law`]): a Python
+    /// class stepped every step on either backend.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub controller: Option<crate::user_law::ControllerSpec>,
 }
 
 /// The vehicle set: a count, or one entry per vehicle.

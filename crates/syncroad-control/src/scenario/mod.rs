@@ -244,9 +244,15 @@ pub struct Scenario {
     verdict: VerdictThresholds,
     sumo: SumoSettings,
     mixed: Option<MixedSpec>,
+    controller: Option<crate::user_law::PythonLaw>,
 }
 
 impl Scenario {
+    /// The user's own controller in place of the model's law, when the scenario names one.
+    pub fn controller(&self) -> Option<&crate::user_law::PythonLaw> {
+        self.controller.as_ref()
+    }
+
     /// Reads and validates a scenario file.
     pub fn load(path: &Path) -> Result<Self, ScenarioError> {
         Self::load_from(path, None)

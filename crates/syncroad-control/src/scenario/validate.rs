@@ -80,6 +80,14 @@ impl ScenarioFile {
         if let Some(m) = &self.mixed {
             m.validate(closed)?;
         }
+        let controller = match &self.controller {
+            None => None,
+            Some(c) => Some(c.resolve(base_dir).map_err(|e| ScenarioError::Invalid {
+                field: e.field,
+                value: e.value,
+                expected: e.expected,
+            })?),
+        };
         let measured = if self.road.is_network() {
             Some(super::network_road::measure(
                 &self.road,
@@ -165,7 +173,7 @@ impl ScenarioFile {
         let name = self.name.clone().unwrap_or_else(|| "scenario".to_string());
         Ok(Scenario {
             name,
-            hash_hex: self.hash_hex(),
+            hash_hex: self.hash_hex(controller.as_ref()),
             seed: self.seed,
             backend: self.backend,
             n,
@@ -183,6 +191,7 @@ impl ScenarioFile {
             },
             sumo,
             mixed: self.mixed.clone(),
+            controller,
         })
     }
 
@@ -401,8 +410,13 @@ impl ScenarioFile {
     }
 
     /// Stable hash of the file as written: FNV-1a over its canonical JSON.
-    fn hash_hex(&self) -> String {
-        fnv1a_hex(&serde_json::to_string(self).expect("a scenario always serializes"))
+    /// The hash of the file as written, and of the controller's source and state as read.
+    fn hash_hex(&self, controller: Option<&crate::user_law::PythonLaw>) -> String {
+        let mut text = serde_json::to_string(self).expect("a scenario always serializes");
+        if let Some(h) = controller.and_then(|c| c.source_hash.as_deref()) {
+            text.push_str(h);
+        }
+        fnv1a_hex(&text)
     }
 }
 

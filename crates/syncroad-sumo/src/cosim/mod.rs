@@ -28,7 +28,7 @@ use std::io::Write;
 
 use pyo3::prelude::*;
 use pyo3::types::{PyString, PyTuple};
-use syncroad_control::{controller_for, SpeedController};
+use syncroad_control::{controller_for_in, SpeedController};
 
 use crate::probe::Probe;
 use crate::protocol::{write_msg, Control, Job, Request, StartInfo, WorkerMsg};
@@ -112,7 +112,11 @@ pub fn run(py: Python<'_>, job: &Job, out: &mut impl Write) -> Result<(), CosimE
     };
     // Build the law first: a law problem must not cost a SUMO start.
     let controller: Option<Box<dyn SpeedController>> = match &req.control {
-        Control::Law { law } => Some(controller_for(law, req.layout.leader_vehicle)?),
+        Control::Law { law } => Some(controller_for_in(
+            law,
+            req.layout.leader_vehicle,
+            Some(&crate::user_law::PythonHost),
+        )?),
         Control::SumoModel => None,
     };
     let (module, python) = load_libsumo(py)?;

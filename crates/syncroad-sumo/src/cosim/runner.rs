@@ -113,7 +113,7 @@ fn step_loop<'a, 'py>(
         if let Some(s) = stopped {
             // A command that never reached SUMO leaves the step undone.
             let done = match s {
-                StopReason::NonFiniteCommand { .. } => step,
+                StopReason::NonFiniteCommand { .. } | StopReason::ControllerFailed { .. } => step,
                 _ => step + 1,
             };
             return Ok((s, done, step_s));

@@ -223,6 +223,13 @@ impl<'a, 'py> CoSim<'a, 'py> {
         }
         if let Some(c) = self.controller.as_deref_mut() {
             c.step(step as f64 * req.step_s, &self.v, &self.q, &mut self.next);
+            if let Some(error) = c.failure() {
+                return Ok(Some(StopReason::ControllerFailed {
+                    step,
+                    time_s: step as f64 * req.step_s,
+                    error,
+                }));
+            }
             match sanitize_commands(&mut self.next, &self.law_driven) {
                 Ok(clamped) => self.negative_commands_clamped += clamped,
                 Err(i) => {

@@ -179,9 +179,14 @@ fn run_native(sc: &Scenario, path: &Path, out: &OutputArgs) -> anyhow::Result<St
         record_every: cfg.record_every,
         cancel: Some(&stop),
         progress: Some(&report),
+        host: None,
     };
     let output = pipeline::native_with(sc, opts);
     progress.finish();
+    if let (true, StopReason::Failed { error }) = (output.trajectory.is_empty(), &output.stop) {
+        // The law could not be built (the user's controller): no run to judge, no record.
+        anyhow::bail!("nothing was run: {error}");
+    }
     let f = Finished::new(sc, "law", output, cfg.eval);
     let complete = f.output.stop.is_complete();
     // The summary is printed even when a file cannot be written (a full disk).
@@ -194,6 +199,10 @@ fn run_native(sc: &Scenario, path: &Path, out: &OutputArgs) -> anyhow::Result<St
     if matches!(f.output.stop, StopReason::Interrupted { .. }) {
         eprintln!("error: {}", f.output.stop.message().unwrap_or_default());
         return Ok(Status::Interrupted);
+    }
+    if matches!(f.output.stop, StopReason::ControllerFailed { .. }) {
+        eprintln!("error: {}", f.output.stop.message().unwrap_or_default());
+        return Ok(Status::RunFailed);
     }
     Ok(verdict_status(&f))
 }

@@ -58,7 +58,7 @@ impl Sweep {
     /// Builds and checks every point as it will run; returns the network files the points
     /// read (SUMO only), which the spec hash covers.
     /// Checks every point as it will run, before anything runs; returns every file the points
-    /// read (networks, route, additional and configuration files).
+    /// read (networks, route, additional and configuration files, the user's controller).
     pub(super) fn check_points(&self) -> anyhow::Result<BTreeSet<PathBuf>> {
         let mut roads: BTreeMap<PathBuf, Arc<Road>> = BTreeMap::new();
         // Each point's scenario (a hash of all it holds) with its run and seed: two points
@@ -83,6 +83,14 @@ impl Sweep {
             }
             let here = |e: anyhow::Error| e.context(self.describe(&p));
             let plan = self.plan_point(&p, &sc).map_err(here)?;
+            // The user's controller is as much the experiment as the scenario, on either
+            // backend: its source and pickled state.
+            if let Some(c) = sc.controller() {
+                if let syncroad_control::user_law::PythonSource::File { path } = &c.source {
+                    inputs.insert(path.clone());
+                }
+                inputs.extend(c.state.clone());
+            }
             if self.backend != Backend::Sumo {
                 let spec = &self.runs[p.run].spec;
                 if LawSpec::of_drive(&sc, spec).is_none() {

@@ -1,0 +1,334 @@
+//! The user's own controller: a Python class named in the scenario, built once with its
+//! parameters and stepped every step by the backend that runs the vehicles.
+//!
+//! ```json
+//! "controller": {"python": "controllers/my_law.py:MyLaw", "params": {"gain": 0.4}}
+//! ```
+//! * `python`: `FILE.py:Class` (a file, relative to the scenario's folder) or
+//!   `package.module:Class` (a module the interpreter imports);
+//! * `params`: keyword arguments of the class, `MyLaw(**params)`;
+//! * `state`: a pickled instance instead of `params` (what `syncroad.run(..., controller=obj)`
+//!   writes; the class is still loaded from `python`).
+//!
+//! The controller drives the vehicles the scenario's law would drive: all of them, or the
+//! automated ones of a `mixed` block whose controller is `law`. This crate holds it as data
+//! ([`PythonLaw`], resolved per run into a [`PythonSetup`]); the crates that embed Python
+//! build the [`SpeedController`](crate::SpeedController) through a [`LawHost`] — the SUMO
+//! worker inside its loop, the CLI in its own process for the native simulator.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::controller::ControllerError;
+use crate::speed_controller::SpeedController;
+
+/// The largest controller source or pickled state read \[bytes\].
+pub const MAX_SOURCE_BYTES: u64 = 16 << 20;
+
+/// The `controller` block as written in the scenario file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ControllerSpec {
+    /// `FILE.py:Class` or `package.module:Class`.
+    pub python: String,
+    /// Keyword arguments of the class (a JSON object).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub params: Option<serde_json::Value>,
+    /// A pickled instance of the class (a file, relative to the scenario's folder), in place
+    /// of `params`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub state: Option<PathBuf>,
+}
+
+/// Where the class comes from.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum PythonSource {
+    /// A source file, loaded as a module of its own.
+    File {
+        /// The file, resolved against the scenario's folder.
+        path: PathBuf,
+    },
+    /// A module the interpreter imports.
+    Module {
+        /// Its dotted name.
+        module: String,
+    },
+}
+
+/// A validated Python controller: where its class is, how it is built, and the hash of what
+/// was read.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PythonLaw {
+    /// As written in the scenario (`controller.python`).
+    pub python: String,
+    /// Where the class comes from.
+    pub source: PythonSource,
+    /// The class's (possibly dotted) name in its module.
+    pub class: String,
+    /// Keyword arguments (a JSON object; empty when none).
+    pub params: serde_json::Value,
+    /// A pickled instance to restore instead of calling the class.
+    pub state: Option<PathBuf>,
+    /// FNV-1a (64 bits, hex) of the source file and the state as read at validation; `None`
+    /// for a module, whose source the interpreter finds.
+    pub source_hash: Option<String>,
+}
+
+impl PythonLaw {
+    /// The driver's name in tables, folders and labels: `python:Class`.
+    pub fn label(&self) -> String {
+        format!("python:{}", self.class)
+    }
+}
+
+/// Errors of the `controller` block, each naming the field.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{field} = {value}: {expected}")]
+pub struct ControllerSpecError {
+    /// `controller.python`, `controller.params`, `controller.state`.
+    pub field: String,
+    /// The value as written.
+    pub value: String,
+    /// What would be valid.
+    pub expected: String,
+}
+
+fn spec_error(
+    field: &str,
+    value: impl ToString,
+    expected: impl Into<String>,
+) -> ControllerSpecError {
+    ControllerSpecError {
+        field: field.into(),
+        value: value.to_string(),
+        expected: expected.into(),
+    }
+}
+
+impl ControllerSpec {
+    /// Checks the block and reads its files (relative to `base_dir`) into a [`PythonLaw`].
+    pub fn resolve(&self, base_dir: &Path) -> Result<PythonLaw, ControllerSpecError> {
+        let field = "controller.python";
+        let usage = "give FILE.py:Class (a file relative to the scenario) or package.module:Class";
+        let Some((where_, class)) = self.python.rsplit_once(':') else {
+            return Err(spec_error(
+                field,
+                &self.python,
+                format!("no class is named; {usage}"),
+            ));
+        };
+        let identifier = |s: &str| {
+            let mut c = s.chars();
+            c.next().is_some_and(|f| f.is_alphabetic() || f == '_')
+                && c.all(|x| x.is_alphanumeric() || x == '_')
+        };
+        if !class.split('.').all(identifier) {
+            return Err(spec_error(
+                field,
+                &self.python,
+                format!("`{class}` is not a Python class name; {usage}"),
+            ));
+        }
+        let mut hashed = Vec::new();
+        let source = if where_.ends_with(".py") || where_.contains('/') {
+            let path = base_dir.join(where_);
+            hashed.extend(read_file(field, &self.python, &path)?);
+            PythonSource::File { path }
+        } else if !where_.is_empty() && where_.split('.').all(identifier) {
+            PythonSource::Module {
+                module: where_.to_string(),
+            }
+        } else {
+            return Err(spec_error(
+                field,
+                &self.python,
+                format!("`{where_}` is neither a .py file nor a module name; {usage}"),
+            ));
+        };
+        let params = match &self.params {
+            None => serde_json::Value::Object(Default::default()),
+            Some(p @ serde_json::Value::Object(_)) => p.clone(),
+            Some(p) => {
+                return Err(spec_error(
+                    "controller.params",
+                    p,
+                    "must be an object of keyword arguments, e.g. {\"gain\": 0.4}",
+                ))
+            }
+        };
+        let state = match &self.state {
+            None => None,
+            Some(_) if self.params.is_some() => {
+                return Err(spec_error(
+                    "controller.state",
+                    self.state.as_ref().expect("given").display(),
+                    "give params or a pickled state, not both",
+                ))
+            }
+            Some(s) => {
+                let path = base_dir.join(s);
+                hashed.extend(read_file("controller.state", s.display(), &path)?);
+                Some(path)
+            }
+        };
+        let source_hash = match source {
+            PythonSource::File { .. } => Some(fnv1a_hex(&hashed)),
+            PythonSource::Module { .. } => state.as_ref().map(|_| fnv1a_hex(&hashed)),
+        };
+        Ok(PythonLaw {
+            python: self.python.clone(),
+            source,
+            class: class.to_string(),
+            params,
+            state,
+            source_hash,
+        })
+    }
+}
+
+/// Reads a regular file of at most [`MAX_SOURCE_BYTES`].
+fn read_file(
+    field: &str,
+    value: impl ToString,
+    path: &Path,
+) -> Result<Vec<u8>, ControllerSpecError> {
+    let meta = std::fs::metadata(path).map_err(|e| {
+        spec_error(
+            field,
+            value.to_string(),
+            format!("cannot read {}: {e}", path.display()),
+        )
+    })?;
+    if !meta.is_file() {
+        return Err(spec_error(
+            field,
+            value.to_string(),
+            format!("{} is not a regular file", path.display()),
+        ));
+    }
+    if meta.len() > MAX_SOURCE_BYTES {
+        return Err(spec_error(
+            field,
+            value.to_string(),
+            format!(
+                "{} is {} bytes; at most {MAX_SOURCE_BYTES} are read",
+                path.display(),
+                meta.len()
+            ),
+        ));
+    }
+    std::fs::read(path).map_err(|e| {
+        spec_error(
+            field,
+            value.to_string(),
+            format!("cannot read {}: {e}", path.display()),
+        )
+    })
+}
+
+/// FNV-1a of `bytes`, as 16 hex digits.
+pub(crate) fn fnv1a_hex(bytes: &[u8]) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in bytes {
+        h ^= u64::from(*b);
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    format!("{h:016x}")
+}
+
+/// A Python controller resolved for one run by its backend: what the adapter needs besides
+/// the states it is stepped with.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PythonSetup {
+    /// The controller.
+    pub law: PythonLaw,
+    /// Step Δt \[s\].
+    pub step_s: f64,
+    /// The vehicles' ids, as the stepped speeds are ordered (the leader vehicle first when
+    /// there is one).
+    pub ids: Vec<String>,
+    /// Their lengths ℓ_i \[m\].
+    pub length_m: Vec<f64>,
+    /// The ring's circumference as the backend measures it \[m\]; `None` on an open road
+    /// (vehicle 0 then has nobody ahead).
+    pub ring_length_m: Option<f64>,
+    /// Which vehicles take the controller's commands (SUMO's drivers and the stochastic humans
+    /// drive the others).
+    pub controlled: Vec<bool>,
+}
+
+/// What builds the laws this crate holds as data only: the user's Python controllers.
+pub trait LawHost {
+    /// Builds the controller of `setup` (imports its class and calls it with its parameters).
+    fn python(&self, setup: &PythonSetup) -> Result<Box<dyn SpeedController>, ControllerError>;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spec(python: &str) -> ControllerSpec {
+        ControllerSpec {
+            python: python.into(),
+            params: None,
+            state: None,
+        }
+    }
+
+    #[test]
+    fn files_and_modules_resolve_and_bad_names_are_refused() {
+        let dir = std::env::temp_dir().join(format!("syncroad-user-law-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("law.py"), "class Law: pass\n").unwrap();
+        let law = spec("law.py:Law").resolve(&dir).unwrap();
+        assert_eq!(
+            law.source,
+            PythonSource::File {
+                path: dir.join("law.py")
+            }
+        );
+        assert_eq!(
+            law.source_hash.as_deref(),
+            Some(fnv1a_hex(b"class Law: pass\n").as_str())
+        );
+        assert_eq!(law.params, serde_json::json!({}));
+        assert_eq!(law.label(), "python:Law");
+        let m = spec("mypkg.laws:Outer.Inner").resolve(&dir).unwrap();
+        assert_eq!(
+            (m.source, m.class.as_str(), m.source_hash),
+            (
+                PythonSource::Module {
+                    module: "mypkg.laws".into()
+                },
+                "Outer.Inner",
+                None
+            )
+        );
+        let e = spec("law.py").resolve(&dir).unwrap_err().to_string();
+        assert!(
+            e.starts_with("controller.python = law.py: no class is named"),
+            "{e}"
+        );
+        let e = spec("missing.py:Law")
+            .resolve(&dir)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("cannot read") && e.contains("missing.py"), "{e}");
+        let e = spec("law.py:1Law").resolve(&dir).unwrap_err().to_string();
+        assert!(e.contains("`1Law` is not a Python class name"), "{e}");
+        let e = spec(".:Law").resolve(&dir).unwrap_err().to_string();
+        assert!(e.contains("neither a .py file nor a module name"), "{e}");
+        let mut p = spec("law.py:Law");
+        p.params = Some(serde_json::json!([1, 2]));
+        let e = p.resolve(&dir).unwrap_err().to_string();
+        assert!(
+            e.starts_with("controller.params = [1,2]: must be an object"),
+            "{e}"
+        );
+        let e = spec("./:Law").resolve(&dir).unwrap_err().to_string();
+        assert!(e.contains("is not a regular file"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

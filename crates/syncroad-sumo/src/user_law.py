@@ -1,0 +1,170 @@
+"""The Python side of a user's controller (loaded by syncroad's Rust adapter, `user_law.rs`).
+
+`build` imports the class and makes the instance; `Stepper.step` turns one step's packed
+float64 buffer into an `Observation` of numpy arrays, calls the controller's `step(obs)` and
+returns its commands packed as float64 bytes. Everything here raises ordinary exceptions
+whose messages name what was wrong; the adapter adds the traceback.
+"""
+
+import importlib
+import importlib.util
+import io
+import os
+import pickle
+import sys
+
+import numpy as np
+
+# Rows of the packed buffer, in order.
+ROWS = ("speed_mps", "accel_mps2", "odometer_m", "gap_m", "leader_speed_mps")
+
+
+class Observation:
+    """The vehicles at one step; arrays are read-only and indexed like `ids`.
+
+    time_s            simulated time [s]
+    step              step index n (the commands are the speeds wanted at step n + 1)
+    dt_s              step length [s]
+    ids               vehicle ids (tuple of str)
+    speed_mps         speeds [m/s]
+    accel_mps2        accelerations over the last step [m/s^2] (0 at the first step)
+    odometer_m        distance driven since the start [m]
+    gap_m             bumper-to-bumper gap to the vehicle ahead [m] (inf: nobody ahead)
+    leader_speed_mps  that vehicle's speed [m/s] (nan: nobody ahead)
+    controlled        True where the controller's command is applied (others: humans, SUMO)
+    length_m          vehicle lengths [m]
+    ring_length_m     circumference of a ring road [m], None on an open road
+    """
+
+    __slots__ = (
+        "time_s",
+        "step",
+        "dt_s",
+        "ids",
+        "speed_mps",
+        "accel_mps2",
+        "odometer_m",
+        "gap_m",
+        "leader_speed_mps",
+        "controlled",
+        "length_m",
+        "ring_length_m",
+    )
+
+    def __repr__(self):
+        return (
+            f"Observation(t={self.time_s:.3f} s, step={self.step}, vehicles={len(self.ids)}, "
+            f"mean speed={float(np.mean(self.speed_mps)):.3f} m/s)"
+        )
+
+
+def _load_module(kind, where):
+    if kind == "module":
+        return importlib.import_module(where)
+    path = os.path.abspath(where)
+    folder = os.path.dirname(path)
+    # The file may import modules beside it, as it would when run as a script.
+    if folder not in sys.path:
+        sys.path.insert(0, folder)
+    stem = os.path.splitext(os.path.basename(path))[0]
+    name = "syncroad_user_" + "".join(c if c.isalnum() else "_" for c in stem)
+    spec = importlib.util.spec_from_file_location(name, path)
+    if spec is None or spec.loader is None:
+        raise ImportError(f"cannot load {path} as a Python module")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def _resolve(module, dotted):
+    obj = module
+    for part in dotted.split("."):
+        try:
+            obj = getattr(obj, part)
+        except AttributeError:
+            names = sorted(n for n in dir(module) if not n.startswith("_") and isinstance(getattr(module, n), type))
+            raise AttributeError(
+                f"{module.__name__} ({getattr(module, '__file__', '?')}) has no class {dotted}; "
+                f"its classes: {', '.join(names) or 'none'}"
+            ) from None
+    return obj
+
+
+class _Unpickler(pickle.Unpickler):
+    """Finds the controller's class in the module loaded from its file when the module it was
+    pickled from (a script's __main__, say) is not importable here."""
+
+    def __init__(self, data, module):
+        super().__init__(io.BytesIO(data))
+        self._module = module
+
+    def find_class(self, module, name):
+        try:
+            return super().find_class(module, name)
+        except (ImportError, AttributeError):
+            return _resolve(self._module, name)
+
+
+def build(kind, where, class_name, params, state_path):
+    """The controller instance and its command kind ('speed' or 'acceleration')."""
+    module = _load_module(kind, where)
+    cls = _resolve(module, class_name)
+    if not callable(cls):
+        raise TypeError(f"{class_name} in {module.__name__} is not a class")
+    if state_path is not None:
+        with open(state_path, "rb") as f:
+            obj = _Unpickler(f.read(), module).load()
+    else:
+        obj = cls(**params)
+    step = getattr(obj, "step", None)
+    if not callable(step):
+        raise TypeError(
+            f"{class_name} has no step method; a controller defines step(self, obs) returning "
+            "one target speed per vehicle"
+        )
+    command = getattr(obj, "command", "speed")
+    if command not in ("speed", "acceleration"):
+        raise ValueError(
+            f"{class_name}.command = {command!r}; valid: 'speed' (step returns target speeds "
+            "[m/s], the default) or 'acceleration' (step returns accelerations [m/s^2])"
+        )
+    return obj, command
+
+
+class Stepper:
+    """Calls `obj.step(obs)` each step with the packed state; returns float64 bytes."""
+
+    def __init__(self, obj, ids, dt_s, length_m, ring_length_m, controlled):
+        self.step_fn = obj.step
+        self.n = len(ids)
+        obs = Observation()
+        obs.ids = tuple(ids)
+        obs.dt_s = dt_s
+        obs.length_m = np.array(length_m, dtype=np.float64)
+        obs.length_m.flags.writeable = False
+        obs.ring_length_m = ring_length_m
+        obs.controlled = np.array(controlled, dtype=bool)
+        obs.controlled.flags.writeable = False
+        self.obs = obs
+
+    def step(self, packed, time_s, step):
+        obs = self.obs
+        rows = np.frombuffer(packed, dtype=np.float64).reshape(len(ROWS), self.n)
+        obs.time_s = time_s
+        obs.step = step
+        obs.speed_mps, obs.accel_mps2, obs.odometer_m, obs.gap_m, obs.leader_speed_mps = rows
+        out = self.step_fn(obs)
+        try:
+            a = np.asarray(out, dtype=np.float64)
+        except (TypeError, ValueError) as e:
+            raise TypeError(
+                f"step returned {type(out).__name__} ({e}); return a numpy array or a sequence "
+                f"of {self.n} numbers, one per vehicle of obs.ids"
+            ) from None
+        if a.shape != (self.n,):
+            raise ValueError(
+                f"step returned {a.size} value(s) of shape {a.shape}; {self.n} are needed, one "
+                "per vehicle of obs.ids"
+            )
+        return a.tobytes()

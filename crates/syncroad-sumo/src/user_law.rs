@@ -1,0 +1,270 @@
+//! The user's Python controller as a [`SpeedController`]: built once from its class and
+//! parameters, stepped every step with numpy arrays, inside the SUMO worker's interpreter or,
+//! for the native simulator, in the process that runs it ([`PythonHost`]).
+//!
+//! Each step the adapter packs five rows of float64 (speeds, accelerations over the last step,
+//! odometers, gaps and the speeds of the vehicles ahead) into one `bytes` object; the Python
+//! side (`user_law.py`) views them as numpy arrays without copying, calls `step(obs)` and packs
+//! the commands back. One call into Python per step, whatever the number of vehicles.
+//!
+//! The commands are checked before they reach a vehicle: an exception, a result of the wrong
+//! type or length, or a speed that is not finite or is negative stops the run with the step, the
+//! vehicle and the controller's own traceback ([`SpeedController::failure`]); the rows before
+//! it are kept.
+
+use pyo3::prelude::*;
+use pyo3::types::{PyBytes, PyDict};
+use syncroad_control::controller::ControllerError;
+use syncroad_control::road::{ahead, gaps};
+use syncroad_control::sensed::{Neighbors, Sensed};
+use syncroad_control::user_law::{PythonSetup, PythonSource};
+use syncroad_control::{LawHost, SpeedController};
+
+use crate::python::{add_packages, py_error};
+
+/// The Python half of the adapter.
+const HELPER: &std::ffi::CStr = pyo3::ffi::c_str!(include_str!("user_law.py"));
+
+/// Builds the user's Python controllers in this process's interpreter (initialized on first
+/// use, with the SUMO environment's packages on its path, where numpy is).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct PythonHost;
+
+impl LawHost for PythonHost {
+    fn python(&self, setup: &PythonSetup) -> Result<Box<dyn SpeedController>, ControllerError> {
+        Python::initialize();
+        Python::attach(|py| PythonController::new(py, setup)).map(|c| Box::new(c) as _)
+    }
+}
+
+/// Whether the controller returns target speeds or accelerations.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Command {
+    Speed,
+    Acceleration,
+}
+
+/// A user's Python controller, stepped by either backend.
+pub struct PythonController {
+    stepper: Py<PyAny>,
+    command: Command,
+    ids: Vec<String>,
+    dt_s: f64,
+    length_m: Vec<f64>,
+    ring_length_m: Option<f64>,
+    controlled: Vec<bool>,
+    steps: usize,
+    start_m: Vec<f64>,
+    last_mps: Vec<f64>,
+    packed: Vec<f64>,
+    gap_m: Vec<f64>,
+    sensed: Option<Neighbors>,
+    failure: Option<String>,
+}
+
+impl PythonController {
+    /// Imports the class of `setup` and makes the instance.
+    pub fn new(py: Python<'_>, setup: &PythonSetup) -> Result<Self, ControllerError> {
+        let law = &setup.law;
+        let fail = |reason: String| ControllerError::Python {
+            python: law.python.clone(),
+            reason,
+        };
+        add_packages(py).map_err(|e| fail(e.to_string()))?;
+        let helper = pyo3::types::PyModule::from_code(
+            py,
+            HELPER,
+            c"syncroad_user_law.py",
+            c"syncroad_user_law",
+        )
+        .map_err(|e| fail(py_error(py, "loading syncroad's controller adapter", e).to_string()))?;
+        let (kind, place) = match &law.source {
+            PythonSource::File { path } => ("file", path.display().to_string()),
+            PythonSource::Module { module } => ("module", module.clone()),
+        };
+        let params = pythonize(py, &law.params).map_err(|e| fail(e.to_string()))?;
+        let state = law.state.as_ref().map(|p| p.display().to_string());
+        let built = helper
+            .call_method1("build", (kind, &place, &law.class, params, state))
+            .map_err(|e| {
+                let what = if law.state.is_some() {
+                    format!("restoring {} from its pickled state", law.class)
+                } else {
+                    format!("{}(**params)", law.class)
+                };
+                fail(py_error(py, what, e).to_string())
+            })?;
+        let (obj, command): (Bound<'_, PyAny>, String) = built
+            .extract()
+            .map_err(|e| fail(py_error(py, "build", e).to_string()))?;
+        let n = setup.ids.len();
+        let stepper = helper
+            .getattr("Stepper")
+            .and_then(|s| {
+                s.call1((
+                    obj,
+                    setup.ids.clone(),
+                    setup.step_s,
+                    setup.length_m.clone(),
+                    setup.ring_length_m,
+                    setup.controlled.clone(),
+                ))
+            })
+            .and_then(|s| s.getattr("step"))
+            .map_err(|e| fail(py_error(py, "Stepper", e).to_string()))?;
+        Ok(Self {
+            stepper: stepper.unbind(),
+            command: if command == "acceleration" {
+                Command::Acceleration
+            } else {
+                Command::Speed
+            },
+            ids: setup.ids.clone(),
+            dt_s: setup.step_s,
+            length_m: setup.length_m.clone(),
+            ring_length_m: setup.ring_length_m,
+            controlled: setup.controlled.clone(),
+            steps: 0,
+            start_m: Vec::new(),
+            last_mps: Vec::new(),
+            packed: vec![0.0; 5 * n],
+            gap_m: vec![0.0; n],
+            sensed: None,
+            failure: None,
+        })
+    }
+
+    /// Packs this step's rows: speeds, accelerations, odometers, gaps, speeds ahead.
+    fn pack(&mut self, speeds: &[f64], positions: &[f64]) {
+        let n = speeds.len();
+        if self.steps == 0 {
+            self.start_m = positions.to_vec();
+            self.last_mps = speeds.to_vec();
+        }
+        gaps(
+            positions,
+            &self.length_m,
+            None,
+            self.ring_length_m,
+            &mut self.gap_m,
+        );
+        let (v, rest) = self.packed.split_at_mut(n);
+        let (a, rest) = rest.split_at_mut(n);
+        let (odo, rest) = rest.split_at_mut(n);
+        let (gap, lead) = rest.split_at_mut(n);
+        for i in 0..n {
+            v[i] = speeds[i];
+            a[i] = (speeds[i] - self.last_mps[i]) / self.dt_s;
+            odo[i] = positions[i] - self.start_m[i];
+            match ahead(i, n, self.ring_length_m) {
+                Some((j, _)) => {
+                    gap[i] = self.gap_m[i];
+                    lead[i] = speeds[j];
+                }
+                None => {
+                    gap[i] = f64::INFINITY;
+                    lead[i] = f64::NAN;
+                }
+            }
+            match self.sensed.as_ref().map(|nb| nb.ahead[i]) {
+                Some(Sensed::Other { speed_mps, gap_m }) => {
+                    gap[i] = gap_m;
+                    lead[i] = speed_mps;
+                }
+                Some(Sensed::Nobody) => {
+                    gap[i] = f64::INFINITY;
+                    lead[i] = f64::NAN;
+                }
+                Some(Sensed::Layout) | None => {}
+            }
+        }
+        self.last_mps.copy_from_slice(speeds);
+    }
+
+    /// Calls the controller; the commands for the next step, or why there are none.
+    fn call(&mut self, py: Python<'_>, time_s: f64, out: &mut [f64]) -> Result<(), String> {
+        let bytes: Vec<u8> = self.packed.iter().flat_map(|x| x.to_ne_bytes()).collect();
+        let packed = PyBytes::new(py, &bytes);
+        let returned = self
+            .stepper
+            .bind(py)
+            .call1((packed, time_s, self.steps))
+            .map_err(|e| py_error(py, "the controller's step(obs)", e).to_string())?;
+        let returned = returned
+            .cast::<PyBytes>()
+            .map_err(|_| "the adapter returned no bytes".to_string())?;
+        let raw = returned.as_bytes();
+        for (i, chunk) in raw.chunks_exact(8).enumerate().take(out.len()) {
+            out[i] = f64::from_ne_bytes(chunk.try_into().expect("8 bytes"));
+        }
+        Ok(())
+    }
+
+    /// Checks the commands of the controlled vehicles and turns accelerations into speeds.
+    fn check(&self, time_s: f64, speeds: &[f64], out: &mut [f64]) -> Result<(), String> {
+        for i in 0..out.len() {
+            if !self.controlled[i] {
+                out[i] = speeds[i];
+                continue;
+            }
+            let x = out[i];
+            let what = match self.command {
+                Command::Speed => "target speed",
+                Command::Acceleration => "acceleration",
+            };
+            let bad = !x.is_finite() || (self.command == Command::Speed && x < 0.0);
+            if bad {
+                return Err(format!(
+                    "at step {} (t = {time_s:.3} s) the controller's {what} for vehicle {} (obs.ids[{i}]) is {x}; {}",
+                    self.steps,
+                    self.ids[i],
+                    match self.command {
+                        Command::Speed => "target speeds must be finite and ≥ 0 m/s",
+                        Command::Acceleration => "accelerations must be finite",
+                    }
+                ));
+            }
+            if self.command == Command::Acceleration {
+                out[i] = (speeds[i] + x * self.dt_s).max(0.0);
+            }
+        }
+        Ok(())
+    }
+}
+
+impl SpeedController for PythonController {
+    fn step(&mut self, time_s: f64, speeds: &[f64], positions: &[f64], out: &mut [f64]) {
+        if self.failure.is_some() {
+            out.copy_from_slice(speeds);
+            return;
+        }
+        self.pack(speeds, positions);
+        let result = Python::attach(|py| self.call(py, time_s, out))
+            .and_then(|()| self.check(time_s, speeds, out));
+        if let Err(e) = result {
+            self.failure = Some(e);
+            out.copy_from_slice(speeds);
+        }
+        self.steps += 1;
+    }
+
+    fn sense(&mut self, neighbors: &Neighbors) {
+        neighbors.keep_in(&mut self.sensed);
+    }
+
+    fn failure(&mut self) -> Option<String> {
+        self.failure.clone()
+    }
+}
+
+/// A JSON value as the Python object `json.loads` makes of it.
+fn pythonize<'py>(
+    py: Python<'py>,
+    value: &serde_json::Value,
+) -> Result<Bound<'py, PyDict>, crate::python::PythonError> {
+    let text = value.to_string();
+    py.import("json")
+        .and_then(|j| j.call_method1("loads", (text,)))
+        .and_then(|d| d.cast_into::<PyDict>().map_err(Into::into))
+        .map_err(|e| py_error(py, "json.loads(controller.params)", e))
+}

@@ -1,0 +1,287 @@
+//! The user's Python controller, on both backends: the guide's Python FollowerStopper and
+//! Python delayed-driver law reproduce the built-in laws' trajectories, and a controller that
+//! raises, blocks or prints is stopped or contained with every row before it kept.
+
+use super::*;
+use syncroad_control::damper::DamperSpec;
+use syncroad_control::drive::Drive;
+use syncroad_control::{simulate_with, LawSpec, StopReason, Trajectory};
+use syncroad_sumo::PythonHost;
+
+fn examples() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples/controllers")
+        .canonicalize()
+        .unwrap()
+}
+
+/// The Sugiyama ring's reaction delays α_i \[s\].
+const DELAYS: [f64; 22] = [
+    0.5, 0.6, 0.7, 0.5, 0.6, 0.7, 0.5, 0.6, 0.7, 0.5, 0.6, 0.7, 0.5, 0.6, 0.7, 0.5, 0.6, 0.7, 0.5,
+    0.6, 0.7, 0.6,
+];
+
+/// The ring of `ring_scenario` (22 vehicles, delays 0.5–0.7 s) with `controller`, if any.
+fn ring(horizon_s: f64, controller: Option<serde_json::Value>) -> Scenario {
+    let mut file = serde_json::json!({
+        "name": "python-law", "backend": "sumo", "seed": 7, "step_s": 0.1,
+        "horizon_s": horizon_s, "vehicles": 22,
+        "road": {"type": "ring", "length_m": 230},
+        "model": {"type": "delayed_driver",
+                  "graph": {"type": "bidirectional_ring", "gain_pred": 0.6, "gain_follow": 0.1},
+                  "delay_s": DELAYS},
+        "initial": {"speed_mps": 4.0, "perturbation": {"speed_mps": 1.5, "gap_m": 0.5}},
+        "sumo": {"net": nets().join("sugiyama-ring.net.xml")}
+    });
+    if let Some(c) = controller {
+        file["controller"] = c;
+    }
+    Scenario::from_json(&file.to_string()).expect("valid scenario")
+}
+
+fn delayed_driver() -> serde_json::Value {
+    serde_json::json!({
+        "python": examples().join("delayed_driver.py:DelayedDriver").display().to_string(),
+        "params": {"gain_pred": 0.6, "gain_follow": 0.1, "delay_s": DELAYS}
+    })
+}
+
+fn follower_stopper() -> serde_json::Value {
+    serde_json::json!({
+        "python": examples().join("follower_stopper.py:FollowerStopper").display().to_string(),
+        "params": {"desired_speed_mps": 4.3}
+    })
+}
+
+fn native(sc: &Scenario, law: &LawSpec) -> syncroad_control::NativeRun {
+    let opts = NativeOptions {
+        host: Some(&PythonHost),
+        ..NativeOptions::default()
+    };
+    simulate_with(sc, law, opts).expect("the law builds")
+}
+
+/// Largest speed difference of two runs of the same length.
+fn worst(a: &Trajectory, b: &Trajectory) -> f64 {
+    assert_eq!(a.len(), b.len());
+    a.speeds_mps
+        .iter()
+        .zip(&b.speeds_mps)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+}
+
+/// The Python copy must be doing something: speeds move away from the start by more than
+/// the tolerance the comparison uses.
+fn moved(t: &Trajectory) -> f64 {
+    let k = t.len() - 1;
+    t.speeds(k)
+        .iter()
+        .zip(t.speeds(0))
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn the_python_delayed_driver_law_reproduces_the_built_in_law_natively() {
+    let built_in = native(&ring(60.0, None), &LawSpec::of(&ring(60.0, None)));
+    let sc = ring(60.0, Some(delayed_driver()));
+    let python = native(&sc, &LawSpec::of(&sc));
+    assert_eq!(python.stop, StopReason::Horizon);
+    assert!(moved(&built_in.trajectory) > 0.5);
+    let w = worst(&built_in.trajectory, &python.trajectory);
+    assert!(w < 1e-9, "largest speed difference {w} m/s");
+}
+
+#[test]
+fn the_python_follower_stopper_reproduces_the_built_in_damper_natively() {
+    let plain = ring(60.0, None);
+    let drive = Drive::parse("--x", "follower-stopper-4.3", 22).unwrap();
+    let built_in = native(&plain, &LawSpec::of_drive(&plain, &drive).unwrap());
+    let sc = ring(60.0, Some(follower_stopper()));
+    let python = native(&sc, &LawSpec::of(&sc));
+    assert_eq!(python.stop, StopReason::Horizon);
+    assert!(moved(&built_in.trajectory) > 0.5);
+    let w = worst(&built_in.trajectory, &python.trajectory);
+    assert!(w < 1e-9, "largest speed difference {w} m/s");
+}
+
+#[test]
+fn both_python_laws_reproduce_the_built_in_laws_in_sumo() {
+    let law = run_scenario(&ring(40.0, None), &opts("py-law-builtin")).unwrap();
+    let sc = ring(40.0, Some(delayed_driver()));
+    let python = run_scenario(&sc, &opts("py-law-python")).unwrap();
+    assert!(python.outcome().is_ok(), "{:?}", python.stop());
+    let (a, b) = (law.trajectory(&sc), python.trajectory(&sc));
+    assert!(moved(&a) > 0.5);
+    let w = worst(&a, &b);
+    assert!(
+        w < 1e-9,
+        "delayed drivers: largest speed difference {w} m/s"
+    );
+
+    let mut o = opts("py-fs-builtin");
+    o.damper = Some(DamperSpec::FollowerStopper {
+        desired_speed_mps: 4.3,
+    });
+    let damper = run_scenario(&ring(40.0, None), &o).unwrap();
+    let sc = ring(40.0, Some(follower_stopper()));
+    let python = run_scenario(&sc, &opts("py-fs-python")).unwrap();
+    assert!(python.outcome().is_ok(), "{:?}", python.stop());
+    let (a, b) = (damper.trajectory(&sc), python.trajectory(&sc));
+    assert!(moved(&a) > 0.2);
+    let w = worst(&a, &b);
+    assert!(
+        w < 1e-9,
+        "FollowerStopper: largest speed difference {w} m/s"
+    );
+}
+
+/// A controller file of this test, written into its work folder.
+fn controller_file(dir: &Path, source: &str) -> String {
+    let path = dir.join("mine.py");
+    std::fs::write(&path, source).unwrap();
+    path.display().to_string()
+}
+
+const MISBEHAVING: &str = r#"
+import time, sys, os
+import numpy as np
+
+class Raises:
+    def step(self, obs):
+        print("controller output on stdout", obs.step)
+        sys.stdout.flush()
+        os.write(1, b"raw bytes on descriptor 1\n")
+        if obs.step == 25:
+            raise RuntimeError("the law broke at step %d" % obs.step)
+        return obs.speed_mps
+
+class Blocks:
+    def step(self, obs):
+        if obs.step == 25:
+            time.sleep(3600)
+        return obs.speed_mps
+
+class Negative:
+    def step(self, obs):
+        v = np.array(obs.speed_mps)
+        if obs.step == 12:
+            v[3] = -0.5
+        return v
+"#;
+
+#[test]
+fn a_controller_that_raises_stops_the_run_with_its_traceback_and_keeps_the_rows() {
+    let dir = work("py-raises");
+    let file = controller_file(&dir, MISBEHAVING);
+    let sc = ring(
+        30.0,
+        Some(serde_json::json!({"python": format!("{file}:Raises")})),
+    );
+    let run = run_scenario(&sc, &opts("py-raises-run")).unwrap();
+    let StopReason::ControllerFailed { step, error, .. } = run.stop() else {
+        panic!("expected a controller failure, got {:?}", run.stop());
+    };
+    assert_eq!(step, 25);
+    assert!(
+        error.contains(&format!("File \"{file}\", line 11, in step")),
+        "{error}"
+    );
+    assert!(
+        error.ends_with("RuntimeError: the law broke at step 25"),
+        "{error}"
+    );
+    // Printing did not corrupt the protocol: every step before the failure arrived.
+    assert_eq!(run.trajectory(&sc).len(), 26);
+    // Natively: the same stop at the same step, the same rows.
+    let nat = native(&sc, &LawSpec::of(&sc));
+    assert!(
+        matches!(nat.stop, StopReason::ControllerFailed { step: 25, .. }),
+        "{:?}",
+        nat.stop
+    );
+    assert_eq!(nat.trajectory.len(), 26);
+}
+
+#[test]
+fn negative_speeds_name_the_step_and_the_vehicle() {
+    let dir = work("py-negative");
+    let file = controller_file(&dir, MISBEHAVING);
+    let sc = ring(
+        30.0,
+        Some(serde_json::json!({"python": format!("{file}:Negative")})),
+    );
+    let run = run_scenario(&sc, &opts("py-negative-run")).unwrap();
+    let StopReason::ControllerFailed { error, .. } = run.stop() else {
+        panic!("expected a controller failure, got {:?}", run.stop());
+    };
+    assert_eq!(
+        error,
+        "at step 12 (t = 1.200 s) the controller's target speed for vehicle v3 (obs.ids[3]) is -0.5; target speeds must be finite and ≥ 0 m/s"
+    );
+}
+
+#[test]
+fn a_controller_that_blocks_is_stopped_by_the_runs_timeout() {
+    let dir = work("py-blocks");
+    let file = controller_file(&dir, MISBEHAVING);
+    let sc = ring(
+        30.0,
+        Some(serde_json::json!({"python": format!("{file}:Blocks")})),
+    );
+    let mut o = opts("py-blocks-run");
+    o.timeout = Some(Duration::from_secs(3));
+    let run = run_scenario(&sc, &o).unwrap();
+    assert!(
+        matches!(run.failure(), Some(SupervisorError::Timeout { .. })),
+        "{:?}",
+        run.stop()
+    );
+    // The rows before the blocked step are kept (those that reached the parent in a chunk).
+    assert!(run.trajectory(&sc).len() <= 26);
+}
+
+#[test]
+fn a_class_that_cannot_be_built_is_refused_before_sumo_starts() {
+    let dir = work("py-build");
+    let file = controller_file(&dir, "class Law:\n    def __init__(self, gain):\n        self.gain = gain\n    def step(self, obs):\n        return obs.speed_mps\n");
+    for (python, params, expected) in [
+        (
+            format!("{file}:Missing"),
+            serde_json::json!({}),
+            "has no class Missing; its classes: Law",
+        ),
+        (
+            format!("{file}:Law"),
+            serde_json::json!({}),
+            "TypeError: Law.__init__() missing 1 required positional argument: 'gain'",
+        ),
+        (
+            format!("{file}:Law"),
+            serde_json::json!({"gain": 1, "bias": 2}),
+            "unexpected keyword argument 'bias'",
+        ),
+    ] {
+        let sc = ring(
+            10.0,
+            Some(serde_json::json!({"python": python, "params": params})),
+        );
+        let run = run_scenario(&sc, &opts("py-build-run")).unwrap();
+        let StopReason::Failed { error } = run.stop() else {
+            panic!("expected a failure, got {:?}", run.stop());
+        };
+        assert!(error.contains(expected), "{error}");
+        assert!(run.worker.start.is_none(), "SUMO started");
+        let e = simulate_with(
+            &sc,
+            &LawSpec::of(&sc),
+            NativeOptions {
+                host: Some(&PythonHost),
+                ..NativeOptions::default()
+            },
+        )
+        .expect_err("refused natively");
+        assert!(e.to_string().contains(expected), "{e}");
+    }
+}
