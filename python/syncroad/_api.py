@@ -80,6 +80,7 @@ def run(
     timeout_s: Optional[float] = None,
     krauss_sigma: Optional[float] = None,
     progress: Optional[str] = None,
+    controller: Any = None,
 ) -> Run:
     """Runs a scenario as ``syncroad run`` (``backend="native"``: ``syncroad simulate``)
     and returns its :class:`Run`. ``out`` is the run's folder (default: a new temporary one);
@@ -94,13 +95,22 @@ def run(
     ``KeyboardInterrupt``. A process started with SIGINT ignored (``nohup``, or ``python … &``
     in a script, where the shell ignores SIGINT for background jobs) ignores it during a run
     too, as Python itself does. Code that wants Ctrl-C there restores the handler first:
-    ``signal.signal(signal.SIGINT, signal.default_int_handler)``."""
+    ``signal.signal(signal.SIGINT, signal.default_int_handler)``.
+
+    ``controller`` drives the vehicles in place of the scenario's law: an object with a
+    ``step(obs)`` method (its class defined in a .py file; the object is pickled and its
+    ``step`` runs inside the SUMO worker, or in this process natively) or a ``controller``
+    block (``{"python": "FILE.py:Class", "params": {...}}``). See the guide's "Your own
+    controller"."""
     sc = as_scenario(scenario)
     if backend not in (None, "native", "sumo"):
         raise ScenarioError(f'backend = {backend!r}: must be "native" or "sumo" (or None: the scenario\'s)')
     folder = _out_dir(out, "run")
     if backend == "sumo":
         sc = sc.with_backend("sumo")
+    if controller is not None:
+        # Last: the scenario it makes owns the pickled state's temporary folder.
+        sc = sc.with_controller(controller)
     command = "simulate" if backend == "native" else "run"
     sumo_flags = _flags(timeout_s=timeout_s, krauss_sigma=krauss_sigma)
     argv = [command, str(sc.path), "--out", str(folder), *sumo_flags]

@@ -29,6 +29,20 @@ def _absolute(value: str, base_dir: Path) -> str:
     return str(p if p.is_absolute() else (base_dir / p).resolve())
 
 
+def _absolute_controller(controller: Mapping[str, Any], base_dir: Path) -> Dict[str, Any]:
+    """A ``controller`` block with its file (``FILE.py:Class``, not ``module:Class``) and
+    pickled ``state`` resolved against ``base_dir``."""
+    c = dict(controller)
+    python = c.get("python")
+    if isinstance(python, str) and ":" in python:
+        where, cls_name = python.rsplit(":", 1)
+        if where.endswith(".py") or "/" in where:
+            c["python"] = f"{_absolute(where, base_dir)}:{cls_name}"
+    if isinstance(c.get("state"), str):
+        c["state"] = _absolute(c["state"], base_dir)
+    return c
+
+
 class Scenario:
     """A validated scenario (the CLI's JSON format, see the guide's Scenarios chapter).
 
@@ -56,9 +70,9 @@ class Scenario:
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], base_dir: Optional[PathLike] = None) -> "Scenario":
         """Validates a scenario given as a dict (the JSON file's content). Relative files of
-        the ``sumo`` section (``net``, ``config``, ``routes``, ``additional``) resolve against
-        ``base_dir`` (default: the current folder). Raises
-        :class:`ScenarioError` with the CLI's message."""
+        the ``sumo`` section (``net``, ``config``, ``routes``, ``additional``) and of the
+        ``controller`` (its ``FILE.py`` and ``state``) resolve against ``base_dir`` (default:
+        the current folder). Raises :class:`ScenarioError` with the CLI's message."""
         d = json.loads(json.dumps(data))  # a deep copy that is also checked to be JSON
         base = Path(base_dir) if base_dir is not None else Path.cwd()
         sumo = d.get("sumo")
@@ -72,6 +86,8 @@ class Scenario:
                 files = sumo.get(key)
                 if isinstance(files, list):
                     sumo[key] = [_absolute(f, base) if isinstance(f, str) else f for f in files]
+        if isinstance(d.get("controller"), dict):
+            d["controller"] = _absolute_controller(d["controller"], base)
         name = str(d.get("name") or "scenario")
         safe = "".join(c if c.isalnum() or c in "._-" else "_" for c in name)
         sc = cls.__new__(cls)
@@ -100,8 +116,65 @@ class Scenario:
         d["backend"] = backend
         return Scenario.from_dict(d, base_dir=self.path.parent)
 
+    def with_controller(self, controller: Any) -> "Scenario":
+        """The same scenario driven by ``controller``: a ``controller`` block (``{"python":
+        "FILE.py:Class", "params": {...}}``) or an object with a ``step(obs)`` method, which
+        is pickled (its class is loaded from the file that defines it, in the SUMO worker or
+        the native simulator, and the pickle restores its state)."""
+        d = dict(self.data)
+        if isinstance(controller, Mapping):
+            # The block's files are the caller's (relative to the current folder); the rest of
+            # the scenario's are its file's.
+            d["controller"] = _absolute_controller(controller, Path.cwd())
+            return Scenario.from_dict(d, base_dir=self.path.parent)
+        sc = Scenario.__new__(Scenario)
+        d["controller"] = _pickled_controller(sc, controller)
+        path = _write_temporary(sc, d, self.path.name)
+        error = _syncroad.validate_scenario(str(path))
+        if error is not None:
+            raise ScenarioError(error)
+        Scenario.__init__(sc, path, d)
+        return sc
+
     def __repr__(self) -> str:
         return f"Scenario({self.name!r}, backend={self.backend!r}, path={str(self.path)!r})"
+
+
+def _pickled_controller(owner: object, controller: Any) -> Dict[str, Any]:
+    """The ``controller`` block of an object: its class's file and name, and its pickled
+    state in a temporary folder removed with ``owner``."""
+    import inspect
+    import pickle
+
+    cls = type(controller)
+    name = cls.__qualname__
+    if not callable(getattr(controller, "step", None)):
+        raise ScenarioError(
+            f"controller = {cls.__name__} object: it has no step method; a controller defines "
+            "step(self, obs) returning one target speed per vehicle"
+        )
+    try:
+        source = inspect.getsourcefile(cls)
+    except TypeError:
+        source = None
+    if source is None or not Path(source).is_file() or "<locals>" in name:
+        raise ScenarioError(
+            f"controller = {name} object: its class is not defined at the top of a .py file "
+            f"(it comes from {source or cls.__module__}); SUMO runs it in a worker process, which "
+            "loads the class from its file: move the class into a .py file and import it"
+        )
+    try:
+        state = pickle.dumps(controller)
+    except Exception as e:  # pickle raises many types; the message is what helps
+        raise ScenarioError(
+            f"controller = {name} object: it cannot be pickled ({type(e).__name__}: {e}); give "
+            'its class and parameters instead: {"python": "FILE.py:Class", "params": {...}}'
+        ) from None
+    tmp = tempfile.TemporaryDirectory(prefix="syncroad-controller-")
+    weakref.finalize(owner, tmp.cleanup)
+    path = Path(tmp.name) / "controller.pickle"
+    path.write_bytes(state)
+    return {"python": f"{Path(source).resolve()}:{name}", "state": str(path)}
 
 
 ScenarioLike = Union[Scenario, PathLike, Mapping[str, Any]]

@@ -24,6 +24,9 @@ const POLL: Duration = Duration::from_millis(50);
 /// SUMO runs of this process start `sys.executable -m syncroad._worker`; job scripts
 /// (`sweep --emit-slurm`) run the `syncroad` console script of this environment.
 fn set_worker(py: Python<'_>) -> PyResult<()> {
+    // A user's Python controller on the native simulator runs in this interpreter, with the
+    // packages of its environment.
+    syncroad_sumo::use_packages(syncroad_sumo::SumoPackages::Interpreter);
     let exe: PathBuf = py.import("sys")?.getattr("executable")?.extract()?;
     syncroad_sumo::WorkerCommand::set_for_process(syncroad_sumo::WorkerCommand::python_module(
         exe,

@@ -60,7 +60,7 @@ pub use prepare::{
 };
 pub use probe::{PhaseTimes, Probe, ProbeMode, ProbeTimes};
 pub use protocol::{Event, Finish, Job, ReadMode, Request, StartInfo, Totals};
-pub use python::SumoPackages;
+pub use python::{use_packages, SumoPackages};
 pub use result_file::{write_result, write_result_via_path, ResultFileError};
 pub use signals::{
     clear_interrupt, host_delivers_interrupts, interrupt, received as interrupt_signal,

@@ -80,7 +80,7 @@ const INTERPRETER_INSTALL: &str = "pip install syncroad (or pip install . in the
 static PACKAGES: std::sync::OnceLock<SumoPackages> = std::sync::OnceLock::new();
 
 /// Sets where this process imports libsumo from (first call wins; default the project venv).
-pub(crate) fn use_packages(p: SumoPackages) {
+pub fn use_packages(p: SumoPackages) {
     let _ = PACKAGES.set(p);
 }
 
