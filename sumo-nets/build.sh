@@ -42,3 +42,5 @@ open(path, "w").write(text)
 PY
     echo "build.sh: $name.net.xml"
 done
+# The Python package ships the Sugiyama ring for its Gymnasium environment's default scenario.
+cp "$here/sugiyama-ring.net.xml" "$repo/python/syncroad/data/sugiyama-ring.net.xml"

@@ -19,6 +19,7 @@ from syncroad._api import check, compare, run, stability, sweep
 from syncroad._errors import Interrupted, RunError, ScenarioError, SyncroadError
 from syncroad._run import Record, Run
 from syncroad._scenario import Scenario
+from syncroad._simulation import Simulation
 from syncroad._syncroad import __version__
 
 __all__ = [
@@ -28,6 +29,7 @@ __all__ = [
     "RunError",
     "Scenario",
     "ScenarioError",
+    "Simulation",
     "SyncroadError",
     "__version__",
     "check",

@@ -1,0 +1,137 @@
+"""A Gymnasium environment over syncroad runs (the optional extra: ``pip install 'syncroad[gym]'``).
+
+:class:`RingEnv` puts one or more controlled vehicles on any scenario, by default one
+automated vehicle among 21 noisy human drivers on the Sugiyama ring (22 vehicles on 230 m,
+``human-noisy``: Flow's IDM with Gaussian acceleration noise), and steps it through a
+:class:`syncroad.Simulation`: the same run, record and files as ``syncroad run``.
+
+* **Action**: one value in [-1, 1] per controlled vehicle, the fraction of the scenario's
+  vehicle type's deceleration (below 0) or acceleration (above 0): ``a = x · accel_mps2`` for
+  x ≥ 0, ``a = x · decel_mps2`` below; the commanded speed is ``max(v + a Δt, 0)``.
+* **Observation**: for each controlled vehicle, its speed, the gap to the vehicle ahead and
+  that vehicle's speed, each divided by a scale (``speed_scale_mps``, the ring's length or
+  ``gap_scale_m``) so values lie in [0, 1]; shape ``(3 k,)``, float32.
+* **Reward**: Flow's desired-velocity reward (``flow.core.rewards.desired_velocity``):
+  ``max(‖v_des 1‖ − ‖v − v_des 1‖, 0) / ‖v_des 1‖`` over every vehicle, in [0, 1].
+* **Episode**: the scenario's horizon (``truncated`` at its end; never ``terminated``).
+  ``reset(seed=s)`` starts the scenario with seed ``s`` (placements and noise follow it), so
+  the same seed gives the same episode.
+
+libsumo runs one simulation per process: each environment owns its SUMO worker process, so
+``gymnasium.vector.AsyncVectorEnv`` over several environments runs them side by side.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Dict, Mapping, Optional, Tuple
+
+import gymnasium
+import numpy as np
+from gymnasium import spaces
+
+from syncroad._scenario import Scenario, ScenarioLike, as_scenario
+from syncroad._simulation import Simulation
+
+def one_av_among_noisy_humans(horizon_s: float = 300.0) -> Dict[str, Any]:
+    """The default environment's scenario: 22 vehicles on the 230 m Sugiyama ring, one of them
+    controlled (an even placement puts it first), the others ``human-noisy``."""
+    return {
+        "name": "gym-ring",
+        "backend": "sumo",
+        "seed": 0,
+        "step_s": 0.1,
+        "horizon_s": horizon_s,
+        "vehicles": 22,
+        "road": {"type": "ring", "length_m": 230},
+        "model": {"type": "delayed_driver",
+                  "graph": {"type": "bidirectional_ring", "gain_pred": 0.6, "gain_follow": 0.1},
+                  "delay_s": 0.5},
+        "initial": {"speed_mps": 4.0, "perturbation": {"speed_mps": 0.5, "gap_m": 0.1}},
+        "mixed": {"penetration": 1 / 22, "human": "human-noisy", "placement": "even"},
+        "sumo": {"net": str(Path(__file__).resolve().parent / "data" / "sugiyama-ring.net.xml")},
+    }
+
+
+class RingEnv(gymnasium.Env):
+    """Controlled vehicles among the others of a syncroad scenario (see the module's text)."""
+
+    metadata = {"render_modes": []}
+
+    def __init__(
+        self,
+        scenario: Optional[ScenarioLike] = None,
+        *,
+        desired_speed_mps: float = 4.82,
+        speed_scale_mps: float = 30.0,
+        backend: Optional[str] = None,
+    ) -> None:
+        sc = as_scenario(scenario if scenario is not None else one_av_among_noisy_humans())
+        self._data = dict(sc.data)
+        self._base = sc.path.parent
+        self.desired_speed_mps = float(desired_speed_mps)
+        self.speed_scale_mps = float(speed_scale_mps)
+        self._backend = backend
+        sumo = self._data.get("sumo") or {}
+        self._accel = float(sumo.get("accel_mps2", 2.6))
+        self._decel = float(sumo.get("decel_mps2", 4.5))
+        self._sim: Optional[Simulation] = None
+        self._controlled: Optional[np.ndarray] = None
+        # The controlled vehicles are known once a run shows them: start one to size the spaces.
+        obs = self._start(int(self._data.get("seed", 0)))
+        k = int(np.count_nonzero(obs.controlled))
+        self.gap_scale_m = float(obs.ring_length_m or 100.0)
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(k,), dtype=np.float32)
+        self.observation_space = spaces.Box(0.0, 1.0, shape=(3 * k,), dtype=np.float32)
+
+    def _start(self, seed: int) -> Any:
+        if self._sim is not None:
+            self._sim.close()
+        d = dict(self._data, seed=seed)
+        self._sim = Simulation(Scenario.from_dict(d, base_dir=self._base), backend=self._backend)
+        obs = self._sim.observe()
+        self._controlled = np.asarray(obs.controlled, dtype=bool)
+        return obs
+
+    def _observation(self, obs: Any) -> np.ndarray:
+        c = self._controlled
+        gap = np.nan_to_num(obs.gap_m[c], posinf=self.gap_scale_m)
+        lead = np.nan_to_num(obs.leader_speed_mps[c], nan=0.0)
+        x = np.concatenate([obs.speed_mps[c] / self.speed_scale_mps, gap / self.gap_scale_m,
+                            lead / self.speed_scale_mps])
+        out: np.ndarray = np.clip(x, 0.0, 1.0).astype(np.float32)
+        return out
+
+    def _reward(self, obs: Any) -> float:
+        v = np.asarray(obs.speed_mps)
+        target = np.full_like(v, self.desired_speed_mps)
+        best = float(np.linalg.norm(target))
+        return max(best - float(np.linalg.norm(v - target)), 0.0) / best
+
+    def reset(self, *, seed: Optional[int] = None, options: Optional[Mapping[str, Any]] = None
+              ) -> Tuple[np.ndarray, Dict[str, Any]]:
+        super().reset(seed=seed)
+        # Without a seed, the next one of the environment's generator (itself seeded by the
+        # first reset's seed), so that a seeded sequence of episodes repeats.
+        s = seed if seed is not None else int(self.np_random.integers(0, 2**31 - 1))
+        obs = self._start(s)
+        return self._observation(obs), {"time_s": float(obs.time_s), "seed": s}
+
+    def step(self, action: np.ndarray) -> Tuple[np.ndarray, float, bool, bool, Dict[str, Any]]:
+        assert self._sim is not None, "call reset() first"
+        obs = self._sim.observe()
+        x = np.clip(np.asarray(action, dtype=np.float64).reshape(-1), -1.0, 1.0)
+        a = np.where(x >= 0.0, x * self._accel, x * self._decel)
+        speeds = np.array(obs.speed_mps, dtype=np.float64)
+        speeds[self._controlled] = np.maximum(speeds[self._controlled] + a * obs.dt_s, 0.0)
+        nxt = self._sim.step(speeds)
+        if nxt is None:
+            # The horizon: the last observation stands; the run's record is written.
+            run = self._sim.run
+            return self._observation(obs), self._reward(obs), False, True, {"run": run}
+        return self._observation(nxt), self._reward(nxt), False, False, {"time_s": float(nxt.time_s)}
+
+    def close(self) -> None:
+        if self._sim is not None:
+            self._sim.close()
+            self._sim = None

@@ -1,0 +1,118 @@
+"""The per-step API and the Gymnasium environment: a loop the caller writes drives exactly
+as the same law given as a controller does, closing early keeps the rows with an incomplete
+record, and the environment passes Gymnasium's own checker, repeats under a seed and runs
+vectorised over worker processes."""
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import syncroad
+from conftest import REPO
+
+sys.path.insert(0, str(REPO / "examples" / "controllers"))
+from follower_stopper import FollowerStopper  # noqa: E402
+
+
+def ring(horizon_s=20):
+    sc = syncroad.Scenario.load("scenarios/sugiyama-human.json")
+    return syncroad.Scenario.from_dict(dict(sc.data, horizon_s=horizon_s), base_dir=REPO / "scenarios")
+
+
+def speeds(run):
+    df = run.trajectories.to_pandas()
+    return df.sort_values(["time_s", "vehicle"]).speed_mps.to_numpy()
+
+
+@pytest.mark.parametrize("backend", ["native", "sumo"])
+def test_a_loop_of_steps_drives_as_the_same_controller_does(tmp_path, backend):
+    law = FollowerStopper(4.3)
+    with syncroad.Simulation(ring(), backend=backend, out=tmp_path / "loop") as sim:
+        steps = 0
+        while not sim.done:
+            sim.step(law.step(sim.observe()))
+            steps += 1
+    assert steps == 200
+    assert sim.run.metrics.complete
+    by_controller = syncroad.run(ring(), backend=backend, out=tmp_path / "controller",
+                                 controller=FollowerStopper(4.3), plots=False)
+    a, b = speeds(sim.run), speeds(by_controller)
+    assert len(a) == 22 * 201
+    assert np.array_equal(a, b)
+    # Its record is the run's normal one, naming the stepping controller.
+    assert sim.run.metrics.controller["label"] == "python:RemoteController"
+
+
+def test_closing_early_keeps_the_rows_with_an_incomplete_record(tmp_path):
+    sim = syncroad.Simulation(ring(), backend="sumo", out=tmp_path)
+    for _ in range(30):
+        obs = sim.step()
+    assert obs.step == 30 and obs.time_s == pytest.approx(3.0)
+    with pytest.raises(syncroad.ScenarioError, match="22 are needed"):
+        sim.step([1.0, 2.0])
+    run = sim.close()
+    assert sim.done
+    assert run.metrics.complete is False
+    assert "closed the simulation before its horizon" in run.metrics.error
+    assert len(run.trajectories) == 22 * 31
+
+
+def test_the_core_package_and_the_cli_never_import_gymnasium():
+    code = "import sys, syncroad; syncroad.check('scenarios/ring-theorem1.json'); print('gymnasium' in sys.modules)"
+    p = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, check=True)
+    assert p.stdout.strip() == "False"
+
+
+gymnasium = pytest.importorskip("gymnasium")
+
+
+def test_the_environment_passes_gymnasiums_checker_and_repeats_under_a_seed():
+    from gymnasium.utils.env_checker import check_env
+
+    from syncroad.gym import RingEnv
+
+    env = RingEnv()
+    try:
+        check_env(env, skip_render_check=True)
+        assert env.action_space.shape == (1,) and env.observation_space.shape == (3,)
+        runs = []
+        for _ in range(2):
+            obs, info = env.reset(seed=7)
+            trace = [obs]
+            for k in range(40):
+                obs, reward, terminated, truncated, _ = env.step(np.array([0.5 if k < 20 else -1.0]))
+                assert 0.0 <= reward <= 1.0 and not terminated and not truncated
+                trace.append(obs)
+            runs.append(np.array(trace))
+        assert np.array_equal(runs[0], runs[1])
+        # Another seed, other noise: the humans drive differently.
+        env.reset(seed=8)
+        other = [env.step(np.array([0.5]))[0] for _ in range(40)]
+        assert not np.array_equal(runs[0][1:], np.array(other))
+    finally:
+        env.close()
+
+
+def test_four_environments_step_side_by_side_in_worker_processes():
+    from syncroad.gym import RingEnv
+
+    envs = gymnasium.vector.AsyncVectorEnv([RingEnv] * 4)
+    try:
+        obs, _ = envs.reset(seed=[1, 2, 3, 4])
+        assert obs.shape == (4, 3)
+        for _ in range(20):
+            obs, reward, terminated, truncated, _ = envs.step(np.full((4, 1), 0.3, dtype=np.float32))
+        assert reward.shape == (4,) and np.all((0 <= reward) & (reward <= 1))
+        # Four seeds, four different rings.
+        assert len({tuple(o) for o in obs}) == 4
+    finally:
+        envs.close()
+
+
+def test_the_packaged_ring_is_the_repositorys():
+    from pathlib import Path
+
+    shipped = Path(syncroad.__file__).parent / "data" / "sugiyama-ring.net.xml"
+    assert shipped.read_bytes() == (REPO / "sumo-nets" / "sugiyama-ring.net.xml").read_bytes()
