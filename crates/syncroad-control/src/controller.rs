@@ -20,7 +20,7 @@ use crate::drive::{Drive, SumoDriver};
 use crate::noisy_idm::{HumanController, HumanSetup};
 use crate::scenario::{LeaderProfile, Model, Scenario};
 use crate::sensed::Neighbors;
-use crate::user_law::{LawHost, PythonSetup};
+use crate::user_law::{LawContext, LawHost, UserLaw, UserSetup};
 
 pub use crate::speed_controller::SpeedController;
 
@@ -44,6 +44,15 @@ pub enum ControllerError {
     NoPythonHost {
         /// As written.
         python: String,
+    },
+    /// The program's Rust law could not be built (not registered in this process, or it
+    /// refused its parameters).
+    #[error("controller.rust = {name}: {reason}")]
+    Rust {
+        /// Its name.
+        name: String,
+        /// What went wrong.
+        reason: String,
     },
     /// The user's Python controller could not be built (missing file, class or method; its
     /// `__init__` raised).
@@ -74,17 +83,17 @@ pub struct LawSpec {
     /// ([`crate::noisy_idm`]); `None`: none.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub humans: Option<HumanSetup>,
-    /// The user's Python controller in place of the model's law ([`crate::user_law`]), resolved
-    /// by the backend; a damper, when named, drives instead.
+    /// The user's own law in place of the model's ([`crate::user_law`]), resolved by the
+    /// backend; a damper, when named, drives instead.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub python: Option<PythonSetup>,
+    pub user: Option<UserSetup>,
 }
 
 impl LawSpec {
     /// The law of a validated scenario, on the native simulator.
     pub fn of(scenario: &Scenario) -> Self {
         let leader = crate::road::leader_start(scenario).is_some();
-        let python = scenario.controller().map(|law| {
+        let user = scenario.controller().map(|law| {
             let mut ids: Vec<String> = leader.then(|| "leader".to_string()).into_iter().collect();
             ids.extend((0..scenario.vehicles()).map(|i| format!("v{i}")));
             // The leader vehicle is placed as if it were as long as vehicle 0.
@@ -93,13 +102,15 @@ impl LawSpec {
                 length_m.push(scenario.length_m()[0]);
             }
             length_m.extend_from_slice(scenario.length_m());
-            PythonSetup {
+            UserSetup {
                 law: law.clone(),
-                step_s: scenario.step_s(),
-                controlled: vec![true; ids.len()],
-                ids,
-                length_m,
-                ring_length_m: scenario.ring_length_m(),
+                context: LawContext {
+                    step_s: scenario.step_s(),
+                    controlled: vec![true; ids.len()],
+                    ids,
+                    length_m,
+                    ring_length_m: scenario.ring_length_m(),
+                },
             }
         });
         Self {
@@ -108,7 +119,7 @@ impl LawSpec {
             initial_speed_mps: scenario.initial_speed_mps().to_vec(),
             damper: None,
             humans: None,
-            python,
+            user,
         }
     }
 
@@ -141,8 +152,8 @@ impl LawSpec {
             accel_mps2: vt.accel_mps2,
             decel_mps2: vt.decel_mps2,
         });
-        if let Some(p) = law.python.as_mut() {
-            for (c, h) in p.controlled.iter_mut().zip(&humans) {
+        if let Some(u) = law.user.as_mut() {
+            for (c, h) in u.context.controlled.iter_mut().zip(&humans) {
                 *c = h.is_none();
             }
         }
@@ -254,12 +265,23 @@ fn law_controller(
         d.spec.require_ring(!leader_vehicle, "this road")?;
         return Ok(Box::new(DamperController::new(d, law.step_s)?));
     }
-    if let Some(p) = &law.python {
-        return match host {
-            Some(h) => h.python(p),
-            None => Err(ControllerError::NoPythonHost {
-                python: p.law.python.clone(),
+    if let Some(u) = &law.user {
+        return match (&u.law, host) {
+            (UserLaw::Python(p), Some(h)) => h.python(p, &u.context),
+            (UserLaw::Python(p), None) => Err(ControllerError::NoPythonHost {
+                python: p.python.clone(),
             }),
+            (UserLaw::Rust(r), _) => {
+                let entry =
+                    crate::registry::lookup(&r.name).map_err(|reason| ControllerError::Rust {
+                        name: r.name.clone(),
+                        reason,
+                    })?;
+                (entry.build)(&u.context, &r.params).map_err(|reason| ControllerError::Rust {
+                    name: r.name.clone(),
+                    reason,
+                })
+            }
         };
     }
     match &law.model {

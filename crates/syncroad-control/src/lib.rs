@@ -21,7 +21,8 @@
 //!   computed by the bridge on either backend;
 //! * [`controller`] — the one law object both backends step; [`sensed`] — its graph as SUMO
 //!   sees it each step, when other traffic shares the road; [`user_law`] — the user's own
-//!   Python controller as data, built by a [`LawHost`] of a crate that embeds Python;
+//!   law as data (a Python class, built by a [`LawHost`] of a crate that embeds Python, or a
+//!   Rust law of the program's [`registry`]);
 //! * [`native`] — the fixed-step simulator; [`stop`] — why a run stopped; [`observer`] — the
 //!   one trait of what watches a loop (natively and in SUMO); [`collisions`] — vehicles the
 //!   native simulator drove through each other or backwards;
@@ -56,6 +57,7 @@ pub mod outcome;
 pub mod pi_saturation;
 pub mod poly;
 pub mod record;
+pub mod registry;
 pub mod rng;
 pub mod road;
 pub mod scenario;
@@ -89,4 +91,4 @@ pub use record::{RunRecord, SumoFacts};
 pub use scenario::{Scenario, ScenarioError, ScenarioFile};
 pub use stop::StopReason;
 pub use trajectory::Trajectory;
-pub use user_law::{LawHost, PythonLaw, PythonSetup};
+pub use user_law::{LawContext, LawHost, PythonLaw, UserLaw, UserSetup};

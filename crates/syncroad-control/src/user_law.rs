@@ -26,12 +26,16 @@ use crate::speed_controller::SpeedController;
 /// The largest controller source or pickled state read \[bytes\].
 pub const MAX_SOURCE_BYTES: u64 = 16 << 20;
 
-/// The `controller` block as written in the scenario file.
+/// The `controller` block as written in the scenario file: `python` or `rust`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ControllerSpec {
     /// `FILE.py:Class` or `package.module:Class`.
-    pub python: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub python: Option<String>,
+    /// The name of a Rust law the running program registered ([`crate::registry`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rust: Option<String>,
     /// Keyword arguments of the class (a JSON object).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub params: Option<serde_json::Value>,
@@ -83,6 +87,59 @@ impl PythonLaw {
     }
 }
 
+/// A Rust law of the running program's registry, named in the scenario.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RustLaw {
+    /// Its registered name.
+    pub name: String,
+    /// Its parameters (a JSON object; empty when none).
+    pub params: serde_json::Value,
+}
+
+/// The user's own law of a scenario.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum UserLaw {
+    /// A Python class.
+    Python(PythonLaw),
+    /// A registered Rust law.
+    Rust(RustLaw),
+}
+
+impl UserLaw {
+    /// The driver's name in tables, folders and labels: `python:Class` or `rust:name`.
+    pub fn label(&self) -> String {
+        match self {
+            UserLaw::Python(p) => p.label(),
+            UserLaw::Rust(r) => format!("rust:{}", r.name),
+        }
+    }
+
+    /// The scenario's field and value that named it (`controller.python = FILE.py:Class`).
+    pub fn named_by(&self) -> (&'static str, &str) {
+        match self {
+            UserLaw::Python(p) => ("controller.python", p.python.as_str()),
+            UserLaw::Rust(r) => ("controller.rust", r.name.as_str()),
+        }
+    }
+
+    /// The parameters it is built with.
+    pub fn params(&self) -> &serde_json::Value {
+        match self {
+            UserLaw::Python(p) => &p.params,
+            UserLaw::Rust(r) => &r.params,
+        }
+    }
+
+    /// The hash of what was read for it (a Python source and state).
+    pub fn source_hash(&self) -> Option<&str> {
+        match self {
+            UserLaw::Python(p) => p.source_hash.as_deref(),
+            UserLaw::Rust(_) => None,
+        }
+    }
+}
+
 /// Errors of the `controller` block, each naming the field.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{field} = {value}: {expected}")]
@@ -108,14 +165,63 @@ fn spec_error(
 }
 
 impl ControllerSpec {
-    /// Checks the block and reads its files (relative to `base_dir`) into a [`PythonLaw`].
-    pub fn resolve(&self, base_dir: &Path) -> Result<PythonLaw, ControllerSpecError> {
+    /// Checks the block and reads its files (relative to `base_dir`).
+    pub fn resolve(&self, base_dir: &Path) -> Result<UserLaw, ControllerSpecError> {
+        let params = match &self.params {
+            None => serde_json::Value::Object(Default::default()),
+            Some(p @ serde_json::Value::Object(_)) => p.clone(),
+            Some(p) => {
+                return Err(spec_error(
+                    "controller.params",
+                    p,
+                    "must be an object of keyword arguments, e.g. {\"gain\": 0.4}",
+                ))
+            }
+        };
+        match (&self.python, &self.rust) {
+            (Some(python), None) => self
+                .resolve_python(python, params, base_dir)
+                .map(UserLaw::Python),
+            (None, Some(name)) => {
+                if let Some(s) = &self.state {
+                    return Err(spec_error(
+                        "controller.state",
+                        s.display(),
+                        "a pickled state is for Python controllers; give params",
+                    ));
+                }
+                crate::registry::lookup(name)
+                    .map_err(|expected| spec_error("controller.rust", name, expected))?;
+                Ok(UserLaw::Rust(RustLaw {
+                    name: name.clone(),
+                    params,
+                }))
+            }
+            (Some(_), Some(_)) => Err(spec_error(
+                "controller",
+                "python and rust",
+                "give one: \"python\": \"FILE.py:Class\" or \"rust\": \"NAME\"",
+            )),
+            (None, None) => Err(spec_error(
+                "controller",
+                "{}",
+                "name the law: \"python\": \"FILE.py:Class\" (or \"module:Class\"), or \"rust\": \"NAME\" of a law the program registered",
+            )),
+        }
+    }
+
+    fn resolve_python(
+        &self,
+        python: &str,
+        params: serde_json::Value,
+        base_dir: &Path,
+    ) -> Result<PythonLaw, ControllerSpecError> {
         let field = "controller.python";
         let usage = "give FILE.py:Class (a file relative to the scenario) or package.module:Class";
-        let Some((where_, class)) = self.python.rsplit_once(':') else {
+        let Some((where_, class)) = python.rsplit_once(':') else {
             return Err(spec_error(
                 field,
-                &self.python,
+                python,
                 format!("no class is named; {usage}"),
             ));
         };
@@ -127,14 +233,14 @@ impl ControllerSpec {
         if !class.split('.').all(identifier) {
             return Err(spec_error(
                 field,
-                &self.python,
+                python,
                 format!("`{class}` is not a Python class name; {usage}"),
             ));
         }
         let mut hashed = Vec::new();
         let source = if where_.ends_with(".py") || where_.contains('/') {
             let path = base_dir.join(where_);
-            hashed.extend(read_file(field, &self.python, &path)?);
+            hashed.extend(read_file(field, python, &path)?);
             PythonSource::File { path }
         } else if !where_.is_empty() && where_.split('.').all(identifier) {
             PythonSource::Module {
@@ -143,20 +249,9 @@ impl ControllerSpec {
         } else {
             return Err(spec_error(
                 field,
-                &self.python,
+                python,
                 format!("`{where_}` is neither a .py file nor a module name; {usage}"),
             ));
-        };
-        let params = match &self.params {
-            None => serde_json::Value::Object(Default::default()),
-            Some(p @ serde_json::Value::Object(_)) => p.clone(),
-            Some(p) => {
-                return Err(spec_error(
-                    "controller.params",
-                    p,
-                    "must be an object of keyword arguments, e.g. {\"gain\": 0.4}",
-                ))
-            }
         };
         let state = match &self.state {
             None => None,
@@ -178,7 +273,7 @@ impl ControllerSpec {
             PythonSource::Module { .. } => state.as_ref().map(|_| fnv1a_hex(&hashed)),
         };
         Ok(PythonLaw {
-            python: self.python.clone(),
+            python: python.to_string(),
             source,
             class: class.to_string(),
             params,
@@ -238,12 +333,18 @@ pub(crate) fn fnv1a_hex(bytes: &[u8]) -> String {
     format!("{h:016x}")
 }
 
-/// A Python controller resolved for one run by its backend: what the adapter needs besides
-/// the states it is stepped with.
+/// The user's law resolved for one run by its backend.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct PythonSetup {
-    /// The controller.
-    pub law: PythonLaw,
+pub struct UserSetup {
+    /// The law.
+    pub law: UserLaw,
+    /// The run it drives.
+    pub context: LawContext,
+}
+
+/// What a law is built for: the run's step and vehicles, as the backend resolved them.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LawContext {
     /// Step Δt \[s\].
     pub step_s: f64,
     /// The vehicles' ids, as the stepped speeds are ordered (the leader vehicle first when
@@ -261,8 +362,13 @@ pub struct PythonSetup {
 
 /// What builds the laws this crate holds as data only: the user's Python controllers.
 pub trait LawHost {
-    /// Builds the controller of `setup` (imports its class and calls it with its parameters).
-    fn python(&self, setup: &PythonSetup) -> Result<Box<dyn SpeedController>, ControllerError>;
+    /// Builds the controller of `law` for `context` (imports its class and calls it with its
+    /// parameters).
+    fn python(
+        &self,
+        law: &PythonLaw,
+        context: &LawContext,
+    ) -> Result<Box<dyn SpeedController>, ControllerError>;
 }
 
 #[cfg(test)]
@@ -271,9 +377,17 @@ mod tests {
 
     fn spec(python: &str) -> ControllerSpec {
         ControllerSpec {
-            python: python.into(),
+            python: Some(python.into()),
+            rust: None,
             params: None,
             state: None,
+        }
+    }
+
+    fn python(law: UserLaw) -> PythonLaw {
+        match law {
+            UserLaw::Python(p) => p,
+            UserLaw::Rust(r) => panic!("a Python law, got {r:?}"),
         }
     }
 
@@ -282,7 +396,7 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("syncroad-user-law-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         std::fs::write(dir.join("law.py"), "class Law: pass\n").unwrap();
-        let law = spec("law.py:Law").resolve(&dir).unwrap();
+        let law = python(spec("law.py:Law").resolve(&dir).unwrap());
         assert_eq!(
             law.source,
             PythonSource::File {
@@ -295,7 +409,7 @@ mod tests {
         );
         assert_eq!(law.params, serde_json::json!({}));
         assert_eq!(law.label(), "python:Law");
-        let m = spec("mypkg.laws:Outer.Inner").resolve(&dir).unwrap();
+        let m = python(spec("mypkg.laws:Outer.Inner").resolve(&dir).unwrap());
         assert_eq!(
             (m.source, m.class.as_str(), m.source_hash),
             (

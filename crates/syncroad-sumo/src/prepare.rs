@@ -293,11 +293,12 @@ fn prepare_with(
             accel_mps2: layout.vtype.accel_mps2,
             decel_mps2: layout.vtype.decel_mps2,
         });
-        if let Some(p) = law.python.as_mut() {
-            p.ids = layout.vehicles.iter().map(|v| v.id.clone()).collect();
-            p.length_m = layout.vehicles.iter().map(|v| v.length_m).collect();
-            p.ring_length_m = layout.road.ring.then(|| layout.road.length_m());
-            p.controlled = layout
+        if let Some(u) = law.user.as_mut() {
+            let c = &mut u.context;
+            c.ids = layout.vehicles.iter().map(|v| v.id.clone()).collect();
+            c.length_m = layout.vehicles.iter().map(|v| v.length_m).collect();
+            c.ring_length_m = layout.road.ring.then(|| layout.road.length_m());
+            c.controlled = layout
                 .vehicles
                 .iter()
                 .zip(&humans)

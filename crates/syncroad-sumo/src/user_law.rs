@@ -17,7 +17,7 @@ use pyo3::types::{PyBytes, PyDict};
 use syncroad_control::controller::ControllerError;
 use syncroad_control::road::{ahead, gaps};
 use syncroad_control::sensed::{Neighbors, Sensed};
-use syncroad_control::user_law::{PythonSetup, PythonSource};
+use syncroad_control::user_law::{LawContext, PythonLaw, PythonSource};
 use syncroad_control::{LawHost, SpeedController};
 
 use crate::python::{add_packages, py_error};
@@ -31,9 +31,13 @@ const HELPER: &std::ffi::CStr = pyo3::ffi::c_str!(include_str!("user_law.py"));
 pub struct PythonHost;
 
 impl LawHost for PythonHost {
-    fn python(&self, setup: &PythonSetup) -> Result<Box<dyn SpeedController>, ControllerError> {
+    fn python(
+        &self,
+        law: &PythonLaw,
+        context: &LawContext,
+    ) -> Result<Box<dyn SpeedController>, ControllerError> {
         Python::initialize();
-        Python::attach(|py| PythonController::new(py, setup)).map(|c| Box::new(c) as _)
+        Python::attach(|py| PythonController::new(py, law, context)).map(|c| Box::new(c) as _)
     }
 }
 
@@ -63,9 +67,12 @@ pub struct PythonController {
 }
 
 impl PythonController {
-    /// Imports the class of `setup` and makes the instance.
-    pub fn new(py: Python<'_>, setup: &PythonSetup) -> Result<Self, ControllerError> {
-        let law = &setup.law;
+    /// Imports the class of `law` and makes the instance, for the run of `setup`.
+    pub fn new(
+        py: Python<'_>,
+        law: &PythonLaw,
+        setup: &LawContext,
+    ) -> Result<Self, ControllerError> {
         let fail = |reason: String| ControllerError::Python {
             python: law.python.clone(),
             reason,

@@ -11,6 +11,7 @@
 //! * [`plan`] — one run as a command plans it (who drives, recording, measurements,
 //!   evaluation, time limit), built before any run starts;
 //! * [`pipeline`] — one run, whatever runs it: backend → outcome → record → files;
+//!   [`experiment`] — the same path for Rust programs with their own law ([`Run`]);
 //! * [`output`], [`plots`], [`tables`], [`stability`] — files, figures and text tables;
 //! * [`error`], [`exit_codes`] — the one error funnel; only [`host::execute`] picks the exit
 //!   code;
@@ -23,6 +24,7 @@ mod comparison;
 mod config;
 mod error;
 mod exit_codes;
+pub mod experiment;
 mod gaps;
 pub mod host;
 mod lock;
@@ -35,3 +37,7 @@ mod stability;
 mod stdout;
 mod sweep;
 mod tables;
+
+pub use experiment::Run;
+pub use pipeline::Finished;
+pub use syncroad_control::scenario::Backend;

@@ -586,3 +586,51 @@ fn exact_analysis_refuses_gains_below_its_resolution_and_map_leaves_them_blank()
         assert_eq!(f[4], if x < 1e-100 { "" } else { "true" }, "{line}");
     }
 }
+
+/// The guide's Rust program with its own law (`examples/own_law.rs`, built with the tests):
+/// on both backends its speeds agree on the initial mean, which the law conserves.
+#[test]
+fn a_rust_program_runs_its_own_law_on_both_backends() {
+    let exe = std::env::current_exe().unwrap();
+    let examples = exe.parent().unwrap().parent().unwrap().join("examples");
+    let p = std::process::Command::new(examples.join("own_law"))
+        .output()
+        .expect("the example is built with the tests (cargo test builds examples)");
+    let stdout = String::from_utf8_lossy(&p.stdout);
+    assert!(
+        p.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&p.stderr)
+    );
+    assert!(
+        stdout.contains("Native: Synchronized, drivers rust:follow"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("Sumo: Synchronized, drivers rust:follow"),
+        "{stdout}"
+    );
+}
+
+/// A scenario naming a Rust law the CLI does not have says where Rust laws come from.
+#[test]
+fn a_rust_law_the_program_did_not_register_is_refused_naming_the_field() {
+    let dir = tmpdir("rust-law-missing");
+    let mut sc: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(repo().join("scenarios/ring-theorem1.json")).unwrap(),
+    )
+    .unwrap();
+    sc["controller"] = serde_json::json!({"rust": "follow", "params": {"gain": 0.5}});
+    let path = dir.join("sc.json");
+    std::fs::write(&path, sc.to_string()).unwrap();
+    let (code, _, err) = run(bin()
+        .arg("simulate")
+        .arg(&path)
+        .arg("--out")
+        .arg(dir.join("out")));
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("controller.rust = follow: this program registered no Rust laws"),
+        "{err}"
+    );
+}

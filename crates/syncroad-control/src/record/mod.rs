@@ -245,10 +245,13 @@ pub struct RunRecord {
 /// The user's controller of a run, as the record names it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct ControllerRecord {
-    /// Its driver label in `drivers` (`python:Class`).
+    /// Its driver label in `drivers` (`python:Class`, `rust:name`).
     pub label: String,
-    /// As written in the scenario (`FILE.py:Class` or `module:Class`).
-    pub python: String,
+    /// As written in the scenario (`FILE.py:Class` or `module:Class`); `null` for a Rust law.
+    pub python: Option<String>,
+    /// The registered name of a Rust law; `null` for a Python controller.
+    #[serde(default)]
+    pub rust: Option<String>,
     /// The source file read (`null` for a module).
     pub source_file: Option<String>,
     /// FNV-1a (64 bits, hex) of the source file and pickled state as read (`null` for a
@@ -259,16 +262,26 @@ pub struct ControllerRecord {
 }
 
 impl ControllerRecord {
-    fn of(law: &crate::user_law::PythonLaw) -> Self {
+    fn of(law: &crate::user_law::UserLaw) -> Self {
+        use crate::user_law::{PythonSource, UserLaw};
+        let (python, rust, source_file) = match law {
+            UserLaw::Python(p) => (
+                Some(p.python.clone()),
+                None,
+                match &p.source {
+                    PythonSource::File { path } => Some(path.display().to_string()),
+                    PythonSource::Module { .. } => None,
+                },
+            ),
+            UserLaw::Rust(r) => (None, Some(r.name.clone()), None),
+        };
         Self {
             label: law.label(),
-            python: law.python.clone(),
-            source_file: match &law.source {
-                crate::user_law::PythonSource::File { path } => Some(path.display().to_string()),
-                crate::user_law::PythonSource::Module { .. } => None,
-            },
-            source_hash: law.source_hash.clone(),
-            params: law.params.clone(),
+            python,
+            rust,
+            source_file,
+            source_hash: law.source_hash().map(str::to_string),
+            params: law.params().clone(),
         }
     }
 }

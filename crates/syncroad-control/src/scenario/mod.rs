@@ -244,13 +244,29 @@ pub struct Scenario {
     verdict: VerdictThresholds,
     sumo: SumoSettings,
     mixed: Option<MixedSpec>,
-    controller: Option<crate::user_law::PythonLaw>,
+    controller: Option<crate::user_law::UserLaw>,
 }
 
 impl Scenario {
     /// The user's own controller in place of the model's law, when the scenario names one.
-    pub fn controller(&self) -> Option<&crate::user_law::PythonLaw> {
+    pub fn controller(&self) -> Option<&crate::user_law::UserLaw> {
         self.controller.as_ref()
+    }
+
+    /// The same scenario driven by `law` in place of its own (a Rust program's law, say):
+    /// another scenario, whose hash covers the law's name, parameters and source.
+    pub fn with_controller(&self, law: crate::user_law::UserLaw) -> Scenario {
+        let text = serde_json::to_string(&law).expect("a law always serializes");
+        let hash_hex = validate::fnv1a_hex(&format!(
+            "{}{text}{}",
+            self.hash_hex,
+            law.source_hash().unwrap_or("")
+        ));
+        Scenario {
+            controller: Some(law),
+            hash_hex,
+            ..self.clone()
+        }
     }
 
     /// Reads and validates a scenario file.

@@ -411,9 +411,9 @@ impl ScenarioFile {
 
     /// Stable hash of the file as written: FNV-1a over its canonical JSON.
     /// The hash of the file as written, and of the controller's source and state as read.
-    fn hash_hex(&self, controller: Option<&crate::user_law::PythonLaw>) -> String {
+    fn hash_hex(&self, controller: Option<&crate::user_law::UserLaw>) -> String {
         let mut text = serde_json::to_string(self).expect("a scenario always serializes");
-        if let Some(h) = controller.and_then(|c| c.source_hash.as_deref()) {
+        if let Some(h) = controller.and_then(|c| c.source_hash()) {
             text.push_str(h);
         }
         fnv1a_hex(&text)
@@ -421,7 +421,7 @@ impl ScenarioFile {
 }
 
 /// FNV-1a of `text`, as 16 hex digits.
-fn fnv1a_hex(text: &str) -> String {
+pub(super) fn fnv1a_hex(text: &str) -> String {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
     for b in text.bytes() {
         h ^= u64::from(b);

@@ -85,7 +85,7 @@ impl Sweep {
             let plan = self.plan_point(&p, &sc).map_err(here)?;
             // The user's controller is as much the experiment as the scenario, on either
             // backend: its source and pickled state.
-            if let Some(c) = sc.controller() {
+            if let Some(syncroad_control::UserLaw::Python(c)) = sc.controller() {
                 if let syncroad_control::user_law::PythonSource::File { path } = &c.source {
                     inputs.insert(path.clone());
                 }
