@@ -7,7 +7,7 @@ import os
 import tempfile
 import weakref
 from pathlib import Path
-from typing import Any, Dict, Mapping, Optional, Union
+from typing import Any, Dict, Mapping, Optional, Tuple, Union
 
 from syncroad import _syncroad
 from syncroad._errors import ScenarioError
@@ -52,6 +52,7 @@ class Scenario:
 
     path: Path
     data: Dict[str, Any]
+    _controller_state: Any = None
 
     def __init__(self, path: Path, data: Dict[str, Any]):
         self.path = path
@@ -127,22 +128,20 @@ class Scenario:
             # the scenario's are its file's.
             d["controller"] = _absolute_controller(controller, Path.cwd())
             return Scenario.from_dict(d, base_dir=self.path.parent)
-        sc = Scenario.__new__(Scenario)
-        d["controller"] = _pickled_controller(sc, controller)
-        path = _write_temporary(sc, d, self.path.name)
-        error = _syncroad.validate_scenario(str(path))
-        if error is not None:
-            raise ScenarioError(error)
-        Scenario.__init__(sc, path, d)
+        block, state = _pickled_controller(controller)
+        d["controller"] = block
+        sc = Scenario.from_dict(d, base_dir=self.path.parent)
+        # The pickled state lives as long as the scenario that names it.
+        sc._controller_state = state
         return sc
 
     def __repr__(self) -> str:
         return f"Scenario({self.name!r}, backend={self.backend!r}, path={str(self.path)!r})"
 
 
-def _pickled_controller(owner: object, controller: Any) -> Dict[str, Any]:
-    """The ``controller`` block of an object: its class's file and name, and its pickled
-    state in a temporary folder removed with ``owner``."""
+def _pickled_controller(controller: Any) -> "Tuple[Dict[str, Any], tempfile.TemporaryDirectory[str]]":
+    """The ``controller`` block of an object (its class's file and name, and its pickled
+    state) and the temporary folder that holds the state (removed when it is collected)."""
     import inspect
     import pickle
 
@@ -171,10 +170,9 @@ def _pickled_controller(owner: object, controller: Any) -> Dict[str, Any]:
             'its class and parameters instead: {"python": "FILE.py:Class", "params": {...}}'
         ) from None
     tmp = tempfile.TemporaryDirectory(prefix="syncroad-controller-")
-    weakref.finalize(owner, tmp.cleanup)
     path = Path(tmp.name) / "controller.pickle"
     path.write_bytes(state)
-    return {"python": f"{Path(source).resolve()}:{name}", "state": str(path)}
+    return {"python": f"{Path(source).resolve()}:{name}", "state": str(path)}, tmp
 
 
 ScenarioLike = Union[Scenario, PathLike, Mapping[str, Any]]

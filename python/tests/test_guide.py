@@ -40,3 +40,22 @@ def test_the_guides_one_liner_is_the_one_the_wheel_test_runs():
 
     (shell,) = [b for b in blocks("console") if "pip install" in b]
     assert f'python -c "{ONE_LINER}"' in shell
+
+
+def test_every_python_example_of_the_own_controller_page_runs(tmp_path, monkeypatch):
+    page = REPO / "docs" / "src" / "own-controller.md"
+    code = re.findall(r"```python\n(.*?)```", page.read_text(), flags=re.S)
+    # The first block is the included controller source (an mdBook include, not an example).
+    code = [c for c in code if not c.startswith("{{#include")]
+    assert len(code) == 3
+    monkeypatch.chdir(tmp_path)
+    for d in ("scenarios", "sumo-nets", "examples"):
+        (tmp_path / d).symlink_to(REPO / d)
+    ns = {}
+    for i, block in enumerate(code):
+        exec(compile(block, f"{page.name} python block {i + 1}", "exec"), ns)
+    # What the comments of the examples say.
+    assert ns["fs"].metrics.controller["label"] == "python:FollowerStopper"
+    assert ns["fs"].metrics.drivers[0] == "python:FollowerStopper"
+    assert (ns["loop"].metrics.complete, ns["loop"].verdict) == (True, "synchronized")
+    assert len(ns["rewards"]) == 200 and 0 <= min(ns["rewards"]) <= max(ns["rewards"]) <= 1
