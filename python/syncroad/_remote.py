@@ -10,12 +10,20 @@ from typing import Any, Dict, Optional
 
 import numpy as np
 
-#: Fields of an observation sent every step (the constant ones go with the first).
-STEP_FIELDS = ("time_s", "step", "speed_mps", "accel_mps2", "odometer_m", "gap_m", "leader_speed_mps")
+#: The arrays of an observation sent every step, packed after (time_s, step) as float64.
+ROWS = ("speed_mps", "accel_mps2", "odometer_m", "gap_m", "leader_speed_mps")
+#: The fields sent once, with the first observation.
 FIRST_FIELDS = ("dt_s", "ids", "controlled", "length_m", "ring_length_m")
 
 #: The message that ends the run early (the caller closed the Simulation).
 CLOSED = "the caller closed the simulation before its horizon"
+
+
+class SimulationClosed(RuntimeError):
+    """Ends the run when the caller closes the Simulation (``syncroad_stop``: the run's
+    message is this text alone, without a traceback)."""
+
+    syncroad_stop = True
 
 
 class RemoteController:
@@ -36,14 +44,13 @@ class RemoteController:
 
     def step(self, obs: Any) -> "np.ndarray[Any, Any]":
         conn = self.conn
-        first = conn is None
         if conn is None:
             conn = self.conn = Client(self.address, authkey=self.authkey)
-        msg = {f: getattr(obs, f) for f in STEP_FIELDS}
-        if first:
-            msg.update({f: getattr(obs, f) for f in FIRST_FIELDS})
-        conn.send(msg)
-        kind, speeds = conn.recv()
-        if kind == "close":
-            raise RuntimeError(CLOSED)
-        return np.asarray(speeds, dtype=np.float64)
+            conn.send({f: getattr(obs, f) for f in FIRST_FIELDS})
+        # One message of raw float64 per step each way: no pickling in the loop.
+        head = np.array([obs.time_s, obs.step], dtype=np.float64)
+        conn.send_bytes(b"".join([head.tobytes()] + [getattr(obs, r).tobytes() for r in ROWS]))
+        reply = conn.recv_bytes()
+        if not reply:
+            raise SimulationClosed(CLOSED)
+        return np.frombuffer(reply, dtype=np.float64)

@@ -11,7 +11,7 @@ from typing import Any, Dict, Optional, Sequence, Union
 import numpy as np
 
 from syncroad._errors import RunError, ScenarioError
-from syncroad._remote import CLOSED, FIRST_FIELDS, RemoteController
+from syncroad._remote import CLOSED, FIRST_FIELDS, ROWS, RemoteController
 from syncroad._run import Run
 from syncroad._scenario import PathLike, ScenarioLike, as_scenario
 
@@ -76,6 +76,7 @@ class Simulation:
         self._thread = threading.Thread(target=target, name="syncroad-simulation", daemon=True)
         self._thread.start()
         self._conn = self._accept()
+        self._first = True
         self._receive()
 
     def _accept(self) -> Any:
@@ -106,17 +107,26 @@ class Simulation:
     def _receive(self) -> None:
         """The next observation, or the end of the run (its horizon)."""
         try:
-            msg = self._conn.recv()
+            if self._first:
+                # The constant fields, once.
+                obs = SimpleNamespace(**self._conn.recv())
+                for key in FIRST_FIELDS:
+                    value = getattr(obs, key)
+                    if isinstance(value, np.ndarray):
+                        value.flags.writeable = False
+                self._obs, self._first = obs, False
+            packed = self._conn.recv_bytes()
         except EOFError:
             # The run finished (its horizon) or failed: its thread says which.
             self._finish()
             return
-        obs = self._obs if self._obs is not None else SimpleNamespace()
-        for key, value in msg.items():
-            if isinstance(value, np.ndarray):
-                value.flags.writeable = False
-            setattr(obs, key, value)
-        self._obs = obs
+        assert self._obs is not None
+        obs = self._obs
+        values = np.frombuffer(packed, dtype=np.float64)
+        obs.time_s, obs.step = float(values[0]), int(values[1])
+        rows = values[2:].reshape(len(ROWS), -1)
+        for key, row in zip(ROWS, rows):
+            setattr(obs, key, row)
 
     def _finish(self) -> None:
         self._thread.join()
@@ -150,7 +160,7 @@ class Simulation:
             raise ScenarioError(
                 f"speeds: {v.size} value(s) of shape {v.shape}; {len(obs.ids)} are needed, one per vehicle of obs.ids"
             )
-        self._conn.send(("speeds", v))
+        self._conn.send_bytes(v.tobytes())
         self._receive()
         return None if self.done else self._obs
 
@@ -159,7 +169,7 @@ class Simulation:
         if not self.done:
             self._closing = True
             try:
-                self._conn.send(("close", None))
+                self._conn.send_bytes(b"")
             except OSError:
                 pass
             self._receive()
@@ -178,4 +188,4 @@ class Simulation:
         return f"Simulation({state})"
 
 
-__all__ = ["Simulation", "FIRST_FIELDS"]
+__all__ = ["Simulation"]

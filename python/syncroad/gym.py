@@ -97,8 +97,9 @@ class RingEnv(gymnasium.Env):
 
     def _observation(self, obs: Any) -> np.ndarray:
         c = self._controlled
-        gap = np.nan_to_num(obs.gap_m[c], posinf=self.gap_scale_m)
-        lead = np.nan_to_num(obs.leader_speed_mps[c], nan=0.0)
+        # Nobody ahead: the gap is the scale (inf → 1 after scaling) and the speed ahead 0.
+        gap = np.minimum(obs.gap_m[c], self.gap_scale_m)
+        lead = np.fmax(obs.leader_speed_mps[c], 0.0)
         x = np.concatenate([obs.speed_mps[c] / self.speed_scale_mps, gap / self.gap_scale_m,
                             lead / self.speed_scale_mps])
         out: np.ndarray = np.clip(x, 0.0, 1.0).astype(np.float32)

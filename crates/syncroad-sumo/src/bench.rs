@@ -165,6 +165,21 @@ pub struct BenchResult {
     /// [ms/step]: `simulation.step`, the law with its commands, the reads, each observer, and
     /// the rest of the loop (the timer's own reads of the clock among it).
     pub profile_ms: Vec<(String, f64)>,
+    /// Best SUMO + the same law as a Python controller in the worker
+    /// (`python-host/bench_controller.py`, numpy, one call per step) [ms/step].
+    pub python_controller_ms: f64,
+    /// All samples of that.
+    pub python_controller_samples_ms: Vec<f64>,
+    /// Its overhead over SUMO alone [%], best run against best run.
+    pub python_controller_overhead_pct: f64,
+    /// Where a step of the fastest Python-controller run went [ms/step] (the law's phase is
+    /// the call into Python with its packing and checks, and `setSpeed`).
+    pub python_profile_ms: Vec<(String, f64)>,
+    /// The TraCI reference loop calling the same Python controller each step, reading through
+    /// subscriptions as Flow does [ms/step].
+    pub traci_python_ms: Option<f64>,
+    /// `traci_python / python_controller`.
+    pub python_speedup_vs_traci: Option<f64>,
 }
 
 /// All vehicles start evenly spaced at 10 m/s, so the law's commands stay at 10 m/s and the
@@ -380,6 +395,7 @@ fn traci_reference(
     routes: &Path,
     python_host: &Path,
     reads: TraciReads,
+    controller: Option<&str>,
 ) -> Result<f64, BenchError> {
     let venv = find_venv()?;
     let py = venv.join("bin").join("python");
@@ -402,6 +418,7 @@ fn traci_reference(
             case.warmup.to_string(),
             reads.arg().to_string(),
         ])
+        .args(controller)
         .output()
         .map_err(|e| BenchError::Traci(e.to_string()))?;
     if !out.status.success() {
@@ -435,7 +452,9 @@ pub fn run_case(
     progress: &mut dyn FnMut(&str),
 ) -> Result<BenchResult, BenchError> {
     let sc = scenario(case)?;
-    let m = repeats(case, &sc, worker, work_dir, progress)?;
+    let controller = bench_controller(python_host);
+    let py = python_scenario(&sc, python_host, case)?;
+    let m = repeats(case, &sc, &py, worker, work_dir, progress)?;
     let best = |v: &[f64]| v.iter().copied().fold(f64::INFINITY, f64::min);
     let (a, c, sub) = (best(&m.alone), best(&m.controlled), best(&m.python_getters));
     let routes = work_dir.join("controlled").join("routes.rou.xml");
@@ -443,7 +462,7 @@ pub fn run_case(
         if !case.traci || (reads == TraciReads::PerCall && !case.traci_per_call) {
             return Ok(None);
         }
-        let t = traci_reference(case, &routes, python_host, reads)?;
+        let t = traci_reference(case, &routes, python_host, reads, None)?;
         progress(&format!(
             "{}: TraCI reference, {:<13}    {t:9.4} ms/step",
             case.name,
@@ -453,6 +472,23 @@ pub fn run_case(
     };
     let traci_ms = traci(TraciReads::Subscriptions)?;
     let traci_per_call_ms = traci(TraciReads::PerCall)?;
+    let traci_python_ms = if case.traci {
+        let t = traci_reference(
+            case,
+            &routes,
+            python_host,
+            TraciReads::Subscriptions,
+            Some(&controller),
+        )?;
+        progress(&format!(
+            "{}: TraCI reference, Python controller {t:9.4} ms/step",
+            case.name
+        ));
+        Some(t)
+    } else {
+        None
+    };
+    let pc = best(&m.python_controller);
     Ok(BenchResult {
         name: case.name.clone(),
         vehicles: case.vehicles,
@@ -479,7 +515,42 @@ pub fn run_case(
         traci_per_call_ms,
         speedup_vs_traci_per_call: traci_per_call_ms.map(|t| t / c),
         profile_ms: m.profile,
+        python_controller_ms: pc,
+        python_controller_overhead_pct: 100.0 * (pc / a - 1.0),
+        python_controller_samples_ms: m.python_controller,
+        python_profile_ms: m.python_profile,
+        traci_python_ms,
+        python_speedup_vs_traci: traci_python_ms.map(|t| t / pc),
     })
+}
+
+/// The benchmark's Python controller, `FILE.py:Class`.
+fn bench_controller(python_host: &Path) -> String {
+    format!(
+        "{}:Follow",
+        python_host.join("bench_controller.py").display()
+    )
+}
+
+/// The case's scenario driven by the benchmark's Python controller.
+fn python_scenario(
+    sc: &Scenario,
+    python_host: &Path,
+    case: &BenchCase,
+) -> Result<Scenario, BenchError> {
+    let spec = syncroad_control::user_law::ControllerSpec {
+        python: Some(bench_controller(python_host)),
+        rust: None,
+        params: None,
+        state: None,
+    };
+    let law = spec
+        .resolve(python_host)
+        .map_err(|e| BenchError::Scenario {
+            name: case.name.clone(),
+            reason: e.to_string(),
+        })?;
+    Ok(sc.with_controller(law))
 }
 
 /// The samples of a case's repeats, one of each kind per repeat.
@@ -495,6 +566,8 @@ struct Samples {
     in_run: Vec<f64>,
     /// The profile of the fastest controlled run.
     profile: Vec<(String, f64)>,
+    python_controller: Vec<f64>,
+    python_profile: Vec<(String, f64)>,
 }
 
 /// Alternates SUMO alone, the controlled loop (direct calls), the loop through Python
@@ -502,6 +575,7 @@ struct Samples {
 fn repeats(
     case: &BenchCase,
     sc: &Scenario,
+    py: &Scenario,
     worker: &WorkerCommand,
     work_dir: &Path,
     progress: &mut dyn FnMut(&str),
@@ -516,6 +590,8 @@ fn repeats(
         floors: Vec::new(),
         in_run: Vec::new(),
         profile: Vec::new(),
+        python_controller: Vec::new(),
+        python_profile: Vec::new(),
     };
     for r in 0..case.repeats {
         let a = timed(worker, sc, &work_dir.join("alone"), None, case.warmup)?.ms_per_step;
@@ -558,6 +634,23 @@ fn repeats(
             r + 1
         ));
         m.python_getters.push(s);
+        let p = timed(
+            worker,
+            py,
+            &work_dir.join("python-controller"),
+            Some(ReadMode::Direct),
+            case.warmup,
+        )?;
+        if m.python_controller.iter().all(|&x| x > p.ms_per_step) {
+            m.python_profile = p.profile;
+        }
+        let p = p.ms_per_step;
+        progress(&format!(
+            "{}: SUMO + Python controller (worker) {p:9.4} ms/step (run {})",
+            case.name,
+            r + 1
+        ));
+        m.python_controller.push(p);
         let (i, untimed) = interleaved(worker, sc, &work_dir.join("interleaved"), case.warmup)?;
         progress(&format!(
             "{}: same-process overhead (interleaved) {i:7.1} % (run {})",
@@ -699,6 +792,50 @@ pub fn format_profile(results: &[BenchResult]) -> String {
             r.in_run_untimed_pct,
             r.interleaved_over_floor
         ));
+    }
+    s
+}
+
+/// The user's Python controller beside the Rust law and Flow's way of driving it: SUMO alone,
+/// the Rust law, the Python controller in the worker, the same controller from the TraCI
+/// loop, and where a step of the Python run goes.
+pub fn format_python(results: &[BenchResult]) -> String {
+    let mut s = String::from(
+        "case                   alone ms/step  Rust law ms/step  Python in worker ms/step  overhead  TraCI + Python ms/step  worker vs TraCI\n",
+    );
+    for r in results {
+        s.push_str(&format!(
+            "{:<22} {:>13.4} {:>17.4} {:>25.4} {:>8.1}%  {:>22} {:>16}\n",
+            r.name,
+            r.alone_ms,
+            r.controlled_ms,
+            r.python_controller_ms,
+            r.python_controller_overhead_pct,
+            r.traci_python_ms
+                .map(|t| format!("{t:.4}"))
+                .unwrap_or_default(),
+            r.python_speedup_vs_traci
+                .map(|x| format!("{x:.1}×"))
+                .unwrap_or_default(),
+        ));
+    }
+    for r in results {
+        let total: f64 = r.python_profile_ms.iter().map(|(_, t)| t).sum();
+        s.push_str(&format!(
+            "{} (N = {}), the fastest Python-controller run: {total:.4} ms/step\n",
+            r.name, r.vehicles
+        ));
+        for (name, t) in &r.python_profile_ms {
+            let name = if name == "law + setSpeed" {
+                "Python step(obs) + setSpeed"
+            } else {
+                name.as_str()
+            };
+            s.push_str(&format!(
+                "  {name:<28} {t:>9.4} ms/step {:>6.1} %\n",
+                100.0 * t / total
+            ));
+        }
     }
     s
 }

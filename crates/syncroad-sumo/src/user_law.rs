@@ -196,7 +196,19 @@ impl PythonController {
             .stepper
             .bind(py)
             .call1((packed, time_s, self.steps))
-            .map_err(|e| py_error(py, "the controller's step(obs)", e).to_string())?;
+            .map_err(|e| {
+                // An exception that says it stops the run on purpose (`syncroad_stop = True`,
+                // as syncroad.Simulation's close) is its message alone.
+                let value = e.value(py);
+                let deliberate = value
+                    .getattr("syncroad_stop")
+                    .and_then(|x| x.is_truthy())
+                    .unwrap_or(false);
+                match value.str() {
+                    Ok(text) if deliberate => text.to_string(),
+                    _ => py_error(py, "the controller's step(obs)", e).to_string(),
+                }
+            })?;
         let returned = returned
             .cast::<PyBytes>()
             .map_err(|_| "the adapter returned no bytes".to_string())?;

@@ -3,7 +3,9 @@
 use std::path::Path;
 
 use anyhow::Context;
-use syncroad_sumo::bench::{format_profile, format_table, run_standard, BenchError, Selection};
+use syncroad_sumo::bench::{
+    format_profile, format_python, format_table, run_standard, BenchError, Selection,
+};
 use syncroad_sumo::WorkerCommand;
 
 use crate::error::Status;
@@ -23,6 +25,10 @@ pub fn run(sel: &Selection, json_out: Option<&Path>) -> anyhow::Result<Status> {
     };
     out!("{}", format_table(&results));
     out!("\nwhere a step goes:\n{}", format_profile(&results));
+    out!(
+        "\nyour own Python controller (python-host/bench_controller.py, the same law):\n{}",
+        format_python(&results)
+    );
     if let Some(p) = json_out {
         write_json(p, &serde_json::to_value(&results)?)?;
     }
