@@ -12,4 +12,7 @@ class Follow:
 
     def step(self, obs):
         v = obs.speed_mps
-        return v + obs.dt_s * self.gain * (np.roll(v, 1) - v)
+        # The speed ahead, v_{i-1} (vehicle 0 follows the last): the same as np.roll(v, 1),
+        # which alone costs about 6 µs at N = 22, four times these two slices.
+        ahead = np.concatenate((v[-1:], v[:-1]))
+        return v + obs.dt_s * self.gain * (ahead - v)

@@ -1,9 +1,10 @@
 """The Python side of a user's controller (loaded by syncroad's Rust adapter, `user_law.rs`).
 
-`build` imports the class and makes the instance; `Stepper.step` turns one step's packed
-float64 buffer into an `Observation` of numpy arrays, calls the controller's `step(obs)` and
-returns its commands packed as float64 bytes. Everything here raises ordinary exceptions
-whose messages name what was wrong; the adapter adds the traceback.
+`build` imports the class and makes the instance; a `Stepper` owns the observation's arrays
+(one float64 block the adapter writes each step before calling `Stepper.step`) and the
+commands' array (which the adapter reads after it), so a step allocates nothing here.
+Everything raises ordinary exceptions whose messages name what was wrong; the adapter adds
+the traceback.
 """
 
 import importlib
@@ -26,6 +27,8 @@ class Observation:
     step              step index n (the commands are the speeds wanted at step n + 1)
     dt_s              step length [s]
     ids               vehicle ids (tuple of str)
+    The arrays are views refreshed in place every step: copy one (`.copy()`) to keep it.
+
     speed_mps         speeds [m/s]
     accel_mps2        accelerations over the last step [m/s^2] (0 at the first step)
     odometer_m        distance driven since the start [m]
@@ -133,12 +136,21 @@ def build(kind, where, class_name, params, state_path):
 
 
 class Stepper:
-    """Calls `obj.step(obs)` each step with the packed state; returns float64 bytes."""
+    """Calls `obj.step(obs)` each step; the adapter fills `rows` before and reads `out` after
+    (their addresses are `rows_address` and `out_address`)."""
 
     def __init__(self, obj, ids, dt_s, length_m, ring_length_m, controlled):
         self.step_fn = obj.step
         self.n = len(ids)
+        self.rows = np.zeros((len(ROWS), self.n), dtype=np.float64)
+        self.out = np.zeros(self.n, dtype=np.float64)
+        self.rows_address = self.rows.__array_interface__["data"][0]
+        self.out_address = self.out.__array_interface__["data"][0]
         obs = Observation()
+        # Read-only views of the rows, refreshed in place every step.
+        for name, row in zip(ROWS, self.rows):
+            row.flags.writeable = False
+            setattr(obs, name, row)
         obs.ids = tuple(ids)
         obs.dt_s = dt_s
         obs.length_m = np.array(length_m, dtype=np.float64)
@@ -148,12 +160,10 @@ class Stepper:
         obs.controlled.flags.writeable = False
         self.obs = obs
 
-    def step(self, packed, time_s, step):
+    def step(self, time_s, step):
         obs = self.obs
-        rows = np.frombuffer(packed, dtype=np.float64).reshape(len(ROWS), self.n)
         obs.time_s = time_s
         obs.step = step
-        obs.speed_mps, obs.accel_mps2, obs.odometer_m, obs.gap_m, obs.leader_speed_mps = rows
         out = self.step_fn(obs)
         try:
             a = np.asarray(out, dtype=np.float64)
@@ -167,4 +177,4 @@ class Stepper:
                 f"step returned {a.size} value(s) of shape {a.shape}; {self.n} are needed, one "
                 "per vehicle of obs.ids"
             )
-        return a.tobytes()
+        self.out[...] = a

@@ -2,10 +2,11 @@
 //! parameters, stepped every step with numpy arrays, inside the SUMO worker's interpreter or,
 //! for the native simulator, in the process that runs it ([`PythonHost`]).
 //!
-//! Each step the adapter packs five rows of float64 (speeds, accelerations over the last step,
-//! odometers, gaps and the speeds of the vehicles ahead) into one `bytes` object; the Python
-//! side (`user_law.py`) views them as numpy arrays without copying, calls `step(obs)` and packs
-//! the commands back. One call into Python per step, whatever the number of vehicles.
+//! Each step the adapter writes five rows of float64 (speeds, accelerations over the last step,
+//! odometers, gaps and the speeds of the vehicles ahead) straight into the numpy block the
+//! Python side (`user_law.py`) owns and shows as the observation's arrays, calls `step(obs)`
+//! once, and reads the commands from the numpy array the Python side copied them into. One
+//! call into Python per step and no allocation, whatever the number of vehicles.
 //!
 //! The commands are checked before they reach a vehicle: an exception, a result of the wrong
 //! type or length, or a speed that is not finite or is negative stops the run with the step, the
@@ -13,7 +14,7 @@
 //! it are kept.
 
 use pyo3::prelude::*;
-use pyo3::types::{PyBytes, PyDict};
+use pyo3::types::PyDict;
 use syncroad_control::controller::ControllerError;
 use syncroad_control::road::{ahead, gaps};
 use syncroad_control::sensed::{Neighbors, Sensed};
@@ -51,6 +52,10 @@ enum Command {
 /// A user's Python controller, stepped by either backend.
 pub struct PythonController {
     stepper: Py<PyAny>,
+    /// Addresses of the Python side's arrays (kept alive by it): `rows` of 5 × n and `out` of
+    /// n float64.
+    rows: usize,
+    out: usize,
     command: Command,
     ids: Vec<String>,
     dt_s: f64,
@@ -117,9 +122,20 @@ impl PythonController {
                     setup.controlled.clone(),
                 ))
             })
-            .and_then(|s| s.getattr("step"))
             .map_err(|e| fail(py_error(py, "Stepper", e).to_string()))?;
+        let address = |name: &str| {
+            stepper
+                .getattr(name)
+                .and_then(|a| a.extract::<usize>())
+                .map_err(|e| fail(py_error(py, name.to_string(), e).to_string()))
+        };
+        let (rows, out) = (address("rows_address")?, address("out_address")?);
+        let stepper = stepper
+            .getattr("step")
+            .map_err(|e| fail(py_error(py, "Stepper.step", e).to_string()))?;
         Ok(Self {
+            rows,
+            out,
             stepper: stepper.unbind(),
             command: if command == "acceleration" {
                 Command::Acceleration
@@ -190,12 +206,17 @@ impl PythonController {
 
     /// Calls the controller; the commands for the next step, or why there are none.
     fn call(&mut self, py: Python<'_>, time_s: f64, out: &mut [f64]) -> Result<(), String> {
-        let bytes: Vec<u8> = self.packed.iter().flat_map(|x| x.to_ne_bytes()).collect();
-        let packed = PyBytes::new(py, &bytes);
-        let returned = self
-            .stepper
+        let n = out.len();
+        // SAFETY: `rows` and `out` are the data of the C-contiguous float64 arrays of 5 × n and
+        // n values the Stepper made for these n vehicles and keeps as attributes while this
+        // controller holds it (`stepper` is its bound method); the GIL is held, so no Python
+        // code runs while they are written or read.
+        unsafe {
+            std::ptr::copy_nonoverlapping(self.packed.as_ptr(), self.rows as *mut f64, 5 * n);
+        }
+        self.stepper
             .bind(py)
-            .call1((packed, time_s, self.steps))
+            .call1((time_s, self.steps))
             .map_err(|e| {
                 // An exception that says it stops the run on purpose (`syncroad_stop = True`,
                 // as syncroad.Simulation's close) is its message alone.
@@ -209,12 +230,9 @@ impl PythonController {
                     _ => py_error(py, "the controller's step(obs)", e).to_string(),
                 }
             })?;
-        let returned = returned
-            .cast::<PyBytes>()
-            .map_err(|_| "the adapter returned no bytes".to_string())?;
-        let raw = returned.as_bytes();
-        for (i, chunk) in raw.chunks_exact(8).enumerate().take(out.len()) {
-            out[i] = f64::from_ne_bytes(chunk.try_into().expect("8 bytes"));
+        // SAFETY: as above; `step` returned, having copied n commands into `out`.
+        unsafe {
+            std::ptr::copy_nonoverlapping(self.out as *const f64, out.as_mut_ptr(), n);
         }
         Ok(())
     }
@@ -253,6 +271,14 @@ impl PythonController {
 
 impl SpeedController for PythonController {
     fn step(&mut self, time_s: f64, speeds: &[f64], positions: &[f64], out: &mut [f64]) {
+        if self.failure.is_none() && (speeds.len() != self.ids.len() || out.len() != speeds.len()) {
+            // The arrays on the Python side hold exactly the vehicles the controller was built for.
+            self.failure = Some(format!(
+                "the controller was built for {} vehicles and is stepped with {}",
+                self.ids.len(),
+                speeds.len()
+            ));
+        }
         if self.failure.is_some() {
             out.copy_from_slice(speeds);
             return;

@@ -391,3 +391,71 @@ fn a_plot_names_every_axis_it_pools() {
         "every plot names the pooled axis"
     );
 }
+
+/// A sweep of a scenario driven by the user's Python controller runs it at every point, and
+/// the controller's source is part of the experiment: an edited controller is another sweep,
+/// which the folder of the first refuses to resume.
+#[test]
+fn a_sweep_runs_the_users_controller_and_hashes_its_source() {
+    let dir = tmpdir("sweep-python-controller");
+    let law = dir.join("law.py");
+    let source =
+        std::fs::read_to_string(repo().join("examples/controllers/follower_stopper.py")).unwrap();
+    std::fs::write(&law, &source).unwrap();
+    let mut sc: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(repo().join("scenarios/sugiyama-python.json")).unwrap(),
+    )
+    .unwrap();
+    sc["horizon_s"] = 60.into();
+    sc["controller"]["python"] = format!("{}:FollowerStopper", law.display()).into();
+    sc["sumo"]["net"] = repo()
+        .join("sumo-nets/sugiyama-ring.net.xml")
+        .display()
+        .to_string()
+        .into();
+    let base = dir.join("sc.json");
+    std::fs::write(&base, sc.to_string()).unwrap();
+    let spec = write_spec(
+        &dir,
+        &format!(
+            r#"{{"base": "{}", "backend": "sumo", "runs": ["protocol"], "seeds": [1, 2],
+                "warmup_s": 10, "metrics": ["congestion.mean_speed_mps"]}}"#,
+            base.display()
+        ),
+    );
+    let out = dir.join("out");
+    let sweep = || {
+        run(bin()
+            .arg("sweep")
+            .arg(&spec)
+            .arg("--no-plots")
+            .arg("--out")
+            .arg(&out))
+    };
+    let (code, stdout, err) = sweep();
+    assert_eq!(code, 0, "{stdout}{err}");
+    let text = csv(&out);
+    let speeds: Vec<f64> = column(&text, "congestion.mean_speed_mps")
+        .iter()
+        .map(|x| x.parse().unwrap())
+        .collect();
+    assert_eq!(speeds.len(), 2);
+    // The FollowerStopper at U = 4.3 m/s moves the ring off its 4 m/s start.
+    assert!(speeds.iter().all(|v| (v - 4.0).abs() > 0.05), "{speeds:?}");
+    // The same controller again: the sweep is complete, nothing runs.
+    assert_eq!(sweep().0, 0);
+    std::fs::write(
+        &law,
+        source.replace(
+            "self.u = float(desired_speed_mps)",
+            "self.u = 2.0 * float(desired_speed_mps)",
+        ),
+    )
+    .unwrap();
+    let (code, _, err) = sweep();
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("holds a sweep of another spec, base scenario or input file"),
+        "{err}"
+    );
+}
