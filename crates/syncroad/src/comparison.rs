@@ -112,8 +112,12 @@ fn baseline_runs(sc: &Scenario, a: &Request) -> anyhow::Result<Vec<Drive>> {
         .unwrap_or(if a.mixed.is_some() { "" } else { default });
     let mut runs: Vec<Drive> = Vec::new();
     for name in list.split(',').map(str::trim).filter(|s| !s.is_empty()) {
-        let spec = Drive::parse("--baselines", name, n)
+        let mut spec = Drive::parse("--baselines", name, n)
             .map_err(|e| InputError::caused("--baselines", e))?;
+        // The scenario's own law is the user's controller when it names one: the run says so.
+        if let (true, Some(c)) = (spec.name == "protocol", sc.controller()) {
+            spec.name = c.label();
+        }
         if let Some(d) = &spec.damper {
             d.require_ring(sc.is_ring(), &format!("scenario {}", sc.name()))
                 .map_err(|e| InputError::caused("--baselines", e))?;

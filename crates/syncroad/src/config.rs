@@ -55,6 +55,20 @@ pub fn note_fixed_graph(sc: &Scenario) {
     );
 }
 
+/// Says that the scenario's runs are driven by the user's own controller, which the analysis
+/// of its model does not cover; `true` when it did.
+pub fn note_own_controller(sc: &Scenario) -> bool {
+    let Some(c) = sc.controller() else {
+        return false;
+    };
+    let (field, value) = c.named_by();
+    eprintln!(
+        "note: {field} = {value}: the scenario's runs are driven by {}; the analysis above is of its model's law (model), not of that controller",
+        c.label()
+    );
+    true
+}
+
 /// Tells which cycle a `road.through` loop takes and how long it measured.
 pub fn note_measured_road(sc: &Scenario) {
     if let (

@@ -52,6 +52,7 @@ pub fn run(path: &Path, json: bool, platoon_scaling: bool) -> anyhow::Result<Sta
         }
     }
     crate::config::note_fixed_graph(&sc);
+    crate::config::note_own_controller(&sc);
     Ok(Status::verdict(
         r.verdict == ExactVerdict::Synchronizes
             && r.critical_scale_status != CriticalScaleStatus::Uncertified,
