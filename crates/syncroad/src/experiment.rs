@@ -104,6 +104,9 @@ impl Run {
         let eval = EvalOptions::of(sc);
         let output = match self.backend {
             Backend::Native => {
+                if let Some(why) = sc.native_refusal() {
+                    anyhow::bail!(why);
+                }
                 let opts = NativeOptions {
                     record_every: self.record_every,
                     ..NativeOptions::default()

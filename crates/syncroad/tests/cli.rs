@@ -634,3 +634,57 @@ fn a_rust_law_the_program_did_not_register_is_refused_naming_the_field() {
         "{err}"
     );
 }
+
+/// The native simulator refuses what only SUMO can drive instead of reporting on a road
+/// without it: the user's own traffic (`sumo.routes`) and the user's own vehicles
+/// (`sumo.controlled`), with `simulate` and with `"backend": "native"` alike.
+#[test]
+fn the_native_simulator_refuses_the_users_own_sumo_traffic_and_vehicles() {
+    let dir = tmpdir("native-refuses-sumo-traffic");
+    let routes = dir.join("slow.rou.xml");
+    std::fs::write(
+        &routes,
+        r#"<routes><vType id="slow" maxSpeed="4"/><route id="loop" edges="arc0 arc1 arc2 arc3"/><vehicle id="slow0" type="slow" route="loop" depart="0"/></routes>"#,
+    )
+    .unwrap();
+    let base: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(repo().join("scenarios/sugiyama-ring.json")).unwrap(),
+    )
+    .unwrap();
+    let net = repo().join("sumo-nets/sugiyama-ring.net.xml");
+    for (key, value, expected) in [
+        (
+            "routes",
+            serde_json::json!([routes]),
+            "sumo.routes = ",
+        ),
+        (
+            "controlled",
+            serde_json::json!({"vtype": "slow"}),
+            "sumo.controlled = {\"vtype\":\"slow\"}: the law drives the user's own SUMO vehicles, which exist only in SUMO",
+        ),
+    ] {
+        let mut sc = base.clone();
+        sc["sumo"] = serde_json::json!({"net": net, key: value});
+        if key == "controlled" {
+            sc["sumo"]["routes"] = serde_json::json!([routes]);
+        }
+        let path = dir.join(format!("{key}.json"));
+        std::fs::write(&path, sc.to_string()).unwrap();
+        for (command, out) in [("simulate", "sim"), ("run", "run")] {
+            if command == "run" {
+                sc["backend"] = "native".into();
+                std::fs::write(&path, sc.to_string()).unwrap();
+            }
+            let (code, stdout, err) = run(bin()
+                .arg(command)
+                .arg(&path)
+                .arg("--out")
+                .arg(dir.join(format!("{key}-{out}"))));
+            assert_eq!(code, 2, "{command} {key}: {stdout}{err}");
+            assert!(err.contains(expected), "{command} {key}: {err}");
+            assert!(err.contains("run it on SUMO"), "{err}");
+            assert!(!dir.join(format!("{key}-{out}/metrics.json")).exists());
+        }
+    }
+}

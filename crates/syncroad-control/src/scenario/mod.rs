@@ -248,6 +248,36 @@ pub struct Scenario {
 }
 
 impl Scenario {
+    /// Why the native simulator cannot run this scenario as written, when it cannot: the
+    /// user's own SUMO traffic (`sumo.routes`, `sumo.additional`) or vehicles
+    /// (`sumo.controlled`) exist only in SUMO, and running syncroad's vehicles without them
+    /// would report on another experiment.
+    pub fn native_refusal(&self) -> Option<String> {
+        let s = self.sumo();
+        let how = "run it on SUMO (\"backend\": \"sumo\", `syncroad run`)";
+        if let Some(sel) = s.controlled() {
+            return Some(format!(
+                "scenario {}: sumo.controlled = {}: the law drives the user's own SUMO vehicles, which exist only in SUMO; {how}",
+                self.name(),
+                serde_json::to_string(sel).unwrap_or_default()
+            ));
+        }
+        if s.other_traffic() {
+            let (field, files) = if s.routes().is_empty() {
+                ("sumo.additional", s.additional())
+            } else {
+                ("sumo.routes", s.routes())
+            };
+            let files: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
+            return Some(format!(
+                "scenario {}: {field} = {}: the user's own traffic, which only SUMO drives, shares the road; the native simulator would run syncroad's vehicles without it and report on another road; {how}",
+                self.name(),
+                files.join(", ")
+            ));
+        }
+        None
+    }
+
     /// The user's own controller in place of the model's law, when the scenario names one.
     pub fn controller(&self) -> Option<&crate::user_law::UserLaw> {
         self.controller.as_ref()

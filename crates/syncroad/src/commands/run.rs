@@ -73,6 +73,9 @@ fn refuse_sumo_flags(a: &SumoArgs) -> anyhow::Result<()> {
 /// The native simulator drives every vehicle with the law: a scenario whose `mixed` block
 /// puts other drivers among them is refused, not run without them.
 fn refuse_mixed_native(sc: &Scenario) -> anyhow::Result<()> {
+    if let Some(why) = sc.native_refusal() {
+        return Err(InputError::new(why).into());
+    }
     match sc.mixed() {
         Some(_) => Err(InputError::new(format!(
             "scenario {}: its mixed block puts other drivers among the law's vehicles, which the native simulator does not run from a scenario; run it on SUMO (\"backend\": \"sumo\", `syncroad run`), or as a native sweep with penetrations",

@@ -92,6 +92,9 @@ impl Sweep {
                 inputs.extend(c.state.clone());
             }
             if self.backend != Backend::Sumo {
+                if let Some(why) = sc.native_refusal() {
+                    return Err(InputError::new(format!("{}: {why}", self.describe(&p))).into());
+                }
                 let spec = &self.runs[p.run].spec;
                 if LawSpec::of_drive(&sc, spec).is_none() {
                     return Err(InputError::new(format!(
