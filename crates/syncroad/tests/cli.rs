@@ -688,3 +688,45 @@ fn the_native_simulator_refuses_the_users_own_sumo_traffic_and_vehicles() {
         }
     }
 }
+
+/// `check` certifies the start a run drives: a run of the user's own vehicles
+/// (`sumo.controlled`) starts from theirs, so the gap certificate of `initial` is said not to
+/// apply, in the table and in the JSON, while the same ring without them gets one.
+#[test]
+fn check_gives_no_gap_certificate_for_the_users_own_vehicles() {
+    let dir = tmpdir("check-controlled");
+    let routes = dir.join("mine.rou.xml");
+    std::fs::write(
+        &routes,
+        r#"<routes><vType id="mine"/><route id="loop" edges="arc0 arc1 arc2 arc3"/><vehicle id="mine0" type="mine" route="loop" depart="0"/></routes>"#,
+    )
+    .unwrap();
+    let mut sc: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(repo().join("scenarios/sugiyama-ring.json")).unwrap(),
+    )
+    .unwrap();
+    sc["sumo"] = serde_json::json!({"net": repo().join("sumo-nets/sugiyama-ring.net.xml")});
+    let plain = dir.join("plain.json");
+    std::fs::write(&plain, sc.to_string()).unwrap();
+    sc["sumo"]["routes"] = serde_json::json!([routes]);
+    sc["sumo"]["controlled"] = serde_json::json!({"vtype": "mine"});
+    let own = dir.join("own.json");
+    std::fs::write(&own, sc.to_string()).unwrap();
+    let (_, out, _) = run(bin().arg("check").arg(&plain));
+    assert!(
+        out.contains("no contact for speed perturbations up to"),
+        "{out}"
+    );
+    let (_, out, _) = run(bin().arg("check").arg(&own));
+    assert!(
+        out.contains("  does not apply: sumo.controlled = {\"vtype\":\"mine\"}: the run starts the user's own vehicles from their own positions"),
+        "{out}"
+    );
+    assert!(!out.contains("no contact for speed perturbations"), "{out}");
+    let (_, out, _) = run(bin().args(["check", "--json"]).arg(&own));
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert!(v["gap_certificate"]["not_applicable"]
+        .as_str()
+        .unwrap()
+        .starts_with("sumo.controlled = "));
+}

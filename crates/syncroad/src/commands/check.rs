@@ -15,17 +15,31 @@ use crate::tables;
 pub fn run(path: &Path, json: bool) -> anyhow::Result<Status> {
     let sc = load_scenario(path)?;
     let rep = theory::report(&sc);
+    // The certificate is of the scenario's own start (`initial`); a run of the user's own
+    // vehicles starts from theirs, which it does not describe.
+    let not_described = sc.sumo().controlled().map(|sel| {
+        format!(
+            "sumo.controlled = {}: the run starts the user's own vehicles from their own positions and speeds, not from the scenario's `initial`, which the certificate would describe",
+            serde_json::to_string(sel).unwrap_or_default()
+        )
+    });
     let gaps = gap_certificate(&sc);
     if json {
         let mut v = serde_json::to_value(&rep)?;
-        v["gap_certificate"] = match &gaps {
-            Ok(g) => serde_json::to_value(g)?,
-            Err(e) => serde_json::json!({ "error": e.to_string() }),
+        v["gap_certificate"] = match (&not_described, &gaps) {
+            (Some(why), _) => serde_json::json!({ "not_applicable": why }),
+            (None, Ok(g)) => serde_json::to_value(g)?,
+            (None, Err(e)) => serde_json::json!({ "error": e.to_string() }),
         };
         outln!("{}", serde_json::to_string_pretty(&v)?);
     } else {
         out!("{}", tables::theory_table(&rep));
-        out!("{}", crate::gaps::gap_lines(&gaps, rep.certified));
+        match &not_described {
+            Some(why) => out!(
+                "\ngap certificate (linear model; the law couples speeds, not gaps):\n  does not apply: {why}\n"
+            ),
+            None => out!("{}", crate::gaps::gap_lines(&gaps, rep.certified)),
+        }
     }
     crate::config::note_fixed_graph(&sc);
     if crate::config::note_own_controller(&sc) {
