@@ -20,7 +20,8 @@ use crate::drive::{Drive, SumoDriver};
 use crate::noisy_idm::{HumanController, HumanSetup};
 use crate::scenario::{LeaderProfile, Model, Scenario};
 use crate::sensed::Neighbors;
-use crate::user_law::{LawContext, LawHost, UserLaw, UserSetup};
+use crate::speed_controller::LawContext;
+use crate::user_law::{PythonLaw, UserLaw, UserSetup};
 
 pub use crate::speed_controller::SpeedController;
 
@@ -167,6 +168,17 @@ impl LawSpec {
         }
         Some(law)
     }
+}
+
+/// What builds the laws this crate holds as data only: the user's Python controllers.
+pub trait LawHost {
+    /// Builds the controller of `law` for `context` (imports its class and calls it with its
+    /// parameters).
+    fn python(
+        &self,
+        law: &PythonLaw,
+        context: &LawContext,
+    ) -> Result<Box<dyn SpeedController>, ControllerError>;
 }
 
 /// Delayed drivers. With a leader vehicle, index 0 is the leader driven at `v_0`.

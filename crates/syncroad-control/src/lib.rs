@@ -72,6 +72,7 @@ pub mod user_law;
 
 pub use actuation::{AccelLimits, ActuationError};
 pub use cacc::{CaccLaw, PlatoonView, PowertrainLag};
+pub use controller::LawHost;
 pub use controller::{controller_for, controller_for_in, LawSpec, SpeedController};
 pub use damper::{DamperError, DamperSetup, DamperSpec};
 pub use delayed_driver::DelayedDriverLaw;
@@ -89,6 +90,7 @@ pub use pi_saturation::{
 };
 pub use record::{RunRecord, SumoFacts};
 pub use scenario::{Scenario, ScenarioError, ScenarioFile};
+pub use speed_controller::LawContext;
 pub use stop::StopReason;
 pub use trajectory::Trajectory;
-pub use user_law::{LawContext, LawHost, PythonLaw, UserLaw, UserSetup};
+pub use user_law::{PythonLaw, UserLaw, UserSetup};

@@ -13,6 +13,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use crate::cacc::{CaccLaw, PlatoonView};
 use crate::collisions::Collisions;
+use crate::controller::LawHost;
 use crate::controller::{controller_for_in, ControllerError, LawSpec};
 use crate::delayed_driver::DelayedDriverLaw;
 use crate::metrics::{speed_range, spread_of_range, SpreadSeries};
@@ -22,7 +23,6 @@ use crate::scenario::{Model, Scenario};
 use crate::speed_controller::SpeedController;
 pub use crate::stop::StopReason;
 use crate::trajectory::Trajectory;
-use crate::user_law::LawHost;
 
 /// Speeds beyond this magnitude [m/s] count as divergence.
 pub const DIVERGENCE_MPS: f64 = 1e6;

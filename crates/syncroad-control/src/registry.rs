@@ -27,8 +27,7 @@
 
 use std::sync::RwLock;
 
-use crate::speed_controller::SpeedController;
-use crate::user_law::LawContext;
+use crate::speed_controller::{LawContext, SpeedController};
 
 /// Builds a law for a run from its parameters; an `Err` says what is wrong with them.
 pub type BuildLaw = fn(&LawContext, &serde_json::Value) -> Result<Box<dyn SpeedController>, String>;

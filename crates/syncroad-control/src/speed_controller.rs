@@ -1,6 +1,8 @@
 //! The seam every law drives through: one step of commanded speeds. The laws ([`crate::controller`])
 //! and the wave dampers ([`crate::damper`]) implement it; both backends step it.
 
+use serde::{Deserialize, Serialize};
+
 use crate::sensed::Neighbors;
 
 /// A law that commands speeds one step ahead.
@@ -30,4 +32,22 @@ pub trait SpeedController: Send {
     fn failure(&mut self) -> Option<String> {
         None
     }
+}
+
+/// What a law is built for: the run's step and vehicles, as the backend resolved them.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LawContext {
+    /// Step Δt \[s\].
+    pub step_s: f64,
+    /// The vehicles' ids, as the stepped speeds are ordered (the leader vehicle first when
+    /// there is one).
+    pub ids: Vec<String>,
+    /// Their lengths ℓ_i \[m\].
+    pub length_m: Vec<f64>,
+    /// The ring's circumference as the backend measures it \[m\]; `None` on an open road
+    /// (vehicle 0 then has nobody ahead).
+    pub ring_length_m: Option<f64>,
+    /// Which vehicles take the controller's commands (SUMO's drivers and the stochastic humans
+    /// drive the others).
+    pub controlled: Vec<bool>,
 }

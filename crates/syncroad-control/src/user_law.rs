@@ -13,15 +13,14 @@
 //! The controller drives the vehicles the scenario's law would drive: all of them, or the
 //! automated ones of a `mixed` block whose controller is `law`. This crate holds it as data
 //! ([`PythonLaw`], resolved per run into a [`PythonSetup`]); the crates that embed Python
-//! build the [`SpeedController`](crate::SpeedController) through a [`LawHost`] — the SUMO
+//! build the [`SpeedController`](crate::SpeedController) through a [`LawHost`](crate::LawHost) — the SUMO
 //! worker inside its loop, the CLI in its own process for the native simulator.
 
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::controller::ControllerError;
-use crate::speed_controller::SpeedController;
+pub use crate::speed_controller::LawContext;
 
 /// The largest controller source or pickled state read \[bytes\].
 pub const MAX_SOURCE_BYTES: u64 = 16 << 20;
@@ -340,35 +339,6 @@ pub struct UserSetup {
     pub law: UserLaw,
     /// The run it drives.
     pub context: LawContext,
-}
-
-/// What a law is built for: the run's step and vehicles, as the backend resolved them.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct LawContext {
-    /// Step Δt \[s\].
-    pub step_s: f64,
-    /// The vehicles' ids, as the stepped speeds are ordered (the leader vehicle first when
-    /// there is one).
-    pub ids: Vec<String>,
-    /// Their lengths ℓ_i \[m\].
-    pub length_m: Vec<f64>,
-    /// The ring's circumference as the backend measures it \[m\]; `None` on an open road
-    /// (vehicle 0 then has nobody ahead).
-    pub ring_length_m: Option<f64>,
-    /// Which vehicles take the controller's commands (SUMO's drivers and the stochastic humans
-    /// drive the others).
-    pub controlled: Vec<bool>,
-}
-
-/// What builds the laws this crate holds as data only: the user's Python controllers.
-pub trait LawHost {
-    /// Builds the controller of `law` for `context` (imports its class and calls it with its
-    /// parameters).
-    fn python(
-        &self,
-        law: &PythonLaw,
-        context: &LawContext,
-    ) -> Result<Box<dyn SpeedController>, ControllerError>;
 }
 
 #[cfg(test)]

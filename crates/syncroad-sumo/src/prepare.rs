@@ -285,32 +285,7 @@ fn prepare_with(
     let control = if law_driven == 0 && sumo_driven > 0 && !layout.leader_vehicle {
         Control::SumoModel
     } else {
-        let mut law = LawSpec::of(scenario);
-        law.damper = damper.map(|spec| DamperSetup {
-            spec,
-            ring_length_m: layout.road.length_m(),
-            length_m: layout.vehicles.iter().map(|v| v.length_m).collect(),
-            accel_mps2: layout.vtype.accel_mps2,
-            decel_mps2: layout.vtype.decel_mps2,
-        });
-        if let Some(u) = law.user.as_mut() {
-            let c = &mut u.context;
-            c.ids = layout.vehicles.iter().map(|v| v.id.clone()).collect();
-            c.length_m = layout.vehicles.iter().map(|v| v.length_m).collect();
-            c.ring_length_m = layout.road.ring.then(|| layout.road.length_m());
-            c.controlled = layout
-                .vehicles
-                .iter()
-                .zip(&humans)
-                .map(|(v, h)| v.driver.is_none() && h.is_none())
-                .collect();
-        }
-        law.humans = has_humans.then(|| HumanSetup {
-            drivers: humans,
-            ring_length_m: layout.road.length_m(),
-            length_m: layout.vehicles.iter().map(|v| v.length_m).collect(),
-            seed: scenario.seed(),
-        });
+        let law = law_of(scenario, &layout, damper, humans);
         Control::Law { law: Box::new(law) }
     };
     let extra_routes = user_files("sumo.routes", scenario.sumo().routes())?;
@@ -527,6 +502,53 @@ fn measure_of(
         tripinfo_file: m.tripinfo.then(|| opts.work_dir.join("tripinfo.xml")),
         ssm_file: m.ssm.then(|| opts.work_dir.join("ssm.xml")),
     })
+}
+
+/// The law of a run on the road SUMO will drive: the scenario's, with the damper, the user's
+/// controller and the stochastic humans resolved on the layout (its ring length, vehicles and
+/// who SUMO drives).
+fn law_of(
+    scenario: &Scenario,
+    layout: &Layout,
+    damper: Option<DamperSpec>,
+    humans: Vec<Option<NoisyIdm>>,
+) -> LawSpec {
+    let mut law = LawSpec::of(scenario);
+    let lengths = || {
+        layout
+            .vehicles
+            .iter()
+            .map(|v| v.length_m)
+            .collect::<Vec<_>>()
+    };
+    law.damper = damper.map(|spec| DamperSetup {
+        spec,
+        ring_length_m: layout.road.length_m(),
+        length_m: lengths(),
+        accel_mps2: layout.vtype.accel_mps2,
+        decel_mps2: layout.vtype.decel_mps2,
+    });
+    if let Some(u) = law.user.as_mut() {
+        let c = &mut u.context;
+        c.ids = layout.vehicles.iter().map(|v| v.id.clone()).collect();
+        c.length_m = lengths();
+        c.ring_length_m = layout.road.ring.then(|| layout.road.length_m());
+        c.controlled = layout
+            .vehicles
+            .iter()
+            .zip(&humans)
+            .map(|(v, h)| v.driver.is_none() && h.is_none())
+            .collect();
+    }
+    if humans.iter().any(Option::is_some) {
+        law.humans = Some(HumanSetup {
+            drivers: humans,
+            ring_length_m: layout.road.length_m(),
+            length_m: lengths(),
+            seed: scenario.seed(),
+        });
+    }
+    law
 }
 
 /// Who drives each scenario vehicle and which damper commands the law's vehicles: the run

@@ -80,14 +80,7 @@ impl ScenarioFile {
         if let Some(m) = &self.mixed {
             m.validate(closed)?;
         }
-        let controller = match &self.controller {
-            None => None,
-            Some(c) => Some(c.resolve(base_dir).map_err(|e| ScenarioError::Invalid {
-                field: e.field,
-                value: e.value,
-                expected: e.expected,
-            })?),
-        };
+        let controller = self.resolve_controller(base_dir)?;
         let measured = if self.road.is_network() {
             Some(super::network_road::measure(
                 &self.road,
@@ -193,6 +186,23 @@ impl ScenarioFile {
             mixed: self.mixed.clone(),
             controller,
         })
+    }
+
+    /// The user's own controller, its files read relative to `base_dir`.
+    fn resolve_controller(
+        &self,
+        base_dir: &Path,
+    ) -> Result<Option<crate::user_law::UserLaw>, ScenarioError> {
+        self.controller
+            .as_ref()
+            .map(|c| {
+                c.resolve(base_dir).map_err(|e| ScenarioError::Invalid {
+                    field: e.field,
+                    value: e.value,
+                    expected: e.expected,
+                })
+            })
+            .transpose()
     }
 
     /// The vehicle count, step, horizon and verdict thresholds, each within its limits;
