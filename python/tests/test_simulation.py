@@ -45,7 +45,7 @@ def test_a_loop_of_steps_drives_as_the_same_controller_does(tmp_path, backend):
     assert sim.run.metrics.controller["label"] == "python:RemoteController"
 
 
-def test_closing_early_keeps_the_rows_with_an_incomplete_record(tmp_path):
+def test_closing_early_keeps_the_rows_with_an_incomplete_record(tmp_path, capfd):
     sim = syncroad.Simulation(ring(), backend="sumo", out=tmp_path)
     for _ in range(30):
         obs = sim.step()
@@ -55,8 +55,12 @@ def test_closing_early_keeps_the_rows_with_an_incomplete_record(tmp_path):
     run = sim.close()
     assert sim.done
     assert run.metrics.complete is False
+    assert run.metrics.stop["reason"] == "stopped_by_controller"
     assert "closed the simulation before its horizon" in run.metrics.error
     assert len(run.trajectories) == 22 * 31
+    # A deliberate close is not an error: nothing on stderr (no traceback, no "error:" line).
+    err = capfd.readouterr().err
+    assert "error" not in err and "Traceback" not in err, err
 
 
 def test_the_core_package_and_the_cli_never_import_gymnasium():

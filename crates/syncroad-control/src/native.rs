@@ -191,6 +191,14 @@ pub fn simulate_controller(
             };
             break;
         }
+        if let Some(reason) = law.stop_requested() {
+            stop = StopReason::StoppedByController {
+                step,
+                time_s: step as f64 * dt,
+                why: reason,
+            };
+            break;
+        }
         if let Some(s) = check(&next[k0..], step + 1, dt) {
             stop = s;
             break;

@@ -380,6 +380,10 @@ impl SpeedController for HumanController {
     fn failure(&mut self) -> Option<String> {
         self.inner.failure()
     }
+
+    fn stop_requested(&mut self) -> Option<String> {
+        self.inner.stop_requested()
+    }
 }
 
 #[cfg(test)]

@@ -32,6 +32,13 @@ pub trait SpeedController: Send {
     fn failure(&mut self) -> Option<String> {
         None
     }
+
+    /// Why this controller ends the run on purpose (the caller closed a stepping loop), asked
+    /// after every step like [`SpeedController::failure`]; both loops then stop with
+    /// [`crate::StopReason::StoppedByController`], the rows before it kept.
+    fn stop_requested(&mut self) -> Option<String> {
+        None
+    }
 }
 
 /// What a law is built for: the run's step and vehicles, as the backend resolved them.

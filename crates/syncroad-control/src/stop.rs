@@ -56,6 +56,16 @@ pub enum StopReason {
         /// What went wrong, with the controller's traceback.
         error: String,
     },
+    /// The controller ended the run on purpose before its horizon (the caller closed a
+    /// stepping loop); the steps before it are kept.
+    StoppedByController {
+        /// Step index n.
+        step: usize,
+        /// Time \[s\].
+        time_s: f64,
+        /// The controller's reason.
+        why: String,
+    },
     /// The run failed: the worker crashed, timed out, was interrupted or SUMO refused to start.
     Failed {
         /// What happened, with its cause.
@@ -108,6 +118,9 @@ impl StopReason {
                 error,
             } => Some(format!(
                 "the controller failed at t = {time_s:.3} s (step {step}); the rows before it are written, marked incomplete:\n{error}"
+            )),
+            StopReason::StoppedByController { step, time_s, why } => Some(format!(
+                "the controller ended the run at t = {time_s:.3} s (step {step}): {why}; the rows before it are written, marked incomplete"
             )),
             StopReason::Failed { error } => Some(error.clone()),
         }

@@ -69,6 +69,8 @@ pub struct PythonController {
     gap_m: Vec<f64>,
     sensed: Option<Neighbors>,
     failure: Option<String>,
+    /// The controller ended the run on purpose (an exception with `syncroad_stop = True`).
+    stop: Option<String>,
 }
 
 impl PythonController {
@@ -154,6 +156,7 @@ impl PythonController {
             gap_m: vec![0.0; n],
             sensed: None,
             failure: None,
+            stop: None,
         })
     }
 
@@ -204,8 +207,9 @@ impl PythonController {
         self.last_mps.copy_from_slice(speeds);
     }
 
-    /// Calls the controller; the commands for the next step, or why there are none.
-    fn call(&mut self, py: Python<'_>, time_s: f64, out: &mut [f64]) -> Result<(), String> {
+    /// Calls the controller; the commands for the next step, or why there are none
+    /// ([`Ended`]).
+    fn call(&mut self, py: Python<'_>, time_s: f64, out: &mut [f64]) -> Result<(), Ended> {
         let n = out.len();
         // SAFETY: `rows` and `out` are the data of the C-contiguous float64 arrays of 5 × n and
         // n values the Stepper made for these n vehicles and keeps as attributes while this
@@ -218,16 +222,16 @@ impl PythonController {
             .bind(py)
             .call1((time_s, self.steps))
             .map_err(|e| {
-                // An exception that says it stops the run on purpose (`syncroad_stop = True`,
-                // as syncroad.Simulation's close) is its message alone.
+                // An exception that says it ends the run on purpose (`syncroad_stop = True`,
+                // as syncroad.Simulation's close) is a stop with its message, not a failure.
                 let value = e.value(py);
                 let deliberate = value
                     .getattr("syncroad_stop")
                     .and_then(|x| x.is_truthy())
                     .unwrap_or(false);
                 match value.str() {
-                    Ok(text) if deliberate => text.to_string(),
-                    _ => py_error(py, "the controller's step(obs)", e).to_string(),
+                    Ok(text) if deliberate => Ended::Stopped(text.to_string()),
+                    _ => Ended::Failed(py_error(py, "the controller's step(obs)", e).to_string()),
                 }
             })?;
         // SAFETY: as above; `step` returned, having copied n commands into `out`.
@@ -279,15 +283,19 @@ impl SpeedController for PythonController {
                 speeds.len()
             ));
         }
-        if self.failure.is_some() {
+        if self.failure.is_some() || self.stop.is_some() {
             out.copy_from_slice(speeds);
             return;
         }
         self.pack(speeds, positions);
         let result = Python::attach(|py| self.call(py, time_s, out))
-            .and_then(|()| self.check(time_s, speeds, out));
-        if let Err(e) = result {
-            self.failure = Some(e);
+            .and_then(|()| self.check(time_s, speeds, out).map_err(Ended::Failed));
+        match result {
+            Ok(()) => {}
+            Err(Ended::Failed(e)) => self.failure = Some(e),
+            Err(Ended::Stopped(reason)) => self.stop = Some(reason),
+        }
+        if self.failure.is_some() || self.stop.is_some() {
             out.copy_from_slice(speeds);
         }
         self.steps += 1;
@@ -300,6 +308,18 @@ impl SpeedController for PythonController {
     fn failure(&mut self) -> Option<String> {
         self.failure.clone()
     }
+
+    fn stop_requested(&mut self) -> Option<String> {
+        self.stop.clone()
+    }
+}
+
+/// Why a step gave no commands.
+enum Ended {
+    /// The controller failed (its traceback, or what is wrong with its commands).
+    Failed(String),
+    /// The controller ended the run on purpose.
+    Stopped(String),
 }
 
 /// A JSON value as the Python object `json.loads` makes of it.

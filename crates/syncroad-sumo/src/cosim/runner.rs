@@ -113,7 +113,9 @@ fn step_loop<'a, 'py>(
         if let Some(s) = stopped {
             // A command that never reached SUMO leaves the step undone.
             let done = match s {
-                StopReason::NonFiniteCommand { .. } | StopReason::ControllerFailed { .. } => step,
+                StopReason::NonFiniteCommand { .. }
+                | StopReason::ControllerFailed { .. }
+                | StopReason::StoppedByController { .. } => step,
                 _ => step + 1,
             };
             return Ok((s, done, step_s));

@@ -230,6 +230,13 @@ impl<'a, 'py> CoSim<'a, 'py> {
                     error,
                 }));
             }
+            if let Some(reason) = c.stop_requested() {
+                return Ok(Some(StopReason::StoppedByController {
+                    step,
+                    time_s: step as f64 * req.step_s,
+                    why: reason,
+                }));
+            }
             match sanitize_commands(&mut self.next, &self.law_driven) {
                 Ok(clamped) => self.negative_commands_clamped += clamped,
                 Err(i) => {

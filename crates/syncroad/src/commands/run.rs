@@ -86,6 +86,15 @@ fn refuse_mixed_native(sc: &Scenario) -> anyhow::Result<()> {
     }
 }
 
+/// A run its controller ended on purpose (a stepping loop closed early): incomplete, so exit
+/// 3, with a note rather than an error, which `--quiet` leaves out.
+fn ended_by_controller(f: &Finished, out: &OutputArgs) -> Status {
+    if out.progress_mode() != crate::progress::ProgressMode::Never {
+        eprintln!("note: {}", f.output.stop.message().unwrap_or_default());
+    }
+    Status::RunFailed
+}
+
 /// After the summary is printed: the files written, or why they could not be.
 fn report_files(dir: &Path, written: anyhow::Result<usize>, complete: bool) -> anyhow::Result<()> {
     let plots = written?;
@@ -207,6 +216,9 @@ fn run_native(sc: &Scenario, path: &Path, out: &OutputArgs) -> anyhow::Result<St
         eprintln!("error: {}", f.output.stop.message().unwrap_or_default());
         return Ok(Status::RunFailed);
     }
+    if matches!(f.output.stop, StopReason::StoppedByController { .. }) {
+        return Ok(ended_by_controller(&f, out));
+    }
     Ok(verdict_status(&f))
 }
 
@@ -278,6 +290,9 @@ fn run_sumo(
     if run.interrupted {
         eprintln!("error: {}", f.output.stop.message().unwrap_or_default());
         return Ok(Status::Interrupted);
+    }
+    if matches!(f.output.stop, StopReason::StoppedByController { .. }) {
+        return Ok(ended_by_controller(&f, out));
     }
     if let Some(why) = f.output.stop.message() {
         eprintln!("error: {why}");
