@@ -901,6 +901,29 @@ mod routes {
 mod errors {
     use super::*;
 
+    /// A ring scenario on a network of several lanes points to the road types that drive one
+    /// (it once said "single-lane roads only", as if syncroad had none).
+    #[test]
+    fn a_ring_on_a_two_lane_network_points_to_a_loop() {
+        let dir = work("errors-two-lane-ring");
+        let net = two_lane_loop(&dir);
+        let json = format!(
+            r#"{{"name": "two-lane", "backend": "sumo", "seed": 1, "step_s": 0.1, "horizon_s": 10,
+                "vehicles": 4, "road": {{"type": "ring", "length_m": 600}},
+                "model": {{"type": "delayed_driver",
+                          "graph": {{"type": "unidirectional_ring", "gain": 0.5}}, "delay_s": 0.5}},
+                "sumo": {{"net": "{}"}}}}"#,
+            net.display()
+        );
+        let sc = Scenario::from_json(&json).unwrap();
+        let e = load_road(&sc).unwrap_err().to_string();
+        assert!(e.contains("edge `e0` has 2 lanes"), "{e}");
+        assert!(
+            e.contains("give road.type \"loop\" (a closed cycle) or \"route\" (an open road)"),
+            "{e}"
+        );
+    }
+
     fn err(dir: &Path, road: &str, vehicles: usize) -> String {
         scenario(dir, &loop_json(road, vehicles, 10.0, "")).unwrap_err()
     }

@@ -46,7 +46,7 @@ pub enum NetError {
         reason: String,
     },
     /// A road has more than one lane (the loop drives single-lane roads).
-    #[error("SUMO network {path}: edge `{edge}` has {lanes} lanes; syncroad drives single-lane roads only")]
+    #[error("SUMO network {path}: edge `{edge}` has {lanes} lanes; road.type \"ring\" and \"straight\" take single-lane networks (like sumo-nets/sugiyama-ring.net.xml); on a road of several lanes give road.type \"loop\" (a closed cycle) or \"route\" (an open road) with its edges and the lane to drive (the guide's \"Your own network\")")]
     MultiLane {
         /// The file.
         path: PathBuf,
