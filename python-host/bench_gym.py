@@ -40,41 +40,36 @@ def sumo_alone_ms(scenario):
     libsumo.start(["sumo", "--net-file", scenario["sumo"]["net"], "--route-files", str(routes),
                    "--step-length", "0.1", "--no-step-log", "true", "--no-warnings", "true",
                    "--step-method.ballistic", "true", "--time-to-teleport", "-1"])
+    ms = per_step_ms(libsumo.simulationStep)
+    libsumo.close()
+    return ms
+
+
+def per_step_ms(step):
+    """Milliseconds per call of `step`, after WARMUP untimed calls."""
     for _ in range(WARMUP):
-        libsumo.simulationStep()
+        step()
     t0 = time.perf_counter()
     for _ in range(STEPS):
-        libsumo.simulationStep()
-    wall = time.perf_counter() - t0
-    libsumo.close()
-    return 1e3 * wall / STEPS
+        step()
+    return 1e3 * (time.perf_counter() - t0) / STEPS
 
 
 def simulation_ms(scenario):
     """syncroad.Simulation stepping with every speed held (the caller computes nothing)."""
     sim = syncroad.Simulation(scenario)
-    for _ in range(WARMUP):
-        sim.step()
-    t0 = time.perf_counter()
-    for _ in range(STEPS):
-        sim.step()
-    wall = time.perf_counter() - t0
+    ms = per_step_ms(sim.step)
     sim.close()
-    return 1e3 * wall / STEPS
+    return ms
 
 
 def gym_ms(scenario):
     env = RingEnv(scenario)
     env.reset(seed=0)
     action = np.array([0.1], dtype=np.float32)
-    for _ in range(WARMUP):
-        env.step(action)
-    t0 = time.perf_counter()
-    for _ in range(STEPS):
-        env.step(action)
-    wall = time.perf_counter() - t0
+    ms = per_step_ms(lambda: env.step(action))
     env.close()
-    return 1e3 * wall / STEPS
+    return ms
 
 
 def main():

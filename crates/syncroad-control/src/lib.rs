@@ -43,6 +43,7 @@ pub mod damper;
 pub mod delayed_driver;
 pub mod drive;
 pub mod exact;
+pub mod fingerprint;
 pub mod flow_dampers;
 pub mod follower_stopper;
 pub mod graph;
@@ -90,6 +91,7 @@ pub use pi_saturation::{
 };
 pub use record::{RunRecord, SumoFacts};
 pub use scenario::{Scenario, ScenarioError, ScenarioFile};
+pub use speed_controller::ControllerEnd;
 pub use speed_controller::LawContext;
 pub use stop::StopReason;
 pub use trajectory::Trajectory;

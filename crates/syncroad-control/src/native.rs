@@ -183,20 +183,8 @@ pub fn simulate_controller(
             p(step, steps);
         }
         law.step(step as f64 * dt, &v, &q, &mut next);
-        if let Some(error) = law.failure() {
-            stop = StopReason::ControllerFailed {
-                step,
-                time_s: step as f64 * dt,
-                error,
-            };
-            break;
-        }
-        if let Some(reason) = law.stop_requested() {
-            stop = StopReason::StoppedByController {
-                step,
-                time_s: step as f64 * dt,
-                why: reason,
-            };
+        if let Some(end) = law.ended() {
+            stop = end.at(step, step as f64 * dt);
             break;
         }
         if let Some(s) = check(&next[k0..], step + 1, dt) {

@@ -377,12 +377,8 @@ impl SpeedController for HumanController {
         self.view.sense(neighbors);
     }
 
-    fn failure(&mut self) -> Option<String> {
-        self.inner.failure()
-    }
-
-    fn stop_requested(&mut self) -> Option<String> {
-        self.inner.stop_requested()
+    fn ended(&mut self) -> Option<crate::speed_controller::ControllerEnd> {
+        self.inner.ended()
     }
 }
 

@@ -71,12 +71,13 @@ pub fn gaps(
     }
 }
 
-/// What each vehicle of a ring sees, kept between steps by the controllers that drive on
-/// one (wave dampers, stochastic humans): the gap to the vehicle ahead by [`gaps`] (vehicle 0
-/// follows vehicle N−1 one lap ahead) and that vehicle's speed.
+/// What each vehicle sees, kept between steps by the controllers that need it (wave dampers,
+/// stochastic humans, the user's own controller): the gap to the vehicle ahead by [`gaps`]
+/// (on a ring vehicle 0 follows vehicle N−1 one lap ahead) and that vehicle's speed. On an
+/// open road vehicle 0 has nobody ahead: gap ∞, speed NaN.
 #[derive(Debug, Clone)]
 pub struct RingView {
-    ring_length_m: f64,
+    ring_length_m: Option<f64>,
     length_m: Vec<f64>,
     /// Bumper-to-bumper gap of each vehicle \[m\].
     pub gaps_m: Vec<f64>,
@@ -89,6 +90,11 @@ pub struct RingView {
 impl RingView {
     /// The view of vehicles `length_m` long on a ring of `ring_length_m`.
     pub fn new(ring_length_m: f64, length_m: &[f64]) -> Self {
+        Self::on(Some(ring_length_m), length_m)
+    }
+
+    /// The view on a ring of `ring_length_m`, or on an open road (`None`).
+    pub fn on(ring_length_m: Option<f64>, length_m: &[f64]) -> Self {
         let n = length_m.len();
         Self {
             ring_length_m,
@@ -102,20 +108,35 @@ impl RingView {
     /// Updates the gaps and leader speeds from this step's speeds and unwrapped positions.
     pub fn observe(&mut self, speeds: &[f64], positions: &[f64]) {
         let n = speeds.len();
-        let ring = Some(self.ring_length_m);
+        let ring = self.ring_length_m;
         gaps(positions, &self.length_m, None, ring, &mut self.gaps_m);
         for i in 0..n {
-            let (j, _) = ahead(i, n, ring).expect("a ring has a vehicle ahead");
-            self.leader_speeds_mps[i] = speeds[j];
+            match ahead(i, n, ring) {
+                Some((j, _)) => self.leader_speeds_mps[i] = speeds[j],
+                None => self.nobody_ahead(i),
+            }
         }
         if let Some(nb) = &self.sensed {
             for (i, s) in nb.ahead.iter().enumerate() {
-                if let Sensed::Other { speed_mps, gap_m } = *s {
-                    self.gaps_m[i] = gap_m;
-                    self.leader_speeds_mps[i] = speed_mps;
+                match *s {
+                    Sensed::Other { speed_mps, gap_m } => {
+                        self.gaps_m[i] = gap_m;
+                        self.leader_speeds_mps[i] = speed_mps;
+                    }
+                    // On a ring the layout predecessor is there (see `sense`).
+                    Sensed::Nobody if ring.is_none() => {
+                        self.gaps_m[i] = f64::INFINITY;
+                        self.leader_speeds_mps[i] = f64::NAN;
+                    }
+                    Sensed::Nobody | Sensed::Layout => {}
                 }
             }
         }
+    }
+
+    fn nobody_ahead(&mut self, i: usize) {
+        self.gaps_m[i] = f64::INFINITY;
+        self.leader_speeds_mps[i] = f64::NAN;
     }
 
     /// Takes the graph from the simulator for the next [`RingView::observe`]: a vehicle with
@@ -168,5 +189,23 @@ mod tests {
         view.observe(&v, &q);
         assert_eq!(view.gaps_m, [45.0, 4.0, 25.0]);
         assert_eq!(view.leader_speeds_mps, [7.0, 2.0, 6.0]);
+    }
+
+    #[test]
+    fn on_an_open_road_the_first_vehicle_has_nobody_ahead() {
+        // The three cars of the tests above on a straight road: vehicle 0 leads.
+        let (q, v) = ([60.0, 40.0, 10.0], [5.0, 6.0, 7.0]);
+        let mut view = RingView::on(None, &[5.0; 3]);
+        view.observe(&v, &q);
+        assert_eq!(view.gaps_m, [f64::INFINITY, 15.0, 25.0]);
+        assert!(view.leader_speeds_mps[0].is_nan());
+        assert_eq!(view.leader_speeds_mps[1..], [5.0, 6.0]);
+        // Vehicle 1 changed lanes and sees nobody ahead on its new one.
+        let mut nb = Neighbors::layout(3, false);
+        nb.ahead[1] = Sensed::Nobody;
+        view.sense(&nb);
+        view.observe(&v, &q);
+        assert_eq!(view.gaps_m, [f64::INFINITY, f64::INFINITY, 25.0]);
+        assert!(view.leader_speeds_mps[1].is_nan());
     }
 }

@@ -4,6 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::sensed::Neighbors;
+use crate::stop::StopReason;
 
 /// A law that commands speeds one step ahead.
 pub trait SpeedController: Send {
@@ -25,19 +26,35 @@ pub trait SpeedController: Send {
     /// has no neighbours to retarget keeps the default, which ignores it.
     fn sense(&mut self, _neighbors: &Neighbors) {}
 
-    /// Why this controller cannot go on (the user's controller raised, or returned commands
-    /// that are not speeds), asked after every step; both loops then stop with
-    /// [`crate::StopReason::ControllerFailed`] and keep every row before it. The built-in laws
-    /// never fail.
-    fn failure(&mut self) -> Option<String> {
+    /// Whether and why this controller ends the run, asked after every step: both loops then
+    /// stop with [`ControllerEnd::at`] and keep every row before it. The built-in laws never
+    /// end a run.
+    fn ended(&mut self) -> Option<ControllerEnd> {
         None
     }
+}
 
-    /// Why this controller ends the run on purpose (the caller closed a stepping loop), asked
-    /// after every step like [`SpeedController::failure`]; both loops then stop with
-    /// [`crate::StopReason::StoppedByController`], the rows before it kept.
-    fn stop_requested(&mut self) -> Option<String> {
-        None
+/// Why a controller ends a run before its horizon.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ControllerEnd {
+    /// It cannot go on: the user's controller raised, or returned commands that are not speeds
+    /// (the traceback, or what is wrong with them).
+    Failed(String),
+    /// It ends the run on purpose (the caller closed a stepping loop), for this reason.
+    Stopped(String),
+}
+
+impl ControllerEnd {
+    /// The run's stop at step `step`, time `time_s`.
+    pub fn at(self, step: usize, time_s: f64) -> StopReason {
+        match self {
+            ControllerEnd::Failed(error) => StopReason::ControllerFailed {
+                step,
+                time_s,
+                error,
+            },
+            ControllerEnd::Stopped(why) => StopReason::StoppedByController { step, time_s, why },
+        }
     }
 }
 

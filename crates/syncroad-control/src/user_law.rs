@@ -12,13 +12,15 @@
 //!
 //! The controller drives the vehicles the scenario's law would drive: all of them, or the
 //! automated ones of a `mixed` block whose controller is `law`. This crate holds it as data
-//! ([`PythonLaw`], resolved per run into a [`PythonSetup`]); the crates that embed Python
+//! ([`UserLaw`], resolved per run into a [`UserSetup`]); the crates that embed Python
 //! build the [`SpeedController`](crate::SpeedController) through a [`LawHost`](crate::LawHost) — the SUMO
 //! worker inside its loop, the CLI in its own process for the native simulator.
 
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
+
+use crate::fingerprint::fnv1a_hex;
 
 pub use crate::speed_controller::LawContext;
 
@@ -320,16 +322,6 @@ fn read_file(
             format!("cannot read {}: {e}", path.display()),
         )
     })
-}
-
-/// FNV-1a of `bytes`, as 16 hex digits.
-pub(crate) fn fnv1a_hex(bytes: &[u8]) -> String {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for b in bytes {
-        h ^= u64::from(*b);
-        h = h.wrapping_mul(0x0100_0000_01b3);
-    }
-    format!("{h:016x}")
 }
 
 /// The user's law resolved for one run by its backend.

@@ -10,16 +10,16 @@
 //!
 //! The commands are checked before they reach a vehicle: an exception, a result of the wrong
 //! type or length, or a speed that is not finite or is negative stops the run with the step, the
-//! vehicle and the controller's own traceback ([`SpeedController::failure`]); the rows before
+//! vehicle and the controller's own traceback ([`SpeedController::ended`]); the rows before
 //! it are kept.
 
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use syncroad_control::controller::ControllerError;
-use syncroad_control::road::{ahead, gaps};
-use syncroad_control::sensed::{Neighbors, Sensed};
+use syncroad_control::road::RingView;
+use syncroad_control::sensed::Neighbors;
 use syncroad_control::user_law::{LawContext, PythonLaw, PythonSource};
-use syncroad_control::{LawHost, SpeedController};
+use syncroad_control::{ControllerEnd, LawHost, SpeedController};
 
 use crate::python::{add_packages, py_error};
 
@@ -59,18 +59,14 @@ pub struct PythonController {
     command: Command,
     ids: Vec<String>,
     dt_s: f64,
-    length_m: Vec<f64>,
-    ring_length_m: Option<f64>,
+    /// The gap to the vehicle ahead and its speed (SUMO's lane neighbour when sensed).
+    view: RingView,
     controlled: Vec<bool>,
     steps: usize,
     start_m: Vec<f64>,
     last_mps: Vec<f64>,
-    packed: Vec<f64>,
-    gap_m: Vec<f64>,
-    sensed: Option<Neighbors>,
-    failure: Option<String>,
-    /// The controller ended the run on purpose (an exception with `syncroad_stop = True`).
-    stop: Option<String>,
+    /// Why the run ends, once it does.
+    ended: Option<ControllerEnd>,
 }
 
 impl PythonController {
@@ -111,7 +107,6 @@ impl PythonController {
         let (obj, command): (Bound<'_, PyAny>, String) = built
             .extract()
             .map_err(|e| fail(py_error(py, "build", e).to_string()))?;
-        let n = setup.ids.len();
         let stepper = helper
             .getattr("Stepper")
             .and_then(|s| {
@@ -146,78 +141,48 @@ impl PythonController {
             },
             ids: setup.ids.clone(),
             dt_s: setup.step_s,
-            length_m: setup.length_m.clone(),
-            ring_length_m: setup.ring_length_m,
+            view: RingView::on(setup.ring_length_m, &setup.length_m),
             controlled: setup.controlled.clone(),
             steps: 0,
             start_m: Vec::new(),
             last_mps: Vec::new(),
-            packed: vec![0.0; 5 * n],
-            gap_m: vec![0.0; n],
-            sensed: None,
-            failure: None,
-            stop: None,
+            ended: None,
         })
     }
 
-    /// Packs this step's rows: speeds, accelerations, odometers, gaps, speeds ahead.
-    fn pack(&mut self, speeds: &[f64], positions: &[f64]) {
+    /// Writes this step's observation into the Python side's rows (speeds, accelerations,
+    /// odometers, gaps, speeds ahead), calls `step(obs)` and reads its commands into `out`.
+    fn call(
+        &mut self,
+        py: Python<'_>,
+        time_s: f64,
+        speeds: &[f64],
+        positions: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), ControllerEnd> {
         let n = speeds.len();
         if self.steps == 0 {
             self.start_m = positions.to_vec();
             self.last_mps = speeds.to_vec();
         }
-        gaps(
-            positions,
-            &self.length_m,
-            None,
-            self.ring_length_m,
-            &mut self.gap_m,
-        );
-        let (v, rest) = self.packed.split_at_mut(n);
+        self.view.observe(speeds, positions);
+        // SAFETY: `rows` and `out` are the data of the C-contiguous float64 arrays of 5 × n and
+        // n values the Stepper made for these n vehicles (`step` checks the count) and keeps as
+        // attributes while this controller holds it (`stepper` is its bound method); the GIL
+        // is held, so no Python code runs while they are written or read.
+        let rows = unsafe { std::slice::from_raw_parts_mut(self.rows as *mut f64, 5 * n) };
+        let (v, rest) = rows.split_at_mut(n);
         let (a, rest) = rest.split_at_mut(n);
         let (odo, rest) = rest.split_at_mut(n);
         let (gap, lead) = rest.split_at_mut(n);
+        v.copy_from_slice(speeds);
         for i in 0..n {
-            v[i] = speeds[i];
             a[i] = (speeds[i] - self.last_mps[i]) / self.dt_s;
             odo[i] = positions[i] - self.start_m[i];
-            match ahead(i, n, self.ring_length_m) {
-                Some((j, _)) => {
-                    gap[i] = self.gap_m[i];
-                    lead[i] = speeds[j];
-                }
-                None => {
-                    gap[i] = f64::INFINITY;
-                    lead[i] = f64::NAN;
-                }
-            }
-            match self.sensed.as_ref().map(|nb| nb.ahead[i]) {
-                Some(Sensed::Other { speed_mps, gap_m }) => {
-                    gap[i] = gap_m;
-                    lead[i] = speed_mps;
-                }
-                Some(Sensed::Nobody) => {
-                    gap[i] = f64::INFINITY;
-                    lead[i] = f64::NAN;
-                }
-                Some(Sensed::Layout) | None => {}
-            }
         }
+        gap.copy_from_slice(&self.view.gaps_m);
+        lead.copy_from_slice(&self.view.leader_speeds_mps);
         self.last_mps.copy_from_slice(speeds);
-    }
-
-    /// Calls the controller; the commands for the next step, or why there are none
-    /// ([`Ended`]).
-    fn call(&mut self, py: Python<'_>, time_s: f64, out: &mut [f64]) -> Result<(), Ended> {
-        let n = out.len();
-        // SAFETY: `rows` and `out` are the data of the C-contiguous float64 arrays of 5 × n and
-        // n values the Stepper made for these n vehicles and keeps as attributes while this
-        // controller holds it (`stepper` is its bound method); the GIL is held, so no Python
-        // code runs while they are written or read.
-        unsafe {
-            std::ptr::copy_nonoverlapping(self.packed.as_ptr(), self.rows as *mut f64, 5 * n);
-        }
         self.stepper
             .bind(py)
             .call1((time_s, self.steps))
@@ -230,8 +195,10 @@ impl PythonController {
                     .and_then(|x| x.is_truthy())
                     .unwrap_or(false);
                 match value.str() {
-                    Ok(text) if deliberate => Ended::Stopped(text.to_string()),
-                    _ => Ended::Failed(py_error(py, "the controller's step(obs)", e).to_string()),
+                    Ok(text) if deliberate => ControllerEnd::Stopped(text.to_string()),
+                    _ => ControllerEnd::Failed(
+                        py_error(py, "the controller's step(obs)", e).to_string(),
+                    ),
                 }
             })?;
         // SAFETY: as above; `step` returned, having copied n commands into `out`.
@@ -249,20 +216,16 @@ impl PythonController {
                 continue;
             }
             let x = out[i];
-            let what = match self.command {
-                Command::Speed => "target speed",
-                Command::Acceleration => "acceleration",
-            };
             let bad = !x.is_finite() || (self.command == Command::Speed && x < 0.0);
             if bad {
+                let (what, valid) = match self.command {
+                    Command::Speed => ("target speed", "target speeds must be finite and ≥ 0 m/s"),
+                    Command::Acceleration => ("acceleration", "accelerations must be finite"),
+                };
                 return Err(format!(
-                    "at step {} (t = {time_s:.3} s) the controller's {what} for vehicle {} (obs.ids[{i}]) is {x}; {}",
+                    "at step {} (t = {time_s:.3} s) the controller's {what} for vehicle {} (obs.ids[{i}]) is {x}; {valid}",
                     self.steps,
                     self.ids[i],
-                    match self.command {
-                        Command::Speed => "target speeds must be finite and ≥ 0 m/s",
-                        Command::Acceleration => "accelerations must be finite",
-                    }
                 ));
             }
             if self.command == Command::Acceleration {
@@ -275,51 +238,36 @@ impl PythonController {
 
 impl SpeedController for PythonController {
     fn step(&mut self, time_s: f64, speeds: &[f64], positions: &[f64], out: &mut [f64]) {
-        if self.failure.is_none() && (speeds.len() != self.ids.len() || out.len() != speeds.len()) {
+        if self.ended.is_none() && (speeds.len() != self.ids.len() || out.len() != speeds.len()) {
             // The arrays on the Python side hold exactly the vehicles the controller was built for.
-            self.failure = Some(format!(
+            self.ended = Some(ControllerEnd::Failed(format!(
                 "the controller was built for {} vehicles and is stepped with {}",
                 self.ids.len(),
                 speeds.len()
-            ));
+            )));
         }
-        if self.failure.is_some() || self.stop.is_some() {
-            out.copy_from_slice(speeds);
-            return;
+        if self.ended.is_none() {
+            let result = Python::attach(|py| self.call(py, time_s, speeds, positions, out))
+                .and_then(|()| {
+                    self.check(time_s, speeds, out)
+                        .map_err(ControllerEnd::Failed)
+                });
+            self.ended = result.err();
+            self.steps += 1;
         }
-        self.pack(speeds, positions);
-        let result = Python::attach(|py| self.call(py, time_s, out))
-            .and_then(|()| self.check(time_s, speeds, out).map_err(Ended::Failed));
-        match result {
-            Ok(()) => {}
-            Err(Ended::Failed(e)) => self.failure = Some(e),
-            Err(Ended::Stopped(reason)) => self.stop = Some(reason),
-        }
-        if self.failure.is_some() || self.stop.is_some() {
+        if self.ended.is_some() {
+            // Nothing of a failed step is sent: the loop stops on `ended` first.
             out.copy_from_slice(speeds);
         }
-        self.steps += 1;
     }
 
     fn sense(&mut self, neighbors: &Neighbors) {
-        neighbors.keep_in(&mut self.sensed);
+        self.view.sense(neighbors);
     }
 
-    fn failure(&mut self) -> Option<String> {
-        self.failure.clone()
+    fn ended(&mut self) -> Option<ControllerEnd> {
+        self.ended.clone()
     }
-
-    fn stop_requested(&mut self) -> Option<String> {
-        self.stop.clone()
-    }
-}
-
-/// Why a step gave no commands.
-enum Ended {
-    /// The controller failed (its traceback, or what is wrong with its commands).
-    Failed(String),
-    /// The controller ended the run on purpose.
-    Stopped(String),
 }
 
 /// A JSON value as the Python object `json.loads` makes of it.

@@ -25,7 +25,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use syncroad_control::scenario::Backend;
 use syncroad_control::user_law::{RustLaw, UserLaw};
-use syncroad_control::{EvalOptions, NativeOptions, Scenario, StopReason};
+use syncroad_control::{EvalOptions, NativeOptions, Scenario};
 use syncroad_sumo::{load_road, RunOptions, WorkerCommand};
 
 use crate::pipeline::{self, Finished};
@@ -111,12 +111,7 @@ impl Run {
                     record_every: self.record_every,
                     ..NativeOptions::default()
                 };
-                let out = pipeline::native_with(sc, opts);
-                if let (true, StopReason::Failed { error }) = (out.trajectory.is_empty(), &out.stop)
-                {
-                    anyhow::bail!("nothing was run: {error}");
-                }
-                out
+                pipeline::native_with(sc, opts).context("nothing was run")?
             }
             Backend::Sumo => {
                 let tmp;

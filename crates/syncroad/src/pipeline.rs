@@ -11,8 +11,8 @@ use std::path::Path;
 
 use syncroad_control::controller::ControllerError;
 use syncroad_control::{
-    evaluate, simulate, simulate_with, EvalOptions, LawSpec, NativeOptions, Outcome, RunOutput,
-    RunRecord, Scenario,
+    evaluate, simulate_with, EvalOptions, LawSpec, NativeOptions, Outcome, RunOutput, RunRecord,
+    Scenario,
 };
 use syncroad_sumo::{
     PrepareError, Prepared, PythonHost, Road, RunOptions, SumoRun, SupervisorError, WorkerPool,
@@ -21,8 +21,9 @@ use syncroad_sumo::{
 use crate::output;
 use crate::plots::RunPlots;
 
-/// Runs a scenario on the native simulator, recording every `record_every`-th step.
-pub fn native(sc: &Scenario, record_every: usize) -> RunOutput {
+/// Runs a scenario on the native simulator, recording every `record_every`-th step. An error
+/// is a law that could not be built (the user's controller): nothing ran.
+pub fn native(sc: &Scenario, record_every: usize) -> Result<RunOutput, ControllerError> {
     native_with(
         sc,
         NativeOptions {
@@ -33,17 +34,8 @@ pub fn native(sc: &Scenario, record_every: usize) -> RunOutput {
 }
 
 /// [`native`] with every option: a stop flag (signals) and a progress callback.
-pub fn native_with(sc: &Scenario, opts: NativeOptions<'_>) -> RunOutput {
-    let run = simulate(sc, hosted(opts));
-    RunOutput {
-        trajectory: run.trajectory,
-        stop: run.stop,
-        ring_length_m: sc.ring_length_m(),
-        sumo: None,
-        spread: Some(run.spread),
-        collisions: Some(run.collisions),
-        drivers: None,
-    }
+pub fn native_with(sc: &Scenario, opts: NativeOptions<'_>) -> Result<RunOutput, ControllerError> {
+    native_run(sc, &LawSpec::of(sc), None, opts)
 }
 
 /// [`native_with`] for a resolved law (a damper or stochastic humans on the ring), with the
@@ -54,6 +46,15 @@ pub fn native_law(
     drivers: Vec<String>,
     opts: NativeOptions<'_>,
 ) -> Result<RunOutput, ControllerError> {
+    native_run(sc, law, Some(drivers), opts)
+}
+
+fn native_run(
+    sc: &Scenario,
+    law: &LawSpec,
+    drivers: Option<Vec<String>>,
+    opts: NativeOptions<'_>,
+) -> Result<RunOutput, ControllerError> {
     let run = simulate_with(sc, law, hosted(opts))?;
     Ok(RunOutput {
         trajectory: run.trajectory,
@@ -62,7 +63,7 @@ pub fn native_law(
         sumo: None,
         spread: Some(run.spread),
         collisions: Some(run.collisions),
-        drivers: Some(drivers),
+        drivers,
     })
 }
 

@@ -287,7 +287,7 @@ impl Scenario {
     /// another scenario, whose hash covers the law's name, parameters and source.
     pub fn with_controller(&self, law: crate::user_law::UserLaw) -> Scenario {
         let text = serde_json::to_string(&law).expect("a law always serializes");
-        let hash_hex = validate::fnv1a_hex(&format!(
+        let hash_hex = crate::fingerprint::fnv1a_hex(format!(
             "{}{text}{}",
             self.hash_hex,
             law.source_hash().unwrap_or("")

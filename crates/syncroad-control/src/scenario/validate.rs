@@ -6,6 +6,7 @@ use std::path::Path;
 use super::file::merge;
 use super::graph_spec::{build_graph, graph_shape};
 use super::*;
+use crate::fingerprint::fnv1a_hex;
 use crate::metrics::VerdictThresholds;
 use crate::rng::SplitMix64;
 
@@ -430,16 +431,6 @@ impl ScenarioFile {
     }
 }
 
-/// FNV-1a of `text`, as 16 hex digits.
-pub(super) fn fnv1a_hex(text: &str) -> String {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for b in text.bytes() {
-        h ^= u64::from(b);
-        h = h.wrapping_mul(0x0100_0000_01b3);
-    }
-    format!("{h:016x}")
-}
-
 impl Scenario {
     /// The same scenario with another model of the same type (a gain- or delay-scaled copy, for
     /// instance), checked to fit it: one value per vehicle, delays on the step grid, and for a
@@ -517,7 +508,7 @@ impl Scenario {
         // Another model is another scenario: its hash covers the file's and the new model, so
         // two gain-scaled copies never share one.
         let model_json = serde_json::to_string(&model).expect("a model always serializes");
-        let hash_hex = fnv1a_hex(&format!("{}{model_json}", self.hash_hex));
+        let hash_hex = fnv1a_hex(format!("{}{model_json}", self.hash_hex));
         Ok(Scenario {
             model,
             hash_hex,

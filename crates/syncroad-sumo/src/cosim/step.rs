@@ -223,19 +223,8 @@ impl<'a, 'py> CoSim<'a, 'py> {
         }
         if let Some(c) = self.controller.as_deref_mut() {
             c.step(step as f64 * req.step_s, &self.v, &self.q, &mut self.next);
-            if let Some(error) = c.failure() {
-                return Ok(Some(StopReason::ControllerFailed {
-                    step,
-                    time_s: step as f64 * req.step_s,
-                    error,
-                }));
-            }
-            if let Some(reason) = c.stop_requested() {
-                return Ok(Some(StopReason::StoppedByController {
-                    step,
-                    time_s: step as f64 * req.step_s,
-                    why: reason,
-                }));
+            if let Some(end) = c.ended() {
+                return Ok(Some(end.at(step, step as f64 * req.step_s)));
             }
             match sanitize_commands(&mut self.next, &self.law_driven) {
                 Ok(clamped) => self.negative_commands_clamped += clamped,

@@ -82,28 +82,28 @@ fn moved(t: &Trajectory) -> f64 {
         .fold(0.0, f64::max)
 }
 
-#[test]
-fn the_python_delayed_driver_law_reproduces_the_built_in_law_natively() {
-    let built_in = native(&ring(60.0, None), &LawSpec::of(&ring(60.0, None)));
-    let sc = ring(60.0, Some(delayed_driver()));
+/// Natively, the built-in law `run` (`protocol` or a damper) on the 60 s ring against the
+/// Python `controller`: the built-in run moves, and the two agree to 1e-9 m/s.
+fn native_agrees(run: &str, controller: serde_json::Value) {
+    let plain = ring(60.0, None);
+    let drive = Drive::parse("--x", run, 22).unwrap();
+    let built_in = native(&plain, &LawSpec::of_drive(&plain, &drive).unwrap());
+    let sc = ring(60.0, Some(controller));
     let python = native(&sc, &LawSpec::of(&sc));
     assert_eq!(python.stop, StopReason::Horizon);
     assert!(moved(&built_in.trajectory) > 0.5);
     let w = worst(&built_in.trajectory, &python.trajectory);
-    assert!(w < 1e-9, "largest speed difference {w} m/s");
+    assert!(w < 1e-9, "{run}: largest speed difference {w} m/s");
+}
+
+#[test]
+fn the_python_delayed_driver_law_reproduces_the_built_in_law_natively() {
+    native_agrees("protocol", delayed_driver());
 }
 
 #[test]
 fn the_python_follower_stopper_reproduces_the_built_in_damper_natively() {
-    let plain = ring(60.0, None);
-    let drive = Drive::parse("--x", "follower-stopper-4.3", 22).unwrap();
-    let built_in = native(&plain, &LawSpec::of_drive(&plain, &drive).unwrap());
-    let sc = ring(60.0, Some(follower_stopper()));
-    let python = native(&sc, &LawSpec::of(&sc));
-    assert_eq!(python.stop, StopReason::Horizon);
-    assert!(moved(&built_in.trajectory) > 0.5);
-    let w = worst(&built_in.trajectory, &python.trajectory);
-    assert!(w < 1e-9, "largest speed difference {w} m/s");
+    native_agrees("follower-stopper-4.3", follower_stopper());
 }
 
 #[test]

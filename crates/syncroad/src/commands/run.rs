@@ -195,10 +195,8 @@ fn run_native(sc: &Scenario, path: &Path, out: &OutputArgs) -> anyhow::Result<St
     };
     let output = pipeline::native_with(sc, opts);
     progress.finish();
-    if let (true, StopReason::Failed { error }) = (output.trajectory.is_empty(), &output.stop) {
-        // The law could not be built (the user's controller): no run to judge, no record.
-        anyhow::bail!("nothing was run: {error}");
-    }
+    // The law could not be built (the user's controller): no run to judge, no record.
+    let output = output.context("nothing was run")?;
     let f = Finished::new(sc, "law", output, cfg.eval);
     let complete = f.output.stop.is_complete();
     // The summary is printed even when a file cannot be written (a full disk).

@@ -21,6 +21,7 @@
 
 use std::path::Path;
 
+use anyhow::Context;
 use serde_json::Value;
 use syncroad_control::EvalOptions;
 
@@ -56,7 +57,7 @@ pub fn fresh_metrics(base: &Baseline, baseline_path: &Path) -> anyhow::Result<Va
         let f = Finished::new(
             &sc,
             "law",
-            pipeline::native(&sc, every),
+            pipeline::native(&sc, every).context("nothing was run")?,
             EvalOptions::of(&sc),
         );
         return Ok(f.record.to_json());
