@@ -9,8 +9,8 @@
 use std::process::ExitCode;
 
 use syncroad::{Backend, Run};
-use syncroad_control::registry::{self, RustLawEntry};
-use syncroad_control::user_law::LawContext;
+use syncroad_control::registry;
+use syncroad_control::speed_controller::{LawContext, LawEntry, Road};
 use syncroad_control::{Scenario, SpeedController};
 
 struct Follow {
@@ -38,9 +38,10 @@ fn follow(_: &LawContext, params: &serde_json::Value) -> Result<Box<dyn SpeedCon
 
 fn main() -> anyhow::Result<ExitCode> {
     // First thing: the laws, then the worker (SUMO runs start this program again as one).
-    registry::register(RustLawEntry {
-        name: "follow",
-        build: follow,
+    registry::register(LawEntry {
+        summary: "each driver closes a fraction gain of the speed difference to the one ahead",
+        road: Road::Ring,
+        ..LawEntry::new("follow", follow)
     })?;
     if syncroad_sumo::is_worker_invocation() {
         return Ok(syncroad_sumo::worker_main());

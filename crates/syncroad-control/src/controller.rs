@@ -14,14 +14,14 @@
 use serde::{Deserialize, Serialize};
 
 use crate::cacc::{CaccLaw, PlatoonView, PowertrainLag};
-use crate::damper::{DamperController, DamperError, DamperSetup};
 use crate::delayed_driver::{DelayedDriverLaw, LawError};
 use crate::drive::{Drive, SumoDriver};
 use crate::noisy_idm::{HumanController, HumanSetup};
+use crate::registry::NamedLaw;
 use crate::scenario::{LeaderProfile, Model, Scenario};
 use crate::sensed::Neighbors;
 use crate::speed_controller::LawContext;
-use crate::user_law::{PythonLaw, UserLaw, UserSetup};
+use crate::user_law::{PythonLaw, UserLaw};
 
 pub use crate::speed_controller::SpeedController;
 
@@ -37,9 +37,14 @@ pub enum ControllerError {
     /// Stochastic humans follow a predecessor around a ring.
     #[error("the stochastic human drivers (noisy IDM) drive on a ring (each vehicle follows its predecessor); this road is straight")]
     HumansNeedRing,
-    /// A wave damper rejected its setup.
-    #[error(transparent)]
-    Damper(#[from] DamperError),
+    /// A law of the registry the run names (a wave damper) could not be built.
+    #[error("{law}: {reason}")]
+    Named {
+        /// The law's name.
+        law: String,
+        /// What went wrong.
+        reason: String,
+    },
     /// A Python controller where nothing embeds Python to build it.
     #[error("controller.python = {python}: this caller cannot run Python controllers; run the scenario with the syncroad CLI, its Python package or a SUMO worker")]
     NoPythonHost {
@@ -76,51 +81,52 @@ pub struct LawSpec {
     pub step_s: f64,
     /// Initial speeds of the controlled vehicles \[m/s\] (the delay buffers' pre-history).
     pub initial_speed_mps: Vec<f64>,
-    /// A wave damper that drives the vehicles instead of the model's law (a ring resolved by
-    /// the backend); `None`: the model's law.
+    /// The vehicles on the road and the road itself as the backend resolved them: what a law
+    /// of the registry or the user's controller is built for.
+    pub context: LawContext,
+    /// A law of the registry ([`crate::registry`]: a wave damper) that drives the law's
+    /// vehicles instead of the model's law; `None`: the model's law, or the user's.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub damper: Option<DamperSetup>,
+    pub damper: Option<NamedLaw>,
     /// Stochastic humans computed by the bridge on some vehicles of a ring
     /// ([`crate::noisy_idm`]); `None`: none.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub humans: Option<HumanSetup>,
-    /// The user's own law in place of the model's ([`crate::user_law`]), resolved by the
-    /// backend; a damper, when named, drives instead.
+    /// The user's own law in place of the model's ([`crate::user_law`]); a damper, when
+    /// named, drives instead.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub user: Option<UserSetup>,
+    pub user: Option<UserLaw>,
 }
 
 impl LawSpec {
     /// The law of a validated scenario, on the native simulator.
     pub fn of(scenario: &Scenario) -> Self {
         let leader = crate::road::leader_start(scenario).is_some();
-        let user = scenario.controller().map(|law| {
-            let mut ids: Vec<String> = leader.then(|| "leader".to_string()).into_iter().collect();
-            ids.extend((0..scenario.vehicles()).map(|i| format!("v{i}")));
-            // The leader vehicle is placed as if it were as long as vehicle 0.
-            let mut length_m: Vec<f64> = Vec::new();
-            if leader {
-                length_m.push(scenario.length_m()[0]);
-            }
-            length_m.extend_from_slice(scenario.length_m());
-            UserSetup {
-                law: law.clone(),
-                context: LawContext {
-                    step_s: scenario.step_s(),
-                    controlled: vec![true; ids.len()],
-                    ids,
-                    length_m,
-                    ring_length_m: scenario.ring_length_m(),
-                },
-            }
-        });
+        let mut ids: Vec<String> = leader.then(|| "leader".to_string()).into_iter().collect();
+        ids.extend((0..scenario.vehicles()).map(|i| format!("v{i}")));
+        // The leader vehicle is placed as if it were as long as vehicle 0.
+        let mut length_m: Vec<f64> = Vec::new();
+        if leader {
+            length_m.push(scenario.length_m()[0]);
+        }
+        length_m.extend_from_slice(scenario.length_m());
+        let vt = scenario.sumo().vehicle_type();
         Self {
             model: scenario.model().clone(),
             step_s: scenario.step_s(),
             initial_speed_mps: scenario.initial_speed_mps().to_vec(),
+            context: LawContext {
+                step_s: scenario.step_s(),
+                controlled: vec![true; ids.len()],
+                ids,
+                length_m,
+                ring_length_m: scenario.ring_length_m(),
+                accel_mps2: vt.accel_mps2,
+                decel_mps2: vt.decel_mps2,
+            },
             damper: None,
             humans: None,
-            user,
+            user: scenario.controller().cloned(),
         }
     }
 
@@ -145,18 +151,9 @@ impl LawSpec {
                 Some(_) => return None,
             });
         }
-        let vt = sc.sumo().vehicle_type();
-        law.damper = drive.damper.map(|spec| DamperSetup {
-            spec,
-            ring_length_m: ring,
-            length_m: sc.length_m().to_vec(),
-            accel_mps2: vt.accel_mps2,
-            decel_mps2: vt.decel_mps2,
-        });
-        if let Some(u) = law.user.as_mut() {
-            for (c, h) in u.context.controlled.iter_mut().zip(&humans) {
-                *c = h.is_none();
-            }
+        law.damper = drive.damper.clone();
+        for (c, h) in law.context.controlled.iter_mut().zip(&humans) {
+            *c = h.is_none();
         }
         if humans.iter().any(Option::is_some) {
             law.humans = Some(HumanSetup {
@@ -274,26 +271,21 @@ fn law_controller(
 ) -> Result<Box<dyn SpeedController>, ControllerError> {
     let n = law.initial_speed_mps.len();
     if let Some(d) = &law.damper {
-        d.spec.require_ring(!leader_vehicle, "this road")?;
-        return Ok(Box::new(DamperController::new(d, law.step_s)?));
+        return d.build(&law.context).map_err(|reason| ControllerError::Named {
+            law: d.to_string(),
+            reason,
+        });
     }
     if let Some(u) = &law.user {
-        return match (&u.law, host) {
-            (UserLaw::Python(p), Some(h)) => h.python(p, &u.context),
+        return match (u, host) {
+            (UserLaw::Python(p), Some(h)) => h.python(p, &law.context),
             (UserLaw::Python(p), None) => Err(ControllerError::NoPythonHost {
                 python: p.python.clone(),
             }),
-            (UserLaw::Rust(r), _) => {
-                let entry =
-                    crate::registry::lookup(&r.name).map_err(|reason| ControllerError::Rust {
-                        name: r.name.clone(),
-                        reason,
-                    })?;
-                (entry.build)(&u.context, &r.params).map_err(|reason| ControllerError::Rust {
-                    name: r.name.clone(),
-                    reason,
-                })
-            }
+            (UserLaw::Rust(r), _) => r.build(&law.context).map_err(|reason| ControllerError::Rust {
+                name: r.name.clone(),
+                reason,
+            }),
         };
     }
     match &law.model {

@@ -22,8 +22,56 @@
 
 use std::collections::VecDeque;
 
+use crate::damper::{FleetLaw, RingFleet};
 use crate::follower_stopper::FollowerStopperParams;
 use crate::pi_saturation::PiSaturationParams;
+use crate::speed_controller::{law_params, LawContext, LawEntry, Road, SpeedController};
+
+/// Flow's FollowerStopper in [`crate::registry`]: `flow-follower-stopper-U`, parameters as
+/// [`crate::follower_stopper::ENTRY`]'s.
+pub const FOLLOWER_STOPPER_ENTRY: LawEntry = LawEntry {
+    name: "flow-follower-stopper",
+    summary: "Flow's master FollowerStopper (its third band, unclipped acceleration, safe_velocity failsafe)",
+    build: |c, p| {
+        let params: FollowerStopperParams = law_params(p)?;
+        params.validate().map_err(|e| e.to_string())?;
+        fleet(c, FlowFollowerStopper::new(params, c.step_s))
+    },
+    ..crate::follower_stopper::ENTRY
+};
+
+/// Flow's PISaturation in [`crate::registry`]: `flow-pi-saturation`, parameters as
+/// [`crate::pi_saturation::ENTRY`]'s.
+pub const PI_SATURATION_ENTRY: LawEntry = LawEntry {
+    name: "flow-pi-saturation",
+    summary: "Flow's master PISaturation (its history window, v_cmd from 0, acceleration bounded above only)",
+    road: Road::Ring,
+    build: |c, p| {
+        let params: PiSaturationParams = law_params(p)?;
+        params.validate().map_err(|e| e.to_string())?;
+        let n = c.ids.len();
+        fleet(c, FlowPiSaturation::new(params, n, c.step_s, c.accel_mps2))
+    },
+    ..crate::pi_saturation::ENTRY
+};
+
+fn fleet<F: FleetLaw + 'static>(c: &LawContext, f: F) -> Result<Box<dyn SpeedController>, String> {
+    Ok(Box::new(RingFleet::new(c, f)))
+}
+
+impl FleetLaw for FlowFollowerStopper {
+    fn step_fleet(&mut self, v: &[f64], gaps: &[f64], lead: &[f64], out: &mut [f64]) -> bool {
+        self.step(v, gaps, lead, out);
+        true
+    }
+}
+
+impl FleetLaw for FlowPiSaturation {
+    fn step_fleet(&mut self, v: &[f64], gaps: &[f64], lead: &[f64], out: &mut [f64]) -> bool {
+        self.step(v, gaps, lead, out);
+        true
+    }
+}
 
 /// Flow's FollowerStopper acceleration before its failsafe \[m/s²\].
 pub fn flow_follower_stopper_accel(

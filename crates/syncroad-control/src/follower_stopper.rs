@@ -38,7 +38,38 @@
 //! D. B. Work, "Dissipation of stop-and-go waves via control of autonomous vehicles: Field
 //! experiments", Transp. Res. C 89 (2018) 205–221, arXiv:1705.01693: the FollowerStopper.
 
+use serde::Deserialize;
+
 use crate::actuation::{check_step, mismatched_slice, AccelLimits, ActuationError};
+use crate::damper::{FleetLaw, RingFleet};
+use crate::speed_controller::{law_params, LawContext, LawEntry, Road, SpeedController};
+
+/// The law's entry in [`crate::registry`]: `follower-stopper-U`, or
+/// `{"desired_speed_mps": U, "dx0_m": [..], "decel_mps2": [..]}` (the bands default to the
+/// field experiment's).
+pub const ENTRY: LawEntry = LawEntry {
+    name: "follower-stopper",
+    summary: "FollowerStopper of Stern et al. (2018): desired speed U, the field experiment's bands",
+    road: Road::Ring,
+    shorthand: Some("desired_speed_mps"),
+    check: |p| {
+        let p: FollowerStopperParams = law_params(p)?;
+        p.validate().map_err(|e| e.to_string())
+    },
+    build,
+};
+
+fn build(c: &LawContext, p: &serde_json::Value) -> Result<Box<dyn SpeedController>, String> {
+    let fleet = FollowerStopper::new(law_params(p)?, c.ids.len(), c.step_s, c.limits())
+        .map_err(|e| e.to_string())?;
+    Ok(Box::new(RingFleet::new(c, fleet)))
+}
+
+impl FleetLaw for FollowerStopper {
+    fn step_fleet(&mut self, v: &[f64], gaps: &[f64], lead: &[f64], out: &mut [f64]) -> bool {
+        self.step(v, gaps, lead, out).is_ok()
+    }
+}
 
 /// Errors of the FollowerStopper: a bad parameter (named, with its value and the valid range)
 /// or inputs of the wrong length.
@@ -69,15 +100,27 @@ pub enum FollowerStopperError {
     Actuation(#[from] ActuationError),
 }
 
-/// Parameters of the FollowerStopper.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Parameters of the FollowerStopper (as a law's `params`, the bands default to the field
+/// experiment's).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct FollowerStopperParams {
     /// Desired speed U \[m/s\] (chosen per experiment in Stern et al.; Flow's default is 15).
     pub desired_speed_mps: f64,
     /// Band intercepts Δx⁰_1, Δx⁰_2, Δx⁰_3 \[m\], strictly increasing.
+    #[serde(default = "stern2018_dx0_m")]
     pub dx0_m: [f64; 3],
     /// Deceleration rates d_1 ≥ d_2 ≥ d_3 > 0 \[m/s²\] that widen the bands when closing in.
+    #[serde(default = "stern2018_decel_mps2")]
     pub decel_mps2: [f64; 3],
+}
+
+fn stern2018_dx0_m() -> [f64; 3] {
+    FollowerStopperParams::stern2018(0.0).dx0_m
+}
+
+fn stern2018_decel_mps2() -> [f64; 3] {
+    FollowerStopperParams::stern2018(0.0).decel_mps2
 }
 
 impl FollowerStopperParams {

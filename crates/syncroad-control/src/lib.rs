@@ -12,6 +12,8 @@
 //!   as references, with [`actuation`] turning their command velocity into the next speed,
 //!   and [`damper`] running them on a ring as a controller;
 //! * [`flow_dampers`] — the same two dampers as Flow's master code computes them;
+//! * [`registry`] — the one table of laws that drive in place of the model's: the dampers,
+//!   [`constant_speed`], and the laws a program registers; each is a [`LawEntry`];
 //! * [`theory`], [`ifp`], [`poly`] — the paper's sufficient conditions and the IFP index;
 //! * [`exact`] — exact stability: rightmost characteristic roots, critical gains, CACC modes
 //!   and string stability, to show how conservative the sufficient conditions are;
@@ -38,6 +40,7 @@ pub mod actuation;
 pub mod cacc;
 pub mod collisions;
 pub mod congestion;
+pub mod constant_speed;
 pub mod controller;
 pub mod damper;
 pub mod delayed_driver;
@@ -75,7 +78,7 @@ pub use actuation::{AccelLimits, ActuationError};
 pub use cacc::{CaccLaw, PlatoonView, PowertrainLag};
 pub use controller::LawHost;
 pub use controller::{controller_for, controller_for_in, LawSpec, SpeedController};
-pub use damper::{DamperError, DamperSetup, DamperSpec};
+pub use registry::{LawNameError, NamedLaw};
 pub use delayed_driver::DelayedDriverLaw;
 pub use drive::{CarFollowing, CfModel, SumoDriver};
 pub use follower_stopper::{
@@ -92,7 +95,7 @@ pub use pi_saturation::{
 pub use record::{RunRecord, SumoFacts};
 pub use scenario::{Scenario, ScenarioError, ScenarioFile};
 pub use speed_controller::ControllerEnd;
-pub use speed_controller::LawContext;
+pub use speed_controller::{LawContext, LawEntry};
 pub use stop::StopReason;
 pub use trajectory::Trajectory;
-pub use user_law::{PythonLaw, UserLaw, UserSetup};
+pub use user_law::{PythonLaw, UserLaw};

@@ -43,6 +43,34 @@
 //! proportional-integral controller with saturation.
 
 use crate::actuation::{check_step, mismatched_slice, AccelLimits, ActuationError};
+use crate::damper::{FleetLaw, RingFleet};
+use crate::speed_controller::{law_params, LawContext, LawEntry, Road, SpeedController};
+
+/// The law's entry in [`crate::registry`]: `pi-saturation`, or any of
+/// [`PiSaturationParams`]' fields as `params` (the others the field experiment's).
+pub const ENTRY: LawEntry = LawEntry {
+    name: "pi-saturation",
+    summary: "PI controller with saturation of Stern et al. (2018), the field experiment's parameters",
+    road: Road::Ring,
+    shorthand: None,
+    check: |p| {
+        let p: PiSaturationParams = law_params(p)?;
+        p.validate().map_err(|e| e.to_string())
+    },
+    build,
+};
+
+fn build(c: &LawContext, p: &serde_json::Value) -> Result<Box<dyn SpeedController>, String> {
+    let fleet = PiSaturation::new(law_params(p)?, c.ids.len(), c.step_s, c.limits())
+        .map_err(|e| e.to_string())?;
+    Ok(Box::new(RingFleet::new(c, fleet)))
+}
+
+impl FleetLaw for PiSaturation {
+    fn step_fleet(&mut self, v: &[f64], gaps: &[f64], lead: &[f64], out: &mut [f64]) -> bool {
+        self.step(v, gaps, lead, out).is_ok()
+    }
+}
 
 /// Errors of the PI controller with saturation.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -72,8 +100,10 @@ pub enum PiSaturationError {
     Actuation(#[from] ActuationError),
 }
 
-/// Parameters of the PI controller with saturation.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Parameters of the PI controller with saturation (as a law's `params`, each defaults to the
+/// field experiment's).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct PiSaturationParams {
     /// Averaging window of the vehicle's own speed, giving U \[s\] (38 s).
     pub window_s: f64,

@@ -1,5 +1,8 @@
-//! The seam every law drives through: one step of commanded speeds. The laws ([`crate::controller`])
-//! and the wave dampers ([`crate::damper`]) implement it; both backends step it.
+//! The seam every law drives through: one step of commanded speeds ([`SpeedController`]), what
+//! a law is built for ([`LawContext`]), and the one shape of a law's entry in the registry
+//! ([`LawEntry`]: its name, the road it needs, its parameters and how it is built). The
+//! built-in laws and the user's own are entries of the same table ([`crate::registry`]); both
+//! backends build and step them the same way.
 
 use serde::{Deserialize, Serialize};
 
@@ -74,4 +77,67 @@ pub struct LawContext {
     /// Which vehicles take the controller's commands (SUMO's drivers and the stochastic humans
     /// drive the others).
     pub controlled: Vec<bool>,
+    /// The vehicles' largest acceleration \[m/s²\] (their type's `accel`): the bound a law
+    /// that commands a velocity tracks it within.
+    pub accel_mps2: f64,
+    /// The vehicles' largest deceleration \[m/s²\] (their type's `decel`).
+    pub decel_mps2: f64,
+}
+
+/// The road a law needs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Road {
+    /// Any road.
+    Any,
+    /// A ring: each vehicle follows its predecessor, vehicle 0 the last one a lap ahead.
+    Ring,
+}
+
+/// Builds a law for a run from its parameters; an `Err` says what is wrong with them.
+pub type BuildLaw = fn(&LawContext, &serde_json::Value) -> Result<Box<dyn SpeedController>, String>;
+
+/// Checks a law's parameters before anything runs; an `Err` says what is wrong with them.
+pub type CheckParams = fn(&serde_json::Value) -> Result<(), String>;
+
+/// One law of the registry: everything a scenario, a command and both backends need of it.
+#[derive(Debug, Clone, Copy)]
+pub struct LawEntry {
+    /// Its name in scenarios, tables and folders: letters, digits, `-` and `_`.
+    pub name: &'static str,
+    /// One line on what it is and where it comes from (`syncroad laws` lists it).
+    pub summary: &'static str,
+    /// The road it drives on (checked before a run starts).
+    pub road: Road,
+    /// A parameter that may be written after the name (`follower-stopper-4.3` for
+    /// `{"desired_speed_mps": 4.3}`); the law's name in tables then carries it.
+    pub shorthand: Option<&'static str>,
+    /// Checks its parameters (called when a scenario or command names it).
+    pub check: CheckParams,
+    /// Builds it for a run.
+    pub build: BuildLaw,
+}
+
+impl LawEntry {
+    /// An entry that drives any road, checks its parameters when it is built, and has no
+    /// shorthand: what a user's own law needs (`LawEntry::new("mine", build)`).
+    pub const fn new(name: &'static str, build: BuildLaw) -> Self {
+        Self {
+            name,
+            summary: "",
+            road: Road::Any,
+            shorthand: None,
+            check: accept_any,
+            build,
+        }
+    }
+}
+
+fn accept_any(_: &serde_json::Value) -> Result<(), String> {
+    Ok(())
+}
+
+/// A law's parameters as its own type (a struct with `#[serde(deny_unknown_fields)]`), with
+/// an error naming what is wrong.
+pub fn law_params<T: serde::de::DeserializeOwned>(params: &serde_json::Value) -> Result<T, String> {
+    T::deserialize(params).map_err(|e| format!("params {params}: {e}"))
 }

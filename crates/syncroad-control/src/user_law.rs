@@ -12,7 +12,7 @@
 //!
 //! The controller drives the vehicles the scenario's law would drive: all of them, or the
 //! automated ones of a `mixed` block whose controller is `law`. This crate holds it as data
-//! ([`UserLaw`], resolved per run into a [`UserSetup`]); the crates that embed Python
+//! ([`UserLaw`], built per run for the [`LawContext`] its backend resolved); the crates that embed Python
 //! build the [`SpeedController`](crate::SpeedController) through a [`LawHost`](crate::LawHost) — the SUMO
 //! worker inside its loop, the CLI in its own process for the native simulator.
 
@@ -21,6 +21,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::fingerprint::fnv1a_hex;
+use crate::registry::NamedLaw;
 
 pub use crate::speed_controller::LawContext;
 
@@ -88,31 +89,25 @@ impl PythonLaw {
     }
 }
 
-/// A Rust law of the running program's registry, named in the scenario.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct RustLaw {
-    /// Its registered name.
-    pub name: String,
-    /// Its parameters (a JSON object; empty when none).
-    pub params: serde_json::Value,
-}
-
 /// The user's own law of a scenario.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum UserLaw {
     /// A Python class.
     Python(PythonLaw),
-    /// A registered Rust law.
-    Rust(RustLaw),
+    /// A law of the registry ([`crate::registry`]): one the program registered, or a
+    /// built-in one.
+    Rust(NamedLaw),
 }
 
 impl UserLaw {
-    /// The driver's name in tables, folders and labels: `python:Class` or `rust:name`.
+    /// The driver's name in tables, folders and labels: `python:Class`, `rust:name`, or a
+    /// built-in law's own name (`follower-stopper-4.3`).
     pub fn label(&self) -> String {
         match self {
             UserLaw::Python(p) => p.label(),
-            UserLaw::Rust(r) => format!("rust:{}", r.name),
+            UserLaw::Rust(r) if r.is_built_in() => r.to_string(),
+            UserLaw::Rust(r) => format!("rust:{r}"),
         }
     }
 
@@ -193,10 +188,15 @@ impl ControllerSpec {
                 }
                 crate::registry::lookup(name)
                     .map_err(|expected| spec_error("controller.rust", name, expected))?;
-                Ok(UserLaw::Rust(RustLaw {
+                let law = NamedLaw {
                     name: name.clone(),
                     params,
-                }))
+                };
+                (law.entry().map_err(|e| spec_error("controller.rust", name, e))?.check)(
+                    &law.params,
+                )
+                .map_err(|e| spec_error("controller.params", &law.params, e))?;
+                Ok(UserLaw::Rust(law))
             }
             (Some(_), Some(_)) => Err(spec_error(
                 "controller",
@@ -322,15 +322,6 @@ fn read_file(
             format!("cannot read {}: {e}", path.display()),
         )
     })
-}
-
-/// The user's law resolved for one run by its backend.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct UserSetup {
-    /// The law.
-    pub law: UserLaw,
-    /// The run it drives.
-    pub context: LawContext,
 }
 
 #[cfg(test)]

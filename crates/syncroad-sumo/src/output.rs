@@ -74,7 +74,7 @@ impl SumoRun {
         let start = self.worker.start.as_ref();
         // Law-commanded vehicles are labelled `law`, or with the damper that drives them.
         let damper = match &self.request.control {
-            Control::Law { law } => law.damper.as_ref().map(|d| d.spec.to_string()),
+            Control::Law { law } => law.damper.as_ref().map(|d| d.to_string()),
             _ => None,
         };
         let commanded = damper.unwrap_or_else(|| "law".to_string());

@@ -11,7 +11,7 @@ use std::time::Duration;
 
 use syncroad_control::road::{initial_positions, leader_start};
 use syncroad_control::scenario::Scenario;
-use syncroad_control::{DamperSetup, DamperSpec, HumanSetup, LawSpec, NoisyIdm};
+use syncroad_control::{HumanSetup, LawSpec, NamedLaw, NoisyIdm};
 
 use crate::layout::MIXED_SPEED_MODE;
 use crate::layout::{ring_layout, straight_layout, Layout};
@@ -72,7 +72,7 @@ pub struct RunOptions {
     pub measure: Option<MeasureOptions>,
     /// A wave damper drives the vehicles the law would drive (rings only); `None`: the
     /// scenario's law, or the damper its `mixed.controller` names.
-    pub damper: Option<DamperSpec>,
+    pub damper: Option<NamedLaw>,
 }
 
 /// What to measure in SUMO during a run.
@@ -256,8 +256,12 @@ fn prepare_with(
             scenario: scenario.name().to_string(),
         });
     }
-    if let Some(d) = damper {
-        d.require_ring(layout.road.ring, &format!("scenario {}", scenario.name()))?;
+    let user = match scenario.controller() {
+        Some(syncroad_control::UserLaw::Rust(r)) => Some(r),
+        _ => None,
+    };
+    for d in damper.iter().chain(user) {
+        d.require_road(layout.road.ring, &format!("scenario {}", scenario.name()))?;
     }
     let sumo_driven = layout
         .vehicles
@@ -510,7 +514,7 @@ fn measure_of(
 fn law_of(
     scenario: &Scenario,
     layout: &Layout,
-    damper: Option<DamperSpec>,
+    damper: Option<NamedLaw>,
     humans: Vec<Option<NoisyIdm>>,
 ) -> LawSpec {
     let mut law = LawSpec::of(scenario);
@@ -521,25 +525,19 @@ fn law_of(
             .map(|v| v.length_m)
             .collect::<Vec<_>>()
     };
-    law.damper = damper.map(|spec| DamperSetup {
-        spec,
-        ring_length_m: layout.road.length_m(),
-        length_m: lengths(),
-        accel_mps2: layout.vtype.accel_mps2,
-        decel_mps2: layout.vtype.decel_mps2,
-    });
-    if let Some(u) = law.user.as_mut() {
-        let c = &mut u.context;
-        c.ids = layout.vehicles.iter().map(|v| v.id.clone()).collect();
-        c.length_m = lengths();
-        c.ring_length_m = layout.road.ring.then(|| layout.road.length_m());
-        c.controlled = layout
-            .vehicles
-            .iter()
-            .zip(&humans)
-            .map(|(v, h)| v.driver.is_none() && h.is_none())
-            .collect();
-    }
+    law.damper = damper;
+    let c = &mut law.context;
+    c.ids = layout.vehicles.iter().map(|v| v.id.clone()).collect();
+    c.length_m = lengths();
+    c.ring_length_m = layout.road.ring.then(|| layout.road.length_m());
+    c.controlled = layout
+        .vehicles
+        .iter()
+        .zip(&humans)
+        .map(|(v, h)| v.driver.is_none() && h.is_none())
+        .collect();
+    c.accel_mps2 = layout.vtype.accel_mps2;
+    c.decel_mps2 = layout.vtype.decel_mps2;
     if humans.iter().any(Option::is_some) {
         law.humans = Some(HumanSetup {
             drivers: humans,
@@ -557,10 +555,10 @@ fn law_of(
 pub fn drivers_of(
     scenario: &Scenario,
     opts: &RunOptions,
-) -> Result<(Vec<Option<SumoDriver>>, Option<DamperSpec>), PrepareError> {
+) -> Result<(Vec<Option<SumoDriver>>, Option<NamedLaw>), PrepareError> {
     let mixed = scenario.mixed().filter(|_| opts.drivers.is_empty());
     let Some(m) = mixed else {
-        return Ok((opts.drivers.clone(), opts.damper));
+        return Ok((opts.drivers.clone(), opts.damper.clone()));
     };
     let human = SumoDriver::parse("mixed.human", &m.human)?;
     let mut drivers = vec![Some(human); scenario.vehicles()];
@@ -568,7 +566,7 @@ pub fn drivers_of(
         drivers[i] = None;
     }
     // Validated with the scenario: the name parses.
-    let damper = opts.damper.or(m.damper().ok().flatten());
+    let damper = opts.damper.clone().or(m.damper().ok().flatten());
     Ok((drivers, damper))
 }
 

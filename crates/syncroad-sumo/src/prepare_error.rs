@@ -108,9 +108,9 @@ pub enum PrepareError {
         /// The scenario's length \[m\].
         length_m: f64,
     },
-    /// The wave dampers follow a predecessor around a ring.
+    /// A law of the registry (a wave damper) needs a ring.
     #[error(transparent)]
-    DamperNeedsRing(#[from] syncroad_control::DamperError),
+    DamperNeedsRing(#[from] syncroad_control::LawNameError),
     /// Stochastic humans follow a predecessor around a ring.
     #[error("the stochastic human drivers (human-noisy, flow-idm-noise, noisy-idm:...) drive on a ring (each vehicle follows its predecessor); scenario {scenario} is a straight road")]
     HumansNeedRing {

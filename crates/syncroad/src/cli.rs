@@ -149,6 +149,10 @@ pub enum Command {
     /// Prints the JSON Schema of `metrics.json`, derived from the record's type (the
     /// published `docs/metrics.schema.json` is this output).
     Schema,
+    /// The laws that can drive in place of the scenario's model law, one line each: the wave
+    /// dampers and the other built-in laws (as `--baselines`, `mixed.controller` and
+    /// `"controller": {"rust": NAME}` name them), the road each needs, its shorthand.
+    Laws,
     /// The IFP index α = −inf_ω Re W(iω) of an agent W(λ) = η(λ)/(λ ρ(λ)) (Lemma lem.linear-pass),
     /// e.g. the CACC agent τ y''' + y'' + μ y' = u is `--eta 1 --rho MU,1,TAU`.
     Ifp {
@@ -262,7 +266,8 @@ pub struct CompareArgs {
     /// computed by syncroad human-noisy and flow-idm-noise (noisy IDM, e.g.
     /// human-noisy:noise=0.1), and the wave dampers of Stern et al. (2018) on every vehicle:
     /// follower-stopper-U (desired speed U in m/s, e.g. follower-stopper-4.3) and
-    /// pi-saturation (flow-follower-stopper-U, flow-pi-saturation: Flow's code). Default:
+    /// pi-saturation (flow-follower-stopper-U, flow-pi-saturation: Flow's code), and every
+    /// other law of `syncroad laws` (e.g. constant-speed-U). Default:
     /// protocol,krauss,krauss-0.9,idm on rings; protocol,krauss,idm,acc,cacc on straight roads.
     #[arg(long)]
     pub baselines: Option<String>,

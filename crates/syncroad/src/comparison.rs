@@ -119,7 +119,7 @@ fn baseline_runs(sc: &Scenario, a: &Request) -> anyhow::Result<Vec<Drive>> {
             spec.name = c.label();
         }
         if let Some(d) = &spec.damper {
-            d.require_ring(sc.is_ring(), &format!("scenario {}", sc.name()))
+            d.require_road(sc.is_ring(), &format!("scenario {}", sc.name()))
                 .map_err(|e| InputError::caused("--baselines", e))?;
         }
         if runs.iter().any(|r| r.name == spec.name) {
@@ -150,7 +150,7 @@ fn mixed_runs(sc: &Scenario, a: &Request) -> anyhow::Result<MixedRuns> {
             )));
         }
         for d in controllers.iter().flatten() {
-            d.require_ring(sc.is_ring(), &format!("scenario {}", sc.name()))
+            d.require_road(sc.is_ring(), &format!("scenario {}", sc.name()))
                 .map_err(|e| InputError::caused(format!("--mixed = {m}"), e))?;
         }
         let human = SumoDriver::parse("--mixed-driver", &a.mixed_driver)

@@ -24,7 +24,8 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use syncroad_control::scenario::Backend;
-use syncroad_control::user_law::{RustLaw, UserLaw};
+use syncroad_control::user_law::UserLaw;
+use syncroad_control::NamedLaw;
 use syncroad_control::{EvalOptions, NativeOptions, Scenario};
 use syncroad_sumo::{load_road, RunOptions, WorkerCommand};
 
@@ -52,18 +53,20 @@ impl Run {
         }
     }
 
-    /// Drives the vehicles the scenario's law would drive with the Rust law this program
-    /// registered as `name`, built with `params` (a JSON object).
+    /// Drives the vehicles the scenario's law would drive with the law of the registry named
+    /// `name` (one this program registered, or a built-in one), built with `params` (a JSON
+    /// object).
     pub fn law(mut self, name: &str, params: serde_json::Value) -> anyhow::Result<Self> {
-        syncroad_control::registry::lookup(name)
-            .map_err(|why| anyhow::anyhow!("Run::law({name}): {why}"))?;
         if !params.is_object() {
             anyhow::bail!("Run::law({name}): params = {params}: must be a JSON object");
         }
-        self.scenario = self.scenario.with_controller(UserLaw::Rust(RustLaw {
+        let law = NamedLaw {
             name: name.to_string(),
             params,
-        }));
+        };
+        law.check(&format!("Run::law({name})"))?;
+        law.require_road(self.scenario.is_ring(), &format!("scenario {}", self.scenario.name()))?;
+        self.scenario = self.scenario.with_controller(UserLaw::Rust(law));
         Ok(self)
     }
 

@@ -113,7 +113,7 @@ impl RunPlan {
         o.interrupt = interrupt;
         o.read = self.read;
         o.drivers = self.drive.drivers.clone();
-        o.damper = self.drive.damper;
+        o.damper = self.drive.damper.clone();
         o.measure = self.measure.map(|m| MeasureOptions {
             warmup_s: self.eval.warmup_s,
             emission_every: m.emission_every,

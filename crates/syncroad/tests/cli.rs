@@ -612,6 +612,51 @@ fn a_rust_program_runs_its_own_law_on_both_backends() {
     );
 }
 
+/// A built-in law of the registry named in the scenario's `controller` block drives the ring
+/// on both backends, and its speeds follow the closed form of a target tracked within the
+/// vehicle type's bounds: `v(t) = max(v₀ − b t, U)` from above and `min(v₀ + a t, U)` from
+/// below (SUMO's defaults a = 2.6, b = 4.5 m/s²), to rounding.
+#[test]
+fn a_built_in_law_named_in_the_scenario_follows_its_closed_form_on_both_backends() {
+    let dir = tmpdir("constant-speed");
+    let mut sc: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(repo().join("scenarios/sugiyama-ring.json")).unwrap(),
+    )
+    .unwrap();
+    sc["horizon_s"] = serde_json::json!(20);
+    sc["sumo"]["net"] = serde_json::json!(repo().join("sumo-nets/sugiyama-ring.net.xml"));
+    sc["controller"] = serde_json::json!({"rust": "constant-speed", "params": {"target_speed_mps": 8.0}});
+    let path = dir.join("sc.json");
+    std::fs::write(&path, sc.to_string()).unwrap();
+    for command in ["simulate", "run"] {
+        let out = dir.join(command);
+        let (code, stdout, err) = run(bin().arg(command).arg(&path).arg("--out").arg(&out));
+        assert!(code == 0 || code == 1, "{command}: {stdout}{err}");
+        let m: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap())
+                .unwrap();
+        assert_eq!(m["drivers"][0], "constant-speed-8", "{command}");
+        let csv = std::fs::read_to_string(out.join("trajectories.csv")).unwrap();
+        let mut v0 = std::collections::BTreeMap::new();
+        let mut worst: f64 = 0.0;
+        let mut moved: f64 = 0.0;
+        for line in csv.lines().skip(1) {
+            let f: Vec<f64> = line.split(',').take(3).map(|x| x.parse().unwrap()).collect();
+            let (t, i, v) = (f[0], f[1] as usize, f[2]);
+            let start = *v0.entry(i).or_insert(v);
+            let expected = if start > 8.0 {
+                (start - 4.5 * t).max(8.0)
+            } else {
+                (start + 2.6 * t).min(8.0)
+            };
+            worst = worst.max((v - expected).abs());
+            moved = moved.max((v - start).abs());
+        }
+        assert!(moved > 1.0, "{command}: the speeds hardly moved ({moved} m/s)");
+        assert!(worst < 1e-9, "{command}: largest departure from the closed form {worst} m/s");
+    }
+}
+
 /// A scenario naming a Rust law the CLI does not have says where Rust laws come from.
 #[test]
 fn a_rust_law_the_program_did_not_register_is_refused_naming_the_field() {
@@ -630,7 +675,8 @@ fn a_rust_law_the_program_did_not_register_is_refused_naming_the_field() {
         .arg(dir.join("out")));
     assert_eq!(code, 2, "{err}");
     assert!(
-        err.contains("controller.rust = follow: this program registered no Rust laws"),
+        err.contains("controller.rust = follow: no law of that name; valid: follower-stopper-X")
+            && err.contains("runs from the program that registers it"),
         "{err}"
     );
 }

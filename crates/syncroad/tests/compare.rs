@@ -246,12 +246,12 @@ fn bad_compare_input_is_refused_before_sumo_starts() {
         (
             &["--baselines", "follower-stopper-4"],
             repo().join("scenarios/platoon-cacc-sumo.json"),
-            "--baselines: follower-stopper-4: the wave dampers drive on a ring (each vehicle follows its predecessor); scenario platoon-cacc-sumo is a straight road",
+            "--baselines: follower-stopper-4: this law drives on a ring (each vehicle follows its predecessor); scenario platoon-cacc-sumo is a straight road",
         ),
         (
             &["--mixed", "1", "--mixed-controller", "pi-saturation"],
             repo().join("scenarios/platoon-cacc-sumo.json"),
-            "--mixed = 1: pi-saturation: the wave dampers drive on a ring (each vehicle follows its predecessor); scenario platoon-cacc-sumo is a straight road",
+            "--mixed = 1: pi-saturation: this law drives on a ring (each vehicle follows its predecessor); scenario platoon-cacc-sumo is a straight road",
         ),
     ];
     for (args, sc, msg) in cases {

@@ -5,7 +5,7 @@
 
 use super::placement::Placement;
 use super::sumo_driver::{DriverError, SumoDriver};
-use crate::damper::{DamperError, DamperSpec};
+use crate::registry::{LawNameError, NamedLaw};
 
 /// What drives the automated vehicles of mixed runs unless named (`compare
 /// --mixed-controller`, a sweep's `mixed_controller`).
@@ -16,7 +16,7 @@ pub const DEFAULT_MIXED_CONTROLLER: &str = "law";
 pub enum DriveError {
     /// A damper name that does not parse.
     #[error(transparent)]
-    Damper(#[from] DamperError),
+    Law(#[from] LawNameError),
     /// A driver name that does not parse.
     #[error(transparent)]
     Driver(#[from] DriverError),
@@ -38,7 +38,7 @@ pub struct Drive {
     /// scenario says (its law, or its `mixed` ring).
     pub drivers: Vec<Option<SumoDriver>>,
     /// A wave damper in place of the law on the law's vehicles.
-    pub damper: Option<DamperSpec>,
+    pub damper: Option<NamedLaw>,
 }
 
 impl Drive {
@@ -70,21 +70,18 @@ impl Drive {
                 damper: None,
             });
         }
-        if [
-            "follower-stopper",
-            "pi-saturation",
-            "flow-follower-stopper",
-            "flow-pi-saturation",
-        ]
-        .iter()
-        .any(|p| low.starts_with(p))
-        {
-            let d = DamperSpec::parse(field, name)?.expect("a damper name");
-            return Ok(Self {
-                name: d.to_string(),
-                drivers: vec![None; n],
-                damper: Some(d),
-            });
+        // A law of the registry (a damper, a built-in law, the program's own) by its name;
+        // any other name is one of SUMO's drivers.
+        match NamedLaw::parse(field, name) {
+            Ok(Some(d)) => {
+                return Ok(Self {
+                    name: d.to_string(),
+                    drivers: vec![None; n],
+                    damper: Some(d),
+                })
+            }
+            Err(e @ LawNameError::Params { .. }) => return Err(e.into()),
+            Ok(None) | Err(_) => {}
         }
         let d = SumoDriver::parse(field, name)?;
         Ok(Self {
@@ -101,7 +98,7 @@ impl Drive {
         n: usize,
         k: usize,
         human: SumoDriver,
-        damper: Option<DamperSpec>,
+        damper: Option<NamedLaw>,
     ) -> Self {
         let mut drivers = vec![Some(human); n];
         for i in Placement::Even.automated(n, k, 0) {
@@ -119,6 +116,7 @@ impl Drive {
     pub fn labels(&self, n: usize) -> Vec<String> {
         let commanded = self
             .damper
+            .as_ref()
             .map_or_else(|| "law".to_string(), |d| d.to_string());
         if self.drivers.is_empty() {
             return vec![commanded; n];
@@ -133,15 +131,15 @@ impl Drive {
     }
 }
 
-/// The controllers of a mixed series by name: `law` or a damper ([`DamperSpec::parse`]), each
+/// The controllers of a mixed series by name: `law` or a damper ([`NamedLaw::parse`]), each
 /// once, at least one; `field` names where they were given.
 pub fn mixed_controllers<S: AsRef<str>>(
     field: &str,
     names: &[S],
-) -> Result<Vec<Option<DamperSpec>>, DriveError> {
+) -> Result<Vec<Option<NamedLaw>>, DriveError> {
     let mut out = Vec::new();
     for c in names.iter().map(|c| c.as_ref().trim()) {
-        let d = DamperSpec::parse(field, c)?;
+        let d = NamedLaw::parse(field, c)?;
         if out.contains(&d) {
             return Err(DriveError::Twice(c.to_string()));
         }
@@ -161,7 +159,7 @@ pub fn mixed_series(
     n: usize,
     k: usize,
     label: &str,
-    controllers: &[Option<DamperSpec>],
+    controllers: &[Option<NamedLaw>],
     human: &SumoDriver,
 ) -> Vec<Drive> {
     let with = if k == 0 {
@@ -175,7 +173,7 @@ pub fn mixed_series(
                 Some(d) if k > 0 => format!("{d}-mixed-{label}"),
                 _ => format!("mixed-{label}"),
             };
-            Drive::mixed(name, n, k, human.clone(), *d)
+            Drive::mixed(name, n, k, human.clone(), d.clone())
         })
         .collect()
 }
@@ -203,7 +201,7 @@ mod tests {
             let automated: Vec<usize> = (0..22).filter(|&i| r.drivers[i].is_none()).collect();
             assert_eq!(automated, [0, 11]);
         }
-        assert_eq!((runs[0].damper, runs[1].damper.is_some()), (None, true));
+        assert_eq!((runs[0].damper.is_none(), runs[1].damper.is_some()), (true, true));
         assert_eq!(
             mixed_controllers("mixed_controller", &["law", "law"]),
             Err(DriveError::Twice("law".into()))

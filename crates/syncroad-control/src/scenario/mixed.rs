@@ -16,7 +16,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::{invalid, ScenarioError};
-use crate::damper::{DamperError, DamperSpec};
+use crate::registry::NamedLaw;
 use crate::drive::placement::{automated_count, Placement};
 use crate::drive::sumo_driver::DEFAULT_HUMAN;
 
@@ -68,18 +68,10 @@ impl MixedSpec {
     }
 
     /// The damper of the automated vehicles, `None` for the scenario's law.
-    pub fn damper(&self) -> Result<Option<DamperSpec>, ScenarioError> {
+    pub fn damper(&self) -> Result<Option<NamedLaw>, ScenarioError> {
         let field = "mixed.controller";
-        DamperSpec::parse(field, &self.controller).map_err(|e| {
-            let why = match e {
-                DamperError::FollowerStopper { source, .. } => source.to_string(),
-                DamperError::PiSaturation { source, .. } => source.to_string(),
-                _ => "unknown controller; use law, follower-stopper-U (desired speed U in m/s, \
-                      e.g. follower-stopper-4.3) or pi-saturation"
-                    .into(),
-            };
-            invalid(field, &self.controller, why)
-        })
+        NamedLaw::parse(field, &self.controller)
+            .map_err(|e| invalid(field, &self.controller, e.why()))
     }
 
     /// The automated vehicles among `n`, ascending: `round(p n)` of them, placed by

@@ -3,7 +3,7 @@
 //! raises, blocks or prints is stopped or contained with every row before it kept.
 
 use super::*;
-use syncroad_control::damper::DamperSpec;
+use syncroad_control::NamedLaw;
 use syncroad_control::drive::Drive;
 use syncroad_control::{simulate_with, LawSpec, StopReason, Trajectory};
 use syncroad_sumo::PythonHost;
@@ -121,9 +121,7 @@ fn both_python_laws_reproduce_the_built_in_laws_in_sumo() {
     );
 
     let mut o = opts("py-fs-builtin");
-    o.damper = Some(DamperSpec::FollowerStopper {
-        desired_speed_mps: 4.3,
-    });
+    o.damper = NamedLaw::parse("damper", "follower-stopper-4.3").unwrap();
     let damper = run_scenario(&ring(40.0, None), &o).unwrap();
     let sc = ring(40.0, Some(follower_stopper()));
     let python = run_scenario(&sc, &opts("py-fs-python")).unwrap();

@@ -50,6 +50,10 @@ pub fn run(cli: Cli) -> anyhow::Result<Status> {
             );
             Ok(Status::Success)
         }
+        Command::Laws => {
+            crate::stdout::out!("{}", laws_table());
+            Ok(Status::Success)
+        }
         Command::Stability {
             scenario,
             json,
@@ -82,4 +86,30 @@ pub fn run(cli: Cli) -> anyhow::Result<Status> {
             },
         ),
     }
+}
+
+/// The registry as a table: name (with its shorthand), road, summary.
+fn laws_table() -> String {
+    use syncroad_control::speed_controller::Road;
+    let rows: Vec<(String, &str, &str)> = syncroad_control::registry::entries()
+        .iter()
+        .map(|e| {
+            let name = match e.shorthand {
+                Some(k) => format!("{}-X  (X = {k})", e.name),
+                None => e.name.to_string(),
+            };
+            let road = match e.road {
+                Road::Ring => "ring",
+                Road::Any => "any",
+            };
+            (name, road, e.summary)
+        })
+        .collect();
+    let w = rows.iter().map(|r| r.0.chars().count()).max().unwrap_or(0);
+    let mut out = format!("{:<w$}  {:<4}  what it is\n", "law", "road");
+    for (name, road, summary) in rows {
+        out.push_str(&format!("{name:<w$}  {road:<4}  {summary}\n"));
+    }
+    out.push_str("law (the scenario's model law) and SUMO's drivers (syncroad compare --help) drive too; your own laws: the guide's \"Your own controller\".");
+    out
 }
