@@ -13,6 +13,8 @@ import statistics
 import sys
 from collections import defaultdict
 
+from safety_mark import mark
+
 
 def num(x):
     return None if x in ("", "null", None) else float(x)
@@ -36,6 +38,6 @@ for run, rs in by.items():
     vmin = max(num(r["congestion.min_speed_mps"]) for r in rs)
     brakes = [num(r.get("congestion.braking_events")) for r in rs if num(r.get("congestion.braking_events")) is not None]
     coll = sum(int(num(r["safety.collision_steps"]) or 0) for r in rs)
-    print(f"| {run} | {len(jam)}/{len(rs)} | {spread(jam, lambda x: f'{x:.0f}')} | "
+    print(f"| {run}{mark(rs)} | {len(jam)}/{len(rs)} | {spread(jam, lambda x: f'{x:.0f}')} | "
           f"{spread(wave, lambda x: f'{x:.1f}')} | {vmin:.2f} | "
           f"{statistics.median(brakes) if brakes else '—'} | {coll} |")

@@ -9,6 +9,8 @@ import statistics
 import sys
 from collections import defaultdict
 
+from safety_mark import mark
+
 T975 = {9: 2.262, 19: 2.093}
 
 
@@ -31,8 +33,8 @@ for r in rows:
 pens = sorted({p for p, _ in by})
 ctls = ["law", "follower-stopper-4.3", "pi-saturation"]
 f = lambda rs, k: [float(r[k]) for r in rs]
-print("| penetration (of 22) | law: speed std [m/s] | law: collision steps | FollowerStopper: speed std | PI: speed std | law: fuel [g/km] | FollowerStopper: fuel | PI: fuel | min gap, law / FS / PI [m] |")
-print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+print("| penetration (of 22) | law: speed std [m/s] | law: collision steps | FollowerStopper: speed std | PI: speed std | law: fuel [g/km] | FollowerStopper: fuel | PI: fuel | min gap, law / FS / PI [m] | unsafe runs, law / FS / PI |")
+print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---|")
 for p in pens:
     get = (lambda c: by[(p, "all")]) if p == 0 else (lambda c: by[(p, c)])
     law, fs, pi = (get(c) for c in ctls)
@@ -42,4 +44,5 @@ for p in pens:
           f"{cell(f(fs, 'congestion.speed_std_mps'), 3)} | {cell(f(pi, 'congestion.speed_std_mps'), 3)} | "
           f"{cell(f(law, 'sumo.fuel_g_per_km'), 1)} | {cell(f(fs, 'sumo.fuel_g_per_km'), 1)} | "
           f"{cell(f(pi, 'sumo.fuel_g_per_km'), 1)} | "
-          f"{min(f(law, 'gap_safety.min_gap_m')):.2f} / {min(f(fs, 'gap_safety.min_gap_m')):.2f} / {min(f(pi, 'gap_safety.min_gap_m')):.2f} |")
+          f"{min(f(law, 'gap_safety.min_gap_m')):.2f} / {min(f(fs, 'gap_safety.min_gap_m')):.2f} / {min(f(pi, 'gap_safety.min_gap_m')):.2f} | "
+          f"{mark(law) or 'none'} / {mark(fs) or 'none'} / {mark(pi) or 'none'} |")

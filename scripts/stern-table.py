@@ -4,7 +4,8 @@
 Reads the results.csv of `syncroad sweep sweeps/stern-one-av.json` and prints, per controller,
 the mean change of each metric against the all-human run of the same seed (the humans draw the
 same noise streams in both, so the pairs share their randomness) with its 95 % Student-t
-interval over the seeds, in percent of the all-human value. Standard library only.
+interval over the seeds, in percent of the all-human value; a controller with unsafe runs
+is marked ⚠ UNSAFE k/n. Standard library only.
 
     python3 scripts/stern-table.py OUT/results.csv
 """
@@ -13,6 +14,8 @@ import math
 import statistics
 import sys
 from collections import defaultdict
+
+from safety_mark import mark
 
 METRICS = [
     ("congestion.speed_std_mps", "speed std"),
@@ -48,7 +51,7 @@ def main(path):
     base = by.pop("mixed-0", None)
     if base is None:
         sys.exit("no all-human run (mixed-0) in the table")
-    print(f"all-human ring ({len(base)} seeds): "
+    print(f"all-human ring ({len(base)} seeds){mark(list(base.values()))}: "
           + ", ".join(f"{label} {statistics.fmean(float(b[k]) for b in base.values()):.3f}"
                       for k, label in METRICS))
     print("| controller | " + " | ".join(f"Δ {label} [%]" for _, label in METRICS) + " |")
@@ -60,7 +63,7 @@ def main(path):
                  for s, r in seeds.items() if s in base and float(base[s][key]) != 0.0]
             m, h = mean_ci(d)
             cells.append(f"{m:+.1f} ± {h:.1f} (n={len(d)})")
-        print(f"| {run} | " + " | ".join(cells) + " |")
+        print(f"| {run}{mark(list(seeds.values()))} | " + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":

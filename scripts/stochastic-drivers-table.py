@@ -8,6 +8,8 @@ import statistics
 import sys
 from collections import defaultdict
 
+from safety_mark import mark
+
 
 def num(x):
     return None if x in ("", "null", None) else float(x)
@@ -25,6 +27,6 @@ for run, rs in by.items():
     vmin = [num(r["congestion.min_speed_mps"]) for r in rs]
     mean = statistics.fmean(num(r["congestion.mean_speed_mps"]) for r in rs)
     coll = sum(int(num(r["safety.collision_steps"]) or 0) for r in rs)
-    print(f"| `{run}` | {len(jam)}/{len(rs)} | {f'{min(jam):.0f}–{max(jam):.0f}' if jam else '—'} | "
+    print(f"| `{run}`{mark(rs)} | {len(jam)}/{len(rs)} | {f'{min(jam):.0f}–{max(jam):.0f}' if jam else '—'} | "
           f"{min(vmin):.2f}–{max(vmin):.2f} | {mean:.2f} | "
           f"{f'{min(wave):.1f} … {max(wave):.1f}' if wave else '—'} | {coll} |")

@@ -252,7 +252,13 @@ pub fn metrics_table(
             None => "does not apply (no sample)".to_string(),
         }
     );
-    let _ = writeln!(s, "verdict: {}", m.verdict);
+    let _ = writeln!(s, "  safety: {}", safety_word(record));
+    let mark = if record.safe == Some(false) {
+        ", UNSAFE"
+    } else {
+        ""
+    };
+    let _ = writeln!(s, "verdict: {}{mark}", m.verdict);
     if let Some(why) = &m.verdict_reason {
         // A synchronized verdict keeps its reasons as notes (nothing lowered it).
         let lead = if m.verdict == syncroad_control::Verdict::Synchronized {
@@ -263,6 +269,15 @@ pub fn metrics_table(
         let _ = writeln!(s, "  {lead} {why}");
     }
     s
+}
+
+/// The run's safety in a few words: `safe`, `UNSAFE (what)` or `not measured`.
+pub fn safety_word(record: &syncroad_control::record::RunRecord) -> String {
+    match record.safe {
+        Some(true) => "safe (no collision, overlap, teleport or emergency braking)".to_string(),
+        Some(false) => format!("UNSAFE ({})", record.unsafe_because.join("; ")),
+        None => "not measured (SUMO's counters never arrived)".to_string(),
+    }
 }
 
 /// Summary lines of the congestion metrics.

@@ -20,6 +20,7 @@ use crate::stop::StopReason;
 use crate::string_measured::StringAmplification;
 use crate::trajectory::Trajectory;
 
+pub mod safe;
 pub mod schema;
 
 pub use crate::sumo_facts::{Controlled, Measured, Safety, SumoFacts};
@@ -240,6 +241,17 @@ pub struct RunRecord {
     /// scenario); present only for such runs.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub controller: Option<ControllerRecord>,
+    /// Whether the run was safe: no collision, overlap, teleport, emergency braking or
+    /// reversing vehicle, on SUMO's counters, the native simulator's checks and the recorded
+    /// gaps (`record::safe`); `null` when nothing measured it (SUMO's counters never
+    /// arrived). An unsafe run is marked so in every table.
+    #[serde(default)]
+    #[schemars(title = "safe")]
+    pub safe: Option<bool>,
+    /// What made the run unsafe, one line each (empty when it was safe).
+    #[serde(default)]
+    #[schemars(title = "unsafe because")]
+    pub unsafe_because: Vec<String>,
 }
 
 /// The user's controller of a run, as the record names it.
@@ -317,6 +329,7 @@ impl RunRecord {
             && sc.controller().is_none()
             && law_controlled == sc.vehicles()
             && fixed_graph;
+        let unsafe_because = safe::unsafe_reasons(run, facts);
         Self {
             syncroad_version: env!("CARGO_PKG_VERSION").to_string(),
             platform: format!("{}-{}", std::env::consts::ARCH, std::env::consts::OS),
@@ -367,6 +380,8 @@ impl RunRecord {
             all_vehicles: facts.and_then(|f| f.all_vehicles.clone()),
             controlled: facts.and_then(|f| f.controlled.clone()),
             controller: sc.controller().map(ControllerRecord::of),
+            safe: unsafe_because.as_ref().map(Vec::is_empty),
+            unsafe_because: unsafe_because.unwrap_or_default(),
             string_amplification: crate::string_measured::measured(&run.trajectory),
             // The certificate is of the scenario's own gaps (none for a run without a sample,
             // like `certified`): a SUMO run that rescaled them by

@@ -65,6 +65,7 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<Status> {
         .values()
         .filter(|r| r.get("status").and_then(Value::as_str) == Some("failed"))
         .count();
+    let unsafe_line = unsafe_line(&rows);
     write_tables(&sweep, out, rows, !a.no_plots)?;
     let shard_text = if shard.count > 1 {
         format!(" (shard {}/{})", shard.index, shard.count)
@@ -75,6 +76,7 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<Status> {
         "sweep {}: {} points{shard_text}; ran {} ({} failed), {} finished before, {} not run (interrupted)",
         sweep.name, summary.points, summary.ran, summary.failed, summary.skipped, summary.interrupted
     );
+    outln!("{unsafe_line}");
     if summary.ran > 0 {
         let veh_s = sweep.base.vehicles() as f64 * sweep.base.horizon_s() * summary.ran as f64;
         outln!(
@@ -178,6 +180,19 @@ fn emit(
     Ok(Status::Success)
 }
 
+/// How many of the rows are of unsafe runs (`safe` = false): the line every sweep summary
+/// prints beside its failed points.
+fn unsafe_line(rows: &BTreeMap<usize, Map<String, Value>>) -> String {
+    let n = rows
+        .values()
+        .filter(|r| r.get("safe") == Some(&Value::Bool(false)))
+        .count();
+    format!(
+        "  unsafe: {n} of {} runs (collisions, overlaps, teleports or emergency braking: column safe = false)",
+        rows.len()
+    )
+}
+
 fn collect(
     spec: &Path,
     out: &Path,
@@ -228,6 +243,7 @@ fn collect(
         write_text(&path, &text)?;
     }
     let rows = merged.len();
+    let unsafe_line = unsafe_line(&merged);
     write_tables(&sweep, out, merged, plots)?;
     outln!(
         "collected {rows} of {} points from {} shard folders into {}/results.parquet and results.csv",
@@ -235,6 +251,7 @@ fn collect(
         shards.len(),
         out.display()
     );
+    outln!("{unsafe_line}");
     let mut ok = true;
     if !missing.is_empty() {
         ok = false;

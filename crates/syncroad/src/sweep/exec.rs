@@ -83,10 +83,11 @@ pub fn columns(sweep: &Sweep) -> Vec<Column> {
     c.push(Column::new("penetration", Kind::Float));
     c.push(Column::new("seed", Kind::Int));
     c.push(Column::new("status", Kind::Text));
+    c.push(Column::new("safe", Kind::Bool));
     c.push(Column::new("stop", Kind::Text));
     c.push(Column::new("error", Kind::Text));
     let kinds = metric_kinds();
-    for m in &sweep.metrics {
+    for m in sweep.metrics.iter().filter(|m| *m != "safe") {
         let k = kinds
             .iter()
             .find(|(p, _)| p == m)
@@ -118,6 +119,7 @@ fn row_of(sweep: &Sweep, p: &Point, record: &Value) -> Map<String, Value> {
         "stopped"
     };
     r.insert("status".into(), json!(status));
+    r.insert("safe".into(), record["safe"].clone());
     r.insert("stop".into(), json!(reason));
     r.insert("error".into(), record["error"].clone());
     for m in &sweep.metrics {

@@ -36,7 +36,7 @@ fn safety(r: &RunRecord, f: fn(&syncroad_control::sumo_facts::Safety) -> usize) 
     Cell::Count(r.safety.as_ref().map(f))
 }
 
-const ROWS: [Row; 20] = [
+const ROWS: [Row; 21] = [
     Row {
         path: "sync.verdict",
         decimals: 0,
@@ -46,6 +46,15 @@ const ROWS: [Row; 20] = [
                 Verdict::NotSynchronized => "not sync",
                 Verdict::Inconclusive => "inconclusive",
             })
+        },
+    },
+    Row {
+        path: "safe",
+        decimals: 0,
+        get: |r| match r.safe {
+            Some(true) => Cell::Text("yes"),
+            Some(false) => Cell::Text("UNSAFE"),
+            None => Cell::Absent,
         },
     },
     Row {
