@@ -68,7 +68,7 @@ mod tests {
         t.push(0.0, &v, &q, gaps, None);
         RunOutput {
             trajectory: t,
-            stop: StopReason::Completed,
+            stop: StopReason::Horizon,
             ring_length_m: None,
             sumo: None,
             spread: None,
