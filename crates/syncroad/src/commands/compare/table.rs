@@ -314,6 +314,8 @@ mod tests {
                         Value::Null => "—".to_string(),
                         Value::Number(x) if x.is_f64() => format!("{:.6}", x.as_f64().unwrap()),
                         Value::Number(x) => x.to_string(),
+                        // An unsafe run says so in capitals.
+                        Value::Bool(false) if row.path == "safe" => "UNSAFE".to_string(),
                         Value::Bool(b) => if *b { "yes" } else { "no" }.to_string(),
                         Value::String(v) => v.replace("not_synchronized", "not sync"),
                         other => other.to_string(),
