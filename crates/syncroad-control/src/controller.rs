@@ -18,6 +18,8 @@ use crate::delayed_driver::{DelayedDriverLaw, LawError};
 use crate::drive::{Drive, SumoDriver};
 use crate::noisy_idm::{HumanController, HumanSetup};
 use crate::registry::NamedLaw;
+use crate::road::RingView;
+use crate::safety::{FilterParams, SafetyFilter, SafetyMode, REACTION_S};
 use crate::scenario::{LeaderProfile, Model, Scenario};
 use crate::sensed::Neighbors;
 use crate::speed_controller::LawContext;
@@ -96,6 +98,10 @@ pub struct LawSpec {
     /// named, drives instead.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub user: Option<UserLaw>,
+    /// syncroad's safety filter under the law ([`crate::safety`], `"safety": "filter"`);
+    /// `None`: no filter (no layer, or SUMO's checks).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub safety: Option<FilterParams>,
 }
 
 impl LawSpec {
@@ -127,6 +133,7 @@ impl LawSpec {
             damper: None,
             humans: None,
             user: scenario.controller().cloned(),
+            safety: filter_params(scenario.safety_for(false), vt.min_gap_m, vt.decel_mps2),
         }
     }
 
@@ -165,6 +172,16 @@ impl LawSpec {
         }
         Some(law)
     }
+}
+
+/// The filter's parameters for the safety layer `mode` (`None` unless it is the filter), from
+/// the vehicle type's `minGap` and `decel`.
+pub fn filter_params(mode: SafetyMode, min_gap_m: f64, decel_mps2: f64) -> Option<FilterParams> {
+    (mode == SafetyMode::Filter).then_some(FilterParams {
+        min_gap_m,
+        decel_mps2,
+        reaction_s: REACTION_S,
+    })
 }
 
 /// What builds the laws this crate holds as data only: the user's Python controllers.
@@ -257,11 +274,21 @@ pub fn controller_for_in(
     host: Option<&dyn LawHost>,
 ) -> Result<Box<dyn SpeedController>, ControllerError> {
     let inner = law_controller(law, leader_vehicle, host)?;
-    match &law.humans {
-        None => Ok(inner),
-        Some(_) if leader_vehicle => Err(ControllerError::HumansNeedRing),
-        Some(h) => Ok(Box::new(HumanController::new(inner, h, law.step_s))),
-    }
+    let driven: Box<dyn SpeedController> = match &law.humans {
+        None => inner,
+        Some(_) if leader_vehicle => return Err(ControllerError::HumansNeedRing),
+        Some(h) => Box::new(HumanController::new(inner, h, law.step_s)),
+    };
+    let c = &law.context;
+    Ok(match law.safety {
+        None => driven,
+        Some(p) => Box::new(SafetyFilter::new(
+            driven,
+            RingView::on(c.ring_length_m, &c.length_m),
+            c.controlled.clone(),
+            p,
+        )),
+    })
 }
 
 fn law_controller(

@@ -25,6 +25,8 @@
 //!   sees it each step, when other traffic shares the road; [`user_law`] — the user's own
 //!   law as data (a Python class, built by a [`LawHost`] of a crate that embeds Python, or a
 //!   Rust law of the program's [`registry`]);
+//! * [`safety`] — the safety layer between every law and the command (`off`, SUMO's checks,
+//!   or syncroad's safe-speed filter);
 //! * [`native`] — the fixed-step simulator; [`stop`] — why a run stopped; [`observer`] — the
 //!   one trait of what watches a loop (natively and in SUMO); [`collisions`] — vehicles the
 //!   native simulator drove through each other or backwards;
@@ -64,6 +66,7 @@ pub mod record;
 pub mod registry;
 pub mod rng;
 pub mod road;
+pub mod safety;
 pub mod scenario;
 pub mod sensed;
 pub mod speed_controller;

@@ -79,6 +79,8 @@ pub struct NativeRun {
     pub spread: SpreadSeries,
     /// Overlapping and reversing vehicles, seen at every step.
     pub collisions: Collisions,
+    /// What the safety filter under the law did; `None`: no filter ran.
+    pub filter: Option<crate::speed_controller::FilterReport>,
 }
 
 fn check(v: &[f64], step: usize, dt: f64) -> Option<StopReason> {
@@ -102,6 +104,7 @@ pub fn simulate(scenario: &Scenario, opts: NativeOptions) -> NativeRun {
         },
         spread: SpreadSeries::default(),
         collisions: Collisions::default(),
+        filter: None,
     })
 }
 
@@ -204,6 +207,7 @@ pub fn simulate_controller(
         stop,
         spread: watch.spread,
         collisions: watch.collisions,
+        filter: law.filter_report(),
     }
 }
 
@@ -456,6 +460,7 @@ pub fn cacc_rk4_reference(scenario: &Scenario, opts: NativeOptions) -> NativeRun
         trajectory: traj,
         stop,
         collisions,
+        filter: None,
     }
 }
 
@@ -482,6 +487,7 @@ mod tests {
             spread: Some(run.spread),
             collisions: Some(run.collisions),
             drivers: None,
+            safety_layer: None,
         }
     }
 

@@ -39,6 +39,8 @@ pub struct RunOutput {
     /// Who drove each vehicle on the native simulator, when not the scenario's law (SUMO runs
     /// report it in their facts); `None`: the law.
     pub drivers: Option<Vec<String>>,
+    /// The safety layer under the law ([`crate::safety`]); `None` when no law drove.
+    pub safety_layer: Option<crate::safety::SafetyLayer>,
 }
 
 /// How to judge a run.

@@ -35,6 +35,21 @@ pub trait SpeedController: Send {
     fn ended(&mut self) -> Option<ControllerEnd> {
         None
     }
+
+    /// What the safety filter under the law did ([`crate::safety::SafetyFilter`]); `None`
+    /// for a law without it.
+    fn filter_report(&self) -> Option<FilterReport> {
+        None
+    }
+}
+
+/// What the safety filter did over a run ([`crate::safety`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct FilterReport {
+    /// Vehicle-steps whose command the filter lowered to the safe speed.
+    pub overrides: usize,
+    /// The largest cut of a command \[m/s\].
+    pub largest_cut_mps: f64,
 }
 
 /// Why a controller ends a run before its horizon.

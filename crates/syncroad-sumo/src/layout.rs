@@ -12,11 +12,6 @@ use syncroad_control::scenario::SumoVehicleType;
 
 use crate::net::{off_junctions, Road, MAX_JUNCTION_SHIFT_M};
 
-/// Speed mode of law-commanded vehicles when SUMO drivers share the road: bit 0 only, SUMO's
-/// safe speed towards the leader is kept (accelerations are not limited). With every check off
-/// a commanded vehicle would drive into a SUMO driver that brakes.
-pub const MIXED_SPEED_MODE: i32 = 1;
-
 /// Emission class set on every vehicle type, so fuel and CO2 come from one stated model
 /// (HBEFA 4, petrol passenger car, Euro 6ab; built into SUMO 1.28).
 pub const EMISSION_CLASS: &str = "HBEFA4/PC_petrol_Euro-6ab";

@@ -186,6 +186,10 @@ impl SumoRun {
             spread: self.spread(scenario),
             collisions: None,
             drivers: None,
+            safety_layer: law_driven.then(|| syncroad_control::safety::SafetyLayer {
+                mode: self.request.safety,
+                filter: finish.and_then(|f| f.totals.filter),
+            }),
         }
     }
 

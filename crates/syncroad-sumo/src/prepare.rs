@@ -11,9 +11,10 @@ use std::time::Duration;
 
 use syncroad_control::road::{initial_positions, leader_start};
 use syncroad_control::scenario::Scenario;
+use syncroad_control::controller::filter_params;
+use syncroad_control::safety::SafetyMode;
 use syncroad_control::{HumanSetup, LawSpec, NamedLaw, NoisyIdm};
 
-use crate::layout::MIXED_SPEED_MODE;
 use crate::layout::{ring_layout, straight_layout, Layout};
 pub use crate::net::loop_position;
 use crate::net::{read_network_road, read_ring, read_straight, Road};
@@ -269,11 +270,10 @@ fn prepare_with(
         .filter(|v| v.driver.is_some())
         .count();
     let law_driven = layout.vehicles.len() - sumo_driven - usize::from(layout.leader_vehicle);
-    let speed_mode = if sumo_driven > 0 && law_driven > 0 {
-        MIXED_SPEED_MODE
-    } else {
-        32
-    };
+    // The safety layer under the law: the scenario's, or SUMO's checks when other traffic
+    // shares the road (syncroad_control::safety).
+    let safety = scenario.safety_for(sumo_driven > 0);
+    let speed_mode = safety.speed_mode();
     let measure = match &opts.measure {
         None => None,
         Some(m) => Some(measure_of(m, scenario, opts, &layout, write)?),
@@ -289,7 +289,7 @@ fn prepare_with(
     let control = if law_driven == 0 && sumo_driven > 0 && !layout.leader_vehicle {
         Control::SumoModel
     } else {
-        let law = law_of(scenario, &layout, damper, humans);
+        let law = law_of(scenario, &layout, damper, humans, safety);
         Control::Law { law: Box::new(law) }
     };
     let extra_routes = user_files("sumo.routes", scenario.sumo().routes())?;
@@ -314,6 +314,7 @@ fn prepare_with(
         ballistic: opts.ballistic,
         control,
         speed_mode,
+        safety,
         measure,
         record_every: opts.record_every.max(1),
         chunk_records: chunk_records(scenario.vehicles()),
@@ -516,8 +517,11 @@ fn law_of(
     layout: &Layout,
     damper: Option<NamedLaw>,
     humans: Vec<Option<NoisyIdm>>,
+    safety: SafetyMode,
 ) -> LawSpec {
     let mut law = LawSpec::of(scenario);
+    let vt = &layout.vtype;
+    law.safety = filter_params(safety, vt.min_gap_m, vt.decel_mps2);
     let lengths = || {
         layout
             .vehicles

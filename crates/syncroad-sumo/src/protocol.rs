@@ -111,10 +111,13 @@ pub struct Request {
     pub read: ReadMode,
     /// With [`ReadMode::Getters`], read SUMO's odometer every this many steps.
     pub odometer_every: usize,
-    /// Speed mode of the vehicles the law commands: 32 (every check off) when the law drives
-    /// all of them, [`crate::layout::MIXED_SPEED_MODE`] when SUMO drivers share the road.
+    /// Speed mode of the vehicles the law commands, from the safety layer
+    /// ([`syncroad_control::safety::SafetyMode::speed_mode`]).
     #[serde(default = "default_speed_mode")]
     pub speed_mode: i32,
+    /// The safety layer under the law (`off`, SUMO's checks, or syncroad's filter).
+    #[serde(default = "default_safety")]
+    pub safety: syncroad_control::safety::SafetyMode,
     /// What SUMO itself measures during the run (flow, time loss, fuel, CO2, braking).
     #[serde(default)]
     pub measure: Option<Measure>,
@@ -141,6 +144,10 @@ pub struct Request {
 
 fn default_speed_mode() -> i32 {
     32
+}
+
+fn default_safety() -> syncroad_control::safety::SafetyMode {
+    syncroad_control::safety::SafetyMode::Off
 }
 
 /// SUMO-side measurements the loop collects after a warm-up (see [`Measured`]).
@@ -281,6 +288,9 @@ pub struct Totals {
     /// driven by their own vehicle type, when the law drove the user's own.
     #[serde(default)]
     pub chosen_later: Option<usize>,
+    /// What syncroad's safety filter under the law did, when it ran.
+    #[serde(default)]
+    pub filter: Option<syncroad_control::speed_controller::FilterReport>,
 }
 
 /// The end of a run.

@@ -10,6 +10,7 @@
 use std::path::Path;
 
 use syncroad_control::controller::ControllerError;
+use syncroad_control::safety::{SafetyLayer, SafetyMode};
 use syncroad_control::{
     evaluate, simulate_with, EvalOptions, LawSpec, NativeOptions, Outcome, RunOutput, RunRecord,
     Scenario,
@@ -64,6 +65,7 @@ fn native_run(
         spread: Some(run.spread),
         collisions: Some(run.collisions),
         drivers,
+        safety_layer: Some(SafetyLayer::of(run.filter, SafetyMode::Off)),
     })
 }
 

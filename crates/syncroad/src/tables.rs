@@ -252,6 +252,18 @@ pub fn metrics_table(
             None => "does not apply (no sample)".to_string(),
         }
     );
+    if let Some(l) = &record.safety_layer {
+        let what = match (l.mode.name(), l.filter) {
+            ("off", _) => "off (the law's commands as they are)".to_string(),
+            ("sumo", _) => "sumo (SUMO's safe speed, right of way and red lights)".to_string(),
+            (_, Some(f)) => format!(
+                "filter (Gipps' safe speed; {} commands lowered, by up to {:.3} m/s)",
+                f.overrides, f.largest_cut_mps
+            ),
+            (m, None) => m.to_string(),
+        };
+        let _ = writeln!(s, "  safety layer: {what}");
+    }
     let _ = writeln!(s, "  safety: {}", safety_word(record));
     let mark = if record.safe == Some(false) {
         ", UNSAFE"

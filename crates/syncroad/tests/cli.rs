@@ -657,6 +657,114 @@ fn a_built_in_law_named_in_the_scenario_follows_its_closed_form_on_both_backends
     }
 }
 
+/// Gipps' safe speed with SUMO's defaults (τ = 1 s, b = 4.5 m/s², s₀ = 2.5 m), written again
+/// here from the formula of the guide.
+fn gipps(gap: f64, leader: f64) -> f64 {
+    let (b, tau, s0) = (4.5, 1.0, 2.5);
+    let d = (b * tau) * (b * tau) + leader * leader + 2.0 * b * (gap - s0);
+    if d <= 0.0 {
+        0.0
+    } else {
+        (d.sqrt() - b * tau).max(0.0)
+    }
+}
+
+/// The safety filter under a law that wants 8 m/s on the Sugiyama ring (22 cars of 5 m on
+/// 230 m, evenly spaced, from 2 m/s): every speed reached is within Gipps' safe speed from the
+/// gap and the leader's speed a step before, and the ring settles where the safe speed of a
+/// uniform flow is its own speed, v = (s − s₀)/τ with s = L/N − ℓ (2.9545 m/s natively, a
+/// little more on SUMO's measured ring); the run is safe and the record says the filter cut
+/// commands.
+#[test]
+fn the_safety_filter_holds_a_law_to_gipps_safe_speed_on_both_backends() {
+    let dir = tmpdir("safety-filter");
+    let mut sc: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(repo().join("scenarios/sugiyama-ring.json")).unwrap(),
+    )
+    .unwrap();
+    sc["horizon_s"] = serde_json::json!(60);
+    sc["initial"] = serde_json::json!({"speed_mps": 2.0});
+    sc["sumo"]["net"] = serde_json::json!(repo().join("sumo-nets/sugiyama-ring.net.xml"));
+    sc["controller"] =
+        serde_json::json!({"rust": "constant-speed", "params": {"target_speed_mps": 8.0}});
+    sc["safety"] = serde_json::json!("filter");
+    let path = dir.join("sc.json");
+    std::fs::write(&path, sc.to_string()).unwrap();
+    for command in ["simulate", "run"] {
+        let out = dir.join(command);
+        let (code, stdout, err) = run(bin()
+            .arg(command)
+            .arg(&path)
+            .arg("--out")
+            .arg(&out)
+            .arg("--record-every")
+            .arg("1"));
+        assert!(code == 0 || code == 1, "{command}: {stdout}{err}");
+        assert!(stdout.contains("  safety layer: filter (Gipps' safe speed; "), "{stdout}");
+        let m: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap())
+                .unwrap();
+        assert_eq!(m["safe"], true, "{command}: {}", m["unsafe_because"]);
+        assert_eq!(m["safety_layer"]["mode"], "filter");
+        assert!(m["safety_layer"]["filter"]["overrides"].as_u64().unwrap() > 0);
+        let csv = std::fs::read_to_string(out.join("trajectories.csv")).unwrap();
+        // (step, vehicle) → (speed, gap); the vehicle ahead of i is i − 1 (0 follows 21).
+        let mut rows: std::collections::BTreeMap<(i64, usize), (f64, f64)> = Default::default();
+        for line in csv.lines().skip(1) {
+            let f: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
+            rows.insert(((f[0] * 10.0).round() as i64, f[1] as usize), (f[2], f[4]));
+        }
+        let last = rows.keys().map(|k| k.0).max().unwrap();
+        assert_eq!(last, 600, "{command}: the run reached its horizon");
+        let mut worst: f64 = f64::NEG_INFINITY;
+        for k in 0..last {
+            for i in 0..22 {
+                let (_, gap) = rows[&(k, i)];
+                let (v_lead, _) = rows[&(k, (i + 21) % 22)];
+                let (v_next, _) = rows[&(k + 1, i)];
+                worst = worst.max(v_next - gipps(gap, v_lead));
+            }
+        }
+        assert!(worst <= 1e-9, "{command}: a speed above the safe speed by {worst} m/s");
+        for i in 0..22 {
+            let (v, gap) = rows[&(last, i)];
+            assert!(
+                (v - (gap - 2.5) / 1.0).abs() < 1e-6,
+                "{command}: vehicle {i} at {v} m/s with a gap of {gap} m"
+            );
+        }
+        // The ring as the backend measured it: 230 m natively, SUMO's lanes in SUMO.
+        let ring = m["backend_facts"]["road_length_m"].as_f64().unwrap_or(230.0);
+        let uniform = ring / 22.0 - 5.0 - 2.5;
+        assert!(
+            (rows[&(last, 0)].0 - uniform).abs() < 1e-6,
+            "{command}: {} m/s, (L/N − ℓ − s₀)/τ = {uniform} m/s",
+            rows[&(last, 0)].0
+        );
+    }
+}
+
+/// SUMO's own checks need SUMO: the native simulator refuses them before it runs, naming what
+/// would do.
+#[test]
+fn the_native_simulator_refuses_sumos_safety_checks() {
+    let dir = tmpdir("safety-sumo-native");
+    let mut sc: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(repo().join("scenarios/ring-theorem1.json")).unwrap(),
+    )
+    .unwrap();
+    sc["safety"] = serde_json::json!("sumo");
+    let path = dir.join("sc.json");
+    std::fs::write(&path, sc.to_string()).unwrap();
+    let (code, _, err) = run(bin().arg("simulate").arg(&path).arg("--out").arg(dir.join("o")));
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("safety = sumo: SUMO's own checks need SUMO; on the native simulator use \"safety\": \"filter\""),
+        "{err}"
+    );
+    assert!(!dir.join("o").exists());
+}
+
 /// A scenario naming a Rust law the CLI does not have says where Rust laws come from.
 #[test]
 fn a_rust_law_the_program_did_not_register_is_refused_naming_the_field() {

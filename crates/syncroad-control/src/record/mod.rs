@@ -252,6 +252,10 @@ pub struct RunRecord {
     #[serde(default)]
     #[schemars(title = "unsafe because")]
     pub unsafe_because: Vec<String>,
+    /// The safety layer under the law (`crate::safety`): `off`, SUMO's checks (`sumo`) or
+    /// syncroad's filter, with what the filter did; `null` when no law drove.
+    #[serde(default)]
+    pub safety_layer: Option<crate::safety::SafetyLayer>,
 }
 
 /// The user's controller of a run, as the record names it.
@@ -380,6 +384,7 @@ impl RunRecord {
             all_vehicles: facts.and_then(|f| f.all_vehicles.clone()),
             controlled: facts.and_then(|f| f.controlled.clone()),
             controller: sc.controller().map(ControllerRecord::of),
+            safety_layer: run.safety_layer,
             safe: unsafe_because.as_ref().map(Vec::is_empty),
             unsafe_because: unsafe_because.unwrap_or_default(),
             string_amplification: crate::string_measured::measured(&run.trajectory),

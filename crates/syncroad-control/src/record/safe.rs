@@ -74,6 +74,7 @@ mod tests {
             spread: None,
             collisions: None,
             drivers: None,
+            safety_layer: None,
         }
     }
 

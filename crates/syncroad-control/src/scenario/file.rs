@@ -61,6 +61,46 @@ pub struct ScenarioFile {
     /// class stepped every step on either backend.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub controller: Option<crate::user_law::ControllerSpec>,
+    /// The safety layer under the law ([`crate::safety`]): `off`, `sumo` or `filter`; by
+    /// default `sumo` when other traffic shares the road, else `off`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub safety: Option<SafetyMode>,
+}
+
+/// The scenario's `safety` key: which safety layer sits between the law and the command
+/// ([`crate::safety`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum SafetyMode {
+    /// No layer: the law's command as it is (SUMO's speed mode 32).
+    Off,
+    /// SUMO's own checks through the speed mode (SUMO backend only).
+    Sumo,
+    /// syncroad's own filter (Gipps' safe speed), the same on both backends.
+    Filter,
+}
+
+impl SafetyMode {
+    /// SUMO's speed mode for the law's vehicles: 32 (every check off) for `off`; 25 (bit 0:
+    /// the safe speed towards the leader, bit 3: right of way at junctions, bit 4: brake for a
+    /// red light; accelerations stay the law's) for `sumo`; 48 (every check off but braking
+    /// for red lights) for `filter`, whose car following is syncroad's.
+    pub fn speed_mode(self) -> i32 {
+        match self {
+            SafetyMode::Off => 32,
+            SafetyMode::Sumo => 25,
+            SafetyMode::Filter => 48,
+        }
+    }
+
+    /// Its name in the scenario and the record.
+    pub fn name(self) -> &'static str {
+        match self {
+            SafetyMode::Off => "off",
+            SafetyMode::Sumo => "sumo",
+            SafetyMode::Filter => "filter",
+        }
+    }
 }
 
 /// The vehicle set: a count, or one entry per vehicle.

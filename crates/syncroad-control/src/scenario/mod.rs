@@ -245,6 +245,7 @@ pub struct Scenario {
     sumo: SumoSettings,
     mixed: Option<MixedSpec>,
     controller: Option<crate::user_law::UserLaw>,
+    safety: Option<SafetyMode>,
 }
 
 impl Scenario {
@@ -262,6 +263,12 @@ impl Scenario {
                 serde_json::to_string(sel).unwrap_or_default()
             ));
         }
+        if self.safety == Some(SafetyMode::Sumo) {
+            return Some(format!(
+                "scenario {}: safety = sumo: SUMO's own checks need SUMO; on the native simulator use \"safety\": \"filter\" (syncroad's safe-speed filter, the same on both backends) or \"off\", or {how}",
+                self.name()
+            ));
+        }
         if s.other_traffic() {
             let (field, files) = if s.routes().is_empty() {
                 ("sumo.additional", s.additional())
@@ -276,6 +283,23 @@ impl Scenario {
             ));
         }
         None
+    }
+
+    /// The safety layer the scenario names (`safety`); `None`: the default, which depends on
+    /// who shares the road ([`Scenario::safety_for`]).
+    pub fn safety(&self) -> Option<SafetyMode> {
+        self.safety
+    }
+
+    /// The safety layer of a run: the scenario's, or by default `sumo` when other traffic
+    /// shares the road (`other_traffic`: SUMO's drivers among the law's vehicles, or the
+    /// user's routes, additional files or configuration) and `off` when the law drives alone.
+    pub fn safety_for(&self, other_traffic: bool) -> SafetyMode {
+        self.safety.unwrap_or(if other_traffic || self.sumo().other_traffic() {
+            SafetyMode::Sumo
+        } else {
+            SafetyMode::Off
+        })
     }
 
     /// The user's own controller in place of the model's law, when the scenario names one.

@@ -186,6 +186,7 @@ impl ScenarioFile {
             sumo,
             mixed: self.mixed.clone(),
             controller,
+            safety: self.safety,
         })
     }
 

@@ -62,6 +62,7 @@ pub(super) fn run_steps(
     totals.negative_commands_clamped = sim.negative_commands_clamped;
     totals.odometer_deviation_max_m = sim.odometer_deviation_max_m;
     totals.topology_changes = sim.topology.as_ref().map(|t| t.changes);
+    totals.filter = sim.filter_report();
     totals.chosen_later = sim
         .req
         .adopt

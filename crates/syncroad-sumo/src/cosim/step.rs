@@ -184,6 +184,11 @@ impl<'a, 'py> CoSim<'a, 'py> {
         &self.law_driven
     }
 
+    /// What the safety filter under the law did, when it ran.
+    pub fn filter_report(&self) -> Option<syncroad_control::speed_controller::FilterReport> {
+        self.controller.as_ref().and_then(|c| c.filter_report())
+    }
+
     /// A law drives some vehicles.
     pub fn controlled(&self) -> bool {
         self.controller.is_some()
