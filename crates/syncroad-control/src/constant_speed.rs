@@ -12,7 +12,8 @@ use crate::speed_controller::{law_params, LawEntry, Road, SpeedController};
 /// The law's entry in [`crate::registry`]: `constant-speed-U`.
 pub const ENTRY: LawEntry = LawEntry {
     name: "constant-speed",
-    summary: "every vehicle tracks the target speed U within its acceleration bounds (no car following)",
+    summary:
+        "every vehicle tracks the target speed U within its acceleration bounds (no car following)",
     road: Road::Any,
     shorthand: Some("target_speed_mps"),
     check: |p| law_params::<Params>(p)?.check(),

@@ -298,10 +298,12 @@ fn law_controller(
 ) -> Result<Box<dyn SpeedController>, ControllerError> {
     let n = law.initial_speed_mps.len();
     if let Some(d) = &law.damper {
-        return d.build(&law.context).map_err(|reason| ControllerError::Named {
-            law: d.to_string(),
-            reason,
-        });
+        return d
+            .build(&law.context)
+            .map_err(|reason| ControllerError::Named {
+                law: d.to_string(),
+                reason,
+            });
     }
     if let Some(u) = &law.user {
         return match (u, host) {
@@ -309,10 +311,13 @@ fn law_controller(
             (UserLaw::Python(p), None) => Err(ControllerError::NoPythonHost {
                 python: p.python.clone(),
             }),
-            (UserLaw::Rust(r), _) => r.build(&law.context).map_err(|reason| ControllerError::Rust {
-                name: r.name.clone(),
-                reason,
-            }),
+            (UserLaw::Rust(r), _) => {
+                r.build(&law.context)
+                    .map_err(|reason| ControllerError::Rust {
+                        name: r.name.clone(),
+                        reason,
+                    })
+            }
         };
     }
     match &law.model {

@@ -53,12 +53,9 @@ impl<F: FleetLaw> SpeedController for RingFleet<F> {
         self.view.observe(speeds, positions);
         // The slices have the fleet's length by construction; a mismatch is a bug in the
         // caller, reported as NaN commands, which the loop stops on before they reach SUMO.
-        let ok = self.fleet.step_fleet(
-            speeds,
-            &self.view.gaps_m,
-            &self.view.leader_speeds_mps,
-            out,
-        );
+        let ok =
+            self.fleet
+                .step_fleet(speeds, &self.view.gaps_m, &self.view.leader_speeds_mps, out);
         if !ok {
             out.fill(f64::NAN);
         }

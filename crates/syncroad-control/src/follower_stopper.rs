@@ -49,7 +49,8 @@ use crate::speed_controller::{law_params, LawContext, LawEntry, Road, SpeedContr
 /// field experiment's).
 pub const ENTRY: LawEntry = LawEntry {
     name: "follower-stopper",
-    summary: "FollowerStopper of Stern et al. (2018): desired speed U, the field experiment's bands",
+    summary:
+        "FollowerStopper of Stern et al. (2018): desired speed U, the field experiment's bands",
     road: Road::Ring,
     shorthand: Some("desired_speed_mps"),
     check: |p| {

@@ -81,7 +81,6 @@ pub use actuation::{AccelLimits, ActuationError};
 pub use cacc::{CaccLaw, PlatoonView, PowertrainLag};
 pub use controller::LawHost;
 pub use controller::{controller_for, controller_for_in, LawSpec, SpeedController};
-pub use registry::{LawNameError, NamedLaw};
 pub use delayed_driver::DelayedDriverLaw;
 pub use drive::{CarFollowing, CfModel, SumoDriver};
 pub use follower_stopper::{
@@ -96,6 +95,7 @@ pub use pi_saturation::{
     pi_saturation_command_mps, PiSaturation, PiSaturationError, PiSaturationParams,
 };
 pub use record::{RunRecord, SumoFacts};
+pub use registry::{LawNameError, NamedLaw};
 pub use scenario::{Scenario, ScenarioError, ScenarioFile};
 pub use speed_controller::ControllerEnd;
 pub use speed_controller::{LawContext, LawEntry};

@@ -50,7 +50,8 @@ use crate::speed_controller::{law_params, LawContext, LawEntry, Road, SpeedContr
 /// [`PiSaturationParams`]' fields as `params` (the others the field experiment's).
 pub const ENTRY: LawEntry = LawEntry {
     name: "pi-saturation",
-    summary: "PI controller with saturation of Stern et al. (2018), the field experiment's parameters",
+    summary:
+        "PI controller with saturation of Stern et al. (2018), the field experiment's parameters",
     road: Road::Ring,
     shorthand: None,
     check: |p| {

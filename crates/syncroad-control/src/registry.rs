@@ -79,7 +79,12 @@ pub fn register(entry: LawEntry) -> Result<(), RegistryError> {
         return Err(RegistryError::BadName(entry.name.to_string()));
     }
     let mut laws = REGISTERED.write().unwrap_or_else(|e| e.into_inner());
-    if BUILT_IN.iter().chain(laws.iter()).any(|l| l.name == entry.name) || entry.name == "law" {
+    if BUILT_IN
+        .iter()
+        .chain(laws.iter())
+        .any(|l| l.name == entry.name)
+        || entry.name == "law"
+    {
         return Err(RegistryError::Taken(entry.name.to_string()));
     }
     laws.push(entry);
@@ -310,11 +315,15 @@ mod tests {
         );
         let e = lookup("nope").unwrap_err();
         assert!(
-            e.contains("valid: ") && e.contains("registry-test-hold") && e.contains("pi-saturation"),
+            e.contains("valid: ")
+                && e.contains("registry-test-hold")
+                && e.contains("pi-saturation"),
             "{e}"
         );
         // A registered law is named like a built-in one.
-        let l = NamedLaw::parse("--x", "registry-test-hold").unwrap().unwrap();
+        let l = NamedLaw::parse("--x", "registry-test-hold")
+            .unwrap()
+            .unwrap();
         assert!(!l.is_built_in());
         assert_eq!(l.to_string(), "registry-test-hold");
     }
@@ -339,7 +348,10 @@ mod tests {
             assert_eq!(d.to_string(), name);
         }
         assert_eq!(
-            NamedLaw::parse("--x", "PI_saturation").unwrap().unwrap().name,
+            NamedLaw::parse("--x", "PI_saturation")
+                .unwrap()
+                .unwrap()
+                .name,
             "pi-saturation"
         );
         let e = NamedLaw::parse("--x", "follower-stopper").unwrap_err();
@@ -361,7 +373,10 @@ mod tests {
         };
         more.check("controller.params").unwrap();
         let shown = more.to_string();
-        assert!(shown.starts_with("follower-stopper-") && shown.len() == 25, "{shown}");
+        assert!(
+            shown.starts_with("follower-stopper-") && shown.len() == 25,
+            "{shown}"
+        );
         assert_ne!(shown, fs.to_string());
         let bad = NamedLaw {
             name: "pi-saturation".into(),

@@ -16,8 +16,9 @@
 //!   for red lights (speed mode bit 4).
 //!
 //! The default is `sumo` when other traffic shares the road (SUMO's drivers among the law's
-//! vehicles, the user's routes, additional files or configuration): that traffic drives by
-//! SUMO's rules, and a law that ignored them would drive into it or through red lights. It is
+//! vehicles, the user's routes, additional files or configuration) or the network has traffic
+//! lights: that traffic and those signals go by SUMO's rules, and a law that ignored them
+//! would drive into the traffic or through red lights. It is
 //! `off` when the law drives every vehicle alone (the paper's rings and platoons, the
 //! stochastic humans), so those runs stay the law's exact dynamics, checkable against the
 //! native simulator and the exact analysis; their collisions mark them unsafe.
@@ -29,8 +30,8 @@
 use serde::{Deserialize, Serialize};
 
 use crate::road::RingView;
-use crate::sensed::Neighbors;
 pub use crate::scenario::SafetyMode;
+use crate::sensed::Neighbors;
 pub use crate::speed_controller::FilterReport;
 use crate::speed_controller::{ControllerEnd, SpeedController};
 
@@ -194,12 +195,7 @@ mod tests {
         // Three 5 m cars on a 100 m ring, rear bumpers at 60, 40, 10: gaps 45, 15, 25 m; the
         // law wants 12 m/s everywhere, every car drives 8 m/s.
         let view = RingView::new(100.0, &[5.0; 3]);
-        let mut f = SafetyFilter::new(
-            Box::new(Constant(12.0)),
-            view,
-            vec![true, true, false],
-            P,
-        );
+        let mut f = SafetyFilter::new(Box::new(Constant(12.0)), view, vec![true, true, false], P);
         let mut out = [0.0; 3];
         f.step(0.0, &[8.0; 3], &[60.0, 40.0, 10.0], &mut out);
         let v1 = safe_speed_mps(15.0, 8.0, &P);

@@ -9,10 +9,10 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
 
-use syncroad_control::road::{initial_positions, leader_start};
-use syncroad_control::scenario::Scenario;
 use syncroad_control::controller::filter_params;
+use syncroad_control::road::{initial_positions, leader_start};
 use syncroad_control::safety::SafetyMode;
+use syncroad_control::scenario::Scenario;
 use syncroad_control::{HumanSetup, LawSpec, NamedLaw, NoisyIdm};
 
 use crate::layout::{ring_layout, straight_layout, Layout};
@@ -271,8 +271,9 @@ fn prepare_with(
         .count();
     let law_driven = layout.vehicles.len() - sumo_driven - usize::from(layout.leader_vehicle);
     // The safety layer under the law: the scenario's, or SUMO's checks when other traffic
-    // shares the road (syncroad_control::safety).
-    let safety = scenario.safety_for(sumo_driven > 0);
+    // shares the road or the network has traffic lights (syncroad_control::safety).
+    let safety =
+        scenario.safety_for(sumo_driven > 0 || crate::net::has_traffic_lights(&layout.road.path));
     let speed_mode = safety.speed_mode();
     let measure = match &opts.measure {
         None => None,

@@ -820,6 +820,98 @@ mod loops {
     }
 }
 
+/// A single-lane loop of 8 edges around an octagon (100 m radius, 15 m/s) crossed at its top
+/// node n2 by a side road `in` → `out` (north to the loop's inside); n2 is a traffic light
+/// (netconvert's static program), so the loop's vehicles on e1 meet red while the crossing
+/// road has green.
+fn signalled_loop(dir: &Path) -> PathBuf {
+    let mut nod = String::from("<nodes>\n");
+    for i in 0..8 {
+        let a = 2.0 * std::f64::consts::PI * i as f64 / 8.0;
+        let kind = if i == 2 {
+            r#" type="traffic_light""#
+        } else {
+            ""
+        };
+        nod += &format!(
+            "  <node id=\"n{i}\" x=\"{:.3}\" y=\"{:.3}\"{kind}/>\n",
+            100.0 * a.cos(),
+            100.0 * a.sin()
+        );
+    }
+    nod += "  <node id=\"north\" x=\"0\" y=\"250\"/>\n  <node id=\"inner\" x=\"0\" y=\"20\"/>\n</nodes>\n";
+    let mut edg = String::from("<edges>\n");
+    for i in 0..8 {
+        edg += &format!(
+            "  <edge id=\"e{i}\" from=\"n{i}\" to=\"n{}\" numLanes=\"1\" speed=\"15\"/>\n",
+            (i + 1) % 8
+        );
+    }
+    edg += "  <edge id=\"in\" from=\"north\" to=\"n2\" numLanes=\"1\" speed=\"15\"/>\n";
+    edg += "  <edge id=\"out\" from=\"n2\" to=\"inner\" numLanes=\"1\" speed=\"15\"/>\n</edges>\n";
+    std::fs::write(dir.join("tls.nod.xml"), nod).unwrap();
+    std::fs::write(dir.join("tls.edg.xml"), edg).unwrap();
+    netconvert(
+        dir,
+        &["--node-files", "tls.nod.xml", "--edge-files", "tls.edg.xml"],
+    )
+}
+
+mod signals {
+    use super::*;
+
+    fn run_with(dir: &Path, safety: Option<&str>) -> (f64, syncroad_sumo::SumoRun) {
+        let road = r#"{"type": "loop", "edges": ["e0", "e1", "e2", "e3", "e4", "e5", "e6", "e7"]}"#;
+        let mut json: serde_json::Value =
+            serde_json::from_str(&loop_json(road, 10, 200.0, "")).unwrap();
+        if let Some(s) = safety {
+            json["safety"] = serde_json::json!(s);
+        }
+        let sc = scenario(dir, &json.to_string()).unwrap();
+        let mut o = opts(dir);
+        o.work_dir = dir.join(safety.unwrap_or("default"));
+        let run = run_scenario(&sc, &o).unwrap();
+        let slowest = run
+            .trajectory(&sc)
+            .speeds_mps
+            .iter()
+            .fold(f64::INFINITY, |m, v| m.min(*v));
+        (slowest, run)
+    }
+
+    /// The law's vehicles on a loop through a traffic light: with the safety layer off they
+    /// never stop (the law keeps them near 8 m/s through red); under the default layer, which
+    /// is SUMO's checks because the network has a traffic light, they stop at the red light,
+    /// SUMO overrides the law's commands, and nobody collides.
+    #[test]
+    fn the_laws_vehicles_stop_for_red_under_the_default_layer_and_not_with_it_off() {
+        let dir = work("signals");
+        let net = signalled_loop(&dir);
+        assert!(std::fs::read_to_string(&net).unwrap().contains("<tlLogic "));
+        let (slowest_off, off) = run_with(&dir, Some("off"));
+        assert_eq!(off.request.speed_mode, 32);
+        assert!(
+            slowest_off > 4.0,
+            "with the layer off: slowest {slowest_off} m/s"
+        );
+        let (slowest, run) = run_with(&dir, None);
+        assert_eq!(run.request.speed_mode, 25, "the default is SUMO's checks");
+        let fin = run.outcome().expect("horizon reached");
+        assert!(slowest < 0.1, "under SUMO's checks: slowest {slowest} m/s");
+        assert!(fin.totals.overrides > 0);
+        assert_eq!(fin.totals.collision_steps, 0);
+        assert_eq!(fin.totals.teleports, 0);
+        // syncroad's filter does the car following; SUMO still brakes them for red (speed
+        // mode 48), and the followers' filter keeps them behind the stopped ones.
+        let (slowest, run) = run_with(&dir, Some("filter"));
+        assert_eq!(run.request.speed_mode, 48);
+        let fin = run.outcome().expect("horizon reached");
+        assert!(slowest < 0.1, "under the filter: slowest {slowest} m/s");
+        assert_eq!(fin.totals.collision_steps, 0);
+        assert_eq!(fin.totals.teleports, 0);
+    }
+}
+
 mod routes {
     use super::*;
 

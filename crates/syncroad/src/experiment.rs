@@ -65,7 +65,10 @@ impl Run {
             params,
         };
         law.check(&format!("Run::law({name})"))?;
-        law.require_road(self.scenario.is_ring(), &format!("scenario {}", self.scenario.name()))?;
+        law.require_road(
+            self.scenario.is_ring(),
+            &format!("scenario {}", self.scenario.name()),
+        )?;
         self.scenario = self.scenario.with_controller(UserLaw::Rust(law));
         Ok(self)
     }

@@ -625,7 +625,8 @@ fn a_built_in_law_named_in_the_scenario_follows_its_closed_form_on_both_backends
     .unwrap();
     sc["horizon_s"] = serde_json::json!(20);
     sc["sumo"]["net"] = serde_json::json!(repo().join("sumo-nets/sugiyama-ring.net.xml"));
-    sc["controller"] = serde_json::json!({"rust": "constant-speed", "params": {"target_speed_mps": 8.0}});
+    sc["controller"] =
+        serde_json::json!({"rust": "constant-speed", "params": {"target_speed_mps": 8.0}});
     let path = dir.join("sc.json");
     std::fs::write(&path, sc.to_string()).unwrap();
     for command in ["simulate", "run"] {
@@ -641,7 +642,11 @@ fn a_built_in_law_named_in_the_scenario_follows_its_closed_form_on_both_backends
         let mut worst: f64 = 0.0;
         let mut moved: f64 = 0.0;
         for line in csv.lines().skip(1) {
-            let f: Vec<f64> = line.split(',').take(3).map(|x| x.parse().unwrap()).collect();
+            let f: Vec<f64> = line
+                .split(',')
+                .take(3)
+                .map(|x| x.parse().unwrap())
+                .collect();
             let (t, i, v) = (f[0], f[1] as usize, f[2]);
             let start = *v0.entry(i).or_insert(v);
             let expected = if start > 8.0 {
@@ -652,8 +657,14 @@ fn a_built_in_law_named_in_the_scenario_follows_its_closed_form_on_both_backends
             worst = worst.max((v - expected).abs());
             moved = moved.max((v - start).abs());
         }
-        assert!(moved > 1.0, "{command}: the speeds hardly moved ({moved} m/s)");
-        assert!(worst < 1e-9, "{command}: largest departure from the closed form {worst} m/s");
+        assert!(
+            moved > 1.0,
+            "{command}: the speeds hardly moved ({moved} m/s)"
+        );
+        assert!(
+            worst < 1e-9,
+            "{command}: largest departure from the closed form {worst} m/s"
+        );
     }
 }
 
@@ -700,7 +711,10 @@ fn the_safety_filter_holds_a_law_to_gipps_safe_speed_on_both_backends() {
             .arg("--record-every")
             .arg("1"));
         assert!(code == 0 || code == 1, "{command}: {stdout}{err}");
-        assert!(stdout.contains("  safety layer: filter (Gipps' safe speed; "), "{stdout}");
+        assert!(
+            stdout.contains("  safety layer: filter (Gipps' safe speed; "),
+            "{stdout}"
+        );
         let m: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap())
                 .unwrap();
@@ -725,7 +739,10 @@ fn the_safety_filter_holds_a_law_to_gipps_safe_speed_on_both_backends() {
                 worst = worst.max(v_next - gipps(gap, v_lead));
             }
         }
-        assert!(worst <= 1e-9, "{command}: a speed above the safe speed by {worst} m/s");
+        assert!(
+            worst <= 1e-9,
+            "{command}: a speed above the safe speed by {worst} m/s"
+        );
         for i in 0..22 {
             let (v, gap) = rows[&(last, i)];
             assert!(
@@ -734,7 +751,9 @@ fn the_safety_filter_holds_a_law_to_gipps_safe_speed_on_both_backends() {
             );
         }
         // The ring as the backend measured it: 230 m natively, SUMO's lanes in SUMO.
-        let ring = m["backend_facts"]["road_length_m"].as_f64().unwrap_or(230.0);
+        let ring = m["backend_facts"]["road_length_m"]
+            .as_f64()
+            .unwrap_or(230.0);
         let uniform = ring / 22.0 - 5.0 - 2.5;
         assert!(
             (rows[&(last, 0)].0 - uniform).abs() < 1e-6,
@@ -756,7 +775,11 @@ fn the_native_simulator_refuses_sumos_safety_checks() {
     sc["safety"] = serde_json::json!("sumo");
     let path = dir.join("sc.json");
     std::fs::write(&path, sc.to_string()).unwrap();
-    let (code, _, err) = run(bin().arg("simulate").arg(&path).arg("--out").arg(dir.join("o")));
+    let (code, _, err) = run(bin()
+        .arg("simulate")
+        .arg(&path)
+        .arg("--out")
+        .arg(dir.join("o")));
     assert_eq!(code, 2, "{err}");
     assert!(
         err.contains("safety = sumo: SUMO's own checks need SUMO; on the native simulator use \"safety\": \"filter\""),

@@ -201,7 +201,10 @@ mod tests {
             let automated: Vec<usize> = (0..22).filter(|&i| r.drivers[i].is_none()).collect();
             assert_eq!(automated, [0, 11]);
         }
-        assert_eq!((runs[0].damper.is_none(), runs[1].damper.is_some()), (true, true));
+        assert_eq!(
+            (runs[0].damper.is_none(), runs[1].damper.is_some()),
+            (true, true)
+        );
         assert_eq!(
             mixed_controllers("mixed_controller", &["law", "law"]),
             Err(DriveError::Twice("law".into()))

@@ -93,7 +93,9 @@ mod tests {
         r.collisions = Some(c);
         assert_eq!(
             unsafe_reasons(&r, None),
-            Some(vec!["vehicles overlapped in 1 steps (gap down to -1.00 m)".to_string()])
+            Some(vec![
+                "vehicles overlapped in 1 steps (gap down to -1.00 m)".to_string()
+            ])
         );
         // SUMO's counters; none at all: unknown.
         let mut f = SumoFacts::default();

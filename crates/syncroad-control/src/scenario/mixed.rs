@@ -16,9 +16,9 @@
 use serde::{Deserialize, Serialize};
 
 use super::{invalid, ScenarioError};
-use crate::registry::NamedLaw;
 use crate::drive::placement::{automated_count, Placement};
 use crate::drive::sumo_driver::DEFAULT_HUMAN;
+use crate::registry::NamedLaw;
 
 /// Mixed traffic as written in the scenario file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

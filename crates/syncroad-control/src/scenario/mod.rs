@@ -292,14 +292,16 @@ impl Scenario {
     }
 
     /// The safety layer of a run: the scenario's, or by default `sumo` when other traffic
-    /// shares the road (`other_traffic`: SUMO's drivers among the law's vehicles, or the
-    /// user's routes, additional files or configuration) and `off` when the law drives alone.
+    /// shares the road or signals stand on it (`other_traffic`: SUMO's drivers among the law's
+    /// vehicles or the network's traffic lights, as the backend knows them; or the user's
+    /// routes, additional files or configuration) and `off` when the law drives alone.
     pub fn safety_for(&self, other_traffic: bool) -> SafetyMode {
-        self.safety.unwrap_or(if other_traffic || self.sumo().other_traffic() {
-            SafetyMode::Sumo
-        } else {
-            SafetyMode::Off
-        })
+        self.safety
+            .unwrap_or(if other_traffic || self.sumo().other_traffic() {
+                SafetyMode::Sumo
+            } else {
+                SafetyMode::Off
+            })
     }
 
     /// The user's own controller in place of the model's law, when the scenario names one.

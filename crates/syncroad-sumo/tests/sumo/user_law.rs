@@ -3,8 +3,8 @@
 //! raises, blocks or prints is stopped or contained with every row before it kept.
 
 use super::*;
-use syncroad_control::NamedLaw;
 use syncroad_control::drive::Drive;
+use syncroad_control::NamedLaw;
 use syncroad_control::{simulate_with, LawSpec, StopReason, Trajectory};
 use syncroad_sumo::PythonHost;
 
