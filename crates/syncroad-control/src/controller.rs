@@ -168,6 +168,7 @@ impl LawSpec {
                 ring_length_m: ring,
                 length_m: sc.length_m().to_vec(),
                 seed: sc.seed(),
+                speed_limit_mps: None,
             });
         }
         Some(law)

@@ -246,6 +246,7 @@ mod tests {
             ring_length_m: ring,
             length_m: vec![5.0; n],
             seed: 3,
+            speed_limit_mps: None,
         };
         let mut c = HumanController::new(Box::new(Hold), &setup, 0.1);
         let mut q: Vec<f64> = (0..n).map(|i| -(i as f64) * ring / n as f64).collect();

@@ -326,6 +326,11 @@ pub struct HumanSetup {
     pub length_m: Vec<f64>,
     /// The scenario's seed; vehicle i draws from [`vehicle_seed`]`(seed, i)`.
     pub seed: u64,
+    /// The road's speed limit \[m/s\] (SUMO's lanes; the lowest along the road): a human
+    /// never drives faster, as SUMO's own drivers do not. `None`: no limit (the native
+    /// simulator's road has none).
+    #[serde(default)]
+    pub speed_limit_mps: Option<f64>,
 }
 
 /// The law (or damper) of a ring with some vehicles driven by stochastic humans: the inner
@@ -336,6 +341,7 @@ pub struct HumanController {
     noise: Vec<Gaussian>,
     dt_s: f64,
     view: RingView,
+    speed_limit_mps: f64,
 }
 
 impl HumanController {
@@ -350,6 +356,7 @@ impl HumanController {
                 .collect(),
             dt_s,
             view: RingView::new(setup.ring_length_m, &setup.length_m),
+            speed_limit_mps: setup.speed_limit_mps.unwrap_or(f64::INFINITY),
         }
     }
 }
@@ -361,13 +368,15 @@ impl SpeedController for HumanController {
         for (i, d) in self.drivers.iter().enumerate() {
             if let Some(d) = d {
                 let xi = self.noise[i].sample();
-                out[i] = d.next_speed_mps(
-                    speeds[i],
-                    self.view.leader_speeds_mps[i],
-                    self.view.gaps_m[i],
-                    self.dt_s,
-                    xi,
-                );
+                out[i] = d
+                    .next_speed_mps(
+                        speeds[i],
+                        self.view.leader_speeds_mps[i],
+                        self.view.gaps_m[i],
+                        self.dt_s,
+                        xi,
+                    )
+                    .min(self.speed_limit_mps);
             }
         }
     }
@@ -465,6 +474,7 @@ mod tests {
             ring_length_m: 1e6,
             length_m: vec![5.0; 2],
             seed: 7,
+            speed_limit_mps: None,
         };
         let run = |d0| {
             let mut c = HumanController::new(Box::new(Hold), &setup(d0), 0.1);
@@ -482,6 +492,35 @@ mod tests {
         assert!(a.windows(2).any(|w| w[0] != w[1]));
     }
 
+    /// Free-road humans whose desired speed (Flow's 30 m/s) is above the road's limit of
+    /// 27.78 m/s (100 km/h) accelerate to the limit and never pass it, noise or not; without a
+    /// limit the same draws take them above it.
+    #[test]
+    fn humans_keep_the_roads_speed_limit() {
+        let fastest = |limit: Option<f64>| {
+            let setup = HumanSetup {
+                drivers: vec![Some(human(0.3, NoiseForm::StepConsistent)); 2],
+                ring_length_m: 1e5,
+                length_m: vec![5.0; 2],
+                seed: 3,
+                speed_limit_mps: limit,
+            };
+            let mut c = HumanController::new(Box::new(Hold), &setup, 0.1);
+            let q = [5e4, 0.0];
+            let mut v = vec![25.0; 2];
+            let mut out = vec![0.0; 2];
+            let mut top: f64 = 0.0;
+            for k in 0..3000 {
+                c.step(k as f64 * 0.1, &v, &q, &mut out);
+                std::mem::swap(&mut v, &mut out);
+                top = top.max(v[0]).max(v[1]);
+            }
+            top
+        };
+        assert_eq!(fastest(Some(27.78)), 27.78);
+        assert!(fastest(None) > 28.5);
+    }
+
     /// Stationary speed variance of `n` free-road humans (gaps of 10 km, so the interaction
     /// term is 10⁻⁵ of a) simulated for `horizon_s` after a 100 s burn-in.
     fn free_road_variance(d: NoisyIdm, dt: f64, horizon_s: f64) -> f64 {
@@ -492,6 +531,7 @@ mod tests {
             ring_length_m: ring,
             length_m: vec![5.0; n],
             seed: 1,
+            speed_limit_mps: None,
         };
         let mut c = HumanController::new(Box::new(Hold), &setup, dt);
         let q: Vec<f64> = (0..n).map(|i| -(i as f64) * ring / n as f64).collect();

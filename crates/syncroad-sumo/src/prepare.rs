@@ -549,6 +549,7 @@ fn law_of(
             ring_length_m: layout.road.length_m(),
             length_m: lengths(),
             seed: scenario.seed(),
+            speed_limit_mps: Some(layout.road.speed_limit_mps()),
         });
     }
     law

@@ -476,6 +476,7 @@ mod noisy_humans {
             ring_length_m: road.length_m(),
             length_m: vec![5.0; 22],
             seed: 5,
+            speed_limit_mps: None,
         });
         let native = simulate_with(&sc, &law, NativeOptions::default())
             .unwrap()
