@@ -76,8 +76,9 @@ fn human_drivers_form_sugiyamas_jam_and_one_follower_stopper_dissolves_it() {
     let start = initial_rows(&d.join("mixed-0"));
     assert_eq!(start.len(), 22);
     assert_eq!(start, initial_rows(&d.join("follower-stopper-4.3-mixed-1")));
-    // The margins are in the published shape; among 21 humans the damper keeps SUMO's safe
-    // speed (speed mode 1), and a ring of humans has no law-commanded vehicle.
+    // The margins are in the published shape; among 21 humans the damper keeps SUMO's checks
+    // (the default safety layer with SUMO's drivers on the road, speed mode 25: safe speed,
+    // right of way, red lights), and a ring of humans has no law-commanded vehicle.
     let schema = metrics_schema();
     for doc in [&humans, &damped] {
         let v = schema_violations(&schema, doc);
@@ -85,7 +86,8 @@ fn human_drivers_form_sugiyamas_jam_and_one_follower_stopper_dissolves_it() {
     }
     let m = &damped["safety_margins"];
     assert_eq!(m["ignores_safe_speed"], false, "{m}");
-    assert_eq!(m["law_speed_mode"], 1, "{m}");
+    assert_eq!(m["law_speed_mode"], 25, "{m}");
+    assert_eq!(damped["safety_layer"]["mode"], "sumo");
     assert_eq!(humans["safety_margins"]["law_speed_mode"], Value::Null);
     // Without collisions every gap stays positive.
     assert_eq!(humans["safety"]["collision_steps"], 0);
