@@ -13,7 +13,8 @@
 //!   and [`damper`] running them on a ring as a controller;
 //! * [`flow_dampers`] — the same two dampers as Flow's master code computes them;
 //! * [`registry`] — the one table of laws that drive in place of the model's: the dampers,
-//!   [`constant_speed`], and the laws a program registers; each is a [`LawEntry`];
+//!   [`constant_speed`], the bilateral control model ([`bcm`]), a linear ACC ([`lacc`]),
+//!   and the laws a program registers; each is a [`LawEntry`];
 //! * [`theory`], [`ifp`], [`poly`] — the paper's sufficient conditions and the IFP index;
 //! * [`exact`] — exact stability: rightmost characteristic roots, critical gains, CACC modes
 //!   and string stability, to show how conservative the sufficient conditions are;
@@ -39,6 +40,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod actuation;
+pub mod bcm;
 pub mod cacc;
 pub mod collisions;
 pub mod congestion;
@@ -53,6 +55,7 @@ pub mod flow_dampers;
 pub mod follower_stopper;
 pub mod graph;
 pub mod ifp;
+pub mod lacc;
 pub mod lti_network;
 pub mod margins;
 pub mod metrics;

@@ -52,6 +52,8 @@ pub static BUILT_IN: &[LawEntry] = &[
     crate::flow_dampers::FOLLOWER_STOPPER_ENTRY,
     crate::flow_dampers::PI_SATURATION_ENTRY,
     crate::constant_speed::ENTRY,
+    crate::bcm::ENTRY,
+    crate::lacc::ENTRY,
 ];
 
 static REGISTERED: RwLock<Vec<LawEntry>> = RwLock::new(Vec::new());
