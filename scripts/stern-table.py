@@ -19,9 +19,9 @@ from safety_mark import mark
 
 METRICS = [
     ("congestion.speed_std_mps", "speed std"),
-    ("sumo.fuel_g_per_km", "fuel [g/km]"),
+    ("sumo.fuel_g_per_km", "fuel"),
     ("congestion.braking_events", "braking events"),
-    ("sumo.flow_veh_per_h", "throughput [veh/h]"),
+    ("sumo.flow_veh_per_h", "throughput"),
 ]
 
 # Two-sided 95 % Student-t quantiles t_{0.975, dof}.
@@ -54,8 +54,9 @@ def main(path):
     print(f"all-human ring ({len(base)} seeds){mark(list(base.values()))}: "
           + ", ".join(f"{label} {statistics.fmean(float(b[k]) for b in base.values()):.3f}"
                       for k, label in METRICS))
-    print("| controller | " + " | ".join(f"Δ {label} [%]" for _, label in METRICS) + " |")
-    print("|---|" + "---:|" * len(METRICS))
+    print("| controller | " + " | ".join(f"Δ {label} [%]" for _, label in METRICS)
+          + " | min gap [m] |")
+    print("|---|" + "---:|" * (len(METRICS) + 1))
     for run, seeds in sorted(by.items()):
         cells = []
         for key, _ in METRICS:
@@ -63,6 +64,9 @@ def main(path):
                  for s, r in seeds.items() if s in base and float(base[s][key]) != 0.0]
             m, h = mean_ci(d)
             cells.append(f"{m:+.1f} ± {h:.1f} (n={len(d)})")
+        gaps = [float(r["gap_safety.min_gap_m"]) for r in seeds.values()
+                if r.get("gap_safety.min_gap_m") not in (None, "", "null")]
+        cells.append(f"{min(gaps):.2f}" if gaps else "—")
         print(f"| {run}{mark(list(seeds.values()))} | " + " | ".join(cells) + " |")
 
 
