@@ -523,6 +523,13 @@ pub fn read_straight(path: &Path) -> Result<Road, NetError> {
     })
 }
 
+/// Whether the network `net` has traffic lights (a `tlLogic` element): its signals bind only
+/// vehicles that keep SUMO's checks, so a law drives under them by default. An unreadable file
+/// has none (reading it for the road reported the error already).
+pub fn has_traffic_lights(net: &Path) -> bool {
+    std::fs::read(net).is_ok_and(|b| b.windows(9).any(|w| w == b"<tlLogic "))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -593,11 +600,4 @@ mod tests {
         let err = read_straight(&nets().join("ring-20km.net.xml")).unwrap_err();
         assert!(err.to_string().contains("it has 4 normal edges"), "{err}");
     }
-}
-
-/// Whether the network `net` has traffic lights (a `tlLogic` element): its signals bind only
-/// vehicles that keep SUMO's checks, so a law drives under them by default. An unreadable file
-/// has none (reading it for the road reported the error already).
-pub fn has_traffic_lights(net: &Path) -> bool {
-    std::fs::read(net).is_ok_and(|b| b.windows(9).any(|w| w == b"<tlLogic "))
 }
