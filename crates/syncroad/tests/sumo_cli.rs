@@ -535,7 +535,12 @@ fn own_loop_from_netconvert_runs_and_a_misspelt_edge_exits_2() {
     // published shape, and every vehicle is syncroad's, so SUMO's mean over all vehicles is the
     // trajectory's mean speed (to SUMO's printed 0.01 m/s).
     let (code, out, m) = run_backend(&["run"], &traffic, &dir.join("traffic"));
-    assert_eq!(code, 0, "{out}");
+    // Other traffic puts the law under SUMO's checks by default: SUMO holds it back (here at
+    // the loop's junction lanes), so its speeds are partly SUMO's and the verdict says
+    // inconclusive (exit 1).
+    assert_eq!(m["safety_layer"]["mode"], "sumo", "{out}");
+    assert_eq!(m["sync"]["verdict"], "inconclusive", "{out}");
+    assert_eq!(code, 1, "{out}");
     let v = schema_violations(&metrics_schema(), &m);
     assert!(v.is_empty(), "{v:#?}");
     let all = &m["all_vehicles"];
