@@ -133,7 +133,12 @@ impl LawSpec {
             damper: None,
             humans: None,
             user: scenario.controller().cloned(),
-            safety: filter_params(scenario.safety_for(false), vt.min_gap_m, vt.decel_mps2),
+            safety: filter_params(
+                scenario.safety_for(false),
+                vt.min_gap_m,
+                vt.decel_mps2,
+                None,
+            ),
         }
     }
 
@@ -176,12 +181,18 @@ impl LawSpec {
 }
 
 /// The filter's parameters for the safety layer `mode` (`None` unless it is the filter), from
-/// the vehicle type's `minGap` and `decel`.
-pub fn filter_params(mode: SafetyMode, min_gap_m: f64, decel_mps2: f64) -> Option<FilterParams> {
+/// the vehicle type's `minGap` and `decel` and the road's speed limit, when it has one.
+pub fn filter_params(
+    mode: SafetyMode,
+    min_gap_m: f64,
+    decel_mps2: f64,
+    speed_limit_mps: Option<f64>,
+) -> Option<FilterParams> {
     (mode == SafetyMode::Filter).then_some(FilterParams {
         min_gap_m,
         decel_mps2,
         reaction_s: REACTION_S,
+        speed_limit_mps,
     })
 }
 

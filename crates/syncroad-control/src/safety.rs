@@ -50,6 +50,11 @@ pub struct FilterParams {
     pub decel_mps2: f64,
     /// Reaction time τ \[s\].
     pub reaction_s: f64,
+    /// The road's speed limit \[m/s\] (in SUMO its lowest lane limit along the road, times
+    /// the vehicles' speed factor of 1), which no command exceeds; `None`: no limit (the
+    /// native simulator's road has none).
+    #[serde(default)]
+    pub speed_limit_mps: Option<f64>,
 }
 
 /// The safety layer a run drove under, as the record reports it: what actually ran.
@@ -124,10 +129,16 @@ impl SpeedController for SafetyFilter {
         self.view.observe(speeds, positions);
         for (i, o) in out.iter_mut().enumerate() {
             let gap = self.view.gaps_m[i];
-            if !self.controlled.get(i).copied().unwrap_or(false) || !gap.is_finite() {
+            if !self.controlled.get(i).copied().unwrap_or(false) {
                 continue;
             }
-            let safe = safe_speed_mps(gap, self.view.leader_speeds_mps[i], &self.params);
+            let limit = self.params.speed_limit_mps.unwrap_or(f64::INFINITY);
+            let safe = if gap.is_finite() {
+                safe_speed_mps(gap, self.view.leader_speeds_mps[i], &self.params)
+            } else {
+                f64::INFINITY
+            }
+            .min(limit);
             let cut = *o - safe;
             if cut > CUT_EPS_MPS {
                 *o = safe;
@@ -160,6 +171,7 @@ mod tests {
         min_gap_m: 2.5,
         decel_mps2: 4.5,
         reaction_s: 1.0,
+        speed_limit_mps: None,
     };
 
     /// The safe speed is the largest v whose stopping distance v τ + v²/(2b) fits in the
@@ -211,5 +223,21 @@ mod tests {
                 largest_cut_mps: 12.0 - v1
             })
         );
+    }
+
+    #[test]
+    fn the_filter_keeps_the_speed_limit_even_with_nobody_ahead() {
+        // An open road: vehicle 0 has nobody ahead, vehicle 1 is 200 m behind it; the law
+        // wants 40 m/s on a 15 m/s road.
+        let view = RingView::on(None, &[5.0; 2]);
+        let p = FilterParams {
+            speed_limit_mps: Some(15.0),
+            ..P
+        };
+        let mut f = SafetyFilter::new(Box::new(Constant(40.0)), view, vec![true; 2], p);
+        let mut out = [0.0; 2];
+        f.step(0.0, &[14.0, 14.0], &[205.0, 0.0], &mut out);
+        assert_eq!(out, [15.0, 15.0]);
+        assert_eq!(f.filter_report().unwrap().overrides, 2);
     }
 }

@@ -522,7 +522,13 @@ fn law_of(
 ) -> LawSpec {
     let mut law = LawSpec::of(scenario);
     let vt = &layout.vtype;
-    law.safety = filter_params(safety, vt.min_gap_m, vt.decel_mps2);
+    let limit = layout.road.speed_limit_mps();
+    law.safety = filter_params(
+        safety,
+        vt.min_gap_m,
+        vt.decel_mps2,
+        limit.is_finite().then_some(limit),
+    );
     let lengths = || {
         layout
             .vehicles

@@ -864,15 +864,32 @@ mod signals {
     use super::*;
 
     fn run_with(dir: &Path, safety: Option<&str>) -> (f64, syncroad_sumo::SumoRun) {
+        run_law(dir, safety, None)
+    }
+
+    /// The loop's run under `safety` (the default when `None`), the model's law or the
+    /// registry's `law`; its slowest speed.
+    fn run_law(
+        dir: &Path,
+        safety: Option<&str>,
+        law: Option<serde_json::Value>,
+    ) -> (f64, syncroad_sumo::SumoRun) {
         let road = r#"{"type": "loop", "edges": ["e0", "e1", "e2", "e3", "e4", "e5", "e6", "e7"]}"#;
         let mut json: serde_json::Value =
             serde_json::from_str(&loop_json(road, 10, 200.0, "")).unwrap();
         if let Some(s) = safety {
             json["safety"] = serde_json::json!(s);
         }
+        if let Some(l) = law {
+            json["controller"] = l;
+        }
         let sc = scenario(dir, &json.to_string()).unwrap();
         let mut o = opts(dir);
-        o.work_dir = dir.join(safety.unwrap_or("default"));
+        o.work_dir = dir.join(format!(
+            "{}-{}",
+            safety.unwrap_or("default"),
+            json["controller"]["rust"].as_str().unwrap_or("law")
+        ));
         let run = run_scenario(&sc, &o).unwrap();
         let slowest = run
             .trajectory(&sc)
@@ -880,6 +897,36 @@ mod signals {
             .iter()
             .fold(f64::INFINITY, |m, v| m.min(*v));
         (slowest, run)
+    }
+
+    /// A law that wants 25 m/s on the loop's 15 m/s lanes: with the layer off the vehicles
+    /// drive 25 m/s; syncroad's filter holds every command to the road's limit (and SUMO's
+    /// checks hold them to it too).
+    #[test]
+    fn the_filter_and_sumos_checks_keep_the_speed_limit() {
+        let dir = work("speed-limit");
+        signalled_loop(&dir);
+        let fast =
+            serde_json::json!({"rust": "constant-speed", "params": {"target_speed_mps": 25.0}});
+        let fastest = |safety| {
+            let (_, run) = run_law(&dir, Some(safety), Some(fast.clone()));
+            let top = run
+                .worker
+                .rows
+                .speeds_mps
+                .iter()
+                .copied()
+                .fold(0.0, f64::max);
+            (top, run)
+        };
+        let (off, _) = fastest("off");
+        assert!(off > 24.0, "with the layer off: {off} m/s");
+        let (filtered, run) = fastest("filter");
+        assert!(filtered <= 15.0 + 1e-9, "under the filter: {filtered} m/s");
+        let fin = run.outcome().expect("horizon reached");
+        assert_eq!(fin.totals.collision_steps, 0);
+        let (sumo, _) = fastest("sumo");
+        assert!(sumo <= 15.0 + 1e-6, "under SUMO's checks: {sumo} m/s");
     }
 
     /// The law's vehicles on a loop through a traffic light: with the safety layer off they
