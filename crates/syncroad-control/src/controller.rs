@@ -107,7 +107,7 @@ pub struct LawSpec {
 impl LawSpec {
     /// The law of a validated scenario, on the native simulator.
     pub fn of(scenario: &Scenario) -> Self {
-        let leader = crate::road::leader_start(scenario).is_some();
+        let leader = crate::start::leader_start(scenario).is_some();
         let mut ids: Vec<String> = leader.then(|| "leader".to_string()).into_iter().collect();
         ids.extend((0..scenario.vehicles()).map(|i| format!("v{i}")));
         // The leader vehicle is placed as if it were as long as vehicle 0.

@@ -73,6 +73,7 @@ pub mod safety;
 pub mod scenario;
 pub mod sensed;
 pub mod speed_controller;
+pub mod start;
 pub mod stop;
 pub mod string_measured;
 pub mod sumo_facts;

@@ -18,9 +18,10 @@ use crate::controller::{controller_for_in, ControllerError, LawSpec};
 use crate::delayed_driver::DelayedDriverLaw;
 use crate::metrics::{speed_range, spread_of_range, SpreadSeries};
 use crate::observer::StepObserver;
-use crate::road::{self, initial_positions, leader_start};
+use crate::road;
 use crate::scenario::{Model, Scenario};
 use crate::speed_controller::SpeedController;
+use crate::start::{initial_positions, leader_start};
 pub use crate::stop::StopReason;
 use crate::trajectory::Trajectory;
 

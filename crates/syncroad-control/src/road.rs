@@ -1,43 +1,13 @@
-//! Where the vehicles of a scenario are on their road: the start positions, the leader's
-//! start, and the gap rule, shared by the native simulator, the SUMO layout and the wave
-//! dampers, so that none of them keeps its own geometry.
+//! The gap rule and what each vehicle sees ahead ([`RingView`]), shared by the native
+//! simulator, the SUMO layout, the wave dampers and the safety layer, so that none of them
+//! keeps its own geometry (where a scenario's vehicles start is [`crate::start`]).
 //!
 //! Positions are unwrapped rear-bumper coordinates along the direction of travel; vehicle 0
 //! drives in front (behind the leader, when there is one) and each next vehicle follows the
 //! one before it. On a closed road (a ring, or a loop through a network) of length `C`,
 //! vehicle 0 follows vehicle N−1 one lap ahead.
 
-use crate::scenario::{Model, Scenario};
 use crate::sensed::{Neighbors, Sensed};
-
-/// Initial unwrapped positions (rear bumpers) from the gaps: vehicle 0 at 0 (or one gap behind
-/// the leader's rear bumper at `leader_position_m`), each next vehicle one length plus one gap
-/// further back.
-pub fn initial_positions(scenario: &Scenario, leader_position_m: Option<f64>) -> Vec<f64> {
-    let n = scenario.vehicles();
-    let mut q = vec![0.0; n];
-    let (l, g) = (scenario.length_m(), scenario.initial_gap_m());
-    q[0] = match leader_position_m {
-        Some(q0) => q0 - l[0] - g[0],
-        None => 0.0,
-    };
-    for i in 1..n {
-        q[i] = q[i - 1] - l[i] - g[i];
-    }
-    q
-}
-
-/// Where the leader vehicle starts and how fast, when the road has one: a delayed-driver
-/// leader one gap ahead of vehicle 0 at `v_0`, a CACC leader at 0 on its profile.
-pub fn leader_start(scenario: &Scenario) -> Option<(f64, f64)> {
-    match scenario.model() {
-        Model::DelayedDriver(m) => m
-            .leader
-            .as_ref()
-            .map(|(v0, _)| (scenario.length_m()[0] + scenario.initial_gap_m()[0], *v0)),
-        Model::Cacc(m) => Some((0.0, m.leader.initial_speed())),
-    }
-}
 
 /// The vehicle each vehicle follows: `i − 1`, and for vehicle 0 vehicle N−1 on a closed road
 /// (with the lap `C` to add to its position), or the leader / nobody on an open one (`None`).

@@ -10,9 +10,9 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use syncroad_control::controller::filter_params;
-use syncroad_control::road::{initial_positions, leader_start};
 use syncroad_control::safety::SafetyMode;
 use syncroad_control::scenario::Scenario;
+use syncroad_control::start::{initial_positions, leader_start};
 use syncroad_control::{HumanSetup, LawSpec, NamedLaw, NoisyIdm};
 
 use crate::layout::{ring_layout, straight_layout, Layout};
