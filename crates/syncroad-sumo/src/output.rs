@@ -93,39 +93,7 @@ impl SumoRun {
             && self.request.layout.vehicles[k0..]
                 .iter()
                 .any(|v| v.driver.is_none());
-        let warmup_s = self
-            .request
-            .measure
-            .as_ref()
-            .map_or(0.0, |m| m.warmup_steps as f64 * self.request.step_s);
-        let ssm = self
-            .request
-            .measure
-            .as_ref()
-            .and_then(|m| m.ssm_file.as_ref())
-            .filter(|_| finish.is_some())
-            .and_then(|f| match crate::ssm::read(f, warmup_s) {
-                Ok(s) => Some(s),
-                Err(e) => {
-                    // The run itself is fine; its record says no SSM was measured.
-                    eprintln!("warning: {e}; the record has no safety margins");
-                    None
-                }
-            });
-        let all_vehicles = self
-            .request
-            .summary_file
-            .as_ref()
-            .filter(|_| finish.is_some())
-            .and_then(
-                |f| match crate::summary::read(f, warmup_s, self.request.step_s) {
-                    Ok(a) => Some(a),
-                    Err(e) => {
-                        eprintln!("warning: {e}; the record has no metrics of all vehicles");
-                        None
-                    }
-                },
-            );
+        let (ssm, all_vehicles) = self.files_read_after(finish.is_some());
         let facts = SumoFacts {
             sumo_version: start.map(|s| s.python.sumo_version.clone()),
             libsumo: start.map(|s| s.python.libsumo_file.clone()),
@@ -191,6 +159,52 @@ impl SumoRun {
                 filter: finish.and_then(|f| f.totals.filter),
             }),
         }
+    }
+
+    /// What SUMO wrote to files of its own and the record reads after a finished run: the
+    /// surrogate safety measures and the summary of every vehicle (each `None` when not
+    /// asked for, the run did not finish, or the file cannot be read, said on stderr).
+    fn files_read_after(
+        &self,
+        finished: bool,
+    ) -> (
+        Option<syncroad_control::sumo_facts::SsmSummary>,
+        Option<syncroad_control::sumo_facts::AllVehicles>,
+    ) {
+        let warmup_s = self
+            .request
+            .measure
+            .as_ref()
+            .map_or(0.0, |m| m.warmup_steps as f64 * self.request.step_s);
+        let ssm = self
+            .request
+            .measure
+            .as_ref()
+            .and_then(|m| m.ssm_file.as_ref())
+            .filter(|_| finished)
+            .and_then(|f| match crate::ssm::read(f, warmup_s) {
+                Ok(s) => Some(s),
+                Err(e) => {
+                    // The run itself is fine; its record says no SSM was measured.
+                    eprintln!("warning: {e}; the record has no safety margins");
+                    None
+                }
+            });
+        let all_vehicles = self
+            .request
+            .summary_file
+            .as_ref()
+            .filter(|_| finished)
+            .and_then(
+                |f| match crate::summary::read(f, warmup_s, self.request.step_s) {
+                    Ok(a) => Some(a),
+                    Err(e) => {
+                        eprintln!("warning: {e}; the record has no metrics of all vehicles");
+                        None
+                    }
+                },
+            );
+        (ssm, all_vehicles)
     }
 
     /// The spread at every step the worker reported (against the scenario's leader speed, as
