@@ -492,6 +492,61 @@ mod tests {
         assert!(a.windows(2).any(|w| w[0] != w[1]));
     }
 
+    /// Flow's ring without noise: 22 cars of 5 m with Flow's IDM, evenly spaced on 230 m and
+    /// 260 m, from 4 m/s, settle on the IDM's equilibrium, the speed whose desired gap is the
+    /// gap, (s₀ + vT)/√(1 − (v/v₀)⁴) = L/22 − 5, solved here by bisection: 3.4541 and 4.8159
+    /// m/s, the uniform flows Flow's benchmarks quote (3.45 and 4.82).
+    #[test]
+    fn flows_ring_settles_on_the_idms_equilibrium() {
+        let p = IdmParams::FLOW;
+        for (ring, quoted) in [(230.0, 3.45), (260.0, 4.82)] {
+            let gap = ring / 22.0 - 5.0;
+            let desired = |v: f64| {
+                (p.min_gap_m + v * p.time_headway_s)
+                    / (1.0 - (v / p.desired_speed_mps).powi(4)).sqrt()
+            };
+            let (mut lo, mut hi) = (0.0, p.desired_speed_mps);
+            for _ in 0..200 {
+                let mid = 0.5 * (lo + hi);
+                if desired(mid) < gap {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            let v_eq = 0.5 * (lo + hi);
+            assert!((v_eq - quoted).abs() < 0.005, "{v_eq} vs {quoted}");
+            let n = 22;
+            let setup = HumanSetup {
+                drivers: vec![
+                    Some(NoisyIdm {
+                        noise: 0.0,
+                        ..NoisyIdm::FLOW_IDM_NOISE
+                    });
+                    n
+                ],
+                ring_length_m: ring,
+                length_m: vec![5.0; n],
+                seed: 1,
+                speed_limit_mps: None,
+            };
+            let mut c = HumanController::new(Box::new(Hold), &setup, 0.1);
+            let mut q: Vec<f64> = (0..n).map(|i| -(i as f64) * (gap + 5.0)).collect();
+            let mut v = vec![4.0; n];
+            let mut out = vec![0.0; n];
+            for k in 0..6000 {
+                c.step(k as f64 * 0.1, &v, &q, &mut out);
+                for i in 0..n {
+                    q[i] += 0.05 * (v[i] + out[i]);
+                }
+                std::mem::swap(&mut v, &mut out);
+            }
+            for x in &v {
+                assert_relative_eq!(*x, v_eq, epsilon = 1e-9);
+            }
+        }
+    }
+
     /// Free-road humans whose desired speed (Flow's 30 m/s) is above the road's limit of
     /// 27.78 m/s (100 km/h) accelerate to the limit and never pass it, noise or not; without a
     /// limit the same draws take them above it.
