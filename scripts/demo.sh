@@ -22,18 +22,21 @@ cargo build --release -p syncroad
   --baselines protocol,human,follower-stopper-4.3,pi-saturation \
   --mixed 0,1,2,4 --mixed-driver human --mixed-controller law,follower-stopper-4.3,pi-saturation \
   --out out/compare-human
-# The same mixed rings over 10 seeds: a sweep of penetrations 0–50 % for the law and both
-# dampers, resumable, into out/sweep-penetration/results.parquet with one plot per metric
-# (mean and 95 % interval over seeds); then the table, read in one line of pandas.
-./target/release/syncroad sweep sweeps/sugiyama-penetration.json --out out/sweep-penetration
+# Mixed rings among stochastic humans (human-noisy) over 20 seeds: a sweep of penetrations
+# 0–50 % for the law and both dampers, resumable, into out/noisy-penetration/results.parquet
+# with one plot per metric (mean and 95 % interval over seeds, which the humans' noise makes
+# wider than zero); then the table, read in one line of pandas.
+./target/release/syncroad sweep sweeps/noisy-penetration.json --out out/noisy-penetration
 .venv/bin/python - <<'PY'
 import pandas
-df = pandas.read_parquet("out/sweep-penetration/results.parquet")
+df = pandas.read_parquet("out/noisy-penetration/results.parquet")
 df["controller"] = df["run"].str.replace(r"-?mixed-[0-9.]+$", "", regex=True).replace("", "law")
 g = df.groupby(["controller", "penetration"])
 m = g[["congestion.speed_std_mps", "sumo.fuel_g_per_km", "congestion.stopped_fraction"]]
-half = 2.262 * m.std() / g.size().pow(0.5).values[:, None]   # t(0.975, 9): 10 seeds
-print("mean over 10 seeds (± half-width of the 95 % interval):")
+half = 2.093 * m.std() / g.size().pow(0.5).values[:, None]   # t(0.975, 19): 20 seeds
+print("mean over 20 seeds (± half-width of the 95 % interval):")
+print("unsafe runs (collisions, overlaps, teleports or emergency braking):")
+print(df[df["safe"] == False].groupby(["controller", "penetration"]).size().to_string(), flush=True)
 print((m.mean().round(3).astype(str) + " ± " + half.round(3).astype(str)).to_string(), flush=True)
 # pyarrow can abort at interpreter shutdown after the work is done (apache/arrow#34314).
 import os

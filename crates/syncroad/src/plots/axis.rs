@@ -32,6 +32,47 @@ pub fn linear(
     }
 }
 
+/// A linear range from the data alone: every finite value, a single value (or all equal)
+/// widened by 5 % of its size (1 when it is 0), never to a fixed span that would dwarf small
+/// data (penetrations 0–0.05 on a −0.5…0.55 axis).
+pub fn of_data(values: impl IntoIterator<Item = f64> + Clone, fallback: Range<f64>) -> Range<f64> {
+    let (lo, hi) = values
+        .clone()
+        .into_iter()
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v), b.max(v))
+        });
+    let size = lo.abs().max(hi.abs());
+    let floor = if hi > lo || !size.is_finite() {
+        0.0
+    } else if size > 0.0 {
+        0.1 * size
+    } else {
+        1.0
+    };
+    linear(values, floor, fallback)
+}
+
+/// The `lo`-th and `hi`-th quantiles (fractions) of the finite values, widened to `min_span`
+/// around their middle: a colour scale from where the data lie, which a short transient at
+/// the start does not stretch.
+pub fn quantiles(
+    values: impl IntoIterator<Item = f64>,
+    lo: f64,
+    hi: f64,
+    min_span: f64,
+    fallback: Range<f64>,
+) -> Range<f64> {
+    let mut v: Vec<f64> = values.into_iter().filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return fallback;
+    }
+    v.sort_by(f64::total_cmp);
+    let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
+    linear([at(lo), at(hi)], min_span, fallback)
+}
+
 /// `r` with 5 % of its span added on either side.
 pub fn padded(r: Range<f64>) -> Range<f64> {
     let pad = 0.05 * (r.end - r.start);
@@ -74,5 +115,21 @@ mod tests {
         assert!(one.start < 1e-3 && one.end > 1e-2, "{one:?}");
         let tiny = log([1e-300]).unwrap();
         assert_eq!(tiny.start, 0.5e-12);
+        // From the data: penetrations 0–0.05 stay 0–0.05; one value gets ±5 % of itself.
+        assert_eq!(of_data([0.0, 0.05], 0.0..1.0), 0.0..0.05);
+        let one = of_data([2.0, 2.0], 0.0..1.0);
+        assert!(
+            (one.start - 1.9).abs() < 1e-12 && (one.end - 2.1).abs() < 1e-12,
+            "{one:?}"
+        );
+        assert_eq!(of_data([0.0], 0.0..1.0), -0.5..0.5);
+        // The quantiles of 2..4 m/s with a short 8 m/s start: the start does not stretch them.
+        let mut speeds: Vec<f64> = (0..1000).map(|k| 2.0 + 2.0 * k as f64 / 999.0).collect();
+        speeds.extend([8.0; 10]);
+        let r = quantiles(speeds, 0.02, 0.98, 0.2, 0.0..1.0);
+        assert!(
+            r.start > 2.0 && r.start < 2.1 && r.end > 3.9 && r.end < 4.0,
+            "{r:?}"
+        );
     }
 }

@@ -104,8 +104,17 @@ impl RunPlots<'_> {
         Ok(files)
     }
 
+    /// The colour scale's speeds: where 96 % of the samples lie (the 2nd to the 98th
+    /// percentile, at least 0.2 m/s wide), so that the start's transient does not stretch it
+    /// over the wave; faster and slower samples take the scale's end colours.
     fn speed_range(&self) -> (f64, f64) {
-        let r = axis::linear(self.traj.speeds_mps.iter().copied(), 1e-9, 0.0..1.0);
+        let r = axis::quantiles(
+            self.traj.speeds_mps.iter().copied(),
+            0.02,
+            0.98,
+            0.2,
+            0.0..1.0,
+        );
         (r.start, r.end)
     }
 

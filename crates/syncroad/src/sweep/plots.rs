@@ -180,13 +180,12 @@ fn line_plots(sweep: &Sweep, table: &Table, x: &str, dir: &Path) -> anyhow::Resu
             s.sort_by(|a, b| a.0.total_cmp(&b.0));
         }
         let all = || series.values().flatten();
-        let xr = axis::padded(axis::linear(all().map(|(x, _)| *x), 1.0, 0.0..1.0));
-        let yr = axis::padded(axis::linear(
+        let xr = axis::padded(axis::of_data(all().map(|(x, _)| *x), 0.0..1.0));
+        let yr = axis::padded(axis::of_data(
             all().flat_map(|(_, m)| {
                 let h = m.half_width.unwrap_or(0.0);
                 [m.mean - h, m.mean + h]
             }),
-            1.0,
             0.0..1.0,
         ));
         let title = format!(
@@ -212,10 +211,10 @@ fn line_plots(sweep: &Sweep, table: &Table, x: &str, dir: &Path) -> anyhow::Resu
             for (k, (run, pts)) in series.iter().enumerate() {
                 let col = PALETTE[k % PALETTE.len()];
                 chart
-                    .draw_series(LineSeries::new(
-                        pts.iter().map(|(x, m)| (*x, m.mean)),
-                        col.stroke_width(2),
-                    ))
+                    .draw_series(
+                        LineSeries::new(pts.iter().map(|(x, m)| (*x, m.mean)), col.stroke_width(2))
+                            .point_size(4),
+                    )
                     .map_err(err)?
                     .label(run.clone())
                     .legend(move |(x, y)| {
