@@ -13,7 +13,7 @@ import numpy as np
 #: The arrays of an observation sent every step, packed after (time_s, step) as float64.
 ROWS = ("speed_mps", "accel_mps2", "odometer_m", "gap_m", "leader_speed_mps")
 #: The fields sent once, with the first observation.
-FIRST_FIELDS = ("dt_s", "ids", "controlled", "length_m", "ring_length_m")
+FIRST_FIELDS = ("dt_s", "ids", "controlled", "length_m", "ring_length_m", "speed_limit_mps")
 
 #: The message that ends the run early (the caller closed the Simulation).
 CLOSED = "the caller closed the simulation before its horizon"

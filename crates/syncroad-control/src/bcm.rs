@@ -160,6 +160,7 @@ mod tests {
             controlled: vec![true; 3],
             accel_mps2: f64::INFINITY,
             decel_mps2: f64::INFINITY,
+            speed_limit_mps: None,
         };
         let p = BcmParams::default();
         let mut law = Bcm::new(p, &c);

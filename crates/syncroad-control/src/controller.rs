@@ -129,6 +129,7 @@ impl LawSpec {
                 ring_length_m: scenario.ring_length_m(),
                 accel_mps2: vt.accel_mps2,
                 decel_mps2: vt.decel_mps2,
+                speed_limit_mps: None,
             },
             damper: None,
             humans: None,

@@ -163,6 +163,7 @@ mod tests {
             controlled: vec![true; 2],
             accel_mps2: f64::INFINITY,
             decel_mps2: f64::INFINITY,
+            speed_limit_mps: None,
         };
         let mut law = Lacc::new(p, &c);
         let mut out = [0.0; 2];

@@ -412,6 +412,7 @@ mod tests {
             controlled: vec![true; n],
             accel_mps2: f64::INFINITY,
             decel_mps2: f64::INFINITY,
+            speed_limit_mps: None,
         }
     }
 

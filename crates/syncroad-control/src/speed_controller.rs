@@ -97,6 +97,10 @@ pub struct LawContext {
     pub accel_mps2: f64,
     /// The vehicles' largest deceleration \[m/s²\] (their type's `decel`).
     pub decel_mps2: f64,
+    /// The road's speed limit \[m/s\] (in SUMO the lowest lane limit along the road);
+    /// `None`: the road has none (the native simulator's).
+    #[serde(default)]
+    pub speed_limit_mps: Option<f64>,
 }
 
 /// The road a law needs.

@@ -522,13 +522,8 @@ fn law_of(
 ) -> LawSpec {
     let mut law = LawSpec::of(scenario);
     let vt = &layout.vtype;
-    let limit = layout.road.speed_limit_mps();
-    law.safety = filter_params(
-        safety,
-        vt.min_gap_m,
-        vt.decel_mps2,
-        limit.is_finite().then_some(limit),
-    );
+    let limit = Some(layout.road.speed_limit_mps()).filter(|l| l.is_finite());
+    law.safety = filter_params(safety, vt.min_gap_m, vt.decel_mps2, limit);
     let lengths = || {
         layout
             .vehicles
@@ -549,6 +544,7 @@ fn law_of(
         .collect();
     c.accel_mps2 = layout.vtype.accel_mps2;
     c.decel_mps2 = layout.vtype.decel_mps2;
+    c.speed_limit_mps = limit;
     if humans.iter().any(Option::is_some) {
         law.humans = Some(HumanSetup {
             drivers: humans,

@@ -37,6 +37,8 @@ class Observation:
     controlled        True where the controller's command is applied (others: humans, SUMO)
     length_m          vehicle lengths [m]
     ring_length_m     circumference of a ring road [m], None on an open road
+    speed_limit_mps   the road's speed limit [m/s] (in SUMO the lowest lane limit along the
+                      road; inf where the road has none, as on the native simulator)
     """
 
     __slots__ = (
@@ -52,6 +54,7 @@ class Observation:
         "controlled",
         "length_m",
         "ring_length_m",
+        "speed_limit_mps",
     )
 
     def __repr__(self):
@@ -139,7 +142,7 @@ class Stepper:
     """Calls `obj.step(obs)` each step; the adapter fills `rows` before and reads `out` after
     (their addresses are `rows_address` and `out_address`)."""
 
-    def __init__(self, obj, ids, dt_s, length_m, ring_length_m, controlled):
+    def __init__(self, obj, ids, dt_s, length_m, ring_length_m, controlled, speed_limit_mps=None):
         self.step_fn = obj.step
         self.n = len(ids)
         self.rows = np.zeros((len(ROWS), self.n), dtype=np.float64)
@@ -158,6 +161,7 @@ class Stepper:
         obs.ring_length_m = ring_length_m
         obs.controlled = np.array(controlled, dtype=bool)
         obs.controlled.flags.writeable = False
+        obs.speed_limit_mps = float("inf") if speed_limit_mps is None else float(speed_limit_mps)
         self.obs = obs
 
     def step(self, time_s, step):

@@ -117,6 +117,7 @@ impl PythonController {
                     setup.length_m.clone(),
                     setup.ring_length_m,
                     setup.controlled.clone(),
+                    setup.speed_limit_mps,
                 ))
             })
             .map_err(|e| fail(py_error(py, "Stepper", e).to_string()))?;

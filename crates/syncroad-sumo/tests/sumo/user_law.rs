@@ -283,3 +283,28 @@ fn a_class_that_cannot_be_built_is_refused_before_sumo_starts() {
         assert!(e.to_string().contains(expected), "{e}");
     }
 }
+
+/// The observation carries the road's speed limit: SUMO's lanes of the Sugiyama net (built at
+/// 30 m/s, `sumo-nets/gen_sources.py`) in SUMO, none (inf) natively. The controller checks it
+/// every step and fails the run if it differs.
+#[test]
+fn the_observation_carries_the_roads_speed_limit() {
+    let dir = work("py-limit");
+    let file = controller_file(
+        &dir,
+        "class Limit:\n    def __init__(self, expected):\n        self.expected = float(expected)\n    def step(self, obs):\n        if obs.speed_limit_mps != self.expected:\n            raise ValueError(f'speed_limit_mps = {obs.speed_limit_mps}, expected {self.expected}')\n        return obs.speed_mps\n",
+    );
+    let law = |expected: &str| {
+        ring(
+            5.0,
+            Some(
+                serde_json::json!({"python": format!("{file}:Limit"), "params": {"expected": expected}}),
+            ),
+        )
+    };
+    let sc = law("30");
+    let run = run_scenario(&sc, &opts("py-limit-run")).unwrap();
+    assert_eq!(run.stop(), StopReason::Horizon, "{:?}", run.stop());
+    let sc = law("inf");
+    assert_eq!(native(&sc, &LawSpec::of(&sc)).stop, StopReason::Horizon);
+}
