@@ -11,7 +11,15 @@ from typing import Any, Dict, Optional
 import numpy as np
 
 #: The arrays of an observation sent every step, packed after (time_s, step) as float64.
-ROWS = ("speed_mps", "accel_mps2", "odometer_m", "gap_m", "leader_speed_mps")
+ROWS = (
+    "speed_mps",
+    "accel_mps2",
+    "odometer_m",
+    "gap_m",
+    "leader_speed_mps",
+    "signal_distance_m",
+    "signal_stop",
+)
 #: The fields sent once, with the first observation.
 FIRST_FIELDS = ("dt_s", "ids", "controlled", "length_m", "ring_length_m", "speed_limit_mps")
 

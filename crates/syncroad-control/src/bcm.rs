@@ -161,6 +161,7 @@ mod tests {
             accel_mps2: f64::INFINITY,
             decel_mps2: f64::INFINITY,
             speed_limit_mps: None,
+            signals: false,
         };
         let p = BcmParams::default();
         let mut law = Bcm::new(p, &c);

@@ -130,6 +130,7 @@ impl LawSpec {
                 accel_mps2: vt.accel_mps2,
                 decel_mps2: vt.decel_mps2,
                 speed_limit_mps: None,
+                signals: false,
             },
             damper: None,
             humans: None,

@@ -164,6 +164,7 @@ mod tests {
             accel_mps2: f64::INFINITY,
             decel_mps2: f64::INFINITY,
             speed_limit_mps: None,
+            signals: false,
         };
         let mut law = Lacc::new(p, &c);
         let mut out = [0.0; 2];

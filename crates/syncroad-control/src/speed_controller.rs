@@ -101,6 +101,10 @@ pub struct LawContext {
     /// `None`: the road has none (the native simulator's).
     #[serde(default)]
     pub speed_limit_mps: Option<f64>,
+    /// The network has traffic lights (a SUMO run): a controller that reads the signal ahead
+    /// of each vehicle asks SUMO for it each step.
+    #[serde(default)]
+    pub signals: bool,
 }
 
 /// The road a law needs.

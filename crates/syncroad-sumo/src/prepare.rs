@@ -272,8 +272,8 @@ fn prepare_with(
     let law_driven = layout.vehicles.len() - sumo_driven - usize::from(layout.leader_vehicle);
     // The safety layer under the law: the scenario's, or SUMO's checks when other traffic
     // shares the road or the network has traffic lights (syncroad_control::safety).
-    let safety =
-        scenario.safety_for(sumo_driven > 0 || crate::net::has_traffic_lights(&layout.road.path));
+    let signals = crate::net::has_traffic_lights(&layout.road.path);
+    let safety = scenario.safety_for(sumo_driven > 0 || signals);
     let speed_mode = safety.speed_mode();
     let measure = match &opts.measure {
         None => None,
@@ -290,7 +290,8 @@ fn prepare_with(
     let control = if law_driven == 0 && sumo_driven > 0 && !layout.leader_vehicle {
         Control::SumoModel
     } else {
-        let law = law_of(scenario, &layout, damper, humans, safety);
+        let mut law = law_of(scenario, &layout, damper, humans, safety);
+        law.context.signals = signals;
         Control::Law { law: Box::new(law) }
     };
     let extra_routes = user_files("sumo.routes", scenario.sumo().routes())?;

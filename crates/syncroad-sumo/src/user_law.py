@@ -39,6 +39,10 @@ class Observation:
     ring_length_m     circumference of a ring road [m], None on an open road
     speed_limit_mps   the road's speed limit [m/s] (in SUMO the lowest lane limit along the
                       road; inf where the road has none, as on the native simulator)
+    signal_distance_m distance to the next traffic light ahead on the vehicle's route [m]
+                      (inf: none, or a road without traffic lights)
+    signal_stop       1.0 where that light shows red or yellow (the vehicle must stop before
+                      it if it can), else 0.0
     """
 
     __slots__ = (
@@ -55,6 +59,8 @@ class Observation:
         "length_m",
         "ring_length_m",
         "speed_limit_mps",
+        "signal_distance_m",
+        "signal_stop",
     )
 
     def __repr__(self):
@@ -142,7 +148,9 @@ class Stepper:
     """Calls `obj.step(obs)` each step; the adapter fills `rows` before and reads `out` after
     (their addresses are `rows_address` and `out_address`)."""
 
-    def __init__(self, obj, ids, dt_s, length_m, ring_length_m, controlled, speed_limit_mps=None):
+    def __init__(
+        self, obj, ids, dt_s, length_m, ring_length_m, controlled, speed_limit_mps=None, signals=False
+    ):
         self.step_fn = obj.step
         self.n = len(ids)
         self.rows = np.zeros((len(ROWS), self.n), dtype=np.float64)
@@ -162,12 +170,38 @@ class Stepper:
         obs.controlled = np.array(controlled, dtype=bool)
         obs.controlled.flags.writeable = False
         obs.speed_limit_mps = float("inf") if speed_limit_mps is None else float(speed_limit_mps)
+        self.signal_distance = np.full(self.n, np.inf)
+        self.signal_stop = np.zeros(self.n)
+        obs.signal_distance_m = self.signal_distance[:]
+        obs.signal_distance_m.flags.writeable = False
+        obs.signal_stop = self.signal_stop[:]
+        obs.signal_stop.flags.writeable = False
+        # In a SUMO worker on a network with traffic lights: the loop's libsumo, imported at
+        # the first step (the controller is built before the loop starts SUMO).
+        self.signals = signals
+        self.next_tls = None
+        self.ids = tuple(ids)
         self.obs = obs
+
+    def _read_signals(self):
+        for i, vid in enumerate(self.ids):
+            ahead = self.next_tls(vid)
+            if ahead:
+                _, _, distance, state = ahead[0]
+                self.signal_distance[i] = distance
+                self.signal_stop[i] = 1.0 if state in "rRyYu" else 0.0
+            else:
+                self.signal_distance[i] = np.inf
+                self.signal_stop[i] = 0.0
 
     def step(self, time_s, step):
         obs = self.obs
         obs.time_s = time_s
         obs.step = step
+        if self.signals:
+            if self.next_tls is None:
+                self.next_tls = importlib.import_module("libsumo").vehicle.getNextTLS
+            self._read_signals()
         out = self.step_fn(obs)
         try:
             a = np.asarray(out, dtype=np.float64)

@@ -118,6 +118,7 @@ impl PythonController {
                     setup.ring_length_m,
                     setup.controlled.clone(),
                     setup.speed_limit_mps,
+                    setup.signals,
                 ))
             })
             .map_err(|e| fail(py_error(py, "Stepper", e).to_string()))?;

@@ -888,7 +888,9 @@ mod signals {
         o.work_dir = dir.join(format!(
             "{}-{}",
             safety.unwrap_or("default"),
-            json["controller"]["rust"].as_str().unwrap_or("law")
+            json["controller"]["rust"]
+                .as_str()
+                .unwrap_or("python-or-law")
         ));
         let run = run_scenario(&sc, &o).unwrap();
         let slowest = run
@@ -897,6 +899,47 @@ mod signals {
             .iter()
             .fold(f64::INFINITY, |m, v| m.min(*v));
         (slowest, run)
+    }
+
+    /// A Python controller of the user's sees the traffic light ahead in its observation:
+    /// with no safety layer under it (so SUMO would let it drive through red), it stops before
+    /// red and yellow lights by itself, keeping a 1 s gap behind whoever stopped, and nobody
+    /// collides.
+    #[test]
+    fn a_python_controller_stops_for_red_from_its_observation() {
+        let dir = work("py-signals");
+        signalled_loop(&dir);
+        std::fs::write(
+            dir.join("stop_for_red.py"),
+            r#"import numpy as np
+
+class StopForRed:
+    def __init__(self):
+        self.saw_red = False
+
+    def step(self, obs):
+        d = obs.signal_distance_m
+        red = (obs.signal_stop > 0) & np.isfinite(d)
+        self.saw_red = self.saw_red or bool(red.any())
+        v = np.full(len(obs.ids), 8.0)
+        # Stop 2 m before the line from 3 m/s^2, and keep 1 s behind the one ahead.
+        v = np.where(red & (d < 40.0), np.minimum(v, np.sqrt(6.0 * np.maximum(d - 2.0, 0.0))), v)
+        v = np.minimum(v, np.maximum(obs.gap_m - 2.0, 0.0) / 1.0)
+        if obs.step == 1999 and not self.saw_red:
+            raise RuntimeError("no red light in 200 s")
+        return v
+"#,
+        )
+        .unwrap();
+        let law = serde_json::json!({"python": dir.join("stop_for_red.py:StopForRed").display().to_string()});
+        let (slowest, run) = run_law(&dir, Some("off"), Some(law));
+        assert_eq!(run.request.speed_mode, 32);
+        let fin = run.outcome().expect("horizon reached");
+        assert!(
+            slowest < 0.1,
+            "slowest {slowest} m/s: nobody stopped for red"
+        );
+        assert_eq!(fin.totals.collision_steps, 0);
     }
 
     /// A law that wants 25 m/s on the loop's 15 m/s lanes: with the layer off the vehicles
