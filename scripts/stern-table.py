@@ -55,8 +55,8 @@ def main(path):
           + ", ".join(f"{label} {statistics.fmean(float(b[k]) for b in base.values()):.3f}"
                       for k, label in METRICS))
     print("| controller | " + " | ".join(f"Δ {label} [%]" for _, label in METRICS)
-          + " | min gap [m] |")
-    print("|---|" + "---:|" * (len(METRICS) + 1))
+          + " | min gap [m] | min time headway [s] |")
+    print("|---|" + "---:|" * (len(METRICS) + 2))
     for run, seeds in sorted(by.items()):
         cells = []
         for key, _ in METRICS:
@@ -67,6 +67,9 @@ def main(path):
         gaps = [float(r["gap_safety.min_gap_m"]) for r in seeds.values()
                 if r.get("gap_safety.min_gap_m") not in (None, "", "null")]
         cells.append(f"{min(gaps):.2f}" if gaps else "—")
+        heads = [float(r["gap_safety.min_time_headway_s"]) for r in seeds.values()
+                 if r.get("gap_safety.min_time_headway_s") not in (None, "", "null")]
+        cells.append(f"{min(heads):.2f}" if heads else "—")
         print(f"| {run}{mark(list(seeds.values()))} | " + " | ".join(cells) + " |")
 
 

@@ -102,6 +102,11 @@ pub struct GapSafety {
     /// Vehicle-samples with a gap ≤ 0 after the warm-up (overlaps: collisions).
     #[schemars(title = "overlapping vehicle-samples")]
     pub overlap_samples: usize,
+    /// Smallest time headway Δx/v after the warm-up over the samples with v ≥ 1 m/s \[s\];
+    /// null when no vehicle drove that fast.
+    #[serde(default)]
+    #[schemars(title = "min time headway")]
+    pub min_time_headway_s: Option<f64>,
 }
 
 impl GapSafety {
@@ -111,6 +116,7 @@ impl GapSafety {
         let first = traj.time_s.partition_point(|&t| t < warmup_s - 1e-9);
         let n = traj.n;
         let (mut min_gap, mut below, mut overlaps) = (f64::INFINITY, 0.0, 0usize);
+        let mut min_headway = f64::INFINITY;
         for k in first..traj.len() {
             let dt = if k + 1 < traj.len() {
                 traj.time_s[k + 1] - traj.time_s[k]
@@ -125,8 +131,11 @@ impl GapSafety {
                 min_gap = min_gap.min(gap);
                 overlaps += usize::from(gap <= 0.0);
                 let v = traj.speeds_mps[k * n + i];
-                if v >= HEADWAY_MIN_SPEED_MPS && gap / v < SAFE_HEADWAY_S {
-                    below += dt;
+                if v >= HEADWAY_MIN_SPEED_MPS {
+                    min_headway = min_headway.min(gap / v);
+                    if gap / v < SAFE_HEADWAY_S {
+                        below += dt;
+                    }
                 }
             }
         }
@@ -134,6 +143,7 @@ impl GapSafety {
             min_gap_m: min_gap,
             time_below_safe_headway_s: (traj.len() >= first + 2).then_some(below),
             overlap_samples: overlaps,
+            min_time_headway_s: min_headway.is_finite().then_some(min_headway),
         })
     }
 }
@@ -176,10 +186,14 @@ mod tests {
         // Vehicle 1 at 5 m/s with −0.2 m is below 1 s too: 1 s + 0.5 s.
         assert_relative_eq!(g.time_below_safe_headway_s.unwrap(), 1.5);
         assert_eq!(g.overlap_samples, 1);
-        // One sample after the warm-up measures no time: null, not 0 (the gap still counts).
+        // Headways of the samples at ≥ 1 m/s: 2/4, 3/2, −0.2/5, 8/5: the least is −0.04 s.
+        assert_relative_eq!(g.min_time_headway_s.unwrap(), -0.04);
+        // One sample after the warm-up measures no time: null, not 0 (the gap still counts);
+        // its only vehicles at ≥ 1 m/s have 8/5 = 1.6 s.
         let g = GapSafety::of(&t, 2.5).unwrap();
         assert_eq!(g.time_below_safe_headway_s, None);
         assert_relative_eq!(g.min_gap_m, 2.5);
+        assert_relative_eq!(g.min_time_headway_s.unwrap(), 1.6);
     }
 
     #[test]

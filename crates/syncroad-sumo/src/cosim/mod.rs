@@ -31,7 +31,7 @@ use pyo3::types::{PyString, PyTuple};
 use syncroad_control::{controller_for_in, SpeedController};
 
 use crate::probe::Probe;
-use crate::protocol::{write_msg, Control, Job, Request, StartInfo, WorkerMsg};
+use crate::protocol::{write_msg, Control, Finish, Job, Request, StartInfo, WorkerMsg};
 use crate::python::{load_libsumo, py_error, PythonError};
 
 mod adopt;
@@ -141,9 +141,12 @@ pub fn run(py: Python<'_>, job: &Job, out: &mut impl Write) -> Result<(), CosimE
         });
     }
     let result = run_started(py, &ls, req, controller, probe, python, out);
-    // Close SUMO whatever happened (the worker exits right after).
+    // Close SUMO whatever happened, and before the end is reported: closing flushes SUMO's
+    // log, whose emergency-braking warnings the parent counts when the end arrives (a pooled
+    // worker goes on to its next run, so nothing else would make the log complete in time).
     let _ = ls.module.call_method0("close");
-    result?;
+    let finish = result?;
+    write_msg(out, &WorkerMsg::Finished(finish)).map_err(|e| CosimError::Pipe(e.to_string()))?;
     out.flush().map_err(|e| CosimError::Pipe(e.to_string()))
 }
 
@@ -157,7 +160,7 @@ fn run_started(
     probe: Option<Probe>,
     python: crate::python::PythonInfo,
     out: &mut impl Write,
-) -> Result<(), CosimError> {
+) -> Result<Finish, CosimError> {
     let n = req.layout.vehicles.len();
     // Insertion happens in the first step; states after it are the initial conditions.
     ls.simulation_step()?;

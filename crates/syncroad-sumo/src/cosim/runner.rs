@@ -10,20 +10,22 @@ use pyo3::types::PyTuple;
 use syncroad_control::StopReason;
 
 use super::meter::Meter;
-use super::observer::{pipe, Measurements, Observed, Recorder, SafetyWatch, SumoObserver};
+use super::observer::{Measurements, Observed, Recorder, SafetyWatch, SumoObserver};
 use super::step::{CoSim, StepTimes};
 use super::timing::ProbeTimer;
 use super::CosimError;
 use crate::probe::Probe;
-use crate::protocol::{write_msg, Finish, Totals, WorkerMsg};
+use crate::protocol::{Finish, Totals};
 
-/// Runs the steps of the request to its horizon or to a stop, then reports the end.
+/// Runs the steps of the request to its horizon or to a stop; returns the end of the run,
+/// which the caller reports once SUMO is closed (its log is then complete on disk, and the
+/// parent counts SUMO's warnings in it).
 pub(super) fn run_steps(
     mut sim: CoSim<'_, '_>,
     id_args: &[Bound<'_, PyTuple>],
     probe: Option<Probe>,
     mut out: &mut impl Write,
-) -> Result<(), CosimError> {
+) -> Result<Finish, CosimError> {
     let req = sim.req;
     let py = sim.py;
     let mut safety = SafetyWatch::new(Totals {
@@ -77,8 +79,7 @@ pub(super) fn run_steps(
         measured,
         step_s,
     };
-    write_msg(out, &WorkerMsg::Finished(finish)).map_err(pipe)?;
-    Ok(())
+    Ok(finish)
 }
 
 /// The steps: each full step is followed by every observer in turn; the probe's bare steps
