@@ -141,7 +141,7 @@ impl RunPlots<'_> {
             }
         };
         render_both!(dir, "time_space", (1100, 650), |root| {
-            let (main, bar) = root.split_horizontally(root.dim_in_pixel().0 - 90);
+            let (main, bar) = root.split_horizontally(root.dim_in_pixel().0 - 110);
             let mut chart = ChartBuilder::on(&main)
                 .caption(
                     format!("{} — time-space diagram", self.title),
@@ -185,13 +185,16 @@ impl RunPlots<'_> {
             let mut cb = ChartBuilder::on(&bar)
                 .margin_top(40)
                 .margin_bottom(50)
-                .y_label_area_size(50)
+                .margin_right(12)
+                .y_label_area_size(64)
                 .build_cartesian_2d(0.0..1.0, vmin..vmax)
                 .map_err(err)?;
             cb.configure_mesh()
                 .disable_x_axis()
                 .disable_mesh()
                 .y_desc("speed [m/s]")
+                .y_labels(8)
+                .y_label_formatter(&|v| format!("{v:.2}"))
                 .y_label_style(("sans-serif", 13))
                 .axis_desc_style(("sans-serif", 14))
                 .draw()
