@@ -21,8 +21,8 @@
 use serde::Deserialize;
 
 use crate::actuation::AccelLimits;
-use crate::road::RingView;
-use crate::speed_controller::{law_params, LawContext, LawEntry, Road, SpeedController};
+use crate::damper::{FleetLaw, RingFleet};
+use crate::speed_controller::{law_params, LawContext, LawEntry, Road};
 
 /// The law's entry in [`crate::registry`]: `lacc`, parameters `k_1`, `k_2`, `time_gap_s`,
 /// `lag_s`, `standstill_m`.
@@ -95,55 +95,50 @@ impl LaccParams {
     }
 }
 
-/// The LACC on every vehicle; one with nobody ahead holds its speed.
+/// The LACC on every vehicle (a fleet law over the road's gaps, [`RingFleet`]); one with
+/// nobody ahead holds its speed.
 struct Lacc {
     params: LaccParams,
-    view: RingView,
     limits: AccelLimits,
     dt_s: f64,
     accel: Vec<f64>,
 }
 
 impl Lacc {
-    fn new(params: LaccParams, c: &LawContext) -> Self {
-        Self {
-            params,
-            view: RingView::on(c.ring_length_m, &c.length_m),
-            limits: c.limits(),
-            dt_s: c.step_s,
-            accel: vec![0.0; c.length_m.len()],
-        }
+    fn new(params: LaccParams, c: &LawContext) -> RingFleet<Self> {
+        RingFleet::new(
+            c,
+            Self {
+                params,
+                limits: c.limits(),
+                dt_s: c.step_s,
+                accel: vec![0.0; c.length_m.len()],
+            },
+        )
     }
 }
 
-impl SpeedController for Lacc {
-    fn step(&mut self, _t: f64, speeds: &[f64], positions: &[f64], out: &mut [f64]) {
-        self.view.observe(speeds, positions);
+impl FleetLaw for Lacc {
+    fn step_fleet(&mut self, v: &[f64], gaps: &[f64], lead: &[f64], out: &mut [f64]) -> bool {
         let dt = self.dt_s;
-        for i in 0..speeds.len() {
-            let gap = self.view.gaps_m[i];
-            let u = if gap.is_finite() {
-                self.params
-                    .command(speeds[i], gap, self.view.leader_speeds_mps[i])
+        for i in 0..v.len() {
+            let u = if gaps[i].is_finite() {
+                self.params.command(v[i], gaps[i], lead[i])
             } else {
                 0.0
             };
             let a = &mut self.accel[i];
             *a += dt * (u - *a) / self.params.lag_s;
-            out[i] = self
-                .limits
-                .next_speed_mps(speeds[i], speeds[i] + *a * dt, dt);
+            out[i] = self.limits.next_speed_mps(v[i], v[i] + *a * dt, dt);
         }
-    }
-
-    fn sense(&mut self, neighbors: &crate::sensed::Neighbors) {
-        self.view.sense(neighbors);
+        true
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::speed_controller::SpeedController;
     use approx::assert_relative_eq;
 
     #[test]

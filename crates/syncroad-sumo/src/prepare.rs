@@ -290,8 +290,7 @@ fn prepare_with(
     let control = if law_driven == 0 && sumo_driven > 0 && !layout.leader_vehicle {
         Control::SumoModel
     } else {
-        let mut law = law_of(scenario, &layout, damper, humans, safety);
-        law.context.signals = signals;
+        let law = law_of(scenario, &layout, damper, humans, (safety, signals));
         Control::Law { law: Box::new(law) }
     };
     let extra_routes = user_files("sumo.routes", scenario.sumo().routes())?;
@@ -513,13 +512,13 @@ fn measure_of(
 
 /// The law of a run on the road SUMO will drive: the scenario's, with the damper, the user's
 /// controller and the stochastic humans resolved on the layout (its ring length, vehicles and
-/// who SUMO drives).
+/// who SUMO drives), under the safety layer, on a network with or without traffic lights.
 fn law_of(
     scenario: &Scenario,
     layout: &Layout,
     damper: Option<NamedLaw>,
     humans: Vec<Option<NoisyIdm>>,
-    safety: SafetyMode,
+    (safety, signals): (SafetyMode, bool),
 ) -> LawSpec {
     let mut law = LawSpec::of(scenario);
     let vt = &layout.vtype;
@@ -546,6 +545,7 @@ fn law_of(
     c.accel_mps2 = layout.vtype.accel_mps2;
     c.decel_mps2 = layout.vtype.decel_mps2;
     c.speed_limit_mps = limit;
+    c.signals = signals;
     if humans.iter().any(Option::is_some) {
         law.humans = Some(HumanSetup {
             drivers: humans,

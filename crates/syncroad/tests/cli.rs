@@ -587,6 +587,25 @@ fn exact_analysis_refuses_gains_below_its_resolution_and_map_leaves_them_blank()
     }
 }
 
+/// A copy of the shipped scenario `name` (its network path made absolute) changed by `edit`,
+/// written to `dir/sc.json`.
+fn edited_scenario(
+    dir: &std::path::Path,
+    name: &str,
+    edit: impl FnOnce(&mut serde_json::Value),
+) -> std::path::PathBuf {
+    let scenarios = repo().join("scenarios");
+    let text = std::fs::read_to_string(scenarios.join(format!("{name}.json"))).unwrap();
+    let mut sc: serde_json::Value = serde_json::from_str(&text).unwrap();
+    if let Some(net) = sc["sumo"]["net"].as_str() {
+        sc["sumo"]["net"] = serde_json::json!(scenarios.join(net));
+    }
+    edit(&mut sc);
+    let path = dir.join("sc.json");
+    std::fs::write(&path, sc.to_string()).unwrap();
+    path
+}
+
 /// The guide's Rust program with its own law (`examples/own_law.rs`, built with the tests):
 /// on both backends its speeds agree on the initial mean, which the law conserves.
 #[test]
@@ -619,16 +638,11 @@ fn a_rust_program_runs_its_own_law_on_both_backends() {
 #[test]
 fn a_built_in_law_named_in_the_scenario_follows_its_closed_form_on_both_backends() {
     let dir = tmpdir("constant-speed");
-    let mut sc: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(repo().join("scenarios/sugiyama-ring.json")).unwrap(),
-    )
-    .unwrap();
-    sc["horizon_s"] = serde_json::json!(20);
-    sc["sumo"]["net"] = serde_json::json!(repo().join("sumo-nets/sugiyama-ring.net.xml"));
-    sc["controller"] =
-        serde_json::json!({"rust": "constant-speed", "params": {"target_speed_mps": 8.0}});
-    let path = dir.join("sc.json");
-    std::fs::write(&path, sc.to_string()).unwrap();
+    let path = edited_scenario(&dir, "sugiyama-ring", |sc| {
+        sc["horizon_s"] = serde_json::json!(20);
+        sc["controller"] =
+            serde_json::json!({"rust": "constant-speed", "params": {"target_speed_mps": 8.0}});
+    });
     for command in ["simulate", "run"] {
         let out = dir.join(command);
         let (code, stdout, err) = run(bin().arg(command).arg(&path).arg("--out").arg(&out));
@@ -689,18 +703,13 @@ fn gipps(gap: f64, leader: f64) -> f64 {
 #[test]
 fn the_safety_filter_holds_a_law_to_gipps_safe_speed_on_both_backends() {
     let dir = tmpdir("safety-filter");
-    let mut sc: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(repo().join("scenarios/sugiyama-ring.json")).unwrap(),
-    )
-    .unwrap();
-    sc["horizon_s"] = serde_json::json!(60);
-    sc["initial"] = serde_json::json!({"speed_mps": 2.0});
-    sc["sumo"]["net"] = serde_json::json!(repo().join("sumo-nets/sugiyama-ring.net.xml"));
-    sc["controller"] =
-        serde_json::json!({"rust": "constant-speed", "params": {"target_speed_mps": 8.0}});
-    sc["safety"] = serde_json::json!("filter");
-    let path = dir.join("sc.json");
-    std::fs::write(&path, sc.to_string()).unwrap();
+    let path = edited_scenario(&dir, "sugiyama-ring", |sc| {
+        sc["horizon_s"] = serde_json::json!(60);
+        sc["initial"] = serde_json::json!({"speed_mps": 2.0});
+        sc["controller"] =
+            serde_json::json!({"rust": "constant-speed", "params": {"target_speed_mps": 8.0}});
+        sc["safety"] = serde_json::json!("filter");
+    });
     for command in ["simulate", "run"] {
         let out = dir.join(command);
         let (code, stdout, err) = run(bin()
@@ -768,13 +777,9 @@ fn the_safety_filter_holds_a_law_to_gipps_safe_speed_on_both_backends() {
 #[test]
 fn the_native_simulator_refuses_sumos_safety_checks() {
     let dir = tmpdir("safety-sumo-native");
-    let mut sc: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(repo().join("scenarios/ring-theorem1.json")).unwrap(),
-    )
-    .unwrap();
-    sc["safety"] = serde_json::json!("sumo");
-    let path = dir.join("sc.json");
-    std::fs::write(&path, sc.to_string()).unwrap();
+    let path = edited_scenario(&dir, "ring-theorem1", |sc| {
+        sc["safety"] = serde_json::json!("sumo");
+    });
     let (code, _, err) = run(bin()
         .arg("simulate")
         .arg(&path)
@@ -792,13 +797,9 @@ fn the_native_simulator_refuses_sumos_safety_checks() {
 #[test]
 fn a_rust_law_the_program_did_not_register_is_refused_naming_the_field() {
     let dir = tmpdir("rust-law-missing");
-    let mut sc: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(repo().join("scenarios/ring-theorem1.json")).unwrap(),
-    )
-    .unwrap();
-    sc["controller"] = serde_json::json!({"rust": "follow", "params": {"gain": 0.5}});
-    let path = dir.join("sc.json");
-    std::fs::write(&path, sc.to_string()).unwrap();
+    let path = edited_scenario(&dir, "ring-theorem1", |sc| {
+        sc["controller"] = serde_json::json!({"rust": "follow", "params": {"gain": 0.5}});
+    });
     let (code, _, err) = run(bin()
         .arg("simulate")
         .arg(&path)
