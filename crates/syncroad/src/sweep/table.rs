@@ -7,8 +7,11 @@
 use std::path::Path;
 use std::sync::{Arc, OnceLock};
 
-use arrow_array::{ArrayRef, BooleanArray, Float64Array, Int64Array, RecordBatch, StringArray};
-use arrow_schema::{DataType, Field, Schema};
+use parquet::basic::{LogicalType, Repetition, Type as Physical};
+use parquet::data_type::{BoolType, ByteArray, ByteArrayType, DoubleType, Int64Type};
+use parquet::file::properties::WriterProperties;
+use parquet::file::writer::SerializedFileWriter;
+use parquet::schema::types::Type;
 use serde_json::{Map, Value};
 use syncroad_control::record::schema::{metric_infos, MetricInfo};
 
@@ -111,44 +114,85 @@ fn text(v: &Value) -> Option<String> {
 }
 
 impl Table {
-    /// The Arrow record batch of the table.
-    pub fn batch(&self) -> anyhow::Result<RecordBatch> {
-        let fields: Vec<Field> = self
+    /// The Parquet schema of the table: one optional (nullable) column per column, floats as
+    /// DOUBLE, integers as INT64, booleans as BOOLEAN, text as UTF-8 strings.
+    fn parquet_schema(&self) -> anyhow::Result<Arc<Type>> {
+        let fields = self
             .columns
             .iter()
             .map(|c| {
-                let t = match c.kind {
-                    Kind::Float => DataType::Float64,
-                    Kind::Int => DataType::Int64,
-                    Kind::Bool => DataType::Boolean,
-                    Kind::Text => DataType::Utf8,
+                let (physical, logical) = match c.kind {
+                    Kind::Float => (Physical::DOUBLE, None),
+                    Kind::Int => (Physical::INT64, None),
+                    Kind::Bool => (Physical::BOOLEAN, None),
+                    Kind::Text => (Physical::BYTE_ARRAY, Some(LogicalType::String)),
                 };
-                Field::new(&c.name, t, true)
+                Ok(Arc::new(
+                    Type::primitive_type_builder(&c.name, physical)
+                        .with_repetition(Repetition::OPTIONAL)
+                        .with_logical_type(logical)
+                        .build()?,
+                ))
             })
-            .collect();
-        let cell = |r: &Map<String, Value>, c: &Column| r.get(&c.name).cloned().unwrap_or_default();
-        let arrays: Vec<ArrayRef> = self
-            .columns
-            .iter()
-            .map(|c| -> ArrayRef {
-                let cells = self.rows.iter().map(|r| cell(r, c));
-                match c.kind {
-                    Kind::Float => Arc::new(cells.map(|v| float(&v)).collect::<Float64Array>()),
-                    Kind::Int => Arc::new(cells.map(|v| int(&v)).collect::<Int64Array>()),
-                    Kind::Bool => Arc::new(cells.map(|v| v.as_bool()).collect::<BooleanArray>()),
-                    Kind::Text => Arc::new(cells.map(|v| text(&v)).collect::<StringArray>()),
-                }
-            })
-            .collect();
-        Ok(RecordBatch::try_new(Arc::new(Schema::new(fields)), arrays)?)
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        Ok(Arc::new(
+            Type::group_type_builder("schema")
+                .with_fields(fields)
+                .build()?,
+        ))
     }
 
-    /// Writes the table as Parquet (a result file, replaced atomically).
+    /// Writes the table as Parquet, one row group (a result file, replaced atomically); a
+    /// missing value is a null.
     pub fn write_parquet(&self, path: &Path) -> anyhow::Result<()> {
-        let batch = self.batch()?;
+        let schema = self.parquet_schema()?;
         Ok(write_result(path, |f| -> anyhow::Result<()> {
-            let mut w = parquet::arrow::ArrowWriter::try_new(f, batch.schema(), None)?;
-            w.write(&batch)?;
+            let props = Arc::new(WriterProperties::builder().build());
+            let mut w = SerializedFileWriter::new(f, schema.clone(), props)?;
+            let mut group = w.next_row_group()?;
+            for c in &self.columns {
+                let cells: Vec<Value> = self
+                    .rows
+                    .iter()
+                    .map(|r| r.get(&c.name).cloned().unwrap_or_default())
+                    .collect();
+                let mut col = group
+                    .next_column()?
+                    .ok_or_else(|| anyhow::anyhow!("Parquet writer: no column for {}", c.name))?;
+                // Definition level 1: the value is present; 0: null.
+                fn levels<T>(cells: &[Option<T>]) -> Vec<i16> {
+                    cells.iter().map(|c| i16::from(c.is_some())).collect()
+                }
+                match c.kind {
+                    Kind::Float => {
+                        let v: Vec<Option<f64>> = cells.iter().map(float).collect();
+                        let present: Vec<f64> = v.iter().flatten().copied().collect();
+                        col.typed::<DoubleType>()
+                            .write_batch(&present, Some(&levels(&v)), None)?;
+                    }
+                    Kind::Int => {
+                        let v: Vec<Option<i64>> = cells.iter().map(int).collect();
+                        let present: Vec<i64> = v.iter().flatten().copied().collect();
+                        col.typed::<Int64Type>()
+                            .write_batch(&present, Some(&levels(&v)), None)?;
+                    }
+                    Kind::Bool => {
+                        let v: Vec<Option<bool>> = cells.iter().map(Value::as_bool).collect();
+                        let present: Vec<bool> = v.iter().flatten().copied().collect();
+                        col.typed::<BoolType>()
+                            .write_batch(&present, Some(&levels(&v)), None)?;
+                    }
+                    Kind::Text => {
+                        let v: Vec<Option<String>> = cells.iter().map(text).collect();
+                        let present: Vec<ByteArray> =
+                            v.iter().flatten().map(|s| ByteArray::from(s.as_str())).collect();
+                        col.typed::<ByteArrayType>()
+                            .write_batch(&present, Some(&levels(&v)), None)?;
+                    }
+                }
+                col.close()?;
+            }
+            group.close()?;
             w.close()?;
             Ok(())
         })?)
@@ -225,12 +269,26 @@ mod tests {
             std::fs::read_to_string(dir.join("t.csv")).unwrap(),
             "x,n,ok,s\n0.1,3,true,\"a,b\"\n,2,,\n"
         );
-        let b = t.batch().unwrap();
-        assert_eq!(b.num_rows(), 2);
-        assert_eq!(b.column(0).null_count(), 1);
-        assert_eq!(b.column(2).null_count(), 1);
         t.write_parquet(&dir.join("t.parquet")).unwrap();
         let bytes = std::fs::read(dir.join("t.parquet")).unwrap();
         assert_eq!(&bytes[..4], b"PAR1");
+        // Read back row by row: values where given, nulls where missing (pandas reads the
+        // same file in the Python tests and the demo).
+        use parquet::file::reader::{FileReader, SerializedFileReader};
+        use parquet::record::{Field, RowAccessor};
+        let r = SerializedFileReader::new(std::fs::File::open(dir.join("t.parquet")).unwrap())
+            .unwrap();
+        let rows: Vec<_> = r.get_row_iter(None).unwrap().map(|x| x.unwrap()).collect();
+        assert_eq!(rows.len(), 2);
+        assert_eq!(rows[0].get_double(0).unwrap(), 0.1);
+        assert_eq!(rows[0].get_long(1).unwrap(), 3);
+        assert!(rows[0].get_bool(2).unwrap());
+        assert_eq!(rows[0].get_string(3).unwrap(), "a,b");
+        let nulls: Vec<bool> = rows[1]
+            .get_column_iter()
+            .map(|(_, f)| matches!(f, Field::Null))
+            .collect();
+        assert_eq!(nulls, [true, false, true, true]);
+        assert_eq!(rows[1].get_long(1).unwrap(), 2);
     }
 }
