@@ -6,6 +6,12 @@ cd "$(dirname "$0")/.."
 # SUMO crate then agree on PYO3_PYTHON, and neither rebuilds what the other built.
 PYO3_PYTHON="${PYO3_PYTHON:-$("${PYTHON:-python3}" -c 'import sys; print(sys.executable)')}"
 export PYO3_PYTHON
+# Xvfb and the X and OpenGL libraries sumo-gui links: the replay test starts sumo-gui under a
+# virtual display (it says it is skipped where they cannot be installed).
+if ! command -v xvfb-run >/dev/null 2>&1 && [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
+  apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq xvfb xauth libgl1 libxrender1 libxext6 libx11-6 >/dev/null
+fi
 if [ -f python-host/bootstrap.sh ]; then
   bash python-host/bootstrap.sh
 fi

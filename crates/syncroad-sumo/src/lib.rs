@@ -16,6 +16,8 @@
 //! * `controlled` — the user's own vehicles the law drives (`sumo.controlled`), checked in
 //!   their files before SUMO starts;
 //! * `ssm` — SUMO's surrogate-safety device: its options and a summary of its log;
+//! * `replay` — SUMO's floating-car data of a run, the files that replay it in sumo-gui, and
+//!   where the run's road lies on the network;
 //! * `summary` — SUMO's summary output: the metrics of every vehicle in the network;
 //! * `protocol`, `cosim`, `worker` — the worker process: one step of the co-simulation apart
 //!   from the loop that runs it;
@@ -42,6 +44,7 @@ mod prepare_error;
 mod probe;
 mod protocol;
 mod python;
+mod replay;
 mod result_file;
 mod signals;
 mod ssm;
@@ -61,6 +64,9 @@ pub use prepare::{
 pub use probe::{PhaseTimes, Probe, ProbeMode, ProbeTimes};
 pub use protocol::{Event, Finish, Job, ReadMode, Request, StartInfo, Totals};
 pub use python::{use_packages, SumoPackages};
+pub use replay::{
+    ReplayError, RoadTrace, TraceLane, FCD_FILE, REPLAY_CONFIG, REPLAY_TYPES, ROAD_FILE,
+};
 pub use result_file::{write_result, write_result_via_path, ResultFileError};
 pub use signals::{
     clear_interrupt, host_delivers_interrupts, interrupt, received as interrupt_signal,
@@ -70,5 +76,5 @@ pub use supervisor::{
     interrupt_flag, RowsHook, RowsProgress, StartHook, SupervisorError, WorkerCommand, WorkerPool,
 };
 pub use user_law::{PythonController, PythonHost};
-pub use venv::repo_dir;
+pub use venv::{repo_dir, sumo_program, VenvError};
 pub use worker::{is_worker_invocation, worker_main, worker_main_with};

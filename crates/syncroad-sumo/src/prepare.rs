@@ -32,9 +32,10 @@ pub const ODOMETER_EVERY: usize = 10;
 pub use crate::prepare_error::{IdClash, PrepareError};
 
 /// The files a SUMO run writes into its work folder (`RunOptions::work_dir`): the vehicles'
-/// routes, SUMO's log, the induction loop and its output, trip info, SSM and summary output. None of
+/// routes, SUMO's log, the induction loop and its output, trip info, SSM and summary output,
+/// the floating-car data and its replay files, where the road lies. None of
 /// them may be a file the run reads (see the CLI's input check).
-pub const WORK_FILES: [&str; 7] = [
+pub const WORK_FILES: [&str; 11] = [
     "routes.rou.xml",
     "sumo.log",
     "detectors.add.xml",
@@ -42,6 +43,10 @@ pub const WORK_FILES: [&str; 7] = [
     "tripinfo.xml",
     "ssm.xml",
     "summary.xml",
+    crate::replay::FCD_FILE,
+    crate::replay::REPLAY_CONFIG,
+    crate::replay::REPLAY_TYPES,
+    crate::replay::ROAD_FILE,
 ];
 
 /// Options of a SUMO run.
@@ -74,6 +79,9 @@ pub struct RunOptions {
     /// A wave damper drives the vehicles the law would drive (rings only); `None`: the
     /// scenario's law, or the damper its `mixed.controller` names.
     pub damper: Option<NamedLaw>,
+    /// Also write SUMO's floating-car data and the files that replay it (`--fcd`; the
+    /// scenario's `sumo.fcd` asks for it too).
+    pub fcd: bool,
 }
 
 /// What to measure in SUMO during a run.
@@ -106,6 +114,7 @@ impl RunOptions {
             drivers: Vec::new(),
             measure: None,
             damper: None,
+            fcd: false,
         }
     }
 }
@@ -305,6 +314,32 @@ fn prepare_with(
         let files = [extra_routes.as_slice(), extra_additional.as_slice()].concat();
         crate::controlled::check_run(sel, &drivers, &layout, &files)?;
     }
+    let fcd = opts.fcd || scenario.sumo().fcd();
+    if write {
+        // An earlier run's replay files never stand beside this run's (the folder is ours).
+        crate::replay::remove_stale(&opts.work_dir, fcd, adopt.is_none())
+            .map_err(|e| io(&opts.work_dir, e))?;
+        if adopt.is_none() {
+            crate::replay::write_road_trace(&opts.work_dir, &layout)
+                .map_err(|e| io(&opts.work_dir, e))?;
+        }
+        if fcd {
+            let sources = [
+                std::slice::from_ref(&routes_file),
+                extra_routes.as_slice(),
+                extra_additional.as_slice(),
+            ]
+            .concat();
+            crate::replay::write_replay_files(
+                &opts.work_dir,
+                &layout.road.path,
+                &sources,
+                scenario.step_s(),
+                scenario.horizon_s(),
+            )
+            .map_err(|e| io(&opts.work_dir, e))?;
+        }
+    }
     Ok(Request {
         layout,
         routes_file,
@@ -327,6 +362,7 @@ fn prepare_with(
         sense_graph: other_traffic,
         // The metrics of every vehicle, when there are others than syncroad's.
         summary_file: other_traffic.then(|| opts.work_dir.join("summary.xml")),
+        fcd_file: fcd.then(|| opts.work_dir.join(crate::replay::FCD_FILE)),
         extra_routes,
         extra_additional,
         adopt: adopt.cloned(),

@@ -135,6 +135,9 @@ pub struct Request {
     /// shares the road.
     #[serde(default)]
     pub summary_file: Option<PathBuf>,
+    /// SUMO's floating-car data of every vehicle, every step (`--fcd`), for replay.
+    #[serde(default)]
+    pub fcd_file: Option<PathBuf>,
     /// The law drives these of the user's own vehicles (`sumo.controlled`), bound after
     /// insertion in their order along the road; syncroad inserts no vehicle, and
     /// `layout.vehicles` holds placeholders until the worker has bound them.

@@ -27,6 +27,14 @@ pub enum VenvError {
         /// The candidates, comma separated.
         tried: String,
     },
+    /// The venv holds no SUMO package with this program.
+    #[error("the virtualenv {venv} has no SUMO program `{name}` (lib/python3.*/site-packages/sumo/bin/{name}); install the pinned SUMO packages: `{BOOTSTRAP_COMMAND}`")]
+    NoProgram {
+        /// The program.
+        name: String,
+        /// The venv folder.
+        venv: String,
+    },
     /// The venv exists but not for the embedded interpreter's version.
     #[error("the virtualenv {venv} has no lib/python{version}/site-packages, so it was not built for the embedded Python {version}; rebuild it: `rm -rf {venv} && {BOOTSTRAP_COMMAND}`")]
     NoSitePackages {
@@ -35,6 +43,28 @@ pub enum VenvError {
         /// `major.minor` of the embedded interpreter.
         version: String,
     },
+}
+
+/// A program of the SUMO package in the virtualenv (`sumo`, `sumo-gui`, `netconvert`):
+/// `<venv>/lib/python3.*/site-packages/sumo/bin/<name>`, and the package's folder (SUMO_HOME).
+pub fn sumo_program(name: &str) -> Result<(PathBuf, PathBuf), VenvError> {
+    let venv = find_venv()?;
+    let lib = venv.join("lib");
+    let mut dirs: Vec<PathBuf> = std::fs::read_dir(&lib)
+        .map(|d| d.flatten().map(|e| e.path()).collect())
+        .unwrap_or_default();
+    dirs.sort();
+    for d in dirs {
+        let home = d.join("site-packages").join("sumo");
+        let bin = home.join("bin").join(name);
+        if bin.is_file() {
+            return Ok((bin, home));
+        }
+    }
+    Err(VenvError::NoProgram {
+        name: name.to_string(),
+        venv: venv.display().to_string(),
+    })
 }
 
 /// Locates the virtualenv (see the module documentation for the search order).

@@ -119,6 +119,31 @@ pub enum Command {
         #[arg(long)]
         jobs: Option<usize>,
     },
+    /// Play a finished SUMO run back in sumo-gui: its network, and every vehicle moving as it
+    /// moved, coloured by speed, through SUMO's fcd-replay device. The run must have written
+    /// SUMO's floating-car data (`--fcd` on run, compare and sweep, or `"sumo": {"fcd": true}`
+    /// in the scenario). Without a display it prints the command to run where there is one.
+    Replay {
+        /// The run's folder (the --out of `syncroad run`, a run folder of a compare, or of a
+        /// sweep's --keep-runs).
+        run: PathBuf,
+        /// Take one picture of the replay at --at-s into this PNG file through sumo-gui's own
+        /// snapshot setting, and quit (a display is still needed: `xvfb-run -a syncroad
+        /// replay …` on a machine without one).
+        #[arg(long, value_name = "FILE")]
+        snapshot: Option<PathBuf>,
+        /// Simulated time of the snapshot [s].
+        #[arg(long, default_value_t = 0.0, requires = "snapshot")]
+        at_s: f64,
+        /// Print the sumo-gui command instead of starting it.
+        #[arg(long)]
+        print: bool,
+    },
+    /// Animate finished runs (SUMO or native) into a GIF: the road drawn from its own
+    /// geometry (the network's lanes, or a native ring's circle), every vehicle coloured by
+    /// speed with a colour bar, the vehicles a controller drives among humans ringed, the time
+    /// shown. Several runs are drawn side by side on one clock and one colour scale.
+    Animate(AnimateArgs),
     /// Run a parameter sweep (a JSON spec: base scenario, axes over its fields, runs, seeds)
     /// through the run pipeline, in parallel and resumable; the results table is written as
     /// results.parquet and results.csv, with plots. `syncroad sweep collect` merges shards.
@@ -219,6 +244,9 @@ pub struct OutputArgs {
     /// No progress on stderr (the same as `--progress never`).
     #[arg(long, short, conflicts_with = "progress")]
     pub quiet: bool,
+    /// Also animate the run into OUT/animation.gif (as `syncroad animate OUT` does).
+    #[arg(long)]
+    pub animate: bool,
 }
 
 impl OutputArgs {
@@ -249,6 +277,10 @@ pub struct SumoArgs {
     /// Read states through libsumo subscriptions instead of per-vehicle getters.
     #[arg(long)]
     pub subscriptions: bool,
+    /// Also write SUMO's floating-car data of the run (OUT/sumo/fcd.xml, every step) for
+    /// `syncroad replay`.
+    #[arg(long)]
+    pub fcd: bool,
 }
 
 /// Options of `syncroad compare`.
@@ -308,6 +340,32 @@ pub struct CompareArgs {
     /// Do not draw plots.
     #[arg(long)]
     pub no_plots: bool,
+    /// Every run also writes SUMO's floating-car data (RUN/sumo/fcd.xml) for `syncroad
+    /// replay`.
+    #[arg(long)]
+    pub fcd: bool,
+}
+
+/// Options of `syncroad animate`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct AnimateArgs {
+    /// Run folders (the --out of `syncroad run` or `simulate`, or run folders of a compare or
+    /// of a sweep's --keep-runs).
+    #[arg(required = true, value_name = "RUN")]
+    pub runs: Vec<PathBuf>,
+    /// The GIF to write (created, or replaced if it is a regular file); default
+    /// RUN/animation.gif when one run is drawn.
+    #[arg(long, short)]
+    pub out: Option<PathBuf>,
+    /// Frames per second.
+    #[arg(long, default_value_t = 10.0)]
+    pub fps: f64,
+    /// Simulated seconds per second of animation.
+    #[arg(long, default_value_t = 5.0)]
+    pub speedup: f64,
+    /// Width and height of each run's panel [px].
+    #[arg(long, default_value_t = 360)]
+    pub size: usize,
 }
 
 #[cfg(test)]
@@ -352,6 +410,10 @@ pub struct SweepArgs {
     /// Run again the points that failed before.
     #[arg(long)]
     pub retry_failed: bool,
+    /// With --keep-runs on SUMO, each run also writes SUMO's floating-car data for
+    /// `syncroad replay`.
+    #[arg(long, requires = "keep_runs")]
+    pub fcd: bool,
     /// Write a Slurm job array (one task per shard) and a collect job into this folder
     /// instead of running; OUT is where the cluster writes the results.
     #[arg(long, value_name = "DIR")]

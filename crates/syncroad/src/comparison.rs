@@ -75,6 +75,8 @@ pub struct Request {
     pub timeout_s: Option<f64>,
     /// Draw the plots.
     pub plots: bool,
+    /// Every run also writes SUMO's floating-car data for `syncroad replay`.
+    pub fcd: bool,
 }
 
 impl Request {
@@ -93,6 +95,7 @@ impl Request {
             record_every: None,
             timeout_s: None,
             plots: false,
+            fcd: false,
         }
     }
 }
@@ -244,6 +247,7 @@ pub fn plan(sc: &Scenario, a: &Request) -> anyhow::Result<Plan> {
             let mut run = RunPlan::new(spec, record_every, eval);
             run.timeout = timeout;
             run.measure = Some(measure);
+            run.fcd = a.fcd;
             run
         })
         .collect();

@@ -13,10 +13,12 @@
 //! * [`pipeline`] — one run, whatever runs it: backend → outcome → record → files;
 //!   [`experiment`] — the same path for Rust programs with their own law ([`Run`]);
 //! * [`output`], [`plots`], [`tables`], [`stability`] — files, figures and text tables;
+//!   [`animate`] — animations of finished runs on their road's geometry;
 //! * [`error`], [`exit_codes`] — the one error funnel; only [`host::execute`] picks the exit
 //!   code;
 //! * [`host`] — a command line in, an exit code out: the whole CLI as a function.
 
+mod animate;
 mod batch;
 mod cli;
 mod commands;

@@ -147,6 +147,16 @@ impl Finished {
 
     fn write_files(&self, dir: &Path, plots: Option<String>) -> anyhow::Result<usize> {
         output::write_run_rows(dir, &self.output.trajectory)?;
+        if self.output.sumo.is_none() {
+            // Where a native run's road lies, for its animation (a SUMO run's is in sumo/).
+            let road = crate::animate::NativeRoad {
+                ring_length_m: self.output.ring_length_m,
+            };
+            output::write_json(
+                &dir.join(crate::animate::NATIVE_ROAD_FILE),
+                &serde_json::to_value(road)?,
+            )?;
+        }
         let n = match plots {
             Some(title) if self.output.trajectory.len() >= 2 => RunPlots {
                 traj: &self.output.trajectory,

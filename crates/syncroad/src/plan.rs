@@ -71,6 +71,8 @@ pub struct RunPlan {
     pub ballistic: bool,
     /// How the SUMO loop reads the vehicles.
     pub read: ReadMode,
+    /// Also write SUMO's floating-car data for `syncroad replay` (`--fcd`).
+    pub fcd: bool,
 }
 
 impl RunPlan {
@@ -85,6 +87,7 @@ impl RunPlan {
             measure: None,
             ballistic: true,
             read: ReadMode::Direct,
+            fcd: false,
         }
     }
 
@@ -114,6 +117,7 @@ impl RunPlan {
         o.read = self.read;
         o.drivers = self.drive.drivers.clone();
         o.damper = self.drive.damper.clone();
+        o.fcd = self.fcd;
         o.measure = self.measure.map(|m| MeasureOptions {
             warmup_s: self.eval.warmup_s,
             emission_every: m.emission_every,
@@ -141,13 +145,14 @@ mod tests {
         let mut plan = RunPlan::new(spec.clone(), 5, eval);
         plan.timeout = Some(Duration::from_secs(9));
         plan.ballistic = false;
+        plan.fcd = true;
         plan.measure = Some(Measurements {
             emission_every: 3,
             tripinfo: true,
             ssm: false,
         });
         let o = plan.sumo_options("w".into(), WorkerCommand::binary("syncroad"), None);
-        assert_eq!((o.record_every, o.ballistic), (5, false));
+        assert_eq!((o.record_every, o.ballistic, o.fcd), (5, false, true));
         assert_eq!(o.timeout, Some(Duration::from_secs(9)));
         assert_eq!(o.drivers, spec.drivers);
         let m = o.measure.unwrap();

@@ -587,25 +587,6 @@ fn exact_analysis_refuses_gains_below_its_resolution_and_map_leaves_them_blank()
     }
 }
 
-/// A copy of the shipped scenario `name` (its network path made absolute) changed by `edit`,
-/// written to `dir/sc.json`.
-fn edited_scenario(
-    dir: &std::path::Path,
-    name: &str,
-    edit: impl FnOnce(&mut serde_json::Value),
-) -> std::path::PathBuf {
-    let scenarios = repo().join("scenarios");
-    let text = std::fs::read_to_string(scenarios.join(format!("{name}.json"))).unwrap();
-    let mut sc: serde_json::Value = serde_json::from_str(&text).unwrap();
-    if let Some(net) = sc["sumo"]["net"].as_str() {
-        sc["sumo"]["net"] = serde_json::json!(scenarios.join(net));
-    }
-    edit(&mut sc);
-    let path = dir.join("sc.json");
-    std::fs::write(&path, sc.to_string()).unwrap();
-    path
-}
-
 /// The guide's Rust program with its own law (`examples/own_law.rs`, built with the tests):
 /// on both backends its speeds agree on the initial mean, which the law conserves.
 #[test]

@@ -485,6 +485,10 @@ pub struct SumoSpec {
     /// their order along it. Needs `routes` or `config`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub controlled: Option<VehicleSelector>,
+    /// Also write SUMO's own floating-car data of the run (`sumo/fcd.xml` in the run's folder,
+    /// every step), which `syncroad replay` plays back in sumo-gui.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub fcd: bool,
 }
 
 fn d_length() -> f64 {
@@ -524,6 +528,7 @@ impl Default for SumoSpec {
             additional: Vec::new(),
             config: None,
             controlled: None,
+            fcd: false,
         }
     }
 }

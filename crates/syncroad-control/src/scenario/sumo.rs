@@ -57,6 +57,7 @@ pub struct SumoSettings {
     config: Option<PathBuf>,
     config_ignored: Vec<String>,
     controlled: Option<VehicleSelector>,
+    fcd: bool,
 }
 
 impl SumoSettings {
@@ -104,6 +105,11 @@ impl SumoSettings {
     /// syncroad inserts; `None`: syncroad inserts the scenario's vehicles.
     pub fn controlled(&self) -> Option<&VehicleSelector> {
         self.controlled.as_ref()
+    }
+
+    /// SUMO's floating-car data of the run is written for replay (`sumo.fcd`).
+    pub fn fcd(&self) -> bool {
+        self.fcd
     }
 
     /// The configuration's other options (`name = value`), which SUMO is not given.
@@ -199,6 +205,7 @@ impl SumoSpec {
         }
         Ok(SumoSettings {
             controlled: self.controlled.clone(),
+            fcd: self.fcd,
             net,
             routes,
             additional,

@@ -351,6 +351,10 @@ pub fn sumo_args(req: &Request) -> Vec<String> {
         a.push("--additional-files".into());
         a.push(additional.join(","));
     }
+    if let Some(f) = &req.fcd_file {
+        a.push("--fcd-output".into());
+        a.push(f.display().to_string());
+    }
     if let Some(f) = &req.summary_file {
         a.extend(crate::summary::summary_args(
             f,

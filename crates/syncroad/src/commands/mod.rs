@@ -4,11 +4,13 @@
 use crate::cli::{Cli, Command};
 use crate::error::Status;
 
+pub(crate) mod animate;
 mod bench;
 mod check;
 mod compare;
 mod ifp;
 mod regress;
+mod replay;
 mod run;
 mod stability;
 mod stability_map;
@@ -68,6 +70,13 @@ pub fn run(cli: Cli) -> anyhow::Result<Status> {
             jobs,
         } => stability_map::run(&scenario, &x, &y, &out, no_sim, jobs),
         Command::Sweep(args) => sweep::run(&args),
+        Command::Replay {
+            run,
+            snapshot,
+            at_s,
+            print,
+        } => replay::run(&run, snapshot.as_deref(), at_s, print),
+        Command::Animate(args) => animate::run(&args),
         Command::Regress {
             baseline,
             update,

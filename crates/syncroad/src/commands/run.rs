@@ -47,7 +47,12 @@ pub fn simulate(path: &Path, out: &OutputArgs) -> anyhow::Result<Status> {
 fn prepare_out(dir: &Path, path: &Path, sc: &Scenario) -> anyhow::Result<FolderLock> {
     // The plots too: a folder where one goes is refused before the run, and an earlier run's
     // plots never stand beside this run's record.
-    let mut files = vec![output::METRICS_FILE, output::TRAJECTORY_FILE];
+    let mut files = vec![
+        output::METRICS_FILE,
+        output::TRAJECTORY_FILE,
+        crate::animate::NATIVE_ROAD_FILE,
+        crate::commands::animate::ANIMATION_FILE,
+    ];
     files.extend(crate::plots::RUN_PLOT_FILES);
     output::prepare_dir("--out", dir, &files, &output::Inputs::scenario(path, sc))
 }
@@ -206,6 +211,9 @@ fn run_native(sc: &Scenario, path: &Path, out: &OutputArgs) -> anyhow::Result<St
     );
     print_summary(sc, &f);
     report_files(&cfg.out, written, complete)?;
+    if out.animate && f.output.trajectory.len() >= 2 {
+        crate::commands::animate::after_run(&cfg.out)?;
+    }
     if matches!(f.output.stop, StopReason::Interrupted { .. }) {
         eprintln!("error: {}", f.output.stop.message().unwrap_or_default());
         return Ok(Status::Interrupted);
@@ -253,6 +261,7 @@ fn run_sumo(
     };
     let mut plan = RunPlan::new(drive, cfg.record_every, cfg.eval);
     plan.ballistic = !args.euler;
+    plan.fcd = args.fcd;
     plan.timeout = timeout;
     if args.subscriptions {
         plan.read = ReadMode::Subscriptions;
@@ -285,6 +294,9 @@ fn run_sumo(
     let written = f.write(&cfg.out, title);
     print_summary(sc, &f);
     report_files(&cfg.out, written, complete)?;
+    if out.animate && f.output.trajectory.len() >= 2 {
+        crate::commands::animate::after_run(&cfg.out)?;
+    }
     if run.interrupted {
         eprintln!("error: {}", f.output.stop.message().unwrap_or_default());
         return Ok(Status::Interrupted);

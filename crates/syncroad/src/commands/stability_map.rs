@@ -205,6 +205,7 @@ fn simulate_grid(
         keep_runs: false,
         run_plots: false,
         retry_failed: false,
+        fcd: false,
     };
     let summary = exec::run(&sweep, &dir, &opts, interrupt_flag()?)?;
     if summary.interrupted > 0 {

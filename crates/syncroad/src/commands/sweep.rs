@@ -52,6 +52,7 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<Status> {
         keep_runs: a.keep_runs,
         run_plots: a.run_plots,
         retry_failed: a.retry_failed,
+        fcd: a.fcd,
     };
     let _lock = exec::open_out(&sweep, out, shard)?;
     let interrupt = interrupt_flag()?;

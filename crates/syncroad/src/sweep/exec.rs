@@ -44,6 +44,8 @@ pub struct ExecOptions {
     pub run_plots: bool,
     /// Run again the points whose row says they failed.
     pub retry_failed: bool,
+    /// Kept SUMO runs also write SUMO's floating-car data for `syncroad replay`.
+    pub fcd: bool,
 }
 
 /// What a call to [`run`] did.
@@ -254,7 +256,8 @@ impl Shared<'_> {
     fn run_point(&self, p: &Point) -> anyhow::Result<PointEnd> {
         let sweep = self.sweep;
         let sc = sweep.scenario(p)?;
-        let plan = sweep.plan_point(p, &sc)?;
+        let mut plan = sweep.plan_point(p, &sc)?;
+        plan.fcd = self.opts.fcd;
         let run_dir = self.out.join("runs").join(format!("{:07}", p.id));
         let work = if self.opts.keep_runs {
             run_dir.join("sumo")

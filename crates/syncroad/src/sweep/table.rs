@@ -184,10 +184,16 @@ impl Table {
                     }
                     Kind::Text => {
                         let v: Vec<Option<String>> = cells.iter().map(text).collect();
-                        let present: Vec<ByteArray> =
-                            v.iter().flatten().map(|s| ByteArray::from(s.as_str())).collect();
-                        col.typed::<ByteArrayType>()
-                            .write_batch(&present, Some(&levels(&v)), None)?;
+                        let present: Vec<ByteArray> = v
+                            .iter()
+                            .flatten()
+                            .map(|s| ByteArray::from(s.as_str()))
+                            .collect();
+                        col.typed::<ByteArrayType>().write_batch(
+                            &present,
+                            Some(&levels(&v)),
+                            None,
+                        )?;
                     }
                 }
                 col.close()?;
@@ -276,8 +282,8 @@ mod tests {
         // same file in the Python tests and the demo).
         use parquet::file::reader::{FileReader, SerializedFileReader};
         use parquet::record::{Field, RowAccessor};
-        let r = SerializedFileReader::new(std::fs::File::open(dir.join("t.parquet")).unwrap())
-            .unwrap();
+        let r =
+            SerializedFileReader::new(std::fs::File::open(dir.join("t.parquet")).unwrap()).unwrap();
         let rows: Vec<_> = r.get_row_iter(None).unwrap().map(|x| x.unwrap()).collect();
         assert_eq!(rows.len(), 2);
         assert_eq!(rows[0].get_double(0).unwrap(), 0.1);

@@ -149,3 +149,22 @@ pub fn running(pid: i32) -> bool {
             .is_some_and(|state| state != "Z")
     })
 }
+
+/// A copy of the shipped scenario `name` (its network path made absolute) changed by `edit`,
+/// written to `dir/sc.json`.
+pub fn edited_scenario(
+    dir: &std::path::Path,
+    name: &str,
+    edit: impl FnOnce(&mut serde_json::Value),
+) -> std::path::PathBuf {
+    let scenarios = repo().join("scenarios");
+    let text = std::fs::read_to_string(scenarios.join(format!("{name}.json"))).unwrap();
+    let mut sc: serde_json::Value = serde_json::from_str(&text).unwrap();
+    if let Some(net) = sc["sumo"]["net"].as_str() {
+        sc["sumo"]["net"] = serde_json::json!(scenarios.join(net));
+    }
+    edit(&mut sc);
+    let path = dir.join("sc.json");
+    std::fs::write(&path, sc.to_string()).unwrap();
+    path
+}

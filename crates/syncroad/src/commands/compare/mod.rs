@@ -34,6 +34,7 @@ impl From<&CompareArgs> for Request {
             record_every: a.record_every,
             timeout_s: a.timeout_s,
             plots: !a.no_plots,
+            fcd: a.fcd,
         }
     }
 }

@@ -1,0 +1,429 @@
+//! Watching finished runs: SUMO's floating-car data of a run, its replay (headless in SUMO and
+//! in sumo-gui under a virtual display), and animations drawn from the trajectories.
+
+mod common;
+use common::*;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// SUMO's `sumo` program of the project's virtualenv.
+fn sumo_bin() -> PathBuf {
+    repo().join(".venv/lib/python3.11/site-packages/sumo/bin/sumo")
+}
+
+/// An FCD file: (time in ms, vehicle id) → (x, y, speed, lane).
+fn fcd(path: &Path) -> BTreeMap<(i64, String), (f64, f64, f64, String)> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let doc = roxmltree::Document::parse(&text).unwrap();
+    let mut out = BTreeMap::new();
+    for ts in doc
+        .root_element()
+        .children()
+        .filter(|n| n.has_tag_name("timestep"))
+    {
+        let t: f64 = ts.attribute("time").unwrap().parse().unwrap();
+        for v in ts.children().filter(|n| n.has_tag_name("vehicle")) {
+            let num = |a: &str| v.attribute(a).unwrap().parse::<f64>().unwrap();
+            out.insert(
+                (
+                    (t * 1000.0).round() as i64,
+                    v.attribute("id").unwrap().to_string(),
+                ),
+                (
+                    num("x"),
+                    num("y"),
+                    num("speed"),
+                    v.attribute("lane").unwrap().to_string(),
+                ),
+            );
+        }
+    }
+    out
+}
+
+/// `trajectories.csv`: (time in ms, vehicle) → (speed, position).
+fn rows(dir: &Path) -> BTreeMap<(i64, usize), (f64, f64)> {
+    let text = std::fs::read_to_string(dir.join("trajectories.csv")).unwrap();
+    text.lines()
+        .skip(1)
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            let t: f64 = f[0].parse().unwrap();
+            (
+                ((t * 1000.0).round() as i64, f[1].parse().unwrap()),
+                (f[2].parse().unwrap(), f[3].parse().unwrap()),
+            )
+        })
+        .collect()
+}
+
+/// A short Sugiyama run (`horizon_s`) in SUMO, with SUMO's floating-car data, into `dir/run`.
+fn sumo_run_with_fcd(dir: &Path, horizon_s: f64) -> PathBuf {
+    let sc = edited_scenario(dir, "sugiyama-ring", |s| {
+        s["horizon_s"] = serde_json::json!(horizon_s);
+    });
+    let out = dir.join("run");
+    let (code, stdout, stderr) = run(bin()
+        .args(["run", "--fcd", "--no-plots", "-q", "--out"])
+        .arg(&out)
+        .arg(&sc));
+    assert!(code == 0 || code == 1, "{stdout}\n{stderr}");
+    out
+}
+
+/// A point of a polyline `[s, x, y]` at `s` (linear between points, wrapped on `length`).
+fn along(points: &[[f64; 3]], length: f64, s: f64) -> (f64, f64) {
+    let s = s.rem_euclid(length);
+    let k = points.partition_point(|p| p[0] <= s);
+    let (a, b) = if k == 0 || k == points.len() {
+        let last = points[points.len() - 1];
+        let first = points[0];
+        (last, [first[0] + length, first[1], first[2]])
+    } else {
+        (points[k - 1], points[k])
+    };
+    let s = if s < a[0] { s + length } else { s };
+    let f = (s - a[0]) / (b[0] - a[0]);
+    (a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2]))
+}
+
+/// A run made with `--fcd` holds SUMO's own floating-car data of that very run (its speeds are
+/// the trajectories' speeds to FCD's two decimals), SUMO replays it headlessly from the run's
+/// replay configuration with every vehicle where it was recorded (to FCD's 0.01 m), and the
+/// run's road trace puts a vehicle's front bumper where SUMO's own coordinates put it.
+#[test]
+fn a_run_with_fcd_replays_in_sumo_where_it_was_recorded() {
+    let dir = tmpdir("replay-headless");
+    let out = sumo_run_with_fcd(&dir, 40.0);
+    let work = out.join("sumo");
+    for f in ["fcd.xml", "replay.sumocfg", "replay.types.xml", "road.json"] {
+        assert!(work.join(f).is_file(), "{f}");
+    }
+    let recorded = fcd(&work.join("fcd.xml"));
+    let traj = rows(&out);
+    assert_eq!(
+        recorded.len(),
+        traj.len(),
+        "one FCD entry per recorded sample"
+    );
+    for ((t, i), (v, _)) in &traj {
+        let (_, _, fv, _) = &recorded[&(*t, format!("v{i}"))];
+        assert!(
+            (fv - v).abs() <= 0.005 + 1e-9,
+            "t = {t} ms, v{i}: {fv} vs {v}"
+        );
+    }
+    // SUMO itself, from the run's replay configuration, with its own FCD output.
+    let replayed_file = dir.join("replayed.xml");
+    let p = std::process::Command::new(sumo_bin())
+        .arg("-c")
+        .arg(work.join("replay.sumocfg"))
+        .arg("--fcd-output")
+        .arg(&replayed_file)
+        .output()
+        .unwrap();
+    assert!(p.status.success(), "{}", String::from_utf8_lossy(&p.stderr));
+    let replayed = fcd(&replayed_file);
+    // Every step up to the end of the replay (its last step is the horizon's, not written).
+    assert!(replayed.len() >= recorded.len() - 22, "{}", replayed.len());
+    let mut worst: f64 = 0.0;
+    for (k, (x, y, _, _)) in &replayed {
+        let (rx, ry, _, _) = &recorded[k];
+        worst = worst.max((x - rx).abs()).max((y - ry).abs());
+    }
+    assert!(worst <= 0.01 + 1e-9, "replayed positions off by {worst} m");
+    // The road trace: a vehicle's trajectory position (rear bumper) plus its length (5 m) is its
+    // front bumper, which is where FCD puts a vehicle.
+    let trace = syncroad_sumo::RoadTrace::read(&work.join("road.json")).unwrap();
+    let geometry = trace.geometry().unwrap();
+    let length = trace.length_m();
+    let mut worst: f64 = 0.0;
+    for ((t, i), (_, q)) in traj.iter().filter(|((t, _), _)| t % 5000 == 0) {
+        let (x, y) = along(&geometry, length, q + 5.0);
+        let (fx, fy, _, _) = &recorded[&(*t, format!("v{i}"))];
+        worst = worst.max((x - fx).hypot(y - fy));
+    }
+    assert!(
+        worst < 0.03,
+        "road trace off SUMO's coordinates by {worst} m"
+    );
+    // `replay` prints the command where there is no display (and with --print).
+    let (code, stdout, stderr) = run(bin()
+        .arg("replay")
+        .arg(&out)
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY"));
+    assert_eq!(code, 0, "{stderr}");
+    assert!(
+        stdout.contains("sumo-gui -c") && stdout.contains("replay.sumocfg"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("no display here"), "{stdout}");
+}
+
+/// sumo-gui itself replays a run under a virtual display (Xvfb) and takes its own snapshot:
+/// the picture shows the ring (dark road pixels on a circle round the picture's centre) with
+/// coloured vehicles on it.
+#[test]
+fn sumo_gui_replays_a_run_into_a_snapshot_of_the_ring() {
+    if std::process::Command::new("xvfb-run")
+        .arg("--help")
+        .output()
+        .is_err()
+    {
+        eprintln!("skipped: xvfb-run is not installed (scripts/test.sh installs Debian's xvfb)");
+        return;
+    }
+    let dir = tmpdir("replay-gui");
+    let out = sumo_run_with_fcd(&dir, 20.0);
+    let snap = dir.join("snap.png");
+    let (code, stdout, stderr) = run(std::process::Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 1280x1024x24"])
+        .arg(env!("CARGO_BIN_EXE_syncroad"))
+        .arg("replay")
+        .arg(&out)
+        .arg("--snapshot")
+        .arg(&snap)
+        .args(["--at-s", "10"]));
+    assert_eq!(code, 0, "{stdout}\n{stderr}");
+    assert!(stdout.contains("wrote"), "{stdout}");
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&snap).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    let (w, h) = (info.width as usize, info.height as usize);
+    let channels = info.line_size / w;
+    let px = |x: usize, y: usize| {
+        let o = y * info.line_size + x * channels;
+        (buf[o], buf[o + 1], buf[o + 2])
+    };
+    let mut dark = Vec::new();
+    let mut coloured = 0usize;
+    for y in 0..h {
+        for x in 0..w {
+            let (r, g, b) = px(x, y);
+            if r < 40 && g < 40 && b < 40 {
+                dark.push((x as f64, y as f64));
+            }
+            let (hi, lo) = (r.max(g).max(b), r.min(g).min(b));
+            if hi - lo > 60 {
+                coloured += 1;
+            }
+        }
+    }
+    assert!(
+        dark.len() > w * h / 100,
+        "hardly any road: {} dark pixels",
+        dark.len()
+    );
+    let n = dark.len() as f64;
+    let (cx, cy) = dark
+        .iter()
+        .fold((0.0, 0.0), |a, p| (a.0 + p.0 / n, a.1 + p.1 / n));
+    let mut radii: Vec<f64> = dark.iter().map(|p| (p.0 - cx).hypot(p.1 - cy)).collect();
+    radii.sort_by(f64::total_cmp);
+    let (r10, r50, r90) = (
+        radii[radii.len() / 10],
+        radii[radii.len() / 2],
+        radii[9 * radii.len() / 10],
+    );
+    // A ring: the road's pixels lie in a band round the centre, not filled and not scattered.
+    assert!(r50 > 0.15 * w.min(h) as f64, "ring radius {r50} px");
+    assert!(
+        r10 > 0.8 * r50 && r90 < 1.2 * r50,
+        "not a ring: radii {r10} {r50} {r90}"
+    );
+    assert!(
+        (cx - w as f64 / 2.0).abs() < 0.1 * w as f64,
+        "centre {cx} of {w}"
+    );
+    // Vehicles coloured by speed (22 cars of some hundred pixels each).
+    assert!(coloured > 500, "{coloured} coloured pixels");
+}
+
+/// Reconstructs every frame of a GIF (frames are boxes drawn over the previous picture, with
+/// one index meaning "unchanged").
+fn gif_frames(path: &Path) -> (usize, usize, Vec<Vec<u8>>, Vec<u16>) {
+    let mut opts = gif::DecodeOptions::new();
+    opts.set_color_output(gif::ColorOutput::Indexed);
+    let mut d = opts.read_info(std::fs::File::open(path).unwrap()).unwrap();
+    let (w, h) = (usize::from(d.width()), usize::from(d.height()));
+    let mut canvas = vec![0u8; w * h];
+    let (mut frames, mut delays) = (Vec::new(), Vec::new());
+    while let Some(f) = d.read_next_frame().unwrap() {
+        let (l, t, fw) = (
+            usize::from(f.left),
+            usize::from(f.top),
+            usize::from(f.width),
+        );
+        for (k, &p) in f.buffer.iter().enumerate() {
+            if Some(p) != f.transparent {
+                canvas[(t + k / fw) * w + l + k % fw] = p;
+            }
+        }
+        frames.push(canvas.clone());
+        delays.push(f.delay);
+    }
+    (w, h, frames, delays)
+}
+
+/// A native ring's animation: one frame per 0.3 simulated seconds at 10 frames per second and
+/// a speed-up of 3, and in the last frame every vehicle sits where the circle of the ring's
+/// length puts it (angle = position / radius, computed here), in a speed colour ordered as its
+/// speed, with bare road between vehicles.
+#[test]
+fn animate_draws_each_vehicle_at_its_place_on_the_ring_in_its_speed_colour() {
+    let dir = tmpdir("animate-native");
+    let sc = edited_scenario(&dir, "sugiyama-ring", |s| {
+        s["horizon_s"] = serde_json::json!(30.0);
+        s["backend"] = serde_json::json!("native");
+    });
+    let out = dir.join("run");
+    let (code, _, stderr) = run(bin()
+        .args(["simulate", "--no-plots", "-q", "--out"])
+        .arg(&out)
+        .arg(&sc));
+    assert!(code == 0 || code == 1, "{stderr}");
+    let (code, stdout, stderr) = run(bin().arg("animate").arg(&out).args([
+        "--fps",
+        "10",
+        "--speedup",
+        "3",
+        "--size",
+        "300",
+    ]));
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("101 frames"), "{stdout}");
+    let (w, h, frames, delays) = gif_frames(&out.join("animation.gif"));
+    assert_eq!((w, h), (300 + 112, 26 + 22 + 300));
+    assert_eq!(frames.len(), 101);
+    assert!(delays.iter().all(|d| *d == 10));
+    // The last frame is t = 30 s, a recorded sample.
+    let traj = rows(&out);
+    let last: Vec<(f64, f64)> = (0..22).map(|i| traj[&(30_000, i)]).collect();
+    let frame = frames.last().unwrap();
+    let radius_m = 230.0 / std::f64::consts::TAU;
+    // The panel: 300 px square below the clock (26 px) and the title (22 px), 14 px margin,
+    // the circle's diameter filling the 272 px between.
+    let (cx, cy, rpx) = (14.0 + 136.0, 48.0 + 14.0 + 136.0, 136.0);
+    let at = |s: f64| {
+        let a = s / radius_m;
+        let (x, y) = (cx + rpx * a.cos(), cy - rpx * a.sin());
+        frame[y.round() as usize * w + x.round() as usize]
+    };
+    let white = frame[5 * w + w - 5];
+    let colours: Vec<u8> = last.iter().map(|(_, q)| at(*q)).collect();
+    for (i, c) in colours.iter().enumerate() {
+        assert_ne!(
+            *c, white,
+            "vehicle {i} is not drawn where the circle puts it"
+        );
+    }
+    // Palette indices of the speed scale grow with the speed: faster is never darker.
+    let mut by_speed: Vec<(f64, u8)> = last
+        .iter()
+        .map(|(v, _)| *v)
+        .zip(colours.iter().copied())
+        .collect();
+    by_speed.sort_by(|a, b| a.0.total_cmp(&b.0));
+    assert!(
+        by_speed.windows(2).all(|p| p[0].1 <= p[1].1),
+        "{by_speed:?}"
+    );
+    // Midway along the gap behind vehicle 0 (its follower's front bumper is 5 m ahead of its
+    // own rear) the road shows: the road's grey, neither white nor a vehicle's colour.
+    let gap_mid = 0.5 * (last[0].1 + last[1].1 + 5.0);
+    let g = at(gap_mid);
+    assert_ne!(g, white);
+    assert!(!colours.contains(&g), "vehicle colour in the gap: {g}");
+}
+
+/// What is not a run is refused with exit 2, naming the file and what would be valid, and
+/// nothing is written outside the run's folder.
+#[test]
+fn animate_and_replay_refuse_what_is_not_a_run_and_write_nothing_outside_it() {
+    let dir = tmpdir("watch-refusals");
+    let empty = dir.join("empty");
+    std::fs::create_dir_all(&empty).unwrap();
+    let (code, _, stderr) = run(bin().arg("animate").arg(&empty));
+    assert_eq!(code, 2, "{stderr}");
+    assert!(
+        stderr.contains("not a run folder") && stderr.contains("metrics.json"),
+        "{stderr}"
+    );
+    let (code, _, stderr) = run(bin().arg("replay").arg(&empty));
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("not a run folder"), "{stderr}");
+    // A native run: replay says it needs a SUMO run and how to make one.
+    let sc = edited_scenario(&dir, "sugiyama-ring", |s| {
+        s["horizon_s"] = serde_json::json!(12.0);
+        s["backend"] = serde_json::json!("native");
+    });
+    let native = dir.join("native");
+    let (code, _, stderr) = run(bin()
+        .args(["simulate", "--no-plots", "-q", "--out"])
+        .arg(&native)
+        .arg(&sc));
+    assert!(code == 0 || code == 1, "{stderr}");
+    let (code, _, stderr) = run(bin().arg("replay").arg(&native));
+    assert_eq!(code, 2, "{stderr}");
+    assert!(
+        stderr.contains("a native run") && stderr.contains("--fcd"),
+        "{stderr}"
+    );
+    // Bad options name the option.
+    let (code, _, stderr) = run(bin().arg("animate").arg(&native).args(["--fps", "0"]));
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("--fps = 0"), "{stderr}");
+    // Two runs need a name for their one GIF.
+    let (code, _, stderr) = run(bin().arg("animate").arg(&native).arg(&native));
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("--out"), "{stderr}");
+    // Trajectories cut short in the middle of a sample: refused, naming the file and line.
+    let text = std::fs::read_to_string(native.join("trajectories.csv")).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    std::fs::write(
+        native.join("trajectories.csv"),
+        lines[..lines.len() - 3].join("\n") + "\n",
+    )
+    .unwrap();
+    let before: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name())
+        .collect();
+    let (code, _, stderr) = run(bin().arg("animate").arg(&native));
+    assert_eq!(code, 2, "{stderr}");
+    assert!(
+        stderr.contains("trajectories.csv line") && stderr.contains("cut short"),
+        "{stderr}"
+    );
+    assert!(!native.join("animation.gif").exists());
+    let after: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name())
+        .collect();
+    assert_eq!(before, after);
+    // A SUMO run made without --fcd: replay says how to make one with it.
+    let sc = edited_scenario(&dir, "sugiyama-ring", |s| {
+        s["horizon_s"] = serde_json::json!(12.0);
+    });
+    let plain = dir.join("plain");
+    let (code, _, stderr) = run(bin()
+        .args(["run", "--no-plots", "-q", "--out"])
+        .arg(&plain)
+        .arg(&sc));
+    assert!(code == 0 || code == 1, "{stderr}");
+    let (code, _, stderr) = run(bin().arg("replay").arg(&plain));
+    assert_eq!(code, 2, "{stderr}");
+    assert!(
+        stderr.contains("without --fcd") && stderr.contains("fcd.xml"),
+        "{stderr}"
+    );
+    // ... and it animates (the network's geometry).
+    let (code, stdout, stderr) = run(bin().arg("animate").arg(&plain).args(["--speedup", "1"]));
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("121 frames"), "{stdout}");
+}
