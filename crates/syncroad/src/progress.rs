@@ -93,6 +93,7 @@ enum Shown {
 pub struct RunProgress {
     label: &'static str,
     horizon_s: f64,
+    step_s: f64,
     start: Instant,
     shown: std::sync::Mutex<Shown>,
 }
@@ -103,8 +104,9 @@ impl RunProgress {
     /// Wall seconds between two plain lines.
     pub const LINE_EVERY_S: f64 = 5.0;
 
-    /// Reports the run `label` (`run`, `simulate`) of `horizon_s` simulated seconds.
-    pub fn new(mode: ProgressMode, label: &'static str, horizon_s: f64) -> Self {
+    /// Reports the run `label` (`run`, `simulate`) of `horizon_s` simulated seconds in steps
+    /// of `step_s`.
+    pub fn new(mode: ProgressMode, label: &'static str, horizon_s: f64, step_s: f64) -> Self {
         let shown = match mode {
             ProgressMode::Auto if std::io::stderr().is_terminal() => Shown::Bar(None),
             ProgressMode::Lines => Shown::Lines(None),
@@ -113,6 +115,7 @@ impl RunProgress {
         Self {
             label,
             horizon_s,
+            step_s,
             start: Instant::now(),
             shown: std::sync::Mutex::new(shown),
         }
@@ -176,11 +179,12 @@ impl RunProgress {
         } else {
             "time left not known yet".to_string()
         };
+        let rate = time_s / elapsed.max(1e-9);
         format!(
-            "t = {time_s:.1} of {:.1} s ({:.0}%), {samples} samples recorded; {elapsed:.1} s elapsed, {:.0}x real time, {left}",
+            "t = {time_s:.1} of {:.1} s ({:.0}%), {samples} samples recorded; {elapsed:.1} s elapsed, {:.0} steps/s, {rate:.0}x real time, {left}",
             self.horizon_s,
             100.0 * f,
-            time_s / elapsed.max(1e-9),
+            rate / self.step_s.max(1e-12),
         )
     }
 }
@@ -191,12 +195,12 @@ mod tests {
 
     #[test]
     fn a_status_line_says_where_the_run_stands_and_what_is_left() {
-        let p = RunProgress::new(ProgressMode::Never, "run", 300.0);
+        let p = RunProgress::new(ProgressMode::Never, "run", 300.0, 0.1);
         // A quarter of the horizon in 10 s: three times as long again.
         let s = p.status(75.0, 751, 10.0);
         assert_eq!(
             s,
-            "t = 75.0 of 300.0 s (25%), 751 samples recorded; 10.0 s elapsed, 8x real time, about 30 s left"
+            "t = 75.0 of 300.0 s (25%), 751 samples recorded; 10.0 s elapsed, 75 steps/s, 8x real time, about 30 s left"
         );
         assert!(p.status(0.0, 1, 1.0).ends_with("time left not known yet"));
         // Past the horizon (the last step's time rounds up): never over 100 %.

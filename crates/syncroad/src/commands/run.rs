@@ -185,7 +185,7 @@ fn run_native(sc: &Scenario, path: &Path, out: &OutputArgs) -> anyhow::Result<St
     let _lock = prepare_out(&cfg.out, path, sc)?;
     // Ctrl-C, SIGTERM and SIGHUP stop the loop; the steps so far are written, as on SUMO.
     let stop = interrupt_flag()?;
-    let progress = RunProgress::new(out.progress_mode(), "simulate", sc.horizon_s());
+    let progress = RunProgress::new(out.progress_mode(), "simulate", sc.horizon_s(), sc.step_s());
     let every = cfg.record_every.max(1);
     // The native loop records step 0 and every k-th step; an interrupted run also keeps the
     // step it stopped at.
@@ -272,7 +272,12 @@ fn run_sumo(
         worker,
         Some(interrupt_flag()?),
     );
-    let progress = Arc::new(RunProgress::new(out.progress_mode(), "run", sc.horizon_s()));
+    let progress = Arc::new(RunProgress::new(
+        out.progress_mode(),
+        "run",
+        sc.horizon_s(),
+        sc.step_s(),
+    ));
     let shown = progress.clone();
     opts.on_rows = Some(Arc::new(move |p: &RowsProgress| {
         shown.update(p.time_s, p.records)
