@@ -22,6 +22,13 @@ cargo build --release -p syncroad
   --baselines protocol,human,follower-stopper-4.3,pi-saturation \
   --mixed 0,1,2,4 --mixed-driver human --mixed-controller law,follower-stopper-4.3,pi-saturation \
   --out out/compare-human
+# Watch it: the law and stochastic humans (human-noisy) on the same ring from the same uniform
+# start, SUMO's floating-car data kept for `syncroad replay out/watch/protocol` in sumo-gui,
+# and both animated side by side on one clock and one colour scale (the README's picture).
+./target/release/syncroad compare scenarios/sugiyama-human-noisy.json --baselines protocol,human-noisy \
+  --fcd --no-plots --out out/watch
+./target/release/syncroad animate out/watch/protocol out/watch/human-noisy --speedup 15 --size 280 \
+  --out out/sugiyama-law-and-noisy-humans.gif
 # Mixed rings among stochastic humans (human-noisy) over 20 seeds: a sweep of penetrations
 # 0–50 % for the law and both dampers, resumable, into out/noisy-penetration/results.parquet
 # with one plot per metric (mean and 95 % interval over seeds, which the humans' noise makes
@@ -35,9 +42,9 @@ g = df.groupby(["controller", "penetration"])
 m = g[["congestion.speed_std_mps", "sumo.fuel_g_per_km", "congestion.stopped_fraction"]]
 half = 2.093 * m.std() / g.size().pow(0.5).values[:, None]   # t(0.975, 19): 20 seeds
 print("mean over 20 seeds (± half-width of the 95 % interval):")
+print((m.mean().round(3).astype(str) + " ± " + half.round(3).astype(str)).to_string(), flush=True)
 print("unsafe runs (collisions, overlaps, teleports or emergency braking):")
 print(df[df["safe"] == False].groupby(["controller", "penetration"]).size().to_string(), flush=True)
-print((m.mean().round(3).astype(str) + " ± " + half.round(3).astype(str)).to_string(), flush=True)
 # pyarrow can abort at interpreter shutdown after the work is done (apache/arrow#34314).
 import os
 os._exit(0)
