@@ -22,13 +22,13 @@ pub enum JobEnd<R> {
 }
 
 /// Runs `work` on every item, at most `jobs` at once, labelled `label` in the progress report
-/// and each item by `name`. Returns one entry per item in item order: `Some` for a job that
+/// (shown as `shown` says, see [`Progress::shown`]) and each item by `name`. Returns one entry per item in item order: `Some` for a job that
 /// ended, `None` for one interrupted or never started because the interrupt flag was set.
 ///
 /// # Errors
 /// The thread pool could not be built.
 pub fn run<T, R, N, W>(
-    label: &'static str,
+    (label, shown): (&'static str, Option<crate::progress::ProgressMode>),
     jobs: usize,
     interrupt: &AtomicBool,
     items: &[T],
@@ -44,7 +44,7 @@ where
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(jobs.min(items.len()).max(1))
         .build()?;
-    let progress = Progress::new(label, items.len() as u64);
+    let progress = Progress::shown(label, items.len() as u64, shown);
     let ends = pool.install(|| {
         items
             .par_iter()
@@ -76,7 +76,7 @@ mod tests {
         let flag = AtomicBool::new(false);
         let items: Vec<usize> = (0..20).collect();
         let out = run(
-            "test",
+            ("test", None),
             3,
             &flag,
             &items,
@@ -89,7 +89,7 @@ mod tests {
         // One job at a time: the third sets the flag, so no later job starts.
         let started = AtomicUsize::new(0);
         let out = run(
-            "test",
+            ("test", None),
             1,
             &flag,
             &items,

@@ -344,6 +344,14 @@ pub struct CompareArgs {
     /// replay`.
     #[arg(long)]
     pub fcd: bool,
+    /// Progress on stderr: `auto` a bar of finished runs with the time left on a terminal
+    /// (nothing in a log or a pipe); `lines` a line per finished run wherever stderr goes;
+    /// `never`.
+    #[arg(long, value_enum, default_value_t = ProgressMode::Auto, value_name = "WHEN")]
+    pub progress: ProgressMode,
+    /// No progress on stderr (the same as `--progress never`).
+    #[arg(long, short, conflicts_with = "progress")]
+    pub quiet: bool,
 }
 
 /// Options of `syncroad animate`.

@@ -47,6 +47,8 @@ pub struct Plan {
     pub mixed_runs: Vec<(String, usize)>,
     /// The scenario's road, read once for every run.
     pub road: Road,
+    /// How finished runs are reported (`None`: a bar on a terminal, a line each elsewhere).
+    pub progress: Option<crate::progress::ProgressMode>,
 }
 
 /// What a comparison runs and how, whoever asks: `syncroad compare`'s flags, or a regress
@@ -77,6 +79,8 @@ pub struct Request {
     pub plots: bool,
     /// Every run also writes SUMO's floating-car data for `syncroad replay`.
     pub fcd: bool,
+    /// How finished runs are reported (`None`: a bar on a terminal, a line each elsewhere).
+    pub progress: Option<crate::progress::ProgressMode>,
 }
 
 impl Request {
@@ -96,6 +100,7 @@ impl Request {
             timeout_s: None,
             plots: false,
             fcd: false,
+            progress: None,
         }
     }
 }
@@ -258,6 +263,7 @@ pub fn plan(sc: &Scenario, a: &Request) -> anyhow::Result<Plan> {
         plots: a.plots,
         mixed_runs,
         road,
+        progress: a.progress,
     })
 }
 
@@ -323,7 +329,7 @@ pub fn run_all(
 ) -> anyhow::Result<Vec<RunResult>> {
     let worker = WorkerCommand::for_process().context("cannot locate the syncroad executable")?;
     let ends = crate::batch::run(
-        "compare",
+        ("compare", plan.progress),
         plan.jobs,
         &interrupt,
         &plan.runs,

@@ -13,13 +13,29 @@ pub struct Progress {
     total: u64,
     done: AtomicU64,
     bar: Option<ProgressBar>,
+    quiet: bool,
     start: Instant,
 }
 
 impl Progress {
-    /// Starts reporting.
+    /// Starts reporting: a bar on a terminal, a line per finished item elsewhere (a batch
+    /// job's log).
     pub fn new(label: &'static str, total: u64) -> Self {
-        let bar = std::io::stderr().is_terminal().then(|| {
+        Self::shown(label, total, None)
+    }
+
+    /// Starts reporting as `how` says (`None`: as [`Progress::new`]): `auto` a bar on a
+    /// terminal and nothing elsewhere, `lines` a line per finished item wherever stderr goes,
+    /// `never` nothing.
+    pub fn shown(label: &'static str, total: u64, how: Option<ProgressMode>) -> Self {
+        let terminal = std::io::stderr().is_terminal();
+        let (bar, quiet) = match how {
+            None => (terminal, false),
+            Some(ProgressMode::Auto) => (terminal, !terminal),
+            Some(ProgressMode::Lines) => (false, false),
+            Some(ProgressMode::Never) => (false, true),
+        };
+        let bar = bar.then(|| {
             let b = ProgressBar::new(total);
             b.set_style(
                 ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} ({elapsed}, ETA {eta})")
@@ -34,6 +50,7 @@ impl Progress {
             total,
             done: AtomicU64::new(0),
             bar,
+            quiet,
             start: Instant::now(),
         }
     }
@@ -48,6 +65,7 @@ impl Progress {
                     b.println(format!("{}: {item} FAILED: {e}", self.label));
                 }
             }
+            None if self.quiet => {}
             None => eprintln!(
                 "{}: [{d:>2}/{} done, {:6.1} s] {item} {}",
                 self.label,

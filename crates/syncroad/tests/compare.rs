@@ -438,3 +438,43 @@ fn an_interrupted_regress_exits_130_and_leaves_the_baseline_whole() {
         assert_eq!(std::fs::read_to_string(&path).unwrap(), before);
     }
 }
+
+/// `compare` shows its progress the way `run` does: nothing in a pipe by default (a bar only
+/// on a terminal), a line per finished run with `--progress lines`, nothing with `--quiet`.
+#[test]
+fn compare_reports_progress_only_where_asked() {
+    let d = tmpdir("compare-progress");
+    let sc = edited_scenario(&d, "sugiyama-ring", |s| {
+        s["horizon_s"] = serde_json::json!(12.0);
+    });
+    for (flag, lines) in [
+        (None, false),
+        (Some("--progress=lines"), true),
+        (Some("--quiet"), false),
+    ] {
+        let out = d.join(format!(
+            "out-{}",
+            flag.unwrap_or("auto").trim_start_matches('-')
+        ));
+        let mut cmd = bin();
+        cmd.args([
+            "compare",
+            "--baselines",
+            "protocol,idm",
+            "--no-plots",
+            "--out",
+        ])
+        .arg(&out)
+        .arg(&sc);
+        if let Some(f) = flag {
+            cmd.arg(f);
+        }
+        let (code, stdout, stderr) = run(&mut cmd);
+        assert!(code == 0 || code == 1, "{stdout}\n{stderr}");
+        let shown = stderr
+            .lines()
+            .filter(|l| l.starts_with("compare: ["))
+            .count();
+        assert_eq!(shown, if lines { 2 } else { 0 }, "{flag:?}: {stderr}");
+    }
+}

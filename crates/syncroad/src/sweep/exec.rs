@@ -362,7 +362,7 @@ pub fn run(
     };
     let write_error: Mutex<Option<anyhow::Error>> = Mutex::new(None);
     let ends = crate::batch::run(
-        "sweep",
+        ("sweep", None),
         opts.jobs,
         &interrupt,
         &todo,

@@ -35,6 +35,11 @@ impl From<&CompareArgs> for Request {
             timeout_s: a.timeout_s,
             plots: !a.no_plots,
             fcd: a.fcd,
+            progress: Some(if a.quiet {
+                crate::progress::ProgressMode::Never
+            } else {
+                a.progress
+            }),
         }
     }
 }
