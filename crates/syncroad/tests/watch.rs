@@ -427,3 +427,49 @@ fn animate_and_replay_refuse_what_is_not_a_run_and_write_nothing_outside_it() {
     assert_eq!(code, 0, "{stderr}");
     assert!(stdout.contains("121 frames"), "{stdout}");
 }
+
+/// A sweep's kept SUMO runs write their floating-car data with `--fcd`, each point its own,
+/// and replay from their folders; `--fcd` without `--keep-runs` is refused (no run folder
+/// would hold it).
+#[test]
+fn a_sweep_keeps_each_points_floating_car_data_for_replay() {
+    let dir = tmpdir("sweep-fcd");
+    let sc = edited_scenario(&dir, "sugiyama-ring", |s| {
+        s["horizon_s"] = serde_json::json!(12.0);
+    });
+    let spec = dir.join("spec.json");
+    std::fs::write(
+        &spec,
+        format!(
+            r#"{{"name": "fcd", "base": "{}", "backend": "sumo", "runs": ["protocol"], "seeds": [1, 2]}}"#,
+            sc.display()
+        ),
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let (code, _, stderr) = run(bin()
+        .arg("sweep")
+        .arg(&spec)
+        .arg("--out")
+        .arg(&out)
+        .arg("--fcd"));
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("--keep-runs"), "{stderr}");
+    let (code, stdout, stderr) = run(bin().arg("sweep").arg(&spec).arg("--out").arg(&out).args([
+        "--keep-runs",
+        "--fcd",
+        "--no-plots",
+    ]));
+    assert_eq!(code, 0, "{stdout}\n{stderr}");
+    let (a, b) = (out.join("runs/0000000"), out.join("runs/0000001"));
+    let (fa, fb) = (fcd(&a.join("sumo/fcd.xml")), fcd(&b.join("sumo/fcd.xml")));
+    assert_eq!(fa.len(), 121 * 22);
+    assert_eq!(fb.len(), 121 * 22);
+    assert_ne!(fa, fb, "two seeds, two runs");
+    let (code, stdout, stderr) = run(bin().arg("replay").arg(&b).arg("--print"));
+    assert_eq!(code, 0, "{stderr}");
+    assert!(
+        stdout.contains("runs/0000001/sumo/replay.sumocfg"),
+        "{stdout}"
+    );
+}
