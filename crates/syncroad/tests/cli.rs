@@ -889,3 +889,66 @@ fn check_gives_no_gap_certificate_for_the_users_own_vehicles() {
         .unwrap()
         .starts_with("sumo.controlled = "));
 }
+
+/// A chain that synchronizes but is string unstable (Kα = 1.5 < π/2, Chandler's 2αK = 3 ≥ 1):
+/// `stability` finds it stable, the frequency response amplifies the leader's speed along the
+/// chain by far more than 10⁶ (an independent, frequency-domain measure of the transient), and
+/// `check` says what is true of its gaps — transient growth, a lower bound on M and the
+/// largest perturbation any certificate could allow — instead of "does not synchronize".
+#[test]
+fn a_string_unstable_chain_that_synchronizes_gets_transient_growth_not_divergence() {
+    let dir = tmpdir("string-unstable-chain");
+    let path = edited_scenario(&dir, "straight-chandler", |sc| {
+        let n = sc["vehicles"].as_u64().unwrap() as usize;
+        sc["model"]["graph"]["gain"] = serde_json::json!(1.5);
+        sc["model"]["delay_s"] = serde_json::json!(1.0);
+        let mut pin = vec![0.0; n];
+        pin[0] = 1.5;
+        sc["model"]["leader"]["pinning"] = serde_json::json!(pin);
+    });
+    let (code, stdout, stderr) = run(bin().arg("stability").arg(&path));
+    assert_eq!(code, 0, "{stdout}\n{stderr}");
+    assert!(stdout.contains("exact: SYNCHRONIZES"), "{stdout}");
+    let amp: f64 = stdout
+        .lines()
+        .find_map(|l| l.split("sup_ω|T_i(iω)|: worst ").nth(1))
+        .and_then(|r| r.split_whitespace().next())
+        .and_then(|x| x.parse().ok())
+        .unwrap_or_else(|| panic!("{stdout}\n{stderr}"));
+    assert!(amp > 1e6, "{amp}");
+    let (_, stdout, _) = run(bin().arg("check").arg(&path));
+    let line = stdout
+        .lines()
+        .find(|l| l.contains("not computed"))
+        .unwrap_or_else(|| panic!("{stdout}"));
+    assert!(
+        line.contains("transient growth") && line.contains("string unstable"),
+        "{line}"
+    );
+    assert!(
+        !line.contains("the network does not synchronize,"),
+        "{line}"
+    );
+    let m: f64 = line
+        .split("M ≥ ")
+        .nth(1)
+        .unwrap()
+        .split_whitespace()
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    let safe: f64 = line
+        .split("perturbation above ")
+        .nth(1)
+        .unwrap()
+        .split_whitespace()
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    // The bound is past the growth that stopped the integration, and the largest allowed
+    // perturbation is an initial gap (25 m) over it.
+    assert!(m > 1e3, "{m}");
+    assert!((safe * m - 25.0).abs() < 25.0 * 1e-3, "{safe} · {m}");
+}

@@ -74,7 +74,7 @@ fn step_maps(am: &DMatrix<f64>, b: &[f64], h: f64) -> (DMatrix<f64>, Vec<f64>, V
 /// The gap certificate of a CACC scenario.
 ///
 /// # Errors
-/// [`GapError::TooLarge`] beyond [`CACC_GAP_LIMIT`] followers, [`GapError::Diverges`] for
+/// [`GapError::TooLarge`] beyond [`CACC_GAP_LIMIT`] followers, [`GapError::Grows`] for
 /// an unstable platoon.
 pub(super) fn cacc_gap_certificate(
     sc: &Scenario,
@@ -134,7 +134,12 @@ pub(super) fn cacc_gap_certificate(
             .fold(0.0, f64::max);
         let size = x.columns(0, n).amax().max(step_size);
         if !size.is_finite() || size > 1e9 {
-            return Err(GapError::Diverges { time_s: t });
+            return Err(GapError::Grows {
+                growth: 1e9,
+                time_s: t,
+                shrinkage_at_least_m_per_mps: best.0,
+                safe_at_most_mps: m.desired_gap_m[best.1] / best.0,
+            });
         }
         // Unit responses and the step settled, and the own run past its horizon.
         quiet = if size <= 1e-5 * best.0.max(1.0) {

@@ -38,6 +38,10 @@ use super::analysis::uniform_ring;
 use crate::scenario::Scenario;
 use crate::scenario::{DelayedDriverModel, HistorySpec, Model};
 
+/// How far a response may grow beyond the perturbation (relative to its size) before the
+/// integration stops with [`GapError::Grows`].
+pub const GROWTH_LIMIT: f64 = 1e6;
+
 /// Largest network whose full response matrix `H(t)` is computed (its cost grows like `N²`).
 pub const GAP_SOLVE_LIMIT: usize = 60;
 
@@ -60,11 +64,21 @@ pub enum GapError {
         /// [`GAP_RING_LIMIT`].
         ring_limit: usize,
     },
-    /// The responses grow: the linear gaps do not settle.
-    #[error("the linear speed responses grow (at t = {time_s:.1} s): the network does not synchronize, the gaps do not settle")]
-    Diverges {
-        /// When the growth was detected [s].
+    /// The responses grow past [`GROWTH_LIMIT`] times the perturbation: transient growth of a
+    /// string-unstable network (which may still synchronize, slowly) or the growth of one that
+    /// does not synchronize. The gaps' sup over the time integrated is a lower bound of `M`.
+    #[error("transient growth: the linear responses exceed {growth:.0e} times the perturbation by t = {time_s:.1} s, and the gaps already move by M ≥ {shrinkage_at_least_m_per_mps:.4e} m per m/s, so no contact-free perturbation above {safe_at_most_mps:.4e} m/s can be certified; the network is string unstable or does not synchronize (`syncroad stability` says which)")]
+    Grows {
+        /// The growth that stopped the integration (relative to the perturbation).
+        growth: f64,
+        /// When the growth passed the limit [s].
         time_s: f64,
+        /// The largest gap response so far, `sup_t max_i Σ_j |h_ij(t)|` up to `time_s`: a lower
+        /// bound of `M` [m per m/s].
+        shrinkage_at_least_m_per_mps: f64,
+        /// The initial gap of the gap attaining it over that bound: no certificate can
+        /// exceed this [m/s].
+        safe_at_most_mps: f64,
     },
     /// The final-offset system is singular (no vehicle reaches all others).
     #[error(
@@ -580,8 +594,13 @@ fn response_sup(
             let speed = (0..n * c)
                 .map(|k| (fine.v[k] - final_speed[k % c]).abs() / scale(k))
                 .fold(0.0, f64::max);
-            if !speed.is_finite() || speed > 1e6 {
-                return Err(GapError::Diverges { time_s: t });
+            if !speed.is_finite() || speed > GROWTH_LIMIT {
+                return Err(GapError::Grows {
+                    growth: GROWTH_LIMIT,
+                    time_s: t,
+                    shrinkage_at_least_m_per_mps: best.0,
+                    safe_at_most_mps: g0[best.1] / best.0,
+                });
             }
             let gaps = (0..n * c)
                 .map(|k| (e[k] - finals[k]).abs() / scale(k))
