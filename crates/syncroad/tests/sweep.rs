@@ -459,3 +459,67 @@ fn a_sweep_runs_the_users_controller_and_hashes_its_source() {
         "{err}"
     );
 }
+
+/// A ring that names its network runs on the ring the network measures on both backends: the
+/// shipped noisy-human ring (`road.length_m` 230, SUMO's ring 230.3592 m) gives the same mean
+/// speed natively and in SUMO, seed by seed (the stochastic humans are computed alike on both),
+/// and a nominal length the network does not have is refused before anything runs.
+#[test]
+fn native_and_sumo_sweeps_of_a_networked_ring_run_on_the_same_ring() {
+    let dir = tmpdir("networked-ring");
+    let mut means = Vec::new();
+    for backend in ["native", "sumo"] {
+        let spec = write_spec(
+            &dir,
+            &format!(
+                r#"{{"name": "noisy", "base": "{}", "backend": "{backend}", "runs": ["human-noisy"],
+                    "seeds": [1, 2], "warmup_s": 400, "metrics": ["congestion.mean_speed_mps"]}}"#,
+                repo().join("scenarios/sugiyama-human-noisy.json").display()
+            ),
+        );
+        let out = dir.join(backend);
+        let (code, stdout, stderr) = run(bin()
+            .arg("sweep")
+            .arg(&spec)
+            .arg("--out")
+            .arg(&out)
+            .arg("--no-plots"));
+        assert_eq!(code, 0, "{stdout}\n{stderr}");
+        let text = csv(&out);
+        let m: Vec<f64> = column(&text, "congestion.mean_speed_mps")
+            .iter()
+            .map(|x| x.parse().unwrap())
+            .collect();
+        means.push(m);
+    }
+    assert_eq!(means[0].len(), 2);
+    for (a, b) in means[0].iter().zip(&means[1]) {
+        assert!((a - b).abs() < 1e-9, "native {a} vs SUMO {b}");
+    }
+    // The native run's ring is SUMO's: 230.3592 m (the net's lanes), not the nominal 230.
+    let native = dir.join("simulated");
+    let (code, _, stderr) = run(bin()
+        .args(["simulate", "--no-plots", "-q", "--out"])
+        .arg(&native)
+        .arg(repo().join("scenarios/sugiyama-ring.json")));
+    assert!(code == 0 || code == 1, "{stderr}");
+    let road: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(native.join("road.json")).unwrap()).unwrap();
+    assert_eq!(road["ring_length_m"], serde_json::json!(230.3592));
+    let sc = {
+        let text =
+            std::fs::read_to_string(repo().join("scenarios/sugiyama-human-noisy.json")).unwrap();
+        let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        v["sumo"]["net"] = serde_json::json!(repo().join("sumo-nets/sugiyama-ring.net.xml"));
+        v["road"]["length_m"] = serde_json::json!(260);
+        let p = dir.join("260.json");
+        std::fs::write(&p, v.to_string()).unwrap();
+        p
+    };
+    let (code, _, stderr) = run(bin().arg("check").arg(&sc));
+    assert_eq!(code, 2, "{stderr}");
+    assert!(
+        stderr.contains("road.length_m = 260") && stderr.contains("measures 230.3592 m"),
+        "{stderr}"
+    );
+}

@@ -238,6 +238,7 @@ pub struct Scenario {
     model: Model,
     road: RoadSpec,
     measured: Option<MeasuredRoad>,
+    ring_measured_m: Option<f64>,
     initial_speed_mps: Vec<f64>,
     initial_gap_m: Vec<f64>,
     length_m: Vec<f64>,
@@ -448,11 +449,12 @@ impl Scenario {
         self.road.is_closed()
     }
 
-    /// The closed road's length [m]: a ring's nominal circumference, a loop's length measured
-    /// on its network; `None` on an open road.
+    /// The closed road's length [m]: a ring's circumference (as its network measures it when
+    /// the scenario names one, `sumo.net`; else `road.length_m`), a loop's length measured on
+    /// its network; `None` on an open road.
     pub fn ring_length_m(&self) -> Option<f64> {
         match self.road {
-            RoadSpec::Ring { length_m } => Some(length_m),
+            RoadSpec::Ring { length_m } => Some(self.ring_measured_m.unwrap_or(length_m)),
             RoadSpec::Loop { .. } => self.measured.as_ref().map(|m| m.length_m),
             RoadSpec::Straight { .. } | RoadSpec::Route { .. } => None,
         }

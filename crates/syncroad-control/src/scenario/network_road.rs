@@ -43,6 +43,16 @@ pub trait RoadReader {
         net: &Path,
     ) -> Result<MeasuredRoad, Box<dyn std::error::Error + Send + Sync>>;
 
+    /// The circumference of the single-lane ring `net` as SUMO measures it (normal and
+    /// junction lanes); `None` when the reader does not measure rings.
+    fn ring_length(
+        &self,
+        net: &Path,
+    ) -> Option<Result<f64, Box<dyn std::error::Error + Send + Sync>>> {
+        let _ = net;
+        None
+    }
+
     /// The input section of the SUMO configuration file `config`. The error is the reader's
     /// own, naming `sumo.config`.
     fn read_config(

@@ -164,6 +164,7 @@ impl ScenarioFile {
             *g += o - shift;
         }
         check_gaps(&gaps, &length_m, road_len, closed, measured.is_some())?;
+        let ring_measured_m = self.measure_ring(&sumo, reader, &length_m, &mut gaps)?;
         let name = self.name.clone().unwrap_or_else(|| "scenario".to_string());
         Ok(Scenario {
             name,
@@ -176,6 +177,7 @@ impl ScenarioFile {
             model,
             road: self.road,
             measured,
+            ring_measured_m,
             initial_speed_mps: speeds,
             initial_gap_m: gaps,
             length_m,
@@ -188,6 +190,45 @@ impl ScenarioFile {
             controller,
             safety: self.safety,
         })
+    }
+
+    /// A ring that names its network (`sumo.net`) is as long as the network measures it, on
+    /// both backends: the nominal `road.length_m` must lie within 1 % of it, and the gaps are
+    /// scaled by one common factor to close the measured ring (the factor SUMO's layout would
+    /// otherwise apply alone, which left the native ring shorter). Returns the measured length;
+    /// `None` without a network or a reader that measures rings.
+    fn measure_ring(
+        &self,
+        sumo: &super::SumoSettings,
+        reader: Option<&dyn RoadReader>,
+        length_m: &[f64],
+        gaps: &mut [f64],
+    ) -> Result<Option<f64>, ScenarioError> {
+        let (RoadSpec::Ring { length_m: nominal }, Some(net), Some(reader)) =
+            (&self.road, sumo.net(), reader)
+        else {
+            return Ok(None);
+        };
+        let Some(measured) = reader.ring_length(net) else {
+            return Ok(None);
+        };
+        let measured = measured.map_err(|e| invalid("sumo.net", net.display(), e.to_string()))?;
+        if (measured - nominal).abs() > 0.01 * nominal {
+            return Err(invalid(
+                "road.length_m",
+                nominal,
+                format!(
+                    "the ring network of sumo.net ({}) measures {measured:.4} m: give road.length_m within 1 % of it (both backends then run on the measured ring), or drop sumo.net for a native ring of {nominal} m",
+                    net.display()
+                ),
+            ));
+        }
+        let used: f64 = length_m.iter().sum();
+        let factor = (measured - used) / (nominal - used);
+        for g in gaps.iter_mut() {
+            *g *= factor;
+        }
+        Ok(Some(measured))
     }
 
     /// The user's own controller, its files read relative to `base_dir`.

@@ -293,7 +293,8 @@ fn shortest_cycle(
         .collect())
 }
 
-/// The network reader the scenario validation uses: measures a loop or route on its network.
+/// The network reader the scenario validation uses: measures a loop or route on its network,
+/// and a ring's circumference.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct NetReader;
 
@@ -309,6 +310,17 @@ impl RoadReader for NetReader {
             lane: r.lane_index,
             length_m: r.length_m(),
         })
+    }
+
+    fn ring_length(
+        &self,
+        net: &Path,
+    ) -> Option<Result<f64, Box<dyn std::error::Error + Send + Sync>>> {
+        Some(
+            super::read_ring(net)
+                .map(|r| r.length_m())
+                .map_err(Into::into),
+        )
     }
 
     fn read_config(
