@@ -8,8 +8,12 @@ use syncroad_control::exact::gaps::{GapCertificate, GapError};
 /// The verdict line and the numbers behind it; `synchronizes` is the verdict of the paper's
 /// conditions (the certificate itself needs only that the linear responses settle).
 pub fn gap_lines(cert: &Result<Option<GapCertificate>, GapError>, synchronizes: bool) -> String {
-    let mut s =
-        String::from("\ngap certificate (linear model; the law couples speeds, not gaps):\n");
+    let regulates = matches!(cert, Ok(Some(c)) if c.safe_binding.is_some());
+    let mut s = String::from(if regulates {
+        "\ngap certificate (linear model; the law regulates the gaps):\n"
+    } else {
+        "\ngap certificate (linear model; the law couples speeds, not gaps):\n"
+    });
     let c = match cert {
         Ok(Some(c)) => c,
         Ok(None) => return String::new(),
@@ -40,11 +44,24 @@ pub fn gap_lines(cert: &Result<Option<GapCertificate>, GapError>, synchronizes: 
             c.safe_perturbation_mps, c.own_perturbation_mps, c.own_min_gap_m, c.own_min_gap_time_s
         );
     }
-    let _ = writeln!(
-        s,
-        "  worst shrinkage M = sup_t max_i Σ_j |h_ij(t)| = {:.4} m per m/s (gap {}, t = {:.2} s); initial gaps ≥ M·ε keep perturbations ≤ ε m/s contact-free",
-        c.worst_shrinkage_m_per_mps, c.worst_gap, c.worst_time_s
-    );
+    match &c.safe_binding {
+        // CACC closes a large initial gap while the perturbation acts: what a gap has left at t
+        // counts, not its initial value.
+        Some(b) => {
+            let _ = writeln!(
+                s,
+                "  worst shrinkage M = sup_t max_i Σ_j |h_ij(t)| = {:.4} m per m/s (gap {}, t = {:.2} s); the safe perturbation is min over gaps and time of (desired gap + the spacing error the initial gaps leave) / Σ_j |h_ij(t)|, binding at gap {} at t = {:.2} s",
+                c.worst_shrinkage_m_per_mps, c.worst_gap, c.worst_time_s, b.gap, b.time_s
+            );
+        }
+        None => {
+            let _ = writeln!(
+                s,
+                "  worst shrinkage M = sup_t max_i Σ_j |h_ij(t)| = {:.4} m per m/s (gap {}, t = {:.2} s); initial gaps ≥ M·ε keep perturbations ≤ ε m/s contact-free",
+                c.worst_shrinkage_m_per_mps, c.worst_gap, c.worst_time_s
+            );
+        }
+    }
     let lo = c.final_gap_m.iter().cloned().fold(f64::INFINITY, f64::min);
     let hi = c
         .final_gap_m

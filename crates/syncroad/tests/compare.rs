@@ -61,7 +61,14 @@ fn sumo_measurements_agree_with_sumo_totals_and_kinematics() {
         .arg(sugiyama())
         .args(["--baselines", "protocol,krauss-0.9,idm", "--mixed", "0,2"])
         .args(["--mixed-driver", "krauss-0.9"])
-        .args(["--warmup-s", "0", "--no-plots", "--progress", "lines", "--out"])
+        .args([
+            "--warmup-s",
+            "0",
+            "--no-plots",
+            "--progress",
+            "lines",
+            "--out",
+        ])
         .arg(&d));
     assert_eq!(code, 0, "{out}\n{err}");
     assert!(

@@ -121,7 +121,10 @@ fn a_closed_stdout_stops_printing_but_not_the_run() {
         assert!(!err.contains("panicked"), "{cmd}: {err}");
         assert_eq!(o.status.code(), Some(0), "{cmd}: {err}");
         if cmd == "simulate" {
-            assert_eq!(listing(&dir), ["metrics.json", "road.json", "trajectories.csv"]);
+            assert_eq!(
+                listing(&dir),
+                ["metrics.json", "road.json", "trajectories.csv"]
+            );
         }
     }
 }
@@ -146,7 +149,10 @@ fn stdout_on_a_full_device_is_an_error_not_a_success() {
         err.contains("cannot write to standard output: No space left on device"),
         "{err}"
     );
-    assert_eq!(listing(&dir), ["metrics.json", "road.json", "trajectories.csv"]);
+    assert_eq!(
+        listing(&dir),
+        ["metrics.json", "road.json", "trajectories.csv"]
+    );
     let scenario = repo().join("scenarios/sugiyama-ring.json");
     for args in [vec!["schema"], vec!["check", "--json"], vec!["stability"]] {
         let mut c = bin();

@@ -18,7 +18,7 @@
 
 use nalgebra::DMatrix;
 
-use super::{GapCertificate, GapError, GAP_HORIZON_LIMIT_S, GAP_RING_LIMIT};
+use super::{GapCertificate, GapError, SafeBinding, GAP_HORIZON_LIMIT_S, GAP_RING_LIMIT};
 use crate::scenario::CaccModel;
 use crate::scenario::Scenario;
 
@@ -91,8 +91,9 @@ pub(super) fn cacc_gap_certificate(
     let (am, b) = closed_loop(m);
     let (phi, pd, ps) = step_maps(&am, &b, STEP_S);
     let k = 3 * n;
-    // Columns: n unit speed perturbations, the leader step, the scenario's own run.
-    let c = n + 2;
+    // Columns: n unit speed perturbations, the leader step, the scenario's own run, and the
+    // initial gap errors alone (speeds at the leader's, a constant leader).
+    let c = n + 3;
     let mut x = DMatrix::zeros(k, c);
     for j in 0..n {
         x[(n + j, j)] = 1.0;
@@ -102,7 +103,16 @@ pub(super) fn cacc_gap_certificate(
     for i in 0..n {
         x[(i, n + 1)] = g0[i] - m.desired_gap_m[i];
         x[(n + i, n + 1)] = sc.initial_speed_mps()[i] - v_lead0;
+        x[(i, n + 2)] = g0[i] - m.desired_gap_m[i];
     }
+    // The safe perturbation: min over gaps and time of what the gap has left, d_i + E_i(t),
+    // over how much a unit perturbation of the worst signs takes from it.
+    let x_scale = (0..n)
+        .map(|i| (g0[i] - m.desired_gap_m[i]).abs())
+        .fold(0.0, f64::max)
+        .max(1.0);
+    let mut safe = (f64::INFINITY, 0usize, 0.0f64);
+    let mut safe_pattern = vec![0.0; n];
     let d_own = |t: f64| m.leader.speed_at(t) - v_lead0;
     let mut shrinkage = vec![0.0f64; n];
     let mut best = (0.0f64, 0usize, 0.0f64);
@@ -122,17 +132,26 @@ pub(super) fn cacc_gap_certificate(
                     *p = -x[(i, j)].signum() * f64::from(u8::from(x[(i, j)] != 0.0));
                 }
             }
+            let left = m.desired_gap_m[i] + x[(i, n + 2)];
+            if row > 1e-12 && left / row < safe.0 {
+                safe = (left / row, i, t);
+                for (j, p) in safe_pattern.iter_mut().enumerate() {
+                    *p = -x[(i, j)].signum() * f64::from(u8::from(x[(i, j)] != 0.0));
+                }
+            }
             step_peak = step_peak.max(x[(i, n)].abs());
             let gap = m.desired_gap_m[i] + x[(i, n + 1)];
             if gap < own_min.0 {
                 own_min = (gap, i, t);
             }
         }
-        // The step's column settles at v = 1 (every follower at the new speed).
+        // The step's column settles at v = 1 (every follower at the new speed); the gap
+        // errors' column at 0.
         let step_size = (0..k)
             .map(|r| (x[(r, n)] - if (n..2 * n).contains(&r) { 1.0 } else { 0.0 }).abs())
             .fold(0.0, f64::max);
-        let size = x.columns(0, n).amax().max(step_size);
+        let own_errors = x.column(n + 2).amax() / x_scale;
+        let size = x.columns(0, n).amax().max(step_size).max(own_errors);
         if !size.is_finite() || size > 1e9 {
             return Err(GapError::Grows {
                 growth: 1e9,
@@ -163,9 +182,6 @@ pub(super) fn cacc_gap_certificate(
         x = next;
         t += STEP_S;
     };
-    let safe = (0..n)
-        .map(|i| g0[i] / shrinkage[i])
-        .fold(f64::INFINITY, f64::min);
     let own_perturbation = sc
         .initial_speed_mps()
         .iter()
@@ -179,7 +195,12 @@ pub(super) fn cacc_gap_certificate(
         worst_gap: best.1,
         worst_time_s: best.2,
         worst_pattern: pattern,
-        safe_perturbation_mps: safe,
+        safe_perturbation_mps: safe.0,
+        safe_binding: Some(SafeBinding {
+            gap: safe.1,
+            time_s: safe.2,
+            pattern: safe_pattern,
+        }),
         own_perturbation_mps: own_perturbation,
         own_min_gap_m: own_min.0,
         own_min_gap_vehicle: own_min.1,
@@ -266,5 +287,40 @@ mod tests {
             }
         }
         assert!(worst > 0.0 && worst <= 16.0 * r);
+    }
+
+    /// CACC regulates gaps: a large initial gap closes while a perturbation acts, so the safe
+    /// perturbation is not `g(0)/M`. With uniform initial gaps of 20 m (desired 10 m) and a
+    /// constant leader, the native simulator run from the binding sign pattern keeps every gap
+    /// open at 0.98 of the certified perturbation and makes contact at 1.02 of it; `g(0)/M`
+    /// would certify more than the law allows.
+    #[test]
+    fn the_safe_perturbation_of_a_platoon_with_large_initial_gaps_is_exact() {
+        let base = platoon(
+            Some(serde_json::json!({"speed_mps": 20.0, "gap_m": 20.0})),
+            true,
+        );
+        let c = gap_certificate(&base).unwrap().unwrap();
+        let b = c.safe_binding.clone().unwrap();
+        let x = c.safe_perturbation_mps;
+        let naive = (0..c.initial_gap_m.len())
+            .map(|i| c.initial_gap_m[i] / c.shrinkage_m_per_mps[i])
+            .fold(f64::INFINITY, f64::min);
+        assert!(x < naive, "{x} vs g(0)/M = {naive}");
+        let min_gap = |scale: f64| {
+            let speeds: Vec<f64> = b.pattern.iter().map(|s| 20.0 + scale * x * s).collect();
+            let sc = platoon(
+                Some(serde_json::json!({"speed_mps": speeds, "gap_m": 20.0})),
+                true,
+            );
+            let run = simulate(&sc, NativeOptions::default());
+            let t = &run.trajectory;
+            (0..t.len())
+                .flat_map(|k| t.gaps(k).to_vec())
+                .fold(f64::INFINITY, f64::min)
+        };
+        let (inside, outside) = (min_gap(0.98), min_gap(1.02));
+        assert!(inside > 0.0, "contact at 0.98·X: {inside} m");
+        assert!(outside < 0.0, "no contact at 1.02·X: {outside} m");
     }
 }

@@ -51,6 +51,17 @@ pub const GAP_RING_LIMIT: usize = 400;
 /// Longest time integrated [s]; a response still moving by then is reported as not settled.
 pub const GAP_HORIZON_LIMIT_S: f64 = 3600.0;
 
+/// Where a CACC platoon's safe perturbation binds.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SafeBinding {
+    /// The follower whose gap reaches contact.
+    pub gap: usize,
+    /// When [s].
+    pub time_s: f64,
+    /// The signs of the speed perturbations `δv_j = ε · pattern[j]` that do it.
+    pub pattern: Vec<f64>,
+}
+
 /// Why no gap certificate was computed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum GapError {
@@ -107,8 +118,16 @@ pub struct GapCertificate {
     pub worst_time_s: f64,
     /// The speed perturbation signs that attain it: `δv_j = ε · worst_pattern[j]`.
     pub worst_pattern: Vec<f64>,
-    /// `min_i g_i(0)/M_i` [m/s]: speed perturbations up to this bring no contact.
+    /// The largest speed perturbation that brings no contact [m/s]: `min_i g_i(0)/M_i` for
+    /// the delayed-driver law, whose gaps only integrate speed differences; for a CACC
+    /// platoon, whose law regulates gaps, `min_i min_t (d_i + E_i(t)) / Σ_j |h_ij(t)|` with
+    /// `E_i` the spacing error the initial gap errors alone leave at `t` (a large initial gap
+    /// closes while the perturbation acts).
     pub safe_perturbation_mps: f64,
+    /// CACC platoons: where the safe perturbation binds — the gap, the time and the speed
+    /// perturbation signs that bring that gap to contact there at `ε` just above it.
+    #[serde(default)]
+    pub safe_binding: Option<SafeBinding>,
     /// The scenario's own speed perturbation [m/s]: half the range of the initial speeds on
     /// a ring (a common offset does not move gaps), `max_j |v_j(0) − v_0|` behind a leader.
     pub own_perturbation_mps: f64,
@@ -462,6 +481,7 @@ pub fn gap_certificate(sc: &Scenario) -> Result<Option<GapCertificate>, GapError
         worst_time_s: sweep.worst_time_s,
         worst_pattern: sweep.pattern,
         safe_perturbation_mps: safe,
+        safe_binding: None,
         own_perturbation_mps: own.iter().map(|x| x.abs()).fold(0.0, f64::max),
         own_min_gap_m: sweep.own_min.0,
         own_min_gap_vehicle: sweep.own_min.1,
