@@ -869,6 +869,16 @@ fn check_gives_no_gap_certificate_for_the_users_own_vehicles() {
     let plain = dir.join("plain.json");
     std::fs::write(&plain, sc.to_string()).unwrap();
     sc["sumo"]["routes"] = serde_json::json!([routes]);
+    // The user's traffic shares the road: it can change who follows whom, so the fixed
+    // graph's certificate does not describe the run either.
+    let shared = dir.join("shared.json");
+    std::fs::write(&shared, sc.to_string()).unwrap();
+    let (_, out, _) = run(bin().arg("check").arg(&shared));
+    assert!(
+        out.contains("  does not apply: sumo.routes = ") && out.contains("change who follows whom"),
+        "{out}"
+    );
+    assert!(!out.contains("no contact for speed perturbations"), "{out}");
     sc["sumo"]["controlled"] = serde_json::json!({"vtype": "mine"});
     let own = dir.join("own.json");
     std::fs::write(&own, sc.to_string()).unwrap();

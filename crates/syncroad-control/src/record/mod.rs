@@ -391,8 +391,10 @@ impl RunRecord {
             // The certificate is of the scenario's own gaps (none for a run without a sample,
             // like `certified`): a SUMO run that rescaled them by
             // more than 1 % to fit its network (a ring length that is not the net's) drove
-            // other gaps, and gets none; so does a run of the user's own vehicles.
+            // other gaps, and gets none; so does a run of the user's own vehicles, and one that
+            // shares the road with the user's own traffic (it can change who follows whom).
             gap_certificate: (all_law
+                && !(facts.is_some() && !sc.sumo().routes().is_empty())
                 && !run.trajectory.is_empty()
                 && outcome.gap_certificate
                 && facts.is_none_or(|f| (f.gap_scale - 1.0).abs() <= 0.01)

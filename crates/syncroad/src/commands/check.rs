@@ -17,12 +17,30 @@ pub fn run(path: &Path, json: bool) -> anyhow::Result<Status> {
     let rep = theory::report(&sc);
     // The certificate is of the scenario's own start (`initial`); a run of the user's own
     // vehicles starts from theirs, which it does not describe.
-    let not_described = sc.sumo().controlled().map(|sel| {
-        format!(
-            "sumo.controlled = {}: the run starts the user's own vehicles from their own positions and speeds, not from the scenario's `initial`, which the certificate would describe",
-            serde_json::to_string(sel).unwrap_or_default()
-        )
-    });
+    // Nor does it describe a road shared with the user's own traffic, which SUMO drives: it
+    // can enter the law's lane and change who follows whom.
+    let not_described = sc
+        .sumo()
+        .controlled()
+        .map(|sel| {
+            format!(
+                "sumo.controlled = {}: the run starts the user's own vehicles from their own positions and speeds, not from the scenario's `initial`, which the certificate would describe",
+                serde_json::to_string(sel).unwrap_or_default()
+            )
+        })
+        .or_else(|| {
+            let routes = sc.sumo().routes();
+            (!routes.is_empty() && sc.backend() == syncroad_control::scenario::Backend::Sumo).then(|| {
+                format!(
+                    "sumo.routes = {}: the run shares the road with your own traffic, which SUMO drives; it can enter the law's lane or merge into it and change who follows whom, so the gaps are not those of the law's fixed graph that the certificate describes (the run's record measures the gaps it drove: gap_safety)",
+                    routes
+                        .iter()
+                        .map(|p| p.display().to_string())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            })
+        });
     let gaps = gap_certificate(&sc);
     if json {
         let mut v = serde_json::to_value(&rep)?;
