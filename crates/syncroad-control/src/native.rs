@@ -351,7 +351,8 @@ pub fn run_speeds_only(law: &mut DelayedDriverLaw, v: &mut Vec<f64>, steps: usiz
 
 /// The continuous CACC closed loop `q' = v, v' = a, τ a' = a_des(q, v)` integrated by the
 /// classical fourth-order Runge–Kutta method with the law evaluated at every stage: the
-/// reference the discrete law of [`simulate`] converges to (second order in Δt).
+/// reference the sampled law of [`simulate`] (`a_des` held over each step, as SUMO applies
+/// it) converges to, at first order in Δt (`exact::gaps` tests measure the order).
 ///
 /// # Panics
 /// When the scenario is not a CACC platoon.

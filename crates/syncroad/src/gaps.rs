@@ -73,6 +73,13 @@ pub fn gap_lines(cert: &Result<Option<GapCertificate>, GapError>, synchronizes: 
         "  final gaps of the scenario's own state: {lo:.3} … {hi:.3} m at {:.4} m/s",
         c.final_speed_mps
     );
+    if let Some(g) = c.sampled_own_min_gap_m {
+        let _ = writeln!(
+            s,
+            "  the runs apply the law at every step and hold it until the next: their own smallest gap is {g:.4} m (the continuous-time law's above: {:.4} m; the sampled law converges to it at first order in the step)",
+            c.own_min_gap_m
+        );
+    }
     if let Some(r) = c.leader_step_m_per_mps {
         let _ = writeln!(
             s,

@@ -182,6 +182,15 @@ pub(super) fn cacc_gap_certificate(
         x = next;
         t += STEP_S;
     };
+    // The runs apply the law every step and hold it (the native run of the same law).
+    let sampled = {
+        let run = crate::native::simulate(sc, crate::native::NativeOptions::default());
+        let t = &run.trajectory;
+        let low = (0..t.len())
+            .flat_map(|k| t.gaps(k).to_vec())
+            .fold(f64::INFINITY, f64::min);
+        (run.stop.is_complete() && low.is_finite()).then_some(low)
+    };
     let own_perturbation = sc
         .initial_speed_mps()
         .iter()
@@ -205,13 +214,14 @@ pub(super) fn cacc_gap_certificate(
         own_min_gap_m: own_min.0,
         own_min_gap_vehicle: own_min.1,
         own_min_gap_time_s: own_min.2,
-        own_contact: own_min.0 <= 0.0,
+        own_contact: own_min.0 <= 0.0 || sampled.is_some_and(|g| g <= 0.0),
         initial_gap_m: g0,
         horizon_s,
         settled,
         step_s: STEP_S,
         integration_error_m_per_mps: 0.0,
         leader_step_m_per_mps: Some(step_peak),
+        sampled_own_min_gap_m: sampled,
     })
 }
 
@@ -322,5 +332,39 @@ mod tests {
         let (inside, outside) = (min_gap(0.98), min_gap(1.02));
         assert!(inside > 0.0, "contact at 0.98·X: {inside} m");
         assert!(outside < 0.0, "no contact at 1.02·X: {outside} m");
+    }
+
+    /// Both backends apply the CACC law every step and hold it (sampled data); the
+    /// certificate's model is the continuous-time law (exact exponential). The smallest gap of
+    /// the scenario's own run converges to the continuous one at first order in the step:
+    /// halving the step halves the difference (ratios 1.8–2.2), and the certificate reports the
+    /// sampled value at the scenario's own step.
+    #[test]
+    fn the_sampled_law_converges_to_the_certificates_continuous_law_at_first_order() {
+        let at = |step: f64| {
+            let path = concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../../scenarios/platoon-cacc.json"
+            );
+            let mut v: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+            v["step_s"] = serde_json::json!(step);
+            let sc = Scenario::from_json(&v.to_string()).unwrap();
+            gap_certificate(&sc).unwrap().unwrap()
+        };
+        let certs: Vec<_> = [0.04, 0.02, 0.01].iter().map(|h| at(*h)).collect();
+        let continuous = certs[0].own_min_gap_m;
+        let errors: Vec<f64> = certs
+            .iter()
+            .map(|c| {
+                assert!((c.own_min_gap_m - continuous).abs() < 1e-6);
+                continuous - c.sampled_own_min_gap_m.unwrap()
+            })
+            .collect();
+        assert!(errors[2] > 0.0 && errors[0] < 0.05, "{errors:?}");
+        for w in errors.windows(2) {
+            let ratio = w[0] / w[1];
+            assert!((1.8..=2.2).contains(&ratio), "{errors:?}: ratio {ratio}");
+        }
     }
 }

@@ -153,6 +153,12 @@ pub struct GapCertificate {
     /// speed step (either sign) [m per m/s].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub leader_step_m_per_mps: Option<f64>,
+    /// CACC platoons: the smallest gap of the scenario's own run with the law applied every
+    /// step and held over it, as both backends apply it (the native run of the same law)
+    /// [m]. The certificate's model is the continuous-time law, to which the sampled one
+    /// converges at first order in the step; [`GapCertificate::own_contact`] counts both.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sampled_own_min_gap_m: Option<f64>,
 }
 
 /// The few numbers of a [`GapCertificate`] a run record and a sweep table keep.
@@ -493,6 +499,7 @@ pub fn gap_certificate(sc: &Scenario) -> Result<Option<GapCertificate>, GapError
         step_s: sweep.h,
         integration_error_m_per_mps: sweep.error,
         leader_step_m_per_mps: None,
+        sampled_own_min_gap_m: None,
     }))
 }
 
