@@ -50,6 +50,7 @@ mod signals;
 mod ssm;
 mod summary;
 mod supervisor;
+mod user_files;
 mod user_law;
 mod venv;
 mod worker;

@@ -304,6 +304,27 @@ fn prepare_with(
     };
     let extra_routes = user_files("sumo.routes", scenario.sumo().routes())?;
     let extra_additional = user_files("sumo.additional", scenario.sumo().additional())?;
+    let user: Vec<crate::user_files::UserFile<'_>> = extra_routes
+        .iter()
+        .enumerate()
+        .map(|(index, path)| crate::user_files::UserFile {
+            field: "sumo.routes",
+            index,
+            path,
+        })
+        .chain(extra_additional.iter().enumerate().map(|(index, path)| {
+            crate::user_files::UserFile {
+                field: "sumo.additional",
+                index,
+                path,
+            }
+        }))
+        .collect();
+    crate::user_files::check(
+        &layout.road.path,
+        &layout.routes_xml_with(adopt.is_none()),
+        &user,
+    )?;
     let other_traffic = scenario.sumo().other_traffic();
     if other_traffic {
         let ours = layout.routes_xml_with(adopt.is_none());

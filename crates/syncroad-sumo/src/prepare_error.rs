@@ -43,6 +43,19 @@ pub enum PrepareError {
         /// The resolved path.
         path: PathBuf,
     },
+    /// A file of the user's own traffic is not one SUMO can run: given twice, empty, not
+    /// well-formed, or naming an edge, lane, vehicle type or route that nothing defines.
+    #[error("{field}[{index}] = {}: {reason} (checked before starting SUMO)", path.display())]
+    UserFile {
+        /// The scenario field.
+        field: &'static str,
+        /// Its index.
+        index: usize,
+        /// The resolved path.
+        path: PathBuf,
+        /// What is wrong and what would be valid.
+        reason: String,
+    },
     /// A file of the user's own traffic defines an id syncroad's vehicles use: SUMO would
     /// refuse to start ("Another vehicle with the id … exists").
     #[error("{}[{}] = {}: <{} id=\"{}\"> uses an id of syncroad's own {} ({}); rename it in your file (checked before starting SUMO)", .0.field, .0.index, .0.path.display(), .0.tag, .0.id, .0.kind, .0.ours)]

@@ -111,11 +111,12 @@ pub fn timeout(flag: Option<f64>) -> anyhow::Result<Option<Duration>> {
     flag.map(|t| timeout_as("--timeout-s", t)).transpose()
 }
 
-/// A wall-clock limit given as `field`: a number of seconds in [0, [`MAX_TIMEOUT_S`]].
+/// A wall-clock limit given as `field`: a number of seconds in (0, [`MAX_TIMEOUT_S`]] (a
+/// limit of 0 would stop every run before its first step: bad input, not a failed run).
 pub fn timeout_as(field: &str, t: f64) -> anyhow::Result<Duration> {
-    if !(0.0..=MAX_TIMEOUT_S).contains(&t) {
+    if !(t > 0.0 && t <= MAX_TIMEOUT_S) {
         return Err(InputError::new(format!(
-            "{field} = {t}: must be a number of seconds between 0 and {MAX_TIMEOUT_S:e}"
+            "{field} = {t}: must be a number of seconds > 0 and at most {MAX_TIMEOUT_S:e}"
         ))
         .into());
     }

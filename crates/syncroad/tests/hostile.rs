@@ -1124,6 +1124,108 @@ mod shell {
 mod up_front {
     use super::*;
 
+    /// The user's route and additional files are read before SUMO starts: an unknown edge,
+    /// garbage, an empty file, one file given twice, a type or route nothing defines, a
+    /// detector on a lane the network has not — each refused with exit 2 naming the field,
+    /// the file and the element, with no Python traceback and no SUMO started (no log). A time
+    /// limit of 0 is bad input too, not a failed run.
+    #[test]
+    fn route_and_additional_files_are_checked_before_sumo_starts() {
+        let dir = tmpdir("user-files");
+        let file = |name: &str, text: &str| {
+            std::fs::write(dir.join(name), text).unwrap();
+            name.to_string()
+        };
+        let cases: Vec<(&str, Vec<String>, &str, &str)> = vec![
+            (
+                "routes",
+                vec![file(
+                    "edge.rou.xml",
+                    r#"<routes><vehicle id="x" depart="0"><route edges="arc0 nope"/></vehicle></routes>"#,
+                )],
+                "sumo.routes[0]",
+                "the <route> of <vehicle id=\"x\"> names edge `nope`",
+            ),
+            (
+                "routes",
+                vec![file("garbage.rou.xml", "garbage")],
+                "sumo.routes[0]",
+                "is not well-formed XML",
+            ),
+            (
+                "routes",
+                vec![file("empty.rou.xml", "")],
+                "sumo.routes[0]",
+                "is empty",
+            ),
+            (
+                "routes",
+                vec![file("twice.rou.xml", "<routes/>"), "twice.rou.xml".into()],
+                "sumo.routes[1]",
+                "is given twice (also as sumo.routes[0])",
+            ),
+            (
+                "routes",
+                vec![file(
+                    "type.rou.xml",
+                    r#"<routes><vehicle id="x" depart="0" type="car"><route edges="arc0"/></vehicle></routes>"#,
+                )],
+                "sumo.routes[0]",
+                "has type `car`, which no <vType>",
+            ),
+            (
+                "routes",
+                vec![file(
+                    "route.rou.xml",
+                    r#"<routes><vehicle id="x" depart="0" route="r9"/></routes>"#,
+                )],
+                "sumo.routes[0]",
+                "follows route `r9`",
+            ),
+            (
+                "additional",
+                vec![file(
+                    "lane.add.xml",
+                    r#"<additional><inductionLoop id="d" lane="arc9_0" pos="1" period="10" file="d.xml"/></additional>"#,
+                )],
+                "sumo.additional[0]",
+                "is on lane `arc9_0`",
+            ),
+            (
+                "routes",
+                vec![file("root.rou.xml", "<net/>")],
+                "sumo.routes[0]",
+                "its root element is <net>",
+            ),
+        ];
+        for (k, (field, files, named, says)) in cases.iter().enumerate() {
+            let sc = sugiyama(&dir, &format!("sc{k}.json"), |s| {
+                s["horizon_s"] = json!(10);
+                s["sumo"][*field] = json!(files);
+            });
+            let out = dir.join(format!("out{k}"));
+            let (code, o, e) = run(bin().arg("run").arg(&sc).arg("--out").arg(&out).arg("-q"));
+            assert_eq!(code, 2, "{says}: {o}{e}");
+            assert!(e.contains(named) && e.contains(says), "{says}: {e}");
+            assert!(!e.contains("Traceback"), "{e}");
+            assert!(
+                !out.join("sumo/sumo.log").exists(),
+                "SUMO started for {says}"
+            );
+        }
+        let sc = sugiyama(&dir, "plain.json", |s| s["horizon_s"] = json!(10));
+        let (code, _, e) = run(bin()
+            .arg("run")
+            .arg(&sc)
+            .args(["--timeout-s", "0", "--out"])
+            .arg(dir.join("t0")));
+        assert_eq!(code, 2, "{e}");
+        assert!(
+            e.contains("--timeout-s = 0: must be a number of seconds > 0"),
+            "{e}"
+        );
+    }
+
     /// A FIFO named as a network, route or additional file: reading it never ends (a loop
     /// road read its network at load and hung). Every command refuses it with exit 2, naming
     /// what it is, before SUMO starts.
@@ -1279,13 +1381,17 @@ mod up_front {
         assert_eq!(code, 0, "{e}");
     }
 
-    /// A run in which SUMO never started (it refused a malformed additional file) records no
-    /// SUMO facts, no certificate of its gaps and no verdict it could not have reached: nulls,
-    /// not zeros.
+    /// A run in which SUMO never started (it refused an additional file whose detector lies
+    /// beyond its lane's end, which only SUMO checks) records no SUMO facts, no certificate of
+    /// its gaps and no verdict it could not have reached: nulls, not zeros.
     #[test]
     fn a_run_in_which_sumo_never_started_records_nothing_sumo_measured() {
         let dir = tmpdir("never-started");
-        std::fs::write(dir.join("bad.add.xml"), "<additional><bogus/></additional").unwrap();
+        std::fs::write(
+            dir.join("bad.add.xml"),
+            r#"<additional><inductionLoop id="d" lane="arc0_0" pos="100000" period="10" file="d.xml"/></additional>"#,
+        )
+        .unwrap();
         let sc = sugiyama(&dir, "ring.json", |s| {
             s["horizon_s"] = json!(10);
             s["sumo"]["additional"] = json!(["bad.add.xml"]);

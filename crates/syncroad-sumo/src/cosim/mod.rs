@@ -134,8 +134,10 @@ pub fn run(py: Python<'_>, job: &Job, out: &mut impl Write) -> Result<(), CosimE
     let ls = Libsumo::new(py, module)?;
     let args = sumo_args(req);
     if let Err(e) = ls.module.call_method1("start", (args.clone(),)) {
+        // SUMO's own words (libsumo's exception and its log), not the Python traceback of
+        // the binding, which says nothing about the user's files.
         return Err(CosimError::StartFailed {
-            reason: py_error(py, "libsumo.start", e).to_string(),
+            reason: format!("libsumo.start refused the run: {}", e.value(py)),
             log: req.log_file.display().to_string(),
             log_tail: tail(&req.log_file, 20),
         });

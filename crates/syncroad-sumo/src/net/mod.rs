@@ -11,8 +11,8 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 mod config;
-mod network;
-mod roads;
+pub(crate) mod network;
+pub(crate) mod roads;
 
 pub use config::{read_config, ConfigError};
 use network::Network;

@@ -59,7 +59,7 @@ pub(crate) fn network_road(net: &Network, path: &Path, spec: &RoadSpec) -> Resul
 }
 
 /// The `k` normal edge ids closest to `id` by edit distance (ties in file order).
-fn nearest(net: &Network, id: &str) -> String {
+pub(crate) fn nearest(net: &Network, id: &str) -> String {
     let mut all: Vec<(usize, usize)> = net
         .normal
         .iter()

@@ -288,9 +288,10 @@ fn run_sumo(
     if run.output.trajectory.is_empty() && !run.interrupted {
         // SUMO never ran (no Python, no libsumo, a network SUMO refuses): there is no run to
         // judge, so no verdict and no record, only the reason (exit 3).
+        let why = run.output.stop.message().unwrap_or_default();
         anyhow::bail!(
             "SUMO did not start, nothing was run: {}",
-            run.output.stop.message().unwrap_or_default()
+            why.strip_prefix("SUMO did not start: ").unwrap_or(&why)
         );
     }
     let f = Finished::new(sc, plan.name(), run.output, plan.eval);

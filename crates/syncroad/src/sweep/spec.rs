@@ -565,7 +565,7 @@ mod tests {
         let e = spec(r#"{"base": "ring-theorem1.json", "timeout_s": 1e20}"#).unwrap_err();
         assert_eq!(
             e.to_string(),
-            "timeout_s = 100000000000000000000: must be a number of seconds between 0 and 1e9"
+            "timeout_s = 100000000000000000000: must be a number of seconds > 0 and at most 1e9"
         );
         let e =
             spec(r#"{"base": "ring-theorem1.json", "seeds": [9223372036854775808]}"#).unwrap_err();
