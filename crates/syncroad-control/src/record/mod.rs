@@ -394,7 +394,7 @@ impl RunRecord {
             // other gaps, and gets none; so does a run of the user's own vehicles, and one that
             // shares the road with the user's own traffic (it can change who follows whom).
             gap_certificate: (all_law
-                && !(facts.is_some() && !sc.sumo().routes().is_empty())
+                && (facts.is_none() || sc.sumo().routes().is_empty())
                 && !run.trajectory.is_empty()
                 && outcome.gap_certificate
                 && facts.is_none_or(|f| (f.gap_scale - 1.0).abs() <= 0.01)
