@@ -39,6 +39,7 @@ mod input_file;
 mod layout;
 mod net;
 mod output;
+mod outputs;
 mod prepare;
 mod prepare_error;
 mod probe;

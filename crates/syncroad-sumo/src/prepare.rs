@@ -335,6 +335,8 @@ fn prepare_with(
         let files = [extra_routes.as_slice(), extra_additional.as_slice()].concat();
         crate::controlled::check_run(sel, &drivers, &layout, &files)?;
     }
+    // What the user's additional files write goes into this run's folder.
+    let extra_additional = crate::outputs::redirect(&extra_additional, &opts.work_dir, write)?;
     let fcd = opts.fcd || scenario.sumo().fcd();
     if write {
         // An earlier run's replay files never stand beside this run's (the folder is ours).

@@ -645,6 +645,65 @@ fn a_stopped_sumo_worker_fails_its_point_instead_of_stalling_the_sweep() {
 mod overwritten {
     use super::*;
 
+    /// A detector of the user's additional file writes into the run's folder: the file its
+    /// `file` attribute names (absolute, or relative to the additional file) is never
+    /// touched, each run of a sweep keeps its own detector output, and two detectors naming
+    /// one file still share one.
+    #[test]
+    fn additional_file_outputs_land_in_the_run_folder_never_elsewhere() {
+        let dir = tmpdir("additional-outputs");
+        let elsewhere = dir.join("elsewhere");
+        std::fs::create_dir_all(&elsewhere).unwrap();
+        let victim = elsewhere.join("victim.txt");
+        std::fs::write(&victim, "mine").unwrap();
+        std::fs::write(dir.join("victim_rel.xml"), "mine too").unwrap();
+        std::fs::write(
+            dir.join("det.add.xml"),
+            format!(
+                r#"<additional><inductionLoop id="d0" lane="arc0_0" pos="10" period="5" file="{}"/><inductionLoop id="d1" lane="arc1_0" pos="10" period="5" file="{}"/><inductionLoop id="d2" lane="arc2_0" pos="10" period="5" file="victim_rel.xml"/></additional>"#,
+                victim.display(),
+                victim.display()
+            ),
+        )
+        .unwrap();
+        let sc = sugiyama(&dir, "ring.json", |s| {
+            s["horizon_s"] = json!(20);
+            s["sumo"]["additional"] = json!(["det.add.xml"]);
+        });
+        let p = sweeps::spec(&dir, "spec.json", json!({"base": sc, "seeds": [1, 2]}));
+        let out = dir.join("sw");
+        let (code, o, e) = run(bin()
+            .arg("sweep")
+            .arg(&p)
+            .arg("--out")
+            .arg(&out)
+            .args(["--keep-runs", "--no-plots"]));
+        assert_eq!(code, 0, "{o}{e}");
+        assert_eq!(std::fs::read_to_string(&victim).unwrap(), "mine");
+        assert_eq!(
+            std::fs::read_to_string(dir.join("victim_rel.xml")).unwrap(),
+            "mine too"
+        );
+        let mut outputs = Vec::new();
+        for point in ["0000000", "0000001"] {
+            let folder = out.join("runs").join(point).join("sumo/outputs");
+            let mut files: Vec<_> = std::fs::read_dir(&folder)
+                .unwrap()
+                .flatten()
+                .map(|e| e.path())
+                .collect();
+            files.sort();
+            // d0 and d1 share one file, d2 has its own.
+            assert_eq!(files.len(), 2, "{files:?}");
+            for f in &files {
+                let text = std::fs::read_to_string(f).unwrap();
+                assert!(text.contains("<interval"), "{}: {text}", f.display());
+            }
+            outputs.push(files);
+        }
+        assert_ne!(outputs[0], outputs[1], "each point writes its own files");
+    }
+
     fn regress(report: &str, path: &Path) -> (i32, String, String) {
         run(bin()
             .arg("regress")
