@@ -246,7 +246,7 @@ pub fn plan(sc: &Scenario, a: &Request) -> anyhow::Result<Plan> {
         tripinfo: true,
         ssm: a.ssm,
     };
-    let runs = runs
+    let runs: Vec<RunPlan> = runs
         .into_iter()
         .map(|spec| {
             let mut run = RunPlan::new(spec, record_every, eval);
@@ -256,6 +256,16 @@ pub fn plan(sc: &Scenario, a: &Request) -> anyhow::Result<Plan> {
             run
         })
         .collect();
+    // Every run as SUMO will be given it (drivers, their step-dependent values, measurements),
+    // before any run starts: a driver SUMO cannot take is bad input, not a run that failed
+    // after the others ran.
+    let worker = WorkerCommand::binary("syncroad");
+    for run in &runs {
+        let opts = run.sumo_options(std::env::temp_dir(), worker.clone(), None);
+        syncroad_sumo::check_run(sc, &road, &opts).map_err(|e| {
+            InputError::caused(format!("run {}: before starting SUMO", run.name()), e)
+        })?;
+    }
     Ok(Plan {
         runs,
         jobs,

@@ -1183,6 +1183,47 @@ mod shell {
 mod up_front {
     use super::*;
 
+    /// Bad input that used to be found only after work had started is refused first, with
+    /// exit 2: a SUMO driver value a later run of a comparison cannot take (it ran the law
+    /// first, then failed with exit 3), and `--emit-slurm` naming an existing file.
+    #[test]
+    fn bad_input_found_late_before_is_refused_up_front() {
+        let dir = tmpdir("late-input");
+        let sc = sugiyama(&dir, "ring.json", |s| s["horizon_s"] = json!(10));
+        let out = dir.join("cmp");
+        let (code, _, e) = run(bin()
+            .arg("compare")
+            .arg(&sc)
+            .args([
+                "--baselines",
+                "protocol,idm:actionStepLength=0.15",
+                "--no-plots",
+                "--out",
+            ])
+            .arg(&out));
+        assert_eq!(code, 2, "{e}");
+        assert!(
+            e.contains("run idm:actionStepLength=0.15") && e.contains("whole multiple"),
+            "{e}"
+        );
+        assert!(
+            !out.join("protocol").exists(),
+            "a run started before the refusal"
+        );
+        let file = dir.join("jobs.sh");
+        std::fs::write(&file, "#!/bin/sh\n").unwrap();
+        let (code, _, e) = run(bin()
+            .arg("sweep")
+            .arg(repo().join("sweeps/ring-gain-delay.native.json"))
+            .arg("--out")
+            .arg(dir.join("sw"))
+            .arg("--emit-slurm")
+            .arg(&file));
+        assert_eq!(code, 2, "{e}");
+        assert!(e.contains("is an existing file, not a folder"), "{e}");
+        assert_eq!(std::fs::read_to_string(&file).unwrap(), "#!/bin/sh\n");
+    }
+
     /// The user's route and additional files are read before SUMO starts: an unknown edge,
     /// garbage, an empty file, one file given twice, a type or route nothing defines, a
     /// detector on a lane the network has not — each refused with exit 2 naming the field,

@@ -155,6 +155,13 @@ pub fn emit(
             .into());
         }
     }
+    if dir.exists() && !dir.is_dir() {
+        return Err(InputError::new(format!(
+            "--emit-slurm = {}: is an existing file, not a folder; name a folder for the job scripts (it is created if missing)",
+            dir.display()
+        ))
+        .into());
+    }
     refuse_foreign_scripts(dir)?;
     let logs = dir.join("logs");
     let exe = crate::config::program().context("cannot locate the syncroad executable")?;
