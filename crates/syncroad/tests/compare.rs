@@ -284,33 +284,37 @@ fn bad_compare_input_is_refused_before_sumo_starts() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
-/// A run that fails is marked and keeps its folder; the others still report (here a 0 s
-/// wall-clock limit fails every worker, and the command exits 3 with compare.json written).
+/// A run that fails is marked and keeps its folder; the others still report (here SUMO refuses
+/// every run at its start, for a detector of an additional file beyond its lane's end, which
+/// only SUMO checks), and the command exits 3 with compare.json written.
 #[test]
 fn failed_runs_are_marked_and_reported() {
     let d = tmpdir("fail");
-    let (code, out, err) = run(bin()
+    std::fs::write(
+        d.join("bad.add.xml"),
+        r#"<additional><inductionLoop id="d" lane="arc0_0" pos="100000" period="10" file="d.xml"/></additional>"#,
+    )
+    .unwrap();
+    let sc = edited_scenario(&d, "sugiyama-ring", |s| {
+        s["horizon_s"] = serde_json::json!(10);
+        s["sumo"]["additional"] = serde_json::json!([d.join("bad.add.xml")]);
+    });
+    let out = d.join("out");
+    let (code, stdout, err) = run(bin()
         .arg("compare")
-        .arg(sugiyama())
-        .args([
-            "--baselines",
-            "protocol,krauss",
-            "--timeout-s",
-            "0",
-            "--no-plots",
-            "--out",
-        ])
-        .arg(&d));
-    assert_eq!(code, 3, "{out}\n{err}");
-    assert!(out.contains("protocol (FAILED)"), "{out}");
+        .arg(&sc)
+        .args(["--baselines", "protocol,krauss", "--no-plots", "--out"])
+        .arg(&out));
+    assert_eq!(code, 3, "{stdout}\n{err}");
+    assert!(stdout.contains("protocol (FAILED)"), "{stdout}");
     assert!(err.contains("error: run krauss failed"), "{err}");
-    let c = json(&d.join("compare.json"));
+    let c = json(&out.join("compare.json"));
     assert_eq!(c["runs"]["protocol"]["complete"], false);
     assert!(
         c["runs"]["krauss"]["error"]
             .as_str()
             .unwrap()
-            .contains("time"),
+            .contains("lies beyond the lane"),
         "{c}"
     );
     let _ = std::fs::remove_dir_all(&d);
