@@ -963,3 +963,32 @@ fn a_string_unstable_chain_that_synchronizes_gets_transient_growth_not_divergenc
     assert!(m > 1e3, "{m}");
     assert!((safe * m - 25.0).abs() < 25.0 * 1e-3, "{safe} · {m}");
 }
+
+/// `stability` refuses what it cannot analyse as bad input (exit 2, naming the field and the
+/// valid range) instead of failing part-way (exit 3): one vehicle, and gains beyond the root
+/// searches' reach; just inside that reach (gains × 10⁴ on `ring-theorem1`, gain × delay
+/// 4.9e3 ≫ π/2) it still answers, and the answer is the one a delay that long must give.
+#[test]
+fn stability_refuses_what_it_cannot_analyse_as_bad_input() {
+    let dir = tmpdir("stability-limits");
+    let one = edited_scenario(&dir, "ring-theorem1", |sc| {
+        sc["vehicles"] = serde_json::json!(1);
+        sc["model"]["delay_s"] = serde_json::json!(0.5);
+    });
+    let (code, _, err) = run(bin().arg("stability").arg(&one));
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("at least 2"), "{err}");
+    for (scale, code_wanted) in [(1e4, 1), (1e5, 2)] {
+        let path = edited_scenario(&dir, "ring-theorem1", |sc| {
+            sc["model"]["graph"]["gain_pred"] = serde_json::json!(0.6 * scale);
+            sc["model"]["graph"]["gain_follow"] = serde_json::json!(0.1 * scale);
+        });
+        let (code, out, err) = run(bin().arg("stability").arg(&path));
+        assert_eq!(code, code_wanted, "×{scale}: {out}{err}");
+        if code_wanted == 2 {
+            assert!(err.contains("at most 1e4"), "{err}");
+        } else {
+            assert!(out.contains("exact: does NOT synchronize"), "{out}");
+        }
+    }
+}

@@ -74,6 +74,19 @@ pub enum AnalysisError {
         /// `max_i α_i Σ_j a_ij`.
         gain_delay: f64,
     },
+    /// Gains so large that the root searches lose the roots (their real parts grow like
+    /// `ln(gain × delay)/delay`, beyond the contours the counts can close).
+    #[error("the largest gain × delay of the network (model.graph, model.delay_s) is {gain_delay:.3e}: beyond {MAX_GAIN_DELAY:e} the root searches lose the characteristic roots; exact analysis takes a largest gain × delay of at most {MAX_GAIN_DELAY:e} (the native simulator runs such a network: `syncroad simulate`)")]
+    AboveResolution {
+        /// `max_i α_i Σ_j a_ij`.
+        gain_delay: f64,
+    },
+    /// A network of one driver.
+    #[error("the scenario has {vehicles} vehicle (field `vehicles`, leader included): exact stability analyses a network of at least 2 (a lone driver has nobody to synchronize with; `syncroad check` and `simulate` take it)")]
+    TooFewVehicles {
+        /// Vehicles, the leader included.
+        vehicles: usize,
+    },
     /// Platoon scaling was asked for a model that is not a CACC platoon.
     #[error("platoon scaling needs a CACC platoon (model.type = \"cacc\")")]
     PlatoonScalingNeedsCacc,
@@ -85,6 +98,10 @@ pub enum AnalysisError {
 /// spurious root on the contour) while 1e-9 was still right, so the limit keeps a factor 100.
 /// At 1e-8 the slowest mode's time constant is about three years.
 pub const MIN_GAIN_DELAY: f64 = 1e-8;
+
+/// The largest largest gain × delay the exact analysis takes: `ring-theorem1` with its gains
+/// scaled by 10⁴ (gain × delay 4.9e3) is analysed, by 10⁵ (4.9e4) its roots are lost.
+pub const MAX_GAIN_DELAY: f64 = 1e4;
 
 /// `max_i α_i (Σ_j a_ij + b_i)`: the largest gain × delay of a delayed-driver network, the
 /// scale of its characteristic roots.
@@ -313,6 +330,13 @@ pub fn analyse(sc: &Scenario) -> Result<StabilityReport, AnalysisError> {
             let gain_delay = max_gain_delay(m);
             if below_resolution(m) {
                 return Err(AnalysisError::BelowResolution { gain_delay });
+            }
+            if gain_delay > MAX_GAIN_DELAY {
+                return Err(AnalysisError::AboveResolution { gain_delay });
+            }
+            let vehicles = m.graph.len() + usize::from(m.leader.is_some());
+            if vehicles < 2 {
+                return Err(AnalysisError::TooFewVehicles { vehicles });
             }
             let ring = match uniform_ring(sc, m) {
                 Some(r) => Some(r.modes().map_err(AnalysisError::Ring)?),

@@ -14,7 +14,9 @@ use crate::stdout::{out, outln};
 pub fn run(path: &Path, json: bool, platoon_scaling: bool) -> anyhow::Result<Status> {
     let sc = load_scenario(path)?;
     let r = analysis::analyse(&sc).map_err(|e| match e {
-        AnalysisError::BelowResolution { .. } => anyhow::Error::new(InputError::caused(
+        AnalysisError::BelowResolution { .. }
+        | AnalysisError::AboveResolution { .. }
+        | AnalysisError::TooFewVehicles { .. } => anyhow::Error::new(InputError::caused(
             format!("scenario {}", path.display()),
             e,
         )),
