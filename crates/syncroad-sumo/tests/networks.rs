@@ -735,7 +735,16 @@ mod loops {
         let sc = scenario(&dir, &json).unwrap();
         let run = run_scenario(&sc, &opts(&dir)).unwrap();
         run.outcome().expect("horizon reached");
-        let out = std::fs::read_to_string(dir.join("mine-e1.xml")).unwrap();
+        // Its output lands in the run's folder (`outputs/`), not beside the additional file.
+        assert!(!dir.join("mine-e1.xml").exists());
+        let written: Vec<_> = std::fs::read_dir(dir.join("run/outputs"))
+            .unwrap()
+            .flatten()
+            .map(|e| e.path())
+            .collect();
+        assert_eq!(written.len(), 1, "{written:?}");
+        assert!(written[0].to_string_lossy().ends_with("mine-e1.xml"));
+        let out = std::fs::read_to_string(&written[0]).unwrap();
         let counted: i64 = out
             .split("nVehContrib=\"")
             .skip(1)
