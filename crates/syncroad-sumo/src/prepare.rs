@@ -302,66 +302,18 @@ fn prepare_with(
         let law = law_of(scenario, &layout, damper, humans, (safety, signals));
         Control::Law { law: Box::new(law) }
     };
-    let extra_routes = user_files("sumo.routes", scenario.sumo().routes())?;
-    let extra_additional = user_files("sumo.additional", scenario.sumo().additional())?;
-    let user: Vec<crate::user_files::UserFile<'_>> = extra_routes
-        .iter()
-        .enumerate()
-        .map(|(index, path)| crate::user_files::UserFile {
-            field: "sumo.routes",
-            index,
-            path,
-        })
-        .chain(extra_additional.iter().enumerate().map(|(index, path)| {
-            crate::user_files::UserFile {
-                field: "sumo.additional",
-                index,
-                path,
-            }
-        }))
-        .collect();
-    crate::user_files::check(
-        &layout.road.path,
-        &layout.routes_xml_with(adopt.is_none()),
-        &user,
-    )?;
+    let (extra_routes, extra_additional) = user_traffic(scenario, &layout, &drivers, opts, write)?;
     let other_traffic = scenario.sumo().other_traffic();
-    if other_traffic {
-        let ours = layout.routes_xml_with(adopt.is_none());
-        no_clashing_ids(&ours, "sumo.routes", &extra_routes)?;
-        no_clashing_ids(&ours, "sumo.additional", &extra_additional)?;
-    }
-    if let Some(sel) = adopt {
-        let files = [extra_routes.as_slice(), extra_additional.as_slice()].concat();
-        crate::controlled::check_run(sel, &drivers, &layout, &files)?;
-    }
-    // What the user's additional files write goes into this run's folder.
-    let extra_additional = crate::outputs::redirect(&extra_additional, &opts.work_dir, write)?;
     let fcd = opts.fcd || scenario.sumo().fcd();
     if write {
-        // An earlier run's replay files never stand beside this run's (the folder is ours).
-        crate::replay::remove_stale(&opts.work_dir, fcd, adopt.is_none())
+        let sources = [
+            std::slice::from_ref(&routes_file),
+            extra_routes.as_slice(),
+            extra_additional.as_slice(),
+        ]
+        .concat();
+        write_watch_files(scenario, &layout, &opts.work_dir, fcd, &sources)
             .map_err(|e| io(&opts.work_dir, e))?;
-        if adopt.is_none() {
-            crate::replay::write_road_trace(&opts.work_dir, &layout)
-                .map_err(|e| io(&opts.work_dir, e))?;
-        }
-        if fcd {
-            let sources = [
-                std::slice::from_ref(&routes_file),
-                extra_routes.as_slice(),
-                extra_additional.as_slice(),
-            ]
-            .concat();
-            crate::replay::write_replay_files(
-                &opts.work_dir,
-                &layout.road.path,
-                &sources,
-                scenario.step_s(),
-                scenario.horizon_s(),
-            )
-            .map_err(|e| io(&opts.work_dir, e))?;
-        }
     }
     Ok(Request {
         layout,
@@ -390,6 +342,74 @@ fn prepare_with(
         extra_additional,
         adopt: adopt.cloned(),
     })
+}
+
+/// The user's own traffic (`sumo.routes`, `sumo.additional`), checked before SUMO starts (the
+/// files exist and SUMO can run them, no id of syncroad's own, the vehicles `sumo.controlled`
+/// chooses), with the additional files' outputs redirected into the run's folder: the route
+/// and additional files to give SUMO.
+fn user_traffic(
+    scenario: &Scenario,
+    layout: &Layout,
+    drivers: &[Option<SumoDriver>],
+    opts: &RunOptions,
+    write: bool,
+) -> Result<(Vec<PathBuf>, Vec<PathBuf>), PrepareError> {
+    let adopt = scenario.sumo().controlled();
+    let routes = user_files("sumo.routes", scenario.sumo().routes())?;
+    let additional = user_files("sumo.additional", scenario.sumo().additional())?;
+    let user: Vec<crate::user_files::UserFile<'_>> = [
+        ("sumo.routes", routes.as_slice()),
+        ("sumo.additional", additional.as_slice()),
+    ]
+    .into_iter()
+    .flat_map(|(field, files)| {
+        files
+            .iter()
+            .enumerate()
+            .map(move |(index, path)| crate::user_files::UserFile { field, index, path })
+    })
+    .collect();
+    let ours = layout.routes_xml_with(adopt.is_none());
+    crate::user_files::check(&layout.road.path, &ours, &user)?;
+    if scenario.sumo().other_traffic() {
+        no_clashing_ids(&ours, "sumo.routes", &routes)?;
+        no_clashing_ids(&ours, "sumo.additional", &additional)?;
+    }
+    if let Some(sel) = adopt {
+        let files = [routes.as_slice(), additional.as_slice()].concat();
+        crate::controlled::check_run(sel, drivers, layout, &files)?;
+    }
+    // What the user's additional files write goes into this run's folder.
+    let additional = crate::outputs::redirect(&additional, &opts.work_dir, write)?;
+    Ok((routes, additional))
+}
+
+/// The files for watching the run again, in its work folder: where its road lies, and with
+/// `fcd` the replay of SUMO's floating-car data (vehicle types read from `type_sources`). An
+/// earlier run's that this one does not write are removed (the folder is ours).
+fn write_watch_files(
+    scenario: &Scenario,
+    layout: &Layout,
+    work_dir: &Path,
+    fcd: bool,
+    type_sources: &[PathBuf],
+) -> std::io::Result<()> {
+    let adopt = scenario.sumo().controlled();
+    crate::replay::remove_stale(work_dir, fcd, adopt.is_none())?;
+    if adopt.is_none() {
+        crate::replay::write_road_trace(work_dir, layout)?;
+    }
+    if fcd {
+        crate::replay::write_replay_files(
+            work_dir,
+            &layout.road.path,
+            type_sources,
+            scenario.step_s(),
+            scenario.horizon_s(),
+        )?;
+    }
+    Ok(())
 }
 
 /// The user's own files of `field` (`sumo.routes`, `sumo.additional`), checked to exist

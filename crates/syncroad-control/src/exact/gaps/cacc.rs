@@ -71,6 +71,26 @@ fn step_maps(am: &DMatrix<f64>, b: &[f64], h: f64) -> (DMatrix<f64>, Vec<f64>, V
     (phi, pd, ps)
 }
 
+/// The smallest gap of the scenario's own run as the runs apply the law: every step, held
+/// until the next (the native run of the same law, which SUMO's equals); `None` when that run
+/// did not reach its horizon.
+fn sampled_own_min_gap(sc: &Scenario) -> Option<f64> {
+    let run = crate::native::simulate(sc, crate::native::NativeOptions::default());
+    let t = &run.trajectory;
+    let low = (0..t.len())
+        .flat_map(|k| t.gaps(k).to_vec())
+        .fold(f64::INFINITY, f64::min);
+    (run.stop.is_complete() && low.is_finite()).then_some(low)
+}
+
+/// The worst signs `−sign(h_ij)` of the unit responses in row `i` of `x` (0 where the response
+/// is 0): the speed perturbation pattern that shrinks gap `i` most at that time.
+fn worst_signs(x: &DMatrix<f64>, i: usize, n: usize) -> Vec<f64> {
+    (0..n)
+        .map(|j| -x[(i, j)].signum() * f64::from(u8::from(x[(i, j)] != 0.0)))
+        .collect()
+}
+
 /// The gap certificate of a CACC scenario.
 ///
 /// # Errors
@@ -128,16 +148,12 @@ pub(super) fn cacc_gap_certificate(
             shrinkage[i] = shrinkage[i].max(row);
             if row > best.0 {
                 best = (row, i, t);
-                for (j, p) in pattern.iter_mut().enumerate() {
-                    *p = -x[(i, j)].signum() * f64::from(u8::from(x[(i, j)] != 0.0));
-                }
+                pattern = worst_signs(&x, i, n);
             }
             let left = m.desired_gap_m[i] + x[(i, n + 2)];
             if row > 1e-12 && left / row < safe.0 {
                 safe = (left / row, i, t);
-                for (j, p) in safe_pattern.iter_mut().enumerate() {
-                    *p = -x[(i, j)].signum() * f64::from(u8::from(x[(i, j)] != 0.0));
-                }
+                safe_pattern = worst_signs(&x, i, n);
             }
             step_peak = step_peak.max(x[(i, n)].abs());
             let gap = m.desired_gap_m[i] + x[(i, n + 1)];
@@ -182,15 +198,7 @@ pub(super) fn cacc_gap_certificate(
         x = next;
         t += STEP_S;
     };
-    // The runs apply the law every step and hold it (the native run of the same law).
-    let sampled = {
-        let run = crate::native::simulate(sc, crate::native::NativeOptions::default());
-        let t = &run.trajectory;
-        let low = (0..t.len())
-            .flat_map(|k| t.gaps(k).to_vec())
-            .fold(f64::INFINITY, f64::min);
-        (run.stop.is_complete() && low.is_finite()).then_some(low)
-    };
+    let sampled = sampled_own_min_gap(sc);
     let own_perturbation = sc
         .initial_speed_mps()
         .iter()
