@@ -121,7 +121,7 @@ fn baseline_runs(sc: &Scenario, a: &Request) -> anyhow::Result<Vec<Drive>> {
     let mut runs: Vec<Drive> = Vec::new();
     for name in list.split(',').map(str::trim).filter(|s| !s.is_empty()) {
         let mut spec = Drive::parse("--baselines", name, n)
-            .map_err(|e| InputError::caused("--baselines", e))?;
+            .map_err(|e| InputError::about("--baselines", e))?;
         // The scenario's own law is the user's controller when it names one: the run says so.
         if let (true, Some(c)) = (spec.name == "protocol", sc.controller()) {
             spec.name = c.label();
@@ -149,7 +149,7 @@ fn mixed_runs(sc: &Scenario, a: &Request) -> anyhow::Result<MixedRuns> {
     if let Some(m) = &a.mixed {
         let names: Vec<&str> = a.mixed_controller.split(',').collect();
         let controllers = mixed_controllers("--mixed-controller", &names)
-            .map_err(|e| InputError::caused("--mixed-controller", e))?;
+            .map_err(|e| InputError::about("--mixed-controller", e))?;
         let law = controllers.contains(&None);
         if law && (!sc.is_ring() || !matches!(sc.model(), Model::DelayedDriver(_))) {
             return Err(bad(format!(
@@ -162,7 +162,7 @@ fn mixed_runs(sc: &Scenario, a: &Request) -> anyhow::Result<MixedRuns> {
                 .map_err(|e| InputError::caused(format!("--mixed = {m}"), e))?;
         }
         let human = SumoDriver::parse("--mixed-driver", &a.mixed_driver)
-            .map_err(|e| InputError::caused("--mixed-driver", e))?;
+            .map_err(|e| InputError::about("--mixed-driver", e))?;
         for x in m.split(',').map(str::trim) {
             let k: usize = x.parse().map_err(|_| {
                 bad(format!(

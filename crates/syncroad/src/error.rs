@@ -20,6 +20,16 @@ impl InputError {
         }
     }
 
+    /// An input error about `field`: the library's error as it is when its message already
+    /// names the field (no `field: field = …` twice), else with the field before it.
+    pub fn about(field: &str, source: impl std::error::Error + Send + Sync + 'static) -> Self {
+        if source.to_string().starts_with(field) {
+            Self::new(source.to_string())
+        } else {
+            Self::caused(field, source)
+        }
+    }
+
     /// An input error that says where (`context`), with the library's error as its cause.
     pub fn caused(
         context: impl Into<String>,
@@ -78,6 +88,17 @@ pub fn describe(err: &anyhow::Error) -> String {
 /// the file system's limit, a file on the way, no permission, a read-only file system) is the
 /// user's to change (exit 2); anything else is a failure of the run.
 pub(crate) fn folder_error(flag: &str, dir: &std::path::Path, e: std::io::Error) -> anyhow::Error {
+    // A link whose target is missing is no file: say what it is.
+    if let Ok(target) = std::fs::read_link(dir) {
+        if !dir.exists() {
+            return InputError::new(format!(
+                "{flag} = {}: cannot create the output folder: it is a symbolic link to {}, which does not exist; create that folder or choose another {flag}",
+                dir.display(),
+                target.display()
+            ))
+            .into();
+        }
+    }
     let why = match e.raw_os_error() {
         Some(libc::ENAMETOOLONG) => {
             Some("a name in it is longer than the file system allows (255 bytes per name)")
@@ -123,5 +144,19 @@ mod tests {
         assert_eq!(describe(&e), "scenario x.json: outer: inner fault");
         let plain = anyhow::Error::new(Inner).context("a").context("b");
         assert_eq!(describe(&plain), "b: a: inner fault");
+    }
+
+    #[test]
+    fn an_error_about_a_field_names_it_once() {
+        let named = InputError::about("--baselines", Inner);
+        assert_eq!(
+            format!("{:#}", anyhow::Error::new(named)),
+            "--baselines: inner fault"
+        );
+        #[derive(Debug, thiserror::Error)]
+        #[error("--baselines = x: unknown driver")]
+        struct Own;
+        let own = InputError::about("--baselines", Own);
+        assert_eq!(own.to_string(), "--baselines = x: unknown driver");
     }
 }

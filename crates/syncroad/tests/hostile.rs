@@ -1183,6 +1183,42 @@ mod shell {
 mod up_front {
     use super::*;
 
+    /// Messages name their field once (`--baselines = x: …`, not `--baselines: --baselines =
+    /// x: …`), and a dangling `--out` link is called what it is.
+    #[test]
+    fn messages_name_the_field_once_and_a_dangling_link_as_a_link() {
+        let dir = tmpdir("messages");
+        let sc = sugiyama(&dir, "ring.json", |s| s["horizon_s"] = json!(10));
+        let (code, _, e) = run(bin()
+            .arg("compare")
+            .arg(&sc)
+            .args(["--baselines", "nonsense", "--out"])
+            .arg(dir.join("c")));
+        assert_eq!(code, 2, "{e}");
+        assert!(
+            e.starts_with("error: --baselines = nonsense: unknown driver"),
+            "{e}"
+        );
+        let (code, _, e) = run(bin()
+            .arg("compare")
+            .arg(repo().join("scenarios/sugiyama-human.json"))
+            .args(["--mixed", "1", "--mixed-controller", "bogus", "--out"])
+            .arg(dir.join("m")));
+        assert_eq!(code, 2, "{e}");
+        assert!(
+            e.starts_with("error: --mixed-controller = bogus: unknown controller"),
+            "{e}"
+        );
+        let link = dir.join("dangling");
+        symlink(dir.join("no-such-folder/x"), &link).unwrap();
+        let (code, _, e) = run(bin().arg("run").arg(&sc).arg("--out").arg(&link));
+        assert_eq!(code, 2, "{e}");
+        assert!(
+            e.contains("is a symbolic link to") && e.contains("which does not exist"),
+            "{e}"
+        );
+    }
+
     /// Bad input that used to be found only after work had started is refused first, with
     /// exit 2: a SUMO driver value a later run of a comparison cannot take (it ran the law
     /// first, then failed with exit 3), and `--emit-slurm` naming an existing file.

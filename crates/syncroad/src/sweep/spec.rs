@@ -382,7 +382,7 @@ fn runs_of(file: &SpecFile, base: &Scenario, backend: Backend) -> anyhow::Result
             Some(OneOrMany::Many(v)) => v.clone(),
         };
         let controllers = mixed_controllers("mixed_controller", &names)
-            .map_err(|e| InputError::caused("mixed_controller", e))?;
+            .map_err(|e| InputError::about("mixed_controller", e))?;
         let mut counts: Vec<(usize, f64)> = Vec::new();
         for &p in &file.penetrations {
             if !(0.0..=1.0).contains(&p) {
