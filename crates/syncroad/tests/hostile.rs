@@ -1533,12 +1533,32 @@ mod up_front {
             s["sumo"]["additional"] = json!(["bad.add.xml"]);
         });
         let out = dir.join("cmp");
-        let (code, _, e) = run(bin()
+        let (code, o, e) = run(bin()
             .arg("compare")
             .arg(&sc)
             .args(["--baselines", "protocol", "--no-plots", "--out"])
             .arg(&out));
         assert_eq!(code, 3, "{e}");
+        // No verdict for what did not run, in the table as in a sweep's row; a sweep that
+        // simulated nothing prints no throughput and judges no run safe.
+        assert!(o.contains("| verdict | did not run |"), "{o}");
+        let p = sweeps::spec(&dir, "spec.json", json!({"base": sc, "seeds": [1]}));
+        let (code, so, se) = sweeps::sweep(&p, &dir.join("sw"));
+        assert_eq!(code, 3, "{so}{se}");
+        assert!(!so.contains("simulated vehicle-seconds"), "{so}");
+        assert!(
+            so.contains("unsafe: 0 of 0 runs") && so.contains("1 not judged"),
+            "{so}"
+        );
+        let mut table = csv::Reader::from_path(dir.join("sw/results.csv")).unwrap();
+        let at = table
+            .headers()
+            .unwrap()
+            .iter()
+            .position(|h| h == "sync.verdict")
+            .unwrap();
+        let row = table.records().next().unwrap().unwrap();
+        assert_eq!(&row[at], "", "{row:?}");
         let m = metrics(&out.join("protocol"));
         assert_eq!(m["complete"], false, "{m}");
         assert_eq!(m["sumo_version"], Value::Null, "{m}");

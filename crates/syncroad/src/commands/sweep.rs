@@ -78,8 +78,10 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<Status> {
         sweep.name, summary.points, summary.ran, summary.failed, summary.skipped, summary.interrupted
     );
     outln!("{unsafe_line}");
-    if summary.ran > 0 {
-        let veh_s = sweep.base.vehicles() as f64 * sweep.base.horizon_s() * summary.ran as f64;
+    // Throughput of the runs that ran to their end (a sweep that simulated nothing prints none).
+    let simulated = summary.ran.saturating_sub(summary.failed);
+    if simulated > 0 {
+        let veh_s = sweep.base.vehicles() as f64 * sweep.base.horizon_s() * simulated as f64;
         outln!(
             "  {:.2} runs/s, {:.0} simulated vehicle-seconds per second ({} jobs{})",
             summary.ran as f64 / wall,
@@ -183,14 +185,23 @@ fn emit(
 
 /// How many of the rows are of unsafe runs (`safe` = false): the line every sweep summary
 /// prints beside its failed points.
+/// How many runs were unsafe, of those that could be judged (a run that never started has no
+/// `safe`, and is not counted as safe).
 fn unsafe_line(rows: &BTreeMap<usize, Map<String, Value>>) -> String {
-    let n = rows
+    let judged: Vec<bool> = rows
         .values()
-        .filter(|r| r.get("safe") == Some(&Value::Bool(false)))
-        .count();
+        .filter_map(|r| r.get("safe").and_then(Value::as_bool))
+        .collect();
+    let n = judged.iter().filter(|s| !**s).count();
+    let unjudged = rows.len() - judged.len();
     format!(
-        "  unsafe: {n} of {} runs (collisions, overlaps, teleports or emergency braking: column safe = false)",
-        rows.len()
+        "  unsafe: {n} of {} runs (collisions, overlaps, teleports or emergency braking: column safe = false){}",
+        judged.len(),
+        if unjudged > 0 {
+            format!("; {unjudged} not judged (no run to judge: column safe empty)")
+        } else {
+            String::new()
+        }
     )
 }
 

@@ -124,8 +124,17 @@ fn row_of(sweep: &Sweep, p: &Point, record: &Value) -> Map<String, Value> {
     r.insert("safe".into(), record["safe"].clone());
     r.insert("stop".into(), json!(reason));
     r.insert("error".into(), record["error"].clone());
+    // A run that never produced a sample has no verdict (its record's "not synchronized" is
+    // the verdict of nothing): the cell is empty, as its metrics are.
+    let ran = !at_path(record, "sync.final_spread_mps").is_null();
     for m in &sweep.metrics {
-        r.insert(m.clone(), at_path(record, m).clone());
+        let v = at_path(record, m).clone();
+        let v = if m == "sync.verdict" && !ran {
+            Value::Null
+        } else {
+            v
+        };
+        r.insert(m.clone(), v);
     }
     for s in ["scenario_hash", "sumo_version"] {
         r.insert(s.into(), record[s].clone());

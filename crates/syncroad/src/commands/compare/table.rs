@@ -41,7 +41,9 @@ const ROWS: [Row; 21] = [
         path: "sync.verdict",
         decimals: 0,
         get: |r| {
+            // A run that never produced a sample has no verdict.
             Cell::Text(match r.sync.verdict {
+                _ if r.sync.final_spread_mps.is_none() => "did not run",
                 Verdict::Synchronized => "synchronized",
                 Verdict::NotSynchronized => "not sync",
                 Verdict::Inconclusive => "inconclusive",
