@@ -289,6 +289,14 @@ fn run_sumo(
         // SUMO never ran (no Python, no libsumo, a network SUMO refuses): there is no run to
         // judge, so no verdict and no record, only the reason (exit 3).
         let why = run.output.stop.message().unwrap_or_default();
+        let started = run
+            .output
+            .sumo
+            .as_ref()
+            .is_some_and(|f| f.sumo_version.is_some());
+        if started {
+            anyhow::bail!("the run ended before its first sample, nothing was recorded: {why}");
+        }
         anyhow::bail!(
             "SUMO did not start, nothing was run: {}",
             why.strip_prefix("SUMO did not start: ").unwrap_or(&why)
