@@ -122,47 +122,13 @@ impl ScenarioFile {
             }
         }
         let speeds = self.initial_speeds(n, entries, &mut rng)?;
-        let gap_spec = merge(
-            "initial.gap_m",
-            "gap_m",
-            self.initial.gap_m.as_ref(),
+        let mut gaps = self.initial_gaps(
             entries,
-            |e| e.gap_m,
+            &model,
+            (closed, road_len, measured.as_ref()),
+            &length_m,
+            &mut rng,
         )?;
-        let mut gaps = match (&gap_spec, &self.road, &model) {
-            (Some(g), _, _) => g.resolve_nonneg("initial.gap_m", n)?,
-            (None, _, _) if closed => {
-                let used: f64 = length_m.iter().sum();
-                vec![(road_len - used) / n as f64; n]
-            }
-            (None, _, Model::Cacc(c)) => c.desired_gap_m.clone(),
-            (None, _, _) => vec![20.0; n],
-        };
-        if let Some(m) = measured.as_ref().filter(|_| closed) {
-            let used: f64 = length_m.iter().sum();
-            if used > m.length_m {
-                return Err(invalid(
-                    "vehicles",
-                    n,
-                    format!(
-                        "{n} vehicles of {:.2} m in all do not fit on the loop, {:.3} m long as measured on its network; at most {} fit",
-                        used,
-                        m.length_m,
-                        (m.length_m / length_m.iter().copied().fold(0.0, f64::max)).floor()
-                    ),
-                ));
-            }
-        }
-        let offsets: Vec<f64> = (0..n).map(|_| rng.symmetric(pert.gap_m)).collect();
-        // On a ring the gaps must still close the circle: remove the offsets' mean.
-        let shift = if closed {
-            offsets.iter().sum::<f64>() / n as f64
-        } else {
-            0.0
-        };
-        for (g, o) in gaps.iter_mut().zip(&offsets) {
-            *g += o - shift;
-        }
         check_gaps(&gaps, &length_m, road_len, closed, measured.is_some())?;
         let ring_measured_m = self.measure_ring(&sumo, reader, &length_m, &mut gaps)?;
         let name = self.name.clone().unwrap_or_else(|| "scenario".to_string());
@@ -416,6 +382,64 @@ impl ScenarioFile {
                 })
             }
         })
+    }
+
+    /// The initial bumper gaps: as given, else even on a closed road (its length less the
+    /// vehicles'), a platoon's desired gaps, or 20 m; with the seeded perturbation (on a closed
+    /// road of zero mean, so the gaps still close it). A loop measured on its network must hold
+    /// the vehicles.
+    fn initial_gaps(
+        &self,
+        entries: &[super::file::VehicleEntry],
+        model: &Model,
+        (closed, road_len, measured): (bool, f64, Option<&MeasuredRoad>),
+        length_m: &[f64],
+        rng: &mut SplitMix64,
+    ) -> Result<Vec<f64>, ScenarioError> {
+        let n = length_m.len();
+        let pert = &self.initial.perturbation;
+        let gap_spec = merge(
+            "initial.gap_m",
+            "gap_m",
+            self.initial.gap_m.as_ref(),
+            entries,
+            |e| e.gap_m,
+        )?;
+        let mut gaps = match (&gap_spec, &self.road, model) {
+            (Some(g), _, _) => g.resolve_nonneg("initial.gap_m", n)?,
+            (None, _, _) if closed => {
+                let used: f64 = length_m.iter().sum();
+                vec![(road_len - used) / n as f64; n]
+            }
+            (None, _, Model::Cacc(c)) => c.desired_gap_m.clone(),
+            (None, _, _) => vec![20.0; n],
+        };
+        if let Some(m) = measured.filter(|_| closed) {
+            let used: f64 = length_m.iter().sum();
+            if used > m.length_m {
+                return Err(invalid(
+                    "vehicles",
+                    n,
+                    format!(
+                        "{n} vehicles of {:.2} m in all do not fit on the loop, {:.3} m long as measured on its network; at most {} fit",
+                        used,
+                        m.length_m,
+                        (m.length_m / length_m.iter().copied().fold(0.0, f64::max)).floor()
+                    ),
+                ));
+            }
+        }
+        let offsets: Vec<f64> = (0..n).map(|_| rng.symmetric(pert.gap_m)).collect();
+        // On a ring the gaps must still close the circle: remove the offsets' mean.
+        let shift = if closed {
+            offsets.iter().sum::<f64>() / n as f64
+        } else {
+            0.0
+        };
+        for (g, o) in gaps.iter_mut().zip(&offsets) {
+            *g += o - shift;
+        }
+        Ok(gaps)
     }
 
     /// The initial speeds, each within [`MAX_SPEED_MPS`], plus the seeded uniform

@@ -91,6 +91,77 @@ fn worst_signs(x: &DMatrix<f64>, i: usize, n: usize) -> Vec<f64> {
         .collect()
 }
 
+/// The responses at t = 0, one column each: the `n` unit speed perturbations, the leader
+/// step (column `n`, driven by the input), the scenario's own run (its gap errors and speeds,
+/// its leader profile) and the initial gap errors alone (speeds at the leader's, a constant
+/// leader).
+fn initial_columns(sc: &Scenario, m: &CaccModel) -> DMatrix<f64> {
+    let n = m.mu.len();
+    let mut x = DMatrix::zeros(3 * n, n + 3);
+    for j in 0..n {
+        x[(n + j, j)] = 1.0;
+    }
+    let v_lead0 = m.leader.initial_speed();
+    let g0 = sc.initial_gap_m();
+    for i in 0..n {
+        x[(i, n + 1)] = g0[i] - m.desired_gap_m[i];
+        x[(n + i, n + 1)] = sc.initial_speed_mps()[i] - v_lead0;
+        x[(i, n + 2)] = g0[i] - m.desired_gap_m[i];
+    }
+    x
+}
+
+/// What the certificate keeps of the responses over time, each with the gap and time where it
+/// occurs: the shrinkage sups `M_i` and their worst, the safe perturbation (what a gap has
+/// left, `d_i + E_i(t)`, over what a unit perturbation of the worst signs takes from it), the
+/// leader step's largest spacing error and the own run's smallest gap.
+struct Extremes {
+    shrinkage: Vec<f64>,
+    worst: (f64, usize, f64),
+    worst_pattern: Vec<f64>,
+    safe: (f64, usize, f64),
+    safe_pattern: Vec<f64>,
+    step_peak: f64,
+    own_min: (f64, usize, f64),
+}
+
+impl Extremes {
+    fn new(n: usize) -> Self {
+        Self {
+            shrinkage: vec![0.0; n],
+            worst: (0.0, 0, 0.0),
+            worst_pattern: vec![0.0; n],
+            safe: (f64::INFINITY, 0, 0.0),
+            safe_pattern: vec![0.0; n],
+            step_peak: 0.0,
+            own_min: (f64::INFINITY, 0, 0.0),
+        }
+    }
+
+    /// Takes in the responses `x` (columns of [`initial_columns`]) at time `t`.
+    fn observe(&mut self, x: &DMatrix<f64>, m: &CaccModel, t: f64) {
+        let n = self.shrinkage.len();
+        for i in 0..n {
+            let row: f64 = (0..n).map(|j| x[(i, j)].abs()).sum();
+            self.shrinkage[i] = self.shrinkage[i].max(row);
+            if row > self.worst.0 {
+                self.worst = (row, i, t);
+                self.worst_pattern = worst_signs(x, i, n);
+            }
+            let left = m.desired_gap_m[i] + x[(i, n + 2)];
+            if row > 1e-12 && left / row < self.safe.0 {
+                self.safe = (left / row, i, t);
+                self.safe_pattern = worst_signs(x, i, n);
+            }
+            self.step_peak = self.step_peak.max(x[(i, n)].abs());
+            let gap = m.desired_gap_m[i] + x[(i, n + 1)];
+            if gap < self.own_min.0 {
+                self.own_min = (gap, i, t);
+            }
+        }
+    }
+}
+
 /// The gap certificate of a CACC scenario.
 ///
 /// # Errors
@@ -111,56 +182,21 @@ pub(super) fn cacc_gap_certificate(
     let (am, b) = closed_loop(m);
     let (phi, pd, ps) = step_maps(&am, &b, STEP_S);
     let k = 3 * n;
-    // Columns: n unit speed perturbations, the leader step, the scenario's own run, and the
-    // initial gap errors alone (speeds at the leader's, a constant leader).
-    let c = n + 3;
-    let mut x = DMatrix::zeros(k, c);
-    for j in 0..n {
-        x[(n + j, j)] = 1.0;
-    }
+    let mut x = initial_columns(sc, m);
     let v_lead0 = m.leader.initial_speed();
     let g0 = sc.initial_gap_m().to_vec();
-    for i in 0..n {
-        x[(i, n + 1)] = g0[i] - m.desired_gap_m[i];
-        x[(n + i, n + 1)] = sc.initial_speed_mps()[i] - v_lead0;
-        x[(i, n + 2)] = g0[i] - m.desired_gap_m[i];
-    }
-    // The safe perturbation: min over gaps and time of what the gap has left, d_i + E_i(t),
-    // over how much a unit perturbation of the worst signs takes from it.
+    // The gap errors' column is measured against its own size (at least 1 m).
     let x_scale = (0..n)
         .map(|i| (g0[i] - m.desired_gap_m[i]).abs())
         .fold(0.0, f64::max)
         .max(1.0);
-    let mut safe = (f64::INFINITY, 0usize, 0.0f64);
-    let mut safe_pattern = vec![0.0; n];
     let d_own = |t: f64| m.leader.speed_at(t) - v_lead0;
-    let mut shrinkage = vec![0.0f64; n];
-    let mut best = (0.0f64, 0usize, 0.0f64);
-    let mut pattern = vec![0.0; n];
-    let mut step_peak = 0.0f64;
-    let mut own_min = (f64::INFINITY, 0usize, 0.0f64);
+    let mut ext = Extremes::new(n);
     let mut quiet = 0.0;
     let mut t = 0.0;
     let window_s = 10.0;
     let (settled, horizon_s) = loop {
-        for i in 0..n {
-            let row: f64 = (0..n).map(|j| x[(i, j)].abs()).sum();
-            shrinkage[i] = shrinkage[i].max(row);
-            if row > best.0 {
-                best = (row, i, t);
-                pattern = worst_signs(&x, i, n);
-            }
-            let left = m.desired_gap_m[i] + x[(i, n + 2)];
-            if row > 1e-12 && left / row < safe.0 {
-                safe = (left / row, i, t);
-                safe_pattern = worst_signs(&x, i, n);
-            }
-            step_peak = step_peak.max(x[(i, n)].abs());
-            let gap = m.desired_gap_m[i] + x[(i, n + 1)];
-            if gap < own_min.0 {
-                own_min = (gap, i, t);
-            }
-        }
+        ext.observe(&x, m, t);
         // The step's column settles at v = 1 (every follower at the new speed); the gap
         // errors' column at 0.
         let step_size = (0..k)
@@ -172,12 +208,12 @@ pub(super) fn cacc_gap_certificate(
             return Err(GapError::Grows {
                 growth: 1e9,
                 time_s: t,
-                shrinkage_at_least_m_per_mps: best.0,
-                safe_at_most_mps: m.desired_gap_m[best.1] / best.0,
+                shrinkage_at_least_m_per_mps: ext.worst.0,
+                safe_at_most_mps: m.desired_gap_m[ext.worst.1] / ext.worst.0,
             });
         }
         // Unit responses and the step settled, and the own run past its horizon.
-        quiet = if size <= 1e-5 * best.0.max(1.0) {
+        quiet = if size <= 1e-5 * ext.worst.0.max(1.0) {
             quiet + STEP_S
         } else {
             0.0
@@ -204,14 +240,23 @@ pub(super) fn cacc_gap_certificate(
         .iter()
         .map(|v| (v - v_lead0).abs())
         .fold(0.0, f64::max);
+    let Extremes {
+        shrinkage,
+        worst,
+        worst_pattern,
+        safe,
+        safe_pattern,
+        step_peak,
+        own_min,
+    } = ext;
     Ok(GapCertificate {
         final_gap_m: m.desired_gap_m.clone(),
         final_speed_mps: m.leader.speed_at(horizon_s),
-        worst_shrinkage_m_per_mps: best.0,
+        worst_shrinkage_m_per_mps: worst.0,
         shrinkage_m_per_mps: shrinkage,
-        worst_gap: best.1,
-        worst_time_s: best.2,
-        worst_pattern: pattern,
+        worst_gap: worst.1,
+        worst_time_s: worst.2,
+        worst_pattern,
         safe_perturbation_mps: safe.0,
         safe_binding: Some(SafeBinding {
             gap: safe.1,
