@@ -90,7 +90,12 @@ impl RoadTrace {
             start += seg.length_m;
         }
         let front_road = start + dep.pos_m;
-        Some(Self {
+        Some(Self::on(road, front_road - (dep.q0_m + dep.length_m)))
+    }
+
+    /// The trace of `road`, trajectory positions shifted by `offset_m` from its coordinate.
+    fn on(road: &crate::net::Road, offset_m: f64) -> Self {
+        Self {
             net: std::path::absolute(&road.path).unwrap_or_else(|_| road.path.clone()),
             closed: road.ring,
             lanes: road
@@ -101,8 +106,8 @@ impl RoadTrace {
                     length_m: s.length_m,
                 })
                 .collect(),
-            offset_m: front_road - (dep.q0_m + dep.length_m),
-        })
+            offset_m,
+        }
     }
 
     /// The road's length \[m\] (normal and junction lanes).
@@ -169,20 +174,19 @@ fn lane_shapes<'a>(
         reason,
     };
     let doc = roxmltree::Document::parse(&text).map_err(|e| invalid(e.to_string()))?;
-    let mut found: HashMap<&str, &str> = doc
+    let found: HashMap<&str, &str> = doc
         .descendants()
         .filter(|n| n.has_tag_name("lane"))
         .filter_map(|n| Some((n.attribute("id")?, n.attribute("shape")?)))
         .collect();
     let mut out = HashMap::new();
     for id in ids {
-        let shape = found
-            .remove(id)
-            .or_else(|| out.contains_key(id).then_some(""))
-            .ok_or_else(|| invalid(format!("has no lane `{id}` with a shape (the run's road)")))?;
         if out.contains_key(id) {
             continue;
         }
+        let shape = found
+            .get(id)
+            .ok_or_else(|| invalid(format!("has no lane `{id}` with a shape (the run's road)")))?;
         let pts: Option<Vec<(f64, f64)>> = shape
             .split_whitespace()
             .map(|p| {
@@ -297,19 +301,7 @@ mod tests {
         let net =
             Path::new(env!("CARGO_MANIFEST_DIR")).join("../../sumo-nets/sugiyama-ring.net.xml");
         let road = crate::net::read_ring(&net).unwrap();
-        let trace = RoadTrace {
-            net: net.clone(),
-            closed: true,
-            lanes: road
-                .segments
-                .iter()
-                .map(|s| TraceLane {
-                    id: s.lane.clone(),
-                    length_m: s.length_m,
-                })
-                .collect(),
-            offset_m: 7.0,
-        };
+        let trace = RoadTrace::on(&road, 7.0);
         let g = trace.geometry().unwrap();
         let l = trace.length_m();
         assert!((l - 230.3592).abs() < 1e-9, "{l}");

@@ -940,24 +940,15 @@ fn a_string_unstable_chain_that_synchronizes_gets_transient_growth_not_divergenc
         !line.contains("the network does not synchronize,"),
         "{line}"
     );
-    let m: f64 = line
-        .split("M ≥ ")
-        .nth(1)
-        .unwrap()
-        .split_whitespace()
-        .next()
-        .unwrap()
-        .parse()
-        .unwrap();
-    let safe: f64 = line
-        .split("perturbation above ")
-        .nth(1)
-        .unwrap()
-        .split_whitespace()
-        .next()
-        .unwrap()
-        .parse()
-        .unwrap();
+    // The number printed right after `marker` in `line`.
+    let after = |marker: &str| -> f64 {
+        line.split(marker)
+            .nth(1)
+            .and_then(|r| r.split_whitespace().next())
+            .and_then(|x| x.parse().ok())
+            .unwrap_or_else(|| panic!("no number after {marker:?}: {line}"))
+    };
+    let (m, safe) = (after("M ≥ "), after("perturbation above "));
     // The bound is past the growth that stopped the integration, and the largest allowed
     // perturbation is an initial gap (25 m) over it.
     assert!(m > 1e3, "{m}");

@@ -58,18 +58,25 @@ fn rows(dir: &Path) -> BTreeMap<(i64, usize), (f64, f64)> {
         .collect()
 }
 
-/// A short Sugiyama run (`horizon_s`) in SUMO, with SUMO's floating-car data, into `dir/run`.
-fn sumo_run_with_fcd(dir: &Path, horizon_s: f64) -> PathBuf {
+/// A short Sugiyama run (`horizon_s`) into `dir/NAME`: `how` is `run` (SUMO) with its extra
+/// flags, or `simulate` (the native simulator); the verdict may go either way.
+fn sugiyama_run(dir: &Path, name: &str, horizon_s: f64, how: &[&str]) -> PathBuf {
     let sc = edited_scenario(dir, "sugiyama-ring", |s| {
         s["horizon_s"] = serde_json::json!(horizon_s);
     });
-    let out = dir.join("run");
+    let out = dir.join(name);
     let (code, stdout, stderr) = run(bin()
-        .args(["run", "--fcd", "--no-plots", "-q", "--out"])
+        .args(how)
+        .args(["--no-plots", "-q", "--out"])
         .arg(&out)
         .arg(&sc));
-    assert!(code == 0 || code == 1, "{stdout}\n{stderr}");
+    assert!(code == 0 || code == 1, "{how:?}: {stdout}\n{stderr}");
     out
+}
+
+/// A short Sugiyama run in SUMO with SUMO's floating-car data, into `dir/run`.
+fn sumo_run_with_fcd(dir: &Path, horizon_s: f64) -> PathBuf {
+    sugiyama_run(dir, "run", horizon_s, &["run", "--fcd"])
 }
 
 /// A point of a polyline `[s, x, y]` at `s` (linear between points, wrapped on `length`).
@@ -275,16 +282,7 @@ fn gif_frames(path: &Path) -> (usize, usize, Vec<Vec<u8>>, Vec<u16>) {
 #[test]
 fn animate_draws_each_vehicle_at_its_place_on_the_ring_in_its_speed_colour() {
     let dir = tmpdir("animate-native");
-    let sc = edited_scenario(&dir, "sugiyama-ring", |s| {
-        s["horizon_s"] = serde_json::json!(30.0);
-        s["backend"] = serde_json::json!("native");
-    });
-    let out = dir.join("run");
-    let (code, _, stderr) = run(bin()
-        .args(["simulate", "--no-plots", "-q", "--out"])
-        .arg(&out)
-        .arg(&sc));
-    assert!(code == 0 || code == 1, "{stderr}");
+    let out = sugiyama_run(&dir, "run", 30.0, &["simulate"]);
     let (code, stdout, stderr) = run(bin().arg("animate").arg(&out).args([
         "--fps",
         "10",
@@ -356,16 +354,7 @@ fn animate_and_replay_refuse_what_is_not_a_run_and_write_nothing_outside_it() {
     assert_eq!(code, 2, "{stderr}");
     assert!(stderr.contains("not a run folder"), "{stderr}");
     // A native run: replay says it needs a SUMO run and how to make one.
-    let sc = edited_scenario(&dir, "sugiyama-ring", |s| {
-        s["horizon_s"] = serde_json::json!(12.0);
-        s["backend"] = serde_json::json!("native");
-    });
-    let native = dir.join("native");
-    let (code, _, stderr) = run(bin()
-        .args(["simulate", "--no-plots", "-q", "--out"])
-        .arg(&native)
-        .arg(&sc));
-    assert!(code == 0 || code == 1, "{stderr}");
+    let native = sugiyama_run(&dir, "native", 12.0, &["simulate"]);
     let (code, _, stderr) = run(bin().arg("replay").arg(&native));
     assert_eq!(code, 2, "{stderr}");
     assert!(
@@ -407,15 +396,7 @@ fn animate_and_replay_refuse_what_is_not_a_run_and_write_nothing_outside_it() {
         .collect();
     assert_eq!(before, after);
     // A SUMO run made without --fcd: replay says how to make one with it.
-    let sc = edited_scenario(&dir, "sugiyama-ring", |s| {
-        s["horizon_s"] = serde_json::json!(12.0);
-    });
-    let plain = dir.join("plain");
-    let (code, _, stderr) = run(bin()
-        .args(["run", "--no-plots", "-q", "--out"])
-        .arg(&plain)
-        .arg(&sc));
-    assert!(code == 0 || code == 1, "{stderr}");
+    let plain = sugiyama_run(&dir, "plain", 12.0, &["run"]);
     let (code, _, stderr) = run(bin().arg("replay").arg(&plain));
     assert_eq!(code, 2, "{stderr}");
     assert!(

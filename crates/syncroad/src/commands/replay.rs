@@ -160,17 +160,17 @@ fn check_complete(fcd: &Path) -> anyhow::Result<()> {
 /// sumo-gui's view: white ground, vehicles coloured by speed from `vmin` (the speed map's
 /// dark end) to `vmax` (its bright end), and a snapshot when asked for.
 fn view_settings(vmin: f64, vmax: f64, snapshot: Option<&Path>, at_s: f64) -> String {
-    let mid = 0.5 * (vmin + vmax);
-    let stops = [
-        (vmin, (68, 1, 84)),
-        (mid, (33, 145, 140)),
-        (vmax, (253, 231, 37)),
-    ]
-    .iter()
-    .map(|(v, (r, g, b))| {
-        format!("                <entry color=\"{r},{g},{b}\" threshold=\"{v:.3}\"/>\n")
-    })
-    .collect::<String>();
+    // The time-space diagram's colour map, sampled at eleven speeds (sumo-gui interpolates).
+    let stops = (0..=10)
+        .map(|k| {
+            let v = vmin + (vmax - vmin) * f64::from(k) / 10.0;
+            let c = crate::plots::speed_colour(v, vmin, vmax);
+            format!(
+                "                <entry color=\"{},{},{}\" threshold=\"{v:.3}\"/>\n",
+                c.0, c.1, c.2
+            )
+        })
+        .collect::<String>();
     let snap = snapshot
         .map(|p| {
             format!(
