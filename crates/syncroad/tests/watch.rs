@@ -454,3 +454,78 @@ fn a_sweep_keeps_each_points_floating_car_data_for_replay() {
         "{stdout}"
     );
 }
+
+/// Black pixels in a frame's road area (below the clock and the title, left of the colour
+/// bar), where only the ring of a controlled vehicle is black.
+fn black_on_road(w: usize, frame: &[u8], size: usize) -> usize {
+    (48..48 + size)
+        .flat_map(|y| (0..size).map(move |x| y * w + x))
+        .filter(|&k| frame[k] == 1)
+        .count()
+}
+
+/// The vehicle a controller drives among humans is ringed in black, and only then: a mixed
+/// ring of one law vehicle among 21 humans shows one ring's worth of black on the road (the
+/// annulus around its disc), a ring of law vehicles none.
+#[test]
+fn animate_rings_the_controlled_vehicle_among_humans() {
+    let dir = tmpdir("animate-marked");
+    let sc = edited_scenario(&dir, "sugiyama-human", |s| {
+        s["horizon_s"] = serde_json::json!(20.0);
+    });
+    let out = dir.join("cmp");
+    let (code, stdout, stderr) = run(bin()
+        .arg("compare")
+        .arg(&sc)
+        .args([
+            "--baselines",
+            "protocol",
+            "--mixed",
+            "1",
+            "--no-plots",
+            "--out",
+        ])
+        .arg(&out));
+    assert!(code == 0 || code == 1, "{stdout}{stderr}");
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("mixed-1/metrics.json")).unwrap())
+            .unwrap();
+    let drivers: Vec<&str> = m["drivers"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|d| d.as_str().unwrap())
+        .collect();
+    assert_eq!(
+        drivers.iter().filter(|d| **d == "law").count(),
+        1,
+        "{drivers:?}"
+    );
+    let mut black = Vec::new();
+    for run_dir in ["mixed-1", "protocol"] {
+        let gif = dir.join(format!("{run_dir}.gif"));
+        let (code, _, stderr) = run(bin()
+            .arg("animate")
+            .arg(out.join(run_dir))
+            .args(["--speedup", "20", "--size", "300", "--out"])
+            .arg(&gif));
+        assert_eq!(code, 0, "{stderr}");
+        let (w, _, frames, _) = gif_frames(&gif);
+        black.push(black_on_road(w, frames.last().unwrap(), 300));
+    }
+    eprintln!(
+        "black pixels on the road: mixed {}, all-law {}",
+        black[0], black[1]
+    );
+    // The ring is the annulus between radii r and r + 2 px, r = 2.2 m at the panel's scale
+    // (272 px across the ring's 2·230.36/2π m): π((r + 2)² − r²) pixels, to rasterisation.
+    let scale = 272.0 / (230.3592 / std::f64::consts::PI);
+    let r: f64 = 2.2 * scale;
+    let annulus = std::f64::consts::PI * ((r + 2.0).powi(2) - r.powi(2));
+    assert!(
+        (black[0] as f64 - annulus).abs() < 0.25 * annulus,
+        "mixed ring: {} black pixels, the ring's annulus {annulus:.0}",
+        black[0]
+    );
+    assert_eq!(black[1], 0, "all-law ring: {} black pixels", black[1]);
+}
