@@ -84,6 +84,85 @@ impl Progress {
     }
 }
 
+/// A computation that cannot count its items (the exact stability analysis): once it has
+/// lasted `after`, a line on stderr with the step under way and the time spent, again at
+/// every new step and every 5 s; nothing for a quick one. Stops when dropped.
+pub struct Ticker {
+    shared: std::sync::Arc<(std::sync::Mutex<TickerState>, std::sync::Condvar)>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+struct TickerState {
+    step: &'static str,
+    changed: bool,
+    done: bool,
+}
+
+impl Ticker {
+    /// Starts the clock; `label` begins every line.
+    pub fn start(label: &'static str, after: std::time::Duration) -> Self {
+        let shared = std::sync::Arc::new((
+            std::sync::Mutex::new(TickerState {
+                step: "starting",
+                changed: false,
+                done: false,
+            }),
+            std::sync::Condvar::new(),
+        ));
+        let inner = shared.clone();
+        let start = Instant::now();
+        let thread = std::thread::spawn(move || {
+            let (lock, wake) = &*inner;
+            let mut state = lock.lock().unwrap_or_else(|e| e.into_inner());
+            let mut next = start + after;
+            loop {
+                let now = Instant::now();
+                if state.done {
+                    return;
+                }
+                if now >= next || (state.changed && now >= start + after) {
+                    eprintln!(
+                        "{label}: {} ({:.1} s so far)",
+                        state.step,
+                        start.elapsed().as_secs_f64()
+                    );
+                    state.changed = false;
+                    next = now.max(start + after) + std::time::Duration::from_secs(5);
+                }
+                let wait = next.saturating_duration_since(Instant::now());
+                state = wake
+                    .wait_timeout(state, wait)
+                    .unwrap_or_else(|e| e.into_inner())
+                    .0;
+            }
+        });
+        Ticker {
+            shared,
+            thread: Some(thread),
+        }
+    }
+
+    /// A new step has started.
+    pub fn step(&self, step: &'static str) {
+        let (lock, wake) = &*self.shared;
+        let mut state = lock.lock().unwrap_or_else(|e| e.into_inner());
+        state.step = step;
+        state.changed = true;
+        wake.notify_one();
+    }
+}
+
+impl Drop for Ticker {
+    fn drop(&mut self) {
+        let (lock, wake) = &*self.shared;
+        lock.lock().unwrap_or_else(|e| e.into_inner()).done = true;
+        wake.notify_one();
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
 /// When one run shows its progress on stderr (`--progress` of `run` and `simulate`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum ProgressMode {

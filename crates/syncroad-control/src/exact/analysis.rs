@@ -25,7 +25,7 @@ use super::collocation::CollocationOptions;
 use super::leader_amplification::{leader_amplification, LeaderAmplification};
 use super::platoon_scaling::{platoon_scaling, PlatoonLaw, PlatoonScaling, PlatoonScalingError};
 use super::report::{
-    analyse_cacc, analyse_network, CaccReport, NetworkStabilityReport, ReportError,
+    analyse_cacc, analyse_network_reporting, CaccReport, NetworkStabilityReport, ReportError,
 };
 use super::ring_modes::{RingError, RingModes, UniformRing};
 use super::string_stability::{chandler_string_peak, StringStabilityOptions};
@@ -324,6 +324,18 @@ fn no_spanning_tree(a: &DMatrix<f64>) -> Option<NoSpanningTree> {
 /// [`AnalysisError`]: a network too large for the full solve without a fast path, or a
 /// failed computation (with its cause).
 pub fn analyse(sc: &Scenario) -> Result<StabilityReport, AnalysisError> {
+    analyse_reporting(sc, &|_| {})
+}
+
+/// [`analyse`], naming each step to `on_step` as it starts (the rightmost roots with their
+/// root-count certificate, then the critical scale), for a progress display.
+///
+/// # Errors
+/// As [`analyse`].
+pub fn analyse_reporting(
+    sc: &Scenario,
+    on_step: &(dyn Fn(&'static str) + Sync),
+) -> Result<StabilityReport, AnalysisError> {
     let paper = theory::report(sc);
     match sc.model() {
         Model::DelayedDriver(m) => {
@@ -354,7 +366,7 @@ pub fn analyse(sc: &Scenario) -> Result<StabilityReport, AnalysisError> {
                 None
             } else if size <= NETWORK_SOLVE_LIMIT {
                 Some(
-                    analyse_network(&a, &d, &CollocationOptions::default(), true)
+                    analyse_network_reporting(&a, &d, &CollocationOptions::default(), on_step)
                         .map_err(AnalysisError::Network)?,
                 )
             } else if ring.is_none() {

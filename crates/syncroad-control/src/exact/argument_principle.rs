@@ -9,7 +9,11 @@
 //!
 //! `f(s) = det M(s) / (s + ρ)^N`,  `ρ = max(0, −σ) + 1` (the pole `−ρ` lies left of `σ`),
 //!
-//! with `R = 2(B + ρ) + |σ| + 1`: on the top, bottom and right sides
+//! with `R = 2(B + ρ) + |σ| + 1`. `M(s)` has real coefficients, so `f(s̄) = conj f(s)`: the
+//! lower half of the rectangle turns `f` by as much as the upper half, and only the upper
+//! half is walked, from `R` on the real axis up, across and down to `σ` (the winding is the
+//! phase change over `π`; both ends are real, so it is a whole number of half turns). On the
+//! top and right sides
 //! `f = det(I + X)` with `‖X‖ = ‖(diag(e^{−sα})L − ρI)/(s + ρ)‖ ≤ 1/2`, so `f` turns little
 //! there and the walk is cheap; near the line `Re s = σ` it follows `arg f` closely.
 //!
@@ -22,8 +26,8 @@
 //! 3. `Δ` agrees within `0.1` with the trapezoid prediction `Im((g(a) + g(b))/2 · h e)`: a
 //!    full turn hidden inside the step would make them differ by about `2π`;
 //!
-//! otherwise the step is halved. The accumulated phase must be within `0.05` of a multiple of
-//! `2π`. This is a floating-point computation, not interval arithmetic, but no root can hide
+//! otherwise the step is halved. The accumulated phase over `π` must be within `10⁻⁶` of a
+//! whole number. This is a floating-point computation, not interval arithmetic, but no root can hide
 //! without violating one of the three tests at every scale the step halving visits.
 //! The count uses neither the collocation nor Newton's method, so it certifies them.
 
@@ -31,6 +35,7 @@ use super::banded::BandedNetwork;
 use super::collocation::{laplacian, validate_network, CollocationError};
 use nalgebra::DMatrix;
 use num_complex::Complex64;
+use rayon::prelude::*;
 use serde::Serialize;
 
 /// Failure of the root count.
@@ -138,54 +143,42 @@ pub(crate) fn count_with_laplacian(
     let rho = (-sigma).max(0.0) + 1.0;
     let r = 2.0 * (bound + rho) + sigma.abs() + 1.0;
     let right = r.max(sigma + 1.0);
-    // Counter-clockwise rectangle, starting on the line Re s = σ at its lowest point.
+    // The upper half of the counter-clockwise rectangle, from its right side's crossing of
+    // the real axis to the line's: `f(s̄) = conj f(s)`, so the lower half turns by as much.
     let corners = [
-        Complex64::new(sigma, -r),
-        Complex64::new(right, -r),
+        Complex64::new(right, 0.0),
         Complex64::new(right, r),
         Complex64::new(sigma, r),
+        Complex64::new(sigma, 0.0),
     ];
     let scale = r + sigma.abs();
     let on_contour = |s: Complex64| ArgumentPrincipleError::RootOnContour { re: s.re, im: s.im };
     let band = BandedNetwork::new(l, delays_s);
     let eval = |s: Complex64| phase_and_log_derivative(&band, rho, s).ok_or(on_contour(s));
-    let mut evaluations = 0;
-    let mut rejected_steps = 0;
-    let mut total_angle = 0.0;
-    for side in 0..4 {
-        let (a, b) = (corners[side], corners[(side + 1) % 4]);
-        let length = (b - a).norm();
-        let dir = (b - a) / length;
-        let mut t = 0.0;
-        let (mut p, mut g) = eval(a)?;
-        evaluations += 1;
-        let mut h = (1.0 / g.norm().max(1e-300)).min(length / 8.0);
-        while t < length {
-            let step = h.min(length - t);
-            let s_next = a + dir * (t + step);
-            evaluations += 1;
-            let (q, g_next) = eval(s_next)?;
-            let delta = (q / p).arg();
-            let predicted = ((g + g_next) * 0.5 * dir * step).im;
-            let stiffness = step * g.norm().max(g_next.norm());
-            if delta.abs() > 0.5 || stiffness > 1.0 || (delta - predicted).abs() > 0.1 {
-                rejected_steps += 1;
-                h = step / 2.0;
-                if h < 1e-13 * scale {
-                    return Err(on_contour(s_next));
-                }
-                continue;
-            }
-            total_angle += delta;
-            p = q;
-            g = g_next;
-            t += step;
-            if delta.abs() < 0.2 && stiffness < 0.4 {
-                h = (2.0 * step).min(length / 8.0);
-            }
-        }
+    // The line, where the roots crowd the walk, in sixteen pieces: the pieces are walked in
+    // parallel and their turns added in order, so the count does not depend on the threads.
+    let pieces = 16;
+    let mut segments = vec![
+        (corners[0], corners[1], r / 8.0),
+        (corners[1], corners[2], (right - sigma) / 8.0),
+    ];
+    segments.extend((0..pieces).map(|k| {
+        let at = |k: usize| corners[2] + (corners[3] - corners[2]) * (k as f64 / pieces as f64);
+        (at(k), at(k + 1), r / 8.0)
+    }));
+    let walks: Vec<Result<Walk, ArgumentPrincipleError>> = segments
+        .par_iter()
+        .map(|&(a, b, cap)| walk(&eval, a, b, cap, scale))
+        .collect();
+    let (mut total_angle, mut evaluations, mut rejected_steps) = (0.0, 0, 0);
+    for w in walks {
+        let w = w?;
+        total_angle += w.angle;
+        evaluations += w.evaluations;
+        rejected_steps += w.rejected_steps;
     }
-    let winding = total_angle / (2.0 * std::f64::consts::PI);
+    // Both ends are real, so the half turns by a whole number of half turns.
+    let winding = total_angle / std::f64::consts::PI;
     let count = winding.round();
     if (winding - count).abs() > 1e-6 || count < 0.0 {
         return Err(ArgumentPrincipleError::NonIntegerWinding { sigma, winding });
@@ -198,6 +191,62 @@ pub(crate) fn count_with_laplacian(
         evaluations,
         rejected_steps,
     })
+}
+
+/// The phase change of `f` along one straight segment of the contour.
+struct Walk {
+    angle: f64,
+    evaluations: usize,
+    rejected_steps: usize,
+}
+
+/// Walks from `a` to `b` under the step control of the module documentation, steps at most
+/// `cap` long.
+fn walk(
+    eval: &(impl Fn(Complex64) -> Result<(Complex64, Complex64), ArgumentPrincipleError> + Sync),
+    a: Complex64,
+    b: Complex64,
+    cap: f64,
+    scale: f64,
+) -> Result<Walk, ArgumentPrincipleError> {
+    let length = (b - a).norm();
+    let dir = (b - a) / length;
+    let mut w = Walk {
+        angle: 0.0,
+        evaluations: 1,
+        rejected_steps: 0,
+    };
+    let mut t = 0.0;
+    let (mut p, mut g) = eval(a)?;
+    let mut h = (1.0 / g.norm().max(1e-300)).min(cap);
+    while t < length {
+        let step = h.min(length - t);
+        let s_next = a + dir * (t + step);
+        w.evaluations += 1;
+        let (q, g_next) = eval(s_next)?;
+        let delta = (q / p).arg();
+        let predicted = ((g + g_next) * 0.5 * dir * step).im;
+        let stiffness = step * g.norm().max(g_next.norm());
+        if delta.abs() > 0.5 || stiffness > 1.0 || (delta - predicted).abs() > 0.1 {
+            w.rejected_steps += 1;
+            h = step / 2.0;
+            if h < 1e-13 * scale {
+                return Err(ArgumentPrincipleError::RootOnContour {
+                    re: s_next.re,
+                    im: s_next.im,
+                });
+            }
+            continue;
+        }
+        w.angle += delta;
+        p = q;
+        g = g_next;
+        t += step;
+        if delta.abs() < 0.2 && stiffness < 0.4 {
+            h = (2.0 * step).min(cap);
+        }
+    }
+    Ok(w)
 }
 
 #[cfg(test)]
@@ -349,20 +398,23 @@ mod tests {
     }
 
     #[test]
-    fn all_to_all_three_counts_the_double_root() {
-        // L = 3kI − k11ᵀ: det M = s (s + 3k e^{−sα})², every non-consensus root double.
-        let (k, alpha) = (0.4, 0.7);
-        let a = DMatrix::from_fn(3, 3, |i, j| if i == j { 0.0 } else { k });
-        let w = |b: i64| {
-            super::super::lambert_w::lambert_w(b, Complex64::new(-3.0 * k * alpha, 0.0)).unwrap()
-                / alpha
-        };
-        let abscissa = w(0).re;
-        for &offset in &[1e-6, -1e-6, 0.2] {
-            let sigma = abscissa + offset;
-            let expected = 1 + 2 * (-8i64..=8).filter(|&b| w(b).re > sigma).count();
-            let c = count_roots_right_of(&a, &[alpha; 3], sigma).unwrap();
-            assert_eq!(c.count, expected, "σ = abscissa {offset:+e}");
+    fn all_to_all_counts_the_root_of_multiplicity_n_minus_one() {
+        // L = nkI − k11ᵀ: det M = s (s + nk e^{−sα})^{n−1}. N = 3 is small enough for any
+        // factorization; N = 200 goes through the rank-one correction of the all-to-all rows,
+        // with a root of multiplicity 199 next to the line.
+        for (n, k, alpha) in [(3usize, 0.4, 0.7), (200, 1.2 / 200.0, 0.7)] {
+            let a = DMatrix::from_fn(n, n, |i, j| if i == j { 0.0 } else { k });
+            let w = |b: i64| {
+                let z = Complex64::new(-(n as f64) * k * alpha, 0.0);
+                super::super::lambert_w::lambert_w(b, z).unwrap() / alpha
+            };
+            let abscissa = w(0).re;
+            for &offset in &[1e-6, -1e-6, 0.2] {
+                let sigma = abscissa + offset;
+                let expected = 1 + (n - 1) * (-8i64..=8).filter(|&b| w(b).re > sigma).count();
+                let c = count_roots_right_of(&a, &vec![alpha; n], sigma).unwrap();
+                assert_eq!(c.count, expected, "N = {n}, σ = abscissa {offset:+e}");
+            }
         }
     }
 }

@@ -19,6 +19,8 @@
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 
+use super::sparse_lu::{minimum_degree_order, ColumnPattern, SparseLu};
+
 /// A complex number with its derivative in `s`: `v + d·ε`, `ε² = 0`.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub(crate) struct Dual {
@@ -29,20 +31,20 @@ pub(crate) struct Dual {
 }
 
 impl Dual {
-    fn mul(self, o: Dual) -> Dual {
+    pub(crate) fn mul(self, o: Dual) -> Dual {
         Dual {
             v: self.v * o.v,
             d: self.v * o.d + self.d * o.v,
         }
     }
-    fn div(self, o: Dual) -> Dual {
+    pub(crate) fn div(self, o: Dual) -> Dual {
         let v = self.v / o.v;
         Dual {
             v,
             d: (self.d - v * o.d) / o.v,
         }
     }
-    fn sub(self, o: Dual) -> Dual {
+    pub(crate) fn sub(self, o: Dual) -> Dual {
         Dual {
             v: self.v - o.v,
             d: self.d - o.d,
@@ -50,7 +52,10 @@ impl Dual {
     }
 }
 
-/// The Laplacian of a network in band form (reverse Cuthill–McKee order) with its delays.
+/// The Laplacian of a network with its delays, ordered for cheap factorizations of
+/// `M(s) = sI + c·diag(e^{−sα_i})L`: a band (reverse Cuthill–McKee order) when the graph has
+/// a small bandwidth, else a sparse LU in approximate minimum degree order
+/// ([`super::sparse_lu`]), whichever costs fewer operations.
 #[derive(Debug, Clone)]
 pub(crate) struct BandedNetwork {
     /// `perm[p]` is the vehicle at position `p`.
@@ -61,13 +66,144 @@ pub(crate) struct BandedNetwork {
     delays: Vec<f64>,
     kl: usize,
     ku: usize,
+    /// The sparse form, when the sparse LU is the cheaper factorization.
+    sparse: Option<SparseForm>,
 }
 
+/// The Laplacian as `L = L_s − c·1ᵀ`: `L_s` by columns for the sparse LU, and `c_p` for the
+/// drivers that observe every other vehicle with one gain (all-to-all rows), whose rows would
+/// otherwise fill the factors. `det(A − u1ᵀ) = det A · (1 − 1ᵀA⁻¹u)` (the matrix determinant
+/// lemma) and Sherman–Morrison's formula then cost one more sparse solve.
+#[derive(Debug, Clone)]
+struct SparseForm {
+    /// The pattern of `L_s` (diagonal included) by columns.
+    pattern: ColumnPattern,
+    /// Each stored entry's `(row position, L_s entry)`.
+    entries: Vec<(usize, f64)>,
+    /// `c_p` per position; empty when no row observes everyone.
+    dense_rows: Vec<f64>,
+}
+
+impl SparseForm {
+    /// `values[k] = entry(row position, column position, L_s entry)` in the pattern's order.
+    fn values(&self, entry: impl Fn(usize, usize, f64) -> Dual) -> Vec<Dual> {
+        (0..self.pattern.len())
+            .flat_map(|q| (self.pattern.starts[q]..self.pattern.starts[q + 1]).map(move |k| (q, k)))
+            .map(|(q, k)| entry(self.entries[k].0, q, self.entries[k].1))
+            .collect()
+    }
+
+    /// The LU of `A = (the matrix of values) − u·1ᵀ` with `u_p = weight(p)·c_p`.
+    fn factor(&self, values: &[Dual], weight: impl Fn(usize) -> Dual) -> NetworkLu {
+        let lu = SparseLu::new(&self.pattern, values);
+        if self.dense_rows.is_empty() || !lu.is_regular() {
+            return NetworkLu::Sparse { lu, rank_one: None };
+        }
+        let mut w: Vec<Dual> = self
+            .dense_rows
+            .iter()
+            .enumerate()
+            .map(|(p, &c)| {
+                let x = weight(p);
+                Dual {
+                    v: x.v * c,
+                    d: x.d * c,
+                }
+            })
+            .collect();
+        lu.solve_dual(&mut w);
+        let one = Dual {
+            v: Complex64::new(1.0, 0.0),
+            d: Complex64::new(0.0, 0.0),
+        };
+        let f = w.iter().fold(one, |f, x| f.sub(*x));
+        NetworkLu::Sparse {
+            lu,
+            rank_one: Some((w, f)),
+        }
+    }
+}
+
+/// `c_i` for every row of `l` that observes all other vehicles with one gain (`l_ij = −c_i`
+/// for every `j ≠ i`), else 0; `None` when no row does.
+fn all_to_all_rows(l: &DMatrix<f64>) -> Option<Vec<f64>> {
+    let n = l.nrows();
+    let c: Vec<f64> = (0..n)
+        .map(|i| {
+            let first = l[(i, (i + 1) % n)];
+            let uniform = (0..n).all(|j| j == i || l[(i, j)] == first);
+            if uniform && first != 0.0 && n > 2 {
+                -first
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    c.iter().any(|&x| x != 0.0).then_some(c)
+}
+
+/// Below this sum of half-bandwidths the band LU is used without trying the sparse one.
+const NARROW_BAND: usize = 8;
+
+/// A sparse LU does this many times more bookkeeping per operation than a band LU (searches,
+/// indirect addressing); measured on rings with chords and random digraphs.
+const SPARSE_OVERHEAD: usize = 3;
+
 impl BandedNetwork {
-    /// Band form of the Laplacian `l` (any square matrix with the pattern of a graph).
+    /// Factorization form of the Laplacian `l` (any square matrix with the pattern of a
+    /// graph).
     pub(crate) fn new(l: &DMatrix<f64>, delays_s: &[f64]) -> Self {
+        if let Some(c) = all_to_all_rows(l) {
+            let n = l.nrows();
+            let l_s = DMatrix::from_fn(n, n, |i, j| l[(i, j)] + c[i]);
+            return Self::sparse(&l_s, delays_s, c);
+        }
+        let band = Self::in_order(l, delays_s, reverse_cuthill_mckee(l));
+        if band.kl + band.ku <= NARROW_BAND {
+            return band;
+        }
+        let sparse = Self::sparse(l, delays_s, Vec::new());
+        let trial = match sparse.factor(1.0, Complex64::new(1.0, 1.0)) {
+            NetworkLu::Sparse { lu, .. } => lu.operations,
+            NetworkLu::Band(_) => unreachable!("the sparse form factors sparsely"),
+        };
+        let band_operations = band.len() * band.kl * (band.kl + band.ku);
+        if SPARSE_OVERHEAD * trial < band_operations {
+            sparse
+        } else {
+            band
+        }
+    }
+
+    /// The sparse form of `L = l_s − c·1ᵀ` (`c` by vehicle, empty for none), in approximate
+    /// minimum degree order.
+    fn sparse(l_s: &DMatrix<f64>, delays_s: &[f64], c: Vec<f64>) -> Self {
+        let mut form = Self::in_order(l_s, delays_s, minimum_degree_order(&rows_of(l_s)));
+        let pattern = ColumnPattern::of_rows(&form.rows);
+        let mut entries = vec![(0, 0.0); pattern.rows.len()];
+        let mut next = pattern.starts.clone();
+        for (r, row) in form.rows.iter().enumerate() {
+            for &(q, lv) in row {
+                entries[next[q]] = (r, lv);
+                next[q] += 1;
+            }
+        }
+        let dense_rows = if c.is_empty() {
+            c
+        } else {
+            form.perm.iter().map(|&v| c[v]).collect()
+        };
+        form.sparse = Some(SparseForm {
+            pattern,
+            entries,
+            dense_rows,
+        });
+        form
+    }
+
+    /// The rows of `l` with vehicle `perm[p]` at position `p`, band widths measured.
+    fn in_order(l: &DMatrix<f64>, delays_s: &[f64], perm: Vec<usize>) -> Self {
         let n = l.nrows();
-        let perm = reverse_cuthill_mckee(l);
         let mut pos = vec![0; n];
         for (p, &v) in perm.iter().enumerate() {
             pos[v] = p;
@@ -97,6 +233,7 @@ impl BandedNetwork {
             delays,
             kl,
             ku,
+            sparse: None,
         }
     }
 
@@ -111,46 +248,169 @@ impl BandedNetwork {
     }
 
     /// LU of `M(s) = sI + c·diag(e^{−sα_i})L` with the derivative `M'(s)` carried along.
-    pub(crate) fn factor(&self, c: f64, s: Complex64) -> BandLu {
+    pub(crate) fn factor(&self, c: f64, s: Complex64) -> NetworkLu {
+        let entry = |p: usize, q: usize, lv: f64, e: Complex64, alpha: f64| {
+            let mut x = Dual {
+                v: e * lv,
+                d: -e * lv * alpha,
+            };
+            if q == p {
+                x.v += s;
+                x.d += 1.0;
+            }
+            x
+        };
+        let scale: Vec<Complex64> = self.delays.iter().map(|&a| (-s * a).exp() * c).collect();
+        if let Some(form) = &self.sparse {
+            let values = form.values(|p, q, lv| entry(p, q, lv, scale[p], self.delays[p]));
+            return form.factor(&values, |p| Dual {
+                v: scale[p],
+                d: -scale[p] * self.delays[p],
+            });
+        }
+        let scale = &scale;
         let entries = self.rows.iter().enumerate().flat_map(|(p, row)| {
-            let alpha = self.delays[p];
-            let e = (-s * alpha).exp() * c;
-            row.iter().map(move |&(q, lv)| {
-                let mut x = Dual {
-                    v: e * lv,
-                    d: -e * lv * alpha,
-                };
-                if q == p {
-                    x.v += s;
-                    x.d += 1.0;
-                }
-                (p, q, x)
-            })
+            row.iter()
+                .map(move |&(q, lv)| (p, q, entry(p, q, lv, scale[p], self.delays[p])))
         });
-        BandLu::new(self.len(), self.kl, self.ku, entries)
+        NetworkLu::Band(BandLu::new(self.len(), self.kl, self.ku, entries))
     }
 
-    /// LU of `diag(r_i)·L − σI` (positions in band order), without derivative.
-    pub(crate) fn factor_scaled(&self, row_scale: &[Complex64], sigma: Complex64) -> BandLu {
-        let entries = self.rows.iter().enumerate().flat_map(|(p, row)| {
-            let r = row_scale[p];
-            row.iter().map(move |&(q, lv)| {
-                let mut v = r * lv;
-                if q == p {
-                    v -= sigma;
-                }
-                (
-                    p,
-                    q,
-                    Dual {
-                        v,
-                        d: Complex64::new(0.0, 0.0),
-                    },
-                )
-            })
-        });
-        BandLu::new(self.len(), self.kl, self.ku, entries)
+    /// LU of `diag(r_i)·L − σI` (positions in this form's order), without derivative.
+    pub(crate) fn factor_scaled(&self, row_scale: &[Complex64], sigma: Complex64) -> NetworkLu {
+        let entry = |p: usize, q: usize, lv: f64| {
+            let mut v = row_scale[p] * lv;
+            if q == p {
+                v -= sigma;
+            }
+            Dual {
+                v,
+                d: Complex64::new(0.0, 0.0),
+            }
+        };
+        if let Some(form) = &self.sparse {
+            let values = form.values(entry);
+            return form.factor(&values, |p| Dual {
+                v: row_scale[p],
+                d: Complex64::new(0.0, 0.0),
+            });
+        }
+        let entries = self
+            .rows
+            .iter()
+            .enumerate()
+            .flat_map(|(p, row)| row.iter().map(move |&(q, lv)| (p, q, entry(p, q, lv))));
+        NetworkLu::Band(BandLu::new(self.len(), self.kl, self.ku, entries))
     }
+}
+
+/// An LU of `M(s)` (or of the shift-invert matrix) in the form its network chose.
+#[derive(Debug, Clone)]
+pub(crate) enum NetworkLu {
+    /// Band LU (narrow graphs).
+    Band(BandLu),
+    /// Sparse LU (graphs without a small bandwidth), with the rank-one correction of the
+    /// all-to-all rows: `w = A⁻¹u` and `f = 1 − 1ᵀw` in dual numbers ([`SparseForm`]).
+    Sparse {
+        /// The LU of the sparse part.
+        lu: SparseLu,
+        /// `(w, f)` when some rows observe everyone.
+        rank_one: Option<(Vec<Dual>, Dual)>,
+    },
+}
+
+impl NetworkLu {
+    /// `false` when a pivot vanished (`s` is numerically a root).
+    pub(crate) fn is_regular(&self) -> bool {
+        match self {
+            NetworkLu::Band(lu) => !lu.singular,
+            NetworkLu::Sparse { lu, rank_one } => {
+                lu.is_regular() && rank_one.as_ref().is_none_or(|(_, f)| f.v.norm() > 0.0)
+            }
+        }
+    }
+
+    /// `det M / Π_k shift` normalized to modulus 1 (the phase of `det M(s)/shift^N`), or
+    /// `None` if singular or not finite.
+    pub(crate) fn phase_over(&self, shift: Complex64) -> Option<Complex64> {
+        if !self.is_regular() {
+            return None;
+        }
+        let (pivots, odd, mut phase): (Box<dyn Iterator<Item = Dual> + '_>, bool, Complex64) =
+            match self {
+                NetworkLu::Band(lu) => (
+                    Box::new(lu.pivots()),
+                    lu.odd_permutation(),
+                    Complex64::new(1.0, 0.0),
+                ),
+                NetworkLu::Sparse { lu, rank_one } => (
+                    Box::new(lu.pivots()),
+                    lu.odd_permutation(),
+                    rank_one
+                        .as_ref()
+                        .map_or(Complex64::new(1.0, 0.0), |(_, f)| f.v / f.v.norm()),
+                ),
+            };
+        for u in pivots {
+            let z = u.v / shift;
+            let norm = z.norm();
+            if !(norm.is_finite() && norm > 0.0) {
+                return None;
+            }
+            phase *= z / norm;
+        }
+        Some(if odd { -phase } else { phase })
+    }
+
+    /// `d/ds log det M(s) = Σ_k u_kk'/u_kk`, or `None` if singular or not finite.
+    pub(crate) fn log_det_derivative(&self) -> Option<Complex64> {
+        if !self.is_regular() {
+            return None;
+        }
+        let g: Complex64 = match self {
+            NetworkLu::Band(lu) => lu.pivots().map(|u| u.d / u.v).sum(),
+            NetworkLu::Sparse { lu, rank_one } => {
+                lu.pivots().map(|u| u.d / u.v).sum::<Complex64>()
+                    + rank_one
+                        .as_ref()
+                        .map_or(Complex64::new(0.0, 0.0), |(_, f)| f.d / f.v)
+            }
+        };
+        (g.re.is_finite() && g.im.is_finite()).then_some(g)
+    }
+
+    /// Solves `A x = b` in place (positions in the network's order); `false` if singular.
+    pub(crate) fn solve(&self, b: &mut [Complex64]) -> bool {
+        match self {
+            NetworkLu::Band(lu) => lu.solve(b),
+            NetworkLu::Sparse { lu, rank_one } => {
+                if !lu.solve(b) {
+                    return false;
+                }
+                // Sherman–Morrison: x = A⁻¹b + w·(1ᵀA⁻¹b)/f.
+                if let Some((w, f)) = rank_one {
+                    let t = b.iter().sum::<Complex64>() / f.v;
+                    for (x, wp) in b.iter_mut().zip(w) {
+                        *x += wp.v * t;
+                    }
+                }
+                true
+            }
+        }
+    }
+}
+
+/// The rows of `l` by vehicle, as `(column vehicle, entry)`, diagonal included.
+fn rows_of(l: &DMatrix<f64>) -> Vec<Vec<(usize, f64)>> {
+    let n = l.nrows();
+    (0..n)
+        .map(|i| {
+            (0..n)
+                .filter(|&j| j == i || l[(i, j)] != 0.0)
+                .map(|j| (j, l[(i, j)]))
+                .collect()
+        })
+        .collect()
 }
 
 /// Band LU with partial pivoting, `PA = LU`, in dual numbers (LAPACK `gbtrf` layout: the
@@ -237,42 +497,14 @@ impl BandLu {
         }
     }
 
-    /// `false` when a pivot vanished (`s` is numerically a root).
-    pub(crate) fn is_regular(&self) -> bool {
-        !self.singular
+    /// The diagonal of `U`.
+    fn pivots(&self) -> impl Iterator<Item = Dual> + '_ {
+        (0..self.n).map(move |k| self.a[self.idx(k, k)])
     }
 
-    /// `det M / Π_k shift` normalized to modulus 1 (the phase of `det M(s)/shift^N`), or
-    /// `None` if singular or not finite.
-    pub(crate) fn phase_over(&self, shift: Complex64) -> Option<Complex64> {
-        if self.singular {
-            return None;
-        }
-        let mut phase = Complex64::new(1.0, 0.0);
-        let mut swaps = 0;
-        for k in 0..self.n {
-            let z = self.a[self.idx(k, k)].v / shift;
-            let norm = z.norm();
-            if !(norm.is_finite() && norm > 0.0) {
-                return None;
-            }
-            phase *= z / norm;
-            swaps += usize::from(self.piv[k] != k);
-        }
-        Some(if swaps % 2 == 1 { -phase } else { phase })
-    }
-
-    /// `d/ds log det M(s) = Σ_k u_kk'/u_kk`, or `None` if singular or not finite.
-    pub(crate) fn log_det_derivative(&self) -> Option<Complex64> {
-        if self.singular {
-            return None;
-        }
-        let mut g = Complex64::new(0.0, 0.0);
-        for k in 0..self.n {
-            let u = self.a[self.idx(k, k)];
-            g += u.d / u.v;
-        }
-        (g.re.is_finite() && g.im.is_finite()).then_some(g)
+    /// `true` when the row interchanges are odd in number.
+    fn odd_permutation(&self) -> bool {
+        (0..self.n).filter(|&k| self.piv[k] != k).count() % 2 == 1
     }
 
     /// Solves `A x = b` in place (positions in band order); `false` if singular.
@@ -348,7 +580,6 @@ mod tests {
     use super::super::collocation::laplacian;
     use super::super::collocation::tests::{random_network, Lcg};
     use super::*;
-    use approx::assert_relative_eq;
     use nalgebra::DVector;
 
     /// Dense reference: `det M(s)` by nalgebra's LU, `tr(M⁻¹M')` by the inverse.
@@ -369,6 +600,34 @@ mod tests {
         ((&inv * dm).trace(), m.determinant())
     }
 
+    /// `form`'s determinant phase, log-derivative and solve against the dense reference.
+    fn assert_matches_dense(form: &BandedNetwork, l: &DMatrix<f64>, d: &[f64], case: &str) {
+        let n = l.nrows();
+        for &s in &[Complex64::new(-0.3, 1.7), Complex64::new(0.2, 0.05)] {
+            let lu = form.factor(1.3, s);
+            let (g, det) = dense(l, d, 1.3, s);
+            let got = lu.log_det_derivative().unwrap();
+            assert!(
+                (got - g).norm() <= 1e-11 * (1.0 + g.norm()),
+                "{case}: {got} against {g}"
+            );
+            let phase = lu.phase_over(Complex64::new(1.0, 0.0)).unwrap();
+            assert!((phase - det / det.norm()).norm() < 1e-11, "{case}");
+            // A solve against the dense matrix-vector product (in the form's order).
+            let x = DVector::from_fn(n, |i, _| Complex64::new(i as f64, 1.0));
+            let m = DMatrix::from_fn(n, n, |i, j| {
+                1.3 * l[(i, j)] * (-s * d[i]).exp() + if i == j { s } else { 0.0.into() }
+            });
+            let b = &m * &x;
+            let p = form.permutation();
+            let mut y: Vec<Complex64> = p.iter().map(|&v| b[v]).collect();
+            assert!(lu.solve(&mut y));
+            for (k, &v) in p.iter().enumerate() {
+                assert!((y[k] - x[v]).norm() < 1e-9 * (1.0 + x[v].norm()), "{case}");
+            }
+        }
+    }
+
     #[test]
     fn band_lu_matches_the_dense_determinant_and_log_derivative() {
         let mut rng = Lcg(11);
@@ -376,27 +635,54 @@ mod tests {
             let n = 4 + 3 * trial;
             let (a, d) = random_network(n, &mut rng);
             let l = laplacian(&a);
-            let band = BandedNetwork::new(&l, &d);
-            for &s in &[Complex64::new(-0.3, 1.7), Complex64::new(0.2, 0.05)] {
-                let lu = band.factor(1.3, s);
-                let (g, det) = dense(&l, &d, 1.3, s);
-                assert_relative_eq!(lu.log_det_derivative().unwrap().re, g.re, epsilon = 1e-11);
-                assert_relative_eq!(lu.log_det_derivative().unwrap().im, g.im, epsilon = 1e-11);
-                let phase = lu.phase_over(Complex64::new(1.0, 0.0)).unwrap();
-                assert!((phase - det / det.norm()).norm() < 1e-11, "trial {trial}");
-                // A solve against the dense matrix-vector product (in band order).
-                let x = DVector::from_fn(n, |i, _| Complex64::new(i as f64, 1.0));
-                let m = DMatrix::from_fn(n, n, |i, j| {
-                    1.3 * l[(i, j)] * (-s * d[i]).exp() + if i == j { s } else { 0.0.into() }
-                });
-                let b = &m * &x;
-                let p = band.permutation();
-                let mut y: Vec<Complex64> = p.iter().map(|&v| b[v]).collect();
-                assert!(lu.solve(&mut y));
-                for (k, &v) in p.iter().enumerate() {
-                    assert!((y[k] - x[v]).norm() < 1e-10, "trial {trial}");
-                }
-            }
+            let band = BandedNetwork::in_order(&l, &d, reverse_cuthill_mckee(&l));
+            assert_matches_dense(&band, &l, &d, &format!("band, trial {trial}"));
+        }
+    }
+
+    #[test]
+    fn sparse_lu_matches_the_dense_determinant_and_log_derivative() {
+        let mut rng = Lcg(17);
+        for trial in 0..4 {
+            let n = 10 + 25 * trial;
+            let (a, d) = random_network(n, &mut rng);
+            let l = laplacian(&a);
+            let sparse = BandedNetwork::sparse(&l, &d, Vec::new());
+            assert_matches_dense(&sparse, &l, &d, &format!("sparse, trial {trial}"));
+        }
+        // A random digraph of 150 drivers has no small bandwidth: the sparse form is chosen.
+        let (a, d) = random_network(150, &mut rng);
+        let l = laplacian(&a);
+        let chosen = BandedNetwork::new(&l, &d);
+        assert!(
+            chosen.sparse.is_some(),
+            "bandwidth {} + {}",
+            chosen.kl,
+            chosen.ku
+        );
+        assert_matches_dense(&chosen, &l, &d, "chosen for N = 150");
+    }
+
+    #[test]
+    fn all_to_all_rows_are_a_rank_one_correction() {
+        // Drivers 0..n/2 observe everyone with their own gain, the others a random sparse set.
+        let mut rng = Lcg(23);
+        for n in [6usize, 40] {
+            let (sparse_part, d) = random_network(n, &mut rng);
+            let a = DMatrix::from_fn(n, n, |i, j| match (i < n / 2, i == j) {
+                (_, true) => 0.0,
+                (true, false) => 0.1 + 0.01 * i as f64,
+                (false, false) => sparse_part[(i, j)],
+            });
+            let l = laplacian(&a);
+            let form = BandedNetwork::new(&l, &d);
+            let rows = form.sparse.as_ref().map(|f| f.dense_rows.clone());
+            assert_eq!(
+                rows.map(|r| r.iter().filter(|&&c| c != 0.0).count()),
+                Some(n / 2),
+                "N = {n}: the all-to-all rows are found"
+            );
+            assert_matches_dense(&form, &l, &d, &format!("all-to-all rows, N = {n}"));
         }
     }
 

@@ -46,6 +46,7 @@ pub mod leader_amplification;
 pub mod platoon_scaling;
 pub mod report;
 pub mod ring_modes;
+pub(crate) mod sparse_lu;
 pub mod string_stability;
 
 pub use acyclic::{acyclic_roots, AcyclicError, AcyclicReport, DriverRoot};
@@ -62,8 +63,8 @@ pub use lambert_w::{lambert_w, LambertWError};
 pub use leader_amplification::{leader_amplification, LeaderAmplification};
 pub use platoon_scaling::{platoon_scaling, PlatoonLaw, PlatoonScaling, PlatoonScalingError};
 pub use report::{
-    analyse_cacc, analyse_network, certify_roots, CaccReport, NetworkStabilityReport, ReportError,
-    RootsCertificate,
+    analyse_cacc, analyse_network, analyse_network_reporting, certify_roots, CaccReport,
+    NetworkStabilityReport, ReportError, RootsCertificate,
 };
 pub use ring_modes::{RingError, RingModes, UniformRing};
 pub use string_stability::{

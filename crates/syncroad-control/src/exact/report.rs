@@ -156,6 +156,33 @@ pub fn analyse_network(
     } else {
         (rightmost_roots(adjacency, delays_s, options)?, None)
     };
+    critical_after(adjacency, delays_s, options, roots, certificate)
+}
+
+/// [`analyse_network`] with the certificate, naming each step to `on_step` as it starts.
+///
+/// # Errors
+/// As [`analyse_network`].
+pub fn analyse_network_reporting(
+    adjacency: &DMatrix<f64>,
+    delays_s: &[f64],
+    options: &CollocationOptions,
+    on_step: &(dyn Fn(&'static str) + Sync),
+) -> Result<NetworkStabilityReport, ReportError> {
+    on_step("rightmost roots and their root count");
+    let (roots, certificate) = certified_roots(adjacency, delays_s, options)?;
+    on_step("critical gain scale");
+    critical_after(adjacency, delays_s, options, roots, certificate)
+}
+
+/// The critical scale from the roots at the given gains, and the whole report.
+fn critical_after(
+    adjacency: &DMatrix<f64>,
+    delays_s: &[f64],
+    options: &CollocationOptions,
+    roots: RootsReport,
+    certificate: Option<RootsCertificate>,
+) -> Result<NetworkStabilityReport, ReportError> {
     let critical = match critical_scale_from(adjacency, delays_s, &roots, options) {
         Ok(c) => Some(c),
         Err(CriticalError::NoDelay) => None,

@@ -2,6 +2,7 @@
 //! `--platoon-scaling`, the least-stable eigenvalue of the CACC platoon against its size.
 
 use std::path::Path;
+use std::time::Duration;
 
 use syncroad_control::exact::analysis::{self, AnalysisError, CriticalScaleStatus, ExactVerdict};
 
@@ -13,7 +14,10 @@ use crate::stdout::{out, outln};
 /// "synchronizes" and the critical scale, when a search found it, is certified.
 pub fn run(path: &Path, json: bool, platoon_scaling: bool) -> anyhow::Result<Status> {
     let sc = load_scenario(path)?;
-    let r = analysis::analyse(&sc).map_err(|e| match e {
+    let ticker = crate::progress::Ticker::start("stability", Duration::from_secs(2));
+    let r = analysis::analyse_reporting(&sc, &|step| ticker.step(step));
+    drop(ticker);
+    let r = r.map_err(|e| match e {
         AnalysisError::BelowResolution { .. }
         | AnalysisError::AboveResolution { .. }
         | AnalysisError::TooFewVehicles { .. } => anyhow::Error::new(InputError::caused(

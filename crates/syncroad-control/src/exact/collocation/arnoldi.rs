@@ -29,7 +29,7 @@
 use nalgebra::{DMatrix, DVector, Schur};
 use num_complex::Complex64;
 
-use super::super::banded::{BandLu, BandedNetwork};
+use super::super::banded::{BandedNetwork, NetworkLu};
 use super::generator::chebyshev;
 
 /// The shift-and-invert operator `(A − σI)⁻¹` of the collocation matrix.
@@ -46,7 +46,7 @@ struct ShiftInvert<'a> {
         nalgebra::LU<Complex64, nalgebra::Dyn, nalgebra::Dyn>,
         DVector<Complex64>,
     )>,
-    lu: BandLu,
+    lu: NetworkLu,
 }
 
 impl<'a> ShiftInvert<'a> {
@@ -147,7 +147,9 @@ pub(super) fn eigenvalues_near_axis(
                 .collect()
         })
         .collect();
-    let shifts = 7;
+    // Long networks crowd their roots near the axis: one shift per 16 vehicles keeps the
+    // rightmost within the nearest `keep` of some shift (N = 400: 25 shifts).
+    let shifts = 7.max(n / 16);
     let spacing = reach.max(1e-3) / (shifts - 1) as f64;
     let x0 = 0.25 * spacing;
     let mut found = Vec::new();

@@ -6,32 +6,36 @@
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 
+use super::super::banded::BandedNetwork;
 use super::super::collocation::{
-    laplacian, newton_refine, rightmost_roots, validate_network, CollocationError,
+    laplacian, rightmost_roots, rightmost_roots_shift_invert, validate_network, CollocationError,
     CollocationOptions, RootsReport,
 };
+use super::super::report::DENSE_SOLVE_LIMIT;
+use super::continuation::newton_track;
 use super::{certify_at, CriticalError, CriticalMethod, CriticalReport, Crossing};
 
-/// Spectral abscissa with all gains scaled by `c`.
+/// Rightmost roots with all gains scaled by `c`: the dense collocation up to
+/// [`DENSE_SOLVE_LIMIT`] vehicles, shift-invert Arnoldi beyond (the dense eigenvalue step
+/// costs `O((N·M)³)`, minutes at `N = 400`); the certificate checks the outcome either way.
 fn abscissa_at(
     adjacency: &DMatrix<f64>,
     delays_s: &[f64],
     c: f64,
     options: &CollocationOptions,
 ) -> Result<RootsReport, CollocationError> {
-    rightmost_roots(&(adjacency * c), delays_s, options)
+    let scaled = adjacency * c;
+    if adjacency.nrows() <= DENSE_SOLVE_LIMIT {
+        rightmost_roots(&scaled, delays_s, options)
+    } else {
+        rightmost_roots_shift_invert(&scaled, delays_s, options)
+    }
 }
 
-/// The root near `s0` with gains scaled by `scale`: the bordered Newton of the collocation's
-/// refinement ([`newton_refine`]) to 1e-15, None when it does not converge.
+/// The root near `s0` with gains scaled by `scale`: Newton on `det M(s)` from its LU
+/// ([`newton_track`]) to 1e-15, None when it does not converge.
 fn track_root(l: &DMatrix<f64>, delays_s: &[f64], scale: f64, s0: Complex64) -> Option<Complex64> {
-    let options = CollocationOptions {
-        newton_tolerance: 1e-15,
-        max_newton_steps: 50,
-        ..CollocationOptions::default()
-    };
-    let refined = newton_refine(&(l * scale), delays_s, s0, &options);
-    refined.converged.then(|| refined.root.into())
+    newton_track(&BandedNetwork::new(l, delays_s), scale, s0, 1)
 }
 
 /// A stable scale `lo` and an unstable scale `hi` with the full solves at both.

@@ -4,6 +4,7 @@
 
 use nalgebra::DMatrix;
 use num_complex::Complex64;
+use rayon::prelude::*;
 
 use super::super::argument_principle::{count_with_laplacian, log_det_derivative};
 use super::super::banded::BandedNetwork;
@@ -175,6 +176,9 @@ fn first_crossing(
     best
 }
 
+/// Continuation steps (accepted or halved) before the search gives up.
+const CONTINUATION_STEPS: usize = 100;
+
 /// Follows the tracked roots in `c` from 1 until one crosses the axis (module documentation).
 pub(super) fn continuation(
     l: &DMatrix<f64>,
@@ -192,7 +196,10 @@ pub(super) fn continuation(
     let mut cur: Vec<Complex64> = tracked.iter().map(|t| t.0).collect();
     let mut prev: Option<(f64, Vec<Complex64>)> = None;
     let mut dlog = 0.05f64;
-    for _ in 0..2000 {
+    // A budget of steps: tracked roots that wander without crossing (on long random digraphs
+    // the first root to cross need not be among them) cost more to follow than the root
+    // counts that bracket the crossing instead (the caller's fallback).
+    for _ in 0..CONTINUATION_STEPS {
         if !(1e-18..=1e12).contains(&c) {
             return None;
         }
@@ -204,7 +211,14 @@ pub(super) fn continuation(
             };
             correct_root(&band, (c, c_next), cur[j], before, mult[j], dlog)
         };
-        let corrected = (0..cur.len()).map(step).collect::<Option<Vec<_>>>();
+        // The roots are corrected in parallel, each on its own (the order of the results is
+        // kept, so the outcome does not depend on the threads).
+        let corrected = (0..cur.len())
+            .into_par_iter()
+            .map(step)
+            .collect::<Vec<_>>()
+            .into_iter()
+            .collect::<Option<Vec<_>>>();
         let Some(mut next) = corrected else {
             dlog /= 2.0;
             if dlog < 1e-9 {

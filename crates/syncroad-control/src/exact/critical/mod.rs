@@ -60,6 +60,7 @@ use super::collocation::{
     laplacian, rightmost_roots, rightmost_roots_shift_invert, validate_network, CollocationError,
     CollocationOptions, RootsReport,
 };
+use super::report::DENSE_SOLVE_LIMIT;
 
 mod bisection;
 mod continuation;
@@ -466,7 +467,7 @@ impl CriticalReport {
 }
 
 /// Rightmost roots with all gains scaled by `c`: shift-invert first, the dense collocation if
-/// that fails (the crossing certificate checks the outcome either way).
+/// that fails (up to [`DENSE_SOLVE_LIMIT`] vehicles) (the crossing certificate checks the outcome either way).
 fn roots_at(
     adjacency: &DMatrix<f64>,
     delays_s: &[f64],
@@ -480,6 +481,7 @@ fn roots_at(
     };
     match rightmost_roots_shift_invert(&scaled, delays_s, &wide) {
         Ok(r) => Ok(r),
+        Err(e) if adjacency.nrows() > DENSE_SOLVE_LIMIT => Err(e),
         Err(_) => rightmost_roots(&scaled, delays_s, options),
     }
 }
@@ -497,7 +499,8 @@ fn unstable_at(l: &DMatrix<f64>, delays_s: &[f64], c: f64) -> Option<bool> {
 
 /// A bracket `(lo, hi)`, `hi/lo ≤ 1.02`, of the first gain scale at which a root reaches the
 /// right half-plane, from a stable `lo`: by counting roots ([`unstable_at`]) while multiplying the scale by 1.5
-/// (from `hi` down when given, else from `lo` up), then bisecting in `log c`.
+/// (from `hi` down when given, else from `lo` up), then bisecting in `log c`. A given `hi` must
+/// be unstable (the caller counted roots right of the axis there).
 fn first_unstable_scale(
     l: &DMatrix<f64>,
     delays_s: &[f64],
@@ -521,9 +524,8 @@ fn first_unstable_scale(
             }
         }
     };
-    if !unstable_at(l, delays_s, hi)? {
-        return None;
-    }
+    // `hi` is unstable: counted above, or by the caller's crossing certificate (roots right of
+    // a line right of the axis).
     while hi / lo > 1.02 {
         let mid = (lo * hi).sqrt();
         if unstable_at(l, delays_s, mid)? {

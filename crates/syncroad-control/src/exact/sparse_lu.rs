@@ -1,0 +1,475 @@
+//! Sparse LU with threshold partial pivoting, in dual numbers, for networks whose graph has no
+//! small bandwidth (random digraphs, leaders with long-range arcs, rings with chords).
+//!
+//! A band LU costs `O(N·k_l(k_l + k_u))`: on a random digraph of 200 drivers the reverse
+//! Cuthill–McKee bandwidth is about 110, and the band holds far more zeros than the factors
+//! need. Here the rows and columns are ordered once by approximate minimum degree on the
+//! symmetrized pattern (the `amd` crate), and each factorization is the left-looking algorithm
+//! of Gilbert & Peierls: column by column, a depth-first search over the columns of `L`
+//! already computed finds the pattern of the next column, a sparse triangular solve fills it,
+//! and the pivot is the diagonal entry unless another candidate is larger by more than
+//! `1/PIVOT_THRESHOLD` (threshold partial pivoting). The work is proportional to the
+//! arithmetic, not to `N²`.
+//!
+//! The entries are dual numbers `a + a'ε` (see [`super::banded`]): `d/ds log det M(s)` comes
+//! out of the diagonal of `U`, and a solve in dual arithmetic gives `x` together with `dx/ds`.
+//! No maintained sparse LU takes such a scalar, hence this implementation.
+//!
+//! # Reference
+//! J. R. Gilbert, T. Peierls, "Sparse partial pivoting in time proportional to arithmetic
+//! operations", SIAM J. Sci. Stat. Comput. 9 (1988) 862–874; T. A. Davis, *Direct Methods for
+//! Sparse Linear Systems*, SIAM 2006, ch. 6 (`cs_lu`, `cs_reach`, `cs_dfs`).
+
+use num_complex::Complex64;
+
+use super::banded::Dual;
+
+/// A candidate pivot other than the diagonal is taken only when the diagonal is smaller than
+/// this fraction of it (`1` is classical partial pivoting; smaller keeps the fill-reducing
+/// order more often).
+const PIVOT_THRESHOLD: f64 = 0.1;
+
+/// Marks a row that is not yet pivotal.
+const NONE: usize = usize::MAX;
+
+/// The pattern of a square matrix by columns (row indices of each column, any order).
+#[derive(Debug, Clone)]
+pub(crate) struct ColumnPattern {
+    /// Start of each column in `rows`, `n + 1` entries.
+    pub(crate) starts: Vec<usize>,
+    /// Row index of each stored entry.
+    pub(crate) rows: Vec<usize>,
+}
+
+impl ColumnPattern {
+    /// The pattern of the rows `rows[r] = [(column, …)]`, transposed into columns.
+    pub(crate) fn of_rows<T>(rows: &[Vec<(usize, T)>]) -> Self {
+        let n = rows.len();
+        let mut count = vec![0usize; n + 1];
+        for row in rows {
+            for &(c, _) in row {
+                count[c + 1] += 1;
+            }
+        }
+        for c in 0..n {
+            count[c + 1] += count[c];
+        }
+        let starts = count.clone();
+        let mut next = count;
+        let mut out = vec![0; starts[n]];
+        for (r, row) in rows.iter().enumerate() {
+            for &(c, _) in row {
+                out[next[c]] = r;
+                next[c] += 1;
+            }
+        }
+        ColumnPattern { starts, rows: out }
+    }
+
+    /// Number of columns.
+    pub(crate) fn len(&self) -> usize {
+        self.starts.len() - 1
+    }
+}
+
+/// `PA = LU` of a sparse matrix in dual numbers: `L` unit lower triangular and `U` upper
+/// triangular, both by columns with row indices in pivot order.
+#[derive(Debug, Clone)]
+pub(crate) struct SparseLu {
+    n: usize,
+    l_starts: Vec<usize>,
+    l_rows: Vec<usize>,
+    l_vals: Vec<Dual>,
+    /// Column `k` of `U`, its diagonal entry last.
+    u_starts: Vec<usize>,
+    u_rows: Vec<usize>,
+    u_vals: Vec<Dual>,
+    /// `pinv[i]`: the step at which row `i` became pivotal.
+    pinv: Vec<usize>,
+    singular: bool,
+    /// Multiply–subtract operations of the factorization (the cost model of the choice
+    /// between band and sparse LU).
+    pub(crate) operations: usize,
+}
+
+impl SparseLu {
+    /// Factors the matrix with pattern `pattern` and values `values` (in the pattern's order).
+    pub(crate) fn new(pattern: &ColumnPattern, values: &[Dual]) -> Self {
+        let n = pattern.len();
+        let mut lu = SparseLu {
+            n,
+            l_starts: Vec::with_capacity(n + 1),
+            l_rows: Vec::with_capacity(4 * pattern.rows.len()),
+            l_vals: Vec::with_capacity(4 * pattern.rows.len()),
+            u_starts: Vec::with_capacity(n + 1),
+            u_rows: Vec::with_capacity(4 * pattern.rows.len()),
+            u_vals: Vec::with_capacity(4 * pattern.rows.len()),
+            pinv: vec![NONE; n],
+            singular: false,
+            operations: 0,
+        };
+        let mut x = vec![Dual::default(); n];
+        let mut reach = Reach::new(n);
+        for k in 0..n {
+            lu.l_starts.push(lu.l_rows.len());
+            lu.u_starts.push(lu.u_rows.len());
+            let entries = pattern.starts[k]..pattern.starts[k + 1];
+            let top = reach.of_column(&pattern.rows[entries.clone()], &lu);
+            for &i in &reach.out[top..] {
+                x[i] = Dual::default();
+            }
+            for p in entries {
+                x[pattern.rows[p]] = values[p];
+            }
+            // x = L \ A(:, k) over the reach, in topological order.
+            for &j in &reach.out[top..] {
+                let step = lu.pinv[j];
+                if step == NONE {
+                    continue;
+                }
+                let xj = x[j];
+                if xj == Dual::default() {
+                    continue;
+                }
+                // The unit diagonal of column `step` of L is stored first.
+                for p in lu.l_starts[step] + 1..lu.l_starts[step + 1] {
+                    let i = lu.l_rows[p];
+                    x[i] = x[i].sub(lu.l_vals[p].mul(xj));
+                }
+                lu.operations += lu.l_starts[step + 1] - lu.l_starts[step] - 1;
+            }
+            let mut best = NONE;
+            let mut largest = -1.0;
+            for &i in &reach.out[top..] {
+                if lu.pinv[i] == NONE {
+                    let t = x[i].v.norm();
+                    if t > largest {
+                        largest = t;
+                        best = i;
+                    }
+                } else {
+                    lu.u_rows.push(lu.pinv[i]);
+                    lu.u_vals.push(x[i]);
+                }
+            }
+            if best == NONE || !(largest > 0.0 && largest.is_finite()) {
+                lu.singular = true;
+                return lu;
+            }
+            let diagonal_present = reach.mark[k] == reach.stamp;
+            if diagonal_present && lu.pinv[k] == NONE && x[k].v.norm() >= PIVOT_THRESHOLD * largest
+            {
+                best = k;
+            }
+            let pivot = x[best];
+            lu.u_rows.push(k);
+            lu.u_vals.push(pivot);
+            lu.pinv[best] = k;
+            lu.l_rows.push(best);
+            lu.l_vals.push(Dual {
+                v: Complex64::new(1.0, 0.0),
+                d: Complex64::new(0.0, 0.0),
+            });
+            for &i in &reach.out[top..] {
+                if lu.pinv[i] == NONE {
+                    lu.l_rows.push(i);
+                    lu.l_vals.push(x[i].div(pivot));
+                }
+            }
+        }
+        lu.l_starts.push(lu.l_rows.len());
+        lu.u_starts.push(lu.u_rows.len());
+        for r in lu.l_rows.iter_mut() {
+            *r = lu.pinv[*r];
+        }
+        lu
+    }
+
+    /// `false` when no pivot was left (`s` is numerically a root).
+    pub(crate) fn is_regular(&self) -> bool {
+        !self.singular
+    }
+
+    /// The diagonal of `U` in pivot order.
+    pub(crate) fn pivots(&self) -> impl Iterator<Item = Dual> + '_ {
+        (0..self.n).map(move |k| self.u_vals[self.u_starts[k + 1] - 1])
+    }
+
+    /// `true` when the row permutation is odd (the determinant changes sign).
+    pub(crate) fn odd_permutation(&self) -> bool {
+        let mut seen = vec![false; self.n];
+        let mut transpositions = 0;
+        for start in 0..self.n {
+            let mut i = start;
+            let mut length = 0;
+            while !seen[i] {
+                seen[i] = true;
+                i = self.pinv[i];
+                length += 1;
+            }
+            transpositions += length.max(1) - 1;
+        }
+        transpositions % 2 == 1
+    }
+
+    /// Solves `A x = b` in place in dual arithmetic: `b` holds `(b, b')` and becomes
+    /// `(x, x')`; `false` if singular.
+    pub(crate) fn solve_dual(&self, b: &mut [Dual]) -> bool {
+        if self.singular {
+            return false;
+        }
+        let mut y = vec![Dual::default(); self.n];
+        for (i, &bi) in b.iter().enumerate() {
+            y[self.pinv[i]] = bi;
+        }
+        for k in 0..self.n {
+            let yk = y[k];
+            for p in self.l_starts[k] + 1..self.l_starts[k + 1] {
+                let i = self.l_rows[p];
+                y[i] = y[i].sub(self.l_vals[p].mul(yk));
+            }
+        }
+        for k in (0..self.n).rev() {
+            let last = self.u_starts[k + 1] - 1;
+            y[k] = y[k].div(self.u_vals[last]);
+            let yk = y[k];
+            for p in self.u_starts[k]..last {
+                let i = self.u_rows[p];
+                y[i] = y[i].sub(self.u_vals[p].mul(yk));
+            }
+        }
+        b.copy_from_slice(&y);
+        true
+    }
+
+    /// Solves `A x = b` in place (values only); `false` if singular.
+    pub(crate) fn solve(&self, b: &mut [Complex64]) -> bool {
+        if self.singular {
+            return false;
+        }
+        let mut y = vec![Complex64::new(0.0, 0.0); self.n];
+        for (i, &bi) in b.iter().enumerate() {
+            y[self.pinv[i]] = bi;
+        }
+        for k in 0..self.n {
+            let yk = y[k];
+            for p in self.l_starts[k] + 1..self.l_starts[k + 1] {
+                y[self.l_rows[p]] -= self.l_vals[p].v * yk;
+            }
+        }
+        for k in (0..self.n).rev() {
+            let last = self.u_starts[k + 1] - 1;
+            y[k] /= self.u_vals[last].v;
+            let yk = y[k];
+            for p in self.u_starts[k]..last {
+                y[self.u_rows[p]] -= self.u_vals[p].v * yk;
+            }
+        }
+        b.copy_from_slice(&y);
+        true
+    }
+}
+
+/// The rows reached from a column's pattern through the columns of `L` computed so far, in
+/// topological order (`cs_reach`): `out[top..]`.
+struct Reach {
+    out: Vec<usize>,
+    stack: Vec<usize>,
+    next: Vec<usize>,
+    mark: Vec<usize>,
+    stamp: usize,
+}
+
+impl Reach {
+    fn new(n: usize) -> Self {
+        Reach {
+            out: vec![0; n],
+            stack: vec![0; n],
+            next: vec![0; n],
+            mark: vec![0; n],
+            stamp: 0,
+        }
+    }
+
+    fn of_column(&mut self, rows: &[usize], lu: &SparseLu) -> usize {
+        self.stamp += 1;
+        let mut top = lu.n;
+        for &start in rows {
+            if self.mark[start] != self.stamp {
+                top = self.depth_first(start, top, lu);
+            }
+        }
+        top
+    }
+
+    /// Depth-first search from row `start` (non-recursive), pushing finished rows onto
+    /// `out[..top]` from the right.
+    fn depth_first(&mut self, start: usize, mut top: usize, lu: &SparseLu) -> usize {
+        let columns = |j: usize| match lu.pinv[j] {
+            NONE => 0..0,
+            step => lu.l_starts[step] + 1..lu.l_starts[step + 1],
+        };
+        let mut head = 0;
+        self.stack[0] = start;
+        while let Some(&j) = self.stack[..=head].last() {
+            if self.mark[j] != self.stamp {
+                self.mark[j] = self.stamp;
+                self.next[head] = columns(j).start;
+            }
+            let range = columns(j);
+            let mut descended = false;
+            let mut p = self.next[head].max(range.start);
+            while p < range.end {
+                let i = lu.l_rows[p];
+                p += 1;
+                if self.mark[i] != self.stamp {
+                    self.next[head] = p;
+                    head += 1;
+                    self.stack[head] = i;
+                    descended = true;
+                    break;
+                }
+            }
+            if !descended {
+                top -= 1;
+                self.out[top] = j;
+                if head == 0 {
+                    break;
+                }
+                head -= 1;
+            }
+        }
+        top
+    }
+}
+
+/// Approximate minimum degree order of the symmetrized pattern of the rows
+/// `rows[r] = [(column, …)]`: `order[p]` is the row placed at position `p`.
+pub(crate) fn minimum_degree_order<T>(rows: &[Vec<(usize, T)>]) -> Vec<usize> {
+    let n = rows.len();
+    let mut adj: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for (r, row) in rows.iter().enumerate() {
+        for &(c, _) in row {
+            if c != r {
+                adj[r].push(c);
+                adj[c].push(r);
+            }
+        }
+    }
+    let mut starts = vec![0i32];
+    let mut indices: Vec<i32> = Vec::new();
+    for (r, a) in adj.iter_mut().enumerate() {
+        a.push(r);
+        a.sort_unstable();
+        a.dedup();
+        indices.extend(a.iter().map(|&c| c as i32));
+        starts.push(indices.len() as i32);
+    }
+    match amd::order::<i32>(n as i32, &starts, &indices, &amd::Control::default()) {
+        Ok((p, _, _)) => p.into_iter().map(|v| v as usize).collect(),
+        // The pattern is valid by construction; keep the natural order if the crate refuses.
+        Err(_) => (0..n).collect(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::DMatrix;
+
+    fn dual(v: Complex64) -> Dual {
+        Dual {
+            v,
+            d: Complex64::new(0.0, 0.0),
+        }
+    }
+
+    /// A random sparse complex matrix with a weak diagonal (pivoting is needed).
+    fn random_rows(n: usize, seed: u64) -> Vec<Vec<(usize, Complex64)>> {
+        let mut state = seed;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        (0..n)
+            .map(|r| {
+                let mut row: Vec<(usize, Complex64)> =
+                    vec![(r, Complex64::new(0.01 * next(), 0.0))];
+                for c in 0..n {
+                    if c != r && next() < 3.0 / n as f64 {
+                        row.push((c, Complex64::new(next() - 0.5, next() - 0.5)));
+                    }
+                }
+                row.push(((r + 1) % n, Complex64::new(1.0, next())));
+                row.sort_by_key(|e| e.0);
+                row.dedup_by_key(|e| e.0);
+                row
+            })
+            .collect()
+    }
+
+    fn factor(rows: &[Vec<(usize, Complex64)>]) -> SparseLu {
+        let pattern = ColumnPattern::of_rows(rows);
+        let mut values = vec![Dual::default(); pattern.rows.len()];
+        let mut next = pattern.starts.clone();
+        for (r, row) in rows.iter().enumerate() {
+            for &(c, v) in row {
+                values[next[c]] = dual(v);
+                debug_assert_eq!(pattern.rows[next[c]], r);
+                next[c] += 1;
+            }
+        }
+        SparseLu::new(&pattern, &values)
+    }
+
+    #[test]
+    fn determinant_and_solution_match_the_dense_lu() {
+        for (n, seed) in [(7usize, 3u64), (40, 11), (120, 5)] {
+            let rows = random_rows(n, seed);
+            let dense = DMatrix::from_fn(n, n, |r, c| {
+                rows[r]
+                    .iter()
+                    .find(|e| e.0 == c)
+                    .map_or(Complex64::new(0.0, 0.0), |e| e.1)
+            });
+            let lu = factor(&rows);
+            assert!(lu.is_regular());
+            let sign = if lu.odd_permutation() { -1.0 } else { 1.0 };
+            let det: Complex64 = lu.pivots().map(|p| p.v).product::<Complex64>() * sign;
+            let reference = dense.clone().lu().determinant();
+            assert!(
+                (det - reference).norm() <= 1e-10 * reference.norm(),
+                "n = {n}: {det} against {reference}"
+            );
+            let b: Vec<Complex64> = (0..n).map(|i| Complex64::new(i as f64, 1.0)).collect();
+            let mut x = b.clone();
+            assert!(lu.solve(&mut x));
+            let residual = &dense * nalgebra::DVector::from_vec(x) - nalgebra::DVector::from_vec(b);
+            assert!(
+                residual.norm() < 1e-9,
+                "n = {n}: residual {}",
+                residual.norm()
+            );
+        }
+    }
+
+    #[test]
+    fn a_singular_matrix_is_reported() {
+        // Two equal rows.
+        let rows = vec![
+            vec![(0, Complex64::new(1.0, 0.0)), (1, Complex64::new(2.0, 0.0))],
+            vec![(0, Complex64::new(1.0, 0.0)), (1, Complex64::new(2.0, 0.0))],
+        ];
+        assert!(!factor(&rows).is_regular());
+    }
+
+    #[test]
+    fn the_order_is_a_permutation() {
+        let rows = random_rows(60, 9);
+        let mut order = minimum_degree_order(&rows);
+        order.sort_unstable();
+        assert_eq!(order, (0..60).collect::<Vec<_>>());
+    }
+}
