@@ -4,7 +4,10 @@
 //! Rings and platoons couple each driver to a few neighbours, so after a reverse
 //! Cuthill–McKee ordering `L` is a band matrix of small bandwidth (2 for any ring, one-way or
 //! both ways). A band LU with partial pivoting then costs `O(N·k_l(k_l + k_u))` instead of
-//! `O(N³)`; a dense graph simply has full bandwidth, and the same code is a dense LU.
+//! `O(N³)`. Graphs without a small bandwidth (random digraphs, long arcs, chords) are factored
+//! by the sparse LU of [`super::sparse_lu`] in approximate minimum degree order, whichever of
+//! the two costs fewer operations on a trial factorization; rows of drivers that observe every
+//! other vehicle with one gain are taken out as a rank-one correction (`SparseForm`).
 //!
 //! The factorization carries the derivative in `s` along (dual numbers `a + a'ε`), so that
 //! `d/ds log det M(s) = Σ_k u_kk'/u_kk` comes out of the diagonal of `U`: the argument
