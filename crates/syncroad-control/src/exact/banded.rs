@@ -22,38 +22,8 @@
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 
+pub(crate) use super::dual::Dual;
 use super::sparse_lu::{minimum_degree_order, ColumnPattern, SparseLu};
-
-/// A complex number with its derivative in `s`: `v + d·ε`, `ε² = 0`.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub(crate) struct Dual {
-    /// Value.
-    pub(crate) v: Complex64,
-    /// Derivative.
-    pub(crate) d: Complex64,
-}
-
-impl Dual {
-    pub(crate) fn mul(self, o: Dual) -> Dual {
-        Dual {
-            v: self.v * o.v,
-            d: self.v * o.d + self.d * o.v,
-        }
-    }
-    pub(crate) fn div(self, o: Dual) -> Dual {
-        let v = self.v / o.v;
-        Dual {
-            v,
-            d: (self.d - v * o.d) / o.v,
-        }
-    }
-    pub(crate) fn sub(self, o: Dual) -> Dual {
-        Dual {
-            v: self.v - o.v,
-            d: self.d - o.d,
-        }
-    }
-}
 
 /// The Laplacian of a network with its delays, ordered for cheap factorizations of
 /// `M(s) = sI + c·diag(e^{−sα_i})L`: a band (reverse Cuthill–McKee order) when the graph has

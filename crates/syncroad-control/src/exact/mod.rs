@@ -40,6 +40,7 @@ pub mod boundaries;
 pub mod cacc_modes;
 pub mod collocation;
 pub mod critical;
+pub(crate) mod dual;
 pub mod gaps;
 pub mod lambert_w;
 pub mod leader_amplification;

@@ -195,9 +195,7 @@ fn critical_after(
     })
 }
 
-/// Largest network for the dense collocation ([`rightmost_roots`]) when the shift-invert
-/// roots are not certified: its eigenvalue step costs `O((N·M)³)`, about 0.4 s at `N = 50`.
-pub const DENSE_SOLVE_LIMIT: usize = 150;
+pub use super::collocation::DENSE_SOLVE_LIMIT;
 
 /// The rightmost roots with their certificate: shift-invert Arnoldi first
 /// ([`rightmost_roots_shift_invert`]), and the dense collocation when that fails or its roots

@@ -22,7 +22,7 @@
 
 use num_complex::Complex64;
 
-use super::banded::Dual;
+use super::dual::Dual;
 
 /// A candidate pivot other than the diagonal is taken only when the diagonal is smaller than
 /// this fraction of it (`1` is classical partial pivoting; smaller keeps the fill-reducing

@@ -7,11 +7,11 @@ use nalgebra::DMatrix;
 use num_complex::Complex64;
 
 use super::super::banded::BandedNetwork;
+use super::super::collocation::DENSE_SOLVE_LIMIT;
 use super::super::collocation::{
     laplacian, rightmost_roots, rightmost_roots_shift_invert, validate_network, CollocationError,
     CollocationOptions, RootsReport,
 };
-use super::super::report::DENSE_SOLVE_LIMIT;
 use super::continuation::newton_track;
 use super::{certify_at, CriticalError, CriticalMethod, CriticalReport, Crossing};
 

@@ -56,11 +56,11 @@ use num_complex::Complex64;
 use serde::Serialize;
 
 use super::argument_principle::{count_with_laplacian, RootCount};
+use super::collocation::DENSE_SOLVE_LIMIT;
 use super::collocation::{
     laplacian, rightmost_roots, rightmost_roots_shift_invert, validate_network, CollocationError,
     CollocationOptions, RootsReport,
 };
-use super::report::DENSE_SOLVE_LIMIT;
 
 mod bisection;
 mod continuation;
@@ -467,7 +467,8 @@ impl CriticalReport {
 }
 
 /// Rightmost roots with all gains scaled by `c`: shift-invert first, the dense collocation if
-/// that fails (up to [`DENSE_SOLVE_LIMIT`] vehicles) (the crossing certificate checks the outcome either way).
+/// that fails, up to [`DENSE_SOLVE_LIMIT`] vehicles (the crossing certificate checks the outcome
+/// either way).
 fn roots_at(
     adjacency: &DMatrix<f64>,
     delays_s: &[f64],

@@ -1,0 +1,36 @@
+//! Dual numbers `a + a'ε` (`ε² = 0`) over the complex numbers: an LU in this ring carries the
+//! derivative of its matrix in `s` along, so `d/ds log det M(s)` comes out of the pivots and a
+//! solve gives `x` with `dx/ds` ([`super::banded`], [`super::sparse_lu`]).
+
+use num_complex::Complex64;
+
+/// A complex number with its derivative in `s`: `v + d·ε`, `ε² = 0`.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct Dual {
+    /// Value.
+    pub(crate) v: Complex64,
+    /// Derivative.
+    pub(crate) d: Complex64,
+}
+
+impl Dual {
+    pub(crate) fn mul(self, o: Dual) -> Dual {
+        Dual {
+            v: self.v * o.v,
+            d: self.v * o.d + self.d * o.v,
+        }
+    }
+    pub(crate) fn div(self, o: Dual) -> Dual {
+        let v = self.v / o.v;
+        Dual {
+            v,
+            d: (self.d - v * o.d) / o.v,
+        }
+    }
+    pub(crate) fn sub(self, o: Dual) -> Dual {
+        Dual {
+            v: self.v - o.v,
+            d: self.d - o.d,
+        }
+    }
+}
