@@ -14,12 +14,14 @@ pub(crate) struct Dual {
 }
 
 impl Dual {
+    #[inline]
     pub(crate) fn mul(self, o: Dual) -> Dual {
         Dual {
             v: self.v * o.v,
             d: self.v * o.d + self.d * o.v,
         }
     }
+    #[inline]
     pub(crate) fn div(self, o: Dual) -> Dual {
         let v = self.v / o.v;
         Dual {
@@ -27,6 +29,7 @@ impl Dual {
             d: (self.d - v * o.d) / o.v,
         }
     }
+    #[inline]
     pub(crate) fn sub(self, o: Dual) -> Dual {
         Dual {
             v: self.v - o.v,
