@@ -28,6 +28,7 @@
 
 use nalgebra::{DMatrix, DVector, Schur};
 use num_complex::Complex64;
+use rayon::prelude::*;
 
 use super::super::banded::{BandedNetwork, NetworkLu};
 use super::generator::chebyshev;
@@ -152,19 +153,23 @@ pub(super) fn eigenvalues_near_axis(
     let shifts = 7.max(n / 16);
     let spacing = reach.max(1e-3) / (shifts - 1) as f64;
     let x0 = 0.25 * spacing;
-    let mut found = Vec::new();
-    for k in 0..shifts {
-        let sigma = Complex64::new(x0, spacing * k as f64);
-        let Some(op) = ShiftInvert::new(&rows, band, delays_s, m, sigma) else {
-            continue;
-        };
-        let kdim = op.order().min(48);
-        let keep = (kdim / 2).max(1);
-        let mut near = arnoldi_ritz(&op, kdim);
-        near.sort_by(|a, b| a.norm().total_cmp(&b.norm()));
-        found.extend(near.iter().take(keep).map(|&theta| sigma + theta));
-    }
-    found
+    // The shifts are independent: searched in parallel, their eigenvalues kept in shift order
+    // (the result does not depend on the threads).
+    let per_shift: Vec<Vec<Complex64>> = (0..shifts)
+        .into_par_iter()
+        .map(|k| {
+            let sigma = Complex64::new(x0, spacing * k as f64);
+            let Some(op) = ShiftInvert::new(&rows, band, delays_s, m, sigma) else {
+                return Vec::new();
+            };
+            let kdim = op.order().min(48);
+            let keep = (kdim / 2).max(1);
+            let mut near = arnoldi_ritz(&op, kdim);
+            near.sort_by(|a, b| a.norm().total_cmp(&b.norm()));
+            near.iter().take(keep).map(|&theta| sigma + theta).collect()
+        })
+        .collect();
+    per_shift.into_iter().flatten().collect()
 }
 
 /// Ritz values of `op` mapped back to `λ − σ = 1/θ`, from `kdim` Arnoldi steps (modified

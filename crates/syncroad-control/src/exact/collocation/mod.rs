@@ -31,6 +31,7 @@
 
 use nalgebra::DMatrix;
 use num_complex::Complex64;
+use rayon::prelude::*;
 use serde::Serialize;
 
 use super::banded::BandedNetwork;
@@ -344,9 +345,10 @@ pub fn rightmost_roots_shift_invert(
     }
     refined.sort_by(|a, b| b.root.re.total_cmp(&a.root.re));
     refined.truncate(options.roots.max(1));
-    for r in refined.iter_mut() {
+    // Each residual is a dense SVD of M(s): the roots' in parallel.
+    refined.par_iter_mut().for_each(|r| {
         (r.residual, r.null_vector_residual) = root_residuals(&l, delays_s, &band, r.root.into());
-    }
+    });
     let abscissa = refined[0].root.re;
     let max_residual = refined.iter().map(|r| r.residual).fold(0.0, f64::max);
     Ok(RootsReport {
