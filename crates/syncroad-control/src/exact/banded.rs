@@ -23,7 +23,7 @@ use nalgebra::DMatrix;
 use num_complex::Complex64;
 
 pub(crate) use super::dual::Dual;
-use super::sparse_lu::{minimum_degree_order, ColumnPattern, SparseLu};
+use super::sparse_lu::{minimum_degree_order, ColumnPattern, SparseLu, Symbolic};
 
 /// The Laplacian of a network with its delays, ordered for cheap factorizations of
 /// `M(s) = sI + c·diag(e^{−sα_i})L`: a band (reverse Cuthill–McKee order) when the graph has
@@ -55,6 +55,10 @@ struct SparseForm {
     entries: Vec<(usize, f64)>,
     /// `c_p` per position; empty when no row observes everyone.
     dense_rows: Vec<f64>,
+    /// The pivots and patterns of a factorization at `s = 1 + i`, reused while they pass the
+    /// pivoting threshold (fixed once made, so every factorization is the same whatever the
+    /// order the threads ask for them).
+    symbolic: Option<Symbolic>,
 }
 
 impl SparseForm {
@@ -68,7 +72,11 @@ impl SparseForm {
 
     /// The LU of `A = (the matrix of values) − u·1ᵀ` with `u_p = weight(p)·c_p`.
     fn factor(&self, values: &[Dual], weight: impl Fn(usize) -> Dual) -> NetworkLu {
-        let lu = SparseLu::new(&self.pattern, values);
+        let lu = self
+            .symbolic
+            .as_ref()
+            .and_then(|sym| sym.refactor(&self.pattern, values))
+            .unwrap_or_else(|| SparseLu::new(&self.pattern, values));
         if self.dense_rows.is_empty() || !lu.is_regular() {
             return NetworkLu::Sparse { lu, rank_one: None };
         }
@@ -170,7 +178,15 @@ impl BandedNetwork {
             pattern,
             entries,
             dense_rows,
+            symbolic: None,
         });
+        let symbolic = match form.factor(1.0, Complex64::new(1.0, 1.0)) {
+            NetworkLu::Sparse { lu, .. } => Symbolic::of(&lu),
+            NetworkLu::Band(_) => None,
+        };
+        if let Some(f) = form.sparse.as_mut() {
+            f.symbolic = symbolic;
+        }
         form
     }
 

@@ -270,6 +270,110 @@ impl SparseLu {
     }
 }
 
+/// The structure of a [`SparseLu`] (its row order and the patterns of `L` and `U`), kept to
+/// factor other matrices of the same pattern without searching it again (`KLU`'s
+/// refactorization): the matrices of a root count differ only in `s`, and the pivots of one
+/// usually serve the next.
+#[derive(Debug, Clone)]
+pub(crate) struct Symbolic {
+    n: usize,
+    pinv: Vec<usize>,
+    l_starts: Vec<usize>,
+    l_rows: Vec<usize>,
+    u_starts: Vec<usize>,
+    /// Column `k` of `U` in increasing row order (a topological order of `L`), the diagonal last.
+    u_rows: Vec<usize>,
+}
+
+impl Symbolic {
+    /// The structure of `lu`; `None` if it is singular (nothing to reuse).
+    pub(crate) fn of(lu: &SparseLu) -> Option<Self> {
+        if lu.singular {
+            return None;
+        }
+        let mut u_rows = lu.u_rows.clone();
+        for k in 0..lu.n {
+            let last = lu.u_starts[k + 1] - 1;
+            u_rows[lu.u_starts[k]..last].sort_unstable();
+        }
+        Some(Symbolic {
+            n: lu.n,
+            pinv: lu.pinv.clone(),
+            l_starts: lu.l_starts.clone(),
+            l_rows: lu.l_rows.clone(),
+            u_starts: lu.u_starts.clone(),
+            u_rows,
+        })
+    }
+
+    /// The LU of the matrix with pattern `pattern` (the one this structure came from) and
+    /// values `values`, with this structure's pivots; `None` when a pivot is no longer
+    /// acceptable under threshold partial pivoting (smaller than `PIVOT_THRESHOLD` times
+    /// another candidate of its column, or zero): then factor afresh with [`SparseLu::new`].
+    pub(crate) fn refactor(&self, pattern: &ColumnPattern, values: &[Dual]) -> Option<SparseLu> {
+        let n = self.n;
+        let mut x = vec![Dual::default(); n];
+        let mut l_vals: Vec<Dual> = Vec::with_capacity(self.l_rows.len());
+        let mut u_vals = Vec::with_capacity(self.u_rows.len());
+        let mut operations = 0;
+        for k in 0..n {
+            let (l_col, u_col) = (
+                self.l_starts[k]..self.l_starts[k + 1],
+                self.u_starts[k]..self.u_starts[k + 1],
+            );
+            for &i in self.u_rows[u_col.clone()]
+                .iter()
+                .chain(&self.l_rows[l_col.clone()])
+            {
+                x[i] = Dual::default();
+            }
+            for p in pattern.starts[k]..pattern.starts[k + 1] {
+                x[self.pinv[pattern.rows[p]]] = values[p];
+            }
+            let last = u_col.end - 1;
+            for &j in &self.u_rows[u_col.start..last] {
+                let xj = x[j];
+                for q in self.l_starts[j] + 1..self.l_starts[j + 1] {
+                    let i = self.l_rows[q];
+                    x[i] = x[i].sub(l_vals[q].mul(xj));
+                }
+                operations += self.l_starts[j + 1] - self.l_starts[j] - 1;
+            }
+            let pivot = x[k];
+            let largest = self.l_rows[l_col.start + 1..l_col.end]
+                .iter()
+                .map(|&i| x[i].v.norm())
+                .fold(0.0, f64::max);
+            let size = pivot.v.norm();
+            if !(size > 0.0 && size.is_finite() && size >= PIVOT_THRESHOLD * largest) {
+                return None;
+            }
+            u_vals.extend(self.u_rows[u_col].iter().map(|&i| x[i]));
+            l_vals.push(Dual {
+                v: Complex64::new(1.0, 0.0),
+                d: Complex64::new(0.0, 0.0),
+            });
+            l_vals.extend(
+                self.l_rows[l_col.start + 1..l_col.end]
+                    .iter()
+                    .map(|&i| x[i].div(pivot)),
+            );
+        }
+        Some(SparseLu {
+            n,
+            l_starts: self.l_starts.clone(),
+            l_rows: self.l_rows.clone(),
+            l_vals,
+            u_starts: self.u_starts.clone(),
+            u_rows: self.u_rows.clone(),
+            u_vals,
+            pinv: self.pinv.clone(),
+            singular: false,
+            operations,
+        })
+    }
+}
+
 /// The rows reached from a column's pattern through the columns of `L` computed so far, in
 /// topological order (`cs_reach`): `out[top..]`.
 struct Reach {
@@ -453,6 +557,63 @@ mod tests {
                 residual.norm()
             );
         }
+    }
+
+    #[test]
+    fn a_refactorization_reuses_the_pivots_or_refuses_them() {
+        // Same pattern, new values: the determinant of the refactored LU is the dense one.
+        for (n, seed) in [(40usize, 11u64), (120, 5)] {
+            let rows = random_rows(n, seed);
+            let reference = factor(&rows);
+            let symbolic = Symbolic::of(&reference).expect("a regular reference");
+            let scaled: Vec<Vec<(usize, Complex64)>> = rows
+                .iter()
+                .map(|row| {
+                    row.iter()
+                        .map(|&(c, v)| (c, v * Complex64::new(1.0, 0.3) + 0.05 * c as f64))
+                        .collect()
+                })
+                .collect();
+            let pattern = ColumnPattern::of_rows(&scaled);
+            let mut values = vec![Dual::default(); pattern.rows.len()];
+            let mut next = pattern.starts.clone();
+            for row in &scaled {
+                for &(c, v) in row {
+                    values[next[c]] = dual(v);
+                    next[c] += 1;
+                }
+            }
+            let dense = DMatrix::from_fn(n, n, |r, c| {
+                scaled[r]
+                    .iter()
+                    .find(|e| e.0 == c)
+                    .map_or(Complex64::new(0.0, 0.0), |e| e.1)
+            });
+            let fresh = SparseLu::new(&pattern, &values);
+            let lu = symbolic.refactor(&pattern, &values).unwrap_or(fresh);
+            let sign = if lu.odd_permutation() { -1.0 } else { 1.0 };
+            let det: Complex64 = lu.pivots().map(|p| p.v).product::<Complex64>() * sign;
+            let expected = dense.lu().determinant();
+            assert!(
+                (det - expected).norm() <= 1e-10 * expected.norm(),
+                "n = {n}: {det} against {expected}"
+            );
+        }
+        // A diagonal pivot that has become tiny beside its column is refused.
+        let rows = |a: f64| {
+            vec![
+                vec![(0, Complex64::new(a, 0.0)), (1, Complex64::new(0.5, 0.0))],
+                vec![(0, Complex64::new(0.5, 0.0)), (1, Complex64::new(1.0, 0.0))],
+            ]
+        };
+        let symbolic = Symbolic::of(&factor(&rows(1.0))).unwrap();
+        let tiny = rows(1e-6);
+        let pattern = ColumnPattern::of_rows(&tiny);
+        let values: Vec<Dual> = [1e-6, 0.5, 0.5, 1.0]
+            .iter()
+            .map(|&v| dual(Complex64::new(v, 0.0)))
+            .collect();
+        assert!(symbolic.refactor(&pattern, &values).is_none());
     }
 
     #[test]
