@@ -123,7 +123,7 @@ def main():
             cells.append(wall)
             verdicts.append((name, v))
         # One verdict when the binaries agree, else each with its binary's name.
-        distinct = {v for _, v in verdicts if v != "—"}
+        distinct = {v for _, v in verdicts}
         verdict = (distinct.pop() if len(distinct) == 1
                    else "; ".join(f"{name}: {v}" for name, v in verdicts))
         print(f"| {TITLES[kind]} | {n} | " + " | ".join(cells) + f" | {verdict} |", flush=True)

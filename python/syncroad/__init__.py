@@ -16,7 +16,7 @@ in the CLI, keeps the rows computed, and raises :class:`Interrupted`.
 """
 
 from syncroad._api import check, compare, run, stability, sweep
-from syncroad._errors import Interrupted, RunError, ScenarioError, SyncroadError
+from syncroad._errors import Interrupted, RecordError, RunError, ScenarioError, SyncroadError
 from syncroad._run import Record, Run
 from syncroad._scenario import Scenario
 from syncroad._simulation import Simulation
@@ -26,6 +26,7 @@ __all__ = [
     "Interrupted",
     "Record",
     "Run",
+    "RecordError",
     "RunError",
     "Scenario",
     "ScenarioError",

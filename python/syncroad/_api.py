@@ -38,6 +38,35 @@ def _flags(**options: Any) -> List[str]:
     return argv
 
 
+#: The numeric keyword arguments the commands take: (integer?, smallest valid, inclusive?).
+_NUMBERS: Dict[str, Tuple[bool, float, bool]] = {
+    "record_every": (True, 1, True),
+    "jobs": (True, 1, True),
+    "tolerance_mps": (False, 0.0, False),
+    "window_s": (False, 0.0, False),
+    "warmup_s": (False, 0.0, True),
+    "timeout_s": (False, 0.0, False),
+    "krauss_sigma": (False, 0.0, True),
+}
+
+
+def _check_numbers(**options: Any) -> None:
+    """Raises :class:`ScenarioError` for a numeric keyword argument of the wrong type or out
+    of range, in Python's terms, before anything runs (the CLI would answer with its usage
+    text, in terms of its flags)."""
+    for name, value in options.items():
+        if value is None:
+            continue
+        integer, lowest, inclusive = _NUMBERS[name]
+        kind = "an integer" if integer else "a number"
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or (integer and not isinstance(value, int)):
+            raise ScenarioError(f"{name} = {value!r}: must be {kind} (got {type(value).__name__})")
+        ok = value >= lowest if inclusive else value > lowest
+        if not ok or value != value or value in (float("inf"), float("-inf")):
+            bound = f"≥ {lowest:g}" if inclusive else f"> {lowest:g}"
+            raise ScenarioError(f"{name} = {value!r}: must be {kind} {bound} (or None for the default)")
+
+
 def _listed(values: Any) -> Any:
     """A list for an iterable of values; a string (already comma-separated) or None as is."""
     if values is None or isinstance(values, str):
@@ -105,6 +134,17 @@ def run(
     sc = as_scenario(scenario)
     if backend not in (None, "native", "sumo"):
         raise ScenarioError(f'backend = {backend!r}: must be "native" or "sumo" (or None: the scenario\'s)')
+    _check_numbers(
+        tolerance_mps=tolerance_mps,
+        window_s=window_s,
+        record_every=record_every,
+        warmup_s=warmup_s,
+        timeout_s=timeout_s,
+        krauss_sigma=krauss_sigma,
+    )
+    if backend == "native" and (timeout_s is not None or krauss_sigma is not None):
+        given = "timeout_s" if timeout_s is not None else "krauss_sigma"
+        raise ScenarioError(f'{given} applies to SUMO runs only; backend = "native" runs syncroad\'s own simulator')
     folder = _out_dir(out, "run")
     if backend == "sumo":
         sc = sc.with_backend("sumo")
@@ -183,6 +223,7 @@ def compare(
     import pandas as pd
 
     sc = as_scenario(scenario)
+    _check_numbers(jobs=jobs, warmup_s=warmup_s, record_every=record_every, timeout_s=timeout_s)
     folder = _out_dir(out, "compare")
     argv = ["compare", str(sc.path), "--out", str(folder)]
     argv += _flags(
@@ -234,6 +275,7 @@ def sweep(
     ``status == "failed"``)."""
     import pandas as pd
 
+    _check_numbers(jobs=jobs)
     folder = Path(out)
     with tempfile.TemporaryDirectory(prefix="syncroad-spec-") as tmp:
         path = write_spec(tmp, spec, base_dir) if isinstance(spec, Mapping) else Path(spec)

@@ -22,6 +22,15 @@ class ScenarioError(SyncroadError, ValueError):
     exit_code = 2
 
 
+class RecordError(ScenarioError):
+    """A run's record could not be read: ``metrics.json`` (or a kept
+    ``metrics.unsaved-*.json``) is not valid JSON or is not syncroad's. ``path`` is the file."""
+
+    def __init__(self, message: str, path: Optional[Path] = None):
+        super().__init__(message)
+        self.path = path
+
+
 class RunError(SyncroadError, RuntimeError):
     """A run failed while executing (the CLI's exit code 3): SUMO crashed, timed out, or a
     file could not be written. ``run`` holds the rows received before the failure (the run's

@@ -7,6 +7,8 @@ import shutil
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Dict, List, Optional
 
+from syncroad._errors import RecordError
+
 if TYPE_CHECKING:
     import pyarrow
 
@@ -38,6 +40,8 @@ def _wrap(value: Any) -> Any:
 
 #: The files of a run's folder (as the CLI names them).
 METRICS_FILE = "metrics.json"
+#: Where the CLI keeps a record it could not write as metrics.json.
+UNSAVED_GLOB = "metrics.unsaved-*.json"
 TRAJECTORY_FILE = "trajectories.csv"
 PLOT_NAMES = ("time_space", "speeds", "spread")
 
@@ -47,23 +51,44 @@ class Run:
     plots). ``Run(folder)`` opens any run folder, a compare run's or a kept sweep run's."""
 
     out: Path
+    #: The record file read: ``out/metrics.json``, or the ``metrics.unsaved-*.json`` kept there.
+    record_file: Path
     exit_code: Optional[int]
     summary: str
 
     def __init__(self, out: "str | Path", exit_code: Optional[int] = None, summary: str = ""):
-        self.out = Path(out)
+        path = Path(out)
+        if path.is_file() and path.name.startswith("metrics") and path.suffix == ".json":
+            # A record file itself: metrics.json, or one kept as metrics.unsaved-*.json when
+            # metrics.json could not be written.
+            self.out, self.record_file = path.parent, path
+        else:
+            self.out, self.record_file = path, path / METRICS_FILE
+            kept = sorted(path.glob(UNSAVED_GLOB)) if path.is_dir() else []
+            if not self.record_file.is_file() and len(kept) == 1:
+                self.record_file = kept[0]
         self.exit_code = exit_code
         self.summary = summary
         self._metrics: Optional[Record] = None
         self._trajectories: Optional["pyarrow.Table"] = None
-        if not (self.out / METRICS_FILE).is_file():
+        if not self.record_file.is_file():
             raise FileNotFoundError(f"{self.out / METRICS_FILE}: not a run folder (no {METRICS_FILE})")
 
     @property
     def metrics(self) -> Record:
-        """The typed run record (``metrics.json``; schema: ``syncroad schema``)."""
+        """The typed run record (``metrics.json``, or the ``metrics.unsaved-*.json`` kept in
+        its place; schema: ``syncroad schema``). :class:`RecordError` when it cannot be read."""
         if self._metrics is None:
-            self._metrics = Record(json.loads((self.out / METRICS_FILE).read_text()))
+            try:
+                data = json.loads(self.record_file.read_text())
+            except (UnicodeDecodeError, json.JSONDecodeError) as e:
+                raise RecordError(f"{self.record_file}: not a readable run record ({e})", self.record_file) from None
+            if not isinstance(data, dict) or "sync" not in data:
+                raise RecordError(
+                    f"{self.record_file}: not a syncroad run record (a JSON object with a 'sync' block)",
+                    self.record_file,
+                )
+            self._metrics = Record(data)
         return self._metrics
 
     @property

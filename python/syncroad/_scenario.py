@@ -74,7 +74,15 @@ class Scenario:
         the ``sumo`` section (``net``, ``config``, ``routes``, ``additional``) and of the
         ``controller`` (its ``FILE.py`` and ``state``) resolve against ``base_dir`` (default:
         the current folder). Raises :class:`ScenarioError` with the CLI's message."""
-        d = json.loads(json.dumps(data))  # a deep copy that is also checked to be JSON
+        if not isinstance(data, Mapping):
+            raise ScenarioError(
+                f"Scenario.from_dict takes the scenario as a dict (the JSON file's content), "
+                f"got {type(data).__name__} {str(data)[:60]!r}"
+            )
+        try:
+            d = json.loads(json.dumps(data))  # a deep copy that is also checked to be JSON
+        except (TypeError, ValueError) as e:
+            raise ScenarioError(f"Scenario.from_dict: the scenario must hold JSON values only ({e})") from None
         base = Path(base_dir) if base_dir is not None else Path.cwd()
         sumo = d.get("sumo")
         if isinstance(sumo, dict):

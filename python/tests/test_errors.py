@@ -89,6 +89,49 @@ def test_options_are_checked_as_the_cli_checks_its_flags():
         syncroad.run("scenarios/ring-theorem1.json", timeout_s=5)
 
 
+def test_wrong_types_and_values_are_scenario_errors_in_python_terms(tmp_path):
+    # Each of these reached the CLI's argument parser (its usage text, in terms of its flags)
+    # or raised a bare Python exception.
+    cases = [
+        (lambda: syncroad.run("scenarios/ring-theorem1.json", record_every=-1), r"^record_every = -1: must be an integer ≥ 1"),
+        (lambda: syncroad.run("scenarios/ring-theorem1.json", record_every=2.5), r"^record_every = 2\.5: must be an integer"),
+        (lambda: syncroad.run("scenarios/ring-theorem1.json", tolerance_mps="0.1"), r"^tolerance_mps = '0\.1': must be a number"),
+        (lambda: syncroad.run("scenarios/ring-theorem1.json", window_s=float("nan")), r"^window_s = nan"),
+        (lambda: syncroad.compare("scenarios/ring-theorem1.json", jobs=0), r"^jobs = 0: must be an integer ≥ 1"),
+        (lambda: syncroad.sweep({"base": "x.json"}, tmp_path / "sw", jobs=True), r"^jobs = True: must be an integer"),
+        (
+            lambda: syncroad.run("scenarios/ring-theorem1.json", backend="native", timeout_s=5),
+            r"^timeout_s applies to SUMO runs only",
+        ),
+        (lambda: syncroad.Scenario.from_dict("x"), r"^Scenario\.from_dict takes the scenario as a dict"),
+        (lambda: syncroad.Scenario.from_dict({"name": object()}), r"JSON values only"),
+    ]
+    for call, message in cases:
+        with pytest.raises(syncroad.ScenarioError, match=message) as e:
+            call()
+        assert "Usage" not in str(e.value) and "tip:" not in str(e.value)
+        assert e.value.exit_code == 2
+
+
+def test_a_record_that_cannot_be_read_is_a_record_error_and_a_kept_one_opens(tmp_path):
+    run = syncroad.run("scenarios/ring-theorem1.json", out=tmp_path / "run", plots=False)
+    record = json.loads((run.out / "metrics.json").read_text())
+    # Kept under another name (as the CLI does when metrics.json cannot be written): the
+    # folder and the file itself both open it.
+    kept = tmp_path / "kept"
+    kept.mkdir()
+    (kept / "metrics.unsaved-abc123.json").write_text(json.dumps(record))
+    for where in (kept, kept / "metrics.unsaved-abc123.json"):
+        assert syncroad.Run(where).metrics["sync"] == record["sync"]
+    # Corrupt, or JSON that is not a run record.
+    for text in ("{not json", "[1, 2]"):
+        (run.out / "metrics.json").write_text(text)
+        with pytest.raises(syncroad.RecordError, match="metrics.json: not a") as e:
+            syncroad.Run(run.out).metrics
+        assert isinstance(e.value, syncroad.ScenarioError)
+        assert e.value.path == run.out / "metrics.json"
+
+
 def workers_of(pid):
     """Pids of this process's SUMO workers (`python -m syncroad._worker`)."""
     found = []

@@ -31,7 +31,7 @@
 //! without violating one of the three tests at every scale the step halving visits.
 //! The count uses neither the collocation nor Newton's method, so it certifies them.
 
-use super::banded::BandedNetwork;
+use super::banded::NetworkMatrix;
 use super::collocation::{laplacian, validate_network, CollocationError};
 use nalgebra::DMatrix;
 use num_complex::Complex64;
@@ -110,7 +110,7 @@ pub fn count_roots_right_of(
 /// `f(s)/|f(s)|` and the logarithmic derivative `g(s) = f'(s)/f(s)` (module documentation),
 /// from one band LU of `M(s)` carrying its derivative ([`super::banded`]).
 fn phase_and_log_derivative(
-    band: &BandedNetwork,
+    band: &NetworkMatrix,
     rho: f64,
     s: Complex64,
 ) -> Option<(Complex64, Complex64)> {
@@ -123,7 +123,7 @@ fn phase_and_log_derivative(
 
 /// `d/ds log det M(s) = tr(M(s)⁻¹M'(s))` for `M(s) = sI + c·diag(e^{−sα_i})L`, or `None` at a
 /// root. Newton's step `s − m/g(s)` converges quadratically to a root of multiplicity `m`.
-pub(crate) fn log_det_derivative(band: &BandedNetwork, c: f64, s: Complex64) -> Option<Complex64> {
+pub(crate) fn log_det_derivative(band: &NetworkMatrix, c: f64, s: Complex64) -> Option<Complex64> {
     band.factor(c, s).log_det_derivative()
 }
 
@@ -153,7 +153,7 @@ pub(crate) fn count_with_laplacian(
     ];
     let scale = r + sigma.abs();
     let on_contour = |s: Complex64| ArgumentPrincipleError::RootOnContour { re: s.re, im: s.im };
-    let band = BandedNetwork::new(l, delays_s);
+    let band = NetworkMatrix::new(l, delays_s);
     let eval = |s: Complex64| phase_and_log_derivative(&band, rho, s).ok_or(on_contour(s));
     // The line, where the roots crowd the walk, in sixteen pieces: the pieces are walked in
     // parallel and their turns added in order, so the count does not depend on the threads.

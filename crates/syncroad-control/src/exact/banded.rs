@@ -30,7 +30,7 @@ use super::sparse_lu::{minimum_degree_order, ColumnPattern, SparseLu, Symbolic};
 /// a small bandwidth, else a sparse LU in approximate minimum degree order
 /// ([`super::sparse_lu`]), whichever costs fewer operations.
 #[derive(Debug, Clone)]
-pub(crate) struct BandedNetwork {
+pub(crate) struct NetworkMatrix {
     /// `perm[p]` is the vehicle at position `p`.
     perm: Vec<usize>,
     /// Per position: `(position of the column, L entry)`, the diagonal always included.
@@ -130,7 +130,7 @@ const NARROW_BAND: usize = 8;
 /// indirect addressing); measured on rings with chords and random digraphs.
 const SPARSE_OVERHEAD: usize = 3;
 
-impl BandedNetwork {
+impl NetworkMatrix {
     /// Factorization form of the Laplacian `l` (any square matrix with the pattern of a
     /// graph).
     pub(crate) fn new(l: &DMatrix<f64>, delays_s: &[f64]) -> Self {
@@ -216,7 +216,7 @@ impl BandedNetwork {
             })
             .collect();
         let delays = perm.iter().map(|&i| delays_s[i]).collect();
-        BandedNetwork {
+        NetworkMatrix {
             perm,
             rows,
             delays,
@@ -590,7 +590,7 @@ mod tests {
     }
 
     /// `form`'s determinant phase, log-derivative and solve against the dense reference.
-    fn assert_matches_dense(form: &BandedNetwork, l: &DMatrix<f64>, d: &[f64], case: &str) {
+    fn assert_matches_dense(form: &NetworkMatrix, l: &DMatrix<f64>, d: &[f64], case: &str) {
         let n = l.nrows();
         for &s in &[Complex64::new(-0.3, 1.7), Complex64::new(0.2, 0.05)] {
             let lu = form.factor(1.3, s);
@@ -624,7 +624,7 @@ mod tests {
             let n = 4 + 3 * trial;
             let (a, d) = random_network(n, &mut rng);
             let l = laplacian(&a);
-            let band = BandedNetwork::in_order(&l, &d, reverse_cuthill_mckee(&l));
+            let band = NetworkMatrix::in_order(&l, &d, reverse_cuthill_mckee(&l));
             assert_matches_dense(&band, &l, &d, &format!("band, trial {trial}"));
         }
     }
@@ -636,13 +636,13 @@ mod tests {
             let n = 10 + 25 * trial;
             let (a, d) = random_network(n, &mut rng);
             let l = laplacian(&a);
-            let sparse = BandedNetwork::sparse(&l, &d, Vec::new());
+            let sparse = NetworkMatrix::sparse(&l, &d, Vec::new());
             assert_matches_dense(&sparse, &l, &d, &format!("sparse, trial {trial}"));
         }
         // A random digraph of 150 drivers has no small bandwidth: the sparse form is chosen.
         let (a, d) = random_network(150, &mut rng);
         let l = laplacian(&a);
-        let chosen = BandedNetwork::new(&l, &d);
+        let chosen = NetworkMatrix::new(&l, &d);
         assert!(
             chosen.sparse.is_some(),
             "bandwidth {} + {}",
@@ -664,7 +664,7 @@ mod tests {
                 (false, false) => sparse_part[(i, j)],
             });
             let l = laplacian(&a);
-            let form = BandedNetwork::new(&l, &d);
+            let form = NetworkMatrix::new(&l, &d);
             let rows = form.sparse.as_ref().map(|f| f.dense_rows.clone());
             assert_eq!(
                 rows.map(|r| r.iter().filter(|&&c| c != 0.0).count()),
@@ -682,7 +682,7 @@ mod tests {
         let a = DMatrix::from_row_slice(3, 3, &[0.0, 0.5, 1.0, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0]);
         let l = laplacian(&a);
         let d = [0.7, 0.4, 0.0];
-        let band = BandedNetwork::new(&l, &d);
+        let band = NetworkMatrix::new(&l, &d);
         let s = Complex64::new(-0.2, 0.9);
         let (g, _) = dense(&l, &d, 1.0, s);
         let lu = band.factor(1.0, s);
@@ -700,7 +700,7 @@ mod tests {
                     0.0
                 }
             });
-            let band = BandedNetwork::new(&laplacian(&a), &vec![0.5; n]);
+            let band = NetworkMatrix::new(&laplacian(&a), &vec![0.5; n]);
             assert!(
                 band.kl <= 2 && band.ku <= 2,
                 "N={n}: {} {}",

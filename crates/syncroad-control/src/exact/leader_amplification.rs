@@ -19,7 +19,7 @@ use nalgebra::DMatrix;
 use num_complex::Complex64;
 use serde::Serialize;
 
-use super::banded::BandedNetwork;
+use super::banded::NetworkMatrix;
 use super::collocation::laplacian;
 
 /// Peak gains from the leader's speed to the followers'.
@@ -60,7 +60,7 @@ pub fn leader_amplification(
     let l_f = DMatrix::from_fn(nf, nf, |r, c| l_all[(followers[r], followers[c])]);
     let b: Vec<f64> = followers.iter().map(|&i| adjacency[(i, leader)]).collect();
     let delays: Vec<f64> = followers.iter().map(|&i| delays_s[i]).collect();
-    let band = BandedNetwork::new(&l_f, &delays);
+    let band = NetworkMatrix::new(&l_f, &delays);
     let perm = band.permutation().to_vec();
     let gains = |omega: f64| -> Option<Vec<f64>> {
         let s = Complex64::new(0.0, omega);

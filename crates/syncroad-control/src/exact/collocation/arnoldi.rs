@@ -30,7 +30,7 @@ use nalgebra::{DMatrix, DVector, Schur};
 use num_complex::Complex64;
 use rayon::prelude::*;
 
-use super::super::banded::{BandedNetwork, NetworkLu};
+use super::super::banded::{NetworkLu, NetworkMatrix};
 use super::generator::chebyshev;
 
 /// The shift-and-invert operator `(A − σI)⁻¹` of the collocation matrix.
@@ -41,7 +41,7 @@ struct ShiftInvert<'a> {
     slot: Vec<Option<usize>>,
     /// Sparse rows of `L` (vehicle order).
     rows: &'a [Vec<(usize, f64)>],
-    band: &'a BandedNetwork,
+    band: &'a NetworkMatrix,
     /// Per slot: the LU of `P_i` and `w_i`.
     blocks: Vec<(
         nalgebra::LU<Complex64, nalgebra::Dyn, nalgebra::Dyn>,
@@ -53,7 +53,7 @@ struct ShiftInvert<'a> {
 impl<'a> ShiftInvert<'a> {
     fn new(
         rows: &'a [Vec<(usize, f64)>],
-        band: &'a BandedNetwork,
+        band: &'a NetworkMatrix,
         delays_s: &[f64],
         m: usize,
         sigma: Complex64,
@@ -136,7 +136,7 @@ pub(super) fn eigenvalues_near_axis(
     l: &DMatrix<f64>,
     delays_s: &[f64],
     m: usize,
-    band: &BandedNetwork,
+    band: &NetworkMatrix,
     reach: f64,
 ) -> Vec<Complex64> {
     let n = l.nrows();

@@ -34,7 +34,7 @@ use num_complex::Complex64;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::banded::BandedNetwork;
+use super::banded::NetworkMatrix;
 use super::Root;
 
 mod arnoldi;
@@ -293,7 +293,7 @@ pub fn rightmost_roots_shift_invert(
         .max(2);
     let delayed = delays_s.iter().filter(|&&a| a > 0.0).count();
     let order = n + m * delayed;
-    let band = BandedNetwork::new(&l, delays_s);
+    let band = NetworkMatrix::new(&l, delays_s);
     let reach = 1.2 * l.diagonal().iter().fold(0.0f64, |a, &d| a.max(2.0 * d));
     let mut eig = arnoldi::eigenvalues_near_axis(&l, delays_s, m, &band, reach);
     eig.retain(|z| z.im >= -1e-9 * (1.0 + z.norm()));

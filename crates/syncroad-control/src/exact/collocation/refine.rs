@@ -4,7 +4,7 @@
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 
-use super::super::banded::BandedNetwork;
+use super::super::banded::NetworkMatrix;
 use super::network::laplacian;
 use super::{CollocationOptions, RefinedRoot};
 
@@ -117,7 +117,7 @@ fn relative_residual(l: &DMatrix<f64>, delays_s: &[f64], s: Complex64) -> f64 {
 /// Number of zeros of `det M(s)` (gains scaled by `c`) inside the circle `|z − s| = r`, by the
 /// trapezoid rule on 8 points for `(1/2πi)∮ g(z) dz = mean_k (z_k − s) g(z_k)`; `None` if a
 /// point hits a root or the mean is not close to a whole number.
-pub(crate) fn zeros_in_circle(band: &BandedNetwork, c: f64, s: Complex64, r: f64) -> Option<usize> {
+pub(crate) fn zeros_in_circle(band: &NetworkMatrix, c: f64, s: Complex64, r: f64) -> Option<usize> {
     const K: usize = 8;
     let mut sum = Complex64::new(0.0, 0.0);
     for k in 0..K {
@@ -133,7 +133,7 @@ pub(crate) fn zeros_in_circle(band: &BandedNetwork, c: f64, s: Complex64, r: f64
 /// circle around the iterate (after three steps, and every ten while it has not converged).
 /// Returns the root, its multiplicity, the steps, and whether the tolerance was met.
 pub(super) fn newton_on_band(
-    band: &BandedNetwork,
+    band: &NetworkMatrix,
     s0: Complex64,
     options: &CollocationOptions,
 ) -> Option<(Complex64, usize, usize, bool)> {
@@ -179,7 +179,7 @@ pub(super) fn newton_on_band(
 pub(super) fn root_residuals(
     l: &DMatrix<f64>,
     delays_s: &[f64],
-    band: &BandedNetwork,
+    band: &NetworkMatrix,
     s: Complex64,
 ) -> (f64, f64) {
     let n = l.nrows();

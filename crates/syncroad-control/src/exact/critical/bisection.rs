@@ -6,7 +6,7 @@
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 
-use super::super::banded::BandedNetwork;
+use super::super::banded::NetworkMatrix;
 use super::super::collocation::DENSE_SOLVE_LIMIT;
 use super::super::collocation::{
     laplacian, rightmost_roots, rightmost_roots_shift_invert, validate_network, CollocationError,
@@ -35,7 +35,7 @@ fn abscissa_at(
 /// The root near `s0` with gains scaled by `scale`: Newton on `det M(s)` from its LU
 /// ([`newton_track`]) to 1e-15, None when it does not converge.
 fn track_root(l: &DMatrix<f64>, delays_s: &[f64], scale: f64, s0: Complex64) -> Option<Complex64> {
-    newton_track(&BandedNetwork::new(l, delays_s), scale, s0, 1)
+    newton_track(&NetworkMatrix::new(l, delays_s), scale, s0, 1)
 }
 
 /// A stable scale `lo` and an unstable scale `hi` with the full solves at both.

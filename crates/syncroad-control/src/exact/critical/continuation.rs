@@ -7,7 +7,7 @@ use num_complex::Complex64;
 use rayon::prelude::*;
 
 use super::super::argument_principle::{count_with_laplacian, log_det_derivative};
-use super::super::banded::BandedNetwork;
+use super::super::banded::NetworkMatrix;
 use super::CrossingCertificate;
 
 /// A root crossing the imaginary axis at gain scale `scale`.
@@ -23,7 +23,7 @@ pub(super) struct Crossing {
 
 /// Newton's step `s − m/(log det M)'(s)` for gains scaled by `c`, from `s0`.
 pub(crate) fn newton_track(
-    band: &BandedNetwork,
+    band: &NetworkMatrix,
     c: f64,
     s0: Complex64,
     m: usize,
@@ -51,7 +51,7 @@ pub(crate) fn newton_track(
 /// The root of multiplicity `m` through `from = (c0, s0)` followed to gain scale `c1` by Newton,
 /// halving the step in `log c` (at most `depth` times) where Newton does not converge.
 fn follow(
-    band: &BandedNetwork,
+    band: &NetworkMatrix,
     from: (f64, Complex64),
     c1: f64,
     m: usize,
@@ -76,7 +76,7 @@ fn follow(
 /// real roots met. None when the corrector fails or lands far from its predictor (it may have
 /// jumped to another root).
 fn correct_root(
-    band: &BandedNetwork,
+    band: &NetworkMatrix,
     (c, c_next): (f64, f64),
     cur: Complex64,
     prev: Option<(f64, Complex64)>,
@@ -135,7 +135,7 @@ fn merge_met_roots(
 /// Every root that changed side between `c` (`cur`) and `c_next` (`next`) crosses inside; the
 /// first in `c` wins, with the other roots followed to its scale.
 fn first_crossing(
-    band: &BandedNetwork,
+    band: &NetworkMatrix,
     (c, c_next): (f64, f64),
     cur: &[Complex64],
     next: &[Complex64],
@@ -188,7 +188,7 @@ pub(super) fn continuation(
     if tracked.is_empty() {
         return None;
     }
-    let band = BandedNetwork::new(l, delays_s);
+    let band = NetworkMatrix::new(l, delays_s);
     let increasing = tracked.iter().all(|(s, _)| s.re < 0.0);
     let sign = if increasing { 1.0 } else { -1.0 };
     let mut c = 1.0f64;
@@ -259,7 +259,7 @@ pub(super) fn counted_crossing(
     roots_hi: &[(Complex64, usize)],
     unstable: impl Fn(f64) -> Option<bool>,
 ) -> Option<Crossing> {
-    let band = BandedNetwork::new(l, delays_s);
+    let band = NetworkMatrix::new(l, delays_s);
     let (mut lo, hi0) = bracket;
     let mut hi = hi0;
     while hi / lo > 1.0 + 1e-6 {
@@ -312,7 +312,7 @@ pub(super) fn counted_crossing(
 /// Regula falsi (Illinois) in `c` on `Re s(c) = 0` between two tracked points of opposite sign.
 #[allow(clippy::type_complexity)]
 fn solve_crossing(
-    band: &BandedNetwork,
+    band: &NetworkMatrix,
     m: usize,
     a: (f64, Complex64),
     b: (f64, Complex64),
