@@ -221,7 +221,9 @@ impl SumoRun {
     }
 
     /// The controlled vehicles' samples (the leader vehicle, if any, becomes the reference
-    /// speed), with bumper-to-bumper gaps as the native simulator computes them.
+    /// speed), with bumper-to-bumper gaps as the native simulator computes them; when other
+    /// traffic shares the road (the graph read from SUMO), the gap to whoever is directly
+    /// ahead, as the worker measured it at each recorded state.
     pub fn trajectory(&self, scenario: &Scenario) -> Trajectory {
         let rows = &self.worker.rows;
         let all = rows.n;
@@ -240,9 +242,15 @@ impl SumoRun {
         for k in 0..rows.len() {
             let q = &rows.positions_m[k * all..(k + 1) * all];
             let v = &rows.speeds_mps[k * all..(k + 1) * all];
+            let sensed = rows.gaps_m.get(k * all..(k + 1) * all);
             for i in 0..n {
                 let j = k0 + i;
-                gaps[i] = if i > 0 || k0 == 1 {
+                // Other traffic on the road: the gap to whoever is ahead, as SUMO placed them
+                // (the layout's predecessor may be behind someone else).
+                let ahead = sensed.map_or(f64::NAN, |g| g[j]);
+                gaps[i] = if sensed.is_some() && self.request.sense_graph {
+                    ahead
+                } else if i > 0 || k0 == 1 {
                     q[j - 1] - q[j] - lengths[j]
                 } else if let Some(c) = ring {
                     q[all - 1] + c - q[j] - lengths[j]

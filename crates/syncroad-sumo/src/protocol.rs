@@ -423,7 +423,7 @@ pub fn decode_rows(bytes: &[u8]) -> Result<Trajectory, ProtocolError> {
             .unwrap_or(0)
     };
     let (n, records) = (word(0), word(4));
-    let expected = 8 + records * (1 + 3 * n) * 8;
+    let expected = 8 + records * (1 + 4 * n) * 8;
     if bytes.len() != expected {
         return Err(ProtocolError::RowChunkSize {
             bytes: bytes.len(),
@@ -438,7 +438,12 @@ pub fn decode_rows(bytes: &[u8]) -> Result<Trajectory, ProtocolError> {
     let mut c = Trajectory::new(n);
     for _ in 0..records {
         c.time_s.push(floats.next().expect("sized"));
-        for arr in [&mut c.speeds_mps, &mut c.positions_m, &mut c.commands_mps] {
+        for arr in [
+            &mut c.speeds_mps,
+            &mut c.positions_m,
+            &mut c.commands_mps,
+            &mut c.gaps_m,
+        ] {
             arr.extend((&mut floats).take(n));
         }
     }
@@ -512,7 +517,7 @@ pub struct RowChunk {
 impl RowChunk {
     /// An empty chunk for `n` vehicles, with room for `records` records.
     pub fn new(n: usize, records: usize) -> Self {
-        let mut frame = FrameBuf::new(KIND_ROWS, 8 + records * (1 + 3 * n) * 8);
+        let mut frame = FrameBuf::new(KIND_ROWS, 8 + records * (1 + 4 * n) * 8);
         frame.bytes.extend_from_slice(&(n as u32).to_le_bytes());
         frame.bytes.extend_from_slice(&0u32.to_le_bytes());
         Self {
@@ -532,11 +537,20 @@ impl RowChunk {
         self.records == 0
     }
 
-    /// Appends the record at time `t`: each slice has one value per vehicle.
-    pub fn push(&mut self, t: f64, speeds: &[f64], positions: &[f64], commands: &[f64]) {
-        debug_assert!([speeds.len(), positions.len(), commands.len()] == [self.n; 3]);
+    /// Appends the record at time `t`: each slice has one value per vehicle; `gaps` is each
+    /// vehicle's gap to whoever is ahead as SUMO's road shows it (NaN: measured between
+    /// syncroad's vehicles in their layout order, as without other traffic).
+    pub fn push(
+        &mut self,
+        t: f64,
+        speeds: &[f64],
+        positions: &[f64],
+        commands: &[f64],
+        gaps: &[f64],
+    ) {
+        debug_assert!([speeds.len(), positions.len(), commands.len(), gaps.len()] == [self.n; 4]);
         self.frame.extend_f64(&[t]);
-        for arr in [speeds, positions, commands] {
+        for arr in [speeds, positions, commands, gaps] {
             self.frame.extend_f64(arr);
         }
         self.records += 1;
@@ -608,12 +622,17 @@ mod tests {
     /// commands` as little-endian f64.
     fn encode_rows(rows: &Trajectory) -> Vec<u8> {
         let n = rows.n;
-        let mut out = Vec::with_capacity(8 + rows.len() * (1 + 3 * n) * 8);
+        let mut out = Vec::with_capacity(8 + rows.len() * (1 + 4 * n) * 8);
         out.extend_from_slice(&(n as u32).to_le_bytes());
         out.extend_from_slice(&(rows.len() as u32).to_le_bytes());
         for k in 0..rows.len() {
             out.extend_from_slice(&rows.time_s[k].to_le_bytes());
-            for arr in [&rows.speeds_mps, &rows.positions_m, &rows.commands_mps] {
+            for arr in [
+                &rows.speeds_mps,
+                &rows.positions_m,
+                &rows.commands_mps,
+                &rows.gaps_m,
+            ] {
                 for x in &arr[k * n..(k + 1) * n] {
                     out.extend_from_slice(&x.to_le_bytes());
                 }
@@ -627,6 +646,8 @@ mod tests {
         let mut c = Trajectory::new(2);
         c.push_commanded(0.0, &[1.0, 2.0], &[0.0, -7.5], &[f64::NAN, 2.0]);
         c.push_commanded(0.1, &[1.5, 2.5], &[0.1, -7.3], &[1.5, 2.5]);
+        // The gaps to whoever is ahead as SUMO saw it (NaN: between syncroad's own vehicles).
+        c.gaps_m = vec![12.0, f64::NAN, 11.5, 3.25];
         let mut chunk = RowChunk::new(2, 1);
         for k in 0..c.len() {
             let at = k * 2..k * 2 + 2;
@@ -634,7 +655,8 @@ mod tests {
                 c.time_s[k],
                 &c.speeds_mps[at.clone()],
                 &c.positions_m[at.clone()],
-                &c.commands_mps[at],
+                &c.commands_mps[at.clone()],
+                &c.gaps_m[at],
             );
         }
         let mut buf = Vec::new();
@@ -647,7 +669,13 @@ mod tests {
         // An empty chunk writes nothing; the reused buffer encodes the next chunk afresh.
         chunk.write(&mut buf).unwrap();
         assert_eq!(buf.len(), 5 + encode_rows(&c).len());
-        chunk.push(0.2, &[3.0, 4.0], &[0.4, -7.1], &[3.0, 4.0]);
+        chunk.push(
+            0.2,
+            &[3.0, 4.0],
+            &[0.4, -7.1],
+            &[3.0, 4.0],
+            &[f64::NAN, 9.0],
+        );
         let mut next = Vec::new();
         chunk.write(&mut next).unwrap();
         let one = decode_rows(&next[5..]).unwrap();
@@ -666,6 +694,8 @@ mod tests {
         assert_eq!(d.time_s, c.time_s);
         assert_eq!(d.speeds_mps, c.speeds_mps);
         assert!(d.commands_mps[0].is_nan());
+        assert!(d.gaps_m[1].is_nan());
+        assert_eq!([d.gaps_m[0], d.gaps_m[2], d.gaps_m[3]], [12.0, 11.5, 3.25]);
         assert!(matches!(
             read_frame(&mut r).unwrap(),
             Some(Frame::Msg(WorkerMsg::Failed { .. }))
@@ -725,7 +755,7 @@ mod tests {
         let err = decode_rows(&[2, 0, 0, 0, 1, 0, 0, 0]).unwrap_err();
         assert_eq!(
             err.to_string(),
-            "row chunk of 8 bytes, expected 64 for 1 records of 2 vehicles"
+            "row chunk of 8 bytes, expected 80 for 1 records of 2 vehicles"
         );
         let err = read_frame(&mut [b'X', 0, 0, 0, 0].as_slice()).unwrap_err();
         assert_eq!(err.to_string(), "unknown frame kind 0x58");

@@ -185,6 +185,51 @@ fn loop_json(road: &str, vehicles: usize, horizon_s: f64, gap: &str) -> String {
 
 /// The user's own slow car (`slow.rou.xml` in `dir`): 4 m/s, departing on lane 1 of the
 /// two-lane loop, five laps (the file of `examples/track/slow.rou.xml`).
+/// The last state of an FCD file where `leader` drives on the road's lanes (`road.json`, in
+/// driving order, a closed road): its time, the id of the vehicle directly behind it along the
+/// road, and the bumper gap between them (`leader`'s rear at `length_m` behind its front).
+fn gap_behind(run: &Path, leader: &str, length_m: f64) -> Option<(f64, String, f64)> {
+    let road: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(run.join("road.json")).unwrap()).unwrap();
+    let mut start = std::collections::HashMap::new();
+    let mut total = 0.0;
+    for lane in road["lanes"].as_array().unwrap() {
+        start.insert(lane["id"].as_str().unwrap().to_string(), total);
+        total += lane["length_m"].as_f64().unwrap();
+    }
+    let text = std::fs::read_to_string(run.join("fcd.xml")).unwrap();
+    let attr = |line: &str, key: &str| -> Option<String> {
+        let from = line.find(&format!(" {key}=\""))? + key.len() + 3;
+        let to = line[from..].find('"')? + from;
+        Some(line[from..to].to_string())
+    };
+    let mut found = None;
+    for step in text.split("<timestep").skip(1) {
+        let time: f64 = attr(step, "time")?.parse().ok()?;
+        // Each vehicle on the road's lanes at its front bumper's distance along the road.
+        let along: Vec<(String, f64)> = step
+            .lines()
+            .filter(|l| l.trim_start().starts_with("<vehicle"))
+            .filter_map(|l| {
+                let at = start.get(&attr(l, "lane")?)?;
+                Some((attr(l, "id")?, at + attr(l, "pos")?.parse::<f64>().ok()?))
+            })
+            .collect();
+        let Some(&(_, front)) = along.iter().find(|c| c.0 == leader) else {
+            continue;
+        };
+        let behind = along
+            .iter()
+            .filter(|c| c.0 != leader)
+            .map(|c| (c, (front - c.1).rem_euclid(total)))
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        if let Some((c, d)) = behind {
+            found = Some((time, c.0.clone(), d - length_m));
+        }
+    }
+    found
+}
+
 fn slow_car(dir: &Path) {
     std::fs::write(
         dir.join("slow.rou.xml"),
@@ -424,7 +469,7 @@ mod loops {
         let road = format!(r#"{{"type": "loop", "edges": {:?}, "lane": 0}}"#, CYCLE);
         let json = loop_json(&road, 6, 240.0, "").replace(
             r#""sumo": {"net": "out.net.xml"}"#,
-            r#""sumo": {"net": "out.net.xml", "routes": ["slow.rou.xml"]}"#,
+            r#""sumo": {"net": "out.net.xml", "routes": ["slow.rou.xml"], "fcd": true}"#,
         );
         let sc = scenario(&dir, &json).unwrap();
         let run = run_scenario(&sc, &opts(&dir)).unwrap();
@@ -433,6 +478,27 @@ mod loops {
         assert!(changes >= 1, "the slow car never entered lane 0");
         assert_eq!(fin.totals.collision_steps, 0);
         let t = run.trajectory(&sc);
+        // The recorded gaps are to whoever is directly ahead: behind the car, the gap to the
+        // car, as SUMO's own floating-car data has it (positions to 0.01 m, the car 5 m long),
+        // not the gap across the car to the next of syncroad's vehicles.
+        let (time, follower, fcd_gap) =
+            gap_behind(&opts(&dir).work_dir, "slow", 5.0).expect("the car on the road's lanes");
+        let k = t
+            .time_s
+            .iter()
+            .position(|&x| (x - time).abs() < 1e-6)
+            .expect("that state recorded");
+        let i: usize = follower.trim_start_matches('v').parse().unwrap();
+        let recorded = t.gaps(k)[i];
+        eprintln!(
+            "cut-in: at {time} s {follower} is {recorded} m behind the car (FCD {fcd_gap} m)"
+        );
+        assert!(
+            (recorded - fcd_gap).abs() <= 0.02,
+            "{recorded} vs {fcd_gap}"
+        );
+        let safety = syncroad_control::margins::GapSafety::of(&t, 0.0).expect("gaps");
+        assert!(safety.min_gap_m <= recorded + 1e-9);
         let last = t.speeds(t.len() - 1);
         eprintln!("cut-in: {changes} topology changes, final speeds {last:?}");
         for (i, v) in last.iter().enumerate() {

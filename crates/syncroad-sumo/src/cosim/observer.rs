@@ -142,6 +142,8 @@ impl<'o, 'a, 'py> StepObserver<Observed<'o, 'a, 'py>> for SafetyWatch {
 /// The speed range of the judged vehicles is kept at every step and sent with the rows.
 pub(super) struct Recorder {
     rows: RowChunk,
+    /// Each vehicle's gap to whoever is ahead on the road's lanes (NaN without other traffic).
+    gaps: Vec<f64>,
     ranges: RangeChunk,
     /// The leader vehicle's index offset (1 with a leader vehicle: it is not judged).
     k0: usize,
@@ -156,6 +158,7 @@ impl Recorder {
         let chunk = req.chunk_records.max(1);
         Self {
             rows: RowChunk::new(sim.v.len(), chunk),
+            gaps: vec![f64::NAN; sim.v.len()],
             ranges: RangeChunk::default(),
             k0: usize::from(req.layout.leader_vehicle),
             every: req.record_every.max(1),
@@ -170,7 +173,15 @@ impl Recorder {
         let t = at.time_s();
         self.ranges.push(t, lo, hi);
         if at.steps_done.is_multiple_of(self.every) || at.last() {
-            self.rows.push(t, &sim.v, &sim.q, &sim.cmd);
+            // With other traffic on the road, each vehicle's gap to whoever is ahead of it;
+            // without, NaN: the gaps between syncroad's vehicles follow from the positions.
+            if let Some(topology) = &sim.topology {
+                topology
+                    .borrow_mut()
+                    .gaps_ahead(sim.py, sim.ls, &mut self.gaps)
+                    .map_err(CosimError::from)?;
+            }
+            self.rows.push(t, &sim.v, &sim.q, &sim.cmd, &self.gaps);
             // The clock is read every CLOCK_EVERY records only: a small ring records a step
             // in a few µs, where a clock read every step is a visible share of its cost.
             let n = self.rows.len();

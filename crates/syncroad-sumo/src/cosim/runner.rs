@@ -63,14 +63,14 @@ pub(super) fn run_steps(
     let mut totals = safety.totals;
     totals.negative_commands_clamped = sim.negative_commands_clamped;
     totals.odometer_deviation_max_m = sim.odometer_deviation_max_m;
-    totals.topology_changes = sim.topology.as_ref().map(|t| t.changes);
+    totals.topology_changes = sim.topology.as_ref().map(|t| t.borrow().changes);
     totals.filter = sim.filter_report();
     totals.chosen_later = sim
         .req
         .adopt
         .as_ref()
         .and(sim.topology.as_ref())
-        .map(|t| t.chosen_later);
+        .map(|t| t.borrow().chosen_later);
     let finish = Finish {
         stop,
         steps_done,

@@ -67,7 +67,8 @@ pub(super) struct CoSim<'a, 'py> {
     pub odometer_deviation_max_m: f64,
     /// The law's graph as SUMO sees it, read before each step when other traffic shares the
     /// road.
-    pub topology: Option<Topology<'py>>,
+    /// In a cell: the recorder also reads the road's order, at each recorded state.
+    pub topology: Option<std::cell::RefCell<Topology<'py>>>,
     /// Time the law and the reads of each step too (the benchmark's profile); SUMO's own step
     /// is always timed.
     pub phase_times: bool,
@@ -137,7 +138,7 @@ impl<'a, 'py> CoSim<'a, 'py> {
             negative_commands_clamped: 0,
             odometer_deviation_max_m: 0.0,
             topology: match req.sense_graph {
-                true => Some(Topology::new(ls, req)?),
+                true => Some(std::cell::RefCell::new(Topology::new(ls, req)?)),
                 false => None,
             },
             phase_times: false,
@@ -220,7 +221,7 @@ impl<'a, 'py> CoSim<'a, 'py> {
     ) -> Result<Option<StopReason>, CosimError> {
         let req = self.req;
         let t_law = self.phase_times.then(Instant::now);
-        if let Some(t) = self.topology.as_mut() {
+        if let Some(t) = self.topology.as_mut().map(std::cell::RefCell::get_mut) {
             t.sense(self.py, self.ls)?;
             if let Some(c) = self.controller.as_deref_mut() {
                 c.sense(&t.neighbors);

@@ -181,6 +181,35 @@ impl<'py> Topology<'py> {
         Ok(())
     }
 
+    /// Each of syncroad's vehicles' bumper-to-bumper gap to whoever is directly ahead on the
+    /// road's lanes now (one of ours or another), from SUMO's positions: what the record's
+    /// gaps must be when other traffic shares the road, where the layout's predecessor may not
+    /// be the vehicle ahead. NaN where nobody is ahead or the vehicle is not on the road's
+    /// lanes. Reads the order afresh; the law's next step reads it again before it acts.
+    pub fn gaps_ahead(
+        &mut self,
+        py: Python<'_>,
+        ls: &Libsumo<'_>,
+        gaps: &mut [f64],
+    ) -> Result<(), PythonError> {
+        self.read_order(py)?;
+        for (i, gap) in gaps.iter_mut().enumerate() {
+            *gap = f64::NAN;
+            let Some(k) = self.our_place.get(i).copied().flatten() else {
+                continue;
+            };
+            let Some(p) = self.at(k, true) else {
+                continue;
+            };
+            let mut d = self.front(py, ls, p)? - self.front(py, ls, k)?;
+            if self.ring && d < 0.0 {
+                d += self.length_m;
+            }
+            *gap = d - self.length(py, ls, p)?;
+        }
+        Ok(())
+    }
+
     /// The place ahead of (or behind) place `k` in the road order; a closed road wraps.
     fn at(&self, k: usize, ahead: bool) -> Option<usize> {
         let m = self.order.len();
