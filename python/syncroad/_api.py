@@ -4,10 +4,13 @@ reads back the files and reports it wrote."""
 
 from __future__ import annotations
 
+import contextlib
 import json
+import os
 import tempfile
+import threading
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Dict, Iterable, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import TYPE_CHECKING, Any, Dict, Iterable, Iterator, List, Mapping, Optional, Sequence, Set, Tuple, Union
 
 from syncroad import _syncroad
 from syncroad._errors import Interrupted, RunError, ScenarioError
@@ -92,6 +95,33 @@ def _execute(argv: Sequence[str], out: Optional[Path] = None) -> Tuple[int, Opti
     return code, error, stdout
 
 
+#: Output folders a call of this process is writing or reading back. The CLI's folder lock
+#: excludes other processes while the command runs; this set also covers the moment between
+#: the command's end and the call reading its files, where another thread's call would clear
+#: them.
+_writing_now: Set[str] = set()
+_writing_lock = threading.Lock()
+
+
+@contextlib.contextmanager
+def _writing(folder: Path, name: str = "out") -> Iterator[None]:
+    """Holds ``folder`` for one call: a second call of this process on the same folder (another
+    thread) raises :class:`ScenarioError` naming it, as the CLI refuses a second writer."""
+    key = os.path.realpath(folder)
+    with _writing_lock:
+        if key in _writing_now:
+            raise ScenarioError(
+                f"{name} = {folder}: another call of this process (pid {os.getpid()}) is writing "
+                f"this folder; wait for it to end, or give another {name}"
+            )
+        _writing_now.add(key)
+    try:
+        yield
+    finally:
+        with _writing_lock:
+            _writing_now.discard(key)
+
+
 def _out_dir(out: Optional[PathLike], prefix: str) -> Path:
     return Path(out) if out is not None else Path(tempfile.mkdtemp(prefix=f"syncroad-{prefix}-"))
 
@@ -162,13 +192,16 @@ def run(
         no_plots=not plots,
         progress=progress,
     )
-    code, error, summary = _execute(argv, folder)
-    if code == RUN_FAILED or error is not None:
-        partial = Run(folder, code, summary) if (folder / METRICS_FILE).is_file() else None
-        if error is None and partial is not None:
-            error = partial.metrics.get("error")
-        raise RunError(error or f"the run failed (exit {code}); see {folder}", folder, partial)
-    return Run(folder, code, summary)
+    with _writing(folder):
+        code, error, summary = _execute(argv, folder)
+        if code == RUN_FAILED or error is not None:
+            partial = Run(folder, code, summary) if (folder / METRICS_FILE).is_file() else None
+            if error is None and partial is not None:
+                error = partial.metrics.get("error")
+            raise RunError(error or f"the run failed (exit {code}); see {folder}", folder, partial)
+        done = Run(folder, code, summary)
+        done.metrics  # read while the folder is this call's
+        return done
 
 
 def check(scenario: ScenarioLike) -> Record:
@@ -238,12 +271,13 @@ def compare(
         timeout_s=timeout_s,
         no_plots=not plots,
     )
-    code, error, _ = _execute(argv, folder)
-    doc_path = folder / "compare.json"
-    if not doc_path.is_file():
-        raise RunError(error or f"compare wrote no compare.json (exit {code})", folder)
-    doc = json.loads(doc_path.read_text())
-    folders = _run_folders(folder)
+    with _writing(folder):
+        code, error, _ = _execute(argv, folder)
+        doc_path = folder / "compare.json"
+        if not doc_path.is_file():
+            raise RunError(error or f"compare wrote no compare.json (exit {code})", folder)
+        doc = json.loads(doc_path.read_text())
+        folders = _run_folders(folder)
     rows = []
     for name, record in doc["runs"].items():
         row = pd.json_normalize(record).iloc[0].to_dict()
@@ -277,15 +311,15 @@ def sweep(
 
     _check_numbers(jobs=jobs)
     folder = Path(out)
-    with tempfile.TemporaryDirectory(prefix="syncroad-spec-") as tmp:
+    with _writing(folder), tempfile.TemporaryDirectory(prefix="syncroad-spec-") as tmp:
         path = write_spec(tmp, spec, base_dir) if isinstance(spec, Mapping) else Path(spec)
         argv = ["sweep", str(path), "--out", str(folder)]
         argv += _flags(jobs=jobs, shard=shard, retry_failed=retry_failed, keep_runs=keep_runs, no_plots=not plots)
         code, error, _ = _execute(argv, folder)
-    table = folder / "results.parquet"
-    if not table.is_file():
-        raise RunError(error or f"the sweep wrote no results.parquet (exit {code})", folder)
-    df = pd.read_parquet(table)
+        table = folder / "results.parquet"
+        if not table.is_file():
+            raise RunError(error or f"the sweep wrote no results.parquet (exit {code})", folder)
+        df = pd.read_parquet(table)
     df.attrs["exit_code"] = code
     if error is not None:
         df.attrs["error"] = error

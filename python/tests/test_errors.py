@@ -132,6 +132,47 @@ def test_a_record_that_cannot_be_read_is_a_record_error_and_a_kept_one_opens(tmp
         assert e.value.path == run.out / "metrics.json"
 
 
+def test_a_second_thread_on_the_same_folder_is_refused_and_the_first_keeps_its_run(tmp_path, monkeypatch):
+    # Thread A's call holds the folder from before its command starts until its record is
+    # read; B's call on the same folder in between (here: while A's command is held at its
+    # start) is refused, and A's run is whole. Before, B cleared A's files and A raised
+    # FileNotFoundError reading its own metrics.json.
+    import threading
+
+    from syncroad import _api
+
+    real = _api._execute
+    inside, release = threading.Event(), threading.Event()
+
+    def held(argv, out=None):
+        if threading.current_thread().name == "A":
+            inside.set()
+            assert release.wait(60)
+        return real(argv, out)
+
+    monkeypatch.setattr(_api, "_execute", held)
+    out = tmp_path / "same"
+    result = {}
+
+    def a():
+        try:
+            result["a"] = syncroad.run("scenarios/ring-theorem1.json", out=out, plots=False)
+        except Exception as e:  # reported below
+            result["a"] = e
+
+    t = threading.Thread(target=a, name="A")
+    t.start()
+    assert inside.wait(60)
+    with pytest.raises(syncroad.ScenarioError, match=r"^out = .*same: another call of this process \(pid \d+\) is writing this folder"):
+        syncroad.run("scenarios/ring-theorem1.json", out=out, plots=False)
+    release.set()
+    t.join(60)
+    assert isinstance(result["a"], syncroad.Run), result["a"]
+    assert result["a"].metrics["sync"]["verdict"] == json.loads((out / "metrics.json").read_text())["sync"]["verdict"]
+    # Free again once A is done.
+    assert syncroad.run("scenarios/ring-theorem1.json", out=out, plots=False).out == out
+
+
 def workers_of(pid):
     """Pids of this process's SUMO workers (`python -m syncroad._worker`)."""
     found = []
