@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import numbers
 import os
 import tempfile
 import threading
@@ -62,10 +63,13 @@ def _check_numbers(**options: Any) -> None:
             continue
         integer, lowest, inclusive = _NUMBERS[name]
         kind = "an integer" if integer else "a number"
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or (integer and not isinstance(value, int)):
+        # numbers.Real and Integral: NumPy's scalars too (a value taken from a DataFrame).
+        wanted = numbers.Integral if integer else numbers.Real
+        if isinstance(value, bool) or not isinstance(value, wanted):
             raise ScenarioError(f"{name} = {value!r}: must be {kind} (got {type(value).__name__})")
-        ok = value >= lowest if inclusive else value > lowest
-        if not ok or value != value or value in (float("inf"), float("-inf")):
+        x = float(value)
+        ok = x >= lowest if inclusive else x > lowest
+        if not ok or x != x or x in (float("inf"), float("-inf")):
             bound = f"≥ {lowest:g}" if inclusive else f"> {lowest:g}"
             raise ScenarioError(f"{name} = {value!r}: must be {kind} {bound} (or None for the default)")
 

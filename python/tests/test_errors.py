@@ -111,6 +111,12 @@ def test_wrong_types_and_values_are_scenario_errors_in_python_terms(tmp_path):
             call()
         assert "Usage" not in str(e.value) and "tip:" not in str(e.value)
         assert e.value.exit_code == 2
+    # NumPy's numbers (a value read from a DataFrame) are numbers.
+    import numpy as np
+
+    r = syncroad.run("scenarios/ring-theorem1.json", record_every=np.int64(5), window_s=np.float32(1.0), plots=False)
+    times = sorted(set(r.trajectories.column("time_s").to_pylist()))
+    assert times[1] - times[0] == pytest.approx(5 * syncroad.Scenario.load("scenarios/ring-theorem1.json").data["step_s"])
 
 
 def test_a_record_that_cannot_be_read_is_a_record_error_and_a_kept_one_opens(tmp_path):

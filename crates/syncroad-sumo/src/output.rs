@@ -242,14 +242,16 @@ impl SumoRun {
         for k in 0..rows.len() {
             let q = &rows.positions_m[k * all..(k + 1) * all];
             let v = &rows.speeds_mps[k * all..(k + 1) * all];
-            let sensed = rows.gaps_m.get(k * all..(k + 1) * all);
+            // Other traffic on the road: the gap to whoever is ahead, as SUMO placed them (the
+            // layout's predecessor may be behind someone else).
+            let sensed = rows
+                .gaps_m
+                .get(k * all..(k + 1) * all)
+                .filter(|_| self.request.sense_graph);
             for i in 0..n {
                 let j = k0 + i;
-                // Other traffic on the road: the gap to whoever is ahead, as SUMO placed them
-                // (the layout's predecessor may be behind someone else).
-                let ahead = sensed.map_or(f64::NAN, |g| g[j]);
-                gaps[i] = if sensed.is_some() && self.request.sense_graph {
-                    ahead
+                gaps[i] = if let Some(g) = sensed {
+                    g[j]
                 } else if i > 0 || k0 == 1 {
                     q[j - 1] - q[j] - lengths[j]
                 } else if let Some(c) = ring {

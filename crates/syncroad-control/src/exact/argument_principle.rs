@@ -108,7 +108,7 @@ pub fn count_roots_right_of(
 }
 
 /// `f(s)/|f(s)|` and the logarithmic derivative `g(s) = f'(s)/f(s)` (module documentation),
-/// from one band LU of `M(s)` carrying its derivative ([`super::banded`]).
+/// from one LU of `M(s)` carrying its derivative ([`super::banded`]).
 fn phase_and_log_derivative(
     band: &NetworkMatrix,
     rho: f64,

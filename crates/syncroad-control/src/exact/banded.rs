@@ -84,20 +84,10 @@ impl SparseForm {
             .dense_rows
             .iter()
             .enumerate()
-            .map(|(p, &c)| {
-                let x = weight(p);
-                Dual {
-                    v: x.v * c,
-                    d: x.d * c,
-                }
-            })
+            .map(|(p, &c)| weight(p).scale(c))
             .collect();
         lu.solve_dual(&mut w);
-        let one = Dual {
-            v: Complex64::new(1.0, 0.0),
-            d: Complex64::new(0.0, 0.0),
-        };
-        let f = w.iter().fold(one, |f, x| f.sub(*x));
+        let f = w.iter().fold(Dual::ONE, |f, x| f.sub(*x));
         NetworkLu::Sparse {
             lu,
             rank_one: Some((w, f)),
@@ -144,12 +134,14 @@ impl NetworkMatrix {
             return band;
         }
         let sparse = Self::sparse(l, delays_s, Vec::new());
-        let trial = match sparse.factor(1.0, Complex64::new(1.0, 1.0)) {
-            NetworkLu::Sparse { lu, .. } => lu.operations,
-            NetworkLu::Band(_) => unreachable!("the sparse form factors sparsely"),
-        };
+        // The cost of the sparse form's pivots, found by its factorization at s = 1 + i.
+        let trial = sparse
+            .sparse
+            .as_ref()
+            .and_then(|f| f.symbolic.as_ref())
+            .map_or(usize::MAX, Symbolic::operations);
         let band_operations = band.len() * band.kl * (band.kl + band.ku);
-        if SPARSE_OVERHEAD * trial < band_operations {
+        if trial.saturating_mul(SPARSE_OVERHEAD) < band_operations {
             sparse
         } else {
             band
@@ -197,16 +189,14 @@ impl NetworkMatrix {
         for (p, &v) in perm.iter().enumerate() {
             pos[v] = p;
         }
+        let by_vehicle = rows_of(l);
         let (mut kl, mut ku) = (0, 0);
         let rows: Vec<Vec<(usize, f64)>> = perm
             .iter()
             .enumerate()
             .map(|(p, &i)| {
-                // The diagonal is kept even when zero (a leader observes nobody): `s` sits there.
-                let mut row: Vec<(usize, f64)> = (0..n)
-                    .filter(|&j| j == i || l[(i, j)] != 0.0)
-                    .map(|j| (pos[j], l[(i, j)]))
-                    .collect();
+                let mut row: Vec<(usize, f64)> =
+                    by_vehicle[i].iter().map(|&(j, lv)| (pos[j], lv)).collect();
                 row.sort_by_key(|e| e.0);
                 for &(q, _) in &row {
                     kl = kl.max(p.saturating_sub(q));
@@ -319,28 +309,31 @@ impl NetworkLu {
         }
     }
 
+    /// The pivots of the LU (of its sparse part, for the rank-one form).
+    fn pivots(&self) -> Box<dyn Iterator<Item = Dual> + '_> {
+        match self {
+            NetworkLu::Band(lu) => Box::new(lu.pivots()),
+            NetworkLu::Sparse { lu, .. } => Box::new(lu.pivots()),
+        }
+    }
+
     /// `det M / Π_k shift` normalized to modulus 1 (the phase of `det M(s)/shift^N`), or
     /// `None` if singular or not finite.
     pub(crate) fn phase_over(&self, shift: Complex64) -> Option<Complex64> {
         if !self.is_regular() {
             return None;
         }
-        let (pivots, odd, mut phase): (Box<dyn Iterator<Item = Dual> + '_>, bool, Complex64) =
-            match self {
-                NetworkLu::Band(lu) => (
-                    Box::new(lu.pivots()),
-                    lu.odd_permutation(),
-                    Complex64::new(1.0, 0.0),
-                ),
-                NetworkLu::Sparse { lu, rank_one } => (
-                    Box::new(lu.pivots()),
-                    lu.odd_permutation(),
-                    rank_one
-                        .as_ref()
-                        .map_or(Complex64::new(1.0, 0.0), |(_, f)| f.v / f.v.norm()),
-                ),
-            };
-        for u in pivots {
+        let (odd, mut phase) = match self {
+            NetworkLu::Band(lu) => (lu.odd_permutation(), Complex64::new(1.0, 0.0)),
+            // det(A − u1ᵀ) = det A · f.
+            NetworkLu::Sparse { lu, rank_one } => (
+                lu.odd_permutation(),
+                rank_one
+                    .as_ref()
+                    .map_or(Complex64::new(1.0, 0.0), |(_, f)| f.v / f.v.norm()),
+            ),
+        };
+        for u in self.pivots() {
             let z = u.v / shift;
             let norm = z.norm();
             if !(norm.is_finite() && norm > 0.0) {
@@ -351,20 +344,20 @@ impl NetworkLu {
         Some(if odd { -phase } else { phase })
     }
 
-    /// `d/ds log det M(s) = Σ_k u_kk'/u_kk`, or `None` if singular or not finite.
+    /// `d/ds log det M(s) = Σ_k u_kk'/u_kk` (and `f'/f` for the rank-one form), or `None` if
+    /// singular or not finite.
     pub(crate) fn log_det_derivative(&self) -> Option<Complex64> {
         if !self.is_regular() {
             return None;
         }
-        let g: Complex64 = match self {
-            NetworkLu::Band(lu) => lu.pivots().map(|u| u.d / u.v).sum(),
-            NetworkLu::Sparse { lu, rank_one } => {
-                lu.pivots().map(|u| u.d / u.v).sum::<Complex64>()
-                    + rank_one
-                        .as_ref()
-                        .map_or(Complex64::new(0.0, 0.0), |(_, f)| f.d / f.v)
-            }
+        let correction = match self {
+            NetworkLu::Sparse {
+                rank_one: Some((_, f)),
+                ..
+            } => f.d / f.v,
+            _ => Complex64::new(0.0, 0.0),
         };
+        let g = self.pivots().map(|u| u.d / u.v).sum::<Complex64>() + correction;
         (g.re.is_finite() && g.im.is_finite()).then_some(g)
     }
 
@@ -389,7 +382,8 @@ impl NetworkLu {
     }
 }
 
-/// The rows of `l` by vehicle, as `(column vehicle, entry)`, diagonal included.
+/// The rows of `l` by vehicle, as `(column vehicle, entry)`; the diagonal is kept even when
+/// zero (a leader observes nobody): `s` sits there.
 fn rows_of(l: &DMatrix<f64>) -> Vec<Vec<(usize, f64)>> {
     let n = l.nrows();
     (0..n)

@@ -14,6 +14,21 @@ pub(crate) struct Dual {
 }
 
 impl Dual {
+    /// The constant 1.
+    pub(crate) const ONE: Dual = Dual {
+        v: Complex64::new(1.0, 0.0),
+        d: Complex64::new(0.0, 0.0),
+    };
+
+    /// `c·(v + d·ε)` for a real `c`.
+    #[inline]
+    pub(crate) fn scale(self, c: f64) -> Dual {
+        Dual {
+            v: self.v * c,
+            d: self.d * c,
+        }
+    }
+
     #[inline]
     pub(crate) fn mul(self, o: Dual) -> Dual {
         Dual {

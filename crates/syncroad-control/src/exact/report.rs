@@ -151,12 +151,11 @@ pub fn analyse_network(
     options: &CollocationOptions,
     certify: bool,
 ) -> Result<NetworkStabilityReport, ReportError> {
-    let (roots, certificate) = if certify {
-        certified_roots(adjacency, delays_s, options)?
-    } else {
-        (rightmost_roots(adjacency, delays_s, options)?, None)
-    };
-    critical_after(adjacency, delays_s, options, roots, certificate)
+    if certify {
+        return analyse_network_reporting(adjacency, delays_s, options, &|_| {});
+    }
+    let roots = rightmost_roots(adjacency, delays_s, options)?;
+    critical_after(adjacency, delays_s, options, roots, None)
 }
 
 /// [`analyse_network`] with the certificate, naming each step to `on_step` as it starts.

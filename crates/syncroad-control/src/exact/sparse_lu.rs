@@ -20,6 +20,8 @@
 //! operations", SIAM J. Sci. Stat. Comput. 9 (1988) 862–874; T. A. Davis, *Direct Methods for
 //! Sparse Linear Systems*, SIAM 2006, ch. 6 (`cs_lu`, `cs_reach`, `cs_dfs`).
 
+use std::sync::Arc;
+
 use num_complex::Complex64;
 
 use super::dual::Dual;
@@ -72,49 +74,76 @@ impl ColumnPattern {
     }
 }
 
-/// `PA = LU` of a sparse matrix in dual numbers: `L` unit lower triangular and `U` upper
-/// triangular, both by columns with row indices in pivot order.
+/// The row order of an LU and the patterns of its factors, both by columns with row indices
+/// in pivot order; shared by every LU a [`Symbolic`] makes.
 #[derive(Debug, Clone)]
-pub(crate) struct SparseLu {
+struct Structure {
     n: usize,
+    /// `pinv[i]`: the step at which row `i` became pivotal.
+    pinv: Vec<usize>,
+    /// Whether that row permutation is odd (the determinant changes sign).
+    odd: bool,
+    /// Column `k` of `L` (unit lower triangular), its diagonal entry first.
     l_starts: Vec<usize>,
     l_rows: Vec<usize>,
-    l_vals: Vec<Dual>,
     /// Column `k` of `U`, its diagonal entry last.
     u_starts: Vec<usize>,
     u_rows: Vec<usize>,
+}
+
+impl Structure {
+    /// `true` when the permutation `pinv` is odd.
+    fn odd(pinv: &[usize]) -> bool {
+        let mut seen = vec![false; pinv.len()];
+        let mut transpositions = 0;
+        for start in 0..pinv.len() {
+            let mut i = start;
+            let mut length = 0;
+            while !seen[i] {
+                seen[i] = true;
+                i = pinv[i];
+                length += 1;
+            }
+            transpositions += length.max(1) - 1;
+        }
+        transpositions % 2 == 1
+    }
+}
+
+/// `PA = LU` of a sparse matrix in dual numbers: `L` unit lower triangular and `U` upper
+/// triangular.
+#[derive(Debug, Clone)]
+pub(crate) struct SparseLu {
+    structure: Arc<Structure>,
+    l_vals: Vec<Dual>,
     u_vals: Vec<Dual>,
-    /// `pinv[i]`: the step at which row `i` became pivotal.
-    pinv: Vec<usize>,
     singular: bool,
-    /// Multiply–subtract operations of the factorization (the cost model of the choice
-    /// between band and sparse LU).
-    pub(crate) operations: usize,
 }
 
 impl SparseLu {
     /// Factors the matrix with pattern `pattern` and values `values` (in the pattern's order).
     pub(crate) fn new(pattern: &ColumnPattern, values: &[Dual]) -> Self {
         let n = pattern.len();
-        let mut lu = SparseLu {
+        let room = 4 * pattern.rows.len();
+        let mut st = Structure {
             n,
-            l_starts: Vec::with_capacity(n + 1),
-            l_rows: Vec::with_capacity(4 * pattern.rows.len()),
-            l_vals: Vec::with_capacity(4 * pattern.rows.len()),
-            u_starts: Vec::with_capacity(n + 1),
-            u_rows: Vec::with_capacity(4 * pattern.rows.len()),
-            u_vals: Vec::with_capacity(4 * pattern.rows.len()),
             pinv: vec![NONE; n],
-            singular: false,
-            operations: 0,
+            odd: false,
+            l_starts: Vec::with_capacity(n + 1),
+            l_rows: Vec::with_capacity(room),
+            u_starts: Vec::with_capacity(n + 1),
+            u_rows: Vec::with_capacity(room),
         };
+        let (mut l_vals, mut u_vals): (Vec<Dual>, Vec<Dual>) =
+            (Vec::with_capacity(room), Vec::with_capacity(room));
         let mut x = vec![Dual::default(); n];
         let mut reach = Reach::new(n);
+        let mut singular = false;
         for k in 0..n {
-            lu.l_starts.push(lu.l_rows.len());
-            lu.u_starts.push(lu.u_rows.len());
+            st.l_starts.push(st.l_rows.len());
+            st.u_starts.push(st.u_rows.len());
             let entries = pattern.starts[k]..pattern.starts[k + 1];
-            let top = reach.of_column(&pattern.rows[entries.clone()], &lu);
+            let top = reach.of_column(&pattern.rows[entries.clone()], &st);
             for &i in &reach.out[top..] {
                 x[i] = Dual::default();
             }
@@ -123,7 +152,7 @@ impl SparseLu {
             }
             // x = L \ A(:, k) over the reach, in topological order.
             for &j in &reach.out[top..] {
-                let step = lu.pinv[j];
+                let step = st.pinv[j];
                 if step == NONE {
                     continue;
                 }
@@ -132,57 +161,61 @@ impl SparseLu {
                     continue;
                 }
                 // The unit diagonal of column `step` of L is stored first.
-                for p in lu.l_starts[step] + 1..lu.l_starts[step + 1] {
-                    let i = lu.l_rows[p];
-                    x[i] = x[i].sub(lu.l_vals[p].mul(xj));
+                for p in st.l_starts[step] + 1..st.l_starts[step + 1] {
+                    let i = st.l_rows[p];
+                    x[i] = x[i].sub(l_vals[p].mul(xj));
                 }
-                lu.operations += lu.l_starts[step + 1] - lu.l_starts[step] - 1;
             }
             let mut best = NONE;
             let mut largest = -1.0;
             for &i in &reach.out[top..] {
-                if lu.pinv[i] == NONE {
+                if st.pinv[i] == NONE {
                     let t = x[i].v.norm();
                     if t > largest {
                         largest = t;
                         best = i;
                     }
                 } else {
-                    lu.u_rows.push(lu.pinv[i]);
-                    lu.u_vals.push(x[i]);
+                    st.u_rows.push(st.pinv[i]);
+                    u_vals.push(x[i]);
                 }
             }
             if best == NONE || !(largest > 0.0 && largest.is_finite()) {
-                lu.singular = true;
-                return lu;
+                singular = true;
+                break;
             }
             let diagonal_present = reach.mark[k] == reach.stamp;
-            if diagonal_present && lu.pinv[k] == NONE && x[k].v.norm() >= PIVOT_THRESHOLD * largest
+            if diagonal_present && st.pinv[k] == NONE && x[k].v.norm() >= PIVOT_THRESHOLD * largest
             {
                 best = k;
             }
             let pivot = x[best];
-            lu.u_rows.push(k);
-            lu.u_vals.push(pivot);
-            lu.pinv[best] = k;
-            lu.l_rows.push(best);
-            lu.l_vals.push(Dual {
-                v: Complex64::new(1.0, 0.0),
-                d: Complex64::new(0.0, 0.0),
-            });
+            st.u_rows.push(k);
+            u_vals.push(pivot);
+            st.pinv[best] = k;
+            st.l_rows.push(best);
+            l_vals.push(Dual::ONE);
             for &i in &reach.out[top..] {
-                if lu.pinv[i] == NONE {
-                    lu.l_rows.push(i);
-                    lu.l_vals.push(x[i].div(pivot));
+                if st.pinv[i] == NONE {
+                    st.l_rows.push(i);
+                    l_vals.push(x[i].div(pivot));
                 }
             }
         }
-        lu.l_starts.push(lu.l_rows.len());
-        lu.u_starts.push(lu.u_rows.len());
-        for r in lu.l_rows.iter_mut() {
-            *r = lu.pinv[*r];
+        if !singular {
+            st.l_starts.push(st.l_rows.len());
+            st.u_starts.push(st.u_rows.len());
+            for r in st.l_rows.iter_mut() {
+                *r = st.pinv[*r];
+            }
+            st.odd = Structure::odd(&st.pinv);
         }
-        lu
+        SparseLu {
+            structure: Arc::new(st),
+            l_vals,
+            u_vals,
+            singular,
+        }
     }
 
     /// `false` when no pivot was left (`s` is numerically a root).
@@ -192,24 +225,13 @@ impl SparseLu {
 
     /// The diagonal of `U` in pivot order.
     pub(crate) fn pivots(&self) -> impl Iterator<Item = Dual> + '_ {
-        (0..self.n).map(move |k| self.u_vals[self.u_starts[k + 1] - 1])
+        let st = &self.structure;
+        (0..st.n).map(move |k| self.u_vals[st.u_starts[k + 1] - 1])
     }
 
     /// `true` when the row permutation is odd (the determinant changes sign).
     pub(crate) fn odd_permutation(&self) -> bool {
-        let mut seen = vec![false; self.n];
-        let mut transpositions = 0;
-        for start in 0..self.n {
-            let mut i = start;
-            let mut length = 0;
-            while !seen[i] {
-                seen[i] = true;
-                i = self.pinv[i];
-                length += 1;
-            }
-            transpositions += length.max(1) - 1;
-        }
-        transpositions % 2 == 1
+        self.structure.odd
     }
 
     /// Solves `A x = b` in place in dual arithmetic: `b` holds `(b, b')` and becomes
@@ -218,23 +240,24 @@ impl SparseLu {
         if self.singular {
             return false;
         }
-        let mut y = vec![Dual::default(); self.n];
+        let st = &self.structure;
+        let mut y = vec![Dual::default(); st.n];
         for (i, &bi) in b.iter().enumerate() {
-            y[self.pinv[i]] = bi;
+            y[st.pinv[i]] = bi;
         }
-        for k in 0..self.n {
+        for k in 0..st.n {
             let yk = y[k];
-            for p in self.l_starts[k] + 1..self.l_starts[k + 1] {
-                let i = self.l_rows[p];
+            for p in st.l_starts[k] + 1..st.l_starts[k + 1] {
+                let i = st.l_rows[p];
                 y[i] = y[i].sub(self.l_vals[p].mul(yk));
             }
         }
-        for k in (0..self.n).rev() {
-            let last = self.u_starts[k + 1] - 1;
+        for k in (0..st.n).rev() {
+            let last = st.u_starts[k + 1] - 1;
             y[k] = y[k].div(self.u_vals[last]);
             let yk = y[k];
-            for p in self.u_starts[k]..last {
-                let i = self.u_rows[p];
+            for p in st.u_starts[k]..last {
+                let i = st.u_rows[p];
                 y[i] = y[i].sub(self.u_vals[p].mul(yk));
             }
         }
@@ -247,22 +270,23 @@ impl SparseLu {
         if self.singular {
             return false;
         }
-        let mut y = vec![Complex64::new(0.0, 0.0); self.n];
+        let st = &self.structure;
+        let mut y = vec![Complex64::new(0.0, 0.0); st.n];
         for (i, &bi) in b.iter().enumerate() {
-            y[self.pinv[i]] = bi;
+            y[st.pinv[i]] = bi;
         }
-        for k in 0..self.n {
+        for k in 0..st.n {
             let yk = y[k];
-            for p in self.l_starts[k] + 1..self.l_starts[k + 1] {
-                y[self.l_rows[p]] -= self.l_vals[p].v * yk;
+            for p in st.l_starts[k] + 1..st.l_starts[k + 1] {
+                y[st.l_rows[p]] -= self.l_vals[p].v * yk;
             }
         }
-        for k in (0..self.n).rev() {
-            let last = self.u_starts[k + 1] - 1;
+        for k in (0..st.n).rev() {
+            let last = st.u_starts[k + 1] - 1;
             y[k] /= self.u_vals[last].v;
             let yk = y[k];
-            for p in self.u_starts[k]..last {
-                y[self.u_rows[p]] -= self.u_vals[p].v * yk;
+            for p in st.u_starts[k]..last {
+                y[st.u_rows[p]] -= self.u_vals[p].v * yk;
             }
         }
         b.copy_from_slice(&y);
@@ -273,17 +297,10 @@ impl SparseLu {
 /// The structure of a [`SparseLu`] (its row order and the patterns of `L` and `U`), kept to
 /// factor other matrices of the same pattern without searching it again (`KLU`'s
 /// refactorization): the matrices of a root count differ only in `s`, and the pivots of one
-/// usually serve the next.
+/// usually serve the next. Each column of `U` is kept in increasing row order (a topological
+/// order of `L`), its diagonal last.
 #[derive(Debug, Clone)]
-pub(crate) struct Symbolic {
-    n: usize,
-    pinv: Vec<usize>,
-    l_starts: Vec<usize>,
-    l_rows: Vec<usize>,
-    u_starts: Vec<usize>,
-    /// Column `k` of `U` in increasing row order (a topological order of `L`), the diagonal last.
-    u_rows: Vec<usize>,
-}
+pub(crate) struct Symbolic(Arc<Structure>);
 
 impl Symbolic {
     /// The structure of `lu`; `None` if it is singular (nothing to reuse).
@@ -291,19 +308,13 @@ impl Symbolic {
         if lu.singular {
             return None;
         }
-        let mut u_rows = lu.u_rows.clone();
-        for k in 0..lu.n {
-            let last = lu.u_starts[k + 1] - 1;
-            u_rows[lu.u_starts[k]..last].sort_unstable();
+        let mut st = Structure::clone(&lu.structure);
+        for k in 0..st.n {
+            let last = st.u_starts[k + 1] - 1;
+            let from = st.u_starts[k];
+            st.u_rows[from..last].sort_unstable();
         }
-        Some(Symbolic {
-            n: lu.n,
-            pinv: lu.pinv.clone(),
-            l_starts: lu.l_starts.clone(),
-            l_rows: lu.l_rows.clone(),
-            u_starts: lu.u_starts.clone(),
-            u_rows,
-        })
+        Some(Symbolic(Arc::new(st)))
     }
 
     /// The LU of the matrix with pattern `pattern` (the one this structure came from) and
@@ -311,66 +322,59 @@ impl Symbolic {
     /// acceptable under threshold partial pivoting (smaller than `PIVOT_THRESHOLD` times
     /// another candidate of its column, or zero): then factor afresh with [`SparseLu::new`].
     pub(crate) fn refactor(&self, pattern: &ColumnPattern, values: &[Dual]) -> Option<SparseLu> {
-        let n = self.n;
-        let mut x = vec![Dual::default(); n];
-        let mut l_vals: Vec<Dual> = Vec::with_capacity(self.l_rows.len());
-        let mut u_vals = Vec::with_capacity(self.u_rows.len());
-        let mut operations = 0;
-        for k in 0..n {
+        let st = &self.0;
+        let mut x = vec![Dual::default(); st.n];
+        let mut l_vals: Vec<Dual> = Vec::with_capacity(st.l_rows.len());
+        let mut u_vals = Vec::with_capacity(st.u_rows.len());
+        for k in 0..st.n {
             let (l_col, u_col) = (
-                self.l_starts[k]..self.l_starts[k + 1],
-                self.u_starts[k]..self.u_starts[k + 1],
+                st.l_starts[k]..st.l_starts[k + 1],
+                st.u_starts[k]..st.u_starts[k + 1],
             );
-            for &i in self.u_rows[u_col.clone()]
+            for &i in st.u_rows[u_col.clone()]
                 .iter()
-                .chain(&self.l_rows[l_col.clone()])
+                .chain(&st.l_rows[l_col.clone()])
             {
                 x[i] = Dual::default();
             }
             for p in pattern.starts[k]..pattern.starts[k + 1] {
-                x[self.pinv[pattern.rows[p]]] = values[p];
+                x[st.pinv[pattern.rows[p]]] = values[p];
             }
             let last = u_col.end - 1;
-            for &j in &self.u_rows[u_col.start..last] {
+            for &j in &st.u_rows[u_col.start..last] {
                 let xj = x[j];
-                for q in self.l_starts[j] + 1..self.l_starts[j + 1] {
-                    let i = self.l_rows[q];
+                for q in st.l_starts[j] + 1..st.l_starts[j + 1] {
+                    let i = st.l_rows[q];
                     x[i] = x[i].sub(l_vals[q].mul(xj));
                 }
-                operations += self.l_starts[j + 1] - self.l_starts[j] - 1;
             }
             let pivot = x[k];
-            let largest = self.l_rows[l_col.start + 1..l_col.end]
-                .iter()
-                .map(|&i| x[i].v.norm())
-                .fold(0.0, f64::max);
+            let below = &st.l_rows[l_col.start + 1..l_col.end];
+            let largest = below.iter().map(|&i| x[i].v.norm()).fold(0.0, f64::max);
             let size = pivot.v.norm();
             if !(size > 0.0 && size.is_finite() && size >= PIVOT_THRESHOLD * largest) {
                 return None;
             }
-            u_vals.extend(self.u_rows[u_col].iter().map(|&i| x[i]));
-            l_vals.push(Dual {
-                v: Complex64::new(1.0, 0.0),
-                d: Complex64::new(0.0, 0.0),
-            });
-            l_vals.extend(
-                self.l_rows[l_col.start + 1..l_col.end]
-                    .iter()
-                    .map(|&i| x[i].div(pivot)),
-            );
+            u_vals.extend(st.u_rows[u_col].iter().map(|&i| x[i]));
+            l_vals.push(Dual::ONE);
+            l_vals.extend(below.iter().map(|&i| x[i].div(pivot)));
         }
         Some(SparseLu {
-            n,
-            l_starts: self.l_starts.clone(),
-            l_rows: self.l_rows.clone(),
+            structure: Arc::clone(st),
             l_vals,
-            u_starts: self.u_starts.clone(),
-            u_rows: self.u_rows.clone(),
             u_vals,
-            pinv: self.pinv.clone(),
             singular: false,
-            operations,
         })
+    }
+
+    /// Multiply–subtract operations of one factorization with these pivots (the cost model of
+    /// the choice between band and sparse LU).
+    pub(crate) fn operations(&self) -> usize {
+        let st = &self.0;
+        (0..st.n)
+            .flat_map(|k| &st.u_rows[st.u_starts[k]..st.u_starts[k + 1] - 1])
+            .map(|&j| st.l_starts[j + 1] - st.l_starts[j] - 1)
+            .sum()
     }
 }
 
@@ -395,7 +399,7 @@ impl Reach {
         }
     }
 
-    fn of_column(&mut self, rows: &[usize], lu: &SparseLu) -> usize {
+    fn of_column(&mut self, rows: &[usize], lu: &Structure) -> usize {
         self.stamp += 1;
         let mut top = lu.n;
         for &start in rows {
@@ -408,7 +412,7 @@ impl Reach {
 
     /// Depth-first search from row `start` (non-recursive), pushing finished rows onto
     /// `out[..top]` from the right.
-    fn depth_first(&mut self, start: usize, mut top: usize, lu: &SparseLu) -> usize {
+    fn depth_first(&mut self, start: usize, mut top: usize, lu: &Structure) -> usize {
         let columns = |j: usize| match lu.pinv[j] {
             NONE => 0..0,
             step => lu.l_starts[step] + 1..lu.l_starts[step + 1],

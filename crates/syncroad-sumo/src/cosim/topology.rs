@@ -72,6 +72,9 @@ pub(crate) struct Topology<'py> {
     others: Vec<String>,
     /// Place in `order` of each of ours.
     our_place: Vec<Option<usize>>,
+    /// The order was read at the current state (by [`Topology::gaps_ahead`] after a step):
+    /// the next [`Topology::sense`], at the same state, uses it instead of reading it again.
+    order_current: bool,
     /// What the law gets this step.
     pub neighbors: Neighbors,
     /// Changes of the vehicle ahead counted so far.
@@ -138,6 +141,7 @@ impl<'py> Topology<'py> {
             others: Vec::new(),
             neighbors,
             changes: 0,
+            order_current: false,
             chosen: req.adopt.as_ref().and_then(|s| s.matcher().ok()),
             typed: HashSet::new(),
             chosen_later: 0,
@@ -147,7 +151,9 @@ impl<'py> Topology<'py> {
     /// Reads the road's order from SUMO and fills [`Topology::neighbors`]; counts the changes
     /// of the vehicles ahead.
     pub fn sense(&mut self, py: Python<'_>, ls: &Libsumo<'_>) -> Result<(), PythonError> {
-        self.read_order(py)?;
+        if !std::mem::take(&mut self.order_current) {
+            self.read_order(py)?;
+        }
         if let Some(m) = &self.chosen {
             for id in &self.others {
                 if self.typed.insert(id.clone()) {
@@ -185,7 +191,7 @@ impl<'py> Topology<'py> {
     /// road's lanes now (one of ours or another), from SUMO's positions: what the record's
     /// gaps must be when other traffic shares the road, where the layout's predecessor may not
     /// be the vehicle ahead. NaN where nobody is ahead or the vehicle is not on the road's
-    /// lanes. Reads the order afresh; the law's next step reads it again before it acts.
+    /// lanes. Reads the order of this state, which the law's next [`Topology::sense`] uses.
     pub fn gaps_ahead(
         &mut self,
         py: Python<'_>,
@@ -193,6 +199,19 @@ impl<'py> Topology<'py> {
         gaps: &mut [f64],
     ) -> Result<(), PythonError> {
         self.read_order(py)?;
+        self.order_current = true;
+        // Each place's front bumper, asked of SUMO once (most are both a follower and ahead).
+        let mut fronts: Vec<Option<f64>> = vec![None; self.order.len()];
+        let mut front = |this: &Self, p: usize| -> Result<f64, PythonError> {
+            match fronts[p] {
+                Some(x) => Ok(x),
+                None => {
+                    let x = this.front(py, ls, p)?;
+                    fronts[p] = Some(x);
+                    Ok(x)
+                }
+            }
+        };
         for (i, gap) in gaps.iter_mut().enumerate() {
             *gap = f64::NAN;
             let Some(k) = self.our_place.get(i).copied().flatten() else {
@@ -201,7 +220,7 @@ impl<'py> Topology<'py> {
             let Some(p) = self.at(k, true) else {
                 continue;
             };
-            let mut d = self.front(py, ls, p)? - self.front(py, ls, k)?;
+            let mut d = front(self, p)? - front(self, k)?;
             if self.ring && d < 0.0 {
                 d += self.length_m;
             }

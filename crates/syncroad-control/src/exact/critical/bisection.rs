@@ -32,12 +32,6 @@ fn abscissa_at(
     }
 }
 
-/// The root near `s0` with gains scaled by `scale`: Newton on `det M(s)` from its LU
-/// ([`newton_track`]) to 1e-15, None when it does not converge.
-fn track_root(l: &DMatrix<f64>, delays_s: &[f64], scale: f64, s0: Complex64) -> Option<Complex64> {
-    newton_track(&NetworkMatrix::new(l, delays_s), scale, s0, 1)
-}
-
 /// A stable scale `lo` and an unstable scale `hi` with the full solves at both.
 struct Bracket {
     lo: f64,
@@ -113,8 +107,11 @@ impl Bracket {
 /// Secant on the real part of the dominant root, tracked by Newton inside the bracket: the
 /// crossing `(c*, s*)` when it converges there.
 fn secant(l: &DMatrix<f64>, delays_s: &[f64], b: &Bracket) -> Option<(f64, Complex64)> {
+    // The root near `s0` with gains scaled by `c`: Newton on `det M(s)` from its LU.
+    let network = NetworkMatrix::new(l, delays_s);
+    let track_root = |c: f64, s0: Complex64| newton_track(&network, c, s0, 1);
     let s_hi: Complex64 = b.hi_report.roots[0].root.into();
-    let s_lo = track_root(l, delays_s, b.lo, s_hi)?;
+    let s_lo = track_root(b.lo, s_hi)?;
     let (mut c0, mut g0) = (b.lo, s_lo.re);
     let (mut c1, mut g1, mut z1) = (b.hi, s_hi.re, s_hi);
     for _ in 0..60 {
@@ -125,7 +122,7 @@ fn secant(l: &DMatrix<f64>, delays_s: &[f64], b: &Bracket) -> Option<(f64, Compl
         if !(b.lo..=b.hi).contains(&c2) {
             return None;
         }
-        let z2 = track_root(l, delays_s, c2, z1)?;
+        let z2 = track_root(c2, z1)?;
         (c0, g0) = (c1, g1);
         (c1, g1, z1) = (c2, z2.re, z2);
         if (c1 - c0).abs() <= 1e-14 * c1 || g1.abs() <= 1e-15 * z1.norm() {

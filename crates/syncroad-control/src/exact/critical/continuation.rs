@@ -213,12 +213,7 @@ pub(super) fn continuation(
         };
         // The roots are corrected in parallel, each on its own (the order of the results is
         // kept, so the outcome does not depend on the threads).
-        let corrected = (0..cur.len())
-            .into_par_iter()
-            .map(step)
-            .collect::<Vec<_>>()
-            .into_iter()
-            .collect::<Option<Vec<_>>>();
+        let corrected: Option<Vec<_>> = (0..cur.len()).into_par_iter().map(step).collect();
         let Some(mut next) = corrected else {
             dlog /= 2.0;
             if dlog < 1e-9 {
