@@ -8,7 +8,11 @@ changes fall on both alike), with a timeout per run. Prints a Markdown table: wa
 exact verdict and whether the critical scale was certified.
 
     python3 scripts/stability-families.py OUT [--sizes 50,200,400] [--timeout 120] \\
+        [--families random,ring] [--draws 1] \\
         [--bin before=/path/to/old/syncroad] [--bin after=target/release/syncroad]
+
+`--draws K` draws each family K times (other gains, delays and arcs; the first draw is the
+file of the plain table), so that one lucky graph does not stand for its family.
 """
 import argparse
 import json
@@ -29,8 +33,8 @@ TITLES = {
 }
 
 
-def scenario(kind, n):
-    rng = random.Random(1000 + n + 7 * FAMILIES.index(kind))
+def scenario(kind, n, draw=0):
+    rng = random.Random(1000 + n + 7 * FAMILIES.index(kind) + 100_003 * draw)
     delays = [round(0.2 + 0.6 * rng.random(), 2) for _ in range(n)]
     model = {"type": "delayed_driver", "delay_s": delays}
     if kind == "ring":
@@ -72,7 +76,8 @@ def scenario(kind, n):
         model["graph"] = {"type": "edges", "edges": [
             {"from": f, "to": t, "weight": w} for (f, t), w in sorted(arcs.items())]}
     road = {"type": "straight"} if kind == "chain" else {"type": "ring", "length_m": 20.0 * n}
-    return {"name": f"{kind}{n}", "seed": 1, "step_s": 0.01, "horizon_s": 10, "vehicles": n,
+    name = f"{kind}{n}" + (f"-{draw}" if draw else "")
+    return {"name": name, "seed": 1, "step_s": 0.01, "horizon_s": 10, "vehicles": n,
             "road": road, "model": model}
 
 
@@ -98,25 +103,34 @@ def main():
     ap.add_argument("out", type=pathlib.Path)
     ap.add_argument("--sizes", default="50,200,400")
     ap.add_argument("--timeout", type=float, default=120.0)
+    ap.add_argument("--families", default=",".join(FAMILIES))
+    ap.add_argument("--draws", type=int, default=1)
     ap.add_argument("--bin", action="append", default=[], metavar="NAME=PATH")
     args = ap.parse_args()
+    families = args.families.split(",")
+    unknown = [f for f in families if f not in FAMILIES]
+    if unknown or args.draws < 1:
+        ap.error(f"--families {unknown} not among {FAMILIES}" if unknown
+                 else f"--draws {args.draws}: at least 1")
     args.out.mkdir(parents=True, exist_ok=True)
     sizes = [int(s) for s in args.sizes.split(",")]
     bins = [b.split("=", 1) for b in args.bin]
     rows = []
-    for kind in FAMILIES:
+    for kind in families:
         for n in sizes:
-            path = args.out / f"{kind}{n}.json"
-            text = json.dumps(scenario(kind, n))
-            if not path.exists() or path.read_text() != text:
-                path.write_text(text)
-            rows.append((kind, n, path))
+            for draw in range(args.draws):
+                sc = scenario(kind, n, draw)
+                path = args.out / f"{sc['name']}.json"
+                text = json.dumps(sc)
+                if not path.exists() or path.read_text() != text:
+                    path.write_text(text)
+                rows.append((kind, n, draw, path))
     if not bins:
         print(f"wrote {len(rows)} scenarios into {args.out}")
         return
     print("| family | N | " + " | ".join(name for name, _ in bins) + " | verdict |")
     print("|---|---:|" + "---:|" * len(bins) + "---|")
-    for kind, n, path in rows:
+    for kind, n, draw, path in rows:
         cells, verdicts = [], []
         for name, binary in bins:
             wall, v = run(binary, path, args.timeout)
@@ -126,7 +140,8 @@ def main():
         distinct = {v for _, v in verdicts}
         verdict = (distinct.pop() if len(distinct) == 1
                    else "; ".join(f"{name}: {v}" for name, v in verdicts))
-        print(f"| {TITLES[kind]} | {n} | " + " | ".join(cells) + f" | {verdict} |", flush=True)
+        title = TITLES[kind] + (f", draw {draw}" if draw else "")
+        print(f"| {title} | {n} | " + " | ".join(cells) + f" | {verdict} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -36,6 +36,22 @@ impl Dual {
             d: self.v * o.d + self.d * o.v,
         }
     }
+    /// `self − a·b`, the update of an elimination, written out so that it compiles to one
+    /// run of multiply–adds.
+    #[inline]
+    pub(crate) fn sub_mul(self, a: Dual, b: Dual) -> Dual {
+        let (av, ad, bv, bd) = (a.v, a.d, b.v, b.d);
+        Dual {
+            v: Complex64::new(
+                self.v.re - (av.re * bv.re - av.im * bv.im),
+                self.v.im - (av.re * bv.im + av.im * bv.re),
+            ),
+            d: Complex64::new(
+                self.d.re - (av.re * bd.re - av.im * bd.im + ad.re * bv.re - ad.im * bv.im),
+                self.d.im - (av.re * bd.im + av.im * bd.re + ad.re * bv.im + ad.im * bv.re),
+            ),
+        }
+    }
     #[inline]
     pub(crate) fn div(self, o: Dual) -> Dual {
         let v = self.v / o.v;

@@ -31,6 +31,9 @@ use super::dual::Dual;
 /// order more often).
 const PIVOT_THRESHOLD: f64 = 0.1;
 
+/// Its square, for tests on squared moduli.
+const PIVOT_THRESHOLD_SQ: f64 = PIVOT_THRESHOLD * PIVOT_THRESHOLD;
+
 /// Marks a row that is not yet pivotal.
 const NONE: usize = usize::MAX;
 
@@ -170,7 +173,7 @@ impl SparseLu {
             let mut largest = -1.0;
             for &i in &reach.out[top..] {
                 if st.pinv[i] == NONE {
-                    let t = x[i].v.norm();
+                    let t = x[i].v.norm_sqr();
                     if t > largest {
                         largest = t;
                         best = i;
@@ -185,7 +188,9 @@ impl SparseLu {
                 break;
             }
             let diagonal_present = reach.mark[k] == reach.stamp;
-            if diagonal_present && st.pinv[k] == NONE && x[k].v.norm() >= PIVOT_THRESHOLD * largest
+            if diagonal_present
+                && st.pinv[k] == NONE
+                && x[k].v.norm_sqr() >= PIVOT_THRESHOLD_SQ * largest
             {
                 best = k;
             }
@@ -343,16 +348,17 @@ impl Symbolic {
             let last = u_col.end - 1;
             for &j in &st.u_rows[u_col.start..last] {
                 let xj = x[j];
-                for q in st.l_starts[j] + 1..st.l_starts[j + 1] {
-                    let i = st.l_rows[q];
-                    x[i] = x[i].sub(l_vals[q].mul(xj));
+                let below = st.l_starts[j] + 1..st.l_starts[j + 1];
+                for (&i, lv) in st.l_rows[below.clone()].iter().zip(&l_vals[below]) {
+                    x[i] = x[i].sub_mul(*lv, xj);
                 }
             }
             let pivot = x[k];
             let below = &st.l_rows[l_col.start + 1..l_col.end];
-            let largest = below.iter().map(|&i| x[i].v.norm()).fold(0.0, f64::max);
-            let size = pivot.v.norm();
-            if !(size > 0.0 && size.is_finite() && size >= PIVOT_THRESHOLD * largest) {
+            // Squared moduli: the same test without a square root per entry.
+            let largest = below.iter().map(|&i| x[i].v.norm_sqr()).fold(0.0, f64::max);
+            let size = pivot.v.norm_sqr();
+            if !(size > 0.0 && size.is_finite() && size >= PIVOT_THRESHOLD_SQ * largest) {
                 return None;
             }
             u_vals.extend(st.u_rows[u_col].iter().map(|&i| x[i]));

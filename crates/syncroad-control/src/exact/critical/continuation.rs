@@ -179,6 +179,12 @@ fn first_crossing(
 /// Continuation steps (accepted or halved) before the search gives up.
 const CONTINUATION_STEPS: usize = 100;
 
+/// Accepted steps in a row in which every tracked root moved away from the axis before a
+/// search towards instability gives up: such roots are slow modes that cross late or never
+/// (on long rings and random digraphs a fast mode crosses first), and the root counts of the
+/// caller's fallback find the crossing for less than following them further.
+const RECEDING_STEPS: usize = 3;
+
 /// Follows the tracked roots in `c` from 1 until one crosses the axis (module documentation).
 pub(super) fn continuation(
     l: &DMatrix<f64>,
@@ -196,6 +202,7 @@ pub(super) fn continuation(
     let mut cur: Vec<Complex64> = tracked.iter().map(|t| t.0).collect();
     let mut prev: Option<(f64, Vec<Complex64>)> = None;
     let mut dlog = 0.05f64;
+    let mut receding = 0;
     // A budget of steps: tracked roots that wander without crossing (on long random digraphs
     // the first root to cross need not be among them) cost more to follow than the root
     // counts that bracket the crossing instead (the caller's fallback).
@@ -235,6 +242,14 @@ pub(super) fn continuation(
         };
         if event {
             return first_crossing(&band, (c, c_next), &cur, &next, &mult);
+        }
+        if increasing && next.iter().zip(&cur).all(|(n, c)| n.re < c.re) {
+            receding += 1;
+            if receding >= RECEDING_STEPS {
+                return None;
+            }
+        } else {
+            receding = 0;
         }
         prev = Some((c, std::mem::replace(&mut cur, next)));
         c = c_next;
@@ -366,7 +381,7 @@ fn solve_crossing(
     Some((c_star, s_star, [lo.0, hi.0], [lo.1.re, hi.1.re]))
 }
 
-/// Argument-principle counts at `c*` on the lines `Re s = ∓δ`.
+/// Argument-principle counts at `c*` either side of the axis ([`certify_at`]).
 pub(super) fn certify_crossing(
     l: &DMatrix<f64>,
     delays_s: &[f64],
@@ -375,11 +390,20 @@ pub(super) fn certify_crossing(
     certify_at(l, delays_s, x.scale, (x.root, x.multiplicity), &x.others)
 }
 
-/// Root counts at gain scale `c_star` on the lines `Re s = ∓δ`: right of `+δ` nothing but
-/// consensus, right of `−δ` consensus and the crossing root `(s, m)` with its conjugate. `δ`
-/// is a quarter of the distance from the axis to the nearest other known root `others`; when
-/// the strip holds more roots than expected and none lies right of it, the lines move 8×
-/// closer to the axis (twice) before the certificate is refused.
+/// The line just right of the imaginary axis that the counts look right of, for gains `lc`:
+/// `ε = 10⁻⁹ (1 + max_i d_i^+)`, far above the error of a root solved onto the axis (`10⁻¹⁵`
+/// relative) and far below any distance the walks cannot resolve.
+pub(super) fn axis_line(lc: &DMatrix<f64>) -> f64 {
+    1e-9 * (1.0 + lc.diagonal().max())
+}
+
+/// Root counts at gain scale `c_star`: right of the line `Re s = +ε` ([`axis_line`]) nothing
+/// but consensus — no root has crossed yet — and right of `Re s = −δ` consensus and the
+/// crossing root `(s, m)` with its conjugate. `δ` is a quarter of the distance from the axis
+/// to the nearest other known root `others`; when the strip holds more roots than expected,
+/// the left line moves 8× closer to the axis (twice) before the certificate is refused.
+/// (The right line once sat at `+δ` as well, which let a pair that had crossed by less than
+/// `δ` pass for the one on the axis.)
 pub(super) fn certify_at(
     l: &DMatrix<f64>,
     delays_s: &[f64],
@@ -398,11 +422,10 @@ pub(super) fn certify_at(
     let lc = l * c_star;
     let real = root.im.abs() <= 1e-12 * scale;
     let expected_left = 1 + multiplicity * if real { 1 } else { 2 };
+    let right = count_with_laplacian(&lc, delays_s, axis_line(&lc)).ok()?;
     let mut last = None;
     for _ in 0..3 {
-        let counts = count_with_laplacian(&lc, delays_s, -margin)
-            .and_then(|left| Ok((left, count_with_laplacian(&lc, delays_s, margin)?)));
-        if let Ok((left, right)) = counts {
+        if let Ok(left) = count_with_laplacian(&lc, delays_s, -margin) {
             let certificate = CrossingCertificate {
                 margin,
                 left,
@@ -422,10 +445,12 @@ pub(super) fn certify_at(
 
 #[cfg(test)]
 mod tests {
+    use super::super::super::collocation::laplacian;
     use super::super::super::collocation::tests::{random_network, Lcg};
     use super::super::super::collocation::CollocationOptions;
     use super::super::super::ring_modes::UniformRing;
     use super::super::{bisection_search, critical_scale, CriticalMethod};
+    use super::*;
     use approx::assert_relative_eq;
     use nalgebra::DMatrix;
     use std::f64::consts::PI;
@@ -463,6 +488,52 @@ mod tests {
                 max_relative = 1e-6
             );
         }
+    }
+
+    /// Every root of the uniform one-way ring (modes 1 … n−1, Lambert-W branches |b| ≤ 3) in
+    /// decreasing real part: the closed form.
+    fn ring_roots(ring: &UniformRing, n: usize) -> Vec<Complex64> {
+        let mut roots: Vec<Complex64> = (1..n)
+            .flat_map(|k| (-3i64..=3).map(move |b| (k, b)))
+            .map(|(k, b)| ring.mode_root(k, b).unwrap())
+            .collect();
+        roots.sort_by(|a, b| b.re.total_cmp(&a.re));
+        roots
+    }
+
+    #[test]
+    fn a_pair_that_crossed_by_less_than_the_margin_is_not_certified() {
+        // Oracle: the one-way ring's closed form. Just above c* the crossing pair lies right of
+        // the axis by far less than the margin δ (a quarter of the way to the next root); a
+        // count right of +δ took it for the pair on the axis and certified the wrong scale.
+        let (n, alpha) = (6, 0.5);
+        let ring = UniformRing::new(n, 1.0, 0.0, alpha).unwrap();
+        let exact = ring.modes().unwrap().critical_gain_scale;
+        let l = laplacian(&ring.adjacency());
+        let at = |c: f64| {
+            let roots = ring_roots(&UniformRing::new(n, c, 0.0, alpha).unwrap(), n);
+            let top = roots.iter().copied().find(|s| s.im > 0.0).unwrap();
+            let others: Vec<Complex64> = roots
+                .into_iter()
+                .filter(|s| (s - top).norm() > 1e-9 && (s - top.conj()).norm() > 1e-9)
+                .collect();
+            (top, others)
+        };
+        let above = exact * (1.0 + 1e-4);
+        let (top, others) = at(above);
+        assert!(
+            top.re > 0.0 && top.re < 1e-3 && -others[0].re > 0.1,
+            "{top} {}",
+            others[0]
+        );
+        let c = certify_at(&l, &ring.delays(), above, (top, 1), &others).unwrap();
+        assert_eq!(c.right.non_consensus(), 2);
+        assert!(!c.certified);
+        // At c* itself the same counts certify it.
+        let (top, others) = at(exact);
+        assert!(top.re.abs() < 1e-12);
+        let c = certify_at(&l, &ring.delays(), exact, (top, 1), &others).unwrap();
+        assert!(c.certified, "{c:?}");
     }
 
     #[test]

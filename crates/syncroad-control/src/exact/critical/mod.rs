@@ -28,18 +28,20 @@
 //! two complex ones mean the corrector jumped to a neighbour of a cluster (rings with uniform
 //! gains and mixed delays have such clusters near the crossing), and the step is retried
 //! shorter. The answer is then **certified once**, at `c*`, by two argument-principle counts
-//! ([`super::argument_principle`]) on the lines `Re s = ∓δ` (`δ` a quarter of the distance to
-//! the next tracked root, moved 8× closer to the axis up to twice when the strip holds more
-//! roots than expected): left of the axis exactly consensus plus the crossing root(s) with
-//! their multiplicity, right of it nothing. On long rings the rightmost roots at `c = 1` are
-//! slow modes that cross late or never, while a fast mode crosses first: then the certificate
-//! counts roots right of the axis at the tracked crossing, or the continuation gives up. The
-//! first scale with a root right of the axis is then bracketed to 2 % by argument-principle
-//! counts alone (no solve), one shift-invert solve there gives the roots that crossed, and
-//! they are followed back down to `c*`. If that fails too, the search falls back to bisection
-//! with full solves down to `1e-10` relative (the method of the first version, about 15 full
-//! solves), whose answer gets the same certificate. A critical scale whose counts do not
-//! confirm it is reported with `certified: false`, and the command line prints UNCERTIFIED.
+//! ([`super::argument_principle`]): right of `Re s = −δ` (`δ` a quarter of the distance to the
+//! next tracked root, moved 8× closer to the axis up to twice when the strip holds more roots
+//! than expected) exactly consensus plus the crossing root(s) with their multiplicity, right
+//! of `Re s = +ε` (`ε = 10⁻⁹(1 + max_i d_i^+)`, just right of the axis) nothing else. On long
+//! rings the rightmost roots at `c = 1` are slow modes that cross late or never, while a fast
+//! mode crosses first: then the certificate counts roots right of the axis at the tracked
+//! crossing, or the tracked roots recede (the continuation gives up after three steps in which
+//! every one of them moved left). The first scale with a root right of the axis is then
+//! bracketed by argument-principle counts alone (no solve) until only a few roots have crossed
+//! at its top, one shift-invert solve there gives them, and they are followed back down to
+//! `c*`. If that fails too, the search falls back to bisection with full solves down to
+//! `1e-10` relative (the method of the first version, about 15 full solves), whose answer gets
+//! the same certificate. A critical scale whose counts do not confirm it is reported with
+//! `certified: false`, and the command line prints UNCERTIFIED.
 //!
 //! Behind a leader (an undelayed vertex no arc enters, as [`super::analysis`] appends it) the
 //! reference is Theorem `thm.1+`, `α_j (d_j^+ + 2 b_j) < 1/2`, cycles or not; otherwise
@@ -66,7 +68,7 @@ mod bisection;
 mod continuation;
 
 pub(crate) use bisection::bisection_search;
-use continuation::{certify_at, certify_crossing, continuation, counted_crossing};
+use continuation::{axis_line, certify_at, certify_crossing, continuation, counted_crossing};
 
 /// Failure of the critical-scale search.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -209,11 +211,12 @@ pub enum CriticalMethod {
 /// Root counts at the critical scale on both sides of the imaginary axis.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct CrossingCertificate {
-    /// Distance `δ` of the counting lines from the axis [1/s].
+    /// Distance `δ` of the left counting line from the axis [1/s].
     pub margin: f64,
     /// Count right of `−δ` (consensus and the crossing roots expected).
     pub left: RootCount,
-    /// Count right of `+δ` (nothing expected).
+    /// Count right of `+ε`, just right of the axis (`ε = 10⁻⁹(1 + max_i d_i^+)` at `c*`;
+    /// nothing but consensus expected).
     pub right: RootCount,
     /// Expected `left.count`: consensus plus the crossing roots with multiplicity.
     pub expected_left: usize,
@@ -290,14 +293,14 @@ pub fn critical_scale_from(
     // be among the rightmost at c = 1: then either the tracked roots cross later (the count
     // right of the axis at their crossing is positive) or they never do (the continuation
     // gives up). Either way the scale at which some root first reaches the right half-plane
-    // is bracketed by root counts, which cost no solve, to 2 %; one solve there gives the
-    // roots that crossed, and they are followed back down to c*.
+    // is bracketed by root counts, which cost no solve, until a few roots have crossed at its
+    // top; one solve there gives them, and they are followed back down to c*.
     let mut start = 1.0f64;
     let mut start_roots = roots.clone();
     let mut full_solves = 1;
     let mut found = None;
     let mut bracketed = false;
-    // The 2 % bracket of the first crossing from root counts, with the roots at its top.
+    // The bracket of the first crossing from root counts, with the roots at its top.
     let mut bracket: Option<(f64, f64)> = None;
     let mut bracket_roots: Option<RootsReport> = None;
     for _ in 0..4 {
@@ -318,9 +321,10 @@ pub fn critical_scale_from(
             Some((x, Some(c))) if c.right.non_consensus() > 0 && !increasing => x.scale,
             Some((x, Some(c))) if c.right.non_consensus() > 0 && !bracketed => {
                 bracketed = true;
-                bracket = first_unstable_scale(&l, delays_s, start, Some(x.scale));
+                let known = (x.scale, c.right.non_consensus());
+                bracket = first_unstable_scale(&l, delays_s, start, Some(known));
                 match bracket {
-                    Some((_, c)) => c,
+                    Some((_, hi)) => hi,
                     None => break,
                 }
             }
@@ -328,7 +332,7 @@ pub fn critical_scale_from(
                 bracketed = true;
                 bracket = first_unstable_scale(&l, delays_s, start, None);
                 match bracket {
-                    Some((_, c)) => c,
+                    Some((_, hi)) => hi,
                     None => break,
                 }
             }
@@ -372,7 +376,7 @@ fn counted_bracket(
     full_solves: usize,
 ) -> Option<CriticalReport> {
     let roots = tracked_roots(r);
-    let unstable = |c: f64| unstable_at(l, delays_s, c);
+    let unstable = |c: f64| unstable_at(l, delays_s, c).map(|k| k > 0);
     let x = counted_crossing(l, delays_s, b, &roots, unstable)?;
     let c = certify_crossing(l, delays_s, &x).filter(|c| c.certified)?;
     let crossing = found_crossing(x, full_solves, CriticalMethod::CountedBracket, c);
@@ -466,9 +470,10 @@ impl CriticalReport {
     }
 }
 
-/// Rightmost roots with all gains scaled by `c`: shift-invert first, the dense collocation if
-/// that fails, up to [`DENSE_SOLVE_LIMIT`] vehicles (the crossing certificate checks the outcome
-/// either way).
+/// Rightmost roots with all gains scaled by `c` (at least 8, the roots that crossed at the
+/// top of a counted bracket among them when there are few): shift-invert first, the dense
+/// collocation if that fails, up to [`DENSE_SOLVE_LIMIT`] vehicles (the crossing certificate
+/// checks the outcome either way).
 fn roots_at(
     adjacency: &DMatrix<f64>,
     delays_s: &[f64],
@@ -487,52 +492,61 @@ fn roots_at(
     }
 }
 
-/// Whether some root other than consensus lies right of the imaginary axis at gain scale `c`:
-/// the argument-principle count right of the line `Re s = δ`, `δ = 10⁻⁹(1 + max_i d_i^+)`,
-/// close enough to the axis for a bracket of the crossing (the continuation refines it).
-fn unstable_at(l: &DMatrix<f64>, delays_s: &[f64], c: f64) -> Option<bool> {
+/// The roots other than consensus right of the imaginary axis at gain scale `c`: the
+/// argument-principle count right of the line `Re s = δ`, `δ = 10⁻⁹(1 + max_i d_i^+)`, close
+/// enough to the axis for a bracket of the crossing (the continuation refines it).
+fn unstable_at(l: &DMatrix<f64>, delays_s: &[f64], c: f64) -> Option<usize> {
     let lc = l * c;
-    let delta = 1e-9 * (1.0 + lc.diagonal().max());
+    let delta = axis_line(&lc);
     count_with_laplacian(&lc, delays_s, delta)
         .ok()
-        .map(|r| r.count > 0)
+        .map(|r| r.count)
 }
 
-/// A bracket `(lo, hi)`, `hi/lo ≤ 1.02`, of the first gain scale at which a root reaches the
-/// right half-plane, from a stable `lo`: by counting roots ([`unstable_at`]) while multiplying the scale by 1.5
-/// (from `hi` down when given, else from `lo` up), then bisecting in `log c`. A given `hi` must
-/// be unstable (the caller counted roots right of the axis there).
+/// The counts grow the scale by this factor from a stable one until a root has crossed.
+const BRACKET_GROWTH: f64 = 1.5;
+
+/// A bracket from root counts is narrowed until at most this many roots have crossed at its
+/// top: following a root down from there costs a fraction of a count, so a few are followed
+/// rather than counted away (tens of roots cross within 25 % of the scale on random digraphs).
+const FEW_CROSSED: usize = 6;
+
+/// The counts stop narrowing a bracket at this ratio of its ends, however many crossed.
+const NARROWEST: f64 = 1.02;
+
+/// A bracket of the first gain scale at which a root reaches the right half-plane, from a
+/// stable `lo`, with at most [`FEW_CROSSED`] roots right of the axis at its top (or
+/// `hi/lo ≤` [`NARROWEST`]): by counting roots ([`unstable_at`]) while growing the scale by
+/// [`BRACKET_GROWTH`] (unless `hi` is given, with the roots right of the axis there), then
+/// bisecting in `log c`.
 fn first_unstable_scale(
     l: &DMatrix<f64>,
     delays_s: &[f64],
     lo: f64,
-    hi: Option<f64>,
+    hi: Option<(f64, usize)>,
 ) -> Option<(f64, f64)> {
     let mut lo = lo;
-    let mut hi = match hi {
+    let (mut hi, mut crossed) = match hi {
         Some(h) => h,
         None => {
             let mut c = lo;
             loop {
-                c *= 1.5;
+                c *= BRACKET_GROWTH;
                 if c > lo * 1e12 {
                     return None;
                 }
-                if unstable_at(l, delays_s, c)? {
-                    break c;
+                match unstable_at(l, delays_s, c)? {
+                    0 => lo = c,
+                    k => break (c, k),
                 }
-                lo = c;
             }
         }
     };
-    // `hi` is unstable: counted above, or by the caller's crossing certificate (roots right of
-    // a line right of the axis).
-    while hi / lo > 1.02 {
+    while crossed > FEW_CROSSED && hi / lo > NARROWEST {
         let mid = (lo * hi).sqrt();
-        if unstable_at(l, delays_s, mid)? {
-            hi = mid;
-        } else {
-            lo = mid;
+        match unstable_at(l, delays_s, mid)? {
+            0 => lo = mid,
+            k => (hi, crossed) = (mid, k),
         }
     }
     Some((lo, hi))
@@ -754,15 +768,18 @@ mod tests {
         let exact = ring.modes().unwrap().critical_gain_scale;
         let (a, d) = (ring.adjacency(), ring.delays());
         let l = laplacian(&a);
-        let b = first_unstable_scale(&l, &d, 1.0, None).unwrap();
-        assert!(b.0 < exact && exact <= b.1 && b.1 / b.0 <= 1.02 + 1e-12);
-        let roots = roots_at(&a, &d, b.1, &CollocationOptions::default()).unwrap();
+        let (lo, hi) = first_unstable_scale(&l, &d, 1.0, None).unwrap();
+        assert!(lo < exact && exact <= hi && hi / lo <= BRACKET_GROWTH + 1e-12);
+        let crossed = unstable_at(&l, &d, hi).unwrap();
+        assert!(crossed > 0 && (crossed <= FEW_CROSSED || hi / lo <= NARROWEST));
+        let roots = roots_at(&a, &d, hi, &CollocationOptions::default()).unwrap();
         let tracked: Vec<(Complex64, usize)> = roots
             .roots
             .iter()
             .map(|r| (Complex64::from(r.root), r.multiplicity))
             .collect();
-        let x = counted_crossing(&l, &d, b, &tracked, |c| unstable_at(&l, &d, c)).unwrap();
+        let unstable = |c| unstable_at(&l, &d, c).map(|k| k > 0);
+        let x = counted_crossing(&l, &d, (lo, hi), &tracked, unstable).unwrap();
         assert_relative_eq!(x.scale, exact, max_relative = 1e-10);
         assert!(certify_crossing(&l, &d, &x).unwrap().certified);
     }
