@@ -16,7 +16,7 @@ use std::process::Command;
 use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use syncroad_control::scenario::RoadSpec;
+use syncroad_control::scenario::{RoadSpec, RouteLanes, VehicleClass};
 use syncroad_sumo::read_network_road;
 
 fn grid() -> PathBuf {
@@ -108,7 +108,7 @@ fn bench(c: &mut Criterion) {
         lane: 0,
     };
     let t = Instant::now();
-    let road = read_network_road(&ring, &ring_through).unwrap();
+    let road = read_network_road(&ring, &ring_through, VehicleClass::PASSENGER).unwrap();
     eprintln!(
         "loop through e0 of the 10 000-edge ring: {} edges, {:.2} m, found in {:.3} s (first call)",
         road.normal_edges().len(),
@@ -128,10 +128,10 @@ fn bench(c: &mut Criterion) {
         edges: (0..50)
             .map(|i| format!("{}25{}25", cols[i], cols[i + 1]))
             .collect(),
-        lane: 1,
+        lane: RouteLanes::Index(1),
     };
     let t = Instant::now();
-    let road = read_network_road(&net, &through).unwrap();
+    let road = read_network_road(&net, &through, VehicleClass::PASSENGER).unwrap();
     eprintln!(
         "loop through AZ25BA25 on lane 1: {} edges, {:.2} m, found in {:.3} s (first call)",
         road.normal_edges().len(),
@@ -141,16 +141,16 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("network_road");
     g.sample_size(10).measurement_time(Duration::from_secs(20));
     g.bench_function("loop_through_10200_edges", |b| {
-        b.iter(|| read_network_road(&net, &through).unwrap())
+        b.iter(|| read_network_road(&net, &through, VehicleClass::PASSENGER).unwrap())
     });
     g.bench_function("route_50_edges_of_10200", |b| {
-        b.iter(|| read_network_road(&net, &route).unwrap())
+        b.iter(|| read_network_road(&net, &route, VehicleClass::PASSENGER).unwrap())
     });
     g.bench_function("loop_through_ring_of_10000_edges", |b| {
-        b.iter(|| read_network_road(&ring, &ring_through).unwrap())
+        b.iter(|| read_network_road(&ring, &ring_through, VehicleClass::PASSENGER).unwrap())
     });
     g.bench_function("loop_edges_ring_of_10000_edges", |b| {
-        b.iter(|| read_network_road(&ring, &ring_edges).unwrap())
+        b.iter(|| read_network_road(&ring, &ring_edges, VehicleClass::PASSENGER).unwrap())
     });
     g.finish();
 }

@@ -100,31 +100,44 @@ pub(crate) fn check_run(
         true => format!("{n} vehicles (`vehicles` = {} and the leader)", n - 1),
         false => format!("{n} vehicles (`vehicles` = {n})"),
     };
-    check(sel, files, n, &wanted, layout.road.lane_index)
+    check(sel, files, n, &wanted, &layout.road.lanes())
 }
 
-/// Checks the user's `files` against `sel`: `wanted` vehicles must depart at t = 0, on lane
-/// `lane` of the road.
+/// Checks the user's `files` against `sel`: `wanted` vehicles must depart at t = 0, on a lane
+/// the road drives (`lanes`, one per edge).
 fn check(
     sel: &VehicleSelector,
     files: &[PathBuf],
     wanted: usize,
     wanted_text: &str,
-    lane: usize,
+    lanes: &[usize],
 ) -> Result<(), PrepareError> {
+    let mut driven: Vec<usize> = lanes.to_vec();
+    driven.sort_unstable();
+    driven.dedup();
+    let lane = driven
+        .iter()
+        .map(usize::to_string)
+        .collect::<Vec<_>>()
+        .join(" or ");
     let f = scan(sel, files);
     let err = |reason: String| PrepareError::Controlled {
         selector: sel.to_string(),
         reason,
     };
     if let Some((id, l)) = f.at_start.iter().find(|(_, l)| {
-        l.as_deref()
-            .is_some_and(|l| l.trim() != lane.to_string() && l.trim().parse::<usize>().is_ok())
+        l.as_deref().is_some_and(|l| {
+            l.trim()
+                .parse::<usize>()
+                .is_ok_and(|l| !driven.contains(&l))
+        })
     }) {
-        return Err(err(format!(
-            "vehicle {id} departs on lane {}, but the law drives lane {lane} of the road: give it departLane=\"{lane}\"",
-            l.as_deref().unwrap_or_default()
-        )));
+        let given = l.as_deref().unwrap_or_default();
+        return Err(err(if driven.len() == 1 {
+            format!("vehicle {id} departs on lane {given}, but the law drives lane {lane} of the road: give it departLane=\"{lane}\"")
+        } else {
+            format!("vehicle {id} departs on lane {given}, but the law drives lanes {lane} of the road (one per edge): give it the departLane the road drives on its depart edge")
+        }));
     }
     if f.uncertain || f.at_start.len() == wanted {
         return Ok(());
@@ -183,21 +196,21 @@ mod tests {
             scan(&sel("DEFAULT_VEHTYPE"), std::slice::from_ref(&p)).at_start[0].0,
             "h0"
         );
-        assert!(check(&sel("cav"), std::slice::from_ref(&p), 2, "2 vehicles", 0).is_ok());
+        assert!(check(&sel("cav"), std::slice::from_ref(&p), 2, "2 vehicles", &[0]).is_ok());
         assert_eq!(
             check(
                 &sel("cav"),
                 std::slice::from_ref(&p),
                 3,
                 "3 vehicles (`vehicles` = 3)",
-                0
+                &[0]
             )
             .unwrap_err()
             .to_string(),
             r#"sumo.controlled = {"vtype":"cav"}: 2 of your vehicles depart at t = 0 and match (c0, c1), 1 more depart later (the law drives those on the road at t = 0), but the run drives 3 vehicles (`vehicles` = 3): give as many vehicles in the scenario as your files start with (checked before starting SUMO)"#
         );
         assert_eq!(
-            check(&sel("cav"), &[p], 2, "2 vehicles", 1)
+            check(&sel("cav"), &[p], 2, "2 vehicles", &[1])
                 .unwrap_err()
                 .to_string(),
             r#"sumo.controlled = {"vtype":"cav"}: vehicle c0 departs on lane 0, but the law drives lane 1 of the road: give it departLane="1" (checked before starting SUMO)"#
@@ -211,7 +224,7 @@ mod tests {
             r#"<routes><flow id="f" type="cav" begin="0" end="10" number="3" route="r"/></routes>"#,
         );
         assert!(scan(&sel("cav"), std::slice::from_ref(&flows)).uncertain);
-        assert!(check(&sel("cav"), std::slice::from_ref(&flows), 5, "5", 0).is_ok());
+        assert!(check(&sel("cav"), std::slice::from_ref(&flows), 5, "5", &[0]).is_ok());
         // A flow of another type cannot bring a chosen vehicle.
         assert!(!scan(&sel("truck"), &[flows]).uncertain);
         let junk = file("junk.rou.xml", "not xml <");

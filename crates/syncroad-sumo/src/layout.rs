@@ -409,7 +409,7 @@ impl Layout {
                 let close = if params.is_empty() { "/>" } else { ">" };
                 let _ = writeln!(
                     s,
-                    r#"    <vType id="t{}" length="{}" minGap="{}" accel="{}" decel="{}" emergencyDecel="{}" maxSpeed="{}" {model} speedFactor="{}" speedDev="{}" emissionClass="{}"{close}"#,
+                    r#"    <vType id="t{}" length="{}" minGap="{}" accel="{}" decel="{}" emergencyDecel="{}" maxSpeed="{}" {model} speedFactor="{}" speedDev="{}" emissionClass="{}" vClass="{}"{close}"#,
                     types.len() - 1,
                     v.length_m,
                     own("minGap", t.min_gap_m),
@@ -420,6 +420,7 @@ impl Layout {
                     own("speedFactor", 1.0),
                     own("speedDev", 0.0),
                     EMISSION_CLASS,
+                    t.vclass,
                 );
                 if !params.is_empty() {
                     for (key, value) in &params {
@@ -460,7 +461,11 @@ impl Layout {
             let _ = writeln!(
                 s,
                 r#"    <vehicle id="{}" type="t{ty}" route="r{}" depart="0" departLane="{}" departPos="{}" departSpeed="{}" insertionChecks="none"/>"#,
-                v.id, v.edge_index, self.road.lane_index, v.pos_m, v.speed_mps
+                v.id,
+                v.edge_index,
+                self.road.lane_on(v.edge_index),
+                v.pos_m,
+                v.speed_mps
             );
         }
         s.push_str("</routes>\n");
@@ -489,6 +494,7 @@ mod tests {
             decel_mps2: 4.5,
             emergency_decel_mps2: 9.0,
             max_speed_mps: 30.0,
+            vclass: syncroad_control::scenario::VehicleClass::PASSENGER,
         }
     }
 
@@ -503,7 +509,7 @@ mod tests {
     fn two_edge_route() -> Road {
         let seg = |edge: &str, len: f64, internal: bool| crate::net::Segment {
             edge: edge.into(),
-            lane: format!("{edge}_0"),
+            lane: format!("{edge}_1"),
             length_m: len,
             internal,
             speed_mps: 30.0,
@@ -516,7 +522,6 @@ mod tests {
                 seg("b", 100.0, false),
             ],
             ring: false,
-            lane_index: 1,
             multi_lane: true,
         }
     }

@@ -170,7 +170,8 @@ pub fn check_sumo_numbers(scenario: &Scenario) -> Result<(), PrepareError> {
 pub fn load_road(scenario: &Scenario) -> Result<Road, PrepareError> {
     let net = net_path(scenario)?;
     if scenario.road().is_network() {
-        return Ok(read_network_road(&net, scenario.road())?);
+        let vclass = scenario.sumo().vehicle_type().vclass;
+        return Ok(read_network_road(&net, scenario.road(), vclass)?);
     }
     Ok(if scenario.is_ring() {
         read_ring(&net)?

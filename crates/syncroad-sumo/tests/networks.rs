@@ -124,17 +124,24 @@ fn highway(dir: &Path, bus_lane: bool, merge: bool) -> PathBuf {
 /// `closed`), computed by sumolib from the same file: normal lanes plus the via lanes of the
 /// lane-to-lane connections.
 fn sumolib_length(net: &Path, edges: &[&str], lane: usize, closed: bool) -> f64 {
+    sumolib_length_on(net, edges, &vec![lane; edges.len()], closed)
+}
+
+/// [`sumolib_length`] on lane `lanes[i]` of edge `i`.
+fn sumolib_length_on(net: &Path, edges: &[&str], lanes: &[usize], closed: bool) -> f64 {
     let script = r#"
 import sys, sumolib
 net = sumolib.net.readNet(sys.argv[1], withInternal=True)
-lane = int(sys.argv[2]); closed = sys.argv[3] == "1"; edges = sys.argv[4:]
+closed = sys.argv[2] == "1"; pairs_in = sys.argv[3:]
+edges = pairs_in[0::2]; lanes = [int(x) for x in pairs_in[1::2]]
 total = 0.0
 pairs = len(edges) if closed else len(edges) - 1
-for e in edges:
-    total += net.getEdge(e).getLane(lane).getLength()
+for e, l in zip(edges, lanes):
+    total += net.getEdge(e).getLane(l).getLength()
 for i in range(pairs):
-    a, b = net.getEdge(edges[i]), net.getEdge(edges[(i + 1) % len(edges)])
-    c = [c for c in a.getConnections(b) if c.getFromLane().getIndex() == lane and c.getToLane().getIndex() == lane][0]
+    j = (i + 1) % len(edges)
+    a, b = net.getEdge(edges[i]), net.getEdge(edges[j])
+    c = [c for c in a.getConnections(b) if c.getFromLane().getIndex() == lanes[i] and c.getToLane().getIndex() == lanes[j]][0]
     via = c.getViaLaneID()
     while via:
         total += net.getLane(via).getLength()
@@ -146,9 +153,13 @@ print(repr(total))
         .arg("-c")
         .arg(script)
         .arg(net)
-        .arg(lane.to_string())
         .arg(if closed { "1" } else { "0" })
-        .args(edges)
+        .args(
+            edges
+                .iter()
+                .zip(lanes)
+                .flat_map(|(e, l)| [e.to_string(), l.to_string()]),
+        )
         .output()
         .expect("python runs");
     assert!(
@@ -161,6 +172,38 @@ print(repr(total))
         .trim()
         .parse()
         .unwrap()
+}
+
+/// A highway with an on-ramp: `h0` (two lanes, 400 m) and the one-lane `ramp` join at k1,
+/// where `h1` (three lanes, 400 m) starts: the ramp onto lane 0 (the acceleration lane), the
+/// highway's lanes 0 and 1 onto lanes 1 and 2; `h2` (three lanes, 400 m) continues them. 30 m/s.
+fn on_ramp(dir: &Path) -> PathBuf {
+    std::fs::write(
+        dir.join("ramp.nod.xml"),
+        "<nodes>\n  <node id=\"k0\" x=\"0\" y=\"0\"/>\n  <node id=\"r0\" x=\"0\" y=\"-80\"/>\n  <node id=\"k1\" x=\"400\" y=\"0\"/>\n  <node id=\"k2\" x=\"800\" y=\"0\"/>\n  <node id=\"k3\" x=\"1200\" y=\"0\"/>\n</nodes>\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("ramp.edg.xml"),
+        "<edges>\n  <edge id=\"h0\" from=\"k0\" to=\"k1\" numLanes=\"2\" speed=\"30\"/>\n  <edge id=\"ramp\" from=\"r0\" to=\"k1\" numLanes=\"1\" speed=\"30\"/>\n  <edge id=\"h1\" from=\"k1\" to=\"k2\" numLanes=\"3\" speed=\"30\"/>\n  <edge id=\"h2\" from=\"k2\" to=\"k3\" numLanes=\"3\" speed=\"30\"/>\n</edges>\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("ramp.con.xml"),
+        "<connections>\n  <connection from=\"ramp\" to=\"h1\" fromLane=\"0\" toLane=\"0\"/>\n  <connection from=\"h0\" to=\"h1\" fromLane=\"0\" toLane=\"1\"/>\n  <connection from=\"h0\" to=\"h1\" fromLane=\"1\" toLane=\"2\"/>\n  <connection from=\"h1\" to=\"h2\" fromLane=\"0\" toLane=\"0\"/>\n  <connection from=\"h1\" to=\"h2\" fromLane=\"1\" toLane=\"1\"/>\n  <connection from=\"h1\" to=\"h2\" fromLane=\"2\" toLane=\"2\"/>\n</connections>\n",
+    )
+    .unwrap();
+    netconvert(
+        dir,
+        &[
+            "--node-files",
+            "ramp.nod.xml",
+            "--edge-files",
+            "ramp.edg.xml",
+            "--connection-files",
+            "ramp.con.xml",
+        ],
+    )
 }
 
 /// Validates scenario JSON with the network reader (relative paths from `dir`).
@@ -269,7 +312,7 @@ mod loops {
             let reference = sumolib_length(&net, &CYCLE, lane, true);
             assert_relative_eq!(sc.ring_length_m().unwrap(), reference, epsilon = 1e-9);
             let r = load_road(&sc).unwrap();
-            assert_eq!(r.lane_index, lane);
+            assert_eq!(r.lanes(), vec![lane; CYCLE.len()]);
             assert_eq!(r.normal_edges(), CYCLE.to_vec());
             // Eight junctions, one internal lane each on this net.
             assert_eq!(r.segments.len(), 16);
@@ -1160,6 +1203,157 @@ mod routes {
     }
 }
 
+/// Routes whose lane changes from edge to edge, and vehicles of another class.
+mod open_roads {
+    use super::*;
+
+    fn platoon_on(road: serde_json::Value, sumo: serde_json::Value) -> serde_json::Value {
+        let text = std::fs::read_to_string(
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/platoon-cacc.json"),
+        )
+        .unwrap();
+        let mut file: serde_json::Value = serde_json::from_str(&text).unwrap();
+        file["horizon_s"] = 30.0.into();
+        file["road"] = road;
+        file["sumo"] = sumo;
+        file
+    }
+
+    /// Through the on-ramp's merge the highway's lane 0 continues as lane 1 of `h1`: one lane
+    /// index for the whole route is refused with the lanes that do connect, `"follow"` and the
+    /// list `[0, 1, 1]` take the connections, the route is measured along those lanes as
+    /// sumolib measures it, and in SUMO the CACC platoon drives across the merge onto lane 1
+    /// with the native simulator's speeds to 1e-9 m/s (the positions along the lanes actually
+    /// driven are the native road's).
+    #[test]
+    fn a_route_through_an_on_ramp_merge_follows_the_connections() {
+        let dir = work("on-ramp");
+        let net = on_ramp(&dir);
+        let sumo = serde_json::json!({"net": "out.net.xml"});
+        let road = |lane: serde_json::Value| serde_json::json!({"type": "route", "edges": ["h0", "h1", "h2"], "lane": lane});
+        let e = scenario(&dir, &platoon_on(road(0.into()), sumo.clone()).to_string()).unwrap_err();
+        assert_eq!(
+            e,
+            format!("road.edges[0] `h0` → road.edges[1] `h1`: {} connects no lane 0 of `h0` to lane 0 of `h1`; its connections to `h1` join lanes 0→1, 1→2 (a route may change lanes where the connections do: road.lane = \"follow\", or one lane index per edge)", net.display())
+        );
+        let reference = sumolib_length_on(&net, &["h0", "h1", "h2"], &[0, 1, 1], false);
+        let with_fcd = serde_json::json!({"net": "out.net.xml", "fcd": true});
+        let follow = scenario(
+            &dir,
+            &platoon_on(road("follow".into()), with_fcd).to_string(),
+        )
+        .unwrap();
+        let m = follow.measured_road().unwrap();
+        assert_eq!(m.lanes, [0, 1, 1]);
+        assert_relative_eq!(m.length_m, reference, epsilon = 1e-9);
+        let listed = platoon_on(road(serde_json::json!([0, 1, 1])), sumo.clone());
+        let listed = scenario(&dir, &listed.to_string()).unwrap();
+        assert_eq!(listed.measured_road(), follow.measured_road());
+        // From the ramp, "follow" takes the acceleration lane.
+        let from_ramp =
+            serde_json::json!({"type": "route", "edges": ["ramp", "h1", "h2"], "lane": "follow"});
+        let ramp = scenario(&dir, &platoon_on(from_ramp, sumo.clone()).to_string()).unwrap();
+        assert_eq!(ramp.measured_road().unwrap().lanes, [0, 0, 0]);
+        // A list of the wrong length, and a list whose lanes do not connect.
+        let e = scenario(
+            &dir,
+            &platoon_on(road(serde_json::json!([0, 1])), sumo.clone()).to_string(),
+        )
+        .unwrap_err();
+        assert_eq!(e, "road.lane = [0, 1]: gives 2 lane(s) for 3 edge(s): one lane index per edge of road.edges, one index for all, or \"follow\"");
+        let e = scenario(
+            &dir,
+            &platoon_on(road(serde_json::json!([0, 1, 2])), sumo.clone()).to_string(),
+        )
+        .unwrap_err();
+        assert!(
+            e.starts_with("road.edges[1] `h1` → road.edges[2] `h2`:") && e.contains("connects no lane 1 of `h1` to lane 2 of `h2`; its connections to `h2` join lanes 0→0, 1→1, 2→2"),
+            "{e}"
+        );
+        // No lane sequence at all: the message says where the search stopped.
+        let nowhere =
+            serde_json::json!({"type": "route", "edges": ["h0", "ramp"], "lane": "follow"});
+        let e = scenario(&dir, &platoon_on(nowhere, sumo.clone()).to_string()).unwrap_err();
+        assert_eq!(
+            e,
+            format!("road.lane = \"follow\": no lane that the route reaches on road.edges[0] `h0` leads on to road.edges[1] `ramp` through {}'s connections for class passenger; `h0` does not lead to `ramp` at all; it leads to `h1`", net.display())
+        );
+        // In SUMO, across the merge.
+        let run = run_scenario(&follow, &opts(&dir)).unwrap();
+        let fin = run.outcome().expect("horizon reached");
+        assert_eq!(fin.totals.collision_steps, 0);
+        let routes = std::fs::read_to_string(dir.join("run/routes.rou.xml")).unwrap();
+        assert!(routes.contains(r#"edges="h0 h1 h2""#), "{routes}");
+        // SUMO's own record: every vehicle drove lane 0 of h0, then lane 1 of h1, no other.
+        let fcd = std::fs::read_to_string(dir.join("run/fcd.xml")).unwrap();
+        let lanes: std::collections::BTreeSet<&str> = fcd
+            .split("lane=\"")
+            .skip(1)
+            .filter_map(|t| t.split('"').next())
+            .filter(|l| !l.starts_with(':'))
+            .collect();
+        assert_eq!(
+            lanes,
+            ["h0_0", "h1_1"].into_iter().collect(),
+            "lanes driven"
+        );
+        let native = simulate(&follow, NativeOptions::default()).trajectory;
+        let worst = worst_speed_difference(&native.speeds_mps, &run.trajectory(&follow).speeds_mps);
+        eprintln!("platoon across the on-ramp merge: largest SUMO-native speed difference {worst:.2e} m/s");
+        assert!(worst < 1e-9, "largest speed difference {worst} m/s");
+    }
+
+    /// A lane that admits buses only: passenger cars are refused before SUMO starts, buses
+    /// (`sumo.vclass`) drive it, their vType says so, and SUMO gives the native simulator's
+    /// speeds across it; a class SUMO does not have is named with the ones it has.
+    #[test]
+    fn vehicles_of_the_lanes_class_drive_a_bus_lane() {
+        let dir = work("bus-lane");
+        highway(&dir, true, false);
+        let road =
+            serde_json::json!({"type": "route", "edges": ["h0", "h1", "h2", "h3"], "lane": 0});
+        let cars = platoon_on(road.clone(), serde_json::json!({"net": "out.net.xml"}));
+        let e = scenario(&dir, &cars.to_string()).unwrap_err();
+        assert!(
+            e.contains("is closed to class passenger (allow=\"bus\")"),
+            "{e}"
+        );
+        let buses = platoon_on(
+            road.clone(),
+            serde_json::json!({"net": "out.net.xml", "vclass": "bus"}),
+        );
+        let sc = scenario(&dir, &buses.to_string()).unwrap();
+        let run = run_scenario(&sc, &opts(&dir)).unwrap();
+        let fin = run.outcome().expect("horizon reached");
+        assert_eq!(fin.totals.collision_steps, 0);
+        let routes = std::fs::read_to_string(dir.join("run/routes.rou.xml")).unwrap();
+        assert!(routes.contains(r#"vClass="bus""#), "{routes}");
+        let native = simulate(&sc, NativeOptions::default()).trajectory;
+        let worst = worst_speed_difference(&native.speeds_mps, &run.trajectory(&sc).speeds_mps);
+        assert!(worst < 1e-9, "largest speed difference {worst} m/s");
+        // Passenger cars following the connections avoid the bus lane: lane 0 of h0 leads
+        // only onto it, so the search starts again from lane 1.
+        let follow = serde_json::json!({"type": "route", "edges": ["h0", "h1", "h2", "h3"], "lane": "follow"});
+        let sc = scenario(
+            &dir,
+            &platoon_on(follow, serde_json::json!({"net": "out.net.xml"})).to_string(),
+        )
+        .unwrap();
+        assert_eq!(sc.measured_road().unwrap().lanes, [1, 1, 1, 1]);
+        let typo = platoon_on(
+            road,
+            serde_json::json!({"net": "out.net.xml", "vclass": "buss"}),
+        );
+        let e = scenario(&dir, &typo.to_string()).unwrap_err();
+        assert!(
+            e.starts_with(
+                "sumo.vclass = \"buss\": not one of SUMO's vehicle classes: passenger, private,"
+            ),
+            "{e}"
+        );
+    }
+}
+
 /// Every road error is found before SUMO starts and names the field.
 mod errors {
     use super::*;
@@ -1212,7 +1406,7 @@ mod errors {
         );
         assert_eq!(
             e,
-            "road.lane = 2: edge `e0` (road.edges[0]) has 2 lane(s), indices 0..=1; choose a lane every edge has"
+            "road.lane = 2: edge `e0` (road.edges[0]) has 2 lane(s), indices 0..=1; choose a lane it has"
         );
         let e = err(
             &dir,
@@ -1304,12 +1498,12 @@ mod errors {
         let e = err(&dir, &route(2), 4);
         assert_eq!(
             e,
-            format!("road.edges[2] `h2` → road.edges[3] `h3`: {net} connects no lane 2 of `h2` to lane 2 of `h3`; its connections to `h3` join lanes 0→0, 1→1, 2→1")
+            format!("road.edges[2] `h2` → road.edges[3] `h3`: {net} connects no lane 2 of `h2` to lane 2 of `h3`; its connections to `h3` join lanes 0→0, 1→1, 2→1 (a route may change lanes where the connections do: road.lane = \"follow\", or one lane index per edge)")
         );
         let e = err(&dir, &route(0), 4);
         assert_eq!(
             e,
-            format!("road.edges[2]: lane `h2_0` of {net} is closed to passenger cars (allow=\"bus\"); syncroad's vehicles are of class passenger, so choose another lane (road.lane) or edges open to them")
+            format!("road.edges[2]: lane `h2_0` of {net} is closed to class passenger (allow=\"bus\"); syncroad's vehicles are of class passenger (sumo.vclass), so choose another lane (road.lane), edges open to them, or a class the lanes allow (sumo.vclass)")
         );
         assert!(scenario(&dir, &loop_json(&route(1), 4, 10.0, "")).is_ok());
         // A road through a network needs one.

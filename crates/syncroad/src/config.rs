@@ -80,7 +80,7 @@ pub fn note_measured_road(sc: &Scenario) {
     {
         eprintln!(
             "road: the shortest cycle through `{t}` on lane {}: {} ({} edges, {:.3} m)",
-            m.lane,
+            m.lanes.first().copied().unwrap_or(0),
             m.edges.join(" "),
             m.edges.len(),
             m.length_m

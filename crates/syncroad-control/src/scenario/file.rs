@@ -1,5 +1,6 @@
 //! The scenario file as a user writes it: the JSON schema, unknown fields rejected.
 
+use std::fmt;
 use std::path::PathBuf;
 
 use schemars::JsonSchema;
@@ -232,14 +233,95 @@ pub enum RoadSpec {
         lane: usize,
     },
     /// An open route through the network of `sumo.net` (platoons, a chain behind a leader):
-    /// `edges` in driving order on lane `lane`. Its length is measured on the network.
+    /// `edges` in driving order, on the lanes `lane` chooses. Its length is measured on the
+    /// network along the lanes driven.
     Route {
         /// The normal edges in driving order.
         edges: Vec<String>,
-        /// Lane index (0 = rightmost) the controlled vehicles keep on every edge.
+        /// The lane driven on each edge: one index kept on every edge, one index per edge, or
+        /// `"follow"` (the network's connections from lane to lane).
         #[serde(default)]
-        lane: usize,
+        lane: RouteLanes,
     },
+}
+
+/// The lanes a route drives (`road.lane` of a route).
+///
+/// * a number: that lane index (0 = rightmost) on every edge;
+/// * a list: the lane index on each edge, in the order of `road.edges`;
+/// * `"follow"`: the lanes the network's connections lead along: from the lowest lane of the
+///   first edge from which they reach the last edge, each connection to the next edge taken
+///   to its lowest lane that still leads on (through a merge, the lane that continues).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum RouteLanes {
+    /// One lane index on every edge.
+    Index(usize),
+    /// The lane index on each edge.
+    PerEdge(Vec<usize>),
+    /// Along the network's connections.
+    Follow,
+}
+
+impl Default for RouteLanes {
+    fn default() -> Self {
+        RouteLanes::Index(0)
+    }
+}
+
+impl fmt::Display for RouteLanes {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            RouteLanes::Index(i) => write!(f, "{i}"),
+            RouteLanes::PerEdge(v) => write!(f, "{v:?}"),
+            RouteLanes::Follow => f.write_str("\"follow\""),
+        }
+    }
+}
+
+impl Serialize for RouteLanes {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            RouteLanes::Index(i) => s.serialize_u64(*i as u64),
+            RouteLanes::PerEdge(v) => v.serialize(s),
+            RouteLanes::Follow => s.serialize_str("follow"),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for RouteLanes {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Lanes;
+        const EXPECTED: &str =
+            "road.lane as a lane index (0 = rightmost), a list of one lane index per edge, or \"follow\"";
+        impl<'de> serde::de::Visitor<'de> for Lanes {
+            type Value = RouteLanes;
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str(EXPECTED)
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<RouteLanes, E> {
+                usize::try_from(v)
+                    .map(RouteLanes::Index)
+                    .map_err(|_| E::invalid_value(serde::de::Unexpected::Unsigned(v), &self))
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<RouteLanes, E> {
+                match v {
+                    "follow" => Ok(RouteLanes::Follow),
+                    _ => Err(E::invalid_value(serde::de::Unexpected::Str(v), &self)),
+                }
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(
+                self,
+                mut seq: A,
+            ) -> Result<RouteLanes, A::Error> {
+                let mut lanes = Vec::new();
+                while let Some(l) = seq.next_element::<usize>()? {
+                    lanes.push(l);
+                }
+                Ok(RouteLanes::PerEdge(lanes))
+            }
+        }
+        d.deserialize_any(Lanes)
+    }
 }
 
 impl RoadSpec {
@@ -465,6 +547,11 @@ pub struct SumoSpec {
     /// Wall-clock limit of one SUMO run [s].
     #[serde(default = "d_timeout")]
     pub timeout_s: f64,
+    /// SUMO vehicle class (`vClass`) of the vehicles syncroad inserts, e.g. `"vip"` on a
+    /// circuit whose lanes allow only that class; default `"passenger"`. The road's lanes are
+    /// checked to admit it before SUMO starts.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vclass: Option<String>,
     /// The user's own traffic: SUMO route files (vehicle types, routes, vehicles, flows) loaded
     /// beside syncroad's vehicles, which stay the controlled set; relative paths are resolved
     /// against the scenario file's folder.
@@ -524,6 +611,7 @@ impl Default for SumoSpec {
             emergency_decel_mps2: d_edecel(),
             max_speed_mps: d_vmax(),
             timeout_s: d_timeout(),
+            vclass: None,
             routes: Vec::new(),
             additional: Vec::new(),
             config: None,

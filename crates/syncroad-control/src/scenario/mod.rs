@@ -38,7 +38,7 @@ pub use network_road::{ConfigInputs, MeasuredRoad, RoadReader};
 pub use per_vehicle::PerVehicle;
 pub use scale::Scaled;
 pub use select::{SelectorMatch, VehicleSelector};
-pub use sumo::{SumoSettings, SumoVehicleType, MAX_TIMEOUT_S};
+pub use sumo::{SumoSettings, SumoVehicleType, VehicleClass, MAX_TIMEOUT_S, VEHICLE_CLASSES};
 
 /// The most steps a run may take (`horizon_s / step_s`): 10⁷ steps of N vehicles already take
 /// minutes natively and hours in SUMO, and each step keeps one value of the spread.

@@ -6,15 +6,15 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use super::{invalid, RoadSpec, ScenarioError};
+use super::{invalid, RoadSpec, RouteLanes, ScenarioError, VehicleClass};
 
 /// A road through a network as its reader measured it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MeasuredRoad {
     /// The normal edges in driving order (for `through`, the cycle that was found).
     pub edges: Vec<String>,
-    /// Lane index driven on every edge.
-    pub lane: usize,
+    /// The lane index driven on each of `edges`.
+    pub lanes: Vec<usize>,
     /// Driven length \[m\]: normal plus junction-internal lanes, as the simulator measures it.
     pub length_m: f64,
 }
@@ -36,11 +36,13 @@ pub struct ConfigInputs {
 /// [`RoadSpec::Loop`] or [`RoadSpec::Route`] on the network `net` and measures it. The error
 /// is the reader's own, naming the `road.…` field at fault.
 pub trait RoadReader {
-    /// The measured road, or why the network does not hold it.
+    /// The measured road for vehicles of class `vclass` (its lanes must admit them), or why
+    /// the network does not hold it.
     fn measure(
         &self,
         road: &RoadSpec,
         net: &Path,
+        vclass: VehicleClass,
     ) -> Result<MeasuredRoad, Box<dyn std::error::Error + Send + Sync>>;
 
     /// The circumference of the single-lane ring `net` as SUMO measures it (normal and
@@ -61,10 +63,12 @@ pub trait RoadReader {
     ) -> Result<ConfigInputs, Box<dyn std::error::Error + Send + Sync>>;
 }
 
-/// Checks the shape of a network road and measures it with `reader` on `net`.
+/// Checks the shape of a network road and measures it with `reader` on `net`, for vehicles of
+/// class `vclass`.
 pub(super) fn measure(
     road: &RoadSpec,
     net: Option<&Path>,
+    vclass: VehicleClass,
     reader: Option<&dyn RoadReader>,
 ) -> Result<MeasuredRoad, ScenarioError> {
     let (kind, edges) = match road {
@@ -88,7 +92,22 @@ pub(super) fn measure(
             }
             ("loop", edges.as_deref())
         }
-        RoadSpec::Route { edges, .. } => ("route", Some(edges.as_slice())),
+        RoadSpec::Route { edges, lane } => {
+            if let RouteLanes::PerEdge(lanes) = lane {
+                if lanes.len() != edges.len() {
+                    return Err(invalid(
+                        "road.lane",
+                        lane,
+                        format!(
+                            "gives {} lane(s) for {} edge(s): one lane index per edge of road.edges, one index for all, or \"follow\"",
+                            lanes.len(),
+                            edges.len()
+                        ),
+                    ));
+                }
+            }
+            ("route", Some(edges.as_slice()))
+        }
         RoadSpec::Ring { .. } | RoadSpec::Straight { .. } => {
             unreachable!("only loops and routes are measured on a network")
         }
@@ -115,7 +134,7 @@ pub(super) fn measure(
         ));
     };
     let measured = reader
-        .measure(road, net)
+        .measure(road, net, vclass)
         .map_err(|e| ScenarioError::Road(e.to_string()))?;
     if !(measured.length_m.is_finite() && measured.length_m > 0.0) {
         return Err(invalid(

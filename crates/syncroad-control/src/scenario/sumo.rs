@@ -31,6 +31,88 @@ fn read_config(
 /// `sumo.timeout_s` and every `--timeout-s`.
 pub const MAX_TIMEOUT_S: f64 = 1e9;
 
+/// SUMO's vehicle classes, as its own network reader lists them
+/// (`sumolib.net.lane.SUMO_VEHICLE_CLASSES` without the deprecated names); the first is the
+/// default.
+pub const VEHICLE_CLASSES: [&str; 32] = [
+    "passenger",
+    "private",
+    "emergency",
+    "authority",
+    "army",
+    "vip",
+    "pedestrian",
+    "hov",
+    "taxi",
+    "bus",
+    "coach",
+    "delivery",
+    "truck",
+    "trailer",
+    "motorcycle",
+    "moped",
+    "bicycle",
+    "evehicle",
+    "tram",
+    "rail_urban",
+    "rail",
+    "rail_electric",
+    "ship",
+    "container",
+    "cable_car",
+    "subway",
+    "aircraft",
+    "wheelchair",
+    "scooter",
+    "drone",
+    "custom1",
+    "custom2",
+];
+
+/// The vehicle class of the vehicles syncroad inserts (`sumo.vclass`, SUMO's `vClass`): lane
+/// permissions are checked for it before SUMO starts, and their vType carries it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct VehicleClass(u8);
+
+impl VehicleClass {
+    /// SUMO's default class.
+    pub const PASSENGER: VehicleClass = VehicleClass(0);
+
+    /// The class named `name`, if SUMO has it.
+    pub fn parse(name: &str) -> Option<Self> {
+        VEHICLE_CLASSES
+            .iter()
+            .position(|&c| c == name)
+            .map(|i| VehicleClass(i as u8))
+    }
+
+    /// Its name in SUMO's files.
+    pub fn name(self) -> &'static str {
+        VEHICLE_CLASSES[usize::from(self.0)]
+    }
+}
+
+impl std::fmt::Display for VehicleClass {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl Serialize for VehicleClass {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
+    }
+}
+
+impl<'de> Deserialize<'de> for VehicleClass {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let name = String::deserialize(d)?;
+        VehicleClass::parse(&name).ok_or_else(|| {
+            serde::de::Error::custom(format!("{name:?} is not one of SUMO's vehicle classes"))
+        })
+    }
+}
+
 /// SUMO vehicle-type values shared by every vehicle of a run (lengths may differ per vehicle).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct SumoVehicleType {
@@ -44,6 +126,9 @@ pub struct SumoVehicleType {
     pub emergency_decel_mps2: f64,
     /// maxSpeed [m/s].
     pub max_speed_mps: f64,
+    /// vClass.
+    #[serde(default)]
+    pub vclass: VehicleClass,
 }
 
 /// The `sumo` section of a validated scenario.
@@ -156,6 +241,19 @@ impl SumoSpec {
                 format!("must be at most {MAX_TIMEOUT_S:e} s (about 31 years), like --timeout-s"),
             ));
         }
+        let vclass = match &self.vclass {
+            None => VehicleClass::PASSENGER,
+            Some(name) => VehicleClass::parse(name).ok_or_else(|| {
+                invalid(
+                    "sumo.vclass",
+                    format!("{name:?}"),
+                    format!(
+                        "not one of SUMO's vehicle classes: {}",
+                        VEHICLE_CLASSES.join(", ")
+                    ),
+                )
+            })?,
+        };
         let timeout = Duration::from_secs_f64(self.timeout_s);
         let resolve = |p: &PathBuf| {
             if p.is_absolute() {
@@ -217,6 +315,7 @@ impl SumoSpec {
                 decel_mps2: self.decel_mps2,
                 emergency_decel_mps2: self.emergency_decel_mps2,
                 max_speed_mps: self.max_speed_mps,
+                vclass,
             },
             timeout,
         })
@@ -228,6 +327,7 @@ mod tests {
     use std::path::Path;
     use std::time::Duration;
 
+    use super::{VehicleClass, VEHICLE_CLASSES};
     use crate::scenario::ScenarioFile;
 
     fn ring(sumo: &str) -> String {
@@ -257,6 +357,59 @@ mod tests {
         assert_eq!(s.timeout(), Duration::from_millis(2500));
         assert_eq!(s.vehicle_type().min_gap_m, 0.0);
         assert_eq!(s.vehicle_type().max_speed_mps, 30.0);
+    }
+
+    #[test]
+    fn the_vehicle_class_is_one_of_sumos() {
+        let class = |sumo: &str| {
+            ScenarioFile::from_json(&ring(sumo), "<test>")
+                .map_err(|e| e.to_string())?
+                .validate(Path::new("."))
+                .map(|sc| sc.sumo().vehicle_type().vclass)
+                .map_err(|e| e.to_string())
+        };
+        assert_eq!(class("{}"), Ok(VehicleClass::PASSENGER));
+        assert_eq!(class(r#"{"vclass": "vip"}"#).unwrap().name(), "vip");
+        let e = class(r#"{"vclass": "VIP"}"#).unwrap_err();
+        assert!(
+            e.starts_with(r#"sumo.vclass = "VIP": not one of SUMO's vehicle classes: passenger, private, emergency, authority, army, vip,"#),
+            "{e}"
+        );
+        // The list is SUMO's own (sumolib.net.lane.SUMO_VEHICLE_CLASSES without the deprecated
+        // names): 32 distinct names, and serialised as written.
+        let mut names = VEHICLE_CLASSES.to_vec();
+        names.sort_unstable();
+        names.dedup();
+        assert_eq!(names.len(), 32);
+        let vip = VehicleClass::parse("vip").unwrap();
+        assert_eq!(serde_json::to_string(&vip).unwrap(), r#""vip""#);
+        assert_eq!(
+            serde_json::from_str::<VehicleClass>(r#""vip""#).unwrap(),
+            vip
+        );
+    }
+
+    #[test]
+    fn a_routes_lanes_are_one_index_a_list_or_follow() {
+        use crate::scenario::RouteLanes;
+        let lanes =
+            |json: &str| serde_json::from_str::<RouteLanes>(json).map_err(|e| e.to_string());
+        assert_eq!(lanes("1"), Ok(RouteLanes::Index(1)));
+        assert_eq!(lanes("[0, 1, 1]"), Ok(RouteLanes::PerEdge(vec![0, 1, 1])));
+        assert_eq!(lanes(r#""follow""#), Ok(RouteLanes::Follow));
+        for bad in [r#""folow""#, "-1", "1.5", "[0, -1]"] {
+            let e = lanes(bad).unwrap_err();
+            assert!(e.contains("road.lane as a lane index (0 = rightmost), a list of one lane index per edge, or \"follow\"") || e.contains("expected usize"), "{bad}: {e}");
+        }
+        for l in [
+            RouteLanes::Index(2),
+            RouteLanes::PerEdge(vec![0, 2]),
+            RouteLanes::Follow,
+        ] {
+            let back: RouteLanes =
+                serde_json::from_str(&serde_json::to_string(&l).unwrap()).unwrap();
+            assert_eq!(back, l);
+        }
     }
 
     #[test]

@@ -86,6 +86,7 @@ impl ScenarioFile {
             Some(super::network_road::measure(
                 &self.road,
                 sumo.net(),
+                sumo.vehicle_type().vclass,
                 reader,
             )?)
         } else {

@@ -76,11 +76,15 @@ pub(super) fn bind(
             normal += usize::from(!seg.internal);
         }
         let Some((start, edge_index)) = at else {
+            let driven: Vec<String> = road
+                .segments
+                .iter()
+                .filter(|s| !s.internal)
+                .map(|s| s.lane.clone())
+                .collect();
             return Err(fail(format!(
-                "vehicle {id} is on lane {lane} after insertion, which is not lane {} of the road's edges: make it depart on the road (departLane=\"{}\" on one of {})",
-                road.lane_index,
-                road.lane_index,
-                road.normal_edges().join(", ")
+                "vehicle {id} is on lane {lane} after insertion, which is not a lane the road drives: make it depart on the road (on one of the lanes {})",
+                driven.join(", ")
             )));
         };
         let pos_m = get_f64(ls, "vehicle_getLanePosition", &id)?;

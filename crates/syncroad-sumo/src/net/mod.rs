@@ -76,8 +76,10 @@ pub enum NetError {
         nearest: String,
     },
     /// An edge has no lane of the chosen index.
-    #[error("road.lane = {lane}: edge `{edge}` ({field}) has {lanes} lane(s), indices 0..={max}; choose a lane every edge has", max = lanes - 1)]
+    #[error("{lane_field} = {lane}: edge `{edge}` ({field}) has {lanes} lane(s), indices 0..={max}; choose a lane it has", max = lanes - 1)]
     LaneOutOfRange {
+        /// The scenario field of the lane (`road.lane`, or `road.lane[2]` of a list).
+        lane_field: String,
         /// The scenario field of the edge.
         field: String,
         /// The edge.
@@ -88,8 +90,10 @@ pub enum NetError {
         lanes: usize,
     },
     /// A lane of the road does not admit the vehicles' class.
-    #[error("{field}: lane `{lane}` of {path} is closed to passenger cars ({permissions}); syncroad's vehicles are of class passenger, so choose another lane (road.lane) or edges open to them")]
+    #[error("{field}: lane `{lane}` of {path} is closed to class {vclass} ({permissions}); syncroad's vehicles are of class {vclass} (sumo.vclass), so choose another lane (road.lane), edges open to them, or a class the lanes allow (sumo.vclass)")]
     LaneForbidden {
+        /// The vehicles' class.
+        vclass: &'static str,
         /// The network.
         path: PathBuf,
         /// The scenario field of the edge.
@@ -102,6 +106,10 @@ pub enum NetError {
     /// Two consecutive edges have no connection from the chosen lane to the chosen lane.
     #[error(transparent)]
     NoConnection(Box<Disconnected>),
+    /// `road.lane = "follow"`: no sequence of connected lanes open to the class runs the
+    /// whole route.
+    #[error(transparent)]
+    NoLaneSequence(Box<NoLanes>),
     /// The last edge of a loop does not lead back to its first.
     #[error(transparent)]
     LoopNotClosed(Box<Unclosed>),
@@ -137,10 +145,10 @@ pub enum NetError {
     },
 }
 
-/// Two consecutive edges of a road with no connection from the chosen lane to the same lane
-/// of the next edge.
+/// Two consecutive edges of a road with no connection from the lane chosen on the first to
+/// the lane chosen on the next.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{from_field} `{from}` → {to_field} `{to}`: {path} connects no lane {lane} of `{from}` to lane {lane} of `{to}`; {joined}")]
+#[error("{from_field} `{from}` → {to_field} `{to}`: {path} connects no lane {from_lane} of `{from}` to lane {to_lane} of `{to}`; {joined}{hint}")]
 pub struct Disconnected {
     /// The network.
     pub path: PathBuf,
@@ -152,9 +160,34 @@ pub struct Disconnected {
     pub to_field: String,
     /// The second edge.
     pub to: String,
-    /// The lane.
-    pub lane: usize,
+    /// The lane on the first edge.
+    pub from_lane: usize,
+    /// The lane on the second edge.
+    pub to_lane: usize,
     /// What does connect (lane pairs, or where the first edge leads).
+    pub joined: String,
+    /// How else the road could be given (a route may change lanes), or nothing.
+    pub hint: &'static str,
+}
+
+/// A route with `road.lane = "follow"` that no sequence of connected lanes open to the
+/// vehicles' class runs.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("road.lane = \"follow\": no lane that the route reaches on {from_field} `{from}` leads on to {to_field} `{to}` through {path}'s connections for class {vclass}; {joined}")]
+pub struct NoLanes {
+    /// The network.
+    pub path: PathBuf,
+    /// Field of the edge the search got furthest to.
+    pub from_field: String,
+    /// That edge.
+    pub from: String,
+    /// Field of the edge it could not reach.
+    pub to_field: String,
+    /// That edge.
+    pub to: String,
+    /// The vehicles' class.
+    pub vclass: &'static str,
+    /// What does connect.
     pub joined: String,
 }
 
@@ -200,12 +233,10 @@ pub struct Road {
     pub segments: Vec<Segment>,
     /// True for a ring.
     pub ring: bool,
-    /// Lane index the vehicles depart on and keep (0 on the built-in single-lane nets).
-    #[serde(default)]
-    pub lane_index: usize,
     /// True when an edge of the road has more than one lane: every vehicle syncroad inserts
-    /// (law-driven or driven by a SUMO model) then keeps the chosen lane (lane-change mode 0),
-    /// so the vehicles stay in the order the law's graph assumes.
+    /// (law-driven or driven by a SUMO model) then keeps the road's lanes (lane-change mode
+    /// 0: it changes lanes only where a connection leads it onto another), so the vehicles
+    /// stay in the order the law's graph assumes.
     #[serde(default)]
     pub multi_lane: bool,
 }
@@ -225,6 +256,21 @@ impl Road {
             .filter(|s| !s.internal)
             .map(|s| s.speed_mps)
             .fold(f64::INFINITY, f64::min)
+    }
+
+    /// The lane index driven on each normal edge, in driving order (0 on the built-in
+    /// single-lane nets).
+    pub fn lanes(&self) -> Vec<usize> {
+        self.segments
+            .iter()
+            .filter(|s| !s.internal)
+            .map(|s| network::split_lane(&s.lane).1.unwrap_or(0))
+            .collect()
+    }
+
+    /// The lane index driven on normal edge `k` of [`Road::normal_edges`].
+    pub fn lane_on(&self, k: usize) -> usize {
+        self.lanes().get(k).copied().unwrap_or(0)
     }
 
     /// Normal edges in driving order.
@@ -493,7 +539,6 @@ pub fn read_ring(path: &Path) -> Result<Road, NetError> {
         path: path.to_path_buf(),
         segments,
         ring: true,
-        lane_index: 0,
         multi_lane: false,
     })
 }
@@ -518,7 +563,6 @@ pub fn read_straight(path: &Path) -> Result<Road, NetError> {
             speed_mps: lanes[0].2,
         }],
         ring: false,
-        lane_index: 0,
         multi_lane: false,
     })
 }
