@@ -35,6 +35,7 @@ mod controlled;
 mod cosim;
 mod direct;
 mod frozen;
+mod inflows;
 mod input_file;
 mod layout;
 mod net;

@@ -303,7 +303,22 @@ fn prepare_with(
         let law = law_of(scenario, &layout, damper, humans, (safety, signals));
         Control::Law { law: Box::new(law) }
     };
-    let (extra_routes, extra_additional) = user_traffic(scenario, &layout, &drivers, opts, write)?;
+    let (mut extra_routes, extra_additional) =
+        user_traffic(scenario, &layout, &drivers, opts, write)?;
+    let inflows = scenario.sumo().inflows();
+    if !inflows.is_empty() {
+        let net = crate::net::network::Network::read(&layout.road.path)?;
+        crate::inflows::check(&net, &layout.road.path, inflows, scenario.horizon_s())?;
+        let file = opts.work_dir.join(crate::inflows::INFLOWS_FILE);
+        if write {
+            std::fs::write(
+                &file,
+                crate::inflows::flows_xml(inflows, scenario.horizon_s()),
+            )
+            .map_err(|e| io(&opts.work_dir, e))?;
+        }
+        extra_routes.push(file);
+    }
     let other_traffic = scenario.sumo().other_traffic();
     let fcd = opts.fcd || scenario.sumo().fcd();
     if write {

@@ -74,6 +74,16 @@ pub enum PrepareError {
     /// The vehicles do not fit.
     #[error(transparent)]
     Layout(#[from] LayoutError),
+    /// An inflow the network cannot carry as given (`sumo.inflows[k]`).
+    #[error("{field} = {value}: {reason} (checked before starting SUMO)")]
+    Inflow {
+        /// The field (`sumo.inflows[0].to`).
+        field: String,
+        /// Its value.
+        value: String,
+        /// What is wrong and what would be valid.
+        reason: String,
+    },
     /// A number SUMO cannot represent.
     #[error("{field} = {value}: {expected}")]
     Unrepresentable {

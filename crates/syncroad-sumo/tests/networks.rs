@@ -1303,6 +1303,93 @@ mod open_roads {
         assert!(worst < 1e-9, "largest speed difference {worst} m/s");
     }
 
+    /// Human traffic entering from the on-ramp while the platoon drives the highway: the
+    /// inflow's vehicles enter, SUMO routes them across the merge and they leave at the end of
+    /// `h1`, counted by SUMO's summary (never more than entered: a vehicle every 4 s); the law
+    /// senses them as other traffic; nobody collides. Every inflow error is found before SUMO
+    /// starts and names the field.
+    #[test]
+    fn an_inflow_enters_at_the_ramp_and_leaves_at_its_edge() {
+        let dir = work("inflow");
+        let net = on_ramp(&dir);
+        let road =
+            serde_json::json!({"type": "route", "edges": ["h0", "h1", "h2"], "lane": "follow"});
+        let inflow = |extra: serde_json::Value| {
+            let mut f = serde_json::json!({"from": "ramp", "to": "h1", "vehs_per_hour": 900});
+            for (k, v) in extra.as_object().unwrap() {
+                f[k] = v.clone();
+            }
+            let mut file = platoon_on(
+                road.clone(),
+                serde_json::json!({"net": "out.net.xml", "inflows": [f]}),
+            );
+            file["horizon_s"] = 40.0.into();
+            file
+        };
+        let sc = scenario(&dir, &inflow(serde_json::json!({})).to_string()).unwrap();
+        let run = run_scenario(&sc, &opts(&dir)).unwrap();
+        run.outcome().expect("horizon reached");
+        let flows = std::fs::read_to_string(dir.join("run/inflows.rou.xml")).unwrap();
+        assert!(
+            flows.contains(r#"from="ramp" to="h1" begin="0" end="40" vehsPerHour="900""#),
+            "{flows}"
+        );
+        let all = run
+            .output(&sc)
+            .sumo
+            .unwrap()
+            .all_vehicles
+            .expect("other traffic");
+        let entered = (40.0f64 / 4.0).floor() as usize + 1;
+        eprintln!(
+            "inflow: {} arrived of at most {entered} entered, up to {} running",
+            all.arrived, all.vehicles_max
+        );
+        assert!(all.arrived >= 1 && all.arrived <= entered, "{all:?}");
+        assert!(all.vehicles_max > sc.vehicles() + 1, "{all:?}");
+        assert_eq!(all.collisions, 0);
+        // Errors, before SUMO starts.
+        let refused = |extra: serde_json::Value| {
+            let sc = scenario(&dir, &inflow(extra).to_string()).unwrap();
+            let mut o = opts(&dir);
+            o.work_dir = dir.join("refused");
+            let e = run_scenario(&sc, &o).unwrap_err().to_string();
+            assert!(!dir.join("refused/sumo.log").exists(), "{e}");
+            e
+        };
+        let e = refused(serde_json::json!({"from": "rmap"}));
+        assert!(
+            e.starts_with("sumo.inflows[0].from = `rmap`:")
+                && e.contains("has no normal edge of that id; nearest ids: `ramp`"),
+            "{e}"
+        );
+        let e = refused(serde_json::json!({"to": "h0"}));
+        assert!(
+            e.starts_with("sumo.inflows[0].to = `h0`: no route along the connections of")
+                && e.ends_with("leads from `ramp` to it (checked before starting SUMO)"),
+            "{e}"
+        );
+        let e = refused(serde_json::json!({"depart_lane": 1}));
+        assert_eq!(e, "sumo.inflows[0].depart_lane = 1: edge `ramp` has 1 lane(s), indices 0..=0 (checked before starting SUMO)");
+        let e = refused(serde_json::json!({"vehs_per_hour": 3000}));
+        assert!(e.starts_with("sumo.inflows[0].vehs_per_hour = 3000: above what edge `ramp` can take in: about 2880 vehicles per hour on 1 lane(s) departing at 30.0 m/s"), "{e}");
+        let e = refused(serde_json::json!({"begin_s": 40}));
+        assert!(
+            e.starts_with("sumo.inflows[0].begin_s = 40: the run ends at horizon_s = 40 s"),
+            "{e}"
+        );
+        let e = scenario(
+            &dir,
+            &inflow(serde_json::json!({"vehs_per_hour": -5})).to_string(),
+        )
+        .unwrap_err();
+        assert!(
+            e.starts_with("sumo.inflows[0].vehs_per_hour = -5: must be a number > 0"),
+            "{e}"
+        );
+        let _ = net;
+    }
+
     /// A lane that admits buses only: passenger cars are refused before SUMO starts, buses
     /// (`sumo.vclass`) drive it, their vType says so, and SUMO gives the native simulator's
     /// speeds across it; a class SUMO does not have is named with the ones it has.

@@ -576,6 +576,49 @@ pub struct SumoSpec {
     /// every step), which `syncroad replay` plays back in sumo-gui.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub fcd: bool,
+    /// Human traffic entering the network during the run (SUMO flows of its default vehicle
+    /// type, routed by SUMO from `from` to `to`, leaving at `to`'s end).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub inflows: Vec<InflowSpec>,
+}
+
+/// One inflow of human traffic (`sumo.inflows[k]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InflowSpec {
+    /// The edge the vehicles enter on.
+    pub from: String,
+    /// The edge they leave at (its end).
+    pub to: String,
+    /// Vehicles per hour.
+    pub vehs_per_hour: f64,
+    /// `"regular"` (evenly spaced, the default) or `"poisson"` (exponential headways drawn
+    /// from the scenario's seed).
+    #[serde(default)]
+    pub arrivals: Arrivals,
+    /// The lane index they depart on; default: SUMO's `"best"` lane for their route.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub depart_lane: Option<usize>,
+    /// Their departure speed \[m/s\]; default: the most SUMO allows there (`"max"`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub depart_speed_mps: Option<f64>,
+    /// When the inflow starts \[s\] (default 0).
+    #[serde(default)]
+    pub begin_s: f64,
+    /// When it ends \[s\] (default: the horizon).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub end_s: Option<f64>,
+}
+
+/// How an inflow's vehicles arrive.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Arrivals {
+    /// Evenly spaced (SUMO's `vehsPerHour`).
+    #[default]
+    Regular,
+    /// A Poisson process (SUMO's `period="exp(rate)"`), drawn from SUMO's seed.
+    Poisson,
 }
 
 fn d_length() -> f64 {
@@ -616,6 +659,7 @@ impl Default for SumoSpec {
             additional: Vec::new(),
             config: None,
             controlled: None,
+            inflows: Vec::new(),
             fcd: false,
         }
     }

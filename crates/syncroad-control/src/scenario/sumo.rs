@@ -7,7 +7,9 @@ use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
 
-use super::{invalid, ConfigInputs, RoadReader, ScenarioError, SumoSpec, VehicleSelector};
+use super::{
+    invalid, ConfigInputs, InflowSpec, RoadReader, ScenarioError, SumoSpec, VehicleSelector,
+};
 
 /// The input section of `sumo.config`, read by `reader` (the SUMO crate's: the maths reads no
 /// XML).
@@ -143,6 +145,7 @@ pub struct SumoSettings {
     config_ignored: Vec<String>,
     controlled: Option<VehicleSelector>,
     fcd: bool,
+    inflows: Vec<InflowSpec>,
 }
 
 impl SumoSettings {
@@ -167,7 +170,13 @@ impl SumoSettings {
     /// The user's own traffic shares the road (route or additional files, of `sumo.config`
     /// too): the law's graph in SUMO is the road's, and the run measures every vehicle.
     pub fn other_traffic(&self) -> bool {
-        !self.routes.is_empty() || !self.additional.is_empty()
+        !self.routes.is_empty() || !self.additional.is_empty() || !self.inflows.is_empty()
+    }
+
+    /// The inflows of human traffic (`sumo.inflows`), their numbers checked; their edges are
+    /// checked on the network by the SUMO backend before it starts.
+    pub fn inflows(&self) -> &[InflowSpec] {
+        &self.inflows
     }
 
     /// The vehicle type every SUMO vehicle shares.
@@ -301,7 +310,11 @@ impl SumoSpec {
                 ));
             }
         }
+        for (k, f) in self.inflows.iter().enumerate() {
+            check_inflow(k, f)?;
+        }
         Ok(SumoSettings {
+            inflows: self.inflows.clone(),
             controlled: self.controlled.clone(),
             fcd: self.fcd,
             net,
@@ -320,6 +333,56 @@ impl SumoSpec {
             timeout,
         })
     }
+}
+
+/// The most vehicles per hour one inflow may ask for (ten lanes at a headway of one second;
+/// the SUMO backend checks the entry's own capacity).
+pub const MAX_VEHS_PER_HOUR: f64 = 36_000.0;
+
+/// The numbers of inflow `k`.
+fn check_inflow(k: usize, f: &InflowSpec) -> Result<(), ScenarioError> {
+    let field = |name: &str| format!("sumo.inflows[{k}].{name}");
+    if !(f.vehs_per_hour.is_finite()
+        && f.vehs_per_hour > 0.0
+        && f.vehs_per_hour <= MAX_VEHS_PER_HOUR)
+    {
+        return Err(invalid(
+            field("vehs_per_hour"),
+            f.vehs_per_hour,
+            format!("must be a number > 0 and at most {MAX_VEHS_PER_HOUR} (vehicles per hour)"),
+        ));
+    }
+    if let Some(v) = f.depart_speed_mps {
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(invalid(
+                field("depart_speed_mps"),
+                v,
+                "must be a finite number ≥ 0, or left out for the most SUMO allows",
+            ));
+        }
+    }
+    if !(f.begin_s.is_finite() && f.begin_s >= 0.0) {
+        return Err(invalid(
+            field("begin_s"),
+            f.begin_s,
+            "must be a finite number ≥ 0",
+        ));
+    }
+    if let Some(end) = f.end_s {
+        if !(end.is_finite() && end > f.begin_s) {
+            return Err(invalid(
+                field("end_s"),
+                end,
+                format!("must be a finite number after begin_s = {}", f.begin_s),
+            ));
+        }
+    }
+    for (name, edge) in [("from", &f.from), ("to", &f.to)] {
+        if edge.is_empty() {
+            return Err(invalid(field(name), "\"\"", "name an edge of the network"));
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]
