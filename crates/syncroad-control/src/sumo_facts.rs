@@ -141,6 +141,15 @@ pub struct AllVehicles {
     pub halting_mean: f64,
     /// Vehicles that reached the end of their route.
     pub arrived: usize,
+    /// Vehicles SUMO inserted into the network.
+    #[serde(default)]
+    pub inserted: usize,
+    /// Vehicles of the demand (route files, inflows) still waiting to enter at the last
+    /// sample: SUMO delays an insertion while its entry is full, without a word, so a positive
+    /// count says the network took less than the demand asked.
+    #[serde(default)]
+    #[schemars(title = "waiting to enter at the end")]
+    pub waiting_at_end: usize,
     /// Collisions SUMO counted among all vehicles.
     #[schemars(title = "collisions (all)")]
     pub collisions: usize,

@@ -129,12 +129,26 @@ pub fn check(
             .fold(f64::INFINITY, f64::min);
         let v = f.depart_speed_mps.unwrap_or(limit).min(limit);
         let capacity = entry_lanes as f64 * lane_capacity_per_hour(v);
-        if f.vehs_per_hour > capacity {
+        // The inflows entering on the same edge at the same time share its capacity.
+        let window = |g: &InflowSpec| (g.begin_s, g.end_s.unwrap_or(horizon_s));
+        let (b, e) = window(f);
+        let total: f64 = inflows
+            .iter()
+            .filter(|g| g.from == f.from)
+            .filter(|g| window(g).0 < e && b < window(g).1)
+            .map(|g| g.vehs_per_hour)
+            .sum();
+        if total > capacity {
+            let shared = if total > f.vehs_per_hour {
+                format!(" (with the other inflows entering there at the same time, {total})")
+            } else {
+                String::new()
+            };
             return Err(refuse(
                 field("vehs_per_hour"),
                 f.vehs_per_hour,
                 format!(
-                    "above what edge `{}` can take in: about {:.0} vehicles per hour on {entry_lanes} lane(s) departing at {v:.1} m/s (3600·v / (length + minGap + v·tau) per lane for SUMO's default vehicle type); SUMO would silently delay the insertions, so the inflow would not be what the scenario says: give at most {:.0}",
+                    "above what edge `{}` can take in{shared}: at most about {:.0} vehicles per hour on {entry_lanes} lane(s) departing at {v:.1} m/s (3600·v / (length + minGap + v·tau) per lane for SUMO's default vehicle type); SUMO would silently delay the insertions, so the inflow would not be what the scenario says: give at most {:.0} in all",
                     f.from,
                     capacity,
                     capacity.floor()

@@ -74,17 +74,21 @@ pub fn summarize(text: &str, warmup_s: f64, step_s: f64) -> Result<AllVehicles, 
     let mut span: Option<(f64, f64)> = None;
     let (mut steps, mut running_sum, mut speed_sum, mut halting_sum) = (0usize, 0.0, 0.0, 0.0);
     // Totals at the last step before the warm-up ended.
-    let (mut arrived0, mut collisions0) = (0.0, 0.0);
-    let (mut arrived, mut collisions) = (0.0, 0.0);
+    let (mut arrived0, mut collisions0, mut inserted0) = (0.0, 0.0, 0.0);
+    let (mut arrived, mut collisions, mut inserted, mut waiting) = (0.0, 0.0, 0.0, 0.0);
     // Half a step of slack: SUMO prints times rounded to its output precision.
     let from = warmup_s - 0.5 * step_s;
     for s in doc.descendants().filter(|n| n.has_tag_name("step")) {
         let t = num(&s, "time")?;
         arrived = num(&s, "arrived")?;
         collisions = num(&s, "collisions")?;
+        // Older summaries lack these two: counted as none.
+        inserted = num(&s, "inserted").unwrap_or(0.0);
+        waiting = num(&s, "waiting").unwrap_or(0.0);
         if t < from {
             arrived0 = arrived;
             collisions0 = collisions;
+            inserted0 = inserted;
             continue;
         }
         let running = num(&s, "running")?;
@@ -105,6 +109,8 @@ pub fn summarize(text: &str, warmup_s: f64, step_s: f64) -> Result<AllVehicles, 
     }
     out.arrived = (arrived - arrived0) as usize;
     out.collisions = (collisions - collisions0) as usize;
+    out.inserted = (inserted - inserted0) as usize;
+    out.waiting_at_end = waiting as usize;
     Ok(out)
 }
 
@@ -128,6 +134,15 @@ mod tests {
         assert_eq!(a.halting_mean, 2.0 / 3.0);
         assert_eq!((a.arrived, a.collisions), (4, 1));
         assert_eq!(a.measured_s, 2.0);
+        // No inserted or waiting attributes (older summaries): none counted.
+        assert_eq!((a.inserted, a.waiting_at_end), (0, 0));
+        let with_demand = r#"<summary>
+    <step time="1.00" inserted="3" waiting="0" running="3" halting="0" arrived="0" collisions="0" meanSpeed="9.00"/>
+    <step time="2.00" inserted="5" waiting="2" running="5" halting="1" arrived="0" collisions="0" meanSpeed="3.00"/>
+</summary>"#;
+        let a = summarize(with_demand, 2.0, 1.0).unwrap();
+        // Inserted after the warm-up: 5 − 3; waiting at the last sample: 2.
+        assert_eq!((a.inserted, a.waiting_at_end), (2, 2));
         let e = summarize("<summary><step time=\"1\"/></summary>", 0.0, 1.0).unwrap_err();
         assert_eq!(e, "a <step> without arrived");
     }

@@ -1348,6 +1348,36 @@ mod open_roads {
         assert!(all.arrived >= 1 && all.arrived <= entered, "{all:?}");
         assert!(all.vehicles_max > sc.vehicles() + 1, "{all:?}");
         assert_eq!(all.collisions, 0);
+        assert_eq!(all.waiting_at_end, 0, "{all:?}");
+        // Close to the bound of one lane at 30 m/s (2880 an hour) SUMO still inserts every
+        // vehicle when it is due on this free ramp: those that entered are all that were due
+        // (the platoon and the leader included), and none waits.
+        let busy = scenario(
+            &dir,
+            &inflow(serde_json::json!({"vehs_per_hour": 2850})).to_string(),
+        )
+        .unwrap();
+        let mut o = opts(&dir);
+        o.work_dir = dir.join("busy");
+        let run = run_scenario(&busy, &o).unwrap();
+        let all = run.output(&busy).sumo.unwrap().all_vehicles.unwrap();
+        eprintln!("busy inflow: {all:?}");
+        let due = (40.0f64 * 2850.0 / 3600.0).ceil() as usize;
+        assert_eq!(
+            all.inserted + all.waiting_at_end,
+            due + busy.vehicles() + 1,
+            "{all:?}"
+        );
+        assert_eq!(all.waiting_at_end, 0, "{all:?}");
+        // Two inflows on the ramp at once share its capacity.
+        let mut two = inflow(serde_json::json!({"vehs_per_hour": 1500}));
+        let second = two["sumo"]["inflows"][0].clone();
+        two["sumo"]["inflows"].as_array_mut().unwrap().push(second);
+        let two = scenario(&dir, &two.to_string()).unwrap();
+        let mut o = opts(&dir);
+        o.work_dir = dir.join("refused-two");
+        let e = run_scenario(&two, &o).unwrap_err().to_string();
+        assert!(e.starts_with("sumo.inflows[0].vehs_per_hour = 1500: above what edge `ramp` can take in (with the other inflows entering there at the same time, 3000)"), "{e}");
         // Errors, before SUMO starts.
         let refused = |extra: serde_json::Value| {
             let sc = scenario(&dir, &inflow(extra).to_string()).unwrap();
@@ -1372,7 +1402,7 @@ mod open_roads {
         let e = refused(serde_json::json!({"depart_lane": 1}));
         assert_eq!(e, "sumo.inflows[0].depart_lane = 1: edge `ramp` has 1 lane(s), indices 0..=0 (checked before starting SUMO)");
         let e = refused(serde_json::json!({"vehs_per_hour": 3000}));
-        assert!(e.starts_with("sumo.inflows[0].vehs_per_hour = 3000: above what edge `ramp` can take in: about 2880 vehicles per hour on 1 lane(s) departing at 30.0 m/s"), "{e}");
+        assert!(e.starts_with("sumo.inflows[0].vehs_per_hour = 3000: above what edge `ramp` can take in: at most about 2880 vehicles per hour on 1 lane(s) departing at 30.0 m/s"), "{e}");
         let e = refused(serde_json::json!({"begin_s": 40}));
         assert!(
             e.starts_with("sumo.inflows[0].begin_s = 40: the run ends at horizon_s = 40 s"),

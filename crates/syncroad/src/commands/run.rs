@@ -172,6 +172,13 @@ fn print_summary(sc: &Scenario, f: &Finished) {
             a.arrived,
             a.collisions
         );
+        if a.waiting_at_end > 0 {
+            outln!(
+                "  note: {} vehicles of the demand were still waiting to enter at the end ({} entered): SUMO delays insertions while an entry is full, so the network took less than the scenario asked",
+                a.waiting_at_end,
+                a.inserted
+            );
+        }
     }
 }
 
