@@ -271,16 +271,28 @@ impl Scenario {
             ));
         }
         if s.other_traffic() {
-            let (field, files) = if s.routes().is_empty() {
-                ("sumo.additional", s.additional())
-            } else {
-                ("sumo.routes", s.routes())
+            let show = |files: &[std::path::PathBuf]| {
+                files
+                    .iter()
+                    .map(|f| f.display().to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
             };
-            let files: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
+            let (field, value) = if !s.routes().is_empty() {
+                ("sumo.routes", show(s.routes()))
+            } else if !s.additional().is_empty() {
+                ("sumo.additional", show(s.additional()))
+            } else {
+                let edges: Vec<String> = s
+                    .inflows()
+                    .iter()
+                    .map(|f| format!("{} → {}", f.from, f.to))
+                    .collect();
+                ("sumo.inflows", edges.join(", "))
+            };
             return Some(format!(
-                "scenario {}: {field} = {}: the user's own traffic, which only SUMO drives, shares the road; the native simulator would run syncroad's vehicles without it and report on another road; {how}",
+                "scenario {}: {field} = {value}: the user's own traffic, which only SUMO drives, shares the road; the native simulator would run syncroad's vehicles without it and report on another road; {how}",
                 self.name(),
-                files.join(", ")
             ));
         }
         None

@@ -453,6 +453,38 @@ mod tests {
     }
 
     #[test]
+    fn inflows_are_other_traffic_and_their_numbers_are_checked() {
+        let validate = |inflow: &str| {
+            ScenarioFile::from_json(&ring(&format!(r#"{{"inflows": [{inflow}]}}"#)), "<test>")
+                .map_err(|e| e.to_string())?
+                .validate(Path::new("."))
+                .map_err(|e| e.to_string())
+        };
+        let sc = validate(r#"{"from": "in", "to": "out", "vehs_per_hour": 600}"#).unwrap();
+        assert!(sc.sumo().other_traffic());
+        assert_eq!(
+            sc.native_refusal().unwrap(),
+            "scenario scenario: sumo.inflows = in → out: the user's own traffic, which only SUMO drives, shares the road; the native simulator would run syncroad's vehicles without it and report on another road; run it on SUMO (\"backend\": \"sumo\", `syncroad run`)"
+        );
+        for (inflow, err) in [
+            (
+                r#"{"from": "in", "to": "out", "vehs_per_hour": 0}"#,
+                "sumo.inflows[0].vehs_per_hour = 0: must be a number > 0 and at most 36000 (vehicles per hour)",
+            ),
+            (
+                r#"{"from": "in", "to": "out", "vehs_per_hour": 60, "begin_s": 10, "end_s": 5}"#,
+                "sumo.inflows[0].end_s = 5: must be a finite number after begin_s = 10",
+            ),
+            (
+                r#"{"from": "", "to": "out", "vehs_per_hour": 60}"#,
+                "sumo.inflows[0].from = \"\": name an edge of the network",
+            ),
+        ] {
+            assert_eq!(validate(inflow).unwrap_err(), err);
+        }
+    }
+
+    #[test]
     fn a_routes_lanes_are_one_index_a_list_or_follow() {
         use crate::scenario::RouteLanes;
         let lanes =
