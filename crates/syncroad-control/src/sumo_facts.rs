@@ -141,6 +141,15 @@ pub struct AllVehicles {
     pub halting_mean: f64,
     /// Vehicles that reached the end of their route.
     pub arrived: usize,
+    /// Arrivals per hour over the measured time: the network's throughput.
+    #[serde(default)]
+    #[schemars(title = "throughput (all)")]
+    pub throughput_per_hour: f64,
+    /// Mean travel time of the vehicles that arrived after the warm-up \[s\] (from entering
+    /// the network to leaving it); `null` when none arrived.
+    #[serde(default)]
+    #[schemars(title = "mean travel time (all)")]
+    pub mean_travel_time_s: Option<f64>,
     /// Vehicles SUMO inserted into the network.
     #[serde(default)]
     pub inserted: usize,

@@ -76,6 +76,9 @@ pub fn summarize(text: &str, warmup_s: f64, step_s: f64) -> Result<AllVehicles, 
     // Totals at the last step before the warm-up ended.
     let (mut arrived0, mut collisions0, mut inserted0) = (0.0, 0.0, 0.0);
     let (mut arrived, mut collisions, mut inserted, mut waiting) = (0.0, 0.0, 0.0, 0.0);
+    // SUMO's mean travel time of every vehicle arrived so far (−1 before the first), at the
+    // warm-up's end and at the last sample: the mean of those arrived in between follows.
+    let (mut travel0, mut travel) = (Some(0.0), Some(0.0));
     // Half a step of slack: SUMO prints times rounded to its output precision.
     let from = warmup_s - 0.5 * step_s;
     for s in doc.descendants().filter(|n| n.has_tag_name("step")) {
@@ -85,10 +88,12 @@ pub fn summarize(text: &str, warmup_s: f64, step_s: f64) -> Result<AllVehicles, 
         // Older summaries lack these two: counted as none.
         inserted = num(&s, "inserted").unwrap_or(0.0);
         waiting = num(&s, "waiting").unwrap_or(0.0);
+        travel = num(&s, "meanTravelTime").ok().map(|x| x.max(0.0));
         if t < from {
             arrived0 = arrived;
             collisions0 = collisions;
             inserted0 = inserted;
+            travel0 = travel;
             continue;
         }
         let running = num(&s, "running")?;
@@ -111,6 +116,12 @@ pub fn summarize(text: &str, warmup_s: f64, step_s: f64) -> Result<AllVehicles, 
     out.collisions = (collisions - collisions0) as usize;
     out.inserted = (inserted - inserted0) as usize;
     out.waiting_at_end = waiting as usize;
+    if out.measured_s > 0.0 {
+        out.throughput_per_hour = out.arrived as f64 / out.measured_s * 3600.0;
+    }
+    if let (true, Some(t), Some(t0)) = (arrived > arrived0, travel, travel0) {
+        out.mean_travel_time_s = Some((t * arrived - t0 * arrived0) / (arrived - arrived0));
+    }
     Ok(out)
 }
 
@@ -134,15 +145,20 @@ mod tests {
         assert_eq!(a.halting_mean, 2.0 / 3.0);
         assert_eq!((a.arrived, a.collisions), (4, 1));
         assert_eq!(a.measured_s, 2.0);
-        // No inserted or waiting attributes (older summaries): none counted.
+        // No inserted, waiting or meanTravelTime attributes (older summaries): none counted.
         assert_eq!((a.inserted, a.waiting_at_end), (0, 0));
+        assert_eq!(a.mean_travel_time_s, None);
         let with_demand = r#"<summary>
-    <step time="1.00" inserted="3" waiting="0" running="3" halting="0" arrived="0" collisions="0" meanSpeed="9.00"/>
-    <step time="2.00" inserted="5" waiting="2" running="5" halting="1" arrived="0" collisions="0" meanSpeed="3.00"/>
+    <step time="1.00" inserted="3" waiting="0" running="3" halting="0" arrived="1" collisions="0" meanSpeed="9.00" meanTravelTime="10.00"/>
+    <step time="2.00" inserted="5" waiting="2" running="5" halting="1" arrived="1" collisions="0" meanSpeed="3.00" meanTravelTime="10.00"/>
+    <step time="3.00" inserted="5" waiting="2" running="2" halting="1" arrived="4" collisions="0" meanSpeed="3.00" meanTravelTime="16.00"/>
 </summary>"#;
         let a = summarize(with_demand, 2.0, 1.0).unwrap();
         // Inserted after the warm-up: 5 − 3; waiting at the last sample: 2.
         assert_eq!((a.inserted, a.waiting_at_end), (2, 2));
+        // Three arrived after the warm-up in the 1 s measured, travelling (16·4 − 10·1)/3 s.
+        assert_eq!(a.throughput_per_hour, 3.0 * 3600.0);
+        assert_eq!(a.mean_travel_time_s, Some(18.0));
         let e = summarize("<summary><step time=\"1\"/></summary>", 0.0, 1.0).unwrap_err();
         assert_eq!(e, "a <step> without arrived");
     }

@@ -1349,6 +1349,19 @@ mod open_roads {
         assert!(all.vehicles_max > sc.vehicles() + 1, "{all:?}");
         assert_eq!(all.collisions, 0);
         assert_eq!(all.waiting_at_end, 0, "{all:?}");
+        // Throughput is the arrivals over the measured time; a vehicle needs at least the
+        // ramp and h1 (about 808 m, sumolib) at the speed limit raised by SUMO's largest speed
+        // factor (1.2) to cross them, and it entered after t = 0.
+        let driven = {
+            let ramp = sumolib_length_on(&net, &["ramp", "h1"], &[0, 0], false);
+            ramp / (30.0 * 1.2)
+        };
+        assert!(
+            (all.throughput_per_hour - all.arrived as f64 / all.measured_s * 3600.0).abs() < 1e-9
+        );
+        let tt = all.mean_travel_time_s.expect("vehicles arrived");
+        eprintln!("inflow: mean travel time {tt:.2} s, at least {driven:.2} s");
+        assert!(tt >= driven && tt <= 40.0, "{tt} s");
         // Close to the bound of one lane at 30 m/s (2880 an hour) SUMO still inserts every
         // vehicle when it is due on this free ramp: those that entered are all that were due
         // (the platoon and the leader included), and none waits.
@@ -1417,7 +1430,6 @@ mod open_roads {
             e.starts_with("sumo.inflows[0].vehs_per_hour = -5: must be a number > 0"),
             "{e}"
         );
-        let _ = net;
     }
 
     /// A lane that admits buses only: passenger cars are refused before SUMO starts, buses

@@ -163,13 +163,15 @@ fn print_summary(sc: &Scenario, f: &Finished) {
     }
     if let Some(a) = &facts.all_vehicles {
         outln!(
-            "  all vehicles (SUMO's summary over {:.1} s): {:.2} running (max {}), mean speed {}, {:.2} halting, {} arrived, {} collisions",
+            "  all vehicles (SUMO's summary over {:.1} s): {:.2} running (max {}), mean speed {}, {:.2} halting, {} arrived ({:.0} an hour, mean travel time {}), {} collisions",
             a.measured_s,
             a.vehicles_mean,
             a.vehicles_max,
             a.mean_speed_mps.map_or("—".to_string(), |v| format!("{v:.2} m/s")),
             a.halting_mean,
             a.arrived,
+            a.throughput_per_hour,
+            a.mean_travel_time_s.map_or("—".to_string(), |t| format!("{t:.1} s")),
             a.collisions
         );
         if a.waiting_at_end > 0 {
