@@ -158,13 +158,28 @@ impl Finished {
             )?;
         }
         let n = match plots {
-            Some(title) if self.output.trajectory.len() >= 2 => RunPlots {
-                traj: &self.output.trajectory,
-                ring_length_m: self.output.ring_length_m,
-                title,
+            Some(title) if self.output.trajectory.len() >= 2 => {
+                let mut files = RunPlots {
+                    traj: &self.output.trajectory,
+                    ring_length_m: self.output.ring_length_m,
+                    title: title.clone(),
+                }
+                .write_all(dir)?;
+                // With other traffic and SUMO's floating-car data: every vehicle on the road.
+                let all = self
+                    .output
+                    .sumo
+                    .as_ref()
+                    .and_then(|s| s.all_vehicles.as_ref());
+                if all.is_some() {
+                    files.extend(crate::plots::field_time_space(
+                        dir,
+                        &dir.join(output::SUMO_WORK_DIR),
+                        &title,
+                    )?);
+                }
+                files.len()
             }
-            .write_all(dir)?
-            .len(),
             _ => 0,
         };
         output::write_run_record(dir, &self.record)?;

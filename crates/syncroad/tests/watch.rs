@@ -529,3 +529,81 @@ fn animate_rings_the_controlled_vehicle_among_humans() {
     );
     assert_eq!(black[1], 0, "all-law ring: {} black pixels", black[1]);
 }
+
+/// With other traffic and `--fcd` a run draws every vehicle on the road (`time_space_all`),
+/// placed from SUMO's floating-car data: the drawing holds exactly the records of vehicles on
+/// the road's edges (the slow car of the guide's track among the law's sixteen), counted here
+/// from the same file independently.
+#[test]
+fn every_vehicle_on_the_road_is_drawn_from_the_floating_car_data() {
+    let dir = tmpdir("field");
+    let track = dir.join("track");
+    std::fs::create_dir_all(&track).unwrap();
+    for f in ["track.nod.xml", "track.edg.xml", "slow.rou.xml"] {
+        std::fs::copy(repo().join("examples/track").join(f), track.join(f)).unwrap();
+    }
+    let netconvert = repo().join(".venv/lib/python3.11/site-packages/sumo/bin/netconvert");
+    let (code, _, err) = run(std::process::Command::new(netconvert)
+        .current_dir(&track)
+        .args([
+            "--node-files",
+            "track.nod.xml",
+            "--edge-files",
+            "track.edg.xml",
+        ])
+        .args(["--no-turnarounds", "true", "-o", "track.net.xml"]));
+    assert_eq!(code, 0, "{err}");
+    let text = std::fs::read_to_string(repo().join("examples/track/own-loop.json")).unwrap();
+    let mut sc: serde_json::Value = serde_json::from_str(&text).unwrap();
+    sc["horizon_s"] = 30.into();
+    sc["sumo"]["routes"] = serde_json::json!(["slow.rou.xml"]);
+    let path = track.join("field.json");
+    std::fs::write(&path, sc.to_string()).unwrap();
+    let out = dir.join("out");
+    let (code, stdout, stderr) = run(bin()
+        .args(["run", "--fcd", "-q"])
+        .arg(&path)
+        .arg("--out")
+        .arg(&out));
+    assert!(code == 0 || code == 1, "{stdout}\n{stderr}");
+    let (code, stdout, _) = run(bin()
+        .args(["run", "--fcd"])
+        .arg(&path)
+        .arg("--out")
+        .arg(dir.join("again")));
+    assert!(code == 0 || code == 1);
+    assert!(
+        stdout.contains("time_space_all (every vehicle on the road)"),
+        "{stdout}"
+    );
+    assert!(out.join("time_space_all.png").is_file());
+    let svg = std::fs::read_to_string(out.join("time_space_all.svg")).unwrap();
+    let drawn = svg.matches("<circle").count();
+    // The records on the road's edges, from the FCD and road.json.
+    let road: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("sumo/road.json")).unwrap())
+            .unwrap();
+    let lanes: Vec<String> = road["lanes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|l| l["id"].as_str().unwrap().to_string())
+        .collect();
+    let edge = |lane: &str| lane.rsplit_once('_').map_or(lane, |(e, _)| e).to_string();
+    let edges: Vec<String> = lanes
+        .iter()
+        .filter(|l| !l.starts_with(':'))
+        .map(|l| edge(l))
+        .collect();
+    let records = fcd(&out.join("sumo/fcd.xml"));
+    let on_road = records
+        .values()
+        .filter(|r| lanes.contains(&r.3) || (!r.3.starts_with(':') && edges.contains(&edge(&r.3))))
+        .count();
+    let slow = records.keys().filter(|k| k.1 == "slow").count();
+    eprintln!(
+        "field: {drawn} points drawn, {on_road} FCD records on the road, {slow} of the slow car"
+    );
+    assert!(slow > 200, "the slow car is on the road");
+    assert_eq!(drawn, on_road);
+}

@@ -37,6 +37,9 @@ pub fn run(path: &Path, out: &OutputArgs, sumo: &SumoArgs) -> anyhow::Result<Sta
     }
 }
 
+/// The plots every run with a trajectory writes (three, PNG and SVG each).
+const RUN_PLOTS: usize = crate::plots::RUN_PLOT_FILES.len();
+
 /// `syncroad simulate`: the native simulator whatever the scenario's backend.
 pub fn simulate(path: &Path, out: &OutputArgs) -> anyhow::Result<Status> {
     run_native(&load_scenario(path)?, path, out)
@@ -54,6 +57,7 @@ fn prepare_out(dir: &Path, path: &Path, sc: &Scenario) -> anyhow::Result<FolderL
         crate::commands::animate::ANIMATION_FILE,
     ];
     files.extend(crate::plots::RUN_PLOT_FILES);
+    files.extend(crate::plots::FIELD_PLOT_FILES);
     output::prepare_dir("--out", dir, &files, &output::Inputs::scenario(path, sc))
 }
 
@@ -110,7 +114,12 @@ fn report_files(dir: &Path, written: anyhow::Result<usize>, complete: bool) -> a
         if complete { "" } else { " (incomplete run)" }
     );
     if plots > 0 {
-        outln!("wrote {plots} plots: time_space, speeds, spread (PNG and SVG)");
+        let all = if plots > RUN_PLOTS {
+            ", time_space_all (every vehicle on the road)"
+        } else {
+            ""
+        };
+        outln!("wrote {plots} plots: time_space, speeds, spread{all} (PNG and SVG)");
     }
     Ok(())
 }

@@ -12,6 +12,7 @@ use plotters::prelude::*;
 use syncroad_control::Trajectory;
 
 pub(crate) mod axis;
+pub mod field;
 mod spread;
 
 pub use spread::{spread_plot, Spread, SpreadLabels};
@@ -71,6 +72,117 @@ macro_rules! render_both {
 }
 pub(crate) use render_both;
 
+/// One time-space diagram: points (time \[s\], position \[m\], speed \[m/s\]) coloured
+/// by speed on a fixed scale, with its colour bar.
+struct TimeSpace {
+    stem: &'static str,
+    title: String,
+    time: std::ops::Range<f64>,
+    space: std::ops::Range<f64>,
+    y_desc: &'static str,
+    speeds: (f64, f64),
+}
+
+impl TimeSpace {
+    fn draw(&self, dir: &Path, pts: &[(f64, f64, f64)]) -> anyhow::Result<Vec<PathBuf>> {
+        let (vmin, vmax) = self.speeds;
+        render_both!(dir, self.stem, (1100, 650), |root| {
+            let (main, bar) = root.split_horizontally(root.dim_in_pixel().0 - 110);
+            let mut chart = ChartBuilder::on(&main)
+                .caption(&self.title, ("sans-serif", 20))
+                .margin(10)
+                .x_label_area_size(40)
+                .y_label_area_size(60)
+                .build_cartesian_2d(self.time.clone(), self.space.clone())
+                .map_err(err)?;
+            chart
+                .configure_mesh()
+                .x_desc("time [s]")
+                .y_desc(self.y_desc)
+                .disable_mesh()
+                .label_style(("sans-serif", 13))
+                .axis_desc_style(("sans-serif", 15))
+                .draw()
+                .map_err(err)?;
+            chart
+                .draw_series(
+                    pts.iter().filter(|p| p.1.is_finite()).map(|&(t, y, v)| {
+                        Circle::new((t, y), 1, speed_colour(v, vmin, vmax).filled())
+                    }),
+                )
+                .map_err(err)?;
+            // Colour bar.
+            let mut cb = ChartBuilder::on(&bar)
+                .margin_top(40)
+                .margin_bottom(50)
+                .margin_right(12)
+                .y_label_area_size(64)
+                .build_cartesian_2d(0.0..1.0, vmin..vmax)
+                .map_err(err)?;
+            cb.configure_mesh()
+                .disable_x_axis()
+                .disable_mesh()
+                .y_desc("speed [m/s]")
+                .y_labels(8)
+                .y_label_formatter(&|v| format!("{v:.2}"))
+                .y_label_style(("sans-serif", 13))
+                .axis_desc_style(("sans-serif", 14))
+                .draw()
+                .map_err(err)?;
+            let steps = 100;
+            cb.draw_series((0..steps).map(|k| {
+                let a = vmin + (vmax - vmin) * k as f64 / steps as f64;
+                let b = vmin + (vmax - vmin) * (k + 1) as f64 / steps as f64;
+                Rectangle::new(
+                    [(0.0, a), (1.0, b)],
+                    speed_colour(0.5 * (a + b), vmin, vmax).filled(),
+                )
+            }))
+            .map_err(err)?;
+            Ok(())
+        })
+    }
+}
+
+/// The files of the time-space diagram of every vehicle ([`field_time_space`]).
+pub const FIELD_PLOT_FILES: [&str; 2] = ["time_space_all.png", "time_space_all.svg"];
+
+/// SUMO writes about this many bytes per vehicle and step into its floating-car data.
+const FCD_BYTES_PER_RECORD: u64 = 120;
+
+/// The time-space diagram of every vehicle on the road, syncroad's and everyone else's, from
+/// the floating-car data in the run's SUMO folder `sumo_dir` ([`field`]); no files when the
+/// run wrote none. The time steps are thinned to keep about 150k points (judged from the
+/// file's size).
+pub fn field_time_space(dir: &Path, sumo_dir: &Path, title: &str) -> anyhow::Result<Vec<PathBuf>> {
+    let bytes = std::fs::metadata(sumo_dir.join("fcd.xml")).map_or(0, |m| m.len());
+    let stride = usize::try_from(bytes / FCD_BYTES_PER_RECORD / 150_000)
+        .unwrap_or(usize::MAX)
+        .max(1);
+    let Some((road, pts)) = field::run_field(sumo_dir, stride)? else {
+        return Ok(Vec::new());
+    };
+    if pts.is_empty() {
+        return Ok(Vec::new());
+    }
+    let speeds = axis::quantiles(pts.iter().map(|p| p.2), 0.02, 0.98, 0.2, 0.0..1.0);
+    let time = axis::linear(pts.iter().map(|p| p.0), 1.0, 0.0..1.0);
+    let space = if road.closed {
+        0.0..road.length_m
+    } else {
+        0.0..road.length_m.max(1.0)
+    };
+    TimeSpace {
+        stem: "time_space_all",
+        title: format!("{title} — every vehicle on the road"),
+        time: time.start.min(0.0)..time.end,
+        space,
+        y_desc: "position along the road [m]",
+        speeds: (speeds.start, speeds.end),
+    }
+    .draw(dir, &pts)
+}
+
 /// The files [`RunPlots::write_all`] writes into a run's folder.
 pub const RUN_PLOT_FILES: [&str; 6] = [
     "time_space.png",
@@ -129,10 +241,8 @@ impl RunPlots<'_> {
     pub fn time_space(&self, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
         let tr = self.traj;
         let n = tr.n;
-        let (vmin, vmax) = self.speed_range();
         // Keep about 150k points in the bitmap and the vector file alike.
         let stride = ((tr.len() * n) / 150_000).max(1);
-        let time = self.time_range();
         let (ymin, ymax) = match self.ring_length_m {
             Some(l) if l.is_finite() && l > 0.0 => (0.0, l),
             _ => {
@@ -140,77 +250,30 @@ impl RunPlots<'_> {
                 (r.start, r.end)
             }
         };
-        render_both!(dir, "time_space", (1100, 650), |root| {
-            let (main, bar) = root.split_horizontally(root.dim_in_pixel().0 - 110);
-            let mut chart = ChartBuilder::on(&main)
-                .caption(
-                    format!("{} — time-space diagram", self.title),
-                    ("sans-serif", 20),
-                )
-                .margin(10)
-                .x_label_area_size(40)
-                .y_label_area_size(60)
-                .build_cartesian_2d(time.clone(), ymin..ymax)
-                .map_err(err)?;
-            chart
-                .configure_mesh()
-                .x_desc("time [s]")
-                .y_desc(if self.ring_length_m.is_some() {
-                    "position on ring [m]"
-                } else {
-                    "position [m]"
+        let pts: Vec<(f64, f64, f64)> = (0..tr.len())
+            .step_by(stride.div_ceil(n).max(1))
+            .flat_map(|k| {
+                (0..n).map(move |i| {
+                    let x = tr.positions_m[k * n + i];
+                    let y = self.ring_length_m.map_or(x, |l| x.rem_euclid(l));
+                    (tr.time_s[k], y, tr.speeds_mps[k * n + i])
                 })
-                .disable_mesh()
-                .label_style(("sans-serif", 13))
-                .axis_desc_style(("sans-serif", 15))
-                .draw()
-                .map_err(err)?;
-            let pts = (0..tr.len())
-                .step_by(stride.div_ceil(n).max(1))
-                .flat_map(|k| {
-                    (0..n).map(move |i| {
-                        let x = tr.positions_m[k * n + i];
-                        let y = self.ring_length_m.map_or(x, |l| x.rem_euclid(l));
-                        (tr.time_s[k], y, tr.speeds_mps[k * n + i])
-                    })
-                });
-            chart
-                .draw_series(
-                    pts.filter(|p| p.1.is_finite()).map(|(t, y, v)| {
-                        Circle::new((t, y), 1, speed_colour(v, vmin, vmax).filled())
-                    }),
-                )
-                .map_err(err)?;
-            // Colour bar.
-            let mut cb = ChartBuilder::on(&bar)
-                .margin_top(40)
-                .margin_bottom(50)
-                .margin_right(12)
-                .y_label_area_size(64)
-                .build_cartesian_2d(0.0..1.0, vmin..vmax)
-                .map_err(err)?;
-            cb.configure_mesh()
-                .disable_x_axis()
-                .disable_mesh()
-                .y_desc("speed [m/s]")
-                .y_labels(8)
-                .y_label_formatter(&|v| format!("{v:.2}"))
-                .y_label_style(("sans-serif", 13))
-                .axis_desc_style(("sans-serif", 14))
-                .draw()
-                .map_err(err)?;
-            let steps = 100;
-            cb.draw_series((0..steps).map(|k| {
-                let a = vmin + (vmax - vmin) * k as f64 / steps as f64;
-                let b = vmin + (vmax - vmin) * (k + 1) as f64 / steps as f64;
-                Rectangle::new(
-                    [(0.0, a), (1.0, b)],
-                    speed_colour(0.5 * (a + b), vmin, vmax).filled(),
-                )
-            }))
-            .map_err(err)?;
-            Ok(())
-        })
+            })
+            .collect();
+        let y_desc = if self.ring_length_m.is_some() {
+            "position on ring [m]"
+        } else {
+            "position [m]"
+        };
+        let chart = TimeSpace {
+            stem: "time_space",
+            title: format!("{} — time-space diagram", self.title),
+            time: self.time_range(),
+            space: ymin..ymax,
+            y_desc,
+            speeds: self.speed_range(),
+        };
+        chart.draw(dir, &pts)
     }
 
     /// Speed of each vehicle against time (at most 30 vehicles, evenly chosen).
