@@ -229,7 +229,7 @@ pub enum RoadSpec {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         through: Option<String>,
         /// Lane index (0 = rightmost) the controlled vehicles keep on every edge.
-        #[serde(default)]
+        #[serde(default, deserialize_with = "loop_lane")]
         lane: usize,
     },
     /// An open route through the network of `sumo.net` (platoons, a chain behind a leader):
@@ -243,6 +243,17 @@ pub enum RoadSpec {
         #[serde(default)]
         lane: RouteLanes,
     },
+}
+
+/// `road.lane` of a loop: one lane index, with a message that says so (a route's other forms
+/// are not a loop's).
+fn loop_lane<'de, D: serde::Deserializer<'de>>(d: D) -> Result<usize, D::Error> {
+    match RouteLanes::deserialize(d)? {
+        RouteLanes::Index(i) => Ok(i),
+        other => Err(serde::de::Error::custom(format!(
+            "road.lane = {other}: a loop keeps one lane index (0 = rightmost) on every edge; one index per edge and \"follow\" are for routes (road.type = \"route\")"
+        ))),
+    }
 }
 
 /// The lanes a route drives (`road.lane` of a route).

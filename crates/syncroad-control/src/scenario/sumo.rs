@@ -496,6 +496,20 @@ mod tests {
             let e = lanes(bad).unwrap_err();
             assert!(e.contains("road.lane as a lane index (0 = rightmost), a list of one lane index per edge, or \"follow\"") || e.contains("expected usize"), "{bad}: {e}");
         }
+        let loop_with = |lane: &str| {
+            ScenarioFile::from_json(
+                &ring("{}").replace(
+                    r#""road": {"type": "ring", "length_m": 200}"#,
+                    &format!(r#""road": {{"type": "loop", "through": "e0", "lane": {lane}}}"#),
+                ),
+                "<test>",
+            )
+            .map(|_| ())
+            .map_err(|e| e.to_string())
+        };
+        assert_eq!(loop_with("1"), Ok(()));
+        let e = loop_with(r#""follow""#).unwrap_err();
+        assert!(e.contains(r#"road.lane = "follow": a loop keeps one lane index (0 = rightmost) on every edge; one index per edge and "follow" are for routes"#), "{e}");
         for l in [
             RouteLanes::Index(2),
             RouteLanes::PerEdge(vec![0, 2]),
