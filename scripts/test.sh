@@ -15,19 +15,30 @@ fi
 if [ -f python-host/bootstrap.sh ]; then
   bash python-host/bootstrap.sh
 fi
+# Where the suite's time goes, phase by phase (printed at the end).
+phases=""
+phase() { phases="$phases $1 $((SECONDS - start))s;"; start=$SECONDS; }
+start=$SECONDS
 # The user guide builds (mdBook, pinned and installed on first use).
 "$(bash scripts/mdbook.sh)" build docs
+phase setup+guide
 cargo build --release --workspace --all-targets
+phase build
 # Includes the guide's test (crates/syncroad/tests/guide.rs): every command example of
 # docs/src and README.md runs as printed.
 cargo test --release --workspace
+phase cargo-tests
 # The congestion/synchronization regression check on every committed baseline.
 for b in tests/baselines/*.json; do
   ./target/release/syncroad regress "$b"
 done
+phase baselines
 # The Python package: the wheel built once, installed into .venv-py, python/tests run by pytest.
 bash scripts/python-test.sh
+phase python
 # A sweep sharded over a private single-node Slurm cluster (skipped, and said so, without Slurm).
 slurm="$(bash scripts/slurm-test.sh)"
+phase slurm
 echo
 echo "summary: guide built; cargo tests passed; baselines passed; Python tests passed; Slurm test: $(echo "$slurm" | tail -1)"
+echo "time:$phases total ${SECONDS}s"
