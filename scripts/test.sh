@@ -25,8 +25,14 @@ phase setup+guide
 cargo build --release --workspace --all-targets
 phase build
 # Includes the guide's test (crates/syncroad/tests/guide.rs): every command example of
-# docs/src and README.md runs as printed.
-cargo test --release --workspace
+# docs/src and README.md runs as printed. cargo-nextest, where installed, runs the test binaries
+# side by side (each test its own process) and the doc tests follow; else cargo's own runner.
+if cargo nextest --version >/dev/null 2>&1; then
+  cargo nextest run --release --workspace --no-fail-fast
+  cargo test --release --workspace --doc
+else
+  cargo test --release --workspace --no-fail-fast
+fi
 phase cargo-tests
 # The congestion/synchronization regression check on every committed baseline.
 for b in tests/baselines/*.json; do
