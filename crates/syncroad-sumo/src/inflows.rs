@@ -10,12 +10,14 @@
 
 use std::collections::VecDeque;
 use std::fmt::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use syncroad_control::scenario::{Arrivals, InflowSpec};
+use syncroad_control::Scenario;
 
 use crate::net::network::Network;
 use crate::net::roads::nearest;
+use crate::net::Road;
 use crate::prepare_error::PrepareError;
 
 /// The file the flows are written to, in the run's folder.
@@ -43,6 +45,32 @@ fn refuse(field: String, value: impl std::fmt::Display, reason: String) -> Prepa
 /// ahead, `3600·v / (length + minGap + v·tau)`.
 pub fn lane_capacity_per_hour(v: f64) -> f64 {
     3600.0 * v / (DEFAULT_LENGTH_M + DEFAULT_MIN_GAP_M + v * DEFAULT_TAU_S)
+}
+
+/// The inflows of `scenario` on its road's network, checked, as the route file SUMO is given
+/// (written into `work_dir` when `write`); `None` without inflows.
+pub fn routes_file(
+    scenario: &Scenario,
+    road: &Road,
+    work_dir: &Path,
+    write: bool,
+) -> Result<Option<PathBuf>, PrepareError> {
+    let inflows = scenario.sumo().inflows();
+    if inflows.is_empty() {
+        return Ok(None);
+    }
+    let net = Network::read(&road.path)?;
+    check(&net, &road.path, inflows, scenario.horizon_s())?;
+    let file = work_dir.join(INFLOWS_FILE);
+    if write {
+        std::fs::write(&file, flows_xml(inflows, scenario.horizon_s())).map_err(|e| {
+            PrepareError::Io {
+                path: work_dir.to_path_buf(),
+                reason: e.to_string(),
+            }
+        })?;
+    }
+    Ok(Some(file))
 }
 
 /// Checks every inflow on the network `net` (read from `path`) for a run of `horizon_s`.
@@ -197,21 +225,14 @@ pub fn flows_xml(inflows: &[InflowSpec], horizon_s: f64) -> String {
         let _ = writeln!(
             s,
             r#"    <flow id="inflow{k}" from="{}" to="{}" begin="{}" end="{}" {rate} departLane="{lane}" departSpeed="{speed}"/>"#,
-            xml_escape(&f.from),
-            xml_escape(&f.to),
+            quick_xml::escape::escape(f.from.as_str()),
+            quick_xml::escape::escape(f.to.as_str()),
             f.begin_s,
             f.end_s.unwrap_or(horizon_s).min(horizon_s),
         );
     }
     s.push_str("</routes>\n");
     s
-}
-
-fn xml_escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
 }
 
 #[cfg(test)]

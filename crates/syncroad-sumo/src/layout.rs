@@ -453,6 +453,7 @@ impl Layout {
                 );
             }
         }
+        let lanes = self.road.lanes();
         for v in self.vehicles.iter().filter(|_| vehicles) {
             let ty = types
                 .iter()
@@ -463,7 +464,7 @@ impl Layout {
                 r#"    <vehicle id="{}" type="t{ty}" route="r{}" depart="0" departLane="{}" departPos="{}" departSpeed="{}" insertionChecks="none"/>"#,
                 v.id,
                 v.edge_index,
-                self.road.lane_on(v.edge_index),
+                lanes.get(v.edge_index).copied().unwrap_or(0),
                 v.pos_m,
                 v.speed_mps
             );

@@ -237,6 +237,23 @@ pub fn check_run(scenario: &Scenario, road: &Road, opts: &RunOptions) -> Result<
     prepare_with(scenario, road, opts, false).map(|_| ())
 }
 
+/// The stochastic humans of the layout, taken off SUMO's drivers: the bridge commands them,
+/// so SUMO sees law-driven vehicles. One entry per vehicle, `None` for the others.
+fn bridge_humans(layout: &mut Layout) -> Vec<Option<NoisyIdm>> {
+    layout
+        .vehicles
+        .iter_mut()
+        .map(|dep| match &dep.driver {
+            Some(SumoDriver::Noisy(d)) => {
+                let d = *d;
+                dep.driver = None;
+                Some(d)
+            }
+            _ => None,
+        })
+        .collect()
+}
+
 fn prepare_with(
     scenario: &Scenario,
     road: &Road,
@@ -253,14 +270,7 @@ fn prepare_with(
     let (drivers, damper) = drivers_of(scenario, opts)?;
     let adopt = scenario.sumo().controlled();
     assign_drivers(&mut layout, &drivers, scenario.step_s())?;
-    // Stochastic humans are commanded by the bridge: SUMO sees law-driven vehicles.
-    let mut humans: Vec<Option<NoisyIdm>> = vec![None; layout.vehicles.len()];
-    for (h, dep) in humans.iter_mut().zip(layout.vehicles.iter_mut()) {
-        if let Some(SumoDriver::Noisy(d)) = &dep.driver {
-            *h = Some(*d);
-            dep.driver = None;
-        }
-    }
+    let humans = bridge_humans(&mut layout);
     let has_humans = humans.iter().any(Option::is_some);
     if has_humans && !layout.road.ring {
         return Err(PrepareError::HumansNeedRing {
@@ -305,20 +315,12 @@ fn prepare_with(
     };
     let (mut extra_routes, extra_additional) =
         user_traffic(scenario, &layout, &drivers, opts, write)?;
-    let inflows = scenario.sumo().inflows();
-    if !inflows.is_empty() {
-        let net = crate::net::network::Network::read(&layout.road.path)?;
-        crate::inflows::check(&net, &layout.road.path, inflows, scenario.horizon_s())?;
-        let file = opts.work_dir.join(crate::inflows::INFLOWS_FILE);
-        if write {
-            std::fs::write(
-                &file,
-                crate::inflows::flows_xml(inflows, scenario.horizon_s()),
-            )
-            .map_err(|e| io(&opts.work_dir, e))?;
-        }
-        extra_routes.push(file);
-    }
+    extra_routes.extend(crate::inflows::routes_file(
+        scenario,
+        &layout.road,
+        &opts.work_dir,
+        write,
+    )?);
     let other_traffic = scenario.sumo().other_traffic();
     let fcd = opts.fcd || scenario.sumo().fcd();
     if write {

@@ -9,8 +9,9 @@ use std::process::Command;
 use approx::assert_relative_eq;
 use syncroad_control::native::{simulate, NativeOptions};
 use syncroad_control::scenario::ScenarioFile;
+use syncroad_control::sumo_facts::AllVehicles;
 use syncroad_control::Scenario;
-use syncroad_sumo::{load_road, run_scenario, NetReader, RunOptions, WorkerCommand};
+use syncroad_sumo::{load_road, run_scenario, NetReader, RunOptions, SumoRun, WorkerCommand};
 
 fn venv() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../.venv")
@@ -204,6 +205,16 @@ fn on_ramp(dir: &Path) -> PathBuf {
             "ramp.con.xml",
         ],
     )
+}
+
+/// Every vehicle of a SUMO run with other traffic, from SUMO's summary (the record's
+/// `all_vehicles`).
+fn all_vehicles(run: &SumoRun, sc: &Scenario) -> AllVehicles {
+    run.output(sc)
+        .sumo
+        .unwrap()
+        .all_vehicles
+        .expect("other traffic")
 }
 
 /// Validates scenario JSON with the network reader (relative paths from `dir`).
@@ -550,12 +561,7 @@ mod loops {
         // Every vehicle, from SUMO's summary output: the six and the car, all the time; their
         // mean speed is the trajectory's six with the car's constant 4 m/s, up to the 0.01 m/s
         // SUMO prints.
-        let all = run
-            .output(&sc)
-            .sumo
-            .unwrap()
-            .all_vehicles
-            .expect("other traffic");
+        let all = all_vehicles(&run, &sc);
         assert_eq!((all.vehicles_max, all.vehicles_mean), (7, 7.0));
         let mean: f64 = (0..t.len())
             .map(|k| (t.speeds(k).iter().sum::<f64>() + 4.0) / 7.0)
@@ -1334,12 +1340,7 @@ mod open_roads {
             flows.contains(r#"from="ramp" to="h1" begin="0" end="40" vehsPerHour="900""#),
             "{flows}"
         );
-        let all = run
-            .output(&sc)
-            .sumo
-            .unwrap()
-            .all_vehicles
-            .expect("other traffic");
+        let all = all_vehicles(&run, &sc);
         let entered = (40.0f64 / 4.0).floor() as usize + 1;
         eprintln!(
             "inflow: {} arrived of at most {entered} entered, up to {} running",
@@ -1373,7 +1374,7 @@ mod open_roads {
         let mut o = opts(&dir);
         o.work_dir = dir.join("busy");
         let run = run_scenario(&busy, &o).unwrap();
-        let all = run.output(&busy).sumo.unwrap().all_vehicles.unwrap();
+        let all = all_vehicles(&run, &busy);
         eprintln!("busy inflow: {all:?}");
         let due = (40.0f64 * 2850.0 / 3600.0).ceil() as usize;
         assert_eq!(

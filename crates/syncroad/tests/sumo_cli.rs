@@ -471,25 +471,7 @@ fn a_ring_in_uniform_flow_writes_its_whole_folder_on_both_backends() {
 #[test]
 fn own_loop_from_netconvert_runs_and_a_misspelt_edge_exits_2() {
     let dir = tmpdir("own-loop");
-    let track = dir.join("track");
-    std::fs::create_dir_all(&track).unwrap();
-    for f in ["track.nod.xml", "track.edg.xml", "own-loop.json"] {
-        std::fs::copy(repo().join("examples/track").join(f), track.join(f)).unwrap();
-    }
-    let netconvert = repo().join(".venv/lib/python3.11/site-packages/sumo/bin/netconvert");
-    let (code, _, err) = run(std::process::Command::new(netconvert)
-        .current_dir(&track)
-        .args([
-            "--node-files",
-            "track.nod.xml",
-            "--edge-files",
-            "track.edg.xml",
-            "--no-turnarounds",
-            "true",
-            "-o",
-            "track.net.xml",
-        ]));
-    assert_eq!(code, 0, "{err}");
+    let track = guide_track(&dir, &["own-loop.json"]);
     let scenario = track.join("own-loop.json");
     let (code, out, m) = run_backend(&["run"], &scenario, &dir.join("out"));
     assert_eq!(code, 0, "{out}");

@@ -537,22 +537,7 @@ fn animate_rings_the_controlled_vehicle_among_humans() {
 #[test]
 fn every_vehicle_on_the_road_is_drawn_from_the_floating_car_data() {
     let dir = tmpdir("field");
-    let track = dir.join("track");
-    std::fs::create_dir_all(&track).unwrap();
-    for f in ["track.nod.xml", "track.edg.xml", "slow.rou.xml"] {
-        std::fs::copy(repo().join("examples/track").join(f), track.join(f)).unwrap();
-    }
-    let netconvert = repo().join(".venv/lib/python3.11/site-packages/sumo/bin/netconvert");
-    let (code, _, err) = run(std::process::Command::new(netconvert)
-        .current_dir(&track)
-        .args([
-            "--node-files",
-            "track.nod.xml",
-            "--edge-files",
-            "track.edg.xml",
-        ])
-        .args(["--no-turnarounds", "true", "-o", "track.net.xml"]));
-    assert_eq!(code, 0, "{err}");
+    let track = guide_track(&dir, &["slow.rou.xml"]);
     let text = std::fs::read_to_string(repo().join("examples/track/own-loop.json")).unwrap();
     let mut sc: serde_json::Value = serde_json::from_str(&text).unwrap();
     sc["horizon_s"] = 30.into();

@@ -166,7 +166,7 @@ impl SparseLu {
                 // The unit diagonal of column `step` of L is stored first.
                 for p in st.l_starts[step] + 1..st.l_starts[step + 1] {
                     let i = st.l_rows[p];
-                    x[i] = x[i].sub(l_vals[p].mul(xj));
+                    x[i] = x[i].sub_mul(l_vals[p], xj);
                 }
             }
             let mut best = NONE;

@@ -268,11 +268,6 @@ impl Road {
             .collect()
     }
 
-    /// The lane index driven on normal edge `k` of [`Road::normal_edges`].
-    pub fn lane_on(&self, k: usize) -> usize {
-        self.lanes().get(k).copied().unwrap_or(0)
-    }
-
     /// Normal edges in driving order.
     pub fn normal_edges(&self) -> Vec<&str> {
         self.segments

@@ -12,20 +12,7 @@ use std::path::Path;
 
 use anyhow::Context;
 use quick_xml::events::Event;
-use serde::Deserialize;
-
-/// The road's lanes as `road.json` gives them.
-#[derive(Debug, Deserialize)]
-struct RoadFile {
-    closed: bool,
-    lanes: Vec<RoadLane>,
-}
-
-#[derive(Debug, Deserialize)]
-struct RoadLane {
-    id: String,
-    length_m: f64,
-}
+use syncroad_sumo::{RoadTrace, FCD_FILE, ROAD_FILE};
 
 /// Where the lanes and edges of the road start along it.
 #[derive(Debug)]
@@ -44,9 +31,8 @@ fn edge_of(lane: &str) -> &str {
 }
 
 impl RoadCoordinate {
-    /// From the text of `road.json`.
-    pub fn parse(text: &str) -> anyhow::Result<Self> {
-        let road: RoadFile = serde_json::from_str(text).context("road.json")?;
+    /// The coordinate along the road a run drove (its `road.json`).
+    pub fn of(road: &RoadTrace) -> Self {
         let (mut lanes, mut edges) = (HashMap::new(), HashMap::new());
         let mut start = 0.0;
         for l in &road.lanes {
@@ -56,12 +42,12 @@ impl RoadCoordinate {
             }
             start += l.length_m;
         }
-        Ok(Self {
+        Self {
             lanes,
             edges,
             length_m: start,
             closed: road.closed,
-        })
+        }
     }
 
     /// The road coordinate of position `pos` \[m\] on lane `lane`, `None` off the road.
@@ -137,11 +123,11 @@ pub fn run_field(
     sumo_dir: &Path,
     stride: usize,
 ) -> anyhow::Result<Option<(RoadCoordinate, Field)>> {
-    let (fcd, road) = (sumo_dir.join("fcd.xml"), sumo_dir.join("road.json"));
+    let (fcd, road) = (sumo_dir.join(FCD_FILE), sumo_dir.join(ROAD_FILE));
     if !fcd.is_file() || !road.is_file() {
         return Ok(None);
     }
-    let coordinate = RoadCoordinate::parse(&std::fs::read_to_string(&road)?)?;
+    let coordinate = RoadCoordinate::of(&RoadTrace::read(&road)?);
     let file = std::io::BufReader::new(std::fs::File::open(&fcd)?);
     let field = read_field(file, &coordinate, stride)
         .with_context(|| format!("reading {}", fcd.display()))?;
@@ -158,7 +144,7 @@ mod tests {
 
     #[test]
     fn vehicles_are_placed_on_the_roads_coordinate() {
-        let road = RoadCoordinate::parse(ROAD).unwrap();
+        let road = RoadCoordinate::of(&serde_json::from_str(ROAD).unwrap());
         assert_eq!(road.length_m, 802.5);
         assert_eq!(road.locate("h0_0", 10.0), Some(10.0));
         assert_eq!(road.locate(":k1_0_0", 1.0), Some(401.0));
@@ -193,7 +179,7 @@ mod tests {
     #[test]
     fn a_closed_road_wraps() {
         let ring = ROAD.replace(r#""closed": false"#, r#""closed": true"#);
-        let road = RoadCoordinate::parse(&ring).unwrap();
+        let road = RoadCoordinate::of(&serde_json::from_str(&ring).unwrap());
         assert_eq!(road.locate("h1_1", 400.0), Some(400.0 + 402.5 - 802.5));
     }
 }

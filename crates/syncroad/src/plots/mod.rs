@@ -155,7 +155,7 @@ const FCD_BYTES_PER_RECORD: u64 = 120;
 /// run wrote none. The time steps are thinned to keep about 150k points (judged from the
 /// file's size).
 pub fn field_time_space(dir: &Path, sumo_dir: &Path, title: &str) -> anyhow::Result<Vec<PathBuf>> {
-    let bytes = std::fs::metadata(sumo_dir.join("fcd.xml")).map_or(0, |m| m.len());
+    let bytes = std::fs::metadata(sumo_dir.join(syncroad_sumo::FCD_FILE)).map_or(0, |m| m.len());
     let stride = usize::try_from(bytes / FCD_BYTES_PER_RECORD / 150_000)
         .unwrap_or(usize::MAX)
         .max(1);

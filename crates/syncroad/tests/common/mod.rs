@@ -168,3 +168,27 @@ pub fn edited_scenario(
     std::fs::write(&path, sc.to_string()).unwrap();
     path
 }
+
+/// The guide's two-lane test track (`examples/track`) in `dir/track`: the files named in
+/// `files` copied beside its node and edge files, and `track.net.xml` built by the project's
+/// netconvert, as docs/src/own-network.md builds it. Returns the folder.
+pub fn guide_track(dir: &Path, files: &[&str]) -> PathBuf {
+    let track = dir.join("track");
+    std::fs::create_dir_all(&track).unwrap();
+    for f in ["track.nod.xml", "track.edg.xml"].iter().chain(files) {
+        std::fs::copy(repo().join("examples/track").join(f), track.join(f)).unwrap();
+    }
+    let netconvert = repo().join(".venv/lib/python3.11/site-packages/sumo/bin/netconvert");
+    let (code, _, err) = run(Command::new(netconvert).current_dir(&track).args([
+        "--node-files",
+        "track.nod.xml",
+        "--edge-files",
+        "track.edg.xml",
+        "--no-turnarounds",
+        "true",
+        "-o",
+        "track.net.xml",
+    ]));
+    assert_eq!(code, 0, "netconvert: {err}");
+    track
+}
