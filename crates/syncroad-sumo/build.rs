@@ -1,7 +1,13 @@
-//! Pins the embedded interpreter: pyo3 links the libpython of the build interpreter
-//! (`PYO3_PYTHON`, else `python3` on PATH). Without an rpath the binary would load whatever
-//! libpython3.11.so the dynamic loader finds first at run time, so the build interpreter's
-//! libdir is recorded as an rpath of every binary and test of this crate.
+//! Links the embedded interpreter: the libpython of the build interpreter (`PYO3_PYTHON`, else
+//! `python3` on PATH) into every binary, test and benchmark of this crate, with its libdir as
+//! an rpath (without one the binary would load whatever libpython3.11.so the dynamic loader
+//! finds first at run time).
+//!
+//! pyo3 does not link libpython itself: the workspace builds as maturin builds the wheel
+//! (`PYO3_BUILD_EXTENSION_MODULE`, `.cargo/config.toml`), so the wheel's build reuses the
+//! CLI's. An extension module must not name a libpython; the programs that embed one say so
+//! here, for their own targets only (`rustc-link-arg` does not reach dependents, so the
+//! wheel's library stays free of it).
 
 use std::process::Command;
 
@@ -18,7 +24,7 @@ fn main() {
     let out = Command::new(&python)
         .args([
             "-c",
-            "import sys, sysconfig; print(sysconfig.get_config_var('LIBDIR') or ''); print(sys.base_prefix)",
+            "import sys, sysconfig; print(sysconfig.get_config_var('LIBDIR') or ''); print(sys.base_prefix); print(sysconfig.get_config_var('LDVERSION') or '')",
         ])
         .output();
     match out {
@@ -26,7 +32,9 @@ fn main() {
             let text = String::from_utf8_lossy(&o.stdout).into_owned();
             let mut lines = text.lines().map(str::trim);
             let libdir = lines.next().unwrap_or_default().to_string();
-            if let Some(home) = lines.next().filter(|h| !h.is_empty()) {
+            let home = lines.next().unwrap_or_default().to_string();
+            let version = lines.next().unwrap_or_default().to_string();
+            if !home.is_empty() {
                 // The build interpreter's installation: the supervisor gives it to the worker
                 // as PYTHONHOME, so the embedded interpreter finds its own standard library
                 // whatever `python3` comes first on PATH (a system Python 3.11 has another
@@ -37,6 +45,7 @@ fn main() {
                 // Binaries of this crate (worker, tests) and, through the `rustc-link-arg`
                 // of dependents' own build scripts, anything that opts in.
                 println!("cargo:rustc-link-arg=-Wl,-rpath,{libdir}");
+                println!("cargo:rustc-link-arg=-L{libdir}");
                 // Also known to the crate: the supervisor puts it first in the worker's
                 // LD_LIBRARY_PATH, so a worker re-executed from a binary without the rpath
                 // (the `syncroad` CLI) still loads the build interpreter's libpython.
@@ -44,6 +53,12 @@ fn main() {
                 // For dependents' build scripts (`links = "syncroad-python"`): the CLI can set
                 // the same rpath with `cargo:rustc-link-arg-bins=-Wl,-rpath,$DEP_SYNCROAD_PYTHON_LIBDIR`.
                 println!("cargo::metadata=libdir={libdir}");
+            }
+            if version.is_empty() {
+                println!("cargo:warning={python} names no LDVERSION; libpython is not linked");
+            } else {
+                println!("cargo:rustc-link-arg=-lpython{version}");
+                println!("cargo::metadata=lib=python{version}");
             }
         }
         _ => println!(
