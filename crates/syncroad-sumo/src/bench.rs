@@ -94,6 +94,10 @@ pub struct BenchCase {
     /// Also run the TraCI reference with per-call reads (slow: three round trips per vehicle
     /// and step).
     pub traci_per_call: bool,
+    /// Timed steps of the TraCI references (after the same warm-up). A TraCI loop makes the
+    /// same round trips every step, so its per-step time settles within a few hundred steps;
+    /// the quick form times a quarter of its steps there.
+    pub traci_steps: usize,
 }
 
 /// Timings of one case [ms per step].
@@ -199,6 +203,7 @@ pub fn standard_cases(nets: &Path, quick: bool) -> Vec<BenchCase> {
             repeats: if quick { 2 } else { 5 },
             traci: true,
             traci_per_call: true,
+            traci_steps: if quick { 1000 } else { 20_000 },
         },
         BenchCase {
             name: "ring-20km N=2000".into(),
@@ -211,6 +216,7 @@ pub fn standard_cases(nets: &Path, quick: bool) -> Vec<BenchCase> {
             traci: true,
             // About a minute even in the quick form: the quick form skips it here.
             traci_per_call: !quick,
+            traci_steps: if quick { 15 } else { 300 },
         },
     ]
 }
@@ -414,7 +420,7 @@ fn traci_reference(
         .args([
             "0.1".to_string(),
             "1".to_string(),
-            (case.steps + case.warmup).to_string(),
+            (case.traci_steps + case.warmup).to_string(),
             case.warmup.to_string(),
             reads.arg().to_string(),
         ])
