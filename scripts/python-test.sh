@@ -2,7 +2,9 @@
 # The Python package's tests (run by scripts/test.sh): builds the wheel once with maturin,
 # installs it into .venv-py (made here, with the tools of python/tests/requirements.txt, and
 # kept between runs: a stamp records the requirements' hash), and runs python/tests with
-# pytest. Needs the cargo-built CLI (target/release/syncroad) the tests compare with.
+# pytest. The wheel's build reuses what cargo built for the CLI (one set of features and one
+# pyo3 configuration for both: crates/syncroad-hack, .cargo/config.toml), so it only links.
+# Needs the cargo-built CLI (target/release/syncroad) the tests compare with.
 # Env: PYTHON (default python3), SYNCROAD_PY_VENV (default .venv-py).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -29,4 +31,6 @@ wheel="$(ls target/wheels/syncroad-*.whl)"
 # Dependencies once; the freshly built package every time (its version does not change).
 "$venv/bin/python" -m pip install --disable-pip-version-check -q "$wheel"
 "$venv/bin/python" -m pip install --disable-pip-version-check -q --force-reinstall --no-deps "$wheel"
-SYNCROAD_WHEEL="$PWD/$wheel" "$venv/bin/python" -m pytest -q -p no:cacheprovider python/tests "$@"
+# Side by side on every core (pytest-xdist; each test has its own folders), at most four.
+SYNCROAD_WHEEL="$PWD/$wheel" "$venv/bin/python" -m pytest -q -p no:cacheprovider \
+  --numprocesses=auto --maxprocesses=4 python/tests "$@"
