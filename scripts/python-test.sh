@@ -5,19 +5,26 @@
 # pytest. The wheel's build reuses what cargo built for the CLI (one set of features and one
 # pyo3 configuration for both: crates/syncroad-hack, .cargo/config.toml), so it only links.
 # Needs the cargo-built CLI (target/release/syncroad) the tests compare with.
+# `--setup` only makes .venv-py (scripts/test.sh does that while cargo builds).
 # Env: PYTHON (default python3), SYNCROAD_PY_VENV (default .venv-py).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 python="${PYTHON:-python3}"
 venv="${SYNCROAD_PY_VENV:-.venv-py}"
 req=python/tests/requirements.txt
+# The SUMO family and the rest of the wheel's dependencies at the project's pins, installed
+# with the tools, so that installing the wheel later adds only the package.
+deps=python-host/requirements.txt
 stamp="$venv/.syncroad-py.stamp"
-want="$(sha256sum "$req" | cut -d' ' -f1)"
+want="$(cat "$req" "$deps" | sha256sum | cut -d' ' -f1)"
 if [ ! -x "$venv/bin/python" ] || [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
   echo "python-test: creating $venv"
   "$python" -m venv "$venv"
-  "$venv/bin/python" -m pip install --disable-pip-version-check -q -r "$req"
+  "$venv/bin/python" -m pip install --disable-pip-version-check -q -r "$req" -r "$deps"
   echo "$want" > "$stamp"
+fi
+if [ "${1:-}" = "--setup" ]; then
+  exit 0
 fi
 rm -f target/wheels/syncroad-*.whl
 # The interpreter the CLI was built against (scripts/test.sh exports it): maturin passes it to

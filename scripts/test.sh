@@ -12,23 +12,50 @@ if ! command -v xvfb-run >/dev/null 2>&1 && [ "$(id -u)" = 0 ] && command -v apt
   apt-get update -qq
   DEBIAN_FRONTEND=noninteractive apt-get install -y -qq xvfb xauth libgl1 libxrender1 libxext6 libx11-6 >/dev/null
 fi
-if [ -f python-host/bootstrap.sh ]; then
-  bash python-host/bootstrap.sh
-fi
 # Where the suite's time goes, phase by phase (printed at the end).
 phases=""
 phase() { phases="$phases $1 $((SECONDS - start))s;"; start=$SECONDS; }
 start=$SECONDS
+# Jobs this script runs beside its phases, stopped if it stops early; `joined PID LOG WHAT`
+# waits for one and shows its log, and stops the suite if it failed.
+logs="$(mktemp -d)"
+side=()
+trap 'for p in "${side[@]}"; do kill "$p" 2>/dev/null || true; done' EXIT
+joined() {
+  local status=0
+  wait "$1" || status=$?
+  cat "$2"
+  if [ "$status" != 0 ]; then
+    echo "test.sh: $3 failed (exit $status)" >&2
+    exit 1
+  fi
+}
+# The two Python environments (SUMO's and the Python tests') download and unpack while cargo
+# builds: neither needs the build, and the build does not need them.
+if [ -f python-host/bootstrap.sh ]; then
+  bash python-host/bootstrap.sh > "$logs/bootstrap" 2>&1 &
+  boot=$!
+  side+=("$boot")
+fi
+bash scripts/python-test.sh --setup > "$logs/venv-py" 2>&1 &
+venv_py=$!
+side+=("$venv_py")
 # The user guide builds (mdBook, pinned and installed on first use).
 "$(bash scripts/mdbook.sh)" build docs
 phase setup+guide
 cargo build --release --workspace --all-targets
-phase build
+if [ -n "${boot:-}" ]; then
+  joined "$boot" "$logs/bootstrap" "python-host/bootstrap.sh"
+fi
+joined "$venv_py" "$logs/venv-py" "the Python tests' environment (scripts/python-test.sh --setup)"
+phase build+environments
 # Includes the guide's test (crates/syncroad/tests/guide.rs): every command example of
 # docs/src and README.md runs as printed. cargo-nextest, where installed, runs the test binaries
 # side by side (each test its own process) and the doc tests follow; else cargo's own runner.
+# Two tests per core: several wait on a worker's time limit or a stopped process for seconds,
+# and the suite passes beside other work (two busy processes per core) anyway.
 if cargo nextest --version >/dev/null 2>&1; then
-  cargo nextest run --release --workspace --no-fail-fast
+  cargo nextest run --release --workspace --no-fail-fast --test-threads "$((2 * $(nproc)))"
   cargo test --release --workspace --doc
 else
   cargo test --release --workspace --no-fail-fast
@@ -39,12 +66,16 @@ for b in tests/baselines/*.json; do
   ./target/release/syncroad regress "$b"
 done
 phase baselines
+# A sweep sharded over a private single-node Slurm cluster (skipped, and said so, without
+# Slurm). Mostly waiting on its daemons and scheduler, it runs beside the Python tests.
+bash scripts/slurm-test.sh > "$logs/slurm" 2>&1 &
+slurm_pid=$!
+side+=("$slurm_pid")
 # The Python package: the wheel built once, installed into .venv-py, python/tests run by pytest.
 bash scripts/python-test.sh
 phase python
-# A sweep sharded over a private single-node Slurm cluster (skipped, and said so, without Slurm).
-slurm="$(bash scripts/slurm-test.sh)"
-phase slurm
+joined "$slurm_pid" "$logs/slurm" "the Slurm test (scripts/slurm-test.sh)"
+phase slurm-after-python
 echo
-echo "summary: guide built; cargo tests passed; baselines passed; Python tests passed; Slurm test: $(echo "$slurm" | tail -1)"
+echo "summary: guide built; cargo tests passed; baselines passed; Python tests passed; Slurm test: $(tail -1 "$logs/slurm")"
 echo "time:$phases total ${SECONDS}s"
