@@ -1,11 +1,13 @@
 #!/usr/bin/env python3
 """An open-road run against SUMO running the same demand alone.
 
-The network (built here by the project's netconvert): a two-lane loop of eight 240 m edges
-(25 m/s) whose lane 1 admits class `vip` only and lane 0 every other class, with a one-lane
-entry `in` joining lane 0 at n0 (unregulated: nobody else drives lane 0 there) and a one-lane
-exit `out` leaving it at n4: the two classes never share a lane. syncroad's scenario: 22 vehicles
-of class `vip` (`sumo.vclass`) driven by the delayed-driver law on lane 1 of the loop (the
+The network (built here by the project's netconvert): a three-lane loop of eight 240 m edges
+(25 m/s) whose lane 2 admits class `vip` only and lanes 0 and 1 every other class, with a
+two-lane entry `in` joining lanes 0 and 1 at n0 (unregulated: nobody else drives them there)
+and a two-lane exit `out` leaving them at n4: the two classes never share a lane. (With one
+lane for the humans SUMO inserted at most about 1760 an hour on the entry.) syncroad's
+scenario: 22 vehicles of class `vip` (`sumo.vclass`) driven by the delayed-driver law on lane 2
+of the loop (the
 Sugiyama ring's gains and delays), and `sumo.inflows` of human traffic from `in` to `out`
 (VPH vehicles per hour, regular arrivals), Δt = 0.1 s, HORIZON s simulated, no plots.
 
@@ -17,7 +19,7 @@ is taken within one pair):
     route files (syncroad's vehicles, then driven by SUMO's own model, and the inflow), the same
     step, end time and seed, no output.
 
-    python3 scripts/bench-open-road.py OUT [--vph 2000] [--horizon 3600] [--repeats 3]
+    python3 scripts/bench-open-road.py OUT [--vph 2070] [--horizon 3600] [--repeats 3]
 
 Prints each pair's walls and ratio, the vehicles that passed (SUMO's count of arrivals in the
 syncroad run), and the median ratio.
@@ -46,18 +48,25 @@ def build_network(out: pathlib.Path) -> pathlib.Path:
     nodes += ['  <node id="a" x="700" y="-150"/>', '  <node id="b" x="-700" y="150"/>', "</nodes>"]
     edges = ["<edges>"]
     for i in range(8):
-        edges.append(f'  <edge id="e{i}" from="n{i}" to="n{(i + 1) % 8}" numLanes="2" speed="25" '
-                     'priority="2"><lane index="0" disallow="vip"/><lane index="1" allow="vip"/>'
-                     '</edge>')
-    edges += ['  <edge id="in" from="a" to="n0" numLanes="1" speed="25" priority="1"/>',
-              '  <edge id="out" from="n4" to="b" numLanes="1" speed="25" priority="1"/>',
+        edges.append(f'  <edge id="e{i}" from="n{i}" to="n{(i + 1) % 8}" numLanes="3" speed="25" '
+                     'priority="2"><lane index="0" disallow="vip"/><lane index="1" disallow="vip"/>'
+                     '<lane index="2" allow="vip"/></edge>')
+    edges += ['  <edge id="in" from="a" to="n0" numLanes="2" speed="25" priority="1"/>',
+              '  <edge id="out" from="n4" to="b" numLanes="2" speed="25" priority="1"/>',
               "</edges>"]
+    # Lane by lane: the entry's two lanes feed the loop's two human lanes, and both leave by
+    # the exit's two lanes (netconvert's own guess sent every exit through lane 0, a jam).
+    cons = ["<connections>"]
+    cons += [f'  <connection from="in" to="e0" fromLane="{k}" toLane="{k}"/>' for k in (0, 1)]
+    cons += [f'  <connection from="e3" to="out" fromLane="{k}" toLane="{k}"/>' for k in (0, 1)]
+    cons += ['  <connection from="e3" to="e4" fromLane="2" toLane="2"/>', "</connections>"]
     (out / "open.nod.xml").write_text("\n".join(nodes) + "\n")
     (out / "open.edg.xml").write_text("\n".join(edges) + "\n")
+    (out / "open.con.xml").write_text("\n".join(cons) + "\n")
     net = out / "open.net.xml"
     subprocess.run([str(SUMO_BIN / "netconvert"), "--node-files", "open.nod.xml", "--edge-files",
-                    "open.edg.xml", "--no-turnarounds", "true", "--no-warnings", "true",
-                    "-o", net.name], cwd=out, check=True)
+                    "open.edg.xml", "--connection-files", "open.con.xml", "--no-turnarounds",
+                    "true", "--no-warnings", "true", "-o", net.name], cwd=out, check=True)
     return net
 
 
@@ -70,7 +79,7 @@ def scenario(out: pathlib.Path, vph: float, horizon: float) -> pathlib.Path:
         "step_s": 0.1,
         "horizon_s": horizon,
         "vehicles": 22,
-        "road": {"type": "loop", "through": "e1", "lane": 1},
+        "road": {"type": "loop", "through": "e1", "lane": 2},
         "model": base["model"],
         "initial": {"speed_mps": 8.0, "perturbation": {"speed_mps": 1.0}},
         "sumo": {"net": "open.net.xml", "vclass": "vip",
@@ -93,7 +102,7 @@ def timed(cmd, cwd):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("out", type=pathlib.Path)
-    ap.add_argument("--vph", type=float, default=2000.0)
+    ap.add_argument("--vph", type=float, default=2070.0)
     ap.add_argument("--horizon", type=float, default=3600.0)
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--bin", default=str(REPO / "target/release/syncroad"))
