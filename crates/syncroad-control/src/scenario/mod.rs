@@ -83,7 +83,7 @@ pub enum ScenarioError {
         expected: String,
     },
     /// The run would take more than [`MAX_STEPS`] steps.
-    #[error("horizon_s = {horizon_s} s with step_s = {step_s} s is {steps} steps; at most {max} steps are allowed, so give horizon_s ≤ {max_horizon_s} s at this step (or a larger step_s)", max = MAX_STEPS)]
+    #[error("horizon_s = {h} s with step_s = {dt} s is {n} steps; at most {max} steps are allowed, so give horizon_s ≤ {hmax} s at this step (or a larger step_s)", max = MAX_STEPS, h = readable(*.horizon_s), dt = readable(*.step_s), n = readable(*.steps), hmax = readable(*.max_horizon_s))]
     TooManySteps {
         /// The horizon \[s\].
         horizon_s: f64,
@@ -146,8 +146,24 @@ pub(crate) fn invalid(
 ) -> ScenarioError {
     ScenarioError::Invalid {
         field: field.into(),
-        value: value.to_string(),
+        value: readable_number(value.to_string()),
         expected: expected.into(),
+    }
+}
+
+/// A number as an error shows it: Rust writes a float in full positional notation, so
+/// `1e300` would fill the screen with 300 zeros; past 20 characters a number is written
+/// `1e300` (the shortest form that reads back to it).
+pub(crate) fn readable(x: f64) -> String {
+    readable_number(x.to_string())
+}
+
+/// [`readable`] for a value already written: a number past 20 characters is rewritten, anything
+/// else is left as it is.
+fn readable_number(text: String) -> String {
+    match text.parse::<f64>() {
+        Ok(x) if text.len() > 20 && x.is_finite() => format!("{x:e}"),
+        _ => text,
     }
 }
 
@@ -480,5 +496,50 @@ impl Scenario {
     /// A loop or route as measured on its network (`None` for a ring or a straight road).
     pub fn measured_road(&self) -> Option<&MeasuredRoad> {
         self.measured.as_ref()
+    }
+}
+
+#[cfg(test)]
+mod readable_tests {
+    use super::readable_number;
+
+    #[test]
+    fn huge_and_tiny_numbers_are_written_short_and_read_back_exactly() {
+        for x in [1e300, -2.5e200, 1e-300, 3.0e-25, 1.7976931348623157e308] {
+            let long = x.to_string();
+            assert!(long.len() > 20, "{long}");
+            let short = readable_number(long);
+            assert!(short.len() <= 24, "{short}");
+            assert_eq!(short.parse::<f64>().unwrap(), x, "{short}");
+        }
+        // Through the scenario's own check.
+        let mut sc: serde_json::Value =
+            serde_json::from_str(include_str!("../../../../scenarios/ring-theorem1.json")).unwrap();
+        sc["horizon_s"] = serde_json::json!(1e300);
+        let err = super::Scenario::from_json(&sc.to_string())
+            .unwrap_err()
+            .to_string();
+        assert!(err.starts_with("horizon_s = 1e300 s "), "{err}");
+        assert!(err.len() < 200, "{err}");
+        sc["horizon_s"] = serde_json::json!(60);
+        sc["initial"] = serde_json::json!({"speed_mps": 1e300});
+        let err = super::Scenario::from_json(&sc.to_string())
+            .unwrap_err()
+            .to_string();
+        assert!(err.starts_with("initial.speed_mps"), "{err}");
+        assert!(err.contains(" = 1e300: "), "{err}");
+        // What people write stays as written.
+        for s in [
+            "0.1",
+            "2.1000000000000005",
+            "-3",
+            "1000",
+            "inf",
+            "NaN",
+            "abc",
+            "v0",
+        ] {
+            assert_eq!(readable_number(s.to_string()), s);
+        }
     }
 }
