@@ -21,6 +21,10 @@ const GET_DISTANCE: &str =
     "_ZN7libsumo7Vehicle11getDistanceERKNSt7__cxx1112basic_stringIcSt11char_traitsIcESaIcEEE";
 const SET_SPEED: &str =
     "_ZN7libsumo7Vehicle8setSpeedERKNSt7__cxx1112basic_stringIcSt11char_traitsIcESaIcEEEd";
+const GET_FUEL: &str =
+    "_ZN7libsumo7Vehicle18getFuelConsumptionERKNSt7__cxx1112basic_stringIcSt11char_traitsIcESaIcEEE";
+const GET_CO2: &str =
+    "_ZN7libsumo7Vehicle14getCO2EmissionERKNSt7__cxx1112basic_stringIcSt11char_traitsIcESaIcEEE";
 const COLLIDING: &str = "_ZN7libsumo10Simulation26getCollidingVehiclesNumberEv";
 const TELEPORTS: &str = "_ZN7libsumo10Simulation25getStartingTeleportNumberEv";
 
@@ -99,6 +103,9 @@ pub struct Direct {
     set_speed: *mut c_void,
     /// `getCollidingVehiclesNumber`, `getStartingTeleportNumber`.
     counts: [*mut c_void; 2],
+    /// `getFuelConsumption`, `getCO2Emission` (the measurements' every-step reads), where the
+    /// library exports them.
+    emissions: Option<[*mut c_void; 2]>,
     ids: *mut SrIds,
     n: usize,
 }
@@ -136,6 +143,7 @@ impl Direct {
             get_distance,
             set_speed,
             counts: [colliding, teleports],
+            emissions: sym(GET_FUEL).zip(sym(GET_CO2)).map(|(f, c)| [f, c]),
             ids: handle_ids,
             n: ids.len(),
         })
@@ -168,6 +176,17 @@ impl Direct {
     /// `vehicle.getDistance` (odometer) of every vehicle.
     pub fn odometers(&self, out: &mut [f64]) -> Result<(), DirectError> {
         self.get(self.get_distance, out)
+    }
+
+    /// `vehicle.getFuelConsumption` \[mg/s\] of every vehicle; `None` where the library does
+    /// not export it (the caller asks Python then).
+    pub fn fuel(&self, out: &mut [f64]) -> Option<Result<(), DirectError>> {
+        self.emissions.map(|[fuel, _]| self.get(fuel, out))
+    }
+
+    /// `vehicle.getCO2Emission` \[mg/s\] of every vehicle; `None` as for [`Direct::fuel`].
+    pub fn co2(&self, out: &mut [f64]) -> Option<Result<(), DirectError>> {
+        self.emissions.map(|[_, co2]| self.get(co2, out))
     }
 
     /// `simulation.getCollidingVehiclesNumber` (vehicles in a collision this step) and

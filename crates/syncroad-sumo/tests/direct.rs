@@ -5,7 +5,7 @@ use std::path::Path;
 
 use syncroad_control::Scenario;
 use syncroad_sumo::ReadMode;
-use syncroad_sumo::{run_scenario, RunOptions, WorkerCommand};
+use syncroad_sumo::{run_scenario, MeasureOptions, RunOptions, WorkerCommand};
 
 fn scenario() -> Scenario {
     let net = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../sumo-nets/sugiyama-ring.net.xml");
@@ -28,6 +28,14 @@ fn run(mode: ReadMode, dir: &str) -> syncroad_sumo::SumoRun {
         WorkerCommand::binary(env!("CARGO_BIN_EXE_syncroad-sumo-worker")),
     );
     opts.read = mode;
+    // SUMO's own measurements too: fuel and CO2 are read every step, in one batch like the
+    // speeds with direct calls.
+    opts.measure = Some(MeasureOptions {
+        warmup_s: 10.0,
+        emission_every: 1,
+        tripinfo: false,
+        ssm: false,
+    });
     let r = run_scenario(&scenario(), &opts).unwrap();
     r.outcome().unwrap();
     r
@@ -51,4 +59,11 @@ fn direct_calls_give_the_same_run_as_python_calls() {
     let last = &d.worker.rows.speeds_mps[d.worker.rows.speeds_mps.len() - n..];
     assert!(first.iter().zip(last).any(|(a, b)| (a - b).abs() > 0.1));
     assert!(totals(&d).odometer_deviation_max_m < 1e-9);
+    // The emissions summed from the batch reads are Python's sums, bit for bit.
+    let measured =
+        |r: &syncroad_sumo::SumoRun| r.worker.result.as_ref().unwrap().measured.clone().unwrap();
+    let (md, mp) = (measured(&d), measured(&p));
+    assert!(md.fuel_mg > 0.0 && md.co2_mg > md.fuel_mg, "{md:?}");
+    assert!(md.fuel_total_mg > md.fuel_mg, "{md:?}");
+    assert_eq!(md, mp);
 }

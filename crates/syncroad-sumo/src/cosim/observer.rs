@@ -238,8 +238,9 @@ impl<'o, 'a, 'py> StepObserver<Observed<'o, 'a, 'py>> for Measurements<'_, '_> {
             let req = at.sim.req;
             let decel = req.layout.vtype.decel_mps2;
             let py = self.meter.py();
+            let direct = at.sim.direct();
             self.meter
-                .after_step(py, 0, req.step_s, self.id_args, &[], &[], decel)?;
+                .after_step(py, 0, req.step_s, self.id_args, direct, &[], &[], decel)?;
         }
         Ok(())
     }
@@ -253,6 +254,7 @@ impl<'o, 'a, 'py> StepObserver<Observed<'o, 'a, 'py>> for Measurements<'_, '_> {
             at.steps_done,
             req.step_s,
             self.id_args,
+            sim.direct(),
             &sim.v_prev,
             &sim.v,
             decel,

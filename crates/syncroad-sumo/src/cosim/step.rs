@@ -160,6 +160,11 @@ impl<'a, 'py> CoSim<'a, 'py> {
         self.reader.direct.is_some()
     }
 
+    /// The batch calls into libsumo's C++ functions, when the run reads through them.
+    pub(super) fn direct(&self) -> Option<&crate::direct::Direct> {
+        self.reader.direct.as_ref()
+    }
+
     /// SUMO's counts after the last step: vehicles in a collision, teleports that started. One
     /// C++ call for both with the batch calls in use, else one Python call each.
     pub fn safety_counts(&self) -> Result<(usize, usize), CosimError> {
