@@ -12,7 +12,7 @@ use std::collections::VecDeque;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use syncroad_control::scenario::{Arrivals, InflowSpec};
+use syncroad_control::scenario::{Arrivals, InflowSpec, VehicleClass};
 use syncroad_control::Scenario;
 
 use crate::net::network::Network;
@@ -28,9 +28,6 @@ pub const INFLOWS_FILE: &str = "inflows.rou.xml";
 const DEFAULT_LENGTH_M: f64 = 5.0;
 const DEFAULT_MIN_GAP_M: f64 = 2.5;
 const DEFAULT_TAU_S: f64 = 1.0;
-
-/// The class of SUMO's default vehicle type.
-const DEFAULT_CLASS: &str = "passenger";
 
 fn refuse(field: String, value: impl std::fmt::Display, reason: String) -> PrepareError {
     PrepareError::Inflow {
@@ -97,7 +94,8 @@ pub fn check(
         }
         let lanes = net.edge_lanes(&f.from).unwrap_or_default();
         let open: Vec<usize> = (0..lanes.len())
-            .filter(|&l| lanes[l].permits(DEFAULT_CLASS))
+            // SUMO's default vehicle type is of class passenger.
+            .filter(|&l| lanes[l].permits(VehicleClass::PASSENGER.name()))
             .collect();
         let entry_lanes = match f.depart_lane {
             Some(l) if l >= lanes.len() => {

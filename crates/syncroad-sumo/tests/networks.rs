@@ -1433,6 +1433,54 @@ mod open_roads {
         );
     }
 
+    /// `sumo.vclass` takes SUMO's classes: sumolib's list of every class name it reads, less
+    /// the names SUMO keeps only as deprecated aliases.
+    #[test]
+    fn the_vehicle_classes_are_sumos_own() {
+        let out = Command::new(venv().join("bin/python"))
+            .args([
+                "-c",
+                "import sumolib.net.lane as l; print('\\n'.join(sorted(l.SUMO_VEHICLE_CLASSES)))",
+            ])
+            .output()
+            .expect("python runs");
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let text = String::from_utf8(out.stdout).unwrap();
+        let sumolib: std::collections::BTreeSet<&str> = text.lines().collect();
+        let ours: std::collections::BTreeSet<&str> = syncroad_control::scenario::VEHICLE_CLASSES
+            .into_iter()
+            .collect();
+        assert_eq!(
+            ours.len(),
+            syncroad_control::scenario::VEHICLE_CLASSES.len()
+        );
+        let deprecated: std::collections::BTreeSet<&str> = [
+            "public_emergency",
+            "public_authority",
+            "public_army",
+            "public_transport",
+            "transport",
+            "lightrail",
+            "cityrail",
+            "rail_slow",
+            "rail_fast",
+        ]
+        .into_iter()
+        .collect();
+        assert_eq!(
+            sumolib
+                .difference(&ours)
+                .copied()
+                .collect::<std::collections::BTreeSet<_>>(),
+            deprecated
+        );
+        assert!(ours.is_subset(&sumolib), "{:?}", ours.difference(&sumolib));
+    }
+
     /// A lane that admits buses only: passenger cars are refused before SUMO starts, buses
     /// (`sumo.vclass`) drive it, their vType says so, and SUMO gives the native simulator's
     /// speeds across it; a class SUMO does not have is named with the ones it has.

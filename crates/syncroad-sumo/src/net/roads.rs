@@ -226,14 +226,13 @@ impl Lanes<'_> {
             .enumerate()
             .map(|(i, e)| self.lanes_of(net, e, &field(i)))
             .collect::<Result<_, _>>()?;
+        // At least one edge: `network_road` refuses an empty road.
         let m = edges.len();
         let open =
             |i: usize, l: usize| all[i].get(l).is_some_and(|x| x.permits(self.vclass.name()));
-        if m == 0 || !(0..all[0].len()).any(|l| open(0, l)) {
-            // No edge, or no lane of the first edge open to the class: the check of lane 0
-            // says which.
-            let first = edges.first().map_or("", String::as_str);
-            self.lane_of(net, first, 0, &field(0), "road.lane")?;
+        if !(0..all[0].len()).any(|l| open(0, l)) {
+            // No lane of the first edge open to the class: the check of lane 0 says why.
+            self.lane_of(net, &edges[0], 0, &field(0), "road.lane")?;
         }
         // dead[i][l]: from lane l of edge i the route cannot reach its last edge.
         let mut dead: Vec<Vec<bool>> = all.iter().map(|l| vec![false; l.len()]).collect();
@@ -289,15 +288,16 @@ impl Lanes<'_> {
                 }
             }
         }
-        let i = furthest.min(m.saturating_sub(2));
+        // Here the route has two edges or more (one edge returns its first open lane above).
+        let i = furthest.min(m - 2);
         Err(NetError::NoLaneSequence(Box::new(NoLanes {
             path: self.path.to_path_buf(),
             from_field: field(i),
             from: edges[i].clone(),
             to_field: field(i + 1),
-            to: edges[(i + 1).min(m - 1)].clone(),
+            to: edges[i + 1].clone(),
             vclass: self.vclass.name(),
-            joined: joined(net, &edges[i], &edges[(i + 1).min(m - 1)]),
+            joined: joined(net, &edges[i], &edges[i + 1]),
         })))
     }
 
@@ -319,9 +319,11 @@ impl Lanes<'_> {
                 format!("road.lane[{i}]")
             }
         };
+        // Every lane checked (and no edge twice) before any connection is looked at.
         let mut seen: HashMap<&str, usize> = HashMap::new();
+        let mut driven: Vec<&Lane> = Vec::with_capacity(edges.len());
         for (i, e) in edges.iter().enumerate() {
-            self.lane_of(net, e, lanes[i], &field(i), &lane_field(i))?;
+            driven.push(self.lane_of(net, e, lanes[i], &field(i), &lane_field(i))?);
             if let Some(&j) = seen.get(e.as_str()) {
                 return Err(NetError::RepeatedEdge {
                     field: field(i),
@@ -333,8 +335,7 @@ impl Lanes<'_> {
         }
         let m = edges.len();
         let mut segments = Vec::new();
-        for (i, e) in edges.iter().enumerate() {
-            let l = self.lane_of(net, e, lanes[i], &field(i), &lane_field(i))?;
+        for (i, (e, l)) in edges.iter().zip(&driven).enumerate() {
             segments.push(Segment {
                 edge: e.clone(),
                 lane: l.id.clone(),

@@ -167,16 +167,11 @@ pub fn field_time_space(dir: &Path, sumo_dir: &Path, title: &str) -> anyhow::Res
     }
     let speeds = axis::quantiles(pts.iter().map(|p| p.2), 0.02, 0.98, 0.2, 0.0..1.0);
     let time = axis::linear(pts.iter().map(|p| p.0), 1.0, 0.0..1.0);
-    let space = if road.closed {
-        0.0..road.length_m
-    } else {
-        0.0..road.length_m.max(1.0)
-    };
     TimeSpace {
         stem: "time_space_all",
         title: format!("{title} — every vehicle on the road"),
         time: time.start.min(0.0)..time.end,
-        space,
+        space: 0.0..road.length_m.max(1.0),
         y_desc: "position along the road [m]",
         speeds: (speeds.start, speeds.end),
     }
