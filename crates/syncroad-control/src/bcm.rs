@@ -30,6 +30,7 @@ pub const ENTRY: LawEntry = LawEntry {
     summary:
         "bilateral control model of Horn (2013): midway between leader and follower (Flow's gains)",
     road: Road::Ring,
+    looks_behind: true,
     shorthand: None,
     check: |p| law_params::<BcmParams>(p)?.check(),
     build: |c, p| {

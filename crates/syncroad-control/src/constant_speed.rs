@@ -15,6 +15,7 @@ pub const ENTRY: LawEntry = LawEntry {
     summary:
         "every vehicle tracks the target speed U within its acceleration bounds (no car following)",
     road: Road::Any,
+    looks_behind: false,
     shorthand: Some("target_speed_mps"),
     check: |p| law_params::<Params>(p)?.check(),
     build: |c, p| {

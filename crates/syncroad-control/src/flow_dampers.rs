@@ -46,6 +46,7 @@ pub const PI_SATURATION_ENTRY: LawEntry = LawEntry {
     name: "flow-pi-saturation",
     summary: "Flow's master PISaturation (its history window, v_cmd from 0, acceleration bounded above only)",
     road: Road::Ring,
+    looks_behind: false,
     build: |c, p| {
         let params: PiSaturationParams = law_params(p)?;
         params.validate().map_err(|e| e.to_string())?;

@@ -52,6 +52,7 @@ pub const ENTRY: LawEntry = LawEntry {
     summary:
         "FollowerStopper of Stern et al. (2018): desired speed U, the field experiment's bands",
     road: Road::Ring,
+    looks_behind: false,
     shorthand: Some("desired_speed_mps"),
     check: |p| {
         let p: FollowerStopperParams = law_params(p)?;

@@ -30,6 +30,7 @@ pub const ENTRY: LawEntry = LawEntry {
     name: "lacc",
     summary: "linear adaptive cruise control: constant time gap, first-order lag (Flow's gains)",
     road: Road::Any,
+    looks_behind: false,
     shorthand: None,
     check: |p| law_params::<LaccParams>(p)?.check(),
     build: |c, p| {

@@ -53,6 +53,7 @@ pub const ENTRY: LawEntry = LawEntry {
     summary:
         "PI controller with saturation of Stern et al. (2018), the field experiment's parameters",
     road: Road::Ring,
+    looks_behind: false,
     shorthand: None,
     check: |p| {
         let p: PiSaturationParams = law_params(p)?;

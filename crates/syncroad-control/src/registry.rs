@@ -254,6 +254,20 @@ impl NamedLaw {
             .map_err(|e| e.to_string())?;
         (entry.build)(context, &self.params)
     }
+
+    /// Builds the law for one vehicle that drives alone behind whoever is ahead of it, which
+    /// its context's sensing reports each step (an inflow's `controlled` vehicle): a ring
+    /// law's predecessor is then that vehicle, so the road check does not apply; a law that
+    /// looks behind is refused.
+    pub fn build_alone(&self, context: &LawContext) -> Result<Box<dyn SpeedController>, String> {
+        let entry = self.entry()?;
+        if entry.looks_behind {
+            return Err(format!(
+                "{self} reads the vehicle behind each vehicle too; a vehicle driven alone senses only the one ahead"
+            ));
+        }
+        (entry.build)(context, &self.params)
+    }
 }
 
 impl fmt::Display for NamedLaw {

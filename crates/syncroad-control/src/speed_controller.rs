@@ -131,6 +131,10 @@ pub struct LawEntry {
     pub summary: &'static str,
     /// The road it drives on (checked before a run starts).
     pub road: Road,
+    /// It reads the vehicle behind each vehicle too (the bilateral laws): it cannot drive a
+    /// vehicle that enters and leaves on its own, behind whoever is ahead of it (an inflow's
+    /// `controlled` vehicles), which senses only the vehicle ahead.
+    pub looks_behind: bool,
     /// A parameter that may be written after the name (`follower-stopper-4.3` for
     /// `{"desired_speed_mps": 4.3}`); the law's name in tables then carries it.
     pub shorthand: Option<&'static str>,
@@ -148,6 +152,7 @@ impl LawEntry {
             name,
             summary: "",
             road: Road::Any,
+            looks_behind: false,
             shorthand: None,
             check: accept_any,
             build,

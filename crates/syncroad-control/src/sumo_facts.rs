@@ -104,6 +104,45 @@ pub struct SumoFacts {
     /// inserted its own.
     #[serde(default)]
     pub controlled: Option<Controlled>,
+    /// The inflows' vehicles a law drove (`sumo.inflows[k].controlled`); `None` when no
+    /// inflow has any.
+    #[serde(default)]
+    pub guests: Option<Guests>,
+}
+
+/// The vehicles of the inflows that a law drove (`sumo.inflows[k].controlled`), each one
+/// alone, behind whoever SUMO reported ahead of it, from the step it entered to the step it
+/// left at the end of its route. Entries and exits change the set of vehicles the law drives:
+/// they are counted here.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct Guests {
+    /// The law of each inflow that has controlled vehicles: `inflow0: follower-stopper-20`.
+    pub laws: Vec<String>,
+    /// Vehicles that entered the network (the law drove them from their first step on).
+    pub entered: usize,
+    /// Vehicles that left it at the end of their route.
+    pub left: usize,
+    /// Vehicles still on the road at the end.
+    pub present_at_end: usize,
+    /// Most vehicles driven at once.
+    pub present_max: usize,
+    /// Mean travel time of those that left, from entering to leaving \[s\]; `null` when none
+    /// left.
+    #[schemars(title = "mean travel time (controlled)")]
+    pub mean_travel_time_s: Option<f64>,
+    /// Mean speed over the vehicles and the steps they were driven \[m/s\]; `null` when none
+    /// was.
+    #[schemars(title = "mean speed (controlled)")]
+    pub mean_speed_mps: Option<f64>,
+    /// Commands sent.
+    pub commands: usize,
+    /// Commands above the lane's speed limit, sent as the limit.
+    pub speed_limited_commands: usize,
+    /// Commands SUMO did not realise within the tolerance (its safe speed, right of way or a
+    /// red light held the vehicle back, under the safety layer).
+    pub overridden_commands: usize,
+    /// Largest |realised − commanded| speed \[m/s\].
+    pub max_override_mps: f64,
 }
 
 /// The user's own vehicles the law drove (`sumo.controlled`).

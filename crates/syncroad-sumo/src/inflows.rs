@@ -4,16 +4,24 @@
 //! `<flow>` into the run's folder. The vehicles are of SUMO's default type (Krauss, class
 //! `passenger`), routed by SUMO from `from` to `to`, and leave the network at `to`'s end.
 //!
+//! An inflow's `controlled` vehicles are of a vehicle type of their own, [`guest_type`]`(k)`,
+//! which the worker recognises when SUMO inserts them (`cosim::guests`): a share of the flow
+//! through a `<vTypeDistribution>` (SUMO draws each vehicle's type with the run's seed), and
+//! vehicles at given times as `<trip>`s on the flow's route.
+//!
 //! # Reference
 //! SUMO documentation, "Definition of Vehicles, Vehicle Types, and Routes", section
-//! "Repeated vehicles (Flows)" (`vehsPerHour`, `period="exp(…)"`, `departLane`, `departSpeed`).
+//! "Repeated vehicles (Flows)" (`vehsPerHour`, `period="exp(…)"`, `departLane`, `departSpeed`),
+//! and "Vehicle Type Distributions" (`vTypes`, `probabilities`).
 
 use std::collections::VecDeque;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use syncroad_control::scenario::{Arrivals, InflowSpec, VehicleClass};
+use syncroad_control::scenario::{Arrivals, InflowSpec, SumoVehicleType, VehicleClass};
 use syncroad_control::Scenario;
+
+use crate::layout::Layout;
 
 use crate::net::network::Network;
 use crate::net::roads::nearest;
@@ -44,11 +52,38 @@ pub fn lane_capacity_per_hour(v: f64) -> f64 {
     3600.0 * v / (DEFAULT_LENGTH_M + DEFAULT_MIN_GAP_M + v * DEFAULT_TAU_S)
 }
 
+/// The vehicle type of the vehicles a law drives in inflow `k` (`controlled`).
+pub fn guest_type(k: usize) -> String {
+    format!("syncroad_guest{k}")
+}
+
+/// The vehicle type of an inflow's controlled vehicles: syncroad's own (`sumo.length_m`,
+/// `minGap`, `accel`, `decel`, `maxSpeed`, no driver randomness), of SUMO's class
+/// `passenger` like the rest of the inflow.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GuestType {
+    /// The scenario's vehicle type.
+    pub vtype: SumoVehicleType,
+    /// Their length \[m\].
+    pub length_m: f64,
+}
+
+impl GuestType {
+    /// The type of the layout's vehicles (the first one's length).
+    pub fn of(layout: &Layout) -> Self {
+        Self {
+            vtype: layout.vtype,
+            length_m: layout.vehicles.first().map_or(5.0, |v| v.length_m),
+        }
+    }
+}
+
 /// The inflows of `scenario` on its road's network, checked, as the route file SUMO is given
 /// (written into `work_dir` when `write`); `None` without inflows.
 pub fn routes_file(
     scenario: &Scenario,
     road: &Road,
+    guest: &GuestType,
     work_dir: &Path,
     write: bool,
 ) -> Result<Option<PathBuf>, PrepareError> {
@@ -60,14 +95,52 @@ pub fn routes_file(
     check(&net, &road.path, inflows, scenario.horizon_s())?;
     let file = work_dir.join(INFLOWS_FILE);
     if write {
-        std::fs::write(&file, flows_xml(inflows, scenario.horizon_s())).map_err(|e| {
-            PrepareError::Io {
-                path: work_dir.to_path_buf(),
-                reason: e.to_string(),
-            }
+        let xml = flows_xml(inflows, scenario.horizon_s(), guest);
+        std::fs::write(&file, xml).map_err(|e| PrepareError::Io {
+            path: work_dir.to_path_buf(),
+            reason: e.to_string(),
         })?;
     }
     Ok(Some(file))
+}
+
+/// The laws that drive the inflows' controlled vehicles, each built once here for one
+/// vehicle so that a law that refuses its context does so before SUMO starts.
+pub fn guests(
+    scenario: &Scenario,
+    guest: &GuestType,
+) -> Result<Vec<crate::protocol::GuestLaw>, PrepareError> {
+    let mut laws = Vec::new();
+    for (k, f) in scenario.sumo().inflows().iter().enumerate() {
+        let Some(c) = &f.controlled else { continue };
+        let field = format!("sumo.inflows[{k}].controlled.law");
+        let law = c
+            .law(k)
+            .map_err(|e| refuse(field.clone(), &c.law, e.to_string()))?;
+        let t = &guest.vtype;
+        let context = syncroad_control::speed_controller::LawContext {
+            step_s: scenario.step_s(),
+            ids: vec![guest_type(k)],
+            length_m: vec![guest.length_m],
+            ring_length_m: None,
+            controlled: vec![true],
+            accel_mps2: t.accel_mps2,
+            decel_mps2: t.decel_mps2,
+            // The lane's own limit is read for each vehicle every step.
+            speed_limit_mps: None,
+            signals: false,
+        };
+        law.build_alone(&context)
+            .map_err(|e| refuse(field.clone(), &law, e))?;
+        laws.push(crate::protocol::GuestLaw {
+            inflow: k,
+            vtype: guest_type(k),
+            law,
+            context,
+            min_gap_m: t.min_gap_m,
+        });
+    }
+    Ok(laws)
 }
 
 /// Checks every inflow on the network `net` (read from `path`) for a run of `horizon_s`.
@@ -142,6 +215,15 @@ pub fn check(
                 ),
             ));
         }
+        if let Some(c) = &f.controlled {
+            if let Some((j, t)) = c.at_s.iter().enumerate().find(|(_, t)| **t >= horizon_s) {
+                return Err(refuse(
+                    format!("sumo.inflows[{k}].controlled.at_s[{j}]"),
+                    t,
+                    format!("the run ends at horizon_s = {horizon_s} s; depart before it"),
+                ));
+            }
+        }
         if f.begin_s >= horizon_s {
             return Err(refuse(
                 field("begin_s"),
@@ -206,9 +288,12 @@ fn reaches(net: &Network, from: &str, to: &str) -> bool {
     false
 }
 
-/// The flows of `inflows` for a run of `horizon_s` (an inflow without `end_s` runs to it).
-pub fn flows_xml(inflows: &[InflowSpec], horizon_s: f64) -> String {
+/// The flows of `inflows` for a run of `horizon_s` (an inflow without `end_s` runs to it),
+/// with the vehicle type `guest` of the vehicles a law drives. Flows and trips in the order
+/// of their departures, as SUMO reads a route file.
+pub fn flows_xml(inflows: &[InflowSpec], horizon_s: f64, guest: &GuestType) -> String {
     let mut s = String::from("<routes>\n");
+    let mut departures: Vec<(f64, String)> = Vec::new();
     for (k, f) in inflows.iter().enumerate() {
         let rate = match f.arrivals {
             Arrivals::Regular => format!(r#"vehsPerHour="{}""#, f.vehs_per_hour),
@@ -220,14 +305,58 @@ pub fn flows_xml(inflows: &[InflowSpec], horizon_s: f64) -> String {
         let speed = f
             .depart_speed_mps
             .map_or_else(|| "max".to_string(), |v| v.to_string());
-        let _ = writeln!(
-            s,
-            r#"    <flow id="inflow{k}" from="{}" to="{}" begin="{}" end="{}" {rate} departLane="{lane}" departSpeed="{speed}"/>"#,
-            quick_xml::escape::escape(f.from.as_str()),
-            quick_xml::escape::escape(f.to.as_str()),
+        let from = quick_xml::escape::escape(f.from.as_str());
+        let to = quick_xml::escape::escape(f.to.as_str());
+        let mut ty = String::new();
+        if let Some(c) = &f.controlled {
+            let t = &guest.vtype;
+            let _ = writeln!(
+                s,
+                r#"    <vType id="{}" length="{}" minGap="{}" accel="{}" decel="{}" emergencyDecel="{}" maxSpeed="{}" sigma="0" speedFactor="1" speedDev="0" emissionClass="{}" vClass="{}"/>"#,
+                guest_type(k),
+                guest.length_m,
+                t.min_gap_m,
+                t.accel_mps2,
+                t.decel_mps2,
+                t.emergency_decel_mps2,
+                t.max_speed_mps,
+                crate::layout::EMISSION_CLASS,
+                VehicleClass::PASSENGER.name(),
+            );
+            if c.share > 0.0 {
+                let _ = writeln!(
+                    s,
+                    r#"    <vTypeDistribution id="inflow{k}_types" vTypes="DEFAULT_VEHTYPE {}" probabilities="{} {}"/>"#,
+                    guest_type(k),
+                    1.0 - c.share,
+                    c.share
+                );
+                ty = format!(r#" type="inflow{k}_types""#);
+            }
+            for (j, t) in c.at_s.iter().enumerate() {
+                departures.push((
+                    *t,
+                    format!(
+                        r#"    <trip id="inflow{k}.at{j}" type="{}" depart="{t}" from="{from}" to="{to}" departLane="{lane}" departSpeed="{speed}"/>"#,
+                        guest_type(k)
+                    ),
+                ));
+            }
+        }
+        departures.push((
             f.begin_s,
-            f.end_s.unwrap_or(horizon_s).min(horizon_s),
-        );
+            format!(
+                r#"    <flow id="inflow{k}"{ty} from="{from}" to="{to}" begin="{}" end="{}" {rate} departLane="{lane}" departSpeed="{speed}"/>"#,
+                f.begin_s,
+                f.end_s.unwrap_or(horizon_s).min(horizon_s),
+            ),
+        ));
+    }
+    // Stable: at equal times the flows and trips keep the scenario's order.
+    departures.sort_by(|a, b| a.0.total_cmp(&b.0));
+    for (_, line) in departures {
+        s.push_str(&line);
+        s.push('\n');
     }
     s.push_str("</routes>\n");
     s
@@ -245,6 +374,55 @@ mod tests {
         assert_eq!(lane_capacity_per_hour(0.0), 0.0);
     }
 
+    fn guest() -> GuestType {
+        GuestType {
+            vtype: SumoVehicleType {
+                min_gap_m: 2.5,
+                accel_mps2: 2.6,
+                decel_mps2: 4.5,
+                emergency_decel_mps2: 9.0,
+                max_speed_mps: 40.0,
+                vclass: VehicleClass::default(),
+            },
+            length_m: 5.0,
+        }
+    }
+
+    #[test]
+    fn controlled_vehicles_are_a_type_of_their_own_drawn_or_departing_when_given() {
+        let f = InflowSpec {
+            from: "h0".into(),
+            to: "h2".into(),
+            vehs_per_hour: 1200.0,
+            arrivals: Arrivals::Regular,
+            depart_lane: Some(1),
+            depart_speed_mps: None,
+            begin_s: 5.0,
+            end_s: None,
+            controlled: Some(syncroad_control::scenario::InflowControl {
+                law: "follower-stopper-20".into(),
+                params: None,
+                share: 0.25,
+                at_s: vec![30.0, 2.0],
+            }),
+        };
+        let xml = flows_xml(&[f], 60.0, &guest());
+        let lines: Vec<&str> = xml.lines().map(str::trim).collect();
+        assert_eq!(
+            lines,
+            [
+                "<routes>",
+                r#"<vType id="syncroad_guest0" length="5" minGap="2.5" accel="2.6" decel="4.5" emergencyDecel="9" maxSpeed="40" sigma="0" speedFactor="1" speedDev="0" emissionClass="HBEFA4/PC_petrol_Euro-6ab" vClass="passenger"/>"#,
+                r#"<vTypeDistribution id="inflow0_types" vTypes="DEFAULT_VEHTYPE syncroad_guest0" probabilities="0.75 0.25"/>"#,
+                // In the order of their departures, as SUMO reads a route file.
+                r#"<trip id="inflow0.at1" type="syncroad_guest0" depart="2" from="h0" to="h2" departLane="1" departSpeed="max"/>"#,
+                r#"<flow id="inflow0" type="inflow0_types" from="h0" to="h2" begin="5" end="60" vehsPerHour="1200" departLane="1" departSpeed="max"/>"#,
+                r#"<trip id="inflow0.at0" type="syncroad_guest0" depart="30" from="h0" to="h2" departLane="1" departSpeed="max"/>"#,
+                "</routes>",
+            ]
+        );
+    }
+
     #[test]
     fn flows_are_written_as_sumo_reads_them() {
         let f = InflowSpec {
@@ -256,8 +434,9 @@ mod tests {
             depart_speed_mps: Some(20.0),
             begin_s: 10.0,
             end_s: None,
+            controlled: None,
         };
-        let xml = flows_xml(&[f], 300.0);
+        let xml = flows_xml(&[f], 300.0, &guest());
         assert!(
             xml.contains(r#"<flow id="inflow0" from="ramp" to="h2" begin="10" end="300" period="exp(0.2)" departLane="best" departSpeed="20"/>"#),
             "{xml}"

@@ -145,6 +145,7 @@ impl SumoRun {
                 vehicles: start.map(|s| s.controlled.clone()).unwrap_or_default(),
                 later: finish.and_then(|f| f.totals.chosen_later),
             }),
+            guests: finish.and_then(|f| f.totals.guests.as_deref().cloned()),
         };
         RunOutput {
             trajectory: self.trajectory(scenario),

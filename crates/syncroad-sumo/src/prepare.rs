@@ -315,12 +315,15 @@ fn prepare_with(
     };
     let (mut extra_routes, extra_additional) =
         user_traffic(scenario, &layout, &drivers, opts, write)?;
+    let guest = crate::inflows::GuestType::of(&layout);
     extra_routes.extend(crate::inflows::routes_file(
         scenario,
         &layout.road,
+        &guest,
         &opts.work_dir,
         write,
     )?);
+    let guests = crate::inflows::guests(scenario, &guest)?;
     let other_traffic = scenario.sumo().other_traffic();
     let fcd = opts.fcd || scenario.sumo().fcd();
     if write {
@@ -359,6 +362,7 @@ fn prepare_with(
         extra_routes,
         extra_additional,
         adopt: adopt.cloned(),
+        guests,
     })
 }
 

@@ -143,6 +143,28 @@ pub struct Request {
     /// `layout.vehicles` holds placeholders until the worker has bound them.
     #[serde(default)]
     pub adopt: Option<syncroad_control::scenario::VehicleSelector>,
+    /// The laws that drive the vehicles of the inflows they control
+    /// (`sumo.inflows[k].controlled`), each vehicle from its entry to its exit.
+    #[serde(default)]
+    pub guests: Vec<GuestLaw>,
+}
+
+/// The law that drives an inflow's controlled vehicles: the worker recognises them by their
+/// vehicle type when SUMO inserts them and builds the law for each one alone.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GuestLaw {
+    /// The inflow (`sumo.inflows[k]`).
+    pub inflow: usize,
+    /// Their vehicle type.
+    pub vtype: String,
+    /// The law, by its registry name and parameters.
+    pub law: syncroad_control::registry::NamedLaw,
+    /// What it is built with for one vehicle (an open road: nobody ahead but whom SUMO
+    /// reports).
+    pub context: syncroad_control::speed_controller::LawContext,
+    /// Their type's `minGap` \[m\]: SUMO reports the distance to the vehicle ahead from the
+    /// front bumper plus it.
+    pub min_gap_m: f64,
 }
 
 fn default_speed_mode() -> i32 {
@@ -207,7 +229,7 @@ pub enum WorkerMsg {
     /// Something happened at a step.
     Event(Event),
     /// The run ended (normally or with a typed stop reason).
-    Finished(Finish),
+    Finished(Box<Finish>),
     /// The worker failed cleanly (Python exception, vehicles left pending, ...).
     Failed {
         /// The error, with its Python traceback when there is one.
@@ -294,6 +316,9 @@ pub struct Totals {
     /// What syncroad's safety filter under the law did, when it ran.
     #[serde(default)]
     pub filter: Option<syncroad_control::speed_controller::FilterReport>,
+    /// The inflows' controlled vehicles, when some inflow has them.
+    #[serde(default)]
+    pub guests: Option<Box<syncroad_control::sumo_facts::Guests>>,
 }
 
 /// The end of a run.

@@ -285,7 +285,7 @@ impl WorkerRun {
                 self.start = Some(s);
             }
             Frame::Msg(WorkerMsg::Event(e)) => self.events.push(e),
-            Frame::Msg(WorkerMsg::Finished(f)) => *end = Some(Ok(f)),
+            Frame::Msg(WorkerMsg::Finished(f)) => *end = Some(Ok(*f)),
             Frame::Msg(WorkerMsg::Failed { message }) => *end = Some(Err(message)),
         }
     }

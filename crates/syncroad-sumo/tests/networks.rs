@@ -1433,6 +1433,158 @@ mod open_roads {
         );
     }
 
+    /// An inflow's controlled vehicles enter among its humans, are driven by their law from
+    /// their first step to their last and leave at the end of their route. Checked against
+    /// SUMO's own floating-car data: the vehicles of the law's type that SUMO inserted are
+    /// the ones the record says entered, those gone before the end left, their travel times
+    /// are SUMO's to the step; a `constant-speed-25` vehicle, which SUMO's driver would take to
+    /// the 30 m/s limit, settles at 25 m/s; one told 40 m/s keeps to the lane's 30 m/s.
+    /// Errors name the field before SUMO starts.
+    #[test]
+    fn an_inflows_controlled_vehicles_enter_are_driven_and_leave() {
+        let dir = work("inflow-controlled");
+        on_ramp(&dir);
+        let road =
+            serde_json::json!({"type": "route", "edges": ["h0", "h1", "h2"], "lane": "follow"});
+        let with = |inflows: serde_json::Value| {
+            let mut file = platoon_on(
+                road.clone(),
+                serde_json::json!({"net": "out.net.xml", "fcd": true, "inflows": inflows}),
+            );
+            file["horizon_s"] = 40.0.into();
+            file
+        };
+        let inflows = serde_json::json!([
+            {"from": "ramp", "to": "h1", "vehs_per_hour": 900,
+             "controlled": {"law": "constant-speed-25", "share": 0.5, "at_s": [2.5]}},
+            {"from": "ramp", "to": "h1", "vehs_per_hour": 300, "begin_s": 20,
+             "controlled": {"law": "constant-speed", "params": {"target_speed_mps": 40}, "at_s": [1]}}
+        ]);
+        let sc = scenario(&dir, &with(inflows.clone()).to_string()).unwrap();
+        let run = run_scenario(&sc, &opts(&dir)).unwrap();
+        let fin = run.outcome().expect("horizon reached");
+        let g = run
+            .output(&sc)
+            .sumo
+            .unwrap()
+            .guests
+            .expect("controlled inflows");
+        eprintln!("controlled inflow vehicles: {g:?}");
+        assert_eq!(
+            g.laws,
+            ["inflow0: constant-speed-25", "inflow1: constant-speed-40"]
+        );
+        assert_eq!(fin.totals.collision_steps, 0);
+        let flows = std::fs::read_to_string(dir.join("run/inflows.rou.xml")).unwrap();
+        assert!(flows.contains(r#"<vTypeDistribution id="inflow0_types" vTypes="DEFAULT_VEHTYPE syncroad_guest0" probabilities="0.5 0.5"/>"#), "{flows}");
+        assert!(
+            flows.contains(r#"<trip id="inflow1.at0" type="syncroad_guest1" depart="1""#),
+            "{flows}"
+        );
+        // SUMO's record of every vehicle of the law's types, step by step.
+        let fcd = std::fs::read_to_string(dir.join("run/fcd.xml")).unwrap();
+        let doc = roxmltree::Document::parse(&fcd).unwrap();
+        let mut seen: std::collections::BTreeMap<String, (String, Vec<(f64, f64)>)> =
+            std::collections::BTreeMap::new();
+        let mut last_t = 0.0;
+        for step in doc.descendants().filter(|n| n.has_tag_name("timestep")) {
+            let t: f64 = step.attribute("time").unwrap().parse().unwrap();
+            last_t = t;
+            for v in step.children().filter(|n| n.has_tag_name("vehicle")) {
+                let ty = v.attribute("type").unwrap();
+                if ty.starts_with("syncroad_guest") {
+                    let speed: f64 = v.attribute("speed").unwrap().parse().unwrap();
+                    seen.entry(v.attribute("id").unwrap().to_string())
+                        .or_insert_with(|| (ty.to_string(), Vec::new()))
+                        .1
+                        .push((t, speed));
+                }
+            }
+        }
+        assert_eq!(g.entered, seen.len(), "{seen:?}");
+        assert!(seen.contains_key("inflow0.at0") && seen.contains_key("inflow1.at0"));
+        // Half of the first inflow's regular vehicles (one every 4 s) are drawn as the law's.
+        let drawn = seen.keys().filter(|id| !id.contains(".at")).count();
+        assert!((2..=9).contains(&drawn), "{drawn} of 10 drawn");
+        let left: Vec<&(String, Vec<(f64, f64)>)> = seen
+            .values()
+            .filter(|(_, r)| r.last().unwrap().0 < last_t)
+            .collect();
+        assert_eq!(g.left, left.len());
+        assert_eq!(g.present_at_end, seen.len() - left.len());
+        assert!(g.left >= 2, "{g:?}");
+        // A vehicle leaves during the step after its last record.
+        let dt = sc.step_s();
+        let mean = left
+            .iter()
+            .map(|(_, r)| r.last().unwrap().0 + dt - r[0].0)
+            .sum::<f64>()
+            / left.len() as f64;
+        assert_relative_eq!(g.mean_travel_time_s.unwrap(), mean, max_relative = 1e-9);
+        for (id, (ty, r)) in &seen {
+            let top = r.iter().map(|x| x.1).fold(0.0, f64::max);
+            // SUMO writes speeds to 0.01 m/s.
+            assert!(top <= 30.0 + 0.005, "{id}: {top} m/s");
+            // Down to 25 m/s within the vehicle's deceleration, and never above it again
+            // (slower where SUMO's safe speed holds it back behind a slower vehicle).
+            if ty == "syncroad_guest0" && r.len() > 100 {
+                let at = r.iter().position(|x| (x.1 - 25.0).abs() <= 0.005);
+                let at = at.unwrap_or_else(|| panic!("{id} never at 25 m/s: {r:?}"));
+                assert!(r[at..].iter().all(|x| x.1 <= 25.005), "{id}: {r:?}");
+            }
+        }
+        assert!(g.speed_limited_commands > 0, "{g:?}");
+        // Errors, before SUMO starts.
+        let refused = |controlled: serde_json::Value| {
+            let f = serde_json::json!([{"from": "ramp", "to": "h1", "vehs_per_hour": 900,
+                                        "controlled": controlled}]);
+            scenario(&dir, &with(f).to_string()).unwrap_err()
+        };
+        let e = refused(serde_json::json!({"law": "bcm", "share": 0.1}));
+        assert!(
+            e.starts_with(
+                "sumo.inflows[0].controlled.law = bcm: this law reads the vehicle behind"
+            ),
+            "{e}"
+        );
+        let e = refused(serde_json::json!({"law": "law", "share": 0.1}));
+        assert!(
+            e.starts_with(
+                "sumo.inflows[0].controlled.law = law: the scenario's own law drives its fixed set"
+            ),
+            "{e}"
+        );
+        let e = refused(serde_json::json!({"law": "follower-stoper-20", "share": 0.1}));
+        assert!(e.starts_with("sumo.inflows[0].controlled.law = follower-stoper-20: unknown controller; use law, follower-stopper-X"), "{e}");
+        let e = refused(serde_json::json!({"law": "pi-saturation", "share": 1.5}));
+        assert_eq!(e, "sumo.inflows[0].controlled.share = 1.5: must be a share in [0, 1] of the inflow's vehicles");
+        let e = refused(serde_json::json!({"law": "pi-saturation"}));
+        assert!(
+            e.starts_with("sumo.inflows[0].controlled.share = 0: the law would drive no vehicle"),
+            "{e}"
+        );
+        let e = refused(
+            serde_json::json!({"law": "constant-speed", "params": {"speed": 3}, "share": 0.1}),
+        );
+        assert!(
+            e.starts_with("sumo.inflows[0].controlled.law = constant-speed:"),
+            "{e}"
+        );
+        let late = serde_json::json!([{"from": "ramp", "to": "h1", "vehs_per_hour": 900,
+                                       "controlled": {"law": "pi-saturation", "at_s": [5, 40]}}]);
+        let sc = scenario(&dir, &with(late).to_string()).unwrap();
+        let mut o = opts(&dir);
+        o.work_dir = dir.join("refused");
+        let e = run_scenario(&sc, &o).unwrap_err().to_string();
+        assert!(!dir.join("refused/sumo.log").exists(), "{e}");
+        assert!(
+            e.starts_with(
+                "sumo.inflows[0].controlled.at_s[1] = 40: the run ends at horizon_s = 40 s"
+            ),
+            "{e}"
+        );
+    }
+
     /// `sumo.vclass` takes SUMO's classes: sumolib's list of every class name it reads, less
     /// the names SUMO keeps only as deprecated aliases.
     #[test]

@@ -237,6 +237,10 @@ pub struct RunRecord {
     /// runs. Their start is the user's files', not the scenario's `initial`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub controlled: Option<crate::sumo_facts::Controlled>,
+    /// The inflows' vehicles a law drove from their entry to their exit
+    /// (`sumo.inflows[k].controlled`); present only for such runs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub guests: Option<crate::sumo_facts::Guests>,
     /// The user's own controller that drove in place of the model's law (`controller` in the
     /// scenario); present only for such runs.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -383,6 +387,7 @@ impl RunRecord {
             gap_safety: crate::margins::GapSafety::of(&run.trajectory, outcome.warmup_s),
             all_vehicles: facts.and_then(|f| f.all_vehicles.clone()),
             controlled: facts.and_then(|f| f.controlled.clone()),
+            guests: facts.and_then(|f| f.guests.clone()),
             controller: sc.controller().map(ControllerRecord::of),
             safety_layer: run.safety_layer,
             safe: unsafe_because.as_ref().map(Vec::is_empty),

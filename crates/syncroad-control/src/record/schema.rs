@@ -21,7 +21,7 @@ use crate::record::RunRecord;
 pub const SCHEMA_ID: &str = "syncroad-metrics-v1";
 
 /// Keys a record holds only when the run measured them.
-const OPTIONAL_BLOCKS: [&str; 9] = [
+const OPTIONAL_BLOCKS: [&str; 10] = [
     "safety_margins",
     "string_amplification",
     "gap_certificate",
@@ -30,6 +30,7 @@ const OPTIONAL_BLOCKS: [&str; 9] = [
     "jam_formed_s",
     "all_vehicles",
     "controlled",
+    "guests",
     "controller",
 ];
 
@@ -128,7 +129,7 @@ pub fn metrics_schema() -> Value {
     o.insert("title".into(), json!("syncroad run record (metrics.json)"));
     o.insert(
         "description".into(),
-        json!("One run of `syncroad run`, `simulate`, or each run of `compare` (runs.NAME in compare.json, with the stamps lifted to the top). Every key is always present (null where it does not apply), except the blocks only runs that measured them carry (safety_margins, string_amplification, gap_certificate, gap_safety, braking_events, jam_formed_s, all_vehicles, present when other traffic shared the road, controlled, present when the law drove the user's own vehicles, and controller, present when the user's own controller drove in place of the law). Units are SI, named in the keys and given as x-unit. Generated from the record's type by `syncroad schema`."),
+        json!("One run of `syncroad run`, `simulate`, or each run of `compare` (runs.NAME in compare.json, with the stamps lifted to the top). Every key is always present (null where it does not apply), except the blocks only runs that measured them carry (safety_margins, string_amplification, gap_certificate, gap_safety, braking_events, jam_formed_s, all_vehicles, present when other traffic shared the road, controlled, present when the law drove the user's own vehicles, guests, present when a law drove vehicles of an inflow, and controller, present when the user's own controller drove in place of the law). Units are SI, named in the keys and given as x-unit. Generated from the record's type by `syncroad schema`."),
     );
     v
 }

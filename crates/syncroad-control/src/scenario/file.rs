@@ -619,6 +619,31 @@ pub struct InflowSpec {
     /// When it ends \[s\] (default: the horizon).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub end_s: Option<f64>,
+    /// Vehicles among this inflow that a law of the registry drives instead of SUMO's model:
+    /// a share of the inflow's vehicles, vehicles departing at given times, or both.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub controlled: Option<InflowControl>,
+}
+
+/// The vehicles of an inflow a law drives (`sumo.inflows[k].controlled`): each one from the
+/// step it enters to the step it leaves at the end of its route, with the registry law
+/// `law` stepped for it alone on whoever SUMO reports ahead of it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InflowControl {
+    /// The law, as the registry names it (`follower-stopper-20`, `pi-saturation`, a law
+    /// the running program registered); a law that needs a ring is refused.
+    pub law: String,
+    /// Its parameters, added to those the name carries.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub params: Option<serde_json::Value>,
+    /// The share of the inflow's vehicles the law drives, in \[0, 1\]: SUMO draws each
+    /// vehicle's type with the scenario's seed.
+    #[serde(default)]
+    pub share: f64,
+    /// Departure times \[s\] of further vehicles the law drives, on the inflow's route.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub at_s: Vec<f64>,
 }
 
 /// How an inflow's vehicles arrive.

@@ -8,8 +8,10 @@ use std::time::Duration;
 use serde::{Deserialize, Serialize};
 
 use super::{
-    invalid, ConfigInputs, InflowSpec, RoadReader, ScenarioError, SumoSpec, VehicleSelector,
+    invalid, ConfigInputs, InflowControl, InflowSpec, RoadReader, ScenarioError, SumoSpec,
+    VehicleSelector,
 };
+use crate::registry::NamedLaw;
 
 /// The input section of `sumo.config`, read by `reader` (the SUMO crate's: the maths reads no
 /// XML).
@@ -382,7 +384,87 @@ fn check_inflow(k: usize, f: &InflowSpec) -> Result<(), ScenarioError> {
             return Err(invalid(field(name), "\"\"", "name an edge of the network"));
         }
     }
+    if let Some(c) = &f.controlled {
+        c.law(k)?;
+        let field = |name: &str| format!("sumo.inflows[{k}].controlled.{name}");
+        if !(c.share.is_finite() && (0.0..=1.0).contains(&c.share)) {
+            return Err(invalid(
+                field("share"),
+                c.share,
+                "must be a share in [0, 1] of the inflow's vehicles",
+            ));
+        }
+        for (j, &t) in c.at_s.iter().enumerate() {
+            if !(t.is_finite() && t >= 0.0) {
+                return Err(invalid(
+                    field(&format!("at_s[{j}]")),
+                    t,
+                    "must be a departure time ≥ 0 s",
+                ));
+            }
+        }
+        if c.share == 0.0 && c.at_s.is_empty() {
+            return Err(invalid(
+                field("share"),
+                0,
+                "the law would drive no vehicle: give a share > 0 of the inflow, departure times in at_s, or both",
+            ));
+        }
+    }
     Ok(())
+}
+
+impl InflowControl {
+    /// The law that drives the controlled vehicles of inflow `k`, its name and parameters
+    /// checked, and refused when it needs a ring (each vehicle is driven on its own, behind
+    /// whoever is ahead of it).
+    pub fn law(&self, k: usize) -> Result<NamedLaw, ScenarioError> {
+        let field = format!("sumo.inflows[{k}].controlled.law");
+        let to_err = |e: crate::registry::LawNameError| invalid(&field, &self.law, e.why());
+        // The law's own name with its parameters (`constant-speed` and `params`), or a name
+        // that carries its shorthand parameter (`constant-speed-25`).
+        let bare = crate::registry::lookup(&self.law).ok().map(|e| NamedLaw {
+            name: e.name.to_string(),
+            params: serde_json::json!({}),
+        });
+        let parsed = match bare {
+            Some(law) => Some(law),
+            None => NamedLaw::parse(&field, &self.law).map_err(to_err)?,
+        };
+        let Some(mut law) = parsed else {
+            return Err(invalid(
+                &field,
+                &self.law,
+                format!(
+                    "the scenario's own law drives its fixed set of vehicles; name a law of the registry for vehicles that enter and leave: {}",
+                    crate::registry::valid_names()
+                ),
+            ));
+        };
+        if let Some(p) = &self.params {
+            let Some(extra) = p.as_object() else {
+                return Err(invalid(
+                    format!("sumo.inflows[{k}].controlled.params"),
+                    p,
+                    "must be a JSON object of the law's parameters",
+                ));
+            };
+            if let Some(own) = law.params.as_object_mut() {
+                own.extend(extra.clone());
+            }
+        }
+        law.check(&field).map_err(to_err)?;
+        // Each vehicle is driven alone, behind whoever SUMO reports ahead of it: any law that
+        // reads only that (a ring law's predecessor is that vehicle), none that looks behind.
+        if law.entry().is_ok_and(|e| e.looks_behind) {
+            return Err(invalid(
+                &field,
+                &self.law,
+                "this law reads the vehicle behind each vehicle too; a vehicle that enters and leaves is driven alone, behind whoever is ahead of it: choose a law that reads only the vehicle ahead (follower-stopper-U, pi-saturation, their flow- versions, lacc, constant-speed-U)",
+            ));
+        }
+        Ok(law)
+    }
 }
 
 #[cfg(test)]

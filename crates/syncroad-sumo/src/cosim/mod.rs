@@ -35,6 +35,7 @@ use crate::protocol::{write_msg, Control, Finish, Job, Request, StartInfo, Worke
 use crate::python::{load_libsumo, py_error, PythonError};
 
 mod adopt;
+mod guests;
 pub(crate) mod libsumo;
 mod meter;
 mod observer;
@@ -148,7 +149,7 @@ pub fn run(py: Python<'_>, job: &Job, out: &mut impl Write) -> Result<(), CosimE
     // worker goes on to its next run, so nothing else would make the log complete in time).
     let _ = ls.module.call_method0("close");
     let finish = result?;
-    write_msg(out, &WorkerMsg::Finished(finish)).map_err(|e| CosimError::Pipe(e.to_string()))?;
+    write_msg(out, &WorkerMsg::Finished(Box::new(finish))).map_err(|e| CosimError::Pipe(e.to_string()))?;
     out.flush().map_err(|e| CosimError::Pipe(e.to_string()))
 }
 

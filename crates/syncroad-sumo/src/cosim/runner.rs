@@ -65,6 +65,7 @@ pub(super) fn run_steps(
     totals.odometer_deviation_max_m = sim.odometer_deviation_max_m;
     totals.topology_changes = sim.topology.as_ref().map(|t| t.borrow().changes);
     totals.filter = sim.filter_report();
+    totals.guests = sim.guests.as_ref().map(|g| Box::new(g.report()));
     totals.chosen_later = sim
         .req
         .adopt

@@ -19,6 +19,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyString, PyTuple};
 use syncroad_control::{SpeedController, StopReason};
 
+use super::guests::Guests;
 use super::libsumo::{sanitize_commands, set_item_f64, tail, Libsumo, Reader};
 use super::topology::Topology;
 use super::CosimError;
@@ -72,6 +73,9 @@ pub(super) struct CoSim<'a, 'py> {
     /// Time the law and the reads of each step too (the benchmark's profile); SUMO's own step
     /// is always timed.
     pub phase_times: bool,
+    /// The inflows' vehicles a law drives from their entry to their exit, when some inflow
+    /// has them.
+    pub guests: Option<Guests<'a, 'py>>,
 }
 
 impl<'a, 'py> CoSim<'a, 'py> {
@@ -142,7 +146,12 @@ impl<'a, 'py> CoSim<'a, 'py> {
                 false => None,
             },
             phase_times: false,
+            guests: Guests::new(req),
         };
+        // Those inserted in the first step, which inserted the fixed set.
+        if let Some(g) = sim.guests.as_mut() {
+            g.after_step(ls)?;
+        }
         if let Some(i) = sim.reader.speeds(&mut sim.v)? {
             return Err(sim.lost(i));
         }
@@ -249,9 +258,15 @@ impl<'a, 'py> CoSim<'a, 'py> {
             }
             self.send_commands()?;
         }
+        if let Some(g) = self.guests.as_mut() {
+            g.command(self.ls, step as f64 * req.step_s)?;
+        }
         let t_step = Instant::now();
         self.ls.simulation_step()?;
         let t_stepped = Instant::now();
+        if let Some(g) = self.guests.as_mut() {
+            g.after_step(self.ls)?;
+        }
         if let Some(t_law) = t_law {
             times.command_s = (t_step - t_law).as_secs_f64();
         }

@@ -170,6 +170,22 @@ fn print_summary(sc: &Scenario, f: &Finished) {
             outln!("  note: {k} more of the vehicles sumo.controlled chooses came onto the road after the start; the law drives the vehicles of the start, so SUMO drove these by their own vehicle type");
         }
     }
+    if let Some(g) = &facts.guests {
+        outln!(
+            "  inflow vehicles a law drove ({}): {} entered, {} left at their route's end, {} on the road at the end (most {} at once); mean speed {}, mean travel time {}; {} of {} commands held back by SUMO (max {:.3e} m/s), {} capped at the speed limit",
+            g.laws.join(", "),
+            g.entered,
+            g.left,
+            g.present_at_end,
+            g.present_max,
+            g.mean_speed_mps.map_or("—".to_string(), |v| format!("{v:.2} m/s")),
+            g.mean_travel_time_s.map_or("—".to_string(), |t| format!("{t:.1} s")),
+            g.overridden_commands,
+            g.commands,
+            g.max_override_mps,
+            g.speed_limited_commands
+        );
+    }
     if let Some(a) = &facts.all_vehicles {
         outln!(
             "  all vehicles (SUMO's summary over {:.1} s): {:.2} running (max {}), mean speed {}, {:.2} halting, {} arrived ({:.0} an hour, mean travel time {}), {} collisions",

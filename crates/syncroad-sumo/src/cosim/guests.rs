@@ -1,0 +1,241 @@
+//! The inflows' controlled vehicles (`sumo.inflows[k].controlled`): vehicles that enter the
+//! network during the run and leave it at the end of their route, each driven by a law of the
+//! registry from its first step to its last.
+//!
+//! Unlike the scenario's fixed set (numbered once, stepped together on the scenario's graph),
+//! these come and go: the worker recognises them by their vehicle type when SUMO reports them
+//! departed, builds the inflow's law for each one alone (a one-vehicle open road) and drops it
+//! when SUMO reports the vehicle arrived. Each step, before SUMO's, every one of them is read
+//! (its speed, whoever SUMO reports ahead of it on its lanes with the gap and that vehicle's
+//! speed, the lane's speed limit), stepped by its law, and commanded with `setSpeed`; a command
+//! above the speed limit is sent as the limit. The law's graph is thus "each vehicle follows
+//! whoever is ahead of it now", over the vehicles present.
+//!
+//! They drive under SUMO's checks (safe speed, right of way, red lights: speed mode 25)
+//! unless the scenario turns the safety layer `off`; syncroad's own filter is the fixed set's.
+//!
+//! # Reference
+//! SUMO documentation, TraCI "Vehicle Value Retrieval": `getLeader` measures "from the front +
+//! minGap to the back of the leader", and "Simulation Value Retrieval":
+//! `getDepartedIDList`, `getArrivedIDList`.
+
+use std::collections::HashMap;
+
+use pyo3::prelude::*;
+use pyo3::types::PyString;
+use syncroad_control::scenario::SafetyMode;
+use syncroad_control::sensed::{Neighbors, Sensed};
+use syncroad_control::sumo_facts::Guests as Report;
+use syncroad_control::SpeedController;
+
+use super::libsumo::Libsumo;
+use super::CosimError;
+use crate::protocol::{GuestLaw, Request};
+use crate::python::{py_error, PythonError};
+
+/// How far ahead a vehicle looks for the one it follows \[m\] (SUMO looks further when its
+/// braking distance is longer).
+const LOOKAHEAD_M: f64 = 250.0;
+
+/// One controlled vehicle on the road.
+struct Guest<'py> {
+    id: Bound<'py, PyString>,
+    name: String,
+    /// Its inflow's entry in [`Guests::laws`].
+    law: usize,
+    controller: Box<dyn SpeedController>,
+    /// SUMO's time when it entered \[s\].
+    entered_s: f64,
+    /// The command sent before the last step (NaN before its first).
+    last_command: f64,
+}
+
+/// The controlled vehicles of the inflows between two steps.
+pub(super) struct Guests<'a, 'py> {
+    laws: &'a [GuestLaw],
+    /// Their vehicle types, for the departures.
+    types: HashMap<String, usize>,
+    on_road: Vec<Guest<'py>>,
+    speed_mode: i32,
+    tolerance_mps: f64,
+    neighbors: Neighbors,
+    report: Report,
+    travel_time_sum_s: f64,
+    speed_sum: f64,
+    speed_samples: usize,
+}
+
+impl<'a, 'py> Guests<'a, 'py> {
+    /// For the request's laws; `None` when no inflow has controlled vehicles.
+    pub fn new(req: &'a Request) -> Option<Self> {
+        if req.guests.is_empty() {
+            return None;
+        }
+        Some(Self {
+            laws: &req.guests,
+            types: req
+                .guests
+                .iter()
+                .enumerate()
+                .map(|(i, g)| (g.vtype.clone(), i))
+                .collect(),
+            on_road: Vec::new(),
+            speed_mode: match req.safety {
+                SafetyMode::Off => SafetyMode::Off.speed_mode(),
+                _ => SafetyMode::Sumo.speed_mode(),
+            },
+            tolerance_mps: req.override_tolerance_mps,
+            neighbors: Neighbors {
+                ring: false,
+                ahead: vec![Sensed::Nobody],
+                behind: vec![Sensed::Nobody],
+            },
+            report: Report {
+                laws: req
+                    .guests
+                    .iter()
+                    .map(|g| format!("inflow{}: {}", g.inflow, g.law))
+                    .collect(),
+                ..Report::default()
+            },
+            travel_time_sum_s: 0.0,
+            speed_sum: 0.0,
+            speed_samples: 0,
+        })
+    }
+
+    /// Before SUMO's step at time `t_s`: reads every controlled vehicle, steps its law and
+    /// sends its command.
+    pub fn command(&mut self, ls: &Libsumo<'py>, t_s: f64) -> Result<(), CosimError> {
+        let py = ls.py;
+        for g in &mut self.on_road {
+            let v: f64 = float(ls.call("vehicle_getSpeed", (g.id.clone(),))?, "getSpeed")?;
+            if g.last_command.is_finite() {
+                let off = (v - g.last_command).abs();
+                if off > self.tolerance_mps {
+                    self.report.overridden_commands += 1;
+                    self.report.max_override_mps = self.report.max_override_mps.max(off);
+                }
+            }
+            self.speed_sum += v;
+            self.speed_samples += 1;
+            let leader = ls.call("vehicle_getLeader", (g.id.clone(), LOOKAHEAD_M))?;
+            let ahead: Option<(String, f64)> = if leader.is_none() {
+                None
+            } else {
+                leader
+                    .extract()
+                    .map_err(|e| py_error(py, format!("vehicle.getLeader({})", g.id), e))?
+            };
+            self.neighbors.ahead[0] = match ahead {
+                Some((id, d)) if !id.is_empty() && d >= 0.0 => Sensed::Other {
+                    speed_mps: float(ls.call("vehicle_getSpeed", (id,))?, "getSpeed")?,
+                    gap_m: d + self.laws[g.law].min_gap_m,
+                },
+                _ => Sensed::Nobody,
+            };
+            g.controller.sense(&self.neighbors);
+            let mut next = [0.0];
+            g.controller.step(t_s, &[v], &[0.0], &mut next);
+            let limit: f64 = float(
+                ls.call("vehicle_getAllowedSpeed", (g.id.clone(),))?,
+                "getAllowedSpeed",
+            )?;
+            let mut cmd = next[0];
+            if !cmd.is_finite() {
+                return Err(PythonError::Call {
+                    call: format!("the law {} of vehicle {}", self.laws[g.law].law, g.id),
+                    traceback: format!("it commanded {cmd} m/s at t = {t_s} s"),
+                }
+                .into());
+            }
+            if cmd > limit {
+                cmd = limit;
+                self.report.speed_limited_commands += 1;
+            }
+            let cmd = cmd.max(0.0);
+            ls.call("vehicle_setSpeed", (g.id.clone(), cmd))?;
+            g.last_command = cmd;
+            self.report.commands += 1;
+        }
+        Ok(())
+    }
+
+    /// After a SUMO step: takes over the controlled vehicles SUMO inserted in it and lets go
+    /// of those that left at the end of their route.
+    pub fn after_step(&mut self, ls: &Libsumo<'py>) -> Result<(), CosimError> {
+        let py = ls.py;
+        let arrived: Vec<String> = ls
+            .call("simulation_getArrivedIDList", ())?
+            .extract()
+            .map_err(|e| py_error(py, "simulation.getArrivedIDList", e))?;
+        let departed: Vec<String> = ls
+            .call("simulation_getDepartedIDList", ())?
+            .extract()
+            .map_err(|e| py_error(py, "simulation.getDepartedIDList", e))?;
+        if arrived.is_empty() && departed.is_empty() {
+            return Ok(());
+        }
+        let now: f64 = float(ls.call("simulation_getTime", ())?, "getTime")?;
+        if !arrived.is_empty() {
+            let gone: std::collections::HashSet<&str> =
+                arrived.iter().map(String::as_str).collect();
+            let report = &mut self.report;
+            let sum = &mut self.travel_time_sum_s;
+            self.on_road.retain(|g| {
+                let left = gone.contains(g.name.as_str());
+                if left {
+                    report.left += 1;
+                    *sum += now - g.entered_s;
+                }
+                !left
+            });
+        }
+        for id in departed {
+            let vtype: String = ls
+                .call("vehicle_getTypeID", (id.as_str(),))?
+                .extract()
+                .map_err(|e| py_error(py, format!("vehicle.getTypeID({id})"), e))?;
+            let Some(&law) = self.types.get(&vtype) else {
+                continue;
+            };
+            let spec = &self.laws[law];
+            let controller =
+                spec.law
+                    .build_alone(&spec.context)
+                    .map_err(|e| PythonError::Call {
+                        call: format!("building the law {} for vehicle {id}", spec.law),
+                        traceback: e,
+                    })?;
+            let name = id;
+            let id = PyString::new(py, &name);
+            ls.call("vehicle_setSpeedMode", (id.clone(), self.speed_mode))?;
+            self.on_road.push(Guest {
+                id,
+                name,
+                law,
+                controller,
+                entered_s: now,
+                last_command: f64::NAN,
+            });
+            self.report.entered += 1;
+        }
+        self.report.present_max = self.report.present_max.max(self.on_road.len());
+        Ok(())
+    }
+
+    /// What the run's controlled vehicles did, for the record.
+    pub fn report(&self) -> Report {
+        let mut r = self.report.clone();
+        r.present_at_end = self.on_road.len();
+        r.mean_travel_time_s = (r.left > 0).then(|| self.travel_time_sum_s / r.left as f64);
+        r.mean_speed_mps =
+            (self.speed_samples > 0).then(|| self.speed_sum / self.speed_samples as f64);
+        r
+    }
+}
+
+fn float(x: Bound<'_, PyAny>, what: &str) -> Result<f64, CosimError> {
+    x.extract()
+        .map_err(|e| py_error(x.py(), format!("vehicle.{what}"), e).into())
+}
