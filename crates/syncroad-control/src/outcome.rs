@@ -116,6 +116,9 @@ pub fn evaluate(scenario: &Scenario, run: &RunOutput, opts: EvalOptions) -> Outc
     if let Some(reason) = standstill(&run.trajectory, &sync) {
         sync.overrule(Verdict::NotSynchronized, reason);
     }
+    if scenario.vehicles() == 0 {
+        sync = no_fixed_set(opts.thresholds, incomplete);
+    }
     Outcome {
         sync,
         congestion: congestion_metrics(&run.trajectory, opts.warmup_s, run.ring_length_m),
@@ -124,6 +127,30 @@ pub fn evaluate(scenario: &Scenario, run: &RunOutput, opts: EvalOptions) -> Outc
         gap_certificate: opts.gap_certificate,
     }
 }
+
+/// The verdict of a run without a fixed set of vehicles (`"vehicles": 0`: only an inflow's
+/// vehicles, which come and go): no spread to measure, so no verdict but "inconclusive",
+/// saying why.
+fn no_fixed_set(thresholds: VerdictThresholds, incomplete: bool) -> SyncMetrics {
+    SyncMetrics {
+        against_leader: false,
+        initial_spread_mps: None,
+        final_spread_mps: None,
+        window_max_spread_mps: None,
+        max_spread_mps: None,
+        spread_l2: None,
+        time_to_tolerance_s: None,
+        decay_rate_per_s: None,
+        final_gap_error_m: None,
+        verdict: Verdict::Inconclusive,
+        verdict_reason: Some(NO_FIXED_SET.to_string()),
+        thresholds,
+        incomplete,
+    }
+}
+
+/// Why a run without a fixed set of vehicles has no verdict.
+pub const NO_FIXED_SET: &str = "the scenario has no vehicles of its own (\"vehicles\": 0): the vehicles of its inflows enter and leave, so there is no fixed set whose speeds could synchronize; its results are every vehicle's (all_vehicles: throughput, travel time, the speed field) and those of the inflows' vehicles a law drove (guests)";
 
 /// Why a "synchronized" run without a leader is a jam: every vehicle stands (|v| below
 /// [`STOP_SPEED_MPS`], the congestion metrics' stop speed, whatever the verdict's tolerance)

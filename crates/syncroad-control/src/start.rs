@@ -10,6 +10,9 @@ use crate::scenario::{Model, Scenario};
 pub fn initial_positions(scenario: &Scenario, leader_position_m: Option<f64>) -> Vec<f64> {
     let n = scenario.vehicles();
     let mut q = vec![0.0; n];
+    if n == 0 {
+        return q;
+    }
     let (l, g) = (scenario.length_m(), scenario.initial_gap_m());
     q[0] = match leader_position_m {
         Some(q0) => q0 - l[0] - g[0],

@@ -76,8 +76,12 @@ impl RoadTrace {
     /// The trace of a laid-out run (vehicles syncroad inserts), from its first follower's
     /// departure: its front bumper's road coordinate against its trajectory position.
     pub fn of(layout: &Layout) -> Option<Self> {
-        let dep = layout.vehicles.get(usize::from(layout.leader_vehicle))?;
         let road = &layout.road;
+        if layout.vehicles.is_empty() {
+            // No vehicles of syncroad's own (only an inflow's): the road's own coordinate.
+            return Some(Self::on(road, 0.0));
+        }
+        let dep = layout.vehicles.get(usize::from(layout.leader_vehicle))?;
         let mut normal = 0usize;
         let mut start = 0.0;
         for seg in &road.segments {

@@ -1558,11 +1558,8 @@ mod open_roads {
         assert!(e.starts_with("sumo.inflows[0].controlled.law = follower-stoper-20: unknown controller; use law, follower-stopper-X"), "{e}");
         let e = refused(serde_json::json!({"law": "pi-saturation", "share": 1.5}));
         assert_eq!(e, "sumo.inflows[0].controlled.share = 1.5: must be a share in [0, 1] of the inflow's vehicles");
-        let e = refused(serde_json::json!({"law": "pi-saturation"}));
-        assert!(
-            e.starts_with("sumo.inflows[0].controlled.share = 0: the law would drive no vehicle"),
-            "{e}"
-        );
+        let e = refused(serde_json::json!({"law": "pi-saturation", "at_s": [-1]}));
+        assert_eq!(e, "sumo.inflows[0].controlled.at_s[0] = -1: must be a departure time ≥ 0 s");
         let e = refused(
             serde_json::json!({"law": "constant-speed", "params": {"speed": 3}, "share": 0.1}),
         );

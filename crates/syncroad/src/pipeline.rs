@@ -158,7 +158,9 @@ impl Finished {
             )?;
         }
         let n = match plots {
-            Some(title) if self.output.trajectory.len() >= 2 => {
+            // A run of an inflow's vehicles alone has no fixed set, so no samples of its own,
+            // but every vehicle's speed field.
+            Some(title) if self.output.trajectory.len() >= 2 || self.output.trajectory.n == 0 => {
                 let mut files = RunPlots {
                     traj: &self.output.trajectory,
                     ring_length_m: self.output.ring_length_m,

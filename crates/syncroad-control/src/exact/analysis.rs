@@ -82,7 +82,7 @@ pub enum AnalysisError {
         gain_delay: f64,
     },
     /// A network of one driver.
-    #[error("the scenario has {vehicles} vehicle (field `vehicles`, leader included): exact stability analyses a network of at least 2 (a lone driver has nobody to synchronize with; `syncroad check` and `simulate` take it)")]
+    #[error("{}", too_few(*vehicles))]
     TooFewVehicles {
         /// Vehicles, the leader included.
         vehicles: usize,
@@ -90,6 +90,14 @@ pub enum AnalysisError {
     /// Platoon scaling was asked for a model that is not a CACC platoon.
     #[error("platoon scaling needs a CACC platoon (model.type = \"cacc\")")]
     PlatoonScalingNeedsCacc,
+}
+
+/// Why a network of `vehicles` (fewer than 2) has no exact analysis.
+fn too_few(vehicles: usize) -> String {
+    if vehicles == 0 {
+        return "the scenario has no vehicles of its own (\"vehicles\": 0, an open road of inflows): there is no network to analyse; `syncroad run` measures its traffic".to_string();
+    }
+    format!("the scenario has {vehicles} vehicle (field `vehicles`, leader included): exact stability analyses a network of at least 2 (a lone driver has nobody to synchronize with; `syncroad check` and `simulate` take it)")
 }
 
 /// The smallest largest gain × delay the exact analysis takes. The roots scale with the gains,

@@ -77,6 +77,17 @@ pub struct Graph {
 }
 
 impl Graph {
+    /// The graph of no vehicles: the model of a scenario without vehicles of its own (only an
+    /// inflow's, which come and go), which no analysis takes.
+    pub(crate) fn empty() -> Self {
+        Self {
+            n: 0,
+            row_start: vec![0],
+            cols: Vec::new(),
+            weights: Vec::new(),
+        }
+    }
+
     /// Builds a graph on `n` vertices from arcs. Parallel arcs are summed.
     pub fn from_arcs(n: usize, arcs: &[Arc]) -> Result<Self, GraphError> {
         if n == 0 {

@@ -397,9 +397,10 @@ impl RunRecord {
             // like `certified`): a SUMO run that rescaled them by
             // more than 1 % to fit its network (a ring length that is not the net's) drove
             // other gaps, and gets none; so does a run of the user's own vehicles, and one that
-            // shares the road with the user's own traffic (it can change who follows whom).
+            // shares the road with other traffic, the user's files or inflows (it can change
+            // who follows whom).
             gap_certificate: (all_law
-                && (facts.is_none() || sc.sumo().routes().is_empty())
+                && (facts.is_none() || !sc.sumo().other_traffic())
                 && !run.trajectory.is_empty()
                 && outcome.gap_certificate
                 && facts.is_none_or(|f| (f.gap_scale - 1.0).abs() <= 0.01)

@@ -43,8 +43,10 @@ pub struct ScenarioFile {
     pub vehicles: VehiclesSpec,
     /// The road.
     pub road: RoadSpec,
-    /// The controller and its parameters.
-    pub model: ModelSpec,
+    /// The controller and its parameters; left out only when the scenario has no vehicles of
+    /// its own (`"vehicles": 0`, an open road of inflows).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model: Option<ModelSpec>,
     /// Initial speeds and gaps.
     #[serde(default)]
     pub initial: InitialSpec,
@@ -638,7 +640,8 @@ pub struct InflowControl {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub params: Option<serde_json::Value>,
     /// The share of the inflow's vehicles the law drives, in \[0, 1\]: SUMO draws each
-    /// vehicle's type with the scenario's seed.
+    /// vehicle's type with the scenario's seed (0: none, the humans-alone point of a sweep
+    /// over it).
     #[serde(default)]
     pub share: f64,
     /// Departure times \[s\] of further vehicles the law drives, on the inflow's route.

@@ -403,13 +403,6 @@ fn check_inflow(k: usize, f: &InflowSpec) -> Result<(), ScenarioError> {
                 ));
             }
         }
-        if c.share == 0.0 && c.at_s.is_empty() {
-            return Err(invalid(
-                field("share"),
-                0,
-                "the law would drive no vehicle: give a share > 0 of the inflow, departure times in at_s, or both",
-            ));
-        }
     }
     Ok(())
 }

@@ -219,8 +219,12 @@ impl ScenarioFile {
     /// returns the count and the number of steps.
     fn check_sizes(&self) -> Result<(usize, usize), ScenarioError> {
         let n = self.vehicles.count();
-        if n == 0 {
-            return Err(invalid("vehicles", 0, "must be ≥ 1"));
+        if n == 0 && self.sumo.inflows.is_empty() {
+            return Err(invalid(
+                "vehicles",
+                0,
+                "must be ≥ 1, or 0 on an open road of inflows only (sumo.inflows)",
+            ));
         }
         if n > MAX_VEHICLES {
             // 10⁸ vehicles once aborted allocating gigabytes for the graph and the histories.
@@ -289,7 +293,35 @@ impl ScenarioFile {
         entries: &[super::file::VehicleEntry],
         closed: bool,
     ) -> Result<Model, ScenarioError> {
-        Ok(match &self.model {
+        let spec = match (&self.model, n) {
+            (None, 0) => {
+                // No vehicles of its own: the inflows' vehicles are SUMO's, or their own law's.
+                return Ok(Model::DelayedDriver(DelayedDriverModel {
+                    graph: crate::graph::Graph::empty(),
+                    delay_s: Vec::new(),
+                    delay_steps: Vec::new(),
+                    leader: None,
+                    history: HistorySpec::default(),
+                    shape: GraphShape::Other,
+                }));
+            }
+            (Some(_), 0) => {
+                return Err(invalid(
+                    "model",
+                    "given",
+                    "the scenario has no vehicles of its own (\"vehicles\": 0), so no law of the model drives any: leave the model out (SUMO's model drives the inflows' vehicles, or the law of sumo.inflows[k].controlled)",
+                ))
+            }
+            (None, _) => {
+                return Err(invalid(
+                    "model",
+                    "missing",
+                    "give the law of the scenario's vehicles: {\"type\": \"delayed_driver\", ...} or {\"type\": \"cacc\", ...}",
+                ))
+            }
+            (Some(m), _) => m,
+        };
+        Ok(match spec {
             ModelSpec::DelayedDriver {
                 graph,
                 delay_s,

@@ -3,17 +3,24 @@
 
 use std::path::Path;
 
+use syncroad_control::exact::analysis::AnalysisError;
 use syncroad_control::exact::gaps::gap_certificate;
 use syncroad_control::theory;
 
 use crate::config::load_scenario;
-use crate::error::Status;
+use crate::error::{InputError, Status};
 use crate::stdout::{out, outln};
 use crate::tables;
 
 /// Prints the theory report and the gap certificate (table or JSON); success when certified.
 pub fn run(path: &Path, json: bool) -> anyhow::Result<Status> {
     let sc = load_scenario(path)?;
+    if sc.vehicles() == 0 {
+        return Err(anyhow::Error::new(InputError::caused(
+            format!("scenario {}", path.display()),
+            AnalysisError::TooFewVehicles { vehicles: 0 },
+        )));
+    }
     let rep = theory::report(&sc);
     // The certificate is of the scenario's own start (`initial`); a run of the user's own
     // vehicles starts from theirs, which it does not describe.
@@ -27,6 +34,15 @@ pub fn run(path: &Path, json: bool) -> anyhow::Result<Status> {
                 "sumo.controlled = {}: the run starts the user's own vehicles from their own positions and speeds, not from the scenario's `initial`, which the certificate would describe",
                 serde_json::to_string(sel).unwrap_or_default()
             )
+        })
+        .or_else(|| {
+            let inflows = sc.sumo().inflows();
+            (!inflows.is_empty() && sc.backend() == syncroad_control::scenario::Backend::Sumo).then(|| {
+                format!(
+                    "sumo.inflows: the run shares the road with {} inflow(s) of traffic that enters and leaves; it can enter the law's lane or merge into it and change who follows whom, so the gaps are not those of the law's fixed graph that the certificate describes (the run's record measures the gaps it drove: gap_safety)",
+                    inflows.len()
+                )
+            })
         })
         .or_else(|| {
             let routes = sc.sumo().routes();

@@ -114,12 +114,17 @@ fn report_files(dir: &Path, written: anyhow::Result<usize>, complete: bool) -> a
         if complete { "" } else { " (incomplete run)" }
     );
     if plots > 0 {
-        let all = if plots > RUN_PLOTS {
-            ", time_space_all (every vehicle on the road)"
-        } else {
-            ""
+        let names = match plots {
+            // Only every vehicle's speed field: no fixed set of syncroad's own.
+            p if p == crate::plots::FIELD_PLOT_FILES.len() => {
+                "time_space_all (every vehicle on the road)"
+            }
+            p if p > RUN_PLOTS => {
+                "time_space, speeds, spread, time_space_all (every vehicle on the road)"
+            }
+            _ => "time_space, speeds, spread",
         };
-        outln!("wrote {plots} plots: time_space, speeds, spread{all} (PNG and SVG)");
+        outln!("wrote {plots} plots: {names} (PNG and SVG)");
     }
     Ok(())
 }

@@ -202,7 +202,9 @@ impl RunPlots<'_> {
     /// Writes all plots into `dir`; returns the files written.
     pub fn write_all(&self, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
         let mut files = Vec::new();
-        if self.traj.len() < 2 {
+        // No fixed set (only an inflow's vehicles, drawn from SUMO's own data): nothing to
+        // draw here.
+        if self.traj.len() < 2 || self.traj.n == 0 {
             return Ok(files);
         }
         files.extend(self.time_space(dir)?);

@@ -448,6 +448,10 @@ pub fn gap_certificate(sc: &Scenario) -> Result<Option<GapCertificate>, GapError
         Model::Cacc(c) => return cacc::cacc_gap_certificate(sc, c).map(Some),
     };
     let n = sc.vehicles();
+    if n == 0 {
+        // An open road of inflows only: no fixed set whose gaps a certificate could bound.
+        return Ok(None);
+    }
     let circulant = uniform_ring(sc, m).is_some();
     if n > if circulant {
         GAP_RING_LIMIT
