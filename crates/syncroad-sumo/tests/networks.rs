@@ -1559,7 +1559,10 @@ mod open_roads {
         let e = refused(serde_json::json!({"law": "pi-saturation", "share": 1.5}));
         assert_eq!(e, "sumo.inflows[0].controlled.share = 1.5: must be a share in [0, 1] of the inflow's vehicles");
         let e = refused(serde_json::json!({"law": "pi-saturation", "at_s": [-1]}));
-        assert_eq!(e, "sumo.inflows[0].controlled.at_s[0] = -1: must be a departure time ≥ 0 s");
+        assert_eq!(
+            e,
+            "sumo.inflows[0].controlled.at_s[0] = -1: must be a departure time ≥ 0 s"
+        );
         let e = refused(
             serde_json::json!({"law": "constant-speed", "params": {"speed": 3}, "share": 0.1}),
         );
@@ -1578,6 +1581,77 @@ mod open_roads {
             e.starts_with(
                 "sumo.inflows[0].controlled.at_s[1] = 40: the run ends at horizon_s = 40 s"
             ),
+            "{e}"
+        );
+    }
+
+    /// An open road of inflows only (`"vehicles": 0`, no model): SUMO runs the inflow, the
+    /// law drives its controlled share, SUMO's summary counts every vehicle, and the verdict
+    /// says why there is none; a model beside no vehicles, and no vehicles without an inflow,
+    /// are refused naming the field.
+    #[test]
+    fn an_open_road_of_inflows_only_runs_without_vehicles_of_its_own() {
+        let dir = work("inflows-only");
+        on_ramp(&dir);
+        let file = |extra: &str| {
+            format!(
+                r#"{{"name": "open", "backend": "sumo", "seed": 3, "step_s": 0.1, "horizon_s": 60,
+                    "vehicles": 0, {extra}
+                    "road": {{"type": "route", "edges": ["h0", "h1", "h2"], "lane": "follow"}},
+                    "sumo": {{"net": "out.net.xml", "inflows": [
+                        {{"from": "h0", "to": "h2", "vehs_per_hour": 1800,
+                          "controlled": {{"law": "follower-stopper-20", "share": 0.3}}}},
+                        {{"from": "ramp", "to": "h2", "vehs_per_hour": 600}}]}}}}"#
+            )
+        };
+        let sc = scenario(&dir, &file("")).unwrap();
+        assert_eq!(sc.vehicles(), 0);
+        let run = run_scenario(&sc, &opts(&dir)).unwrap();
+        run.outcome().expect("horizon reached");
+        let out = run.output(&sc);
+        assert_eq!(out.trajectory.n, 0);
+        let facts = out.sumo.clone().unwrap();
+        let all = facts.all_vehicles.clone().expect("every vehicle");
+        let g = facts.guests.clone().expect("controlled inflow");
+        eprintln!("open road: {all:?}\n{g:?}");
+        // 60 s of 1800 + 600 an hour, regular (one every 2 s and every 6 s from t = 0 on):
+        // 30 + 10 due.
+        assert_eq!(all.inserted + all.waiting_at_end, 30 + 10, "{all:?}");
+        assert!(g.entered >= 3 && g.entered < 30, "{g:?}");
+        assert_eq!(all.collisions, 0);
+        let outcome = syncroad_control::outcome::evaluate(
+            &sc,
+            &out,
+            syncroad_control::outcome::EvalOptions::of(&sc),
+        );
+        assert_eq!(
+            outcome.sync.verdict,
+            syncroad_control::Verdict::Inconclusive
+        );
+        assert_eq!(
+            outcome.sync.verdict_reason.as_deref(),
+            Some(syncroad_control::outcome::NO_FIXED_SET)
+        );
+        assert!(!outcome.theory.certified);
+        let e = scenario(
+            &dir,
+            &file(r#""model": {"type": "delayed_driver", "delay_s": 0.5, "graph": {"type": "unidirectional_ring", "gain": 1}},"#),
+        )
+        .unwrap_err();
+        assert!(
+            e.starts_with("model = given: the scenario has no vehicles of its own"),
+            "{e}"
+        );
+        let e = scenario(
+            &dir,
+            &file("").replace(r#""inflows": ["#, r#""inflows_": ["#),
+        )
+        .unwrap_err();
+        assert!(e.contains("inflows_"), "{e}");
+        let none = file("").replace(r#""vehicles": 0,"#, r#""vehicles": 2,"#);
+        let e = scenario(&dir, &none).unwrap_err();
+        assert!(
+            e.starts_with("model = missing: give the law of the scenario's vehicles"),
             "{e}"
         );
     }

@@ -165,29 +165,8 @@ fn opt(x: Option<f64>, unit: &str) -> String {
     x.map_or("—".to_string(), |v| format!("{v:.6} {unit}"))
 }
 
-/// The summary printed after a run.
-pub fn metrics_table(
-    sc: &Scenario,
-    backend: &str,
-    m: &SyncMetrics,
-    stopped_early: Option<&str>,
-    record: &syncroad_control::record::RunRecord,
-) -> String {
-    let law_vehicles = record.law_controlled_vehicles;
-    let graph_changed = record
-        .safety
-        .as_ref()
-        .is_some_and(syncroad_control::sumo_facts::Safety::graph_changed);
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "scenario {} on {backend}: {} vehicles, {} s, Δt = {} s, seed {}",
-        sc.name(),
-        sc.vehicles(),
-        sc.horizon_s(),
-        sc.step_s(),
-        sc.seed()
-    );
+/// The spread of the scenario's vehicles' speeds, line by line.
+fn spread_lines(s: &mut String, m: &SyncMetrics) {
     let vs = if m.against_leader {
         "max_i |v_i − v_0|"
     } else {
@@ -229,6 +208,44 @@ pub fn metrics_table(
             opt(m.final_gap_error_m, "m")
         );
     }
+}
+
+/// The summary printed after a run.
+pub fn metrics_table(
+    sc: &Scenario,
+    backend: &str,
+    m: &SyncMetrics,
+    stopped_early: Option<&str>,
+    record: &syncroad_control::record::RunRecord,
+) -> String {
+    let law_vehicles = record.law_controlled_vehicles;
+    let graph_changed = record
+        .safety
+        .as_ref()
+        .is_some_and(syncroad_control::sumo_facts::Safety::graph_changed);
+    let mut s = String::new();
+    if sc.vehicles() == 0 {
+        // An open road of inflows only: no fixed set, so no spread and no certificate.
+        let _ = writeln!(
+            s,
+            "scenario {} on {backend}: no vehicles of its own (an open road of inflows), {} s, Δt = {} s, seed {}",
+            sc.name(),
+            sc.horizon_s(),
+            sc.step_s(),
+            sc.seed()
+        );
+    } else {
+        let _ = writeln!(
+            s,
+            "scenario {} on {backend}: {} vehicles, {} s, Δt = {} s, seed {}",
+            sc.name(),
+            sc.vehicles(),
+            sc.horizon_s(),
+            sc.step_s(),
+            sc.seed()
+        );
+        spread_lines(&mut s, m);
+    }
     if let Some(why) = stopped_early {
         let _ = writeln!(s, "  stopped early: {why}");
     }
@@ -241,6 +258,7 @@ pub fn metrics_table(
                 "does not apply (they are for the scenario's model law; {} drove)",
                 record.controller.as_ref().map_or("", |c| c.label.as_str())
             ),
+            None if sc.vehicles() == 0 => "does not apply (no vehicles of its own)".to_string(),
             None if graph_changed => {
                 "does not apply (the graph changed in SUMO; the conditions are for a fixed graph)"
                     .to_string()

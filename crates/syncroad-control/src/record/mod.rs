@@ -359,7 +359,8 @@ impl RunRecord {
             complete: run.stop.is_complete(),
             error: run.stop.message(),
             stop: run.stop.clone(),
-            certified: (all_law && !run.trajectory.is_empty()).then_some(outcome.theory.certified),
+            certified: (all_law && !run.trajectory.is_empty() && sc.vehicles() > 0)
+                .then_some(outcome.theory.certified),
             warmup_s: outcome.warmup_s,
             sync: outcome.sync.clone(),
             congestion: outcome.congestion.as_ref().ok().cloned(),

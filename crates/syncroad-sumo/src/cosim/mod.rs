@@ -149,7 +149,8 @@ pub fn run(py: Python<'_>, job: &Job, out: &mut impl Write) -> Result<(), CosimE
     // worker goes on to its next run, so nothing else would make the log complete in time).
     let _ = ls.module.call_method0("close");
     let finish = result?;
-    write_msg(out, &WorkerMsg::Finished(Box::new(finish))).map_err(|e| CosimError::Pipe(e.to_string()))?;
+    write_msg(out, &WorkerMsg::Finished(Box::new(finish)))
+        .map_err(|e| CosimError::Pipe(e.to_string()))?;
     out.flush().map_err(|e| CosimError::Pipe(e.to_string()))
 }
 
