@@ -18,7 +18,7 @@ use std::collections::VecDeque;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use syncroad_control::scenario::{Arrivals, InflowSpec, SumoVehicleType, VehicleClass};
+use syncroad_control::scenario::{Arrivals, DepartLane, InflowSpec, SumoVehicleType, VehicleClass};
 use syncroad_control::Scenario;
 
 use crate::layout::Layout;
@@ -170,8 +170,15 @@ pub fn check(
             // SUMO's default vehicle type is of class passenger.
             .filter(|&l| lanes[l].permits(VehicleClass::PASSENGER.name()))
             .collect();
-        let entry_lanes = match f.depart_lane {
-            Some(l) if l >= lanes.len() => {
+        if open.is_empty() {
+            return Err(refuse(
+                field("from"),
+                format!("`{}`", f.from),
+                "no lane of it admits SUMO's default vehicle type, class passenger".into(),
+            ));
+        }
+        if let Some(DepartLane::Index(l)) = f.depart_lane {
+            if l >= lanes.len() {
                 return Err(refuse(
                     field("depart_lane"),
                     l,
@@ -181,9 +188,9 @@ pub fn check(
                         lanes.len(),
                         lanes.len() - 1
                     ),
-                ))
+                ));
             }
-            Some(l) if !open.contains(&l) => {
+            if !open.contains(&l) {
                 return Err(refuse(
                     field("depart_lane"),
                     l,
@@ -192,18 +199,9 @@ pub fn check(
                         lanes[l].id,
                         lanes[l].permissions()
                     ),
-                ))
+                ));
             }
-            Some(_) => 1,
-            None if open.is_empty() => {
-                return Err(refuse(
-                    field("from"),
-                    format!("`{}`", f.from),
-                    "no lane of it admits SUMO's default vehicle type, class passenger".into(),
-                ))
-            }
-            None => open.len(),
-        };
+        }
         if !reaches(net, &f.from, &f.to) {
             return Err(refuse(
                 field("to"),
@@ -236,18 +234,31 @@ pub fn check(
             .map(|l| l.speed_mps)
             .fold(f64::INFINITY, f64::min);
         let v = f.depart_speed_mps.unwrap_or(limit).min(limit);
-        let capacity = entry_lanes as f64 * lane_capacity_per_hour(v);
-        // The inflows entering on the same edge at the same time share its capacity.
+        // The inflows entering there at the same time share the lanes they depart on.
         let window = |g: &InflowSpec| (g.begin_s, g.end_s.unwrap_or(horizon_s));
         let (b, e) = window(f);
-        let total: f64 = inflows
+        let sharing: Vec<&InflowSpec> = inflows
             .iter()
             .filter(|g| g.from == f.from)
             .filter(|g| window(g).0 < e && b < window(g).1)
-            .map(|g| g.vehs_per_hour)
-            .sum();
-        if total > capacity {
-            let shared = if total > f.vehs_per_hour {
+            .collect();
+        let mut used: Vec<usize> = sharing
+            .iter()
+            .flat_map(|g| departure_lanes(net, g, &open))
+            .collect();
+        used.sort_unstable();
+        used.dedup();
+        let own = departure_lanes(net, f, &open).len();
+        let total: f64 = sharing.iter().map(|g| g.vehs_per_hour).sum();
+        for (demand, lanes_used, shared) in [
+            (f.vehs_per_hour, own, false),
+            (total, used.len(), total > f.vehs_per_hour),
+        ] {
+            let capacity = lanes_used as f64 * lane_capacity_per_hour(v);
+            if demand <= capacity {
+                continue;
+            }
+            let shared = if shared {
                 format!(" (with the other inflows entering there at the same time, {total})")
             } else {
                 String::new()
@@ -256,7 +267,7 @@ pub fn check(
                 field("vehs_per_hour"),
                 f.vehs_per_hour,
                 format!(
-                    "above what edge `{}` can take in{shared}: at most about {:.0} vehicles per hour on {entry_lanes} lane(s) departing at {v:.1} m/s (3600·v / (length + minGap + v·tau) per lane for SUMO's default vehicle type); SUMO would silently delay the insertions, so the inflow would not be what the scenario says: give at most {:.0} in all",
+                    "above what edge `{}` can take in{shared}: at most about {:.0} vehicles per hour on {lanes_used} lane(s) departing at {v:.1} m/s (3600·v / (length + minGap + v·tau) per lane for SUMO's default vehicle type); SUMO would silently delay the insertions, so the inflow would not be what the scenario says: give at most {:.0} in all",
                     f.from,
                     capacity,
                     capacity.floor()
@@ -265,6 +276,32 @@ pub fn check(
         }
     }
     Ok(())
+}
+
+/// The lanes of its entry edge inflow `f` departs on, of the lanes `open` to its vehicles: its
+/// lane, those SUMO's `"best"` takes (the lanes with a connection that leads on towards its
+/// exit; every open lane when it leaves where it enters), or every open lane.
+fn departure_lanes(net: &Network, f: &InflowSpec, open: &[usize]) -> Vec<usize> {
+    match f.depart_lane {
+        Some(DepartLane::Index(l)) => vec![l],
+        None | Some(DepartLane::Best) if f.from != f.to => {
+            let best: Vec<usize> = open
+                .iter()
+                .copied()
+                .filter(|&l| {
+                    net.outgoing(&f.from)
+                        .iter()
+                        .any(|c| c.from_lane == l && reaches(net, &c.to, &f.to))
+                })
+                .collect();
+            if best.is_empty() {
+                open.to_vec()
+            } else {
+                best
+            }
+        }
+        _ => open.to_vec(),
+    }
 }
 
 /// Whether a route along the network's connections leads from edge `from` to edge `to`
@@ -301,7 +338,7 @@ pub fn flows_xml(inflows: &[InflowSpec], horizon_s: f64, guest: &GuestType) -> S
         };
         let lane = f
             .depart_lane
-            .map_or_else(|| "best".to_string(), |l| l.to_string());
+            .map_or_else(|| "best".to_string(), DepartLane::sumo_value);
         let speed = f
             .depart_speed_mps
             .map_or_else(|| "max".to_string(), |v| v.to_string());
@@ -395,7 +432,7 @@ mod tests {
             to: "h2".into(),
             vehs_per_hour: 1200.0,
             arrivals: Arrivals::Regular,
-            depart_lane: Some(1),
+            depart_lane: Some(DepartLane::Index(1)),
             depart_speed_mps: None,
             begin_s: 5.0,
             end_s: None,

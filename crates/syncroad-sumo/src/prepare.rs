@@ -76,6 +76,9 @@ pub struct RunOptions {
     pub drivers: Vec<Option<SumoDriver>>,
     /// SUMO-side measurements (flow, time loss, fuel, CO2, hard braking).
     pub measure: Option<MeasureOptions>,
+    /// The run's warm-up \[s\]: every vehicle's metrics from SUMO's summary (`all_vehicles`)
+    /// are of the time after it, as the congestion metrics are.
+    pub warmup_s: f64,
     /// A wave damper drives the vehicles the law would drive (rings only); `None`: the
     /// scenario's law, or the damper its `mixed.controller` names.
     pub damper: Option<NamedLaw>,
@@ -113,6 +116,7 @@ impl RunOptions {
             on_rows: None,
             drivers: Vec::new(),
             measure: None,
+            warmup_s: 0.0,
             damper: None,
             fcd: false,
         }
@@ -358,6 +362,7 @@ fn prepare_with(
         sense_graph: other_traffic,
         // The metrics of every vehicle, when there are others than syncroad's.
         summary_file: other_traffic.then(|| opts.work_dir.join("summary.xml")),
+        summary_warmup_s: opts.warmup_s.clamp(0.0, scenario.horizon_s()),
         fcd_file: fcd.then(|| opts.work_dir.join(crate::replay::FCD_FILE)),
         extra_routes,
         extra_additional,

@@ -135,6 +135,9 @@ pub struct Request {
     /// shares the road.
     #[serde(default)]
     pub summary_file: Option<PathBuf>,
+    /// The summary's metrics are of the time after this warm-up \[s\].
+    #[serde(default)]
+    pub summary_warmup_s: f64,
     /// SUMO's floating-car data of every vehicle, every step (`--fcd`), for replay.
     #[serde(default)]
     pub fcd_file: Option<PathBuf>,

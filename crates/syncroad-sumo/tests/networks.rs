@@ -1656,6 +1656,75 @@ mod open_roads {
         );
     }
 
+    /// A lane drop built by netconvert: three lanes into two, so only lanes 1 and 2 of `up`
+    /// lead on. The entry's capacity counts the lanes an inflow departs on: SUMO's `"best"`
+    /// (the default) takes the two that lead on, `"free"` all three, an index one, and two
+    /// inflows on lanes of their own share nothing. Checked before SUMO starts.
+    #[test]
+    fn an_inflows_capacity_counts_the_lanes_it_departs_on() {
+        let dir = work("lane-drop");
+        std::fs::write(
+            dir.join("drop.nod.xml"),
+            "<nodes>\n  <node id=\"a\" x=\"0\" y=\"0\"/>\n  <node id=\"d\" x=\"1000\" y=\"0\"/>\n  <node id=\"b\" x=\"1500\" y=\"0\"/>\n</nodes>\n",
+        )
+        .unwrap();
+        std::fs::write(
+            dir.join("drop.edg.xml"),
+            "<edges>\n  <edge id=\"up\" from=\"a\" to=\"d\" numLanes=\"3\" speed=\"30\"/>\n  <edge id=\"narrow\" from=\"d\" to=\"b\" numLanes=\"2\" speed=\"30\"/>\n</edges>\n",
+        )
+        .unwrap();
+        let net = netconvert(
+            &dir,
+            &[
+                "--node-files",
+                "drop.nod.xml",
+                "--edge-files",
+                "drop.edg.xml",
+            ],
+        );
+        let text = std::fs::read_to_string(&net).unwrap();
+        assert!(!text.contains(r#"<connection from="up" to="narrow" fromLane="0""#));
+        // 3600·30 / (5 + 2.5 + 30) per lane.
+        let lane = 2880.0;
+        let attempt = |inflows: serde_json::Value| -> Result<(), String> {
+            let file = serde_json::json!({
+                "name": "drop", "backend": "sumo", "seed": 1, "step_s": 0.1, "horizon_s": 5,
+                "vehicles": 0,
+                "road": {"type": "route", "edges": ["up", "narrow"], "lane": "follow"},
+                "sumo": {"net": "out.net.xml", "inflows": inflows}});
+            let sc = scenario(&dir, &file.to_string())?;
+            let mut o = opts(&dir);
+            o.work_dir = dir.join("run");
+            run_scenario(&sc, &o).map(|_| ()).map_err(|e| e.to_string())
+        };
+        let one = |vph: f64, lane: serde_json::Value| {
+            let mut f = serde_json::json!({"from": "up", "to": "narrow", "vehs_per_hour": vph});
+            if !lane.is_null() {
+                f["depart_lane"] = lane;
+            }
+            serde_json::json!([f])
+        };
+        attempt(one(2.0 * lane - 10.0, serde_json::Value::Null)).unwrap();
+        let e = attempt(one(2.0 * lane + 10.0, serde_json::Value::Null)).unwrap_err();
+        assert!(
+            e.contains("at most about 5760 vehicles per hour on 2 lane(s) departing at 30.0 m/s"),
+            "{e}"
+        );
+        attempt(one(3.0 * lane - 10.0, "free".into())).unwrap();
+        let e = attempt(one(3.0 * lane + 10.0, "free".into())).unwrap_err();
+        assert!(e.contains("on 3 lane(s)"), "{e}");
+        let e = attempt(one(lane + 10.0, 0.into())).unwrap_err();
+        assert!(
+            e.contains("at most about 2880 vehicles per hour on 1 lane(s)"),
+            "{e}"
+        );
+        let mut two = one(lane - 10.0, 0.into());
+        two.as_array_mut()
+            .unwrap()
+            .push(one(lane - 10.0, 2.into())[0].clone());
+        attempt(two).unwrap();
+    }
+
     /// `sumo.vclass` takes SUMO's classes: sumolib's list of every class name it reads, less
     /// the names SUMO keeps only as deprecated aliases.
     #[test]

@@ -118,6 +118,7 @@ impl RunPlan {
         o.drivers = self.drive.drivers.clone();
         o.damper = self.drive.damper.clone();
         o.fcd = self.fcd;
+        o.warmup_s = self.eval.warmup_s;
         o.measure = self.measure.map(|m| MeasureOptions {
             warmup_s: self.eval.warmup_s,
             emission_every: m.emission_every,
@@ -153,6 +154,8 @@ mod tests {
         });
         let o = plan.sumo_options("w".into(), WorkerCommand::binary("syncroad"), None);
         assert_eq!((o.record_every, o.ballistic, o.fcd), (5, false, true));
+        // Every vehicle's metrics (SUMO's summary) skip the same warm-up.
+        assert_eq!(o.warmup_s, 40.0);
         assert_eq!(o.timeout, Some(Duration::from_secs(9)));
         assert_eq!(o.drivers, spec.drivers);
         let m = o.measure.unwrap();

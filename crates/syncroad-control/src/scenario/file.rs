@@ -609,9 +609,11 @@ pub struct InflowSpec {
     /// from the scenario's seed).
     #[serde(default)]
     pub arrivals: Arrivals,
-    /// The lane index they depart on; default: SUMO's `"best"` lane for their route.
+    /// The lane they depart on: an index (0 is the rightmost), or SUMO's rule `"best"` (the
+    /// lanes that lead on along their route, the default), `"free"` (the emptiest lane) or
+    /// `"random"`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub depart_lane: Option<usize>,
+    pub depart_lane: Option<DepartLane>,
     /// Their departure speed \[m/s\]; default: the most SUMO allows there (`"max"`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub depart_speed_mps: Option<f64>,
@@ -647,6 +649,62 @@ pub struct InflowControl {
     /// Departure times \[s\] of further vehicles the law drives, on the inflow's route.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub at_s: Vec<f64>,
+}
+
+/// The lane an inflow's vehicles depart on (`sumo.inflows[k].depart_lane`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(try_from = "serde_json::Value", into = "serde_json::Value")]
+pub enum DepartLane {
+    /// This lane index.
+    Index(usize),
+    /// SUMO's `"best"`: the lanes that lead on along the route.
+    Best,
+    /// SUMO's `"free"`: the lane with the most free space.
+    Free,
+    /// SUMO's `"random"`: a lane drawn with the run's seed.
+    Random,
+}
+
+impl DepartLane {
+    /// SUMO's `departLane` value.
+    pub fn sumo_value(self) -> String {
+        match self {
+            DepartLane::Index(l) => l.to_string(),
+            DepartLane::Best => "best".into(),
+            DepartLane::Free => "free".into(),
+            DepartLane::Random => "random".into(),
+        }
+    }
+}
+
+impl TryFrom<serde_json::Value> for DepartLane {
+    type Error = String;
+    fn try_from(v: serde_json::Value) -> Result<Self, String> {
+        match &v {
+            serde_json::Value::Number(n) => n.as_u64().map(|l| DepartLane::Index(l as usize)),
+            serde_json::Value::String(s) => match s.as_str() {
+                "best" => Some(DepartLane::Best),
+                "free" => Some(DepartLane::Free),
+                "random" => Some(DepartLane::Random),
+                _ => None,
+            },
+            _ => None,
+        }
+        .ok_or_else(|| {
+            format!(
+                "depart_lane = {v}: give a lane index (0 is the rightmost) or one of \"best\", \"free\", \"random\""
+            )
+        })
+    }
+}
+
+impl From<DepartLane> for serde_json::Value {
+    fn from(d: DepartLane) -> Self {
+        match d {
+            DepartLane::Index(l) => l.into(),
+            other => other.sumo_value().into(),
+        }
+    }
 }
 
 /// How an inflow's vehicles arrive.

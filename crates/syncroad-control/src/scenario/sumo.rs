@@ -560,6 +560,75 @@ mod tests {
     }
 
     #[test]
+    fn an_inflows_departure_lane_is_an_index_or_one_of_sumos_rules() {
+        use crate::scenario::DepartLane;
+        let lane = |json: &str| serde_json::from_str::<DepartLane>(json).map_err(|e| e.to_string());
+        assert_eq!(lane("2"), Ok(DepartLane::Index(2)));
+        assert_eq!(lane(r#""free""#), Ok(DepartLane::Free));
+        assert_eq!(lane(r#""best""#), Ok(DepartLane::Best));
+        assert_eq!(lane(r#""random""#), Ok(DepartLane::Random));
+        for bad in [r#""fre""#, "-1", "1.5", "null"] {
+            let e = lane(bad).unwrap_err();
+            assert!(
+                e.starts_with(&format!("depart_lane = {bad}: give a lane index (0 is the rightmost) or one of \"best\", \"free\", \"random\"")),
+                "{e}"
+            );
+        }
+        // Written back as SUMO and the scenario file spell it.
+        assert_eq!(
+            serde_json::to_string(&DepartLane::Free).unwrap(),
+            r#""free""#
+        );
+        assert_eq!(serde_json::to_string(&DepartLane::Index(1)).unwrap(), "1");
+        assert_eq!(DepartLane::Random.sumo_value(), "random");
+    }
+
+    #[test]
+    fn an_inflows_controlled_vehicles_name_a_law_that_reads_only_ahead() {
+        let validate = |controlled: &str| {
+            let inflow = format!(
+                r#"{{"from": "in", "to": "out", "vehs_per_hour": 600, "controlled": {controlled}}}"#
+            );
+            ScenarioFile::from_json(&ring(&format!(r#"{{"inflows": [{inflow}]}}"#)), "<test>")
+                .map_err(|e| e.to_string())?
+                .validate(Path::new("."))
+                .map_err(|e| e.to_string())
+        };
+        let sc = validate(
+            r#"{"law": "constant-speed", "params": {"target_speed_mps": 20}, "share": 0}"#,
+        )
+        .unwrap();
+        let c = sc.sumo().inflows()[0].controlled.as_ref().unwrap();
+        let law = c.law(0).unwrap();
+        assert_eq!(law.to_string(), "constant-speed-20");
+        // The shorthand spelling is the same law.
+        let short = validate(r#"{"law": "constant-speed-20", "share": 0.5}"#).unwrap();
+        let c = short.sumo().inflows()[0].controlled.as_ref().unwrap();
+        assert_eq!(c.law(0).unwrap().to_string(), law.to_string());
+        for (controlled, err) in [
+            (
+                r#"{"law": "bcm", "share": 0.1}"#,
+                "sumo.inflows[0].controlled.law = bcm: this law reads the vehicle behind each vehicle too",
+            ),
+            (
+                r#"{"law": "constant-speed", "params": 3, "share": 0.1}"#,
+                "sumo.inflows[0].controlled.params = 3: must be a JSON object",
+            ),
+            (
+                r#"{"law": "pi-saturation", "share": -0.1}"#,
+                "sumo.inflows[0].controlled.share = -0.1: must be a share in [0, 1]",
+            ),
+            (
+                r#"{"law": "pi-saturation", "shares": 0.1}"#,
+                "unknown field `shares`",
+            ),
+        ] {
+            let e = validate(controlled).unwrap_err();
+            assert!(e.contains(err), "{e}");
+        }
+    }
+
+    #[test]
     fn a_routes_lanes_are_one_index_a_list_or_follow() {
         use crate::scenario::RouteLanes;
         let lanes =
