@@ -112,7 +112,8 @@ def main():
     build_network(out)
     sc = scenario(out, args.vph, args.horizon)
     run_dir = out / "run"
-    ours = [args.bin, "run", str(sc), "--out", str(run_dir), "--no-plots"]
+    # No warm-up: every vehicle that passed in the hour counts.
+    ours = [args.bin, "run", str(sc), "--out", str(run_dir), "--no-plots", "--warmup-s", "0"]
     # One run first: it writes the route files SUMO alone then reads.
     timed(ours, out)
     sumo_dir = run_dir / "sumo"

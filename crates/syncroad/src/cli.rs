@@ -230,7 +230,7 @@ pub struct OutputArgs {
     /// above 2000 vehicles).
     #[arg(long)]
     pub record_every: Option<usize>,
-    /// Warm-up excluded from the congestion metrics [s] (default: a quarter of the horizon).
+    /// Warm-up excluded from the congestion metrics and from every vehicle's (SUMO's summary, with other traffic) [s] (default: a quarter of the horizon).
     #[arg(long)]
     pub warmup_s: Option<f64>,
     /// Do not draw the plots (time-space diagram, speeds, spread; PNG and SVG).
