@@ -1,13 +1,15 @@
 #!/usr/bin/env python3
-"""Open-road sweep table: SUMO's drivers alone against a share driven by a law, per inflow,
-as the mean over seeds ± the half-width of its 95 % interval (Student's t; standard library
-only).
+"""Open-road sweep table: SUMO's drivers alone against a share of the inflow driven by a law,
+per inflow, as the mean over seeds ± the half-width of its 95 % interval (Student's t;
+standard library only).
 
     python3 scripts/open-road-table.py OUT/results.csv
 
-The sweep's axes are an inflow's `vehs_per_hour` and `sumo.inflows.0.controlled.share`.
+The sweep's axes are an inflow's `vehs_per_hour` and `sumo.inflows.0.controlled` (objects
+such as `{"law": "follower-stopper-25", "share": 0.1}`); a share of 0 is SUMO's drivers alone.
 """
 import csv
+import json
 import math
 import statistics
 import sys
@@ -26,37 +28,50 @@ def cell(xs, digits):
     return f"{m:.{digits}f} ± {h:.{digits}f}"
 
 
+def who(controlled):
+    c = json.loads(controlled)
+    if c.get("share", 0) == 0 and not c.get("at_s"):
+        return "SUMO's drivers"
+    params = ", ".join(f"{k} {v}" for k, v in (c.get("params") or {}).items())
+    law = f"{c['law']} ({params})" if params else c["law"]
+    return f"{c['share']:.0%} {law}"
+
+
 def main():
     path = sys.argv[1] if len(sys.argv) > 1 else "results.csv"
     rows = [r for r in csv.DictReader(open(path)) if r["status"] == "complete"]
     if not rows:
         raise SystemExit(f"{path}: no complete rows")
     inflow = next(k for k in rows[0] if k.endswith(".vehs_per_hour"))
-    share = "sumo.inflows.0.controlled.share"
-    by = defaultdict(list)
+    by = defaultdict(lambda: defaultdict(list))
     for r in rows:
-        by[(float(r[inflow]), float(r[share]))].append(r)
+        by[who(r["sumo.inflows.0.controlled"])][float(r[inflow])].append(r)
     f = lambda rs, k: [float(r[k]) for r in rs]
-    shares = sorted({s for _, s in by})
     head = ["inflow [veh/h]"]
-    for s in shares:
-        who = "SUMO's drivers" if s == 0 else f"{s:.0%} law"
-        head += [f"{who}: throughput [veh/h]", f"{who}: travel time [s]",
-                 f"{who}: mean speed [m/s]", f"{who}: halting"]
+    for w in by:
+        head += [f"{w}: throughput [veh/h]", "travel time [s]", "mean speed [m/s]", "halting"]
     print("| " + " | ".join(head) + " |")
     print("|---|" + "---:|" * (len(head) - 1))
-    for q in sorted({q for q, _ in by}):
+    for q in sorted({q for c in by.values() for q in c}):
         line = [f"{q:.0f}"]
-        for s in shares:
-            rs = by[(q, s)]
+        for c in by.values():
+            rs = c.get(q, [])
+            if not rs:
+                line += ["—"] * 4
+                continue
             line += [cell(f(rs, "all_vehicles.throughput_per_hour"), 0),
                      cell(f(rs, "all_vehicles.mean_travel_time_s"), 1),
                      cell(f(rs, "all_vehicles.mean_speed_mps"), 2),
                      cell(f(rs, "all_vehicles.halting_mean"), 2)]
         print("| " + " | ".join(line) + " |")
-    n = {len(rs) for rs in by.values()}
-    print(f"\n{len(rows)} runs, {sorted(n)} seeds per cell; "
-          f"collisions: {sum(f(rows, 'all_vehicles.collisions')):.0f}")
+    seeds = sorted({len(rs) for c in by.values() for rs in c.values()})
+    unsafe = [r for r in rows if r.get("safe") == "false"]
+    unsafe_by = defaultdict(int)
+    for r in unsafe:
+        unsafe_by[who(r["sumo.inflows.0.controlled"])] += 1
+    print(f"\n{len(rows)} runs, {seeds} seeds per cell; collisions: "
+          f"{sum(f(rows, 'all_vehicles.collisions')):.0f}; runs marked unsafe: {len(unsafe)}"
+          + (f" ({', '.join(f'{k}: {v}' for k, v in unsafe_by.items())})" if unsafe else ""))
 
 
 if __name__ == "__main__":

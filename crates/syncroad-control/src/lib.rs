@@ -48,6 +48,7 @@ pub mod constant_speed;
 pub mod controller;
 pub mod damper;
 pub mod delayed_driver;
+pub mod delayed_follower;
 pub mod drive;
 pub mod exact;
 pub mod fingerprint;

@@ -52,6 +52,7 @@ pub static BUILT_IN: &[LawEntry] = &[
     crate::flow_dampers::FOLLOWER_STOPPER_ENTRY,
     crate::flow_dampers::PI_SATURATION_ENTRY,
     crate::constant_speed::ENTRY,
+    crate::delayed_follower::ENTRY,
     crate::bcm::ENTRY,
     crate::lacc::ENTRY,
 ];
