@@ -338,7 +338,7 @@ fn law_controller(
         Model::DelayedDriver(m) => {
             let v0 = m.leader.as_ref().map(|(v0, _)| *v0);
             Ok(Box::new(DelayedDriverController {
-                law: DelayedDriverLaw::for_model(m, law.step_s, &law.initial_speed_mps)?,
+                law: m.law(law.step_s, &law.initial_speed_mps)?,
                 v0,
                 leader_vehicle,
                 next: vec![0.0; n],

@@ -17,9 +17,22 @@
 //! the global error at second order, as the convergence test in `tests/paper.rs` shows; the
 //! higher-order stencils cut its constant about tenfold against the trapezoidal rule.
 
+use serde::{Deserialize, Serialize};
+
 use crate::graph::Graph;
-use crate::scenario::{DelayedDriverModel, HistorySpec};
 use crate::sensed::{Neighbors, Sensed};
+
+/// Delay-buffer history before t = 0 (`model.history` in scenario files).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum HistorySpec {
+    /// Speeds were constant at their initial values for t ≤ 0 (the usual DDE initial function):
+    /// drivers react to the initial speed differences from t = 0 on.
+    #[default]
+    ConstantSpeeds,
+    /// No reaction was pending: `u_i(t) = 0` for t < 0, so driver i first reacts at t = α_i.
+    NoReaction,
+}
 
 /// Errors raised when building a [`DelayedDriverLaw`].
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -148,24 +161,6 @@ impl DelayedDriverLaw {
         // The first call to `step` writes u^0 into row 0 and reads rows -m_i (prefilled).
         law.head = slots - 1;
         Ok(law)
-    }
-
-    /// The law of a validated delayed-driver model (graph, delays, leader, history), seeded
-    /// with the scenario's initial speeds — what every backend runs.
-    pub fn for_model(
-        m: &DelayedDriverModel,
-        step_s: f64,
-        initial_speeds_mps: &[f64],
-    ) -> Result<Self, LawError> {
-        Self::new(
-            &m.graph,
-            &m.delay_steps,
-            step_s,
-            m.leader.as_ref().map(|(_, b)| b.as_slice()),
-            initial_speeds_mps,
-            m.leader.as_ref().map(|(v0, _)| *v0),
-            m.history,
-        )
     }
 
     /// Number of drivers.

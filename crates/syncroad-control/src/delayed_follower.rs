@@ -13,10 +13,9 @@
 
 use serde::Deserialize;
 
-use crate::delayed_driver::DelayedDriverLaw;
+use crate::delayed_driver::{DelayedDriverLaw, HistorySpec};
 use crate::graph::Graph;
 use crate::road::RingView;
-use crate::scenario::HistorySpec;
 use crate::speed_controller::{law_params, LawContext, LawEntry, Road, SpeedController};
 
 /// The law's entry in [`crate::registry`]: `delayed-driver`, parameters `gain` and `delay_s`.
@@ -124,67 +123,6 @@ impl SpeedController for DelayedFollower {
 
 #[cfg(test)]
 mod tests {
-    use crate::native::{simulate, NativeOptions};
-    use crate::Scenario;
-
-    fn ring(extra: &str) -> Scenario {
-        let json = format!(
-            r#"{{"name": "ring", "seed": 3, "step_s": 0.1, "horizon_s": 40, "vehicles": 8,
-                "road": {{"type": "ring", "length_m": 200}},
-                "model": {{"type": "delayed_driver", "history": "no_reaction",
-                           "graph": {{"type": "unidirectional_ring", "gain": 0.8}},
-                           "delay_s": 0.3}},
-                "initial": {{"speed_mps": 6, "perturbation": {{"speed_mps": 1.5}}}}{extra}}}"#
-        );
-        Scenario::from_json(&json).unwrap()
-    }
-
-    /// On a ring, the registry's delayed driver behind its predecessor is the scenario's own
-    /// law on a unidirectional ring of the same gain and delay (two implementations of eq.
-    /// `chandler+`: one law over the graph, one one-driver law per vehicle pinned to the
-    /// vehicle ahead): the same speeds to rounding.
-    #[test]
-    fn on_a_ring_it_is_the_scenario_law_on_a_unidirectional_ring() {
-        let own = simulate(&ring(""), NativeOptions::default()).trajectory;
-        let reg = simulate(
-            &ring(r#", "controller": {"rust": "delayed-driver", "params": {"gain": 0.8, "delay_s": 0.3}}"#),
-            NativeOptions::default(),
-        )
-        .trajectory;
-        assert_eq!(own.len(), reg.len());
-        let worst = own
-            .speeds_mps
-            .iter()
-            .zip(&reg.speeds_mps)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max);
-        // The run is not trivial: the perturbation is damped by a factor of ten or more.
-        let spread = |k: usize| {
-            let v = own.speeds(k);
-            v.iter().copied().fold(f64::MIN, f64::max) - v.iter().copied().fold(f64::MAX, f64::min)
-        };
-        assert!(
-            spread(own.len() - 1) < 0.1 * spread(0),
-            "{} {}",
-            spread(0),
-            spread(own.len() - 1)
-        );
-        assert!(worst <= 1e-12, "largest speed difference {worst} m/s");
-        // And the registry's law is what drove: at half the gain the speeds differ.
-        let half = simulate(
-            &ring(r#", "controller": {"rust": "delayed-driver", "params": {"gain": 0.4, "delay_s": 0.3}}"#),
-            NativeOptions::default(),
-        )
-        .trajectory;
-        let apart = own
-            .speeds_mps
-            .iter()
-            .zip(&half.speeds_mps)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max);
-        assert!(apart > 1e-2, "{apart}");
-    }
-
     #[test]
     fn its_parameters_are_checked() {
         let law = |p: &str| {

@@ -93,7 +93,10 @@ fn self_loop_and_unknown_vehicle_in_edges() {
 #[test]
 fn zero_vehicles_zero_horizon_and_bad_step() {
     let e = err(&base(RING, "").replace(r#""vehicles": 4"#, r#""vehicles": 0"#));
-    assert_eq!(e, "vehicles = 0: must be ≥ 1");
+    assert_eq!(
+        e,
+        "vehicles = 0: must be ≥ 1, or 0 on an open road of inflows only (sumo.inflows)"
+    );
     let e = err(&base(RING, "").replace(r#""horizon_s": 10"#, r#""horizon_s": 0"#));
     assert_eq!(e, "horizon_s = 0: must be a finite number > 0");
     let e = err(&base(RING, "").replace(r#""step_s": 0.1"#, r#""step_s": -1"#));

@@ -386,17 +386,8 @@ pub struct DriverLeaderSpec {
     pub pinning: PerVehicle,
 }
 
-/// Delay-buffer history before t = 0.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum HistorySpec {
-    /// Speeds were constant at their initial values for t ≤ 0 (the usual DDE initial function):
-    /// drivers react to the initial speed differences from t = 0 on.
-    #[default]
-    ConstantSpeeds,
-    /// No reaction was pending: `u_i(t) = 0` for t < 0, so driver i first reacts at t = α_i.
-    NoReaction,
-}
+/// Delay-buffer history before t = 0 (the law's own type, named in scenario files).
+pub use crate::delayed_driver::HistorySpec;
 
 /// Interaction graph of the delayed-driver model.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

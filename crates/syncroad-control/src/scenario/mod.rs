@@ -185,6 +185,26 @@ pub struct DelayedDriverModel {
     pub shape: GraphShape,
 }
 
+impl DelayedDriverModel {
+    /// The law of this validated model (graph, delays, leader, history), seeded with the
+    /// scenario's initial speeds — what every backend runs.
+    pub fn law(
+        &self,
+        step_s: f64,
+        initial_speeds_mps: &[f64],
+    ) -> Result<crate::delayed_driver::DelayedDriverLaw, crate::delayed_driver::LawError> {
+        crate::delayed_driver::DelayedDriverLaw::new(
+            &self.graph,
+            &self.delay_steps,
+            step_s,
+            self.leader.as_ref().map(|(_, b)| b.as_slice()),
+            initial_speeds_mps,
+            self.leader.as_ref().map(|(v0, _)| *v0),
+            self.history,
+        )
+    }
+}
+
 /// The validated CACC model.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CaccModel {
