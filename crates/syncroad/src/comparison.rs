@@ -193,6 +193,13 @@ type MixedRuns = (Vec<Drive>, Vec<(String, usize)>);
 /// Parses and checks every option before anything runs.
 pub fn plan(sc: &Scenario, a: &Request) -> anyhow::Result<Plan> {
     let bad = |m: String| anyhow::Error::new(InputError::new(m));
+    if sc.vehicles() == 0 {
+        // Every run would drive the same traffic: the drivers are SUMO's and the inflows' laws.
+        return Err(bad(format!(
+            "scenario {}: no vehicles of its own (\"vehicles\": 0), so every driver a comparison swaps in would drive nobody; compare the inflows' drivers in a sweep over sumo.inflows[k].controlled instead (the guide's \"Open roads\")",
+            sc.name()
+        )));
+    }
     let mut runs = baseline_runs(sc, a)?;
     // Two spellings of one driver among the named runs are one run twice. (The mixed series
     // may repeat a named run on purpose: mixed-0, all humans, is its reference.)

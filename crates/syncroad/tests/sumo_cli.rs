@@ -607,3 +607,76 @@ fn step_time_is_a_part_of_the_runs_and_refuses_native_scenarios() {
         );
     }
 }
+
+/// The guide's on-ramp (`examples/open-road`), netconvert-built: a scenario with no vehicles of
+/// its own is refused, as bad input naming why, by every command that would analyse or swap
+/// drivers of a fixed set (`check`, `stability`, `compare`, a sweep's `runs`), before SUMO
+/// starts; a sweep over its inflow's controlled block is accepted (`--emit-slurm` plans it
+/// without running).
+#[test]
+fn an_open_road_of_inflows_only_is_refused_where_no_fixed_set_exists() {
+    let dir = tmpdir("open-road-refusals");
+    let road = dir.join("open-road");
+    std::fs::create_dir_all(&road).unwrap();
+    for f in [
+        "onramp.nod.xml",
+        "onramp.edg.xml",
+        "onramp.json",
+        "onramp.sweep.json",
+    ] {
+        std::fs::copy(repo().join("examples/open-road").join(f), road.join(f)).unwrap();
+    }
+    let netconvert = repo().join(".venv/lib/python3.11/site-packages/sumo/bin/netconvert");
+    let (code, _, err) = run(std::process::Command::new(netconvert)
+        .current_dir(&road)
+        .args([
+            "--node-files",
+            "onramp.nod.xml",
+            "--edge-files",
+            "onramp.edg.xml",
+            "--no-turnarounds",
+            "true",
+            "-o",
+            "onramp.net.xml",
+        ]));
+    assert_eq!(code, 0, "netconvert: {err}");
+    let sc = road.join("onramp.json");
+    for cmd in ["check", "stability"] {
+        let (code, _, err) = run(bin().arg(cmd).arg(&sc));
+        assert_eq!(code, 2, "{cmd}: {err}");
+        assert!(err.contains("the scenario has no vehicles of its own (\"vehicles\": 0, an open road of inflows): there is no network to analyse"), "{cmd}: {err}");
+    }
+    let (code, _, err) = run(bin()
+        .arg("compare")
+        .arg(&sc)
+        .arg("--out")
+        .arg(dir.join("cmp")));
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("scenario onramp: no vehicles of its own (\"vehicles\": 0), so every driver a comparison swaps in would drive nobody"), "{err}");
+    assert!(!dir.join("cmp").exists());
+    let spec: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(road.join("onramp.sweep.json")).unwrap())
+            .unwrap();
+    let mut with_runs = spec.clone();
+    with_runs["runs"] = serde_json::json!(["protocol", "idm"]);
+    let bad = road.join("runs.sweep.json");
+    std::fs::write(&bad, with_runs.to_string()).unwrap();
+    let (code, _, err) = run(bin()
+        .arg("sweep")
+        .arg(&bad)
+        .arg("--out")
+        .arg(dir.join("sw")));
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("runs and penetrations: the base scenario has no vehicles of its own"),
+        "{err}"
+    );
+    let (code, out, err) = run(bin()
+        .arg("sweep")
+        .arg(road.join("onramp.sweep.json"))
+        .arg("--out")
+        .arg(dir.join("sw-ok"))
+        .arg("--emit-slurm")
+        .arg(dir.join("jobs")));
+    assert_eq!(code, 0, "{out}{err}");
+}

@@ -348,6 +348,13 @@ fn runs_of(file: &SpecFile, base: &Scenario, backend: Backend) -> anyhow::Result
             Vec::new()
         }
     });
+    if n == 0 && (names.iter().any(|r| r != "protocol") || !file.penetrations.is_empty()) {
+        // Every run would drive the same traffic: the drivers are SUMO's and the inflows' laws.
+        return Err(bad(
+            "runs and penetrations: the base scenario has no vehicles of its own (\"vehicles\": 0), so a run's drivers would drive nobody; sweep sumo.inflows[k].controlled instead (an axis whose values are controlled blocks)",
+        )
+        .into());
+    }
     for name in &names {
         let spec = Drive::parse("runs", name, n).map_err(|e| InputError::caused("runs", e))?;
         if let Some(r) = runs
