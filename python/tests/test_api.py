@@ -3,7 +3,9 @@ when read independently."""
 
 import csv
 import json
+import re
 import shutil
+import subprocess
 
 import pyarrow as pa
 import pytest
@@ -183,3 +185,33 @@ def test_the_trajectory_of_your_own_vehicles_names_them(tmp_path):
         assert first[vid] == pytest.approx(v, abs=1e-9), vid
     ours = syncroad.run("scenarios/ring-theorem1.json", out=tmp_path / "ours", plots=False)
     assert ours.vehicle_ids is None
+
+
+def test_an_open_road_of_inflows_runs_from_python(tmp_path):
+    """The guide's on-ramp (``examples/open-road``, built here by the project's netconvert) with
+    no vehicles of its own: ``syncroad.run`` gives its record, whose ``guests`` block counts the
+    FollowerStoppers among the highway's inflow as SUMO's floating-car data does, and whose
+    verdict says there is none to give; the trajectory has no rows."""
+    for f in ["onramp.nod.xml", "onramp.edg.xml", "onramp.json"]:
+        shutil.copy(REPO / "examples/open-road" / f, tmp_path / f)
+    netconvert = REPO / ".venv/lib/python3.11/site-packages/sumo/bin/netconvert"
+    subprocess.run(
+        [str(netconvert), "--node-files", "onramp.nod.xml", "--edge-files", "onramp.edg.xml",
+         "--no-turnarounds", "true", "-o", "onramp.net.xml"],
+        cwd=tmp_path, check=True, capture_output=True,
+    )
+    sc = json.loads((tmp_path / "onramp.json").read_text())
+    sc.update(horizon_s=120)
+    sc["sumo"]["fcd"] = True
+    run = syncroad.run(syncroad.Scenario.from_dict(sc, base_dir=tmp_path), out=tmp_path / "run", plots=False)
+    assert run.complete
+    m = run.metrics
+    assert m["sync"]["verdict"] == "inconclusive"
+    assert "no vehicles of its own" in m["sync"]["verdict_reason"]
+    g = m["guests"]
+    assert g["laws"] == ["inflow0: follower-stopper-25"]
+    fcd = (tmp_path / "run" / "sumo" / "fcd.xml").read_text()
+    ids = set(re.findall(r'<vehicle id="([^"]+)"[^>]*type="syncroad_guest0"', fcd))
+    assert g["entered"] == len(ids) > 0
+    assert m["all_vehicles"]["collisions"] == 0
+    assert run.trajectories.to_pandas().empty
