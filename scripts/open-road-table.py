@@ -34,7 +34,7 @@ def who(controlled):
         return "SUMO's drivers"
     params = ", ".join(f"{k} {v}" for k, v in (c.get("params") or {}).items())
     law = f"{c['law']} ({params})" if params else c["law"]
-    return f"{c['share']:.0%} {law}"
+    return f"{c['share']:.0%} {law}".replace("%", " %", 1)
 
 
 def main():
@@ -47,23 +47,19 @@ def main():
     for r in rows:
         by[who(r["sumo.inflows.0.controlled"])][float(r[inflow])].append(r)
     f = lambda rs, k: [float(r[k]) for r in rs]
-    head = ["inflow [veh/h]"]
-    for w in by:
-        head += [f"{w}: throughput [veh/h]", "travel time [s]", "mean speed [m/s]", "halting"]
-    print("| " + " | ".join(head) + " |")
-    print("|---|" + "---:|" * (len(head) - 1))
+    print("| inflow [veh/h] | drivers | throughput [veh/h] | travel time [s] | mean speed [m/s] "
+          "| halting | unsafe runs |")
+    print("|---|---|---:|---:|---:|---:|---:|")
     for q in sorted({q for c in by.values() for q in c}):
-        line = [f"{q:.0f}"]
-        for c in by.values():
+        for w, c in by.items():
             rs = c.get(q, [])
             if not rs:
-                line += ["—"] * 4
                 continue
-            line += [cell(f(rs, "all_vehicles.throughput_per_hour"), 0),
-                     cell(f(rs, "all_vehicles.mean_travel_time_s"), 1),
-                     cell(f(rs, "all_vehicles.mean_speed_mps"), 2),
-                     cell(f(rs, "all_vehicles.halting_mean"), 2)]
-        print("| " + " | ".join(line) + " |")
+            unsafe = sum(1 for r in rs if r.get("safe") == "false")
+            print(f"| {q:.0f} | {w} | {cell(f(rs, 'all_vehicles.throughput_per_hour'), 0)} | "
+                  f"{cell(f(rs, 'all_vehicles.mean_travel_time_s'), 1)} | "
+                  f"{cell(f(rs, 'all_vehicles.mean_speed_mps'), 2)} | "
+                  f"{cell(f(rs, 'all_vehicles.halting_mean'), 2)} | {unsafe} of {len(rs)} |")
     seeds = sorted({len(rs) for c in by.values() for rs in c.values()})
     unsafe = [r for r in rows if r.get("safe") == "false"]
     unsafe_by = defaultdict(int)
