@@ -271,6 +271,22 @@ impl NamedLaw {
     }
 }
 
+impl NamedLaw {
+    /// The law as a reader wants it: its name in tables when that is its name or its
+    /// shorthand (`follower-stopper-4.3`), else its name with its parameters
+    /// (`delayed-driver {"gain":0.6,"delay_s":0.5}`) rather than their hash.
+    pub fn described(&self) -> String {
+        let shown = self.to_string();
+        let plain = self.params.as_object().is_none_or(|o| o.is_empty())
+            || shown != format!("{}-{}", self.name, &fnv1a_hex(self.params.to_string())[..8]);
+        if plain {
+            shown
+        } else {
+            format!("{} {}", self.name, self.params)
+        }
+    }
+}
+
 impl fmt::Display for NamedLaw {
     /// The law's name in tables and folders: its name, with its shorthand parameter when that
     /// is the only one (`follower-stopper-4.3`), or a hash of its parameters when it has
@@ -296,6 +312,38 @@ impl fmt::Display for NamedLaw {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_law_with_parameters_is_described_with_them() {
+        let law = |name: &str, params: serde_json::Value| NamedLaw {
+            name: name.into(),
+            params,
+        };
+        assert_eq!(
+            law(
+                "follower-stopper",
+                serde_json::json!({"desired_speed_mps": 4.3})
+            )
+            .described(),
+            "follower-stopper-4.3"
+        );
+        assert_eq!(
+            law("pi-saturation", serde_json::json!({})).described(),
+            "pi-saturation"
+        );
+        let d = law(
+            "delayed-driver",
+            serde_json::json!({"gain": 0.6, "delay_s": 0.5}),
+        );
+        assert!(d.to_string().starts_with("delayed-driver-"), "{d}");
+        let text = d.described();
+        assert!(
+            text.starts_with("delayed-driver {")
+                && text.contains(r#""gain":0.6"#)
+                && text.contains(r#""delay_s":0.5"#),
+            "{text}"
+        );
+    }
 
     struct Hold;
     impl SpeedController for Hold {

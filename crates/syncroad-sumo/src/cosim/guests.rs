@@ -94,7 +94,7 @@ impl<'a, 'py> Guests<'a, 'py> {
                 laws: req
                     .guests
                     .iter()
-                    .map(|g| format!("inflow{}: {}", g.inflow, g.law))
+                    .map(|g| format!("inflow{}: {}", g.inflow, g.law.described()))
                     .collect(),
                 ..Report::default()
             },
