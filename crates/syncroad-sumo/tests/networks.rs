@@ -1642,6 +1642,18 @@ mod open_roads {
             e.starts_with("model = given: the scenario has no vehicles of its own"),
             "{e}"
         );
+        for (extra, field) in [
+            (r#""controller": {"python": "c.py:C"},"#, "controller"),
+            (r#""mixed": {"penetration": 0.5},"#, "mixed"),
+        ] {
+            let e = scenario(&dir, &file(extra)).unwrap_err();
+            assert!(
+                e.starts_with(&format!(
+                    "{field} = given: the scenario has no vehicles of its own"
+                )),
+                "{e}"
+            );
+        }
         let e = scenario(
             &dir,
             &file("").replace(r#""inflows": ["#, r#""inflows_": ["#),

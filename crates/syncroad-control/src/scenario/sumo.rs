@@ -341,6 +341,9 @@ impl SumoSpec {
 /// the SUMO backend checks the entry's own capacity).
 pub const MAX_VEHS_PER_HOUR: f64 = 36_000.0;
 
+/// The most vehicles at given times one inflow may name (`controlled.at_s`).
+pub const MAX_CONTROLLED_AT: usize = 100_000;
+
 /// The numbers of inflow `k`.
 fn check_inflow(k: usize, f: &InflowSpec) -> Result<(), ScenarioError> {
     let field = |name: &str| format!("sumo.inflows[{k}].{name}");
@@ -392,6 +395,13 @@ fn check_inflow(k: usize, f: &InflowSpec) -> Result<(), ScenarioError> {
                 field("share"),
                 c.share,
                 "must be a share in [0, 1] of the inflow's vehicles",
+            ));
+        }
+        if c.at_s.len() > MAX_CONTROLLED_AT {
+            return Err(invalid(
+                field("at_s"),
+                format!("{} departure times", c.at_s.len()),
+                format!("at most {MAX_CONTROLLED_AT} (each is a vehicle of its own in SUMO's route file); for more, give a share of the inflow"),
             ));
         }
         for (j, &t) in c.at_s.iter().enumerate() {
@@ -621,6 +631,10 @@ mod tests {
             (
                 r#"{"law": "pi-saturation", "shares": 0.1}"#,
                 "unknown field `shares`",
+            ),
+            (
+                &format!(r#"{{"law": "pi-saturation", "at_s": [{}]}}"#, vec!["1"; 100_001].join(",")),
+                "sumo.inflows[0].controlled.at_s = 100001 departure times: at most 100000",
             ),
         ] {
             let e = validate(controlled).unwrap_err();

@@ -75,6 +75,19 @@ impl ScenarioFile {
         reader: Option<&dyn RoadReader>,
     ) -> Result<Scenario, ScenarioError> {
         let (n, steps) = self.check_sizes()?;
+        if n == 0 {
+            // What drives a scenario's own vehicles has none to drive.
+            let none = "the scenario has no vehicles of its own (\"vehicles\": 0), so this would drive none: leave it out, and drive an inflow's vehicles with sumo.inflows[k].controlled";
+            if self.mixed.is_some() {
+                return Err(invalid("mixed", "given", none));
+            }
+            if self.controller.is_some() {
+                return Err(invalid("controller", "given", none));
+            }
+            if self.sumo.controlled.is_some() {
+                return Err(invalid("sumo.controlled", "given", none));
+            }
+        }
         let entries = self.vehicles.entries();
         let sumo = self.sumo.validate(base_dir, reader)?;
         let closed = self.road.is_closed();
