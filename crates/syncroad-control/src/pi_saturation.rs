@@ -204,7 +204,14 @@ pub fn pi_saturation_command_mps(
 ) -> f64 {
     let target = params.target_speed_mps(mean_speed_mps, gap_m);
     let (alpha, beta) = params.weights(gap_m, leader_speed_mps - speed_mps);
-    beta * (alpha * target + (1.0 - alpha) * leader_speed_mps) + (1.0 - beta) * previous_command_mps
+    // Far enough behind (α = 1, nobody ahead included: gap +∞, leader speed NaN) the leader's
+    // weight is 0 and its term is left out rather than multiplied by 0.
+    let lead = if alpha < 1.0 {
+        (1.0 - alpha) * leader_speed_mps
+    } else {
+        0.0
+    };
+    beta * (alpha * target + lead) + (1.0 - beta) * previous_command_mps
 }
 
 /// A fleet of PI-with-saturation vehicles: parameters, per-vehicle speed history (the
@@ -372,6 +379,16 @@ mod tests {
         assert_eq!(p().weights(30.0, 0.0), (1.0, 0.5));
         // Leader faster by 3 m/s: Δx_s = max(2 · 3, 4) = 6; gap 7: α = 0.5.
         assert_eq!(p().weights(7.0, 3.0), (0.5, 0.75));
+    }
+
+    #[test]
+    fn with_nobody_ahead_the_command_is_the_target_blended_with_the_last() {
+        // An open road: no leader (gap +∞, speed NaN). α = 1, β = 1/2: the command is
+        // (U + catch-up) / 2 + previous / 2, with U = 5 and the full catch-up speed.
+        let c = pi_saturation_command_mps(&p(), 5.0, 5.0, f64::INFINITY, f64::NAN, 6.0);
+        let target = p().target_speed_mps(5.0, f64::INFINITY);
+        assert!(target.is_finite());
+        assert_eq!(c, 0.5 * target + 0.5 * 6.0);
     }
 
     #[test]

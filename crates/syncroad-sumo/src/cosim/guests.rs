@@ -8,7 +8,10 @@
 //! when SUMO reports the vehicle arrived. Each step, before SUMO's, every one of them is read
 //! (its speed, whoever SUMO reports ahead of it on its lanes with the gap and that vehicle's
 //! speed, the lane's speed limit), stepped by its law, and commanded with `setSpeed`; a command
-//! above the speed limit is sent as the limit. The law's graph is thus "each vehicle follows
+//! above the speed limit is sent as the limit. With nobody within [`LOOKAHEAD_M`] ahead, the
+//! law sees the free road: a leader that far ahead at the lane's speed limit (every law gets
+//! finite inputs; the dampers then cruise at their desired speed, the delayed driver closes on
+//! the limit). The law's graph is thus "each vehicle follows
 //! whoever is ahead of it now", over the vehicles present.
 //!
 //! They drive under SUMO's checks (safe speed, right of way, red lights: speed mode 25)
@@ -34,7 +37,8 @@ use crate::protocol::{GuestLaw, Request};
 use crate::python::{py_error, PythonError};
 
 /// How far ahead a vehicle looks for the one it follows \[m\] (SUMO looks further when its
-/// braking distance is longer).
+/// braking distance is longer); with nobody that close, a leader this far ahead at the lane's
+/// speed limit stands for the free road.
 const LOOKAHEAD_M: f64 = 250.0;
 
 /// One controlled vehicle on the road.
@@ -127,20 +131,24 @@ impl<'a, 'py> Guests<'a, 'py> {
                     .extract()
                     .map_err(|e| py_error(py, format!("vehicle.getLeader({})", g.id), e))?
             };
+            let limit: f64 = float(
+                ls.call("vehicle_getAllowedSpeed", (g.id.clone(),))?,
+                "getAllowedSpeed",
+            )?;
             self.neighbors.ahead[0] = match ahead {
                 Some((id, d)) if !id.is_empty() && d >= 0.0 => Sensed::Other {
                     speed_mps: float(ls.call("vehicle_getSpeed", (id,))?, "getSpeed")?,
                     gap_m: d + self.laws[g.law].min_gap_m,
                 },
-                _ => Sensed::Nobody,
+                // The free road: a leader at the end of sight, at the lane's speed limit.
+                _ => Sensed::Other {
+                    speed_mps: limit,
+                    gap_m: LOOKAHEAD_M,
+                },
             };
             g.controller.sense(&self.neighbors);
             let mut next = [0.0];
             g.controller.step(t_s, &[v], &[0.0], &mut next);
-            let limit: f64 = float(
-                ls.call("vehicle_getAllowedSpeed", (g.id.clone(),))?,
-                "getAllowedSpeed",
-            )?;
             let mut cmd = next[0];
             if !cmd.is_finite() {
                 return Err(PythonError::Call {
