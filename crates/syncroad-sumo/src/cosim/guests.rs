@@ -29,7 +29,7 @@ use pyo3::types::PyString;
 use syncroad_control::scenario::SafetyMode;
 use syncroad_control::sensed::{Neighbors, Sensed};
 use syncroad_control::sumo_facts::Guests as Report;
-use syncroad_control::SpeedController;
+use syncroad_control::{SpeedController, StopReason};
 
 use super::libsumo::Libsumo;
 use super::CosimError;
@@ -108,9 +108,15 @@ impl<'a, 'py> Guests<'a, 'py> {
         })
     }
 
-    /// Before SUMO's step at time `t_s`: reads every controlled vehicle, steps its law and
-    /// sends its command.
-    pub fn command(&mut self, ls: &Libsumo<'py>, t_s: f64) -> Result<(), CosimError> {
+    /// Before SUMO's step `step` at time `t_s`: reads every controlled vehicle, steps its law
+    /// and sends its command. A non-finite command stops the run before it reaches SUMO, as
+    /// the fixed set's do (`Ok(Some(stop))`; the rows so far are kept).
+    pub fn command(
+        &mut self,
+        ls: &Libsumo<'py>,
+        step: usize,
+        t_s: f64,
+    ) -> Result<Option<StopReason>, CosimError> {
         let py = ls.py;
         for g in &mut self.on_road {
             let v: f64 = float(ls.call("vehicle_getSpeed", (g.id.clone(),))?, "getSpeed")?;
@@ -151,11 +157,11 @@ impl<'a, 'py> Guests<'a, 'py> {
             g.controller.step(t_s, &[v], &[0.0], &mut next);
             let mut cmd = next[0];
             if !cmd.is_finite() {
-                return Err(PythonError::Call {
-                    call: format!("the law {} of vehicle {}", self.laws[g.law].law, g.id),
-                    traceback: format!("it commanded {cmd} m/s at t = {t_s} s"),
-                }
-                .into());
+                return Ok(Some(StopReason::NonFiniteCommand {
+                    vehicle: g.name.clone(),
+                    step,
+                    value: format!("{cmd}"),
+                }));
             }
             if cmd > limit {
                 cmd = limit;
@@ -166,7 +172,7 @@ impl<'a, 'py> Guests<'a, 'py> {
             g.last_command = cmd;
             self.report.commands += 1;
         }
-        Ok(())
+        Ok(None)
     }
 
     /// After a SUMO step: takes over the controlled vehicles SUMO inserted in it and lets go

@@ -259,7 +259,9 @@ impl<'a, 'py> CoSim<'a, 'py> {
             self.send_commands()?;
         }
         if let Some(g) = self.guests.as_mut() {
-            g.command(self.ls, step as f64 * req.step_s)?;
+            if let Some(stop) = g.command(self.ls, step, step as f64 * req.step_s)? {
+                return Ok(Some(stop));
+            }
         }
         let t_step = Instant::now();
         self.ls.simulation_step()?;
