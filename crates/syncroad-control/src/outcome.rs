@@ -88,23 +88,39 @@ pub struct Outcome {
 /// [`sumo_overruled`]), a native run whose vehicles overlapped or reversed
 /// ([`Collisions::overruled`]) or a ring that came to a standstill ([`standstill`]).
 pub fn evaluate(scenario: &Scenario, run: &RunOutput, opts: EvalOptions) -> Outcome {
+    let incomplete = !run.stop.is_complete();
+    let sync = if scenario.vehicles() == 0 {
+        no_fixed_set(opts.thresholds, incomplete)
+    } else {
+        judged(scenario, run, opts.thresholds, incomplete)
+    };
+    Outcome {
+        sync,
+        congestion: congestion_metrics(&run.trajectory, opts.warmup_s, run.ring_length_m),
+        theory: theory::report(scenario),
+        warmup_s: opts.warmup_s,
+        gap_certificate: opts.gap_certificate,
+    }
+}
+
+/// The synchronization metrics of the scenario's vehicles, with the verdict overruled where
+/// SUMO or the native checks say the run was not the law's.
+fn judged(
+    scenario: &Scenario,
+    run: &RunOutput,
+    thresholds: VerdictThresholds,
+    incomplete: bool,
+) -> SyncMetrics {
     let desired = match scenario.model() {
         Model::Cacc(c) => Some(c.desired_gap_m.as_slice()),
         Model::DelayedDriver(_) => None,
     };
-    let incomplete = !run.stop.is_complete();
     let mut sync = match &run.spread {
-        Some(spread) => sync_metrics_of(
-            spread,
-            &run.trajectory,
-            opts.thresholds,
-            desired,
-            incomplete,
-        ),
-        None => sync_metrics(&run.trajectory, opts.thresholds, desired, incomplete),
+        Some(spread) => sync_metrics_of(spread, &run.trajectory, thresholds, desired, incomplete),
+        None => sync_metrics(&run.trajectory, thresholds, desired, incomplete),
     };
     if let Some(facts) = &run.sumo {
-        for (at_best, reason) in sumo_overruled(facts, opts.thresholds.tolerance_mps) {
+        for (at_best, reason) in sumo_overruled(facts, thresholds.tolerance_mps) {
             sync.overrule(at_best, reason);
         }
     }
@@ -116,16 +132,7 @@ pub fn evaluate(scenario: &Scenario, run: &RunOutput, opts: EvalOptions) -> Outc
     if let Some(reason) = standstill(&run.trajectory, &sync) {
         sync.overrule(Verdict::NotSynchronized, reason);
     }
-    if scenario.vehicles() == 0 {
-        sync = no_fixed_set(opts.thresholds, incomplete);
-    }
-    Outcome {
-        sync,
-        congestion: congestion_metrics(&run.trajectory, opts.warmup_s, run.ring_length_m),
-        theory: theory::report(scenario),
-        warmup_s: opts.warmup_s,
-        gap_certificate: opts.gap_certificate,
-    }
+    sync
 }
 
 /// The verdict of a run without a fixed set of vehicles (`"vehicles": 0`: only an inflow's

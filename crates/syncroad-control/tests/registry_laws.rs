@@ -15,6 +15,14 @@ fn ring(extra: &str) -> Scenario {
     Scenario::from_json(&json).unwrap()
 }
 
+/// The largest |a_k − b_k|.
+fn largest_difference(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+}
+
 /// On a ring, the registry's delayed driver behind its predecessor is the scenario's own
 /// law on a unidirectional ring of the same gain and delay (two implementations of eq.
 /// `chandler+`: one law over the graph, one one-driver law per vehicle pinned to the
@@ -28,12 +36,7 @@ fn on_a_ring_it_is_the_scenario_law_on_a_unidirectional_ring() {
     )
     .trajectory;
     assert_eq!(own.len(), reg.len());
-    let worst = own
-        .speeds_mps
-        .iter()
-        .zip(&reg.speeds_mps)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0, f64::max);
+    let worst = largest_difference(&own.speeds_mps, &reg.speeds_mps);
     // The run is not trivial: the perturbation is damped by a factor of ten or more.
     let spread = |k: usize| {
         let v = own.speeds(k);
@@ -52,11 +55,6 @@ fn on_a_ring_it_is_the_scenario_law_on_a_unidirectional_ring() {
         NativeOptions::default(),
     )
     .trajectory;
-    let apart = own
-        .speeds_mps
-        .iter()
-        .zip(&half.speeds_mps)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0, f64::max);
+    let apart = largest_difference(&own.speeds_mps, &half.speeds_mps);
     assert!(apart > 1e-2, "{apart}");
 }

@@ -134,7 +134,6 @@ pub fn guests(
             .map_err(|e| refuse(field.clone(), &law, e))?;
         laws.push(crate::protocol::GuestLaw {
             inflow: k,
-            vtype: guest_type(k),
             law,
             context,
             min_gap_m: t.min_gap_m,
@@ -151,129 +150,164 @@ pub fn check(
     horizon_s: f64,
 ) -> Result<(), PrepareError> {
     for (k, f) in inflows.iter().enumerate() {
-        let field = |name: &str| format!("sumo.inflows[{k}].{name}");
-        for (name, edge) in [("from", &f.from), ("to", &f.to)] {
-            if net.edge_lanes(edge).is_none() {
-                return Err(refuse(
-                    field(name),
-                    format!("`{edge}`"),
-                    format!(
-                        "{} has no normal edge of that id; nearest ids: {}",
-                        path.display(),
-                        nearest(net, edge)
-                    ),
-                ));
-            }
-        }
-        let lanes = net.edge_lanes(&f.from).unwrap_or_default();
-        let open: Vec<usize> = (0..lanes.len())
-            // SUMO's default vehicle type is of class passenger.
-            .filter(|&l| lanes[l].permits(VehicleClass::PASSENGER.name()))
-            .collect();
-        if open.is_empty() {
+        check_route(net, path, k, f)?;
+        let open = open_entry_lanes(net, k, f)?;
+        check_times(k, f, horizon_s)?;
+        check_capacity(net, k, f, inflows, &open, horizon_s)?;
+    }
+    Ok(())
+}
+
+/// Inflow `k`'s edges exist and a route along the connections leads from one to the other.
+fn check_route(net: &Network, path: &Path, k: usize, f: &InflowSpec) -> Result<(), PrepareError> {
+    let field = |name: &str| format!("sumo.inflows[{k}].{name}");
+    for (name, edge) in [("from", &f.from), ("to", &f.to)] {
+        if net.edge_lanes(edge).is_none() {
             return Err(refuse(
-                field("from"),
-                format!("`{}`", f.from),
-                "no lane of it admits SUMO's default vehicle type, class passenger".into(),
-            ));
-        }
-        if let Some(DepartLane::Index(l)) = f.depart_lane {
-            if l >= lanes.len() {
-                return Err(refuse(
-                    field("depart_lane"),
-                    l,
-                    format!(
-                        "edge `{}` has {} lane(s), indices 0..={}",
-                        f.from,
-                        lanes.len(),
-                        lanes.len() - 1
-                    ),
-                ));
-            }
-            if !open.contains(&l) {
-                return Err(refuse(
-                    field("depart_lane"),
-                    l,
-                    format!(
-                        "lane `{}` is closed to SUMO's default vehicle type, class passenger ({})",
-                        lanes[l].id,
-                        lanes[l].permissions()
-                    ),
-                ));
-            }
-        }
-        if !reaches(net, &f.from, &f.to) {
-            return Err(refuse(
-                field("to"),
-                format!("`{}`", f.to),
+                field(name),
+                format!("`{edge}`"),
                 format!(
-                    "no route along the connections of {} leads from `{}` to it",
+                    "{} has no normal edge of that id; nearest ids: {}",
                     path.display(),
-                    f.from
+                    nearest(net, edge)
                 ),
             ));
         }
-        if let Some(c) = &f.controlled {
-            if let Some((j, t)) = c.at_s.iter().enumerate().find(|(_, t)| **t >= horizon_s) {
-                return Err(refuse(
-                    format!("sumo.inflows[{k}].controlled.at_s[{j}]"),
-                    t,
-                    format!("the run ends at horizon_s = {horizon_s} s; depart before it"),
-                ));
-            }
-        }
-        if f.begin_s >= horizon_s {
+    }
+    if !reaches(net, &f.from, &f.to) {
+        return Err(refuse(
+            field("to"),
+            format!("`{}`", f.to),
+            format!(
+                "no route along the connections of {} leads from `{}` to it",
+                path.display(),
+                f.from
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The lanes of inflow `k`'s entry edge open to its vehicles (SUMO's default type, class
+/// passenger), at least one, with its departure lane, when it names one, among them.
+fn open_entry_lanes(net: &Network, k: usize, f: &InflowSpec) -> Result<Vec<usize>, PrepareError> {
+    let field = |name: &str| format!("sumo.inflows[{k}].{name}");
+    let lanes = net.edge_lanes(&f.from).unwrap_or_default();
+    let open: Vec<usize> = (0..lanes.len())
+        .filter(|&l| lanes[l].permits(VehicleClass::PASSENGER.name()))
+        .collect();
+    if open.is_empty() {
+        return Err(refuse(
+            field("from"),
+            format!("`{}`", f.from),
+            "no lane of it admits SUMO's default vehicle type, class passenger".into(),
+        ));
+    }
+    if let Some(DepartLane::Index(l)) = f.depart_lane {
+        if l >= lanes.len() {
             return Err(refuse(
-                field("begin_s"),
-                f.begin_s,
-                format!("the run ends at horizon_s = {horizon_s} s; begin before it"),
-            ));
-        }
-        let limit = lanes
-            .iter()
-            .map(|l| l.speed_mps)
-            .fold(f64::INFINITY, f64::min);
-        let v = f.depart_speed_mps.unwrap_or(limit).min(limit);
-        // The inflows entering there at the same time share the lanes they depart on.
-        let window = |g: &InflowSpec| (g.begin_s, g.end_s.unwrap_or(horizon_s));
-        let (b, e) = window(f);
-        let sharing: Vec<&InflowSpec> = inflows
-            .iter()
-            .filter(|g| g.from == f.from)
-            .filter(|g| window(g).0 < e && b < window(g).1)
-            .collect();
-        let mut used: Vec<usize> = sharing
-            .iter()
-            .flat_map(|g| departure_lanes(net, g, &open))
-            .collect();
-        used.sort_unstable();
-        used.dedup();
-        let own = departure_lanes(net, f, &open).len();
-        let total: f64 = sharing.iter().map(|g| g.vehs_per_hour).sum();
-        for (demand, lanes_used, shared) in [
-            (f.vehs_per_hour, own, false),
-            (total, used.len(), total > f.vehs_per_hour),
-        ] {
-            let capacity = lanes_used as f64 * lane_capacity_per_hour(v);
-            if demand <= capacity {
-                continue;
-            }
-            let shared = if shared {
-                format!(" (with the other inflows entering there at the same time, {total})")
-            } else {
-                String::new()
-            };
-            return Err(refuse(
-                field("vehs_per_hour"),
-                f.vehs_per_hour,
+                field("depart_lane"),
+                l,
                 format!(
-                    "above what edge `{}` can take in{shared}: at most about {:.0} vehicles per hour on {lanes_used} lane(s) departing at {v:.1} m/s (3600·v / (length + minGap + v·tau) per lane for SUMO's default vehicle type); SUMO would silently delay the insertions, so the inflow would not be what the scenario says: give at most {:.0} in all",
+                    "edge `{}` has {} lane(s), indices 0..={}",
                     f.from,
-                    capacity,
-                    capacity.floor()
+                    lanes.len(),
+                    lanes.len() - 1
                 ),
             ));
         }
+        if !open.contains(&l) {
+            return Err(refuse(
+                field("depart_lane"),
+                l,
+                format!(
+                    "lane `{}` is closed to SUMO's default vehicle type, class passenger ({})",
+                    lanes[l].id,
+                    lanes[l].permissions()
+                ),
+            ));
+        }
+    }
+    Ok(open)
+}
+
+/// Inflow `k` begins, and its controlled vehicles depart, before the horizon.
+fn check_times(k: usize, f: &InflowSpec, horizon_s: f64) -> Result<(), PrepareError> {
+    if let Some(c) = &f.controlled {
+        if let Some((j, t)) = c.at_s.iter().enumerate().find(|(_, t)| **t >= horizon_s) {
+            return Err(refuse(
+                format!("sumo.inflows[{k}].controlled.at_s[{j}]"),
+                t,
+                format!("the run ends at horizon_s = {horizon_s} s; depart before it"),
+            ));
+        }
+    }
+    if f.begin_s >= horizon_s {
+        return Err(refuse(
+            format!("sumo.inflows[{k}].begin_s"),
+            f.begin_s,
+            format!("the run ends at horizon_s = {horizon_s} s; begin before it"),
+        ));
+    }
+    Ok(())
+}
+
+/// Inflow `k`'s entry can take its vehicles on the lanes it departs on, and the inflows
+/// entering there at the same time together on the lanes they use between them (`open`: the
+/// entry's lanes open to them).
+fn check_capacity(
+    net: &Network,
+    k: usize,
+    f: &InflowSpec,
+    inflows: &[InflowSpec],
+    open: &[usize],
+    horizon_s: f64,
+) -> Result<(), PrepareError> {
+    let limit = net
+        .edge_lanes(&f.from)
+        .unwrap_or_default()
+        .iter()
+        .map(|l| l.speed_mps)
+        .fold(f64::INFINITY, f64::min);
+    let v = f.depart_speed_mps.unwrap_or(limit).min(limit);
+    let window = |g: &InflowSpec| (g.begin_s, g.end_s.unwrap_or(horizon_s));
+    let (b, e) = window(f);
+    let sharing: Vec<&InflowSpec> = inflows
+        .iter()
+        .filter(|g| g.from == f.from)
+        .filter(|g| window(g).0 < e && b < window(g).1)
+        .collect();
+    let mut used: Vec<usize> = sharing
+        .iter()
+        .flat_map(|g| departure_lanes(net, g, open))
+        .collect();
+    used.sort_unstable();
+    used.dedup();
+    let own = departure_lanes(net, f, open).len();
+    let total: f64 = sharing.iter().map(|g| g.vehs_per_hour).sum();
+    for (demand, lanes_used, shared) in [
+        (f.vehs_per_hour, own, false),
+        (total, used.len(), total > f.vehs_per_hour),
+    ] {
+        let capacity = lanes_used as f64 * lane_capacity_per_hour(v);
+        if demand <= capacity {
+            continue;
+        }
+        let shared = if shared {
+            format!(" (with the other inflows entering there at the same time, {total})")
+        } else {
+            String::new()
+        };
+        return Err(refuse(
+            format!("sumo.inflows[{k}].vehs_per_hour"),
+            f.vehs_per_hour,
+            format!(
+                "above what edge `{}` can take in{shared}: at most about {:.0} vehicles per hour on {lanes_used} lane(s) departing at {v:.1} m/s (3600·v / (length + minGap + v·tau) per lane for SUMO's default vehicle type); SUMO would silently delay the insertions, so the inflow would not be what the scenario says: give at most {:.0} in all",
+                f.from,
+                capacity,
+                capacity.floor()
+            ),
+        ));
     }
     Ok(())
 }

@@ -172,12 +172,7 @@ impl SumoRun {
         Option<syncroad_control::sumo_facts::SsmSummary>,
         Option<syncroad_control::sumo_facts::AllVehicles>,
     ) {
-        let warmup_s = self
-            .request
-            .measure
-            .as_ref()
-            .map_or(0.0, |m| m.warmup_steps as f64 * self.request.step_s);
-        let summary_warmup_s = self.request.summary_warmup_s.max(warmup_s);
+        let warmup_s = self.request.warmup_s;
         let ssm = self
             .request
             .measure
@@ -198,7 +193,7 @@ impl SumoRun {
             .as_ref()
             .filter(|_| finished)
             .and_then(
-                |f| match crate::summary::read(f, summary_warmup_s, self.request.step_s) {
+                |f| match crate::summary::read(f, warmup_s, self.request.step_s) {
                     Ok(a) => Some(a),
                     Err(e) => {
                         eprintln!("warning: {e}; the record has no metrics of all vehicles");

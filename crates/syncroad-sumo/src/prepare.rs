@@ -76,8 +76,9 @@ pub struct RunOptions {
     pub drivers: Vec<Option<SumoDriver>>,
     /// SUMO-side measurements (flow, time loss, fuel, CO2, hard braking).
     pub measure: Option<MeasureOptions>,
-    /// The run's warm-up \[s\]: every vehicle's metrics from SUMO's summary (`all_vehicles`)
-    /// are of the time after it, as the congestion metrics are.
+    /// The run's warm-up \[s\] (rounded down to whole steps): SUMO's measurements and every
+    /// vehicle's metrics from SUMO's summary (`all_vehicles`) are of the time after it, as the
+    /// congestion metrics are.
     pub warmup_s: f64,
     /// A wave damper drives the vehicles the law would drive (rings only); `None`: the
     /// scenario's law, or the damper its `mixed.controller` names.
@@ -90,8 +91,6 @@ pub struct RunOptions {
 /// What to measure in SUMO during a run.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MeasureOptions {
-    /// Warm-up before measuring \[s\] (rounded down to whole steps).
-    pub warmup_s: f64,
     /// Read fuel and CO2 every this many steps (≥ 1).
     pub emission_every: usize,
     /// Also write SUMO's trip info with emission totals (`tripinfo.xml` in the work folder).
@@ -265,6 +264,14 @@ fn prepare_with(
     write: bool,
 ) -> Result<Request, PrepareError> {
     check_sumo_numbers(scenario)?;
+    let w = opts.warmup_s;
+    if !(w.is_finite() && w >= 0.0 && w < scenario.horizon_s()) {
+        return Err(PrepareError::Measure {
+            field: "--warmup-s",
+            value: w.to_string(),
+            expected: "must be ≥ 0 and shorter than the horizon",
+        });
+    }
     let layout = layout_for(scenario, road)?;
     let io = |path: &Path, e: std::io::Error| PrepareError::Io {
         path: path.to_path_buf(),
@@ -362,13 +369,18 @@ fn prepare_with(
         sense_graph: other_traffic,
         // The metrics of every vehicle, when there are others than syncroad's.
         summary_file: other_traffic.then(|| opts.work_dir.join("summary.xml")),
-        summary_warmup_s: opts.warmup_s.clamp(0.0, scenario.horizon_s()),
+        warmup_s: warmup_steps(opts, scenario) as f64 * scenario.step_s(),
         fcd_file: fcd.then(|| opts.work_dir.join(crate::replay::FCD_FILE)),
         extra_routes,
         extra_additional,
         adopt: adopt.cloned(),
         guests,
     })
+}
+
+/// The run's warm-up in whole steps (rounded down).
+fn warmup_steps(opts: &RunOptions, scenario: &Scenario) -> usize {
+    (opts.warmup_s / scenario.step_s() + 1e-9).floor() as usize
 }
 
 /// The user's own traffic (`sumo.routes`, `sumo.additional`), checked before SUMO starts (the
@@ -577,13 +589,6 @@ fn measure_of(
         path: path.to_path_buf(),
         reason: e.to_string(),
     };
-    if !(m.warmup_s.is_finite() && m.warmup_s >= 0.0 && m.warmup_s < scenario.horizon_s()) {
-        return Err(PrepareError::Measure {
-            field: "--warmup-s",
-            value: m.warmup_s.to_string(),
-            expected: "must be ≥ 0 and shorter than the horizon",
-        });
-    }
     if m.emission_every == 0 {
         return Err(PrepareError::Measure {
             field: "--emission-every",
@@ -608,7 +613,7 @@ fn measure_of(
         None => None,
     };
     Ok(Measure {
-        warmup_steps: (m.warmup_s / scenario.step_s() + 1e-9).floor() as usize,
+        warmup_steps: warmup_steps(opts, scenario),
         emission_every: m.emission_every,
         detector_file,
         tripinfo_file: m.tripinfo.then(|| opts.work_dir.join("tripinfo.xml")),

@@ -135,9 +135,10 @@ pub struct Request {
     /// shares the road.
     #[serde(default)]
     pub summary_file: Option<PathBuf>,
-    /// The summary's metrics are of the time after this warm-up \[s\].
+    /// The run's warm-up \[s\]: what SUMO's files read after the run (its summary, its
+    /// surrogate safety measures) measure from it.
     #[serde(default)]
-    pub summary_warmup_s: f64,
+    pub warmup_s: f64,
     /// SUMO's floating-car data of every vehicle, every step (`--fcd`), for replay.
     #[serde(default)]
     pub fcd_file: Option<PathBuf>,
@@ -156,10 +157,9 @@ pub struct Request {
 /// vehicle type when SUMO inserts them and builds the law for each one alone.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct GuestLaw {
-    /// The inflow (`sumo.inflows[k]`).
+    /// The inflow (`sumo.inflows[k]`); its vehicles the law drives are of the type
+    /// [`crate::inflows::guest_type`]`(k)`.
     pub inflow: usize,
-    /// Their vehicle type.
-    pub vtype: String,
     /// The law, by its registry name and parameters.
     pub law: syncroad_control::registry::NamedLaw,
     /// What it is built with for one vehicle (an open road: nobody ahead but whom SUMO

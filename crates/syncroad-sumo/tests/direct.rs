@@ -30,8 +30,8 @@ fn run(mode: ReadMode, dir: &str) -> syncroad_sumo::SumoRun {
     opts.read = mode;
     // SUMO's own measurements too: fuel and CO2 are read every step, in one batch like the
     // speeds with direct calls.
+    opts.warmup_s = 10.0;
     opts.measure = Some(MeasureOptions {
-        warmup_s: 10.0,
         emission_every: 1,
         tripinfo: false,
         ssm: false,

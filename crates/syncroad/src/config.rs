@@ -41,16 +41,8 @@ pub fn note_config(sc: &Scenario) {
 /// Tells, when the scenario brings other traffic (`sumo.routes`, `sumo.additional`), that the
 /// conditions and the exact analysis printed are for the scenario's fixed graph only.
 pub fn note_fixed_graph(sc: &Scenario) {
-    let s = sc.sumo();
-    if !s.other_traffic() {
+    let Some((field, _)) = sc.sumo().other_traffic_source() else {
         return;
-    }
-    let field = if !s.routes().is_empty() {
-        "sumo.routes"
-    } else if !s.inflows().is_empty() {
-        "sumo.inflows"
-    } else {
-        "sumo.additional"
     };
     eprintln!(
         "note: {field} adds other traffic; in SUMO the law takes its graph from the road each step (who is ahead of and behind each vehicle on its lane), so where that traffic changes lanes into or out of the controlled lane or merges into it the graph changes (a run counts it as safety.topology_changes and leaves `certified` empty), and the results above hold for the scenario's fixed graph only"

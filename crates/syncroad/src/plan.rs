@@ -120,7 +120,6 @@ impl RunPlan {
         o.fcd = self.fcd;
         o.warmup_s = self.eval.warmup_s;
         o.measure = self.measure.map(|m| MeasureOptions {
-            warmup_s: self.eval.warmup_s,
             emission_every: m.emission_every,
             tripinfo: m.tripinfo,
             ssm: m.ssm,
@@ -154,13 +153,13 @@ mod tests {
         });
         let o = plan.sumo_options("w".into(), WorkerCommand::binary("syncroad"), None);
         assert_eq!((o.record_every, o.ballistic, o.fcd), (5, false, true));
-        // Every vehicle's metrics (SUMO's summary) skip the same warm-up.
+        // SUMO measures, and every vehicle's metrics (SUMO's summary) skip, the warm-up the
+        // evaluation skips.
         assert_eq!(o.warmup_s, 40.0);
         assert_eq!(o.timeout, Some(Duration::from_secs(9)));
         assert_eq!(o.drivers, spec.drivers);
         let m = o.measure.unwrap();
-        // SUMO measures from the warm-up the evaluation skips.
-        assert_eq!((m.warmup_s, m.emission_every, m.tripinfo), (40.0, 3, true));
+        assert_eq!((m.emission_every, m.tripinfo), (3, true));
         assert_eq!(plan.name(), "idm");
         assert!(RunPlan::new(spec, 1, eval)
             .sumo_options("w".into(), WorkerCommand::binary("syncroad"), None)

@@ -186,6 +186,19 @@ pub struct DelayedDriverModel {
 }
 
 impl DelayedDriverModel {
+    /// The model of no vehicles: a scenario without vehicles of its own (only an inflow's,
+    /// which come and go), which no law and no analysis takes.
+    pub(crate) fn empty() -> Self {
+        Self {
+            graph: crate::graph::Graph::empty(),
+            delay_s: Vec::new(),
+            delay_steps: Vec::new(),
+            leader: None,
+            history: HistorySpec::default(),
+            shape: GraphShape::Other,
+        }
+    }
+
     /// The law of this validated model (graph, delays, leader, history), seeded with the
     /// scenario's initial speeds — what every backend runs.
     pub fn law(
@@ -306,26 +319,7 @@ impl Scenario {
                 self.name()
             ));
         }
-        if s.other_traffic() {
-            let show = |files: &[std::path::PathBuf]| {
-                files
-                    .iter()
-                    .map(|f| f.display().to_string())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            };
-            let (field, value) = if !s.routes().is_empty() {
-                ("sumo.routes", show(s.routes()))
-            } else if !s.additional().is_empty() {
-                ("sumo.additional", show(s.additional()))
-            } else {
-                let edges: Vec<String> = s
-                    .inflows()
-                    .iter()
-                    .map(|f| format!("{} → {}", f.from, f.to))
-                    .collect();
-                ("sumo.inflows", edges.join(", "))
-            };
+        if let Some((field, value)) = s.other_traffic_source() {
             return Some(format!(
                 "scenario {}: {field} = {value}: the user's own traffic, which only SUMO drives, shares the road; the native simulator would run syncroad's vehicles without it and report on another road; {how}",
                 self.name(),

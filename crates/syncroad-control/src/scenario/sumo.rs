@@ -175,6 +175,33 @@ impl SumoSettings {
         !self.routes.is_empty() || !self.additional.is_empty() || !self.inflows.is_empty()
     }
 
+    /// The field that brings other traffic onto the road and its value as a message shows it
+    /// (`sumo.routes` and its files, `sumo.additional` and its files, or `sumo.inflows` and
+    /// their edges, the first given); `None` without other traffic.
+    pub fn other_traffic_source(&self) -> Option<(&'static str, String)> {
+        let show = |files: &[PathBuf]| {
+            files
+                .iter()
+                .map(|f| f.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        if !self.routes.is_empty() {
+            Some(("sumo.routes", show(&self.routes)))
+        } else if !self.additional.is_empty() {
+            Some(("sumo.additional", show(&self.additional)))
+        } else if !self.inflows.is_empty() {
+            let edges: Vec<String> = self
+                .inflows
+                .iter()
+                .map(|f| format!("{} → {}", f.from, f.to))
+                .collect();
+            Some(("sumo.inflows", edges.join(", ")))
+        } else {
+            None
+        }
+    }
+
     /// The inflows of human traffic (`sumo.inflows`), their numbers checked; their edges are
     /// checked on the network by the SUMO backend before it starts.
     pub fn inflows(&self) -> &[InflowSpec] {

@@ -300,47 +300,32 @@ impl ScenarioFile {
 
     /// The model with every per-vehicle value resolved: the delayed-driver law (graph, delays
     /// on the step grid, leader) or the CACC platoon; `closed` says the road is a ring or loop.
+    /// A scenario without vehicles of its own has no model, and an empty one stands for it.
     fn resolve_model(
         &self,
         n: usize,
         entries: &[super::file::VehicleEntry],
         closed: bool,
     ) -> Result<Model, ScenarioError> {
-        let spec = match (&self.model, n) {
-            (None, 0) => {
-                // No vehicles of its own: the inflows' vehicles are SUMO's, or their own law's.
-                return Ok(Model::DelayedDriver(DelayedDriverModel {
-                    graph: crate::graph::Graph::empty(),
-                    delay_s: Vec::new(),
-                    delay_steps: Vec::new(),
-                    leader: None,
-                    history: HistorySpec::default(),
-                    shape: GraphShape::Other,
-                }));
-            }
-            (Some(_), 0) => {
-                return Err(invalid(
-                    "model",
-                    "given",
-                    "the scenario has no vehicles of its own (\"vehicles\": 0), so no law of the model drives any: leave the model out (SUMO's model drives the inflows' vehicles, or the law of sumo.inflows[k].controlled)",
-                ))
-            }
-            (None, _) => {
-                return Err(invalid(
-                    "model",
-                    "missing",
-                    "give the law of the scenario's vehicles: {\"type\": \"delayed_driver\", ...} or {\"type\": \"cacc\", ...}",
-                ))
-            }
-            (Some(m), _) => m,
-        };
-        Ok(match spec {
-            ModelSpec::DelayedDriver {
+        match (&self.model, n) {
+            // No vehicles of its own: the inflows' vehicles are SUMO's, or their own law's.
+            (None, 0) => Ok(Model::DelayedDriver(DelayedDriverModel::empty())),
+            (Some(_), 0) => Err(invalid(
+                "model",
+                "given",
+                "the scenario has no vehicles of its own (\"vehicles\": 0), so no law of the model drives any: leave the model out (SUMO's model drives the inflows' vehicles, or the law of sumo.inflows[k].controlled)",
+            )),
+            (None, _) => Err(invalid(
+                "model",
+                "missing",
+                "give the law of the scenario's vehicles: {\"type\": \"delayed_driver\", ...} or {\"type\": \"cacc\", ...}",
+            )),
+            (Some(ModelSpec::DelayedDriver {
                 graph,
                 delay_s,
                 leader,
                 history,
-            } => {
+            }), _) => {
                 let shape = graph_shape(graph);
                 let graph = build_graph(graph, n)?;
                 let delay_s = merge("model.delay_s", "delay_s", delay_s.as_ref(), entries, |e| {
@@ -354,45 +339,10 @@ impl ScenarioFile {
                     )
                 })?
                 .resolve_nonneg("model.delay_s", n)?;
-                let mut delay_steps = Vec::with_capacity(n);
-                for (i, &d) in delay_s.iter().enumerate() {
-                    let m = (d / self.step_s).round();
-                    if (m * self.step_s - d).abs() > 1e-9 * self.step_s.max(d) {
-                        return Err(ScenarioError::DelayNotMultipleOfStep {
-                            vehicle: i,
-                            delay_s: d,
-                            step_s: self.step_s,
-                            nearest: (m.max(1.0) * self.step_s * 1e9).round() / 1e9,
-                        });
-                    }
-                    delay_steps.push(m as usize);
-                }
-                check_delay_buffer(&delay_steps, &delay_s, self.step_s)?;
+                let delay_steps = self.delay_steps(&delay_s)?;
                 let leader = match leader {
                     None => None,
-                    Some(l) => {
-                        if !(l.speed_mps.is_finite()
-                            && (0.0..=super::MAX_SPEED_MPS).contains(&l.speed_mps))
-                        {
-                            return Err(invalid(
-                                "model.leader.speed_mps",
-                                l.speed_mps,
-                                format!(
-                                    "must be a finite number in [0, {}] m/s",
-                                    super::MAX_SPEED_MPS
-                                ),
-                            ));
-                        }
-                        let b = l.pinning.resolve_nonneg("model.leader.pinning", n)?;
-                        if b.iter().all(|&x| x == 0.0) {
-                            return Err(invalid(
-                                "model.leader.pinning",
-                                "all zero",
-                                "at least one driver must see the leader (some b_i > 0, Theorem thm.1+)",
-                            ));
-                        }
-                        Some((l.speed_mps, b))
-                    }
+                    Some(l) => Some(resolve_leader(l, n)?),
                 };
                 if closed && leader.is_some() {
                     return Err(invalid(
@@ -401,23 +351,23 @@ impl ScenarioFile {
                         "a leader needs a straight road (road.type = \"straight\")",
                     ));
                 }
-                Model::DelayedDriver(DelayedDriverModel {
+                Ok(Model::DelayedDriver(DelayedDriverModel {
+                    shape,
                     graph,
                     delay_s,
                     delay_steps,
                     leader,
                     history: *history,
-                    shape,
-                })
+                }))
             }
-            ModelSpec::Cacc(c) => {
+            (Some(ModelSpec::Cacc(c)), _) => {
                 if closed {
                     return Err(invalid("road.type", if self.road.is_network() { "loop" } else { "ring" }, "a CACC platoon drives behind its leader on a straight road: use \"straight\""));
                 }
                 c.leader.validate()?;
                 let mut nu = c.nu.resolve_nonneg("model.nu", n)?;
                 nu[n - 1] = 0.0;
-                Model::Cacc(CaccModel {
+                Ok(Model::Cacc(CaccModel {
                     mu: c.mu.resolve_pos("model.mu", n)?,
                     eta: c.eta.resolve_pos("model.eta", n)?,
                     nu,
@@ -425,9 +375,29 @@ impl ScenarioFile {
                     tau_s: c.tau_s.resolve_pos("model.tau_s", n)?,
                     length_m: c.length_m.resolve_pos("model.length_m", n)?,
                     leader: c.leader.clone(),
-                })
+                }))
             }
-        })
+        }
+    }
+
+    /// The delays α_i in whole steps m_i = α_i / Δt, each on the step grid, the buffers they
+    /// need within bounds.
+    fn delay_steps(&self, delay_s: &[f64]) -> Result<Vec<usize>, ScenarioError> {
+        let mut delay_steps = Vec::with_capacity(delay_s.len());
+        for (i, &d) in delay_s.iter().enumerate() {
+            let m = (d / self.step_s).round();
+            if (m * self.step_s - d).abs() > 1e-9 * self.step_s.max(d) {
+                return Err(ScenarioError::DelayNotMultipleOfStep {
+                    vehicle: i,
+                    delay_s: d,
+                    step_s: self.step_s,
+                    nearest: (m.max(1.0) * self.step_s * 1e9).round() / 1e9,
+                });
+            }
+            delay_steps.push(m as usize);
+        }
+        check_delay_buffer(&delay_steps, delay_s, self.step_s)?;
+        Ok(delay_steps)
     }
 
     /// The initial bumper gaps: as given, else even on a closed road (its length less the
@@ -666,6 +636,33 @@ fn check_gaps(
         }
     }
     Ok(())
+}
+
+/// The delayed-driver model's leader for `n` drivers: its speed v_0 and the pinning gains b_i,
+/// at least one of them positive (Theorem `thm.1+`).
+fn resolve_leader(
+    l: &super::file::DriverLeaderSpec,
+    n: usize,
+) -> Result<(f64, Vec<f64>), ScenarioError> {
+    if !(l.speed_mps.is_finite() && (0.0..=super::MAX_SPEED_MPS).contains(&l.speed_mps)) {
+        return Err(invalid(
+            "model.leader.speed_mps",
+            l.speed_mps,
+            format!(
+                "must be a finite number in [0, {}] m/s",
+                super::MAX_SPEED_MPS
+            ),
+        ));
+    }
+    let b = l.pinning.resolve_nonneg("model.leader.pinning", n)?;
+    if b.iter().all(|&x| x == 0.0) {
+        return Err(invalid(
+            "model.leader.pinning",
+            "all zero",
+            "at least one driver must see the leader (some b_i > 0, Theorem thm.1+)",
+        ));
+    }
+    Ok((l.speed_mps, b))
 }
 
 /// Refuses delays whose buffers would pass [`MAX_DELAY_BUFFER`] values: the law keeps

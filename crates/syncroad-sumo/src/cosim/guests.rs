@@ -81,7 +81,7 @@ impl<'a, 'py> Guests<'a, 'py> {
                 .guests
                 .iter()
                 .enumerate()
-                .map(|(i, g)| (g.vtype.clone(), i))
+                .map(|(i, g)| (crate::inflows::guest_type(g.inflow), i))
                 .collect(),
             on_road: Vec::new(),
             speed_mode: match req.safety {

@@ -36,26 +36,13 @@ pub fn run(path: &Path, json: bool) -> anyhow::Result<Status> {
             )
         })
         .or_else(|| {
-            let inflows = sc.sumo().inflows();
-            (!inflows.is_empty() && sc.backend() == syncroad_control::scenario::Backend::Sumo).then(|| {
-                format!(
-                    "sumo.inflows: the run shares the road with {} inflow(s) of traffic that enters and leaves; it can enter the law's lane or merge into it and change who follows whom, so the gaps are not those of the law's fixed graph that the certificate describes (the run's record measures the gaps it drove: gap_safety)",
-                    inflows.len()
-                )
-            })
-        })
-        .or_else(|| {
-            let routes = sc.sumo().routes();
-            (!routes.is_empty() && sc.backend() == syncroad_control::scenario::Backend::Sumo).then(|| {
-                format!(
-                    "sumo.routes = {}: the run shares the road with your own traffic, which SUMO drives; it can enter the law's lane or merge into it and change who follows whom, so the gaps are not those of the law's fixed graph that the certificate describes (the run's record measures the gaps it drove: gap_safety)",
-                    routes
-                        .iter()
-                        .map(|p| p.display().to_string())
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                )
-            })
+            let (field, value) = sc
+                .sumo()
+                .other_traffic_source()
+                .filter(|_| sc.backend() == syncroad_control::scenario::Backend::Sumo)?;
+            Some(format!(
+                "{field} = {value}: the run shares the road with other traffic, which SUMO drives; it can enter the law's lane or merge into it and change who follows whom, so the gaps are not those of the law's fixed graph that the certificate describes (the run's record measures the gaps it drove: gap_safety)"
+            ))
         });
     let gaps = gap_certificate(&sc);
     if json {
