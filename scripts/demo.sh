@@ -20,7 +20,7 @@ cargo build --release -p syncroad
 # FollowerStopper's desired speed U = 4.3 m/s is the humans' uniform-flow speed on this ring.
 ./target/release/syncroad compare scenarios/sugiyama-human.json --warmup-s 400 --ssm \
   --baselines protocol,human,follower-stopper-4.3,pi-saturation \
-  --mixed 0,1,2,4 --mixed-driver human --mixed-controller law,follower-stopper-4.3,pi-saturation \
+  --mixed 0,1,2,4 --mixed-driver human --mixed-controller protocol,follower-stopper-4.3,pi-saturation \
   --out out/compare-human
 # Watch it: the law and stochastic humans (human-noisy) on the same ring from the same uniform
 # start, SUMO's floating-car data kept for `syncroad replay out/watch/protocol` in sumo-gui,
@@ -37,7 +37,7 @@ cargo build --release -p syncroad
 .venv/bin/python - <<'PY'
 import pandas
 df = pandas.read_parquet("out/noisy-penetration/results.parquet")
-df["controller"] = df["run"].str.replace(r"-?mixed-[0-9.]+$", "", regex=True).replace("", "law")
+df["controller"] = df["run"].str.replace(r"-?mixed-[0-9.]+$", "", regex=True).replace("", "all human")
 g = df.groupby(["controller", "penetration"])
 m = g[["congestion.speed_std_mps", "sumo.fuel_g_per_km", "congestion.stopped_fraction"]]
 half = 2.093 * m.std() / g.size().pow(0.5).values[:, None]   # t(0.975, 19): 20 seeds

@@ -28,10 +28,10 @@ def cell(xs, digits):
 rows = [r for r in csv.DictReader(open(sys.argv[1] if len(sys.argv) > 1 else "results.csv")) if r["status"] == "complete"]
 by = defaultdict(list)
 for r in rows:
-    ctl = "all" if r["run"] == "mixed-0" else r["run"].rsplit("-mixed-", 1)[0] if "-mixed-" in r["run"] else "law"
+    ctl = "all" if r["run"] == "mixed-0" else r["run"].rsplit("-mixed-", 1)[0]
     by[(float(r["penetration"]), ctl)].append(r)
 pens = sorted({p for p, _ in by})
-ctls = ["law", "follower-stopper-4.3", "pi-saturation"]
+ctls = ["protocol", "follower-stopper-4.3", "pi-saturation"]
 f = lambda rs, k: [float(r[k]) for r in rs]
 print("| penetration (of 22) | law: speed std [m/s] | law: collision steps | FollowerStopper: speed std | PI: speed std | law: fuel [g/km] | FollowerStopper: fuel | PI: fuel | min gap, law / FS / PI [m] | unsafe runs, law / FS / PI |")
 print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---|")

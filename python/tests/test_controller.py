@@ -18,7 +18,9 @@ FILE = str(REPO / "examples" / "controllers" / "follower_stopper.py")
 
 def ring(horizon_s=30):
     sc = syncroad.Scenario.load("scenarios/sugiyama-human.json")
+    # The controller on every vehicle: without the file's humans-alone mixed block.
     d = dict(sc.data, horizon_s=horizon_s)
+    del d["mixed"]
     return syncroad.Scenario.from_dict(d, base_dir=REPO / "scenarios")
 
 

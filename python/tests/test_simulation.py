@@ -18,7 +18,10 @@ from follower_stopper import FollowerStopper  # noqa: E402
 
 def ring(horizon_s=20):
     sc = syncroad.Scenario.load("scenarios/sugiyama-human.json")
-    return syncroad.Scenario.from_dict(dict(sc.data, horizon_s=horizon_s), base_dir=REPO / "scenarios")
+    # The caller drives every vehicle: without the file's humans-alone mixed block.
+    d = dict(sc.data, horizon_s=horizon_s)
+    del d["mixed"]
+    return syncroad.Scenario.from_dict(d, base_dir=REPO / "scenarios")
 
 
 def speeds(run):

@@ -100,7 +100,7 @@ pub use pi_saturation::{
     pi_saturation_command_mps, PiSaturation, PiSaturationError, PiSaturationParams,
 };
 pub use record::{RunRecord, SumoFacts};
-pub use registry::{LawNameError, NamedLaw};
+pub use registry::{LawNameError, NamedLaw, PROTOCOL};
 pub use scenario::{Scenario, ScenarioError, ScenarioFile};
 pub use speed_controller::ControllerEnd;
 pub use speed_controller::{LawContext, LawEntry};

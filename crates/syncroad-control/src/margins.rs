@@ -205,14 +205,14 @@ mod tests {
         t.push(1.0, &[4.0, 2.0], &[0.0, 0.0], &[8.0, 3.0], None);
         // v = 0.5 (in the jam): gap 2.5 counts for the minimum gap, not for the headway.
         t.push(2.0, &[0.5, 5.0], &[0.0, 0.0], &[2.5, 10.0], None);
-        let m = SafetyMargins::of(&t, 1.0, &facts(&["law", "human"], 32)).unwrap();
+        let m = SafetyMargins::of(&t, 1.0, &facts(&["protocol", "human"], 32)).unwrap();
         assert_relative_eq!(m.time_headway_min_s.unwrap(), 1.5);
         assert_relative_eq!(m.time_headway_mean_s.unwrap(), (2.0 + 1.5 + 2.0) / 3.0);
         assert_relative_eq!(m.min_gap_m.unwrap(), 2.5);
         assert!(m.ignores_safe_speed);
         // Speed mode 1 keeps the safe speed; with only SUMO drivers no mode applies.
         assert!(
-            !SafetyMargins::of(&t, 1.0, &facts(&["law", "human"], 1))
+            !SafetyMargins::of(&t, 1.0, &facts(&["protocol", "human"], 1))
                 .unwrap()
                 .ignores_safe_speed
         );
@@ -220,7 +220,7 @@ mod tests {
         assert!(!humans.ignores_safe_speed);
         assert_eq!(humans.law_speed_mode, None);
         // Without SSM the run did not measure margins.
-        let mut f = facts(&["law"], 32);
+        let mut f = facts(&["protocol"], 32);
         f.ssm = None;
         assert_eq!(SafetyMargins::of(&t, 1.0, &f), None);
     }

@@ -45,6 +45,11 @@ use serde::{Deserialize, Serialize};
 use crate::fingerprint::fnv1a_hex;
 use crate::speed_controller::{LawContext, LawEntry, Road, SpeedController};
 
+/// The name of the scenario's own law (its `model`: the delayed drivers or the bidirectional
+/// CACC) wherever a driver is named: runs, tables, folders, plots and the drivers of a record.
+/// `law` is read as its older spelling.
+pub const PROTOCOL: &str = "protocol";
+
 /// The built-in laws, one line each.
 pub static BUILT_IN: &[LawEntry] = &[
     crate::follower_stopper::ENTRY,
@@ -86,6 +91,7 @@ pub fn register(entry: LawEntry) -> Result<(), RegistryError> {
         .iter()
         .chain(laws.iter())
         .any(|l| l.name == entry.name)
+        || entry.name == PROTOCOL
         || entry.name == "law"
     {
         return Err(RegistryError::Taken(entry.name.to_string()));
@@ -129,7 +135,7 @@ pub fn valid_names() -> String {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum LawNameError {
     /// No law of that name.
-    #[error("{field} = {value}: unknown controller; use law, {valid}")]
+    #[error("{field} = {value}: unknown controller; use {valid}")]
     Unknown {
         /// Flag or field.
         field: String,
@@ -160,7 +166,7 @@ impl LawNameError {
     /// What is wrong, without the field (for errors that name it their own way).
     pub fn why(&self) -> String {
         match self {
-            LawNameError::Unknown { valid, .. } => format!("unknown controller; use law, {valid}"),
+            LawNameError::Unknown { valid, .. } => format!("unknown controller; use {valid}"),
             LawNameError::Params { reason, .. } => reason.clone(),
             e @ LawNameError::NotARing { .. } => e.to_string(),
         }
@@ -179,11 +185,12 @@ pub struct NamedLaw {
 
 impl NamedLaw {
     /// Parses a driver name (`follower-stopper-4.3`, `pi-saturation`, a registered law's
-    /// name) and checks its parameters; `Ok(None)` for `law`, the scenario's own. `field`
+    /// name) and checks its parameters; `Ok(None)` for [`PROTOCOL`] (or its older spelling
+    /// `law`), the scenario's own. `field`
     /// names the flag or field in errors.
     pub fn parse(field: &str, s: &str) -> Result<Option<Self>, LawNameError> {
         let low = s.trim().to_ascii_lowercase().replace('_', "-");
-        if low == "law" {
+        if low == PROTOCOL || low == "law" {
             return Ok(None);
         }
         let all = entries();
@@ -204,7 +211,7 @@ impl NamedLaw {
             return Err(LawNameError::Unknown {
                 field: field.into(),
                 value: s.into(),
-                valid: valid_names(),
+                valid: format!("{PROTOCOL} (the scenario's own law), {}", valid_names()),
             });
         };
         let law = NamedLaw {
@@ -395,6 +402,7 @@ mod tests {
 
     #[test]
     fn names_parse_and_round_trip() {
+        assert_eq!(NamedLaw::parse("--x", "protocol").unwrap(), None);
         assert_eq!(NamedLaw::parse("--x", "law").unwrap(), None);
         let fs = NamedLaw::parse("--x", "follower-stopper-4.3")
             .unwrap()
@@ -422,7 +430,7 @@ mod tests {
         let e = NamedLaw::parse("--x", "follower-stopper").unwrap_err();
         assert!(
             e.to_string().starts_with(
-                "--x = follower-stopper: unknown controller; use law, follower-stopper-X (X = desired_speed_mps"
+                "--x = follower-stopper: unknown controller; use protocol (the scenario's own law), follower-stopper-X (X = desired_speed_mps"
             ),
             "{e}"
         );

@@ -72,12 +72,12 @@ impl SumoRun {
         let k0 = usize::from(self.request.layout.leader_vehicle);
         let finish = self.worker.result.as_ref().ok();
         let start = self.worker.start.as_ref();
-        // Law-commanded vehicles are labelled `law`, or with the damper that drives them.
+        // Law-commanded vehicles are labelled `protocol`, or with the damper that drives them.
         let damper = match &self.request.control {
             Control::Law { law } => law.damper.as_ref().map(|d| d.to_string()),
             _ => None,
         };
-        let commanded = damper.unwrap_or_else(|| "law".to_string());
+        let commanded = damper.unwrap_or_else(|| syncroad_control::PROTOCOL.to_string());
         // Stochastic humans are commanded too, labelled with their driver name.
         let humans = match &self.request.control {
             Control::Law { law } => law.humans.as_ref().map(|h| h.drivers.clone()),

@@ -1555,7 +1555,7 @@ mod open_roads {
             "{e}"
         );
         let e = refused(serde_json::json!({"law": "follower-stoper-20", "share": 0.1}));
-        assert!(e.starts_with("sumo.inflows[0].controlled.law = follower-stoper-20: unknown controller; use law, follower-stopper-X"), "{e}");
+        assert!(e.starts_with("sumo.inflows[0].controlled.law = follower-stoper-20: unknown controller; use follower-stopper-X"), "{e}");
         let e = refused(serde_json::json!({"law": "pi-saturation", "share": 1.5}));
         assert_eq!(e, "sumo.inflows[0].controlled.share = 1.5: must be a share in [0, 1] of the inflow's vehicles");
         let e = refused(serde_json::json!({"law": "pi-saturation", "at_s": [-1]}));

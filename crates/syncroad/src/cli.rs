@@ -291,7 +291,7 @@ pub struct CompareArgs {
     /// Output folder: one subfolder per run, compare.json (created if missing).
     #[arg(long, short)]
     pub out: PathBuf,
-    /// Runs, comma-separated: protocol (the scenario as written: its law, or its mixed ring),
+    /// Runs, comma-separated: protocol (the scenario's law on every vehicle),
     /// SUMO drivers krauss (SUMO's default, σ 0.5), krauss-SIGMA (e.g. krauss-0.9), idm, acc,
     /// cacc, the presets human (IDM calibrated on the Sugiyama ring) and flow-idm, SUMO's
     /// driver-state device driverstate-A (awareness A), on rings the stochastic humans
@@ -311,9 +311,10 @@ pub struct CompareArgs {
     /// that jams the Sugiyama ring; e.g. krauss-0.9, human-noisy).
     #[arg(long, default_value = syncroad_control::drive::DEFAULT_HUMAN)]
     pub mixed_driver: String,
-    /// What drives the K automated vehicles of --mixed runs, comma-separated: law (the
-    /// scenario's), follower-stopper-U, pi-saturation. One run per controller and K > 0, named
-    /// mixed-K for the law and CONTROLLER-mixed-K otherwise; mixed-0 runs once.
+    /// What drives the K automated vehicles of --mixed runs, comma-separated: protocol (the
+    /// scenario's law), follower-stopper-U, pi-saturation, any law of `syncroad laws`. One run
+    /// per controller and K > 0, named CONTROLLER-mixed-K (protocol-mixed-2); the all-human
+    /// mixed-0 runs once.
     #[arg(long, default_value = syncroad_control::drive::DEFAULT_MIXED_CONTROLLER)]
     pub mixed_controller: String,
     /// Also measure safety margins in every run: time headway (min, mean), minimum gap, SUMO's

@@ -138,6 +138,6 @@ impl Run {
                 pipeline::sumo(sc, &road, &opts)?.output
             }
         };
-        Ok(Finished::new(sc, "law", output, eval))
+        Ok(Finished::new(sc, syncroad_control::PROTOCOL, output, eval))
     }
 }

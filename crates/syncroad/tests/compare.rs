@@ -72,13 +72,19 @@ fn sumo_measurements_agree_with_sumo_totals_and_kinematics() {
         .arg(&d));
     assert_eq!(code, 0, "{out}\n{err}");
     assert!(
-        out.contains("| metric | protocol | krauss-0.9 | idm | mixed-0 | mixed-2 |"),
+        out.contains("| metric | protocol | krauss-0.9 | idm | mixed-0 | protocol-mixed-2 |"),
         "{out}"
     );
     assert!(err.contains("[ 5/5 done"), "progress display: {err}");
     let v_max = 30.0; // sumo.max_speed_mps default; the ring's lanes allow 30 m/s as well
     let length = 5.0; // the scenario's default vehicle length
-    for name in ["protocol", "krauss-0.9", "idm", "mixed-0", "mixed-2"] {
+    for name in [
+        "protocol",
+        "krauss-0.9",
+        "idm",
+        "mixed-0",
+        "protocol-mixed-2",
+    ] {
         let dir = d.join(name);
         let m = json(&dir.join("metrics.json"));
         let s = &m["sumo"];
@@ -137,12 +143,14 @@ fn sumo_measurements_agree_with_sumo_totals_and_kinematics() {
         c["runs"]["mixed-0"]["sumo"],
         c["runs"]["krauss-0.9"]["sumo"]
     );
-    assert_eq!(c["runs"]["mixed-2"]["law_controlled_vehicles"], 2);
-    let drivers = c["runs"]["mixed-2"]["drivers"].as_array().unwrap();
-    assert_eq!(drivers[0], "law");
-    assert_eq!(drivers[11], "law");
+    assert_eq!(c["runs"]["protocol-mixed-2"]["law_controlled_vehicles"], 2);
+    let drivers = c["runs"]["protocol-mixed-2"]["drivers"].as_array().unwrap();
+    assert_eq!(drivers[0], "protocol");
+    assert_eq!(drivers[11], "protocol");
     assert_eq!(drivers[1], "krauss-0.9");
-    assert!(c["mixed_reduction_vs_all_human"]["mixed-2"]["speed_std_reduction"].is_number());
+    assert!(
+        c["mixed_reduction_vs_all_human"]["protocol-mixed-2"]["speed_std_reduction"].is_number()
+    );
     // SUMO's drivers keep their headway and crawl far below the law's speed, with or without
     // two law vehicles among them. A law that also commanded the SUMO drivers (planted: the
     // batch setSpeed on every vehicle) lifted the all-human ring to 2.8 m/s and failed here.
@@ -152,9 +160,10 @@ fn sumo_measurements_agree_with_sumo_totals_and_kinematics() {
             .unwrap()
     };
     assert!(
-        speed("mixed-2") < 1.5 * speed("mixed-0") && speed("protocol") > 3.0 * speed("mixed-0"),
-        "mixed-2 {} m/s, all human {} m/s, all law {} m/s",
-        speed("mixed-2"),
+        speed("protocol-mixed-2") < 1.5 * speed("mixed-0")
+            && speed("protocol") > 3.0 * speed("mixed-0"),
+        "protocol-mixed-2 {} m/s, all human {} m/s, all law {} m/s",
+        speed("protocol-mixed-2"),
         speed("mixed-0"),
         speed("protocol")
     );
@@ -413,7 +422,7 @@ fn a_law_diverging_on_a_vehicle_sumo_drives_does_not_stop_the_mixed_run() {
         .arg("--out")
         .arg(dir.join("out")));
     assert!(code == 0 || code == 1, "{out}{err}");
-    let m = json(&dir.join("out/mixed-2/metrics.json"));
+    let m = json(&dir.join("out/protocol-mixed-2/metrics.json"));
     assert_eq!(m["complete"], true, "{m}");
     assert_eq!(m["safety"]["negative_commands_clamped"], 0, "{m}");
 }

@@ -139,12 +139,12 @@ fn half_penetration_automates_half_the_vehicles_drawn_from_the_seed() {
     assert_ne!(a, other);
     // SUMO ran exactly the vehicles the library draws for the seed; the rest are humans.
     for (seed, drivers) in [(42, &a), (43, &other)] {
-        let law: Vec<usize> = (0..22).filter(|&i| drivers[i] == "law").collect();
+        let law: Vec<usize> = (0..22).filter(|&i| drivers[i] == "protocol").collect();
         assert_eq!(
             law,
             syncroad_control::drive::Placement::Seeded.automated(22, 11, seed)
         );
-        assert!(drivers.iter().all(|x| x == "law" || x == "human"));
+        assert!(drivers.iter().all(|x| x == "protocol" || x == "human"));
     }
     // An unknown human driver is named before SUMO starts, with the valid ones.
     let sc = mixed_scenario(

@@ -71,7 +71,7 @@ fn every_command_writes_the_published_shape() {
         .arg(&d));
     assert_eq!(code, 0, "{err}");
     let combined = read(&d.join("compare.json"));
-    for name in ["protocol", "idm", "mixed-0", "mixed-2"] {
+    for name in ["protocol", "idm", "mixed-0", "protocol-mixed-2"] {
         let per_run = read(&d.join(name).join("metrics.json"));
         // compare.json holds the same record with its stamps lifted to the top.
         let mut lifted = combined["runs"][name].clone();

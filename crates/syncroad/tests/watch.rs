@@ -487,9 +487,10 @@ fn animate_rings_the_controlled_vehicle_among_humans() {
         ])
         .arg(&out));
     assert!(code == 0 || code == 1, "{stdout}{stderr}");
-    let m: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("mixed-1/metrics.json")).unwrap())
-            .unwrap();
+    let m: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(out.join("protocol-mixed-1/metrics.json")).unwrap(),
+    )
+    .unwrap();
     let drivers: Vec<&str> = m["drivers"]
         .as_array()
         .unwrap()
@@ -497,12 +498,12 @@ fn animate_rings_the_controlled_vehicle_among_humans() {
         .map(|d| d.as_str().unwrap())
         .collect();
     assert_eq!(
-        drivers.iter().filter(|d| **d == "law").count(),
+        drivers.iter().filter(|d| **d == "protocol").count(),
         1,
         "{drivers:?}"
     );
     let mut black = Vec::new();
-    for run_dir in ["mixed-1", "protocol"] {
+    for run_dir in ["protocol-mixed-1", "protocol"] {
         let gif = dir.join(format!("{run_dir}.gif"));
         let (code, _, stderr) = run(bin()
             .arg("animate")

@@ -5,11 +5,11 @@
 
 use super::placement::Placement;
 use super::sumo_driver::{DriverError, SumoDriver};
-use crate::registry::{LawNameError, NamedLaw};
+use crate::registry::{LawNameError, NamedLaw, PROTOCOL};
 
 /// What drives the automated vehicles of mixed runs unless named (`compare
 /// --mixed-controller`, a sweep's `mixed_controller`).
-pub const DEFAULT_MIXED_CONTROLLER: &str = "law";
+pub const DEFAULT_MIXED_CONTROLLER: &str = PROTOCOL;
 
 /// Errors naming who drives.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -24,7 +24,7 @@ pub enum DriveError {
     #[error("{0} is listed twice")]
     Twice(String),
     /// A mixed series without a controller.
-    #[error("no controller is named; name at least one (e.g. law)")]
+    #[error("no controller is named; name at least one (e.g. protocol)")]
     NoController,
 }
 
@@ -58,15 +58,25 @@ impl Drive {
                 })
     }
 
-    /// `protocol` (the scenario's law), a damper (`follower-stopper-U`, `pi-saturation`) on
-    /// every vehicle, or a SUMO driver name for all `n` vehicles; `field` names where the name
-    /// was given, for errors.
+    /// The scenario as written: its law on every vehicle (`protocol`), or the mixed ring of
+    /// its `mixed` block (`mixed`) — what `syncroad run` runs and a sweep without `runs`.
+    pub fn as_written(mixed: bool) -> Self {
+        Self {
+            name: if mixed { "mixed" } else { PROTOCOL }.into(),
+            drivers: Vec::new(),
+            damper: None,
+        }
+    }
+
+    /// `protocol` (the scenario's law on every vehicle, whatever its `mixed` block says), a
+    /// damper (`follower-stopper-U`, `pi-saturation`) on every vehicle, or a SUMO driver name
+    /// for all `n` vehicles; `field` names where the name was given, for errors.
     pub fn parse(field: &str, name: &str, n: usize) -> Result<Self, DriveError> {
-        let low = name.to_ascii_lowercase();
-        if low == "protocol" {
+        let low = name.trim().to_ascii_lowercase();
+        if low == PROTOCOL || low == "law" {
             return Ok(Self {
-                name: "protocol".into(),
-                drivers: Vec::new(),
+                name: PROTOCOL.into(),
+                drivers: vec![None; n],
                 damper: None,
             });
         }
@@ -111,13 +121,13 @@ impl Drive {
         }
     }
 
-    /// Labels of who drives each vehicle, as SUMO runs report them (`law`, a damper's or a
+    /// Labels of who drives each vehicle, as SUMO runs report them (`protocol`, a damper's or a
     /// driver's name).
     pub fn labels(&self, n: usize) -> Vec<String> {
         let commanded = self
             .damper
             .as_ref()
-            .map_or_else(|| "law".to_string(), |d| d.to_string());
+            .map_or_else(|| PROTOCOL.to_string(), |d| d.to_string());
         if self.drivers.is_empty() {
             return vec![commanded; n];
         }
@@ -131,7 +141,7 @@ impl Drive {
     }
 }
 
-/// The controllers of a mixed series by name: `law` or a damper ([`NamedLaw::parse`]), each
+/// The controllers of a mixed series by name: `protocol` or a damper ([`NamedLaw::parse`]), each
 /// once, at least one; `field` names where they were given.
 pub fn mixed_controllers<S: AsRef<str>>(
     field: &str,
@@ -153,7 +163,7 @@ pub fn mixed_controllers<S: AsRef<str>>(
 
 /// The mixed runs with `k` of `n` vehicles automated among `human` drivers, `label` naming
 /// the share (`2` vehicles in `compare`, `0.25` of them in a sweep): one run per controller,
-/// `mixed-LABEL` for the law and `CONTROLLER-mixed-LABEL` for a damper. The all-human ring
+/// `CONTROLLER-mixed-LABEL` (`protocol-mixed-2`, `pi-saturation-mixed-2`). The all-human ring
 /// (`k = 0`) is the same whatever would control, so it is one run, `mixed-LABEL`.
 pub fn mixed_series(
     n: usize,
@@ -170,8 +180,9 @@ pub fn mixed_series(
     with.iter()
         .map(|d| {
             let name = match d {
-                Some(d) if k > 0 => format!("{d}-mixed-{label}"),
-                _ => format!("mixed-{label}"),
+                _ if k == 0 => format!("mixed-{label}"),
+                Some(d) => format!("{d}-mixed-{label}"),
+                None => format!("{PROTOCOL}-mixed-{label}"),
             };
             Drive::mixed(name, n, k, human.clone(), d.clone())
         })
@@ -185,7 +196,7 @@ mod tests {
     #[test]
     fn a_mixed_series_names_each_controller_and_runs_the_all_human_ring_once() {
         let human = SumoDriver::parse("d", "human").unwrap();
-        let c = mixed_controllers("--mixed-controller", &["law", "pi-saturation"]).unwrap();
+        let c = mixed_controllers("--mixed-controller", &["protocol", "pi-saturation"]).unwrap();
         let names = |k| -> Vec<String> {
             mixed_series(22, k, &k.to_string(), &c, &human)
                 .into_iter()
@@ -193,7 +204,7 @@ mod tests {
                 .collect()
         };
         assert_eq!(names(0), ["mixed-0"]);
-        assert_eq!(names(2), ["mixed-2", "pi-saturation-mixed-2"]);
+        assert_eq!(names(2), ["protocol-mixed-2", "pi-saturation-mixed-2"]);
         let runs = mixed_series(22, 2, "2", &c, &human);
         // k of n vehicles are the controller's, spread evenly (vehicles 0 and 11); the
         // damper drives them in the second run only.
@@ -206,7 +217,8 @@ mod tests {
             (true, true)
         );
         assert_eq!(
-            mixed_controllers("mixed_controller", &["law", "law"]),
+            // `law` is the protocol's older spelling: the same controller twice.
+            mixed_controllers("mixed_controller", &["protocol", "law"]),
             Err(DriveError::Twice("law".into()))
         );
         assert_eq!(
@@ -218,7 +230,8 @@ mod tests {
     #[test]
     fn runs_parse_by_name_and_spellings_of_one_driver_are_the_same_run() {
         let p = Drive::parse("--baselines", "protocol", 22).unwrap();
-        assert!(p.drivers.is_empty() && p.damper.is_none());
+        assert!(p.drivers == vec![None; 22] && p.damper.is_none());
+        assert_eq!(Drive::parse("--baselines", "law", 22).unwrap(), p);
         let d = Drive::parse("--baselines", "pi-saturation", 22).unwrap();
         assert_eq!((d.drivers.len(), d.damper.is_some()), (22, true));
         let a = Drive::parse("--baselines", "krauss-0.9", 22).unwrap();
@@ -230,7 +243,9 @@ mod tests {
         ));
         assert_eq!(a.labels(22), vec!["krauss-0.9".to_string(); 22]);
         assert_eq!(d.labels(22), vec!["pi-saturation".to_string(); 22]);
-        // The scenario's own law (no drivers given) labels the n vehicles it drives.
-        assert_eq!(p.labels(2), ["law", "law"]);
+        // The scenario's own law labels the vehicles it drives, given or not.
+        assert_eq!(p.labels(22), vec!["protocol".to_string(); 22]);
+        assert_eq!(Drive::as_written(false).labels(2), ["protocol", "protocol"]);
+        assert_eq!(Drive::as_written(true).name, "mixed");
     }
 }

@@ -15,6 +15,7 @@ use crate::exact::gaps::GapSummary;
 use crate::margins::SafetyMargins;
 use crate::metrics::SyncMetrics;
 use crate::outcome::{Outcome, RunOutput};
+use crate::registry::PROTOCOL;
 use crate::scenario::{Backend, Scenario};
 use crate::stop::StopReason;
 use crate::string_measured::StringAmplification;
@@ -314,16 +315,16 @@ impl RunRecord {
             .map(|f| f.drivers.clone())
             .or_else(|| run.drivers.clone())
             .filter(|d| !d.is_empty())
-            .unwrap_or_else(|| vec!["law".to_string(); sc.vehicles()]);
-        let law_controlled = drivers.iter().filter(|d| *d == "law").count();
-        // The user's controller drives where the law would: its label replaces `law`.
+            .unwrap_or_else(|| vec![PROTOCOL.to_string(); sc.vehicles()]);
+        let law_controlled = drivers.iter().filter(|d| *d == PROTOCOL).count();
+        // The user's controller drives where the law would: its label replaces `protocol`.
         let drivers = match sc.controller() {
             None => drivers,
             Some(c) => {
                 let label = c.label();
                 drivers
                     .into_iter()
-                    .map(|d| if d == "law" { label.clone() } else { d })
+                    .map(|d| if d == PROTOCOL { label.clone() } else { d })
                     .collect()
             }
         };

@@ -1,14 +1,14 @@
-//! Mixed traffic on a ring: a fraction p of the vehicles (the penetration rate) runs the law or
-//! a wave damper, the others are SUMO human drivers. Which vehicles are automated is drawn from
+//! Mixed traffic on a ring: a fraction p of the vehicles (the penetration rate) runs the scenario's
+//! law (the protocol) or a wave damper, the others are SUMO human drivers. Which vehicles are automated is drawn from
 //! the scenario's seed, so a run is reproducible and a sweep over seeds samples placements.
 //!
 //! ```json
-//! "mixed": {"penetration": 0.5, "controller": "law", "human": "human", "placement": "seeded"}
+//! "mixed": {"penetration": 0.5, "controller": "protocol", "human": "human", "placement": "seeded"}
 //! ```
 //! * `penetration` p ∈ \[0, 1\]: `round(p N)` vehicles are automated (halves round up);
 //! * `placement`: `seeded` (default: drawn from the scenario's seed) or `even` (spread evenly,
 //!   as `compare --mixed` places them), see [`Placement`];
-//! * `controller`: `law` (the scenario's model, default), `follower-stopper-U` (desired speed
+//! * `controller`: `protocol` (the scenario's model, default; `law` is its older spelling), `follower-stopper-U` (desired speed
 //!   U in m/s) or `pi-saturation` — the wave dampers of Stern et al. (2018);
 //! * `human`: the SUMO driver of the other vehicles (default `human`, the calibrated preset;
 //!   any name `compare --baselines` takes). The SUMO backend checks it before SUMO starts.
@@ -26,7 +26,7 @@ use crate::registry::NamedLaw;
 pub struct MixedSpec {
     /// Fraction p of automated vehicles, in \[0, 1\].
     pub penetration: f64,
-    /// What drives the automated vehicles: `law`, `follower-stopper-U` or `pi-saturation`.
+    /// What drives the automated vehicles: `protocol`, `follower-stopper-U` or `pi-saturation`.
     #[serde(default = "default_controller")]
     pub controller: String,
     /// SUMO driver of the other vehicles.
@@ -38,7 +38,7 @@ pub struct MixedSpec {
 }
 
 fn default_controller() -> String {
-    "law".into()
+    crate::registry::PROTOCOL.into()
 }
 
 fn default_human() -> String {
@@ -90,7 +90,7 @@ mod tests {
     fn the_block_places_round_p_n_vehicles_its_way() {
         let m = |placement| MixedSpec {
             penetration: 0.2,
-            controller: "law".into(),
+            controller: "protocol".into(),
             human: DEFAULT_HUMAN.into(),
             placement,
         };
@@ -126,7 +126,7 @@ mod tests {
         assert!(m(0.5, "law").validate(false).is_err());
         let e = m(0.5, "bang-bang").validate(true).unwrap_err().to_string();
         assert!(
-            e.starts_with("mixed.controller = bang-bang: unknown controller; use law, "),
+            e.starts_with("mixed.controller = bang-bang: unknown controller; use protocol (the scenario's own law), "),
             "{e}"
         );
         assert!(m(0.5, "pi-saturation").validate(true).is_ok());

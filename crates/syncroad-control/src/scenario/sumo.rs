@@ -450,7 +450,16 @@ impl InflowControl {
     /// whoever is ahead of it).
     pub fn law(&self, k: usize) -> Result<NamedLaw, ScenarioError> {
         let field = format!("sumo.inflows[{k}].controlled.law");
-        let to_err = |e: crate::registry::LawNameError| invalid(&field, &self.law, e.why());
+        let to_err = |e: crate::registry::LawNameError| {
+            let why = match e {
+                // The scenario's own law is not one a vehicle of an inflow can drive.
+                crate::registry::LawNameError::Unknown { .. } => {
+                    format!("unknown controller; use {}", crate::registry::valid_names())
+                }
+                e => e.why(),
+            };
+            invalid(&field, &self.law, why)
+        };
         // The law's own name with its parameters (`constant-speed` and `params`), or a name
         // that carries its shorthand parameter (`constant-speed-25`).
         let bare = crate::registry::lookup(&self.law).ok().map(|e| NamedLaw {

@@ -144,7 +144,7 @@ impl Scene {
         } = read_rows(dir, record.vehicles)?;
         let road = read_road(dir, &record, &position_m)?;
         let law = |d: &str| {
-            d == "law"
+            d == syncroad_control::PROTOCOL
                 || d.starts_with("python:")
                 || d.starts_with("rust:")
                 || syncroad_control::registry::NamedLaw::parse("driver", d).is_ok()

@@ -115,10 +115,10 @@ fn laws_table() -> String {
         })
         .collect();
     let w = rows.iter().map(|r| r.0.chars().count()).max().unwrap_or(0);
-    let mut out = format!("{:<w$}  {:<4}  what it is\n", "law", "road");
+    let mut out = format!("{:<w$}  {:<4}  what it is\n", "name", "road");
     for (name, road, summary) in rows {
         out.push_str(&format!("{name:<w$}  {road:<4}  {summary}\n"));
     }
-    out.push_str("law (the scenario's model law) and SUMO's drivers (syncroad compare --help) drive too; your own laws: the guide's \"Your own controller\".");
+    out.push_str("protocol (the scenario's model law) and SUMO's drivers (syncroad compare --help) drive too; your own laws: the guide's \"Your own controller\".");
     out
 }

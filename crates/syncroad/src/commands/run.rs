@@ -241,7 +241,7 @@ fn run_native(sc: &Scenario, path: &Path, out: &OutputArgs) -> anyhow::Result<St
     progress.finish();
     // The law could not be built (the user's controller): no run to judge, no record.
     let output = output.context("nothing was run")?;
-    let f = Finished::new(sc, "law", output, cfg.eval);
+    let f = Finished::new(sc, syncroad_control::PROTOCOL, output, cfg.eval);
     let complete = f.output.stop.is_complete();
     // The summary is printed even when a file cannot be written (a full disk).
     let written = f.write(
@@ -285,18 +285,15 @@ fn run_sumo(
     };
     let road = load_road(sc).map_err(|e| InputError::caused("before starting SUMO", e))?;
     let _lock = prepare_out(&cfg.out, path, sc)?;
-    // The run's name says who drove: the law, SUMO's Krauss, or the scenario's mixed ring.
-    let name = if args.krauss_sigma.is_some() {
-        "sumo_krauss"
-    } else if sc.mixed().is_some() {
-        "mixed"
-    } else {
-        "law"
-    };
-    let drive = Drive {
-        name: name.into(),
-        drivers,
-        damper: None,
+    // The run's name says who drove: SUMO's Krauss (by its driver's name, as every command
+    // names it), or the scenario as written (the protocol, or its mixed ring).
+    let drive = match drivers.first() {
+        Some(Some(d)) => Drive {
+            name: d.to_string(),
+            drivers,
+            damper: None,
+        },
+        _ => Drive::as_written(sc.mixed().is_some()),
     };
     let mut plan = RunPlan::new(drive, cfg.record_every, cfg.eval);
     plan.ballistic = !args.euler;

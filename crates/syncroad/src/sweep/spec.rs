@@ -14,7 +14,7 @@
 //!   "runs": ["protocol", "krauss-0.9"],
 //!   "penetrations": [0.0, 0.25, 0.5],
 //!   "mixed_driver": "human",
-//!   "mixed_controller": "law",
+//!   "mixed_controller": "protocol",
 //!   "metrics": ["sync.verdict", "congestion.speed_std_mps"]
 //! }
 //! ```
@@ -341,14 +341,22 @@ impl Sweep {
 fn runs_of(file: &SpecFile, base: &Scenario, backend: Backend) -> anyhow::Result<Vec<RunChoice>> {
     let n = base.vehicles();
     let mut runs = Vec::new();
-    let names = file.runs.clone().unwrap_or_else(|| {
-        if file.penetrations.is_empty() {
-            vec!["protocol".into()]
-        } else {
-            Vec::new()
-        }
+    let names = file.runs.clone().unwrap_or_default();
+    if file.runs.is_none() && file.penetrations.is_empty() {
+        // Neither runs nor penetrations: the scenario as written (its law, or its mixed ring).
+        let spec = Drive::as_written(base.mixed().is_some());
+        runs.push(RunChoice {
+            penetration: penetration(&spec, base),
+            spec,
+        });
+    }
+    let only_protocol = names.iter().all(|r| {
+        matches!(
+            Drive::parse("runs", r, n),
+            Ok(d) if d.name == syncroad_control::PROTOCOL
+        )
     });
-    if n == 0 && (names.iter().any(|r| r != "protocol") || !file.penetrations.is_empty()) {
+    if n == 0 && (!only_protocol || !file.penetrations.is_empty()) {
         // Every run would drive the same traffic: the drivers are SUMO's and the inflows' laws.
         return Err(bad(
             "runs and penetrations: the base scenario has no vehicles of its own (\"vehicles\": 0), so a run's drivers would drive nobody; sweep sumo.inflows[k].controlled instead (an axis whose values are controlled blocks)",
@@ -384,7 +392,7 @@ fn runs_of(file: &SpecFile, base: &Scenario, backend: Backend) -> anyhow::Result
         let human = SumoDriver::parse("mixed_driver", human_name)
             .map_err(|e| InputError::caused("mixed_driver", e))?;
         let names = match &file.mixed_controller {
-            None => vec!["law".to_string()],
+            None => vec![syncroad_control::PROTOCOL.to_string()],
             Some(OneOrMany::One(c)) => vec![c.clone()],
             Some(OneOrMany::Many(v)) => v.clone(),
         };

@@ -56,14 +56,14 @@ pub fn fresh_metrics(base: &Baseline, baseline_path: &Path) -> anyhow::Result<Va
         let every = crate::config::default_record_every(sc.steps(), sc.vehicles());
         let f = Finished::new(
             &sc,
-            "law",
+            syncroad_control::PROTOCOL,
             pipeline::native(&sc, every).context("nothing was run")?,
             EvalOptions::of(&sc),
         );
         return Ok(f.record.to_json());
     }
     let runs = match base.kind {
-        Kind::Sumo => Some("protocol".to_string()),
+        Kind::Sumo => Some(syncroad_control::PROTOCOL.to_string()),
         _ => base.runs.clone(),
     };
     let out = std::env::temp_dir().join(format!(
