@@ -163,6 +163,7 @@ mod tests {
             decel_mps2: f64::INFINITY,
             speed_limit_mps: None,
             signals: false,
+            protocol: None,
         };
         let p = BcmParams::default();
         let mut law = Bcm::new(p, &c);

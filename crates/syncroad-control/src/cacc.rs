@@ -9,7 +9,7 @@
 //! `a_des,i = μ_i (v_0 − v_i) + η_i (g_i − s_i) + ν_i (s_{i+1} − g_{i+1})`, the ν-term absent for
 //! the last vehicle.
 
-use crate::scenario::CaccModel;
+use crate::model::CaccModel;
 use crate::sensed::{Neighbors, Sensed};
 
 /// Measured state of the platoon at one instant.

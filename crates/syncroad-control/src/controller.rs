@@ -6,22 +6,21 @@
 //! [`controller_for`] and step the result, so a scenario runs the same law code on either
 //! backend; with SUMO's ballistic position update the two agree run against run.
 //!
-//! * Delayed drivers (eq. `chandler+`, pinning `b_i (v_0 − v_i)` of eq. `proto-lin+` when the
-//!   scenario has a leader): [`DelayedDriverLaw`], second order on the step grid.
-//! * CACC (eqs. `veh-proto1`, `veh-proto2`): [`CaccLaw`] gives `a_des` from the measured state,
-//!   held over the step; [`PowertrainLag`] integrates `τ_i a' + a = a_des` exactly over it.
+//! The law is an entry of the registry ([`crate::registry`]): a damper or another law a run
+//! names, the user's own, or — when nothing else is named — `protocol`, the scenario's model
+//! law ([`crate::protocol_law`]). Stochastic humans take over their vehicles' commands, and
+//! the safety filter sits under all of them.
 
 use serde::{Deserialize, Serialize};
 
-use crate::cacc::{CaccLaw, PlatoonView, PowertrainLag};
-use crate::delayed_driver::{DelayedDriverLaw, LawError};
+use crate::drive::sumo_driver::DriverError;
 use crate::drive::{Drive, SumoDriver};
+use crate::model::ProtocolInput;
 use crate::noisy_idm::{HumanController, HumanSetup};
 use crate::registry::NamedLaw;
 use crate::road::RingView;
 use crate::safety::{FilterParams, SafetyFilter, SafetyMode, REACTION_S};
-use crate::scenario::{LeaderProfile, Model, Scenario};
-use crate::sensed::Neighbors;
+use crate::scenario::Scenario;
 use crate::speed_controller::LawContext;
 use crate::user_law::{PythonLaw, UserLaw};
 
@@ -30,16 +29,11 @@ pub use crate::speed_controller::SpeedController;
 /// Errors building a controller.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ControllerError {
-    /// The delayed-driver law rejected its inputs.
-    #[error("delayed-driver law: {0}")]
-    Law(#[from] LawError),
-    /// A CACC platoon needs its leader on the road.
-    #[error("the CACC model needs a leader vehicle: run it on a straight road (road.type = \"straight\")")]
-    CaccNeedsLeader,
     /// Stochastic humans follow a predecessor around a ring.
     #[error("the stochastic human drivers (noisy IDM) drive on a ring (each vehicle follows its predecessor); this road is straight")]
     HumansNeedRing,
-    /// A law of the registry the run names (a wave damper) could not be built.
+    /// A law of the registry (the scenario's own `protocol`, or a wave damper the run names)
+    /// could not be built.
     #[error("{law}: {reason}")]
     Named {
         /// The law's name.
@@ -77,14 +71,11 @@ pub enum ControllerError {
 /// receives instead of the scenario file, so nothing is validated twice.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct LawSpec {
-    /// The validated model.
-    pub model: Model,
     /// Step Δt \[s\].
     pub step_s: f64,
-    /// Initial speeds of the controlled vehicles \[m/s\] (the delay buffers' pre-history).
-    pub initial_speed_mps: Vec<f64>,
-    /// The vehicles on the road and the road itself as the backend resolved them: what a law
-    /// of the registry or the user's controller is built for.
+    /// The vehicles on the road and the road itself as the backend resolved them, and the
+    /// scenario's model: what a law of the registry (the scenario's own `protocol` among
+    /// them) or the user's controller is built for.
     pub context: LawContext,
     /// A law of the registry ([`crate::registry`]: a wave damper) that drives the law's
     /// vehicles instead of the model's law; `None`: the model's law, or the user's.
@@ -118,9 +109,7 @@ impl LawSpec {
         length_m.extend_from_slice(scenario.length_m());
         let vt = scenario.sumo().vehicle_type();
         Self {
-            model: scenario.model().clone(),
             step_s: scenario.step_s(),
-            initial_speed_mps: scenario.initial_speed_mps().to_vec(),
             context: LawContext {
                 step_s: scenario.step_s(),
                 controlled: vec![true; ids.len()],
@@ -131,6 +120,11 @@ impl LawSpec {
                 decel_mps2: vt.decel_mps2,
                 speed_limit_mps: None,
                 signals: false,
+                protocol: Some(Box::new(ProtocolInput {
+                    model: scenario.model().clone(),
+                    initial_speed_mps: scenario.initial_speed_mps().to_vec(),
+                    leader_vehicle: leader,
+                })),
             },
             damper: None,
             humans: None,
@@ -144,42 +138,80 @@ impl LawSpec {
         }
     }
 
-    /// The law of the run `drive` on the native simulator: the scenario's law with the damper and the
-    /// stochastic humans on a ring of the scenario's length; `None` when a SUMO driver takes
-    /// part (only SUMO runs it: a run that leaves the drivers to a scenario with a `mixed`
-    /// block included) or a damper or human is asked for on a straight road.
+    /// The law of the run `drive` on the native simulator: the scenario's law with the
+    /// drivers [`drivers_for`] resolves, on a ring of the scenario's length; `None` when one of
+    /// SUMO's own drivers takes part (only SUMO runs it), or a damper or stochastic human is
+    /// asked for on a straight road.
     pub fn of_drive(sc: &Scenario, drive: &Drive) -> Option<Self> {
-        if drive.drivers.is_empty() && sc.mixed().is_some() {
+        let (drivers, damper) = drivers_for(sc, &drive.drivers, drive.damper.as_ref()).ok()?;
+        let sumo = drivers.iter().flatten().any(|d| !d.commanded_by_bridge());
+        let ring_needed = damper.is_some() || drivers.iter().any(Option::is_some);
+        if sumo || (ring_needed && sc.ring_length_m().is_none()) {
             return None;
         }
-        let mut law = Self::of(sc);
-        if drive.damper.is_none() && drive.drivers.iter().all(Option::is_none) {
-            return Some(law);
+        Self::of(sc).driven_by(&drivers, damper, sc.seed()).ok()
+    }
+
+    /// This law, built for the run's road and vehicles, with who drives each scenario vehicle
+    /// (`drivers`, one per vehicle, `None` for the law; empty: the law everywhere) and a
+    /// damper in place of the law: a vehicle of SUMO's own drivers takes no command, a
+    /// stochastic human's is computed by its driver here (its noise drawn from `seed`). The
+    /// one resolution both backends make; stochastic humans need a ring.
+    pub fn driven_by(
+        mut self,
+        drivers: &[Option<SumoDriver>],
+        damper: Option<NamedLaw>,
+        seed: u64,
+    ) -> Result<Self, ControllerError> {
+        self.damper = damper;
+        if drivers.is_empty() {
+            return Ok(self);
         }
-        let ring = sc.ring_length_m()?;
-        let mut humans = Vec::with_capacity(drive.drivers.len());
-        for d in &drive.drivers {
-            humans.push(match d {
-                None => None,
-                Some(SumoDriver::Noisy(h)) => Some(*h),
-                Some(_) => return None,
-            });
-        }
-        law.damper = drive.damper.clone();
-        for (c, h) in law.context.controlled.iter_mut().zip(&humans) {
-            *c = h.is_none();
+        let k0 = usize::from(self.leader_vehicle());
+        let mut humans = vec![None; k0];
+        humans.extend(drivers.iter().map(|d| match d {
+            Some(SumoDriver::Noisy(h)) => Some(*h),
+            _ => None,
+        }));
+        let c = &mut self.context;
+        for (flag, d) in c.controlled[k0..].iter_mut().zip(drivers) {
+            *flag = d.is_none();
         }
         if humans.iter().any(Option::is_some) {
-            law.humans = Some(HumanSetup {
+            let Some(ring_length_m) = c.ring_length_m.filter(|_| k0 == 0) else {
+                return Err(ControllerError::HumansNeedRing);
+            };
+            self.humans = Some(HumanSetup {
                 drivers: humans,
-                ring_length_m: ring,
-                length_m: sc.length_m().to_vec(),
-                seed: sc.seed(),
-                speed_limit_mps: None,
+                ring_length_m,
+                length_m: c.length_m.clone(),
+                seed,
+                speed_limit_mps: c.speed_limit_mps,
             });
         }
-        Some(law)
+        Ok(self)
     }
+}
+
+/// Who drives each vehicle of a run of `sc` and which damper commands the law's vehicles:
+/// the run's own `drivers` and `damper` when it names drivers, else the scenario's `mixed`
+/// block (the automated vehicles placed as it says, drawn from the seed; the others its
+/// `human`), else the law on every vehicle (no drivers). Both backends ask here.
+pub fn drivers_for(
+    sc: &Scenario,
+    drivers: &[Option<SumoDriver>],
+    damper: Option<&NamedLaw>,
+) -> Result<(Vec<Option<SumoDriver>>, Option<NamedLaw>), DriverError> {
+    let Some(m) = sc.mixed().filter(|_| drivers.is_empty()) else {
+        return Ok((drivers.to_vec(), damper.cloned()));
+    };
+    let human = SumoDriver::parse("mixed.human", &m.human)?;
+    let mut out = vec![Some(human); sc.vehicles()];
+    for i in m.automated(sc.vehicles(), sc.seed()) {
+        out[i] = None;
+    }
+    // Validated with the scenario: the name parses.
+    Ok((out, damper.cloned().or(m.damper().ok().flatten())))
 }
 
 /// The filter's parameters for the safety layer `mode` (`None` unless it is the filter), from
@@ -209,88 +241,22 @@ pub trait LawHost {
     ) -> Result<Box<dyn SpeedController>, ControllerError>;
 }
 
-/// Delayed drivers. With a leader vehicle, index 0 is the leader driven at `v_0`.
-pub struct DelayedDriverController {
-    law: DelayedDriverLaw,
-    v0: Option<f64>,
-    leader_vehicle: bool,
-    next: Vec<f64>,
-}
-
-impl SpeedController for DelayedDriverController {
-    fn step(&mut self, _t: f64, speeds: &[f64], _positions: &[f64], out: &mut [f64]) {
-        let k = usize::from(self.leader_vehicle);
-        self.law
-            .step(&speeds[k..], self.v0.unwrap_or(0.0), &mut self.next);
-        out[k..].copy_from_slice(&self.next);
-        if self.leader_vehicle {
-            out[0] = self.v0.unwrap_or(speeds[0]);
-        }
-    }
-
-    fn sense(&mut self, neighbors: &Neighbors) {
-        self.law.sense(neighbors, usize::from(self.leader_vehicle));
-    }
-}
-
-/// The bidirectional CACC law with the powertrain lag `τ_i q''' + q'' = a_des` integrated
-/// exactly over the step for the held `a_des`. Index 0 is the leader, driven along its profile.
-pub struct CaccController {
-    law: CaccLaw,
-    lag: PowertrainLag,
-    profile: LeaderProfile,
-    dt_s: f64,
-    a_des: Vec<f64>,
-    next: Vec<f64>,
-    /// The graph from the simulator this step (the leader is vehicle 0); `None`: fixed.
-    sensed: Option<Neighbors>,
-}
-
-impl SpeedController for CaccController {
-    fn step(&mut self, t: f64, speeds: &[f64], positions: &[f64], out: &mut [f64]) {
-        let view = PlatoonView {
-            leader_position_m: positions[0],
-            leader_speed_mps: self.profile.speed_at(t),
-            positions_m: &positions[1..],
-            speeds_mps: &speeds[1..],
-        };
-        match &self.sensed {
-            None => self.law.desired_accelerations(&view, &mut self.a_des),
-            Some(nb) => self
-                .law
-                .desired_accelerations_sensed(&view, nb, &mut self.a_des),
-        }
-        self.lag.step(&self.a_des, &speeds[1..], &mut self.next);
-        out[1..].copy_from_slice(&self.next);
-        out[0] = self.profile.speed_at(t + self.dt_s);
-    }
-
-    fn sense(&mut self, neighbors: &Neighbors) {
-        neighbors.keep_in(&mut self.sensed);
-    }
-}
-
-/// Builds the controller of a law; `leader_vehicle` says whether the leader is the first
-/// vehicle on the road. Stochastic humans, when the law has them, take over their vehicles'
-/// commands from the law or damper.
-pub fn controller_for(
-    law: &LawSpec,
-    leader_vehicle: bool,
-) -> Result<Box<dyn SpeedController>, ControllerError> {
-    controller_for_in(law, leader_vehicle, None)
+/// Builds the controller of a law. Stochastic humans, when the law has them, take over their
+/// vehicles' commands from the law or damper.
+pub fn controller_for(law: &LawSpec) -> Result<Box<dyn SpeedController>, ControllerError> {
+    controller_for_in(law, None)
 }
 
 /// [`controller_for`] with a host that builds the user's Python controller, when the law has
 /// one (without a host such a law is refused with [`ControllerError::NoPythonHost`]).
 pub fn controller_for_in(
     law: &LawSpec,
-    leader_vehicle: bool,
     host: Option<&dyn LawHost>,
 ) -> Result<Box<dyn SpeedController>, ControllerError> {
-    let inner = law_controller(law, leader_vehicle, host)?;
+    let inner = law_controller(law, host)?;
     let driven: Box<dyn SpeedController> = match &law.humans {
         None => inner,
-        Some(_) if leader_vehicle => return Err(ControllerError::HumansNeedRing),
+        Some(_) if law.leader_vehicle() => return Err(ControllerError::HumansNeedRing),
         Some(h) => Box::new(HumanController::new(inner, h, law.step_s)),
     };
     let c = &law.context;
@@ -305,21 +271,23 @@ pub fn controller_for_in(
     })
 }
 
+impl LawSpec {
+    /// The leader vehicle is the first on the road (a platoon behind its leader).
+    pub fn leader_vehicle(&self) -> bool {
+        self.context
+            .protocol
+            .as_ref()
+            .is_some_and(|p| p.leader_vehicle)
+    }
+}
+
+/// The law that commands the law's vehicles: the damper the run names, else the user's own,
+/// else the scenario's `protocol` — each an entry of the registry.
 fn law_controller(
     law: &LawSpec,
-    leader_vehicle: bool,
     host: Option<&dyn LawHost>,
 ) -> Result<Box<dyn SpeedController>, ControllerError> {
-    let n = law.initial_speed_mps.len();
-    if let Some(d) = &law.damper {
-        return d
-            .build(&law.context)
-            .map_err(|reason| ControllerError::Named {
-                law: d.to_string(),
-                reason,
-            });
-    }
-    if let Some(u) = &law.user {
+    if let Some(u) = law.user.as_ref().filter(|_| law.damper.is_none()) {
         return match (u, host) {
             (UserLaw::Python(p), Some(h)) => h.python(p, &law.context),
             (UserLaw::Python(p), None) => Err(ControllerError::NoPythonHost {
@@ -334,29 +302,11 @@ fn law_controller(
             }
         };
     }
-    match &law.model {
-        Model::DelayedDriver(m) => {
-            let v0 = m.leader.as_ref().map(|(v0, _)| *v0);
-            Ok(Box::new(DelayedDriverController {
-                law: m.law(law.step_s, &law.initial_speed_mps)?,
-                v0,
-                leader_vehicle,
-                next: vec![0.0; n],
-            }))
-        }
-        Model::Cacc(m) => {
-            if !leader_vehicle {
-                return Err(ControllerError::CaccNeedsLeader);
-            }
-            Ok(Box::new(CaccController {
-                law: CaccLaw::new(m),
-                lag: PowertrainLag::new(&m.tau_s, law.step_s),
-                profile: m.leader.clone(),
-                dt_s: law.step_s,
-                a_des: vec![0.0; n],
-                next: vec![0.0; n],
-                sensed: None,
-            }))
-        }
-    }
+    let named = law.damper.clone().unwrap_or_else(NamedLaw::protocol);
+    named
+        .build(&law.context)
+        .map_err(|reason| ControllerError::Named {
+            law: named.to_string(),
+            reason,
+        })
 }

@@ -161,6 +161,7 @@ mod tests {
             decel_mps2: f64::INFINITY,
             speed_limit_mps: None,
             signals: false,
+            protocol: None,
         };
         let mut law = Lacc::new(p, &c);
         let mut out = [0.0; 2];

@@ -116,8 +116,7 @@ pub fn simulate_with(
     law: &LawSpec,
     opts: NativeOptions,
 ) -> Result<NativeRun, ControllerError> {
-    let leader = leader_start(scenario).is_some();
-    let law = controller_for_in(law, leader, opts.host)?;
+    let law = controller_for_in(law, opts.host)?;
     Ok(simulate_controller(scenario, law, opts))
 }
 

@@ -52,6 +52,7 @@ pub const PROTOCOL: &str = "protocol";
 
 /// The built-in laws, one line each.
 pub static BUILT_IN: &[LawEntry] = &[
+    crate::protocol_law::ENTRY,
     crate::follower_stopper::ENTRY,
     crate::pi_saturation::ENTRY,
     crate::flow_dampers::FOLLOWER_STOPPER_ENTRY,
@@ -91,7 +92,6 @@ pub fn register(entry: LawEntry) -> Result<(), RegistryError> {
         .iter()
         .chain(laws.iter())
         .any(|l| l.name == entry.name)
-        || entry.name == PROTOCOL
         || entry.name == "law"
     {
         return Err(RegistryError::Taken(entry.name.to_string()));
@@ -118,10 +118,21 @@ pub fn lookup(name: &str) -> Result<LawEntry, String> {
     ))
 }
 
-/// The valid spellings, for error messages: `follower-stopper-U (U = desired_speed_mps),
-/// pi-saturation, ...`.
+/// The valid spellings, for error messages: `protocol, follower-stopper-U (U =
+/// desired_speed_mps), pi-saturation, ...`.
 pub fn valid_names() -> String {
-    entries()
+    names_of(&entries())
+}
+
+/// The valid spellings of the laws that drive a vehicle alone, behind whoever is ahead of it
+/// (an inflow's vehicles): those that do not read the vehicle behind.
+pub fn valid_names_alone() -> String {
+    let alone: Vec<LawEntry> = entries().into_iter().filter(|e| !e.looks_behind).collect();
+    names_of(&alone)
+}
+
+fn names_of(entries: &[LawEntry]) -> String {
+    entries
         .iter()
         .map(|l| match l.shorthand {
             Some(key) => format!("{}-X (X = {key}, e.g. {}-4.3)", l.name, l.name),
@@ -211,7 +222,7 @@ impl NamedLaw {
             return Err(LawNameError::Unknown {
                 field: field.into(),
                 value: s.into(),
-                valid: format!("{PROTOCOL} (the scenario's own law), {}", valid_names()),
+                valid: valid_names(),
             });
         };
         let law = NamedLaw {
@@ -279,6 +290,14 @@ impl NamedLaw {
 }
 
 impl NamedLaw {
+    /// The scenario's own law, [`PROTOCOL`].
+    pub fn protocol() -> Self {
+        Self {
+            name: PROTOCOL.into(),
+            params: serde_json::json!({}),
+        }
+    }
+
     /// The law as a reader wants it: its name in tables when that is its name or its
     /// shorthand (`follower-stopper-4.3`), else its name with its parameters
     /// (`delayed-driver {"gain":0.6,"delay_s":0.5}`) rather than their hash.
@@ -430,7 +449,7 @@ mod tests {
         let e = NamedLaw::parse("--x", "follower-stopper").unwrap_err();
         assert!(
             e.to_string().starts_with(
-                "--x = follower-stopper: unknown controller; use protocol (the scenario's own law), follower-stopper-X (X = desired_speed_mps"
+                "--x = follower-stopper: unknown controller; use protocol, follower-stopper-X (X = desired_speed_mps"
             ),
             "{e}"
         );
@@ -485,6 +504,7 @@ mod tests {
             decel_mps2: f64::INFINITY,
             speed_limit_mps: None,
             signals: false,
+            protocol: None,
         }
     }
 

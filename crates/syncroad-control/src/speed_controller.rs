@@ -6,6 +6,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::model::ProtocolInput;
 use crate::sensed::Neighbors;
 use crate::stop::StopReason;
 
@@ -105,6 +106,10 @@ pub struct LawContext {
     /// of each vehicle asks SUMO for it each step.
     #[serde(default)]
     pub signals: bool,
+    /// The scenario's own law (its model), which the registry's `protocol` entry builds;
+    /// `None` where the vehicles are not a scenario's (an inflow's vehicles, a test's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub protocol: Option<Box<ProtocolInput>>,
 }
 
 /// The road a law needs.

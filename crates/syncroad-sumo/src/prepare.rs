@@ -13,7 +13,7 @@ use syncroad_control::controller::filter_params;
 use syncroad_control::safety::SafetyMode;
 use syncroad_control::scenario::Scenario;
 use syncroad_control::start::{initial_positions, leader_start};
-use syncroad_control::{HumanSetup, LawSpec, NamedLaw, NoisyIdm};
+use syncroad_control::{LawSpec, NamedLaw};
 
 use crate::layout::{ring_layout, straight_layout, Layout};
 pub use crate::net::loop_position;
@@ -240,23 +240,6 @@ pub fn check_run(scenario: &Scenario, road: &Road, opts: &RunOptions) -> Result<
     prepare_with(scenario, road, opts, false).map(|_| ())
 }
 
-/// The stochastic humans of the layout, taken off SUMO's drivers: the bridge commands them,
-/// so SUMO sees law-driven vehicles. One entry per vehicle, `None` for the others.
-fn bridge_humans(layout: &mut Layout) -> Vec<Option<NoisyIdm>> {
-    layout
-        .vehicles
-        .iter_mut()
-        .map(|dep| match &dep.driver {
-            Some(SumoDriver::Noisy(d)) => {
-                let d = *d;
-                dep.driver = None;
-                Some(d)
-            }
-            _ => None,
-        })
-        .collect()
-}
-
 fn prepare_with(
     scenario: &Scenario,
     road: &Road,
@@ -281,8 +264,18 @@ fn prepare_with(
     let (drivers, damper) = drivers_of(scenario, opts)?;
     let adopt = scenario.sumo().controlled();
     assign_drivers(&mut layout, &drivers, scenario.step_s())?;
-    let humans = bridge_humans(&mut layout);
-    let has_humans = humans.iter().any(Option::is_some);
+    // The stochastic humans are commanded by the bridge: SUMO sees law-driven vehicles.
+    let mut has_humans = false;
+    for dep in &mut layout.vehicles {
+        if dep
+            .driver
+            .as_ref()
+            .is_some_and(SumoDriver::commanded_by_bridge)
+        {
+            dep.driver = None;
+            has_humans = true;
+        }
+    }
     if has_humans && !layout.road.ring {
         return Err(PrepareError::HumansNeedRing {
             scenario: scenario.name().to_string(),
@@ -321,7 +314,7 @@ fn prepare_with(
     let control = if law_driven == 0 && sumo_driven > 0 && !layout.leader_vehicle {
         Control::SumoModel
     } else {
-        let law = law_of(scenario, &layout, damper, humans, (safety, signals));
+        let law = law_of(scenario, &layout, &drivers, damper, (safety, signals))?;
         Control::Law { law: Box::new(law) }
     };
     let (mut extra_routes, extra_additional) =
@@ -621,73 +614,51 @@ fn measure_of(
     })
 }
 
-/// The law of a run on the road SUMO will drive: the scenario's, with the damper, the user's
-/// controller and the stochastic humans resolved on the layout (its ring length, vehicles and
-/// who SUMO drives), under the safety layer, on a network with or without traffic lights.
+/// The law of a run on the road SUMO will drive: the scenario's, on the layout (its ring
+/// length, vehicles and speed limit), under the safety layer, on a network with or without
+/// traffic lights, driven by `drivers` and `damper` as both backends resolve them
+/// ([`LawSpec::driven_by`]).
 fn law_of(
     scenario: &Scenario,
     layout: &Layout,
+    drivers: &[Option<SumoDriver>],
     damper: Option<NamedLaw>,
-    humans: Vec<Option<NoisyIdm>>,
     (safety, signals): (SafetyMode, bool),
-) -> LawSpec {
+) -> Result<LawSpec, PrepareError> {
     let mut law = LawSpec::of(scenario);
     let vt = &layout.vtype;
     let limit = Some(layout.road.speed_limit_mps()).filter(|l| l.is_finite());
     law.safety = filter_params(safety, vt.min_gap_m, vt.decel_mps2, limit);
-    let lengths = || {
-        layout
-            .vehicles
-            .iter()
-            .map(|v| v.length_m)
-            .collect::<Vec<_>>()
-    };
-    law.damper = damper;
     let c = &mut law.context;
+    if let Some(p) = c.protocol.as_mut() {
+        p.leader_vehicle = layout.leader_vehicle;
+    }
     c.ids = layout.vehicles.iter().map(|v| v.id.clone()).collect();
-    c.length_m = lengths();
+    c.length_m = layout.vehicles.iter().map(|v| v.length_m).collect();
     c.ring_length_m = layout.road.ring.then(|| layout.road.length_m());
-    c.controlled = layout
-        .vehicles
-        .iter()
-        .zip(&humans)
-        .map(|(v, h)| v.driver.is_none() && h.is_none())
-        .collect();
+    c.controlled = vec![true; layout.vehicles.len()];
     c.accel_mps2 = layout.vtype.accel_mps2;
     c.decel_mps2 = layout.vtype.decel_mps2;
     c.speed_limit_mps = limit;
     c.signals = signals;
-    if humans.iter().any(Option::is_some) {
-        law.humans = Some(HumanSetup {
-            drivers: humans,
-            ring_length_m: layout.road.length_m(),
-            length_m: lengths(),
-            seed: scenario.seed(),
-            speed_limit_mps: Some(layout.road.speed_limit_mps()),
-        });
-    }
-    law
+    law.driven_by(drivers, damper, scenario.seed())
+        .map_err(|_| PrepareError::HumansNeedRing {
+            scenario: scenario.name().to_string(),
+        })
 }
 
-/// Who drives each scenario vehicle and which damper commands the law's vehicles: the run
-/// options when they name drivers or a damper, else the scenario's `mixed` section (the
-/// automated vehicles drawn from the seed, the others its `human` driver), else the law alone.
+/// Who drives each scenario vehicle and which damper commands the law's vehicles
+/// ([`syncroad_control::controller::drivers_for`]: the run options when they name drivers,
+/// else the scenario's `mixed` section, else the law alone).
 pub fn drivers_of(
     scenario: &Scenario,
     opts: &RunOptions,
 ) -> Result<(Vec<Option<SumoDriver>>, Option<NamedLaw>), PrepareError> {
-    let mixed = scenario.mixed().filter(|_| opts.drivers.is_empty());
-    let Some(m) = mixed else {
-        return Ok((opts.drivers.clone(), opts.damper.clone()));
-    };
-    let human = SumoDriver::parse("mixed.human", &m.human)?;
-    let mut drivers = vec![Some(human); scenario.vehicles()];
-    for i in m.automated(scenario.vehicles(), scenario.seed()) {
-        drivers[i] = None;
-    }
-    // Validated with the scenario: the name parses.
-    let damper = opts.damper.clone().or(m.damper().ok().flatten());
-    Ok((drivers, damper))
+    Ok(syncroad_control::controller::drivers_for(
+        scenario,
+        &opts.drivers,
+        opts.damper.as_ref(),
+    )?)
 }
 
 /// Records per chunk: about 256 KiB of rows, at least one record.

@@ -451,14 +451,15 @@ fn native_variant(
 }
 
 /// What the native simulator cannot do is refused, not silently left out: a scenario's mixed
-/// block (it once ran every vehicle with the law and said "synchronized"), a SUMO-only flag,
+/// block with SUMO's own drivers (it once ran every vehicle with the law and said
+/// "synchronized"; the stochastic humans syncroad computes do run), a SUMO-only flag,
 /// and a fleet too large to allocate; and `check` does not certify a mixed ring.
 #[test]
 fn what_a_native_run_cannot_do_is_refused_up_front() {
     let d = tmpdir("native-refusals");
     let mixed = native_variant(&d, "mixed.json", |v| {
         v["horizon_s"] = 20.into();
-        v["mixed"] = serde_json::json!({"penetration": 1.0, "controller": "follower-stopper-0"});
+        v["mixed"] = serde_json::json!({"penetration": 0.5, "controller": "follower-stopper-0"});
     });
     let (code, out, err) = run(bin()
         .arg("simulate")
@@ -466,7 +467,10 @@ fn what_a_native_run_cannot_do_is_refused_up_front() {
         .arg("--out")
         .arg(d.join("o1")));
     assert_eq!(code, 2, "{out}{err}");
-    assert!(err.contains("mixed block"), "{err}");
+    assert!(
+        err.contains("its mixed block puts SUMO's own drivers among the law's vehicles"),
+        "{err}"
+    );
     assert!(!d.join("o1/metrics.json").exists());
     let (code, _, err) = run(bin().arg("check").arg(&mixed));
     assert_eq!(code, 1, "a mixed ring is not certified: {err}");
@@ -789,8 +793,9 @@ fn a_rust_law_the_program_did_not_register_is_refused_naming_the_field() {
         .arg(dir.join("out")));
     assert_eq!(code, 2, "{err}");
     assert!(
-        err.contains("controller.rust = follow: no law of that name; valid: follower-stopper-X")
-            && err.contains("runs from the program that registers it"),
+        err.contains(
+            "controller.rust = follow: no law of that name; valid: protocol, follower-stopper-X"
+        ) && err.contains("runs from the program that registers it"),
         "{err}"
     );
 }

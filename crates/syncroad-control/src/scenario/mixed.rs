@@ -126,7 +126,7 @@ mod tests {
         assert!(m(0.5, "law").validate(false).is_err());
         let e = m(0.5, "bang-bang").validate(true).unwrap_err().to_string();
         assert!(
-            e.starts_with("mixed.controller = bang-bang: unknown controller; use protocol (the scenario's own law), "),
+            e.starts_with("mixed.controller = bang-bang: unknown controller; use protocol, "),
             "{e}"
         );
         assert!(m(0.5, "pi-saturation").validate(true).is_ok());

@@ -15,9 +15,7 @@
 
 use std::path::{Path, PathBuf};
 
-use serde::{Deserialize, Serialize};
-
-use crate::graph::{Graph, GraphError};
+use crate::graph::GraphError;
 use crate::metrics::VerdictThresholds;
 
 pub mod file;
@@ -31,8 +29,8 @@ mod select;
 mod sumo;
 mod validate;
 
+pub use crate::model::{CaccModel, DelayedDriverModel, GraphShape, LeaderProfile, Model};
 pub use file::*;
-pub use leader::LeaderProfile;
 pub use mixed::MixedSpec;
 pub use network_road::{ConfigInputs, MeasuredRoad, RoadReader};
 pub use per_vehicle::PerVehicle;
@@ -165,111 +163,6 @@ fn readable_number(text: String) -> String {
         Ok(x) if text.len() > 20 && x.is_finite() => format!("{x:e}"),
         _ => text,
     }
-}
-
-/// The validated delayed-driver model.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct DelayedDriverModel {
-    /// Interaction graph `A`.
-    pub graph: Graph,
-    /// Delays α_i [s].
-    pub delay_s: Vec<f64>,
-    /// Delays in steps m_i = α_i / Δt.
-    pub delay_steps: Vec<usize>,
-    /// Leader speed v_0 and pinning gains b_i, if any.
-    pub leader: Option<(f64, Vec<f64>)>,
-    /// Pre-history convention.
-    pub history: HistorySpec,
-    /// How the graph was given in the scenario file, with its uniform gains (for the closed
-    /// forms); a scaled copy of the model keeps the shape of the scenario it came from.
-    pub shape: GraphShape,
-}
-
-impl DelayedDriverModel {
-    /// The model of no vehicles: a scenario without vehicles of its own (only an inflow's,
-    /// which come and go), which no law and no analysis takes.
-    pub(crate) fn empty() -> Self {
-        Self {
-            graph: crate::graph::Graph::empty(),
-            delay_s: Vec::new(),
-            delay_steps: Vec::new(),
-            leader: None,
-            history: HistorySpec::default(),
-            shape: GraphShape::Other,
-        }
-    }
-
-    /// The law of this validated model (graph, delays, leader, history), seeded with the
-    /// scenario's initial speeds — what every backend runs.
-    pub fn law(
-        &self,
-        step_s: f64,
-        initial_speeds_mps: &[f64],
-    ) -> Result<crate::delayed_driver::DelayedDriverLaw, crate::delayed_driver::LawError> {
-        crate::delayed_driver::DelayedDriverLaw::new(
-            &self.graph,
-            &self.delay_steps,
-            step_s,
-            self.leader.as_ref().map(|(_, b)| b.as_slice()),
-            initial_speeds_mps,
-            self.leader.as_ref().map(|(v0, _)| *v0),
-            self.history,
-        )
-    }
-}
-
-/// The validated CACC model.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct CaccModel {
-    /// μ_i [1/s].
-    pub mu: Vec<f64>,
-    /// η_i [1/s²].
-    pub eta: Vec<f64>,
-    /// ν_i [1/s²] (ν_N is forced to 0: the last vehicle has no follower).
-    pub nu: Vec<f64>,
-    /// Desired gaps s_i [m].
-    pub desired_gap_m: Vec<f64>,
-    /// Lags τ_i [s].
-    pub tau_s: Vec<f64>,
-    /// Lengths [m].
-    pub length_m: Vec<f64>,
-    /// Leader speed profile.
-    pub leader: LeaderProfile,
-}
-
-/// The validated model.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub enum Model {
-    /// Delayed drivers (eq. `chandler+`).
-    DelayedDriver(DelayedDriverModel),
-    /// Bidirectional CACC platoon.
-    Cacc(CaccModel),
-}
-
-/// How the interaction graph was given, with its gain where one number holds for every driver
-/// it concerns: the closed forms (Chandler's condition, the uniform ring's modes) apply only
-/// then.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub enum GraphShape {
-    /// Each driver follows its predecessor on a ring.
-    UnidirectionalRing {
-        /// The gain K, when every driver has the same.
-        gain: Option<f64>,
-    },
-    /// Each driver reacts to predecessor and follower on a ring.
-    BidirectionalRing {
-        /// The predecessor gain, when every driver has the same.
-        gain_pred: Option<f64>,
-        /// The follower gain, when every driver has the same.
-        gain_follow: Option<f64>,
-    },
-    /// A chain behind vehicle 0.
-    Chain {
-        /// The predecessor gain of vehicles 1.., when they all have the same.
-        follower_gain: Option<f64>,
-    },
-    /// All-to-all, explicit arcs or an explicit matrix.
-    Other,
 }
 
 /// A validated scenario: every per-vehicle value resolved, every number checked. Only

@@ -452,9 +452,12 @@ impl InflowControl {
         let field = format!("sumo.inflows[{k}].controlled.law");
         let to_err = |e: crate::registry::LawNameError| {
             let why = match e {
-                // The scenario's own law is not one a vehicle of an inflow can drive.
+                // The laws that drive a vehicle alone (not the protocol, not one that looks behind).
                 crate::registry::LawNameError::Unknown { .. } => {
-                    format!("unknown controller; use {}", crate::registry::valid_names())
+                    format!(
+                        "unknown controller; use {}",
+                        crate::registry::valid_names_alone()
+                    )
                 }
                 e => e.why(),
             };
@@ -462,10 +465,13 @@ impl InflowControl {
         };
         // The law's own name with its parameters (`constant-speed` and `params`), or a name
         // that carries its shorthand parameter (`constant-speed-25`).
-        let bare = crate::registry::lookup(&self.law).ok().map(|e| NamedLaw {
-            name: e.name.to_string(),
-            params: serde_json::json!({}),
-        });
+        let bare = crate::registry::lookup(&self.law)
+            .ok()
+            .filter(|e| e.name != crate::registry::PROTOCOL)
+            .map(|e| NamedLaw {
+                name: e.name.to_string(),
+                params: serde_json::json!({}),
+            });
         let parsed = match bare {
             Some(law) => Some(law),
             None => NamedLaw::parse(&field, &self.law).map_err(to_err)?,
@@ -476,7 +482,7 @@ impl InflowControl {
                 &self.law,
                 format!(
                     "the scenario's own law drives its fixed set of vehicles; name a law of the registry for vehicles that enter and leave: {}",
-                    crate::registry::valid_names()
+                    crate::registry::valid_names_alone()
                 ),
             ));
         };

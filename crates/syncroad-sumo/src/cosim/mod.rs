@@ -113,11 +113,7 @@ pub fn run(py: Python<'_>, job: &Job, out: &mut impl Write) -> Result<(), CosimE
     };
     // Build the law first: a law problem must not cost a SUMO start.
     let controller: Option<Box<dyn SpeedController>> = match &req.control {
-        Control::Law { law } => Some(controller_for_in(
-            law,
-            req.layout.leader_vehicle,
-            Some(&crate::user_law::PythonHost),
-        )?),
+        Control::Law { law } => Some(controller_for_in(law, Some(&crate::user_law::PythonHost))?),
         Control::SumoModel => None,
     };
     let (module, python) = load_libsumo(py)?;
@@ -296,10 +292,13 @@ mod tests {
             e.to_string(),
             "2 of 22 vehicles could not be inserted (still pending: v3, v4); SUMO log /w/sumo.log:\nWarning: ..."
         );
-        let e = CosimError::from(syncroad_control::controller::ControllerError::CaccNeedsLeader);
+        let e = CosimError::from(syncroad_control::controller::ControllerError::Named {
+            law: "protocol".into(),
+            reason: syncroad_control::protocol_law::CACC_NEEDS_LEADER.into(),
+        });
         assert_eq!(
             e.to_string(),
-            "the CACC model needs a leader vehicle: run it on a straight road (road.type = \"straight\")"
+            "protocol: the CACC model needs a leader vehicle: run it on a straight road (road.type = \"straight\")"
         );
     }
 

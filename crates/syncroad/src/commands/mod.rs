@@ -119,6 +119,6 @@ fn laws_table() -> String {
     for (name, road, summary) in rows {
         out.push_str(&format!("{name:<w$}  {road:<4}  {summary}\n"));
     }
-    out.push_str("protocol (the scenario's model law) and SUMO's drivers (syncroad compare --help) drive too; your own laws: the guide's \"Your own controller\".");
+    out.push_str("SUMO's drivers (syncroad compare --help) drive too; your own laws: the guide's \"Your own controller\".");
     out
 }

@@ -12,7 +12,7 @@ use anyhow::Context;
 use syncroad_control::drive::Drive;
 use syncroad_control::scenario::Backend;
 use syncroad_control::SumoDriver;
-use syncroad_control::{NativeOptions, Scenario, StopReason, Verdict};
+use syncroad_control::{LawSpec, NativeOptions, Scenario, StopReason, Verdict};
 use syncroad_sumo::{interrupt_flag, load_road, ReadMode, RowsProgress, WorkerCommand};
 
 use crate::cli::{OutputArgs, SumoArgs};
@@ -79,19 +79,28 @@ fn refuse_sumo_flags(a: &SumoArgs) -> anyhow::Result<()> {
     }
 }
 
-/// The native simulator drives every vehicle with the law: a scenario whose `mixed` block
-/// puts other drivers among them is refused, not run without them.
-fn refuse_mixed_native(sc: &Scenario) -> anyhow::Result<()> {
+/// Who drives the scenario as written on the native simulator, resolved as on SUMO
+/// ([`syncroad_control::controller::drivers_for`]): its law, or its `mixed` block when its
+/// humans are the stochastic ones syncroad computes. SUMO's own drivers among the law's
+/// vehicles are refused, not run without them.
+fn native_drive(sc: &Scenario) -> anyhow::Result<(Drive, LawSpec)> {
     if let Some(why) = sc.native_refusal() {
         return Err(InputError::new(why).into());
     }
-    match sc.mixed() {
-        Some(_) => Err(InputError::new(format!(
-            "scenario {}: its mixed block puts other drivers among the law's vehicles, which the native simulator does not run from a scenario; run it on SUMO (\"backend\": \"sumo\", `syncroad run`), or as a native sweep with penetrations",
+    let (drivers, damper) = syncroad_control::controller::drivers_for(sc, &[], None)
+        .map_err(|e| InputError::caused("mixed.human", e))?;
+    let drive = Drive {
+        name: Drive::as_written(sc.mixed().is_some()).name,
+        drivers,
+        damper,
+    };
+    match LawSpec::of_drive(sc, &drive) {
+        Some(law) => Ok((drive, law)),
+        None => Err(InputError::new(format!(
+            "scenario {}: its mixed block puts SUMO's own drivers among the law's vehicles, which only SUMO runs (the native simulator computes only the stochastic humans, human-noisy and flow-idm-noise); run it on SUMO (\"backend\": \"sumo\", `syncroad run`), or as a native sweep with penetrations",
             sc.name()
         ))
         .into()),
-        None => Ok(()),
     }
 }
 
@@ -219,7 +228,7 @@ fn verdict_status(f: &Finished) -> Status {
 }
 
 fn run_native(sc: &Scenario, path: &Path, out: &OutputArgs) -> anyhow::Result<Status> {
-    refuse_mixed_native(sc)?;
+    let (drive, law) = native_drive(sc)?;
     let cfg = RunConfig::new(sc, out)?;
     let _lock = prepare_out(&cfg.out, path, sc)?;
     // Ctrl-C, SIGTERM and SIGHUP stop the loop; the steps so far are written, as on SUMO.
@@ -237,11 +246,11 @@ fn run_native(sc: &Scenario, path: &Path, out: &OutputArgs) -> anyhow::Result<St
         progress: Some(&report),
         host: None,
     };
-    let output = pipeline::native_with(sc, opts);
+    let output = pipeline::native_law(sc, &law, drive.labels(sc.vehicles()), opts);
     progress.finish();
     // The law could not be built (the user's controller): no run to judge, no record.
     let output = output.context("nothing was run")?;
-    let f = Finished::new(sc, syncroad_control::PROTOCOL, output, cfg.eval);
+    let f = Finished::new(sc, &drive.name, output, cfg.eval);
     let complete = f.output.stop.is_complete();
     // The summary is printed even when a file cannot be written (a full disk).
     let written = f.write(
