@@ -9,9 +9,13 @@
 use crate::cacc::{CaccLaw, PlatoonView, PowertrainLag};
 use crate::delayed_driver::DelayedDriverLaw;
 use crate::model::{LeaderProfile, Model, ProtocolInput};
-use crate::registry::PROTOCOL;
 use crate::sensed::Neighbors;
 use crate::speed_controller::{LawContext, LawEntry, Road, SpeedController};
+
+/// The name of the scenario's own law (its `model`: the delayed drivers or the bidirectional
+/// CACC) wherever a driver is named: runs, tables, folders, plots and the drivers of a record.
+/// `law` is read as its older spelling.
+pub const PROTOCOL: &str = "protocol";
 
 /// The registry's entry of the scenario's own law.
 pub const ENTRY: LawEntry = LawEntry {
@@ -139,62 +143,5 @@ impl SpeedController for CaccController {
 
     fn sense(&mut self, neighbors: &Neighbors) {
         neighbors.keep_in(&mut self.sensed);
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::controller::LawSpec;
-    use crate::registry::NamedLaw;
-    use crate::scenario::Scenario;
-
-    fn ring() -> Scenario {
-        let path = concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../../scenarios/ring-theorem1.json"
-        );
-        Scenario::load(std::path::Path::new(path)).unwrap()
-    }
-
-    #[test]
-    fn the_protocol_is_the_scenarios_law_and_takes_nothing_else() {
-        let sc = ring();
-        let spec = LawSpec::of(&sc);
-        // Built through the registry, it steps the scenario's delayed-driver law: one step
-        // from the initial speeds with every driver's delay buffer full of them changes
-        // nothing only if every vehicle already agrees with its neighbours.
-        let mut law = NamedLaw::protocol().build(&spec.context).unwrap();
-        let n = sc.vehicles();
-        let v = sc.initial_speed_mps().to_vec();
-        let q: Vec<f64> = (0..n).map(|i| -(i as f64) * 10.0).collect();
-        let mut out = vec![0.0; n];
-        law.step(0.0, &v, &q, &mut out);
-        let mut direct = sc.model().clone();
-        let crate::model::Model::DelayedDriver(m) = &mut direct else {
-            panic!("ring-theorem1 is a delayed-driver scenario")
-        };
-        let mut reference = m.law(sc.step_s(), &v).unwrap();
-        let mut expected = vec![0.0; n];
-        reference.step(&v, 0.0, &mut expected);
-        assert_eq!(out, expected);
-        assert!(out.iter().zip(&v).any(|(a, b)| a != b), "the law moved");
-        // No parameters of its own, and no law without a scenario's model.
-        let with = NamedLaw {
-            name: PROTOCOL.into(),
-            params: serde_json::json!({"gain": 1.0}),
-        };
-        assert!(with
-            .build(&spec.context)
-            .err()
-            .is_some_and(|e| e.contains("give none")));
-        let mut bare = spec.context.clone();
-        bare.protocol = None;
-        assert!(NamedLaw::protocol()
-            .build(&bare)
-            .err()
-            .is_some_and(|e| e.contains("not a scenario's")));
-        // The table lists it first.
-        assert_eq!(crate::registry::entries()[0].name, PROTOCOL);
     }
 }

@@ -45,10 +45,7 @@ use serde::{Deserialize, Serialize};
 use crate::fingerprint::fnv1a_hex;
 use crate::speed_controller::{LawContext, LawEntry, Road, SpeedController};
 
-/// The name of the scenario's own law (its `model`: the delayed drivers or the bidirectional
-/// CACC) wherever a driver is named: runs, tables, folders, plots and the drivers of a record.
-/// `law` is read as its older spelling.
-pub const PROTOCOL: &str = "protocol";
+pub use crate::protocol_law::PROTOCOL;
 
 /// The built-in laws, one line each.
 pub static BUILT_IN: &[LawEntry] = &[

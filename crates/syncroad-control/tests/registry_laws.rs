@@ -58,3 +58,44 @@ fn on_a_ring_it_is_the_scenario_law_on_a_unidirectional_ring() {
     let apart = largest_difference(&own.speeds_mps, &half.speeds_mps);
     assert!(apart > 1e-2, "{apart}");
 }
+
+/// The registry's first entry, `protocol`, is the scenario's own law: built through the
+/// table from the run's context it steps exactly the delayed-driver law of the scenario's
+/// model (seeded with its initial speeds), takes no parameters of its own, and refuses vehicles
+/// that are not a scenario's.
+#[test]
+fn the_protocol_entry_is_the_scenarios_law_and_takes_nothing_else() {
+    use syncroad_control::model::Model;
+    use syncroad_control::{LawSpec, NamedLaw, PROTOCOL};
+    let sc = ring("");
+    let spec = LawSpec::of(&sc);
+    let mut law = NamedLaw::protocol().build(&spec.context).unwrap();
+    let n = sc.vehicles();
+    let v = sc.initial_speed_mps().to_vec();
+    let q: Vec<f64> = (0..n).map(|i| -(i as f64) * 25.0).collect();
+    let mut out = vec![0.0; n];
+    let Model::DelayedDriver(m) = sc.model() else {
+        panic!("a delayed-driver scenario")
+    };
+    let mut reference = m.law(sc.step_s(), &v).unwrap();
+    let mut expected = vec![0.0; n];
+    for step in 0..20 {
+        law.step(step as f64 * 0.1, &v, &q, &mut out);
+        reference.step(&v, 0.0, &mut expected);
+        assert_eq!(out, expected, "step {step}");
+    }
+    assert!(largest_difference(&out, &v) > 0.0, "the law moved");
+    // No parameters of its own, and no law without a scenario's model.
+    let with = NamedLaw {
+        name: PROTOCOL.into(),
+        params: serde_json::json!({"gain": 1.0}),
+    };
+    let e = with.build(&spec.context).err().unwrap();
+    assert!(e.contains("give none"), "{e}");
+    let mut bare = spec.context.clone();
+    bare.protocol = None;
+    let e = NamedLaw::protocol().build(&bare).err().unwrap();
+    assert!(e.contains("not a scenario's"), "{e}");
+    // The table lists it first.
+    assert_eq!(syncroad_control::registry::entries()[0].name, PROTOCOL);
+}
