@@ -11,7 +11,7 @@ from typing import Any, Dict, Optional, Sequence, Union
 import numpy as np
 
 from syncroad._errors import RunError, ScenarioError
-from syncroad._remote import CLOSED, FIRST_FIELDS, ROWS, RemoteController
+from syncroad._remote import CLOSED, FIRST_FIELDS, ROWS, Receiver, RemoteController
 from syncroad._run import Run
 from syncroad._scenario import PathLike, ScenarioLike, as_scenario
 
@@ -76,6 +76,7 @@ class Simulation:
         self._thread = threading.Thread(target=target, name="syncroad-simulation", daemon=True)
         self._thread.start()
         self._conn = self._accept()
+        self._receiver = Receiver(self._conn)
         self._first = True
         self._receive()
 
@@ -115,7 +116,7 @@ class Simulation:
                     if isinstance(value, np.ndarray):
                         value.flags.writeable = False
                 self._obs, self._first = obs, False
-            packed = self._conn.recv_bytes()
+            packed = self._receiver.recv_bytes()
         except EOFError:
             # The run finished (its horizon) or failed: its thread says which.
             self._finish()

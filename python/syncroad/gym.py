@@ -18,6 +18,11 @@ automated vehicle among 21 noisy human drivers on the Sugiyama ring (22 vehicles
 * **Episode**: the scenario's horizon (``truncated`` at its end; never ``terminated``).
   ``reset(seed=s)`` starts the scenario with seed ``s`` (placements and noise follow it), so
   the same seed gives the same episode.
+* **Records**: each episode is an ordinary run with its record (``info["run"]`` at the
+  episode's end). With ``out=DIR`` they are kept, ``DIR/episode-00000``, ``episode-00001``, …;
+  without it they go to a temporary folder of the environment, and an episode's folder is
+  removed when the next episode starts and when the environment closes (a record of a few
+  megabytes per episode would otherwise fill the disk over a training run).
 
 libsumo runs one simulation per process: each environment owns its SUMO worker process, so
 ``gymnasium.vector.AsyncVectorEnv`` over several environments runs them side by side.
@@ -25,6 +30,9 @@ libsumo runs one simulation per process: each environment owns its SUMO worker p
 
 from __future__ import annotations
 
+import math
+import shutil
+import tempfile
 from pathlib import Path
 from typing import Any, Dict, Mapping, Optional, Tuple
 
@@ -32,7 +40,7 @@ import gymnasium
 import numpy as np
 from gymnasium import spaces
 
-from syncroad._scenario import Scenario, ScenarioLike, as_scenario
+from syncroad._scenario import PathLike, Scenario, ScenarioLike, as_scenario
 from syncroad._simulation import Simulation
 
 def one_av_among_noisy_humans(horizon_s: float = 300.0) -> Dict[str, Any]:
@@ -67,6 +75,7 @@ class RingEnv(gymnasium.Env):
         desired_speed_mps: float = 3.45,
         speed_scale_mps: float = 30.0,
         backend: Optional[str] = None,
+        out: Optional[PathLike] = None,
     ) -> None:
         sc = as_scenario(scenario if scenario is not None else one_av_among_noisy_humans())
         self._data = dict(sc.data)
@@ -78,38 +87,51 @@ class RingEnv(gymnasium.Env):
         self._accel = float(sumo.get("accel_mps2", 2.6))
         self._decel = float(sumo.get("decel_mps2", 4.5))
         self._sim: Optional[Simulation] = None
-        self._controlled: Optional[np.ndarray] = None
+        # Where the episodes' records go: kept under `out`, or each removed after its episode
+        # from a temporary folder of this environment's own.
+        self._keep = out is not None
+        self._out = Path(out) if out is not None else Path(tempfile.mkdtemp(prefix="syncroad-gym-"))
+        self._episodes = 0
+        # The controlled vehicles' indices into the observation's arrays.
+        self._idx: np.ndarray = np.zeros(0, dtype=np.intp)
         # The controlled vehicles are known once a run shows them: start one to size the spaces.
         obs = self._start(int(self._data.get("seed", 0)))
-        k = int(np.count_nonzero(obs.controlled))
+        k = len(self._idx)
         self.gap_scale_m = float(obs.ring_length_m or 100.0)
+        n = len(obs.ids)
+        # The reward's best value, ‖v_des 1‖, once.
+        self._best = self.desired_speed_mps * math.sqrt(n)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(k,), dtype=np.float32)
         self.observation_space = spaces.Box(0.0, 1.0, shape=(3 * k,), dtype=np.float32)
 
     def _start(self, seed: int) -> Any:
-        if self._sim is not None:
-            self._sim.close()
+        self._end_episode()
         d = dict(self._data, seed=seed)
-        self._sim = Simulation(Scenario.from_dict(d, base_dir=self._base), backend=self._backend)
+        folder = self._out / f"episode-{self._episodes:05d}"
+        self._episodes += 1
+        self._sim = Simulation(Scenario.from_dict(d, base_dir=self._base), backend=self._backend,
+                               out=folder)
         obs = self._sim.observe()
-        self._controlled = np.asarray(obs.controlled, dtype=bool)
+        self._idx = np.flatnonzero(np.asarray(obs.controlled, dtype=bool))
         return obs
 
     def _observation(self, obs: Any) -> np.ndarray:
-        c = self._controlled
+        # A handful of numpy calls per step: a Gymnasium step should cost little beside
+        # SUMO's (the guide's performance page measures both).
+        c, k = self._idx, len(self._idx)
+        x = np.empty(3 * k)
+        np.divide(obs.speed_mps[c], self.speed_scale_mps, out=x[:k])
         # Nobody ahead: the gap is the scale (inf → 1 after scaling) and the speed ahead 0.
-        gap = np.minimum(obs.gap_m[c], self.gap_scale_m)
-        lead = np.fmax(obs.leader_speed_mps[c], 0.0)
-        x = np.concatenate([obs.speed_mps[c] / self.speed_scale_mps, gap / self.gap_scale_m,
-                            lead / self.speed_scale_mps])
-        out: np.ndarray = np.clip(x, 0.0, 1.0).astype(np.float32)
+        np.divide(obs.gap_m[c], self.gap_scale_m, out=x[k:2 * k])
+        np.divide(np.fmax(obs.leader_speed_mps[c], 0.0), self.speed_scale_mps,
+                    out=x[2 * k:])
+        # np.clip costs twice np.minimum(np.maximum(...)) on arrays this small.
+        out: np.ndarray = np.minimum(np.maximum(x, 0.0), 1.0).astype(np.float32)
         return out
 
     def _reward(self, obs: Any) -> float:
-        v = np.asarray(obs.speed_mps)
-        target = np.full_like(v, self.desired_speed_mps)
-        best = float(np.linalg.norm(target))
-        return max(best - float(np.linalg.norm(v - target)), 0.0) / best
+        d = obs.speed_mps - self.desired_speed_mps
+        return max(self._best - math.sqrt(float(d @ d)), 0.0) / self._best
 
     def reset(self, *, seed: Optional[int] = None, options: Optional[Mapping[str, Any]] = None
               ) -> Tuple[np.ndarray, Dict[str, Any]]:
@@ -123,10 +145,12 @@ class RingEnv(gymnasium.Env):
     def step(self, action: np.ndarray) -> Tuple[np.ndarray, float, bool, bool, Dict[str, Any]]:
         assert self._sim is not None, "call reset() first"
         obs = self._sim.observe()
-        x = np.clip(np.asarray(action, dtype=np.float64).reshape(-1), -1.0, 1.0)
-        a = np.where(x >= 0.0, x * self._accel, x * self._decel)
-        speeds = np.array(obs.speed_mps, dtype=np.float64)
-        speeds[self._controlled] = np.maximum(speeds[self._controlled] + a * obs.dt_s, 0.0)
+        x = np.minimum(np.maximum(np.asarray(action, dtype=np.float64).reshape(-1), -1.0), 1.0)
+        # a = x · accel above 0, x · decel below; v' = max(v + a Δt, 0).
+        a = x * np.where(x >= 0.0, self._accel, self._decel)
+        speeds = obs.speed_mps.copy()
+        c = self._idx
+        speeds[c] = np.fmax(speeds[c] + a * obs.dt_s, 0.0)
         nxt = self._sim.step(speeds)
         if nxt is None:
             # The horizon: the last observation stands; the run's record is written.
@@ -134,7 +158,18 @@ class RingEnv(gymnasium.Env):
             return self._observation(obs), self._reward(obs), False, True, {"run": run}
         return self._observation(nxt), self._reward(nxt), False, False, {"time_s": float(nxt.time_s)}
 
+    def _end_episode(self) -> None:
+        """Closes the running episode, and removes its folder unless the records are kept."""
+        if self._sim is None:
+            return
+        sim, self._sim = self._sim, None
+        try:
+            sim.close()
+        finally:
+            if not self._keep:
+                shutil.rmtree(self._out / f"episode-{self._episodes - 1:05d}", ignore_errors=True)
+
     def close(self) -> None:
-        if self._sim is not None:
-            self._sim.close()
-            self._sim = None
+        self._end_episode()
+        if not self._keep:
+            shutil.rmtree(self._out, ignore_errors=True)

@@ -72,6 +72,20 @@ def test_the_core_package_and_the_cli_never_import_gymnasium():
     assert p.stdout.strip() == "False"
 
 
+def test_two_simulations_step_side_by_side_in_one_process(tmp_path):
+    # Each run collects its own report: the second once waited for the first to end, which
+    # its caller, stepping both, never let happen.
+    a = syncroad.Simulation(ring(12), out=tmp_path / "a")
+    b = syncroad.Simulation(ring(12), out=tmp_path / "b")
+    with a, b:
+        while not a.done:
+            a.step()
+            b.step()
+    assert b.done and a.run.metrics.complete and b.run.metrics.complete
+    # The same scenario and the same commands: the same run, whatever ran beside it.
+    assert np.array_equal(speeds(a.run), speeds(b.run))
+
+
 gymnasium = pytest.importorskip("gymnasium")
 
 
@@ -89,8 +103,24 @@ def test_the_environment_passes_gymnasiums_checker_and_repeats_under_a_seed():
             obs, info = env.reset(seed=7)
             trace = [obs]
             for k in range(40):
-                obs, reward, terminated, truncated, _ = env.step(np.array([0.5 if k < 20 else -1.0]))
+                before = env._sim.observe().speed_mps.copy()
+                x = 0.5 if k < 20 else -1.0
+                obs, reward, terminated, truncated, _ = env.step(np.array([x]))
                 assert 0.0 <= reward <= 1.0 and not terminated and not truncated
+                # By the documented formulas: Flow's desired-velocity reward over every
+                # vehicle, and the controlled vehicle (vehicle 0) commanded v + a Δt with
+                # a = x · 2.6 m/s² (accel) or x · 4.5 m/s² (decel) — realised by SUMO within
+                # its checks, so observed at most that fast.
+                full = env._sim.observe()
+                target = np.full(22, 3.45)
+                best = np.linalg.norm(target)
+                want = max(best - np.linalg.norm(full.speed_mps - target), 0.0) / best
+                assert abs(reward - want) < 1e-12
+                assert obs[0] == np.float32(min(full.speed_mps[0] / 30.0, 1.0))
+                assert obs[1] == np.float32(min(full.gap_m[0] / full.ring_length_m, 1.0))
+                assert obs[2] == np.float32(min(max(full.leader_speed_mps[0], 0.0) / 30.0, 1.0))
+                a = x * (2.6 if x >= 0 else 4.5)
+                assert full.speed_mps[0] <= max(before[0] + a * 0.1, 0.0) + 1e-9
                 trace.append(obs)
             runs.append(np.array(trace))
         assert np.array_equal(runs[0], runs[1])
@@ -98,8 +128,29 @@ def test_the_environment_passes_gymnasiums_checker_and_repeats_under_a_seed():
         env.reset(seed=8)
         other = [env.step(np.array([0.5]))[0] for _ in range(40)]
         assert not np.array_equal(runs[0][1:], np.array(other))
+        # Without `out`, only the running episode's record is on disk.
+        folders = [p.name for p in env._out.iterdir()]
+        assert len(folders) == 1 and folders[0] == f"episode-{env._episodes - 1:05d}", folders
     finally:
         env.close()
+    assert not env._out.exists()
+
+
+def test_the_environment_keeps_its_episodes_records_when_given_a_folder(tmp_path):
+    from syncroad.gym import RingEnv, one_av_among_noisy_humans
+
+    env = RingEnv(one_av_among_noisy_humans(horizon_s=6.0), out=tmp_path / "episodes")
+    try:
+        env.reset(seed=1)
+        truncated, info = False, {}
+        while not truncated:
+            _, _, _, truncated, info = env.step(np.array([0.0]))
+        assert info["run"].metrics.complete
+    finally:
+        env.close()
+    # The spaces' run, then the episode: both records kept.
+    for name in ("episode-00000", "episode-00001"):
+        assert (tmp_path / "episodes" / name / "metrics.json").is_file(), name
 
 
 def test_four_environments_step_side_by_side_in_worker_processes():

@@ -23,29 +23,32 @@ pub fn failure() -> Option<String> {
     FAILED.lock().unwrap_or_else(|e| e.into_inner()).clone()
 }
 
-/// What is printed while a [`capture`] runs (`None`: print to stdout).
-static CAPTURED: Mutex<Option<String>> = Mutex::new(None);
+thread_local! {
+    /// What this thread prints while a [`capture`] runs on it (`None`: print to stdout).
+    /// Per thread, so that commands a host runs side by side (two stepping loops of the
+    /// Python package at once) each collect their own report instead of waiting for each
+    /// other: a command prints from the thread it runs on.
+    static CAPTURED: std::cell::RefCell<Option<String>> = const { std::cell::RefCell::new(None) };
+}
 
-/// One [`capture`] at a time.
-static CAPTURING: Mutex<()> = Mutex::new(());
-
-/// Runs `f` with what it prints collected instead of written to stdout, and returns both.
+/// Runs `f` with what it prints on this thread collected instead of written to stdout, and
+/// returns both.
 pub fn capture<R>(f: impl FnOnce() -> R) -> (R, String) {
-    let _one = CAPTURING.lock().unwrap_or_else(|e| e.into_inner());
-    *CAPTURED.lock().unwrap_or_else(|e| e.into_inner()) = Some(String::new());
+    let before = CAPTURED.with(|c| c.replace(Some(String::new())));
     let r = f();
-    let text = CAPTURED
-        .lock()
-        .unwrap_or_else(|e| e.into_inner())
-        .take()
-        .unwrap_or_default();
+    let text = CAPTURED.with(|c| c.replace(before)).unwrap_or_default();
     (r, text)
 }
 
 /// Writes to stdout unless an earlier write failed; a failure closes stdout quietly.
 pub fn write(args: std::fmt::Arguments<'_>) {
-    if let Some(buf) = CAPTURED.lock().unwrap_or_else(|e| e.into_inner()).as_mut() {
-        let _ = std::fmt::Write::write_fmt(buf, args);
+    let captured = CAPTURED.with(|c| {
+        c.borrow_mut()
+            .as_mut()
+            .map(|buf| std::fmt::Write::write_fmt(buf, args))
+            .is_some()
+    });
+    if captured {
         return;
     }
     if CLOSED.load(Ordering::Relaxed) {
