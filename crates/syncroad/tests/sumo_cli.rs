@@ -679,4 +679,21 @@ fn an_open_road_of_inflows_only_is_refused_where_no_fixed_set_exists() {
         .arg("--emit-slurm")
         .arg(dir.join("jobs")));
     assert_eq!(code, 0, "{out}{err}");
+    // `run` runs it as written: its inflows, which is the run's name (no law of syncroad's
+    // drives a fixed set here, so the run is not called `protocol`).
+    let mut short: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&sc).unwrap()).unwrap();
+    short["horizon_s"] = 60.into();
+    let short_path = road.join("short.json");
+    std::fs::write(&short_path, short.to_string()).unwrap();
+    let (code, out, err) = run(bin()
+        .arg("run")
+        .arg(&short_path)
+        .args(["--no-plots", "--warmup-s", "0", "--out"])
+        .arg(dir.join("one")));
+    assert!(code == 0 || code == 1, "{out}{err}");
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("one/metrics.json")).unwrap())
+            .unwrap();
+    assert_eq!(m["run"], "inflows");
 }

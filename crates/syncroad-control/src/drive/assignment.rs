@@ -58,11 +58,17 @@ impl Drive {
                 })
     }
 
-    /// The scenario as written: its law on every vehicle (`protocol`), or the mixed ring of
-    /// its `mixed` block (`mixed`) — what `syncroad run` runs and a sweep without `runs`.
-    pub fn as_written(mixed: bool) -> Self {
+    /// The scenario as written: its law on every one of its `vehicles` (`protocol`), the
+    /// mixed ring of its `mixed` block (`mixed`), or — a road without vehicles of its own —
+    /// its inflows alone (`inflows`): what `syncroad run` runs and a sweep without `runs`.
+    pub fn as_written(mixed: bool, vehicles: usize) -> Self {
+        let name = match (vehicles, mixed) {
+            (0, _) => "inflows",
+            (_, true) => "mixed",
+            _ => PROTOCOL,
+        };
         Self {
-            name: if mixed { "mixed" } else { PROTOCOL }.into(),
+            name: name.into(),
             drivers: Vec::new(),
             damper: None,
         }
@@ -245,7 +251,11 @@ mod tests {
         assert_eq!(d.labels(22), vec!["pi-saturation".to_string(); 22]);
         // The scenario's own law labels the vehicles it drives, given or not.
         assert_eq!(p.labels(22), vec!["protocol".to_string(); 22]);
-        assert_eq!(Drive::as_written(false).labels(2), ["protocol", "protocol"]);
-        assert_eq!(Drive::as_written(true).name, "mixed");
+        assert_eq!(
+            Drive::as_written(false, 2).labels(2),
+            ["protocol", "protocol"]
+        );
+        assert_eq!(Drive::as_written(true, 2).name, "mixed");
+        assert_eq!(Drive::as_written(false, 0).name, "inflows");
     }
 }

@@ -90,7 +90,7 @@ fn native_drive(sc: &Scenario) -> anyhow::Result<(Drive, LawSpec)> {
     let (drivers, damper) = syncroad_control::controller::drivers_for(sc, &[], None)
         .map_err(|e| InputError::caused("mixed.human", e))?;
     let drive = Drive {
-        name: Drive::as_written(sc.mixed().is_some()).name,
+        name: Drive::as_written(sc.mixed().is_some(), sc.vehicles()).name,
         drivers,
         damper,
     };
@@ -302,7 +302,7 @@ fn run_sumo(
             drivers,
             damper: None,
         },
-        _ => Drive::as_written(sc.mixed().is_some()),
+        _ => Drive::as_written(sc.mixed().is_some(), sc.vehicles()),
     };
     let mut plan = RunPlan::new(drive, cfg.record_every, cfg.eval);
     plan.ballistic = !args.euler;

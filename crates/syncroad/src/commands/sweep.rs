@@ -81,11 +81,17 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<Status> {
     // Throughput of the runs that ran to their end (a sweep that simulated nothing prints none).
     let simulated = summary.ran.saturating_sub(summary.failed);
     if simulated > 0 {
+        // syncroad's own vehicles; a road of inflows only has none to count (its vehicles
+        // come and go), so it says runs per second alone.
         let veh_s = sweep.base.vehicles() as f64 * sweep.base.horizon_s() * simulated as f64;
+        let vehicle_seconds = if sweep.base.vehicles() > 0 {
+            format!(", {:.0} simulated vehicle-seconds per second", veh_s / wall)
+        } else {
+            String::new()
+        };
         outln!(
-            "  {:.2} runs/s, {:.0} simulated vehicle-seconds per second ({} jobs{})",
+            "  {:.2} runs/s{vehicle_seconds} ({} jobs{})",
             summary.ran as f64 / wall,
-            veh_s / wall,
             opts.jobs,
             if summary.workers > 0 {
                 format!(", {} SUMO worker processes", summary.workers)

@@ -344,7 +344,7 @@ fn runs_of(file: &SpecFile, base: &Scenario, backend: Backend) -> anyhow::Result
     let names = file.runs.clone().unwrap_or_default();
     if file.runs.is_none() && file.penetrations.is_empty() {
         // Neither runs nor penetrations: the scenario as written (its law, or its mixed ring).
-        let spec = Drive::as_written(base.mixed().is_some());
+        let spec = Drive::as_written(base.mixed().is_some(), n);
         runs.push(RunChoice {
             penetration: penetration(&spec, base),
             spec,
