@@ -7,7 +7,8 @@ automated vehicle among 21 noisy human drivers on the Sugiyama ring (22 vehicles
 
 * **Action**: one value in [-1, 1] per controlled vehicle, the fraction of the scenario's
   vehicle type's deceleration (below 0) or acceleration (above 0): ``a = x · accel_mps2`` for
-  x ≥ 0, ``a = x · decel_mps2`` below; the commanded speed is ``max(v + a Δt, 0)``.
+  x ≥ 0, ``a = x · decel_mps2`` below; the commanded speed is ``max(v + a Δt, 0)``, which the
+  default scenario's vehicles realise within SUMO's safe speed (its ``"safety": "sumo"``).
 * **Observation**: for each controlled vehicle, its speed, the gap to the vehicle ahead and
   that vehicle's speed, each divided by a scale (``speed_scale_mps``, the ring's length or
   ``gap_scale_m``) so values lie in [0, 1]; shape ``(3 k,)``, float32.
@@ -45,7 +46,10 @@ from syncroad._simulation import Simulation
 
 def one_av_among_noisy_humans(horizon_s: float = 300.0) -> Dict[str, Any]:
     """The default environment's scenario: 22 vehicles on the 230 m Sugiyama ring, one of them
-    controlled (an even placement puts it first), the others ``human-noisy``."""
+    controlled (an even placement puts it first), the others ``human-noisy``. Every vehicle
+    keeps SUMO's safe speed (``"safety": "sumo"``, speed mode 25: Flow's default
+    ``right_of_way``), so an agent's action can slow its vehicle down but never drive it into
+    the vehicle ahead."""
     return {
         "name": "gym-ring",
         "backend": "sumo",
@@ -59,6 +63,7 @@ def one_av_among_noisy_humans(horizon_s: float = 300.0) -> Dict[str, Any]:
                   "delay_s": 0.5},
         "initial": {"speed_mps": 4.0, "perturbation": {"speed_mps": 0.5, "gap_m": 0.1}},
         "mixed": {"penetration": 1 / 22, "human": "human-noisy", "placement": "even"},
+        "safety": "sumo",
         "sumo": {"net": str(Path(__file__).resolve().parent / "data" / "sugiyama-ring.net.xml")},
     }
 

@@ -144,8 +144,13 @@ def test_the_environment_keeps_its_episodes_records_when_given_a_folder(tmp_path
         env.reset(seed=1)
         truncated, info = False, {}
         while not truncated:
-            _, _, _, truncated, info = env.step(np.array([0.0]))
-        assert info["run"].metrics.complete
+            # Full throttle from 4 m/s with 5.5 m to the vehicle ahead: contact within about
+            # two seconds, but for SUMO's safe speed, which every vehicle of the default
+            # scenario keeps.
+            _, _, _, truncated, info = env.step(np.array([1.0]))
+        m = info["run"].metrics
+        assert m.complete and m.safe, m.unsafe_because
+        assert m.safety_layer["mode"] == "sumo"
     finally:
         env.close()
     # The spaces' run, then the episode: both records kept.
