@@ -120,6 +120,7 @@ impl LawSpec {
                 decel_mps2: vt.decel_mps2,
                 speed_limit_mps: None,
                 signals: false,
+                seed: scenario.seed(),
                 protocol: Some(Box::new(ProtocolInput {
                     model: scenario.model().clone(),
                     initial_speed_mps: scenario.initial_speed_mps().to_vec(),

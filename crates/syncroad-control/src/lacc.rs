@@ -161,6 +161,7 @@ mod tests {
             decel_mps2: f64::INFINITY,
             speed_limit_mps: None,
             signals: false,
+            seed: 0,
             protocol: None,
         };
         let mut law = Lacc::new(p, &c);

@@ -36,7 +36,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::rng::SplitMix64;
 use crate::road::RingView;
-use crate::speed_controller::SpeedController;
+use crate::speed_controller::{LawContext, LawEntry, Road, SpeedController};
 
 /// Parameters of the IDM (Flow's `IDMController` names in the docs).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -358,6 +358,95 @@ impl HumanController {
             view: RingView::new(setup.ring_length_m, &setup.length_m),
             speed_limit_mps: setup.speed_limit_mps.unwrap_or(f64::INFINITY),
         }
+    }
+}
+
+/// The stochastic human as an entry of the table of laws, `noisy-idm`: every vehicle it is
+/// built for is that human. Its parameters are the driver's (`{"noise": 0.2, "accel": 1.3,
+/// "form": "flow"}` is the driver `noisy-idm:noise=0.2:accel=1.3:form=flow`), so a vehicle of
+/// a `mixed` block's `controller` or of an inflow's `controlled` block drives as the driver
+/// of that name does. On a scenario's road vehicle i draws the stream [`vehicle_seed`]`(seed,
+/// i)`, as the driver's vehicles do; a vehicle driven alone (an inflow's) draws the one of its
+/// own id.
+pub const ENTRY: LawEntry = LawEntry {
+    name: "noisy-idm",
+    summary: "a stochastic human computed by syncroad: Flow's IDM with Gaussian noise, each vehicle its own stream from the run's seed (params as the driver noisy-idm:NAME=VALUE: accel, decel, tau, minGap, delta, maxSpeed, noise, form)",
+    road: Road::Ring,
+    looks_behind: false,
+    shorthand: None,
+    check: |params| human_of(params).map(|_| ()),
+    build: build_humans,
+};
+
+/// The human that `params` describe, from the driver `noisy-idm`'s values (Flow's IDM,
+/// noise 0, step-consistent).
+fn human_of(params: &serde_json::Value) -> Result<NoisyIdm, String> {
+    let mut d = NoisyIdm {
+        idm: IdmParams::FLOW,
+        noise: 0.0,
+        form: NoiseForm::StepConsistent,
+    };
+    let empty = serde_json::Map::new();
+    let given = match params {
+        serde_json::Value::Null => &empty,
+        serde_json::Value::Object(o) => o,
+        other => {
+            return Err(format!(
+                "params {other}: must be an object of the driver's parameters"
+            ))
+        }
+    };
+    for (name, value) in given {
+        let text = match value {
+            serde_json::Value::String(s) => s.clone(),
+            serde_json::Value::Number(x) => x.to_string(),
+            other => return Err(format!("params.{name} = {other}: a number (form: a name)")),
+        };
+        d.set(name, &text).map_err(|e| format!("params: {e}"))?;
+    }
+    d.validate("params").map_err(|e| e.to_string())?;
+    Ok(d)
+}
+
+fn build_humans(
+    ctx: &LawContext,
+    params: &serde_json::Value,
+) -> Result<Box<dyn SpeedController>, String> {
+    let d = human_of(params)?;
+    let n = ctx.ids.len();
+    // A vehicle driven alone, behind whoever is ahead (an inflow's): its stream is its id's.
+    let alone = ctx.protocol.is_none() && n == 1;
+    let noise = (0..n)
+        .map(|i| {
+            let seed = if alone {
+                vehicle_seed(ctx.seed ^ id_seed(&ctx.ids[i]), 0)
+            } else {
+                vehicle_seed(ctx.seed, i)
+            };
+            Gaussian::new(seed)
+        })
+        .collect();
+    Ok(Box::new(HumanController {
+        inner: Box::new(Held),
+        drivers: ctx.controlled.iter().map(|&c| c.then_some(d)).collect(),
+        noise,
+        dt_s: ctx.step_s,
+        view: RingView::on(ctx.ring_length_m, &ctx.length_m),
+        speed_limit_mps: ctx.speed_limit_mps.unwrap_or(f64::INFINITY),
+    }))
+}
+
+/// FNV-1a of a vehicle id: a stream of its own for a vehicle that has no index on a road.
+fn id_seed(id: &str) -> u64 {
+    u64::from_str_radix(&crate::fingerprint::fnv1a_hex(id), 16).unwrap_or(0)
+}
+
+/// The commands of vehicles no human drives: their speeds, held (they are not sent).
+struct Held;
+
+impl SpeedController for Held {
+    fn step(&mut self, _: f64, speeds: &[f64], _: &[f64], out: &mut [f64]) {
+        out.copy_from_slice(speeds);
     }
 }
 

@@ -58,6 +58,7 @@ pub static BUILT_IN: &[LawEntry] = &[
     crate::delayed_follower::ENTRY,
     crate::bcm::ENTRY,
     crate::lacc::ENTRY,
+    crate::noisy_idm::ENTRY,
 ];
 
 static REGISTERED: RwLock<Vec<LawEntry>> = RwLock::new(Vec::new());
@@ -501,6 +502,7 @@ mod tests {
             decel_mps2: f64::INFINITY,
             speed_limit_mps: None,
             signals: false,
+            seed: 0,
             protocol: None,
         }
     }

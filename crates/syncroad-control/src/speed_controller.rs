@@ -106,6 +106,10 @@ pub struct LawContext {
     /// of each vehicle asks SUMO for it each step.
     #[serde(default)]
     pub signals: bool,
+    /// The run's seed: a law that draws random numbers (the stochastic humans) draws them
+    /// from it, a stream per vehicle.
+    #[serde(default)]
+    pub seed: u64,
     /// The scenario's own law (its model), which the registry's `protocol` entry builds;
     /// `None` where the vehicles are not a scenario's (an inflow's vehicles, a test's).
     #[serde(default, skip_serializing_if = "Option::is_none")]

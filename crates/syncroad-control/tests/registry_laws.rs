@@ -4,8 +4,12 @@ use syncroad_control::native::{simulate, NativeOptions};
 use syncroad_control::Scenario;
 
 fn ring(extra: &str) -> Scenario {
+    ring_seeded(extra, 3)
+}
+
+fn ring_seeded(extra: &str, seed: u64) -> Scenario {
     let json = format!(
-        r#"{{"name": "ring", "seed": 3, "step_s": 0.1, "horizon_s": 40, "vehicles": 8,
+        r#"{{"name": "ring", "seed": {seed}, "step_s": 0.1, "horizon_s": 40, "vehicles": 8,
             "road": {{"type": "ring", "length_m": 200}},
             "model": {{"type": "delayed_driver", "history": "no_reaction",
                        "graph": {{"type": "unidirectional_ring", "gain": 0.8}},
@@ -98,4 +102,57 @@ fn the_protocol_entry_is_the_scenarios_law_and_takes_nothing_else() {
     assert!(e.contains("not a scenario's"), "{e}");
     // The table lists it first.
     assert_eq!(syncroad_control::registry::entries()[0].name, PROTOCOL);
+}
+
+/// The table's `noisy-idm` is the stochastic human driver of that name: as the scenario's
+/// controller on every vehicle of a ring it gives the run of the driver
+/// `noisy-idm:accel=1.3:tau=0.8:noise=0.2` on every vehicle (each vehicle's stream from the
+/// seed and its index) bit for bit; another seed gives other noise, and another noise other
+/// speeds, so the comparison can fail.
+#[test]
+fn the_noisy_idm_entry_drives_as_the_driver_of_its_name() {
+    use syncroad_control::drive::Drive;
+    use syncroad_control::LawSpec;
+    let params = r#"{"accel": 1.3, "tau": 0.8, "noise": 0.2}"#;
+    let entry = |seed: u64, params: &str| {
+        let sc = ring_seeded(
+            &format!(r#", "controller": {{"rust": "noisy-idm", "params": {params}}}"#),
+            seed,
+        );
+        simulate(&sc, NativeOptions::default()).trajectory
+    };
+    let sc = ring("");
+    let drive = Drive::parse(
+        "--baselines",
+        "noisy-idm:accel=1.3:tau=0.8:noise=0.2",
+        sc.vehicles(),
+    )
+    .unwrap();
+    assert!(drive.damper.is_none(), "the driver, not the table's law");
+    let law = LawSpec::of_drive(&sc, &drive).unwrap();
+    let driver = syncroad_control::native::simulate_with(&sc, &law, NativeOptions::default())
+        .unwrap()
+        .trajectory;
+    let table = entry(sc.seed(), params);
+    assert_eq!(driver.len(), table.len());
+    assert_eq!(
+        largest_difference(&driver.speeds_mps, &table.speeds_mps),
+        0.0
+    );
+    let other_seed = entry(sc.seed() + 1, params);
+    assert!(largest_difference(&table.speeds_mps, &other_seed.speeds_mps) > 1e-3);
+    let quiet = entry(sc.seed(), r#"{"accel": 1.3, "tau": 0.8, "noise": 0.0}"#);
+    assert!(largest_difference(&table.speeds_mps, &quiet.speeds_mps) > 1e-3);
+    // Its parameters are the driver's, checked as the driver's are.
+    let bad = syncroad_control::NamedLaw {
+        name: "noisy-idm".into(),
+        params: serde_json::json!({"noise": -1}),
+    };
+    assert!(bad.check("controller.params").is_err());
+    let bad = syncroad_control::NamedLaw {
+        name: "noisy-idm".into(),
+        params: serde_json::json!({"sigma": 0.2}),
+    };
+    let e = bad.check("controller.params").unwrap_err().to_string();
+    assert!(e.contains("valid: accel, decel, tau, minGap"), "{e}");
 }

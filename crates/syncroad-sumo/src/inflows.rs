@@ -129,6 +129,7 @@ pub fn guests(
             // The lane's own limit is read for each vehicle every step.
             speed_limit_mps: None,
             signals: false,
+            seed: scenario.seed(),
             protocol: None,
         };
         law.build_alone(&context)

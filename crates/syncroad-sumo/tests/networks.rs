@@ -1440,6 +1440,61 @@ mod open_roads {
     /// are SUMO's to the step; a `constant-speed-25` vehicle, which SUMO's driver would take to
     /// the 30 m/s limit, settles at 25 m/s; one told 40 m/s keeps to the lane's 30 m/s.
     /// Errors name the field before SUMO starts.
+    /// The table's stochastic human drives an inflow's vehicles: collision-free, the same seed
+    /// gives the same run, and the noise is what moves them (without it the speeds differ).
+    #[test]
+    fn an_inflows_vehicles_can_be_syncroads_stochastic_humans() {
+        let dir = work("inflow-noisy");
+        on_ramp(&dir);
+        let road =
+            serde_json::json!({"type": "route", "edges": ["h0", "h1", "h2"], "lane": "follow"});
+        let with_noise = |noise: f64| {
+            let inflows = serde_json::json!([
+                {"from": "ramp", "to": "h1", "vehs_per_hour": 600,
+                 "controlled": {"law": "noisy-idm",
+                                "params": {"noise": noise, "accel": 1.3, "tau": 0.8},
+                                "share": 1}}
+            ]);
+            let mut file = platoon_on(
+                road.clone(),
+                serde_json::json!({"net": "out.net.xml", "fcd": true, "inflows": inflows}),
+            );
+            file["horizon_s"] = 40.0.into();
+            scenario(&dir, &file.to_string()).unwrap()
+        };
+        let speeds = |sc: &syncroad_control::Scenario, run_dir: &str| {
+            let mut o = opts(&dir);
+            o.work_dir = dir.join(run_dir);
+            let run = run_scenario(sc, &o).unwrap();
+            let fin = run.outcome().expect("horizon reached");
+            assert_eq!(fin.totals.collision_steps, 0);
+            let g = run.output(sc).sumo.unwrap().guests.unwrap();
+            assert!(g.entered >= 4, "{g:?}");
+            let fcd = std::fs::read_to_string(dir.join(run_dir).join("fcd.xml")).unwrap();
+            let doc = roxmltree::Document::parse(&fcd).unwrap();
+            let mut by: std::collections::BTreeMap<String, Vec<f64>> = Default::default();
+            for v in doc.descendants().filter(|n| n.has_tag_name("vehicle")) {
+                if v.attribute("type") == Some("syncroad_guest0") {
+                    by.entry(v.attribute("id").unwrap().to_string())
+                        .or_default()
+                        .push(v.attribute("speed").unwrap().parse().unwrap());
+                }
+            }
+            by
+        };
+        let noisy = with_noise(0.3);
+        let a = speeds(&noisy, "run-a");
+        assert_eq!(a, speeds(&noisy, "run-b"), "the same seed, the same run");
+        let quiet = speeds(&with_noise(0.0), "run-quiet");
+        let (x, y) = (a.values().next().unwrap(), quiet.values().next().unwrap());
+        let apart = x
+            .iter()
+            .zip(y)
+            .map(|(p, q)| (p - q).abs())
+            .fold(0.0, f64::max);
+        assert!(apart > 0.05, "the noise moved nothing: {apart}");
+    }
+
     #[test]
     fn an_inflows_controlled_vehicles_enter_are_driven_and_leave() {
         let dir = work("inflow-controlled");

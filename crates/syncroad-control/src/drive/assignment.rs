@@ -86,6 +86,15 @@ impl Drive {
                 damper: None,
             });
         }
+        // A stochastic human is the driver of its name on each vehicle, as `mixed.human` and
+        // `--mixed-driver` name it (the table's `noisy-idm` drives as that driver does).
+        if let Ok(d @ SumoDriver::Noisy(_)) = SumoDriver::parse(field, name) {
+            return Ok(Self {
+                name: d.to_string(),
+                drivers: vec![Some(d); n],
+                damper: None,
+            });
+        }
         // A law of the registry (a damper, a built-in law, the program's own) by its name;
         // any other name is one of SUMO's drivers.
         match NamedLaw::parse(field, name) {

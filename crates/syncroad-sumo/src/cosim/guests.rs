@@ -214,13 +214,16 @@ impl<'a, 'py> Guests<'a, 'py> {
                 continue;
             };
             let spec = &self.laws[law];
-            let controller =
-                spec.law
-                    .build_alone(&spec.context)
-                    .map_err(|e| PythonError::Call {
-                        call: format!("building the law {} for vehicle {id}", spec.law),
-                        traceback: e,
-                    })?;
+            // Built for this vehicle: a law that draws random numbers draws its own stream.
+            let mut context = spec.context.clone();
+            context.ids = vec![id.clone()];
+            let controller = spec
+                .law
+                .build_alone(&context)
+                .map_err(|e| PythonError::Call {
+                    call: format!("building the law {} for vehicle {id}", spec.law),
+                    traceback: e,
+                })?;
             let name = id;
             let id = PyString::new(py, &name);
             ls.call("vehicle_setSpeedMode", (id.clone(), self.speed_mode))?;
