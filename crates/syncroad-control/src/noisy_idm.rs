@@ -231,6 +231,14 @@ impl NoisyIdm {
         form: NoiseForm::StepConsistent,
     };
 
+    /// The driver `noisy-idm` written without changes, where its spelled-out values start
+    /// (the driver and the table's `noisy-idm` alike): Flow's IDM, no noise, step-consistent.
+    pub const BARE: NoisyIdm = NoisyIdm {
+        idm: IdmParams::FLOW,
+        noise: 0.0,
+        form: NoiseForm::StepConsistent,
+    };
+
     /// The `flow-idm-noise` preset: Flow's `IDMController` defaults ([`IdmParams::FLOW`])
     /// with Flow's ring-example noise 0.2 in Flow's form.
     pub const FLOW_IDM_NOISE: NoisyIdm = NoisyIdm {
@@ -378,14 +386,10 @@ pub const ENTRY: LawEntry = LawEntry {
     build: build_humans,
 };
 
-/// The human that `params` describe, from the driver `noisy-idm`'s values (Flow's IDM,
-/// noise 0, step-consistent).
+/// The human that `params` describe, from the driver `noisy-idm`'s values
+/// ([`NoisyIdm::BARE`]).
 fn human_of(params: &serde_json::Value) -> Result<NoisyIdm, String> {
-    let mut d = NoisyIdm {
-        idm: IdmParams::FLOW,
-        noise: 0.0,
-        form: NoiseForm::StepConsistent,
-    };
+    let mut d = NoisyIdm::BARE;
     let empty = serde_json::Map::new();
     let given = match params {
         serde_json::Value::Null => &empty,

@@ -247,47 +247,14 @@ fn prepare_with(
     write: bool,
 ) -> Result<Request, PrepareError> {
     check_sumo_numbers(scenario)?;
-    let w = opts.warmup_s;
-    if !(w.is_finite() && w >= 0.0 && w < scenario.horizon_s()) {
-        return Err(PrepareError::Measure {
-            field: "--warmup-s",
-            value: w.to_string(),
-            expected: "must be ≥ 0 and shorter than the horizon",
-        });
-    }
-    let layout = layout_for(scenario, road)?;
+    check_warmup(scenario, opts)?;
+    let mut layout = layout_for(scenario, road)?;
     let io = |path: &Path, e: std::io::Error| PrepareError::Io {
         path: path.to_path_buf(),
         reason: e.to_string(),
     };
-    let mut layout = layout;
-    let (drivers, damper) = drivers_of(scenario, opts)?;
+    let (drivers, damper) = drivers_on(scenario, opts, &mut layout)?;
     let adopt = scenario.sumo().controlled();
-    assign_drivers(&mut layout, &drivers, scenario.step_s())?;
-    // The stochastic humans are commanded by the bridge: SUMO sees law-driven vehicles.
-    let mut has_humans = false;
-    for dep in &mut layout.vehicles {
-        if dep
-            .driver
-            .as_ref()
-            .is_some_and(SumoDriver::commanded_by_bridge)
-        {
-            dep.driver = None;
-            has_humans = true;
-        }
-    }
-    if has_humans && !layout.road.ring {
-        return Err(PrepareError::HumansNeedRing {
-            scenario: scenario.name().to_string(),
-        });
-    }
-    let user = match scenario.controller() {
-        Some(syncroad_control::UserLaw::Rust(r)) => Some(r),
-        _ => None,
-    };
-    for d in damper.iter().chain(user) {
-        d.require_road(layout.road.ring, &format!("scenario {}", scenario.name()))?;
-    }
     let sumo_driven = layout
         .vehicles
         .iter()
@@ -369,6 +336,56 @@ fn prepare_with(
         adopt: adopt.cloned(),
         guests,
     })
+}
+
+/// The warm-up (`--warmup-s`) lies within the run.
+fn check_warmup(scenario: &Scenario, opts: &RunOptions) -> Result<(), PrepareError> {
+    let w = opts.warmup_s;
+    if !(w.is_finite() && w >= 0.0 && w < scenario.horizon_s()) {
+        return Err(PrepareError::Measure {
+            field: "--warmup-s",
+            value: w.to_string(),
+            expected: "must be ≥ 0 and shorter than the horizon",
+        });
+    }
+    Ok(())
+}
+
+/// Who drives each vehicle of the layout ([`drivers_of`]), put on it: SUMO's drivers on
+/// their vehicles, the stochastic humans taken off again (the bridge commands them, so SUMO
+/// sees law-driven vehicles), and the road each of them and the damper or the user's Rust law
+/// needs checked. Returns the drivers and the damper.
+fn drivers_on(
+    scenario: &Scenario,
+    opts: &RunOptions,
+    layout: &mut Layout,
+) -> Result<(Vec<Option<SumoDriver>>, Option<NamedLaw>), PrepareError> {
+    let (drivers, damper) = drivers_of(scenario, opts)?;
+    assign_drivers(layout, &drivers, scenario.step_s())?;
+    let mut has_humans = false;
+    for dep in &mut layout.vehicles {
+        if dep
+            .driver
+            .as_ref()
+            .is_some_and(SumoDriver::commanded_by_bridge)
+        {
+            dep.driver = None;
+            has_humans = true;
+        }
+    }
+    if has_humans && !layout.road.ring {
+        return Err(PrepareError::HumansNeedRing {
+            scenario: scenario.name().to_string(),
+        });
+    }
+    let user = match scenario.controller() {
+        Some(syncroad_control::UserLaw::Rust(r)) => Some(r),
+        _ => None,
+    };
+    for d in damper.iter().chain(user) {
+        d.require_road(layout.road.ring, &format!("scenario {}", scenario.name()))?;
+    }
+    Ok((drivers, damper))
 }
 
 /// The run's warm-up in whole steps (rounded down).

@@ -86,29 +86,25 @@ impl Drive {
                 damper: None,
             });
         }
+        let driver = SumoDriver::parse(field, name);
         // A stochastic human is the driver of its name on each vehicle, as `mixed.human` and
-        // `--mixed-driver` name it (the table's `noisy-idm` drives as that driver does).
-        if let Ok(d @ SumoDriver::Noisy(_)) = SumoDriver::parse(field, name) {
-            return Ok(Self {
-                name: d.to_string(),
-                drivers: vec![Some(d); n],
-                damper: None,
-            });
-        }
-        // A law of the registry (a damper, a built-in law, the program's own) by its name;
+        // `--mixed-driver` name it (the table's `noisy-idm` drives as that driver does); else
+        // a law of the registry (a damper, a built-in law, the program's own) by its name;
         // any other name is one of SUMO's drivers.
-        match NamedLaw::parse(field, name) {
-            Ok(Some(d)) => {
-                return Ok(Self {
-                    name: d.to_string(),
-                    drivers: vec![None; n],
-                    damper: Some(d),
-                })
+        if !matches!(driver, Ok(SumoDriver::Noisy(_))) {
+            match NamedLaw::parse(field, name) {
+                Ok(Some(d)) => {
+                    return Ok(Self {
+                        name: d.to_string(),
+                        drivers: vec![None; n],
+                        damper: Some(d),
+                    })
+                }
+                Err(e @ LawNameError::Params { .. }) => return Err(e.into()),
+                Ok(None) | Err(_) => {}
             }
-            Err(e @ LawNameError::Params { .. }) => return Err(e.into()),
-            Ok(None) | Err(_) => {}
         }
-        let d = SumoDriver::parse(field, name)?;
+        let d = driver?;
         Ok(Self {
             name: d.to_string(),
             drivers: vec![Some(d); n],

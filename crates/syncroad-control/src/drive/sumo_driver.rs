@@ -17,7 +17,7 @@ use std::fmt;
 use serde::{Deserialize, Serialize};
 
 use super::car_following::{CarFollowing, CfModel};
-use crate::noisy_idm::{IdmParams, NoiseForm, NoisyIdm};
+use crate::noisy_idm::NoisyIdm;
 
 /// A SUMO car-following model driving a vehicle, or a stochastic human computed by the bridge.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -230,11 +230,7 @@ impl SumoDriver {
             p.driver()
         } else if low == "noisy-idm" {
             // Flow's IDM without noise: the start of a stochastic human written out in full.
-            SumoDriver::Noisy(NoisyIdm {
-                idm: IdmParams::FLOW,
-                noise: 0.0,
-                form: NoiseForm::StepConsistent,
-            })
+            SumoDriver::Noisy(NoisyIdm::BARE)
         } else if changes.is_some() {
             let model = CarFollowing::parse_model(flag, head).map_err(|e| bad(e.to_string()))?;
             SumoDriver::Model(CarFollowing::new(model))

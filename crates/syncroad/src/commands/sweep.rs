@@ -83,8 +83,9 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<Status> {
     if simulated > 0 {
         // syncroad's own vehicles; a road of inflows only has none to count (its vehicles
         // come and go), so it says runs per second alone.
-        let veh_s = sweep.base.vehicles() as f64 * sweep.base.horizon_s() * simulated as f64;
-        let vehicle_seconds = if sweep.base.vehicles() > 0 {
+        let n = sweep.base.vehicles();
+        let vehicle_seconds = if n > 0 {
+            let veh_s = n as f64 * sweep.base.horizon_s() * simulated as f64;
             format!(", {:.0} simulated vehicle-seconds per second", veh_s / wall)
         } else {
             String::new()
