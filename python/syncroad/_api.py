@@ -81,11 +81,13 @@ def _listed(values: Any) -> Any:
     return list(values)
 
 
-def _execute(argv: Sequence[str], out: Optional[Path] = None) -> Tuple[int, Optional[str], str]:
+def _execute(argv: Sequence[str], out: Optional[Path] = None, here: bool = False
+             ) -> Tuple[int, Optional[str], str]:
     """Runs ``syncroad ARGV`` in-process; bad input raises :class:`ScenarioError`, Ctrl-C
-    raises :class:`Interrupted` once the command has stopped and written its rows."""
+    raises :class:`Interrupted` once the command has stopped and written its rows. ``here``:
+    its SUMO run steps in this process (whose libsumo the caller has claimed)."""
     try:
-        code, error, stdout = _syncroad.execute(["syncroad", *argv])
+        code, error, stdout = _syncroad.execute(["syncroad", *argv], True, here)
     except KeyboardInterrupt:
         run = None
         if out is not None and (out / METRICS_FILE).is_file():
@@ -144,6 +146,7 @@ def run(
     krauss_sigma: Optional[float] = None,
     progress: Optional[str] = None,
     controller: Any = None,
+    _here: bool = False,
 ) -> Run:
     """Runs a scenario as ``syncroad run`` (``backend="native"``: ``syncroad simulate``)
     and returns its :class:`Run`. ``out`` is the run's folder (default: a new temporary one);
@@ -197,7 +200,7 @@ def run(
         progress=progress,
     )
     with _writing(folder):
-        code, error, summary = _execute(argv, folder)
+        code, error, summary = _execute(argv, folder, here=_here)
         if code == RUN_FAILED or error is not None:
             partial = Run(folder, code, summary) if (folder / METRICS_FILE).is_file() else None
             if error is None and partial is not None:

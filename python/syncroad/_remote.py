@@ -1,6 +1,8 @@
 """The controller a :class:`syncroad.Simulation` puts into its run: it lives where the run
-steps its vehicles (the SUMO worker, or this process natively) and hands each observation to
-the Simulation over a local connection, waiting for the commands the caller gives.
+steps its vehicles. In a SUMO worker process it hands each observation to the Simulation over
+a local connection, waiting for the commands the caller gives; in the Simulation's own process
+(SUMO on a thread of it, or the native simulator) syncroad's loop meets the caller in memory
+through the ``Handoff`` the controller carries.
 
 This file is loaded by path in the worker (as every user controller is), so it imports only
 the standard library and numpy."""
@@ -82,25 +84,53 @@ class SimulationClosed(RuntimeError):
     syncroad_stop = True
 
 
-class RemoteController:
-    """Sends each observation to the Simulation at ``address`` and returns its commands."""
+#: The meeting points of this process's Simulations stepped here, by token: a
+#: :class:`SimulationController` finds its own when the run unpickles it in this process.
+LOCAL: Dict[str, Any] = {}
 
-    def __init__(self, address: str, authkey: bytes) -> None:
+
+class SimulationController:
+    """The controller a Simulation puts into its run. Stepped in a worker process
+    (``address``, ``authkey``), it sends each observation to the Simulation over a local
+    connection and returns its commands. Stepped in the Simulation's own process
+    (``token``), it only carries the meeting point ``syncroad_handoff`` (a
+    ``syncroad._syncroad.Handoff``) through which syncroad's loop hands each observation over
+    and takes the commands without calling ``step``. Either way the run's record names it."""
+
+    def __init__(self, address: Optional[str] = None, authkey: Optional[bytes] = None,
+                 token: Optional[str] = None) -> None:
         self.address = address
         self.authkey = authkey
+        self.token = token
         self.conn: Optional[Connection] = None
         self.receiver: Optional[Receiver] = None
+        self.syncroad_handoff: Any = None
 
     def __getstate__(self) -> Dict[str, Any]:
-        return {"address": self.address, "authkey": self.authkey}
+        return {"address": self.address, "authkey": self.authkey, "token": self.token}
 
     def __setstate__(self, state: Dict[str, Any]) -> None:
         self.address = state["address"]
         self.authkey = state["authkey"]
+        self.token = state["token"]
         self.conn = None
         self.receiver = None
+        self.syncroad_handoff = None
+        if self.token is not None:
+            # This file may be loaded by path under another name: the registry is the
+            # package's.
+            from syncroad import _remote
+
+            self.syncroad_handoff = _remote.LOCAL.get(self.token)
+            if self.syncroad_handoff is None:
+                raise RuntimeError(
+                    "this controller stands for a syncroad.Simulation of another process; it "
+                    "runs only in the process that made it"
+                )
 
     def step(self, obs: Any) -> "np.ndarray[Any, Any]":
+        if self.address is None or self.authkey is None:
+            raise RuntimeError("a Simulation's run in its own process hands its observations over without step()")
         conn = self.conn
         if conn is None:
             conn = self.conn = Client(self.address, authkey=self.authkey)

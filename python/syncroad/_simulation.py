@@ -10,12 +10,13 @@ from typing import Any, Dict, Optional, Sequence, Union
 
 import numpy as np
 
+from syncroad import _syncroad
 from syncroad._errors import RunError, ScenarioError
-from syncroad._remote import CLOSED, FIRST_FIELDS, ROWS, Receiver, RemoteController
+from syncroad._remote import CLOSED, FIRST_FIELDS, LOCAL, ROWS, Receiver, SimulationController
 from syncroad._run import Run
 from syncroad._scenario import PathLike, ScenarioLike, as_scenario
 
-#: How long the first observation may take to arrive (SUMO starts in a worker process) [s].
+#: How long the first observation may take to arrive (SUMO starts first) [s].
 START_TIMEOUT_S = 120.0
 
 
@@ -29,10 +30,17 @@ class Simulation:
         sim.run.metrics.sync.verdict
 
     It is an ordinary run whose controller is the caller: the scenario's law is replaced on
-    the vehicles it drives (humans and SUMO's drivers of a ``mixed`` block drive theirs), the
-    SUMO backend steps in its worker process, and the run's files (``metrics.json``,
-    trajectories, plots) are written into ``out`` when it closes — marked incomplete if it is
-    closed before its horizon. ``observe()`` gives the controller's observation (numpy arrays:
+    the vehicles it drives (humans and SUMO's drivers of a ``mixed`` block drive theirs), and
+    the run's files (``metrics.json``, trajectories, plots) are written into ``out`` when it
+    closes — marked incomplete if it is closed before its horizon.
+
+    SUMO steps in this process (``in_process=True``, the default: this process's libsumo on a
+    thread of its own, the observation and the commands handed over in memory), as the field's
+    environments run libsumo; ``sim.in_process`` says whether it does. libsumo runs one
+    simulation per process, so while another Simulation of this process (or this process's own
+    code) has libsumo, and with ``in_process=False`` or a ``timeout_s``, the run steps in a
+    worker process instead, over a local connection: the same run, a few times slower per
+    step, and a SUMO that crashes takes only its worker down. ``observe()`` gives the controller's observation (numpy arrays:
     ``speed_mps``, ``gap_m``, ``leader_speed_mps``, ``ids``, ``controlled``, ...; see the
     guide's "Your own controller"); ``step(speeds)`` sends one target speed per vehicle and
     advances one step. A step without speeds keeps every vehicle's speed.
@@ -46,24 +54,42 @@ class Simulation:
         *,
         plots: bool = False,
         timeout_s: Optional[float] = None,
+        in_process: bool = True,
     ) -> None:
         from syncroad._api import run
 
         sc = as_scenario(scenario)
-        authkey = os.urandom(16)
-        self._listener = Listener(family="AF_UNIX", authkey=authkey)
-        remote = RemoteController(self._listener.address, authkey)
         self.run: Optional[Run] = None
         self.error: Optional[BaseException] = None
         self.done = False
         self._closing = False
         self._conn: Any = None
+        self._listener: Any = None
+        self._handoff: Any = None
         self._obs: Optional[SimpleNamespace] = None
+        # This process steps the run (its libsumo, if no other run of it holds it) unless a
+        # time limit is asked for, which only a worker process can be held to.
+        # (``run`` steps SUMO unless asked for the native simulator.)
+        native = backend == "native"
+        self._claimed = in_process and timeout_s is None and not native and _syncroad.claim_libsumo()
+        #: True when the run steps in this process (no worker process, no socket).
+        self.in_process = in_process and timeout_s is None and (native or self._claimed)
+        if self.in_process:
+            self._handoff = _syncroad.Handoff()
+            token = os.urandom(16).hex()
+            LOCAL[token] = self._handoff
+            self._token: Optional[str] = token
+            controller = SimulationController(token=token)
+        else:
+            self._token = None
+            authkey = os.urandom(16)
+            self._listener = Listener(family="AF_UNIX", authkey=authkey)
+            controller = SimulationController(self._listener.address, authkey)
 
         def target() -> None:
             try:
-                self.run = run(sc, backend, out, controller=remote, plots=plots,
-                               timeout_s=timeout_s, progress="never")
+                self.run = run(sc, backend, out, controller=controller, plots=plots,
+                               timeout_s=timeout_s, progress="never", _here=self._claimed)
             except RunError as e:
                 self.run = e.run
                 if not (self._closing and CLOSED in str(e)):
@@ -71,14 +97,47 @@ class Simulation:
             except BaseException as e:  # noqa: BLE001 - handed to the caller's thread
                 self.error = e
             finally:
+                if self._claimed:
+                    _syncroad.release_libsumo()
                 self.done = True
 
         self._thread = threading.Thread(target=target, name="syncroad-simulation", daemon=True)
         self._thread.start()
-        self._conn = self._accept()
-        self._receiver = Receiver(self._conn)
-        self._first = True
-        self._receive()
+        if self.in_process:
+            self._first = False
+            self._start_here()
+        else:
+            self._conn = self._accept()
+            self._receiver = Receiver(self._conn)
+            self._first = True
+            self._receive()
+
+    def _start_here(self) -> None:
+        """Waits for the run's first observation in this process, or its end."""
+        h = self._handoff
+        waited = 0.0
+        got = 0
+        while waited < START_TIMEOUT_S:
+            got = h.wait(0.05)
+            if got or self.done:
+                break
+            waited += 0.05
+        if got == 1:
+            first = h.first()
+            obs = SimpleNamespace(**first)
+            obs.ids = tuple(obs.ids)
+            obs.controlled = np.array(obs.controlled, dtype=bool)
+            obs.length_m = np.array(obs.length_m, dtype=np.float64)
+            for key in ("controlled", "length_m"):
+                getattr(obs, key).flags.writeable = False
+            self._obs = obs
+            self._unpack(h.take())
+            return
+        if not self.done and got != 2:
+            h.close("the caller stopped waiting for the run's start")
+            raise RunError(f"the run did not start stepping within {START_TIMEOUT_S:.0f} s")
+        self._finish()
+        raise self.error if self.error is not None else RunError("the run ended before its first step")
 
     def _accept(self) -> Any:
         """The run's connection, or the run's own error when it ended before connecting."""
@@ -121,6 +180,9 @@ class Simulation:
             # The run finished (its horizon) or failed: its thread says which.
             self._finish()
             return
+        self._unpack(packed)
+
+    def _unpack(self, packed: bytes) -> None:
         assert self._obs is not None
         obs = self._obs
         values = np.frombuffer(packed, dtype=np.float64)
@@ -129,11 +191,23 @@ class Simulation:
         for key, row in zip(ROWS, rows):
             setattr(obs, key, row)
 
+    def _receive_here(self, got: Optional[int] = None) -> None:
+        """The next observation in this process (``got``: what the handoff said already), or
+        the end of the run."""
+        if (got or self._handoff.wait()) == 1:
+            self._unpack(self._handoff.take())
+        else:
+            self._finish()
+
     def _finish(self) -> None:
         self._thread.join()
         self.done = True
-        self._conn.close()
-        self._listener.close()
+        if self._token is not None:
+            LOCAL.pop(self._token, None)
+        if self._conn is not None:
+            self._conn.close()
+        if self._listener is not None:
+            self._listener.close()
         if self.error is not None:
             error, self.error = self.error, None
             raise error
@@ -161,14 +235,28 @@ class Simulation:
             raise ScenarioError(
                 f"speeds: {v.size} value(s) of shape {v.shape}; {len(obs.ids)} are needed, one per vehicle of obs.ids"
             )
-        self._conn.send_bytes(v.tobytes())
-        self._receive()
+        return self._advance(v)
+
+    def _advance(self, v: "np.ndarray[Any, Any]") -> Optional[SimpleNamespace]:
+        """``step`` with ``v`` checked: float64, one value per vehicle."""
+        if self.done:
+            raise RunError("the simulation has ended; its record is in sim.run")
+        if self._handoff is not None:
+            self._receive_here(self._handoff.step(v.tobytes()))
+        else:
+            self._conn.send_bytes(v.tobytes())
+            self._receive()
         return None if self.done else self._obs
 
     def close(self) -> Optional[Run]:
         """Ends the run (before its horizon: marked incomplete) and returns its :class:`Run`."""
         if not self.done:
             self._closing = True
+            if self._handoff is not None:
+                self._handoff.close(CLOSED)
+                while not self.done:
+                    self._receive_here()
+                return self.run
             try:
                 self._conn.send_bytes(b"")
             except OSError:

@@ -25,8 +25,12 @@ automated vehicle among 21 noisy human drivers on the Sugiyama ring (22 vehicles
   removed when the next episode starts and when the environment closes (a record of a few
   megabytes per episode would otherwise fill the disk over a training run).
 
-libsumo runs one simulation per process: each environment owns its SUMO worker process, so
-``gymnasium.vector.AsyncVectorEnv`` over several environments runs them side by side.
+SUMO steps in the environment's own process (``in_process=True``, the default; see
+:class:`syncroad.Simulation`): a step costs little more than SUMO's own. libsumo runs one
+simulation per process, so a second environment of the same process (an evaluation
+environment beside the training one) steps its SUMO in a worker process, and
+``gymnasium.vector.AsyncVectorEnv`` over several environments runs each in its own process,
+side by side, each with SUMO in-process.
 """
 
 from __future__ import annotations
@@ -35,7 +39,7 @@ import math
 import shutil
 import tempfile
 from pathlib import Path
-from typing import Any, Dict, Mapping, Optional, Tuple
+from typing import Any, Dict, List, Mapping, Optional, Tuple
 
 import gymnasium
 import numpy as np
@@ -81,6 +85,7 @@ class RingEnv(gymnasium.Env):
         speed_scale_mps: float = 30.0,
         backend: Optional[str] = None,
         out: Optional[PathLike] = None,
+        in_process: bool = True,
     ) -> None:
         sc = as_scenario(scenario if scenario is not None else one_av_among_noisy_humans())
         self._data = dict(sc.data)
@@ -88,6 +93,9 @@ class RingEnv(gymnasium.Env):
         self.desired_speed_mps = float(desired_speed_mps)
         self.speed_scale_mps = float(speed_scale_mps)
         self._backend = backend
+        self._in_process = in_process
+        #: True while the episode's SUMO steps in this process (see syncroad.Simulation).
+        self.in_process = False
         sumo = self._data.get("sumo") or {}
         self._accel = float(sumo.get("accel_mps2", 2.6))
         self._decel = float(sumo.get("decel_mps2", 4.5))
@@ -99,6 +107,8 @@ class RingEnv(gymnasium.Env):
         self._episodes = 0
         # The controlled vehicles' indices into the observation's arrays.
         self._idx: np.ndarray = np.zeros(0, dtype=np.intp)
+        self._cl: List[int] = []
+        self._desired: List[float] = []
         # The controlled vehicles are known once a run shows them: start one to size the spaces.
         obs = self._start(int(self._data.get("seed", 0)))
         k = len(self._idx)
@@ -115,28 +125,29 @@ class RingEnv(gymnasium.Env):
         folder = self._out / f"episode-{self._episodes:05d}"
         self._episodes += 1
         self._sim = Simulation(Scenario.from_dict(d, base_dir=self._base), backend=self._backend,
-                               out=folder)
+                               out=folder, in_process=self._in_process)
+        self.in_process = self._sim.in_process
         obs = self._sim.observe()
         self._idx = np.flatnonzero(np.asarray(obs.controlled, dtype=bool))
+        self._cl = self._idx.tolist()
+        self._desired = [self.desired_speed_mps] * len(obs.ids)
         return obs
 
     def _observation(self, obs: Any) -> np.ndarray:
-        # A handful of numpy calls per step: a Gymnasium step should cost little beside
-        # SUMO's (the guide's performance page measures both).
-        c, k = self._idx, len(self._idx)
-        x = np.empty(3 * k)
-        np.divide(obs.speed_mps[c], self.speed_scale_mps, out=x[:k])
-        # Nobody ahead: the gap is the scale (inf → 1 after scaling) and the speed ahead 0.
-        np.divide(obs.gap_m[c], self.gap_scale_m, out=x[k:2 * k])
-        np.divide(np.fmax(obs.leader_speed_mps[c], 0.0), self.speed_scale_mps,
-                    out=x[2 * k:])
-        # np.clip costs twice np.minimum(np.maximum(...)) on arrays this small.
-        out: np.ndarray = np.minimum(np.maximum(x, 0.0), 1.0).astype(np.float32)
-        return out
+        # Plain floats for the few controlled vehicles: a Gymnasium step should cost little
+        # beside SUMO's, and a numpy call costs a microsecond whatever its size (the guide's
+        # performance page measures both).
+        sp, gap, lead = obs.speed_mps.item, obs.gap_m.item, obs.leader_speed_mps.item
+        c, vs, gs = self._cl, 1.0 / self.speed_scale_mps, 1.0 / self.gap_scale_m
+        # Nobody ahead: the gap is the scale (inf → 1 after scaling) and the speed ahead 0
+        # (nan → 0); each value clipped to [0, 1].
+        x = [sp(i) * vs for i in c] + [gap(i) * gs for i in c] + [lead(i) * vs for i in c]
+        return np.array([(1.0 if v > 1.0 else v) if v > 0.0 else 0.0 for v in x], dtype=np.float32)
 
     def _reward(self, obs: Any) -> float:
-        d = obs.speed_mps - self.desired_speed_mps
-        return max(self._best - math.sqrt(float(d @ d)), 0.0) / self._best
+        # ‖v − v_des 1‖ (math.dist: one pass over plain floats).
+        d = math.dist(obs.speed_mps.tolist(), self._desired)
+        return max(self._best - d, 0.0) / self._best
 
     def reset(self, *, seed: Optional[int] = None, options: Optional[Mapping[str, Any]] = None
               ) -> Tuple[np.ndarray, Dict[str, Any]]:
@@ -150,13 +161,14 @@ class RingEnv(gymnasium.Env):
     def step(self, action: np.ndarray) -> Tuple[np.ndarray, float, bool, bool, Dict[str, Any]]:
         assert self._sim is not None, "call reset() first"
         obs = self._sim.observe()
-        x = np.minimum(np.maximum(np.asarray(action, dtype=np.float64).reshape(-1), -1.0), 1.0)
-        # a = x · accel above 0, x · decel below; v' = max(v + a Δt, 0).
-        a = x * np.where(x >= 0.0, self._accel, self._decel)
+        # x clipped to [-1, 1]; a = x · accel above 0, x · decel below; v' = max(v + a Δt, 0).
         speeds = obs.speed_mps.copy()
-        c = self._idx
-        speeds[c] = np.fmax(speeds[c] + a * obs.dt_s, 0.0)
-        nxt = self._sim.step(speeds)
+        dt, up, down = obs.dt_s, self._accel, self._decel
+        for i, x in zip(self._cl, np.asarray(action, dtype=np.float64).reshape(-1).tolist()):
+            x = (1.0 if x > 1.0 else x) if x > -1.0 else -1.0
+            v = speeds.item(i) + x * (up if x >= 0.0 else down) * dt
+            speeds[i] = v if v > 0.0 else 0.0
+        nxt = self._sim._advance(speeds)
         if nxt is None:
             # The horizon: the last observation stands; the run's record is written.
             run = self._sim.run

@@ -150,11 +150,11 @@ def test_a_second_thread_on_the_same_folder_is_refused_and_the_first_keeps_its_r
     real = _api._execute
     inside, release = threading.Event(), threading.Event()
 
-    def held(argv, out=None):
+    def held(argv, out=None, **kw):
         if threading.current_thread().name == "A":
             inside.set()
             assert release.wait(60)
-        return real(argv, out)
+        return real(argv, out, **kw)
 
     monkeypatch.setattr(_api, "_execute", held)
     out = tmp_path / "same"

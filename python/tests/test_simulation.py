@@ -45,7 +45,7 @@ def test_a_loop_of_steps_drives_as_the_same_controller_does(tmp_path, backend):
     assert len(a) == 22 * 201
     assert np.array_equal(a, b)
     # Its record is the run's normal one, naming the stepping controller.
-    assert sim.run.metrics.controller["label"] == "python:RemoteController"
+    assert sim.run.metrics.controller["label"] == "python:SimulationController"
 
 
 def test_closing_early_keeps_the_rows_with_an_incomplete_record(tmp_path, capfd):
@@ -77,13 +77,112 @@ def test_two_simulations_step_side_by_side_in_one_process(tmp_path):
     # its caller, stepping both, never let happen.
     a = syncroad.Simulation(ring(12), out=tmp_path / "a")
     b = syncroad.Simulation(ring(12), out=tmp_path / "b")
+    # libsumo runs one simulation per process: the first steps here, the second in a worker.
+    assert a.in_process and not b.in_process
     with a, b:
         while not a.done:
             a.step()
             b.step()
     assert b.done and a.run.metrics.complete and b.run.metrics.complete
-    # The same scenario and the same commands: the same run, whatever ran beside it.
+    # The same scenario and the same commands: the same run, whatever ran beside it and
+    # wherever it stepped.
     assert np.array_equal(speeds(a.run), speeds(b.run))
+    # The first one's end gave this process's libsumo back.
+    with syncroad.Simulation(ring(12), out=tmp_path / "c") as c:
+        assert c.in_process
+
+
+@pytest.mark.parametrize("backend", ["native", "sumo"])
+def test_a_run_stepped_in_this_process_is_the_run_stepped_in_a_worker(tmp_path, backend):
+    # Commands that depend on what was observed, so that a difference in any row of any step
+    # would show.
+    runs = []
+    for where in (True, False):
+        with syncroad.Simulation(ring(), backend=backend, out=tmp_path / f"{where}",
+                                 in_process=where) as sim:
+            assert sim.in_process == where
+            seen = []
+            while not sim.done:
+                obs = sim.observe()
+                seen.append(np.concatenate([[obs.time_s, obs.step], obs.speed_mps, obs.gap_m,
+                                            obs.leader_speed_mps, obs.odometer_m, obs.accel_mps2]))
+                sim.step(np.clip(obs.speed_mps + 0.05 * np.tanh(obs.gap_m - 8.0), 0.0, 9.0))
+        runs.append((np.array(seen), speeds(sim.run), sim.run.metrics.sync.verdict))
+    (seen_a, v_a, verdict_a), (seen_b, v_b, verdict_b) = runs
+    assert seen_a.shape == (200, 2 + 5 * 22)
+    assert np.array_equal(seen_a, seen_b)
+    assert np.array_equal(v_a, v_b) and verdict_a == verdict_b
+
+
+def signalled_loop(folder):
+    """A one-lane loop of eight 78 m edges (15 m/s) through a traffic light at node n2, built
+    by the project's netconvert."""
+    import math
+
+    nodes = "".join(
+        f'<node id="n{i}" x="{100 * math.cos(math.pi * i / 4):.3f}" y="{100 * math.sin(math.pi * i / 4):.3f}"'
+        + (' type="traffic_light"' if i == 2 else "") + "/>"
+        for i in range(8)
+    )
+    nodes += '<node id="north" x="0" y="250"/><node id="inner" x="0" y="20"/>'
+    edges = "".join(f'<edge id="e{i}" from="n{i}" to="n{(i + 1) % 8}" numLanes="1" speed="15"/>' for i in range(8))
+    edges += '<edge id="in" from="north" to="n2" numLanes="1" speed="15"/>'
+    edges += '<edge id="out" from="n2" to="inner" numLanes="1" speed="15"/>'
+    (folder / "tls.nod.xml").write_text(f"<nodes>{nodes}</nodes>")
+    (folder / "tls.edg.xml").write_text(f"<edges>{edges}</edges>")
+    netconvert = REPO / ".venv/lib/python3.11/site-packages/sumo/bin/netconvert"
+    subprocess.run([str(netconvert), "--node-files", "tls.nod.xml", "--edge-files", "tls.edg.xml",
+                    "-o", "tls.net.xml"], cwd=folder, check=True, capture_output=True)
+    return syncroad.Scenario.from_dict({
+        "name": "signalled-loop", "seed": 7, "step_s": 0.1, "horizon_s": 60, "vehicles": 6,
+        "road": {"type": "loop", "edges": [f"e{i}" for i in range(8)]},
+        "model": {"type": "delayed_driver",
+                  "graph": {"type": "bidirectional_ring", "gain_pred": 0.6, "gain_follow": 0.1},
+                  "delay_s": 0.5},
+        "initial": {"speed_mps": 8.0},
+        "sumo": {"net": "tls.net.xml"},
+    }, base_dir=folder)
+
+
+def test_the_traffic_lights_ahead_are_observed_alike_in_this_process_and_in_a_worker(tmp_path):
+    sc = signalled_loop(tmp_path)
+    rows = []
+    for where in (True, False):
+        with syncroad.Simulation(sc, out=tmp_path / f"run-{where}", in_process=where) as sim:
+            assert sim.in_process == where
+            seen = []
+            while not sim.done:
+                obs = sim.observe()
+                seen.append(np.concatenate([obs.signal_distance_m, obs.signal_stop, obs.speed_mps]))
+                # 8 m/s, stopping 2 m before a red or yellow light within 40 m.
+                red = (obs.signal_stop > 0) & (obs.signal_distance_m < 40.0)
+                stop = np.sqrt(6.0 * np.maximum(obs.signal_distance_m - 2.0, 0.0))
+                sim.step(np.where(red, np.minimum(8.0, stop), 8.0))
+        rows.append(np.array(seen))
+    a, b = rows
+    assert a.shape == (600, 18)
+    assert np.array_equal(a, b)
+    # The light was seen, red and green, ahead of every vehicle at some step.
+    assert np.all(np.isfinite(a[:, :6]).any(axis=0))
+    assert (a[:, 6:12] == 1.0).any() and (a[:, 6:12] == 0.0).any()
+
+
+def test_a_process_that_runs_its_own_libsumo_steps_the_simulation_in_a_worker(tmp_path):
+    import libsumo
+
+    net = REPO / "sumo-nets" / "sugiyama-ring.net.xml"
+    libsumo.start(["sumo", "--net-file", str(net), "--no-step-log", "true"])
+    try:
+        with syncroad.Simulation(ring(10), out=tmp_path / "beside") as sim:
+            # The caller's SUMO is left alone: the run steps in a worker.
+            assert not sim.in_process
+            while not sim.done:
+                sim.step()
+        assert libsumo.simulation.isLoaded()
+        libsumo.simulationStep()
+    finally:
+        libsumo.close()
+    assert sim.run.metrics.complete
 
 
 gymnasium = pytest.importorskip("gymnasium")

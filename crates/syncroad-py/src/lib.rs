@@ -58,20 +58,29 @@ fn worker_main(py: Python<'_>) -> u8 {
 
 /// Runs one CLI command line (`argv[0]` is the program name) for the API and returns
 /// `(exit_code, error_or_None, captured_stdout)`. Ctrl-C stops the command as in the CLI and
-/// raises `KeyboardInterrupt` once it has stopped.
+/// raises `KeyboardInterrupt` once it has stopped. With `here`, its SUMO run steps on a thread
+/// of this process with this process's libsumo, which the caller has claimed
+/// ([`claim_libsumo`]), instead of in a worker process.
 #[pyfunction]
-#[pyo3(signature = (argv, capture=true))]
+#[pyo3(signature = (argv, capture=true, here=false))]
 fn execute(
     py: Python<'_>,
     argv: Vec<String>,
     capture: bool,
+    here: bool,
 ) -> PyResult<(u8, Option<String>, String)> {
     set_worker(py)?;
     syncroad_sumo::host_delivers_interrupts();
     syncroad_sumo::clear_interrupt();
     let (ended, pending) = py.detach(|| {
         std::thread::scope(|s| {
-            let work = s.spawn(|| syncroad::host::execute(argv, capture));
+            let work = s.spawn(|| {
+                if here {
+                    syncroad_sumo::here(|| syncroad::host::execute(argv, capture))
+                } else {
+                    syncroad::host::execute(argv, capture)
+                }
+            });
             let mut pending: Option<PyErr> = None;
             while !work.is_finished() {
                 std::thread::sleep(POLL);
@@ -93,6 +102,36 @@ fn execute(
     Ok((ended.code, ended.error, ended.stdout))
 }
 
+/// Takes this process's libsumo for one run stepped here (`execute(..., here=True)`); False
+/// while another run of this process holds it, or when this process's own code has started a
+/// libsumo simulation.
+#[pyfunction]
+fn claim_libsumo(py: Python<'_>) -> PyResult<bool> {
+    if !syncroad_sumo::claim_libsumo() {
+        return Ok(false);
+    }
+    // The caller's own libsumo simulation (libsumo runs one per process).
+    let loaded = py
+        .import("libsumo")
+        .and_then(|m| m.getattr("simulation"))
+        .and_then(|s| s.call_method0("isLoaded"))
+        .and_then(|l| l.is_truthy());
+    match loaded {
+        Ok(false) => Ok(true),
+        // A libsumo that cannot be imported here is the worker's to report.
+        Ok(true) | Err(_) => {
+            syncroad_sumo::release_libsumo();
+            Ok(false)
+        }
+    }
+}
+
+/// Gives back what [`claim_libsumo`] took.
+#[pyfunction]
+fn release_libsumo() {
+    syncroad_sumo::release_libsumo();
+}
+
 /// Loads and validates a scenario file; returns the CLI's error message, or `None` when valid.
 #[pyfunction]
 fn validate_scenario(path: PathBuf) -> Option<String> {
@@ -106,6 +145,9 @@ fn _syncroad(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(worker_main, m)?)?;
     m.add_function(wrap_pyfunction!(execute, m)?)?;
     m.add_function(wrap_pyfunction!(validate_scenario, m)?)?;
+    m.add_function(wrap_pyfunction!(claim_libsumo, m)?)?;
+    m.add_function(wrap_pyfunction!(release_libsumo, m)?)?;
+    m.add_class::<syncroad_sumo::Handoff>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

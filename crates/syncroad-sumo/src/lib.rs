@@ -21,6 +21,8 @@
 //! * `summary` — SUMO's summary output: the metrics of every vehicle in the network;
 //! * `protocol`, `cosim`, `worker` — the worker process: one step of the co-simulation apart
 //!   from the loop that runs it;
+//! * `handoff` — a run stepped by a caller in this very process (the Python package's
+//!   `Simulation`), and this process's libsumo lent to one such run at a time;
 //! * `supervisor`, `prepare`, `output` — the parent: [`Prepared::new`] checks everything it can before SUMO
 //!   starts, [`Prepared::run`] supervises the worker, [`SumoRun::output`] is the
 //!   [`RunOutput`](syncroad_control::RunOutput) every backend returns;
@@ -35,6 +37,7 @@ mod controlled;
 mod cosim;
 mod direct;
 mod frozen;
+mod handoff;
 mod inflows;
 mod input_file;
 mod layout;
@@ -58,6 +61,7 @@ mod venv;
 mod worker;
 
 pub use frozen::FROZEN_LIMIT;
+pub use handoff::{claim_libsumo, here, release_libsumo, Handoff};
 pub use layout::EMISSION_CLASS;
 pub use net::{read_config, read_network_road, ConfigError, NetReader, Road};
 pub use prepare::{

@@ -16,7 +16,9 @@ use std::time::{Duration, Instant};
 use syncroad_control::Trajectory;
 
 use crate::frozen::FrozenWatch;
-use crate::protocol::{read_frame, Event, Finish, Frame, JobRef, Request, StartInfo, WorkerMsg};
+use crate::protocol::{
+    read_frame, Event, Finish, Frame, Job, JobRef, Request, StartInfo, WorkerMsg,
+};
 use crate::worker::WORKER_ARG;
 
 /// Lines of worker stderr kept for error messages.
@@ -640,10 +642,84 @@ pub(crate) fn run_worker_job(
     job: JobRef<'_>,
     limits: &Supervision,
 ) -> WorkerRun {
+    if crate::handoff::is_here() {
+        return run_here(job, limits);
+    }
     match Worker::spawn(cmd) {
         Ok(mut w) => w.run_job(job, limits),
         Err(e) => WorkerRun::empty(job.request(), Err(e), 0),
     }
+}
+
+/// Runs `job` on a thread of this process, with this process's libsumo (the caller claimed it:
+/// [`crate::handoff::here`]): the same loop and the same frames as a worker's, read as they
+/// come. Nothing can stop a thread from outside, so the run's time limit and the frozen-worker
+/// watch do not apply; the caller that steps the run ends it.
+fn run_here(job: JobRef<'_>, limits: &Supervision) -> WorkerRun {
+    let request = job.request();
+    let mut run = WorkerRun::empty(
+        request,
+        Err(SupervisorError::Wait("not started".into())),
+        std::process::id(),
+    );
+    let owned = match job {
+        JobRef::Run(r) => Job::Run(Box::new(r.clone())),
+        JobRef::Bench { request, probe } => Job::Bench {
+            request: Box::new(request.clone()),
+            probe,
+        },
+    };
+    let (reader, writer) = match std::io::pipe() {
+        Ok(p) => p,
+        Err(e) => {
+            run.result = Err(SupervisorError::Spawn {
+                program: "a pipe to a run in this process".into(),
+                reason: e.to_string(),
+            });
+            return run;
+        }
+    };
+    let mut end: Option<Result<Finish, String>> = None;
+    let mut protocol = None;
+    let stepped = std::thread::scope(|s| {
+        let stepper = s.spawn(move || {
+            let mut out = std::io::BufWriter::with_capacity(64 * 1024, writer);
+            let result = crate::handoff::here(|| {
+                pyo3::Python::attach(|py| crate::cosim::run(py, &owned, &mut out))
+            })
+            .map_err(|e| e.to_string());
+            if let Err(message) = result {
+                let _ = crate::protocol::write_msg(&mut out, &WorkerMsg::Failed { message });
+            }
+            let _ = out.flush();
+        });
+        let mut r = BufReader::with_capacity(1 << 20, reader);
+        loop {
+            match read_frame(&mut r) {
+                Ok(Some(f)) => run.take(f, limits, &mut end),
+                Ok(None) => break,
+                Err(e) => {
+                    protocol = Some(e);
+                    // Read on to the end, or the loop would wait on a full pipe forever.
+                    let _ = std::io::copy(&mut r, &mut std::io::sink());
+                    break;
+                }
+            }
+        }
+        stepper.join()
+    });
+    run.result = match (end, protocol, stepped) {
+        (Some(Ok(f)), _, _) => Ok(f),
+        (Some(Err(m)), _, _) => Err(SupervisorError::Worker(m)),
+        (None, Some(p), _) => Err(SupervisorError::Protocol(p)),
+        (None, None, Err(_)) => Err(SupervisorError::Worker(
+            "the run in this process panicked".into(),
+        )),
+        (None, None, Ok(())) => Err(SupervisorError::Worker(
+            "the run in this process ended without its end".into(),
+        )),
+    };
+    run
 }
 
 /// Long-lived workers shared by the threads of a sweep: a run takes an idle worker (or starts

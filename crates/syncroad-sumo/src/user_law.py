@@ -151,6 +151,7 @@ class Stepper:
     def __init__(
         self, obj, ids, dt_s, length_m, ring_length_m, controlled, speed_limit_mps=None, signals=False
     ):
+        self.controller = obj
         self.step_fn = obj.step
         self.n = len(ids)
         self.rows = np.zeros((len(ROWS), self.n), dtype=np.float64)
@@ -176,6 +177,8 @@ class Stepper:
         obs.signal_distance_m.flags.writeable = False
         obs.signal_stop = self.signal_stop[:]
         obs.signal_stop.flags.writeable = False
+        self.signal_distance_address = self.signal_distance.__array_interface__["data"][0]
+        self.signal_stop_address = self.signal_stop.__array_interface__["data"][0]
         # In a SUMO worker on a network with traffic lights: the loop's libsumo, imported at
         # the first step (the controller is built before the loop starts SUMO).
         self.signals = signals
@@ -183,7 +186,10 @@ class Stepper:
         self.ids = tuple(ids)
         self.obs = obs
 
-    def _read_signals(self):
+    def read_signals(self):
+        """The traffic lights ahead of every vehicle into `signal_distance`, `signal_stop`."""
+        if self.next_tls is None:
+            self.next_tls = importlib.import_module("libsumo").vehicle.getNextTLS
         for i, vid in enumerate(self.ids):
             ahead = self.next_tls(vid)
             if ahead:
@@ -199,9 +205,7 @@ class Stepper:
         obs.time_s = time_s
         obs.step = step
         if self.signals:
-            if self.next_tls is None:
-                self.next_tls = importlib.import_module("libsumo").vehicle.getNextTLS
-            self._read_signals()
+            self.read_signals()
         out = self.step_fn(obs)
         try:
             a = np.asarray(out, dtype=np.float64)

@@ -21,6 +21,9 @@ use syncroad_control::sensed::Neighbors;
 use syncroad_control::user_law::{LawContext, PythonLaw, PythonSource};
 use syncroad_control::{ControllerEnd, LawHost, SpeedController};
 
+use std::sync::Arc;
+
+use crate::handoff::{First, Handoff, Shared, Stop};
 use crate::python::{add_packages, py_error};
 
 /// The Python half of the adapter.
@@ -67,6 +70,29 @@ pub struct PythonController {
     last_mps: Vec<f64>,
     /// Why the run ends, once it does.
     ended: Option<ControllerEnd>,
+    /// The caller in this process the controller stands for (`syncroad.Simulation`): the
+    /// observation and the commands go through this meeting point instead of `step(obs)`.
+    handoff: Option<Caller>,
+}
+
+/// A caller in this process, met through a [`Handoff`].
+struct Caller {
+    shared: Arc<Shared>,
+    /// What the caller is told with the first observation.
+    first: First,
+    /// The Stepper's reading of the traffic lights ahead and its two arrays (n float64 each),
+    /// on a network with traffic lights.
+    signals: Option<(Py<PyAny>, usize, usize)>,
+    /// The observation's rows before the lights' (time and step first).
+    rows: usize,
+}
+
+impl Drop for PythonController {
+    fn drop(&mut self) {
+        if let Some(c) = &self.handoff {
+            c.shared.end();
+        }
+    }
 }
 
 impl PythonController {
@@ -129,6 +155,33 @@ impl PythonController {
                 .map_err(|e| fail(py_error(py, name.to_string(), e).to_string()))
         };
         let (rows, out) = (address("rows_address")?, address("out_address")?);
+        let handoff = match obj_handoff(&stepper) {
+            Some(shared) => Some(Caller {
+                shared,
+                first: First {
+                    dt_s: setup.step_s,
+                    ids: setup.ids.clone(),
+                    controlled: setup.controlled.clone(),
+                    length_m: setup.length_m.clone(),
+                    ring_length_m: setup.ring_length_m,
+                    speed_limit_mps: setup.speed_limit_mps.unwrap_or(f64::INFINITY),
+                },
+                signals: if setup.signals {
+                    let read = stepper
+                        .getattr("read_signals")
+                        .map_err(|e| fail(py_error(py, "Stepper.read_signals", e).to_string()))?;
+                    Some((
+                        read.unbind(),
+                        address("signal_distance_address")?,
+                        address("signal_stop_address")?,
+                    ))
+                } else {
+                    None
+                },
+                rows: 5,
+            }),
+            None => None,
+        };
         let stepper = stepper
             .getattr("step")
             .map_err(|e| fail(py_error(py, "Stepper.step", e).to_string()))?;
@@ -149,6 +202,77 @@ impl PythonController {
             start_m: Vec::new(),
             last_mps: Vec::new(),
             ended: None,
+            handoff,
+        })
+    }
+
+    /// [`Self::call`] for a caller in this process: the same observation (and the lights'
+    /// rows, which the Stepper reads from libsumo on a network with lights) handed over with
+    /// the interpreter released while the caller decides.
+    fn call_here(
+        &mut self,
+        time_s: f64,
+        speeds: &[f64],
+        positions: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), ControllerEnd> {
+        let n = speeds.len();
+        if self.steps == 0 {
+            self.start_m = positions.to_vec();
+            self.last_mps = speeds.to_vec();
+        }
+        self.view.observe(speeds, positions);
+        let caller = self.handoff.as_ref().expect("a caller in this process");
+        let lights = match &caller.signals {
+            Some((read, distance, stop)) => {
+                Python::attach(|py| {
+                    read.bind(py).call0().map(|_| ()).map_err(|e| {
+                        ControllerEnd::Failed(
+                            py_error(py, "reading the traffic lights ahead", e).to_string(),
+                        )
+                    })
+                })?;
+                // SAFETY: the Stepper's two float64 arrays of n values (kept as its
+                // attributes while this controller holds it), written by `read_signals` just
+                // now; nothing else writes them while the loop steps.
+                unsafe {
+                    Some((
+                        std::slice::from_raw_parts(*distance as *const f64, n),
+                        std::slice::from_raw_parts(*stop as *const f64, n),
+                    ))
+                }
+            }
+            None => None,
+        };
+        let (dt, last, start, view) = (self.dt_s, &self.last_mps, &self.start_m, &self.view);
+        let step = self.steps;
+        let fill = |obs: &mut Vec<f64>| {
+            obs.clear();
+            obs.reserve(2 + (caller.rows + 2) * n);
+            obs.extend([time_s, step as f64]);
+            obs.extend_from_slice(speeds);
+            obs.extend((0..n).map(|i| (speeds[i] - last[i]) / dt));
+            obs.extend((0..n).map(|i| positions[i] - start[i]));
+            obs.extend_from_slice(&view.gaps_m);
+            obs.extend_from_slice(&view.leader_speeds_mps);
+            match lights {
+                Some((distance, stop)) => {
+                    obs.extend_from_slice(distance);
+                    obs.extend_from_slice(stop);
+                }
+                None => {
+                    obs.extend(std::iter::repeat_n(f64::INFINITY, n));
+                    obs.extend(std::iter::repeat_n(0.0, n));
+                }
+            }
+        };
+        let first = (step == 0).then(|| caller.first.clone());
+        let shared = caller.shared.clone();
+        let result = Python::attach(|py| py.detach(|| shared.exchange(first, fill, out)));
+        self.last_mps.copy_from_slice(speeds);
+        result.map_err(|s| match s {
+            Stop::Closed(why) => ControllerEnd::Stopped(why),
+            Stop::Failed(why) => ControllerEnd::Failed(why),
         })
     }
 
@@ -249,11 +373,15 @@ impl SpeedController for PythonController {
             )));
         }
         if self.ended.is_none() {
-            let result = Python::attach(|py| self.call(py, time_s, speeds, positions, out))
-                .and_then(|()| {
-                    self.check(time_s, speeds, out)
-                        .map_err(ControllerEnd::Failed)
-                });
+            let called = if self.handoff.is_some() {
+                self.call_here(time_s, speeds, positions, out)
+            } else {
+                Python::attach(|py| self.call(py, time_s, speeds, positions, out))
+            };
+            let result = called.and_then(|()| {
+                self.check(time_s, speeds, out)
+                    .map_err(ControllerEnd::Failed)
+            });
             self.ended = result.err();
             self.steps += 1;
         }
@@ -270,6 +398,15 @@ impl SpeedController for PythonController {
     fn ended(&mut self) -> Option<ControllerEnd> {
         self.ended.clone()
     }
+}
+
+/// The meeting point of the caller the Stepper's controller stands for, when it is one
+/// (its `syncroad_handoff` attribute is a [`Handoff`] of this process).
+fn obj_handoff(stepper: &Bound<'_, PyAny>) -> Option<Arc<Shared>> {
+    let obj = stepper.getattr("controller").ok()?;
+    let h = obj.getattr("syncroad_handoff").ok()?;
+    let h = h.cast::<Handoff>().ok()?;
+    Some(h.get().shared())
 }
 
 /// A JSON value as the Python object `json.loads` makes of it.

@@ -117,17 +117,20 @@ pub fn run(py: Python<'_>, job: &Job, out: &mut impl Write) -> Result<(), CosimE
         Control::SumoModel => None,
     };
     let (module, python) = load_libsumo(py)?;
-    eprintln!(
-        "syncroad-sumo worker: python {} (sys.prefix {}), libsumo {} ({})",
-        python
-            .python_version
-            .split_whitespace()
-            .next()
-            .unwrap_or("?"),
-        python.sys_prefix,
-        python.libsumo_file,
-        python.sumo_version
-    );
+    // A worker's stderr is its parent's log; a run in the caller's process says nothing there.
+    if !crate::handoff::is_here() {
+        eprintln!(
+            "syncroad-sumo worker: python {} (sys.prefix {}), libsumo {} ({})",
+            python
+                .python_version
+                .split_whitespace()
+                .next()
+                .unwrap_or("?"),
+            python.sys_prefix,
+            python.libsumo_file,
+            python.sumo_version
+        );
+    }
     let ls = Libsumo::new(py, module)?;
     let args = sumo_args(req);
     if let Err(e) = ls.module.call_method1("start", (args.clone(),)) {
