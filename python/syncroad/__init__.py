@@ -11,8 +11,10 @@ same files and exit codes) and read their results back as Python objects::
     df = syncroad.sweep("sweeps/ring-gain-delay.native.json", out="out/sweep")
 
 SUMO runs live in supervised worker processes (``python -m syncroad._worker``), as in the
-CLI: libsumo allows one simulation per process and can crash it. Ctrl-C stops a command as
-in the CLI, keeps the rows computed, and raises :class:`Interrupted`.
+CLI: libsumo allows one simulation per process and can crash it. A run the caller steps
+(:class:`Simulation`, the Gymnasium environment) steps SUMO in the caller's process instead,
+for speed, unless asked not to. Ctrl-C stops a command as in the CLI, keeps the rows
+computed, and raises :class:`Interrupted`.
 """
 
 from syncroad._api import check, compare, run, stability, sweep
