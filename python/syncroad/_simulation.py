@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import threading
+import weakref
 from multiprocessing.connection import Listener
 from types import SimpleNamespace
 from typing import Any, Dict, Optional, Sequence, Union
@@ -59,10 +60,9 @@ class Simulation:
         from syncroad._api import run
 
         sc = as_scenario(scenario)
-        self.run: Optional[Run] = None
-        self.error: Optional[BaseException] = None
-        self.done = False
-        self._closing = False
+        # What the run's thread reports. The thread holds this, not the Simulation, so that a
+        # Simulation dropped without close() is collected, and its run closed (below).
+        state = self._state = _RunState()
         self._conn: Any = None
         self._listener: Any = None
         self._handoff: Any = None
@@ -71,9 +71,9 @@ class Simulation:
         # time limit is asked for, which only a worker process can be held to.
         # (``run`` steps SUMO unless asked for the native simulator.)
         native = backend == "native"
-        self._claimed = in_process and timeout_s is None and not native and _syncroad.claim_libsumo()
+        claimed = in_process and timeout_s is None and not native and _syncroad.claim_libsumo()
         #: True when the run steps in this process (no worker process, no socket).
-        self.in_process = in_process and timeout_s is None and (native or self._claimed)
+        self.in_process = in_process and timeout_s is None and (native or claimed)
         if self.in_process:
             self._handoff = _syncroad.Handoff()
             token = os.urandom(16).hex()
@@ -88,18 +88,18 @@ class Simulation:
 
         def target() -> None:
             try:
-                self.run = run(sc, backend, out, controller=controller, plots=plots,
-                               timeout_s=timeout_s, progress="never", _here=self._claimed)
+                state.run = run(sc, backend, out, controller=controller, plots=plots,
+                                timeout_s=timeout_s, progress="never", _here=claimed)
             except RunError as e:
-                self.run = e.run
-                if not (self._closing and CLOSED in str(e)):
-                    self.error = e
+                state.run = e.run
+                if not (state.closing and CLOSED in str(e)):
+                    state.error = e
             except BaseException as e:  # noqa: BLE001 - handed to the caller's thread
-                self.error = e
+                state.error = e
             finally:
-                if self._claimed:
+                if claimed:
                     _syncroad.release_libsumo()
-                self.done = True
+                state.done = True
 
         self._thread = threading.Thread(target=target, name="syncroad-simulation", daemon=True)
         self._thread.start()
@@ -111,6 +111,26 @@ class Simulation:
             self._receiver = Receiver(self._conn)
             self._first = True
             self._receive()
+        # Dropped without close(): the run closes as close() would close it (its record
+        # written, marked incomplete), and a claimed libsumo is given back.
+        if not self.done:
+            closer = weakref.finalize(self, _discarded, state, self._handoff, self._conn)
+            closer.atexit = False
+
+    @property
+    def run(self) -> Optional[Run]:
+        """The run's record, once it has ended (``None`` before)."""
+        return self._state.run
+
+    @property
+    def error(self) -> Optional[BaseException]:
+        """What the run failed with, until it is raised in the caller's thread."""
+        return self._state.error
+
+    @property
+    def done(self) -> bool:
+        """True once the run has ended (its horizon, a close, or a failure)."""
+        return self._state.done
 
     def _start_here(self) -> None:
         """Waits for the run's first observation in this process, or its end."""
@@ -123,6 +143,8 @@ class Simulation:
                 break
             waited += 0.05
         if got == 1:
+            # The run has its controller: the registry's entry is no longer needed.
+            LOCAL.pop(self._token or "", None)
             first = h.first()
             obs = SimpleNamespace(**first)
             obs.ids = tuple(obs.ids)
@@ -201,15 +223,15 @@ class Simulation:
 
     def _finish(self) -> None:
         self._thread.join()
-        self.done = True
+        self._state.done = True
         if self._token is not None:
             LOCAL.pop(self._token, None)
         if self._conn is not None:
             self._conn.close()
         if self._listener is not None:
             self._listener.close()
-        if self.error is not None:
-            error, self.error = self.error, None
+        if self._state.error is not None:
+            error, self._state.error = self._state.error, None
             raise error
 
     def observe(self) -> SimpleNamespace:
@@ -251,7 +273,7 @@ class Simulation:
     def close(self) -> Optional[Run]:
         """Ends the run (before its horizon: marked incomplete) and returns its :class:`Run`."""
         if not self.done:
-            self._closing = True
+            self._state.closing = True
             if self._handoff is not None:
                 self._handoff.close(CLOSED)
                 while not self.done:
@@ -275,6 +297,32 @@ class Simulation:
     def __repr__(self) -> str:
         state = "done" if self.done else f"t = {self.time_s:.3f} s"
         return f"Simulation({state})"
+
+
+class _RunState:
+    """What a Simulation's run thread reports: its record, its error, its end."""
+
+    def __init__(self) -> None:
+        self.run: Optional[Run] = None
+        self.error: Optional[BaseException] = None
+        self.done = False
+        #: The caller is closing the run (its "closed" stop is no error).
+        self.closing = False
+
+
+def _discarded(state: _RunState, handoff: Any, conn: Any) -> None:
+    """Closes the run of a Simulation collected without close() (its thread ends the run and
+    writes the record as close() would have)."""
+    if state.done:
+        return
+    state.closing = True
+    if handoff is not None:
+        handoff.close(CLOSED)
+    elif conn is not None:
+        try:
+            conn.send_bytes(b"")
+        except OSError:
+            pass
 
 
 __all__ = ["Simulation"]

@@ -92,6 +92,36 @@ def test_two_simulations_step_side_by_side_in_one_process(tmp_path):
         assert c.in_process
 
 
+@pytest.mark.parametrize("in_process", [True, False])
+def test_a_simulation_dropped_without_close_closes_its_run(tmp_path, in_process):
+    import gc
+    import json
+    import time
+
+    sim = syncroad.Simulation(ring(), out=tmp_path / "dropped", in_process=in_process)
+    assert sim.in_process == in_process
+    for _ in range(15):
+        sim.step()
+    del sim
+    gc.collect()
+    # Its run ends as a close would end it: the record written, marked incomplete, with the
+    # rows of the steps taken (nothing else would ever end it: the run waits for commands).
+    metrics = tmp_path / "dropped" / "metrics.json"
+    deadline = time.monotonic() + 120
+    while not metrics.is_file() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    record = json.loads(metrics.read_text())
+    assert record["complete"] is False
+    assert record["stop"]["reason"] == "stopped_by_controller"
+    # And this process's libsumo is free again for the next one.
+    while time.monotonic() < deadline:
+        with syncroad.Simulation(ring(10), out=tmp_path / "next") as nxt:
+            if nxt.in_process:
+                break
+        time.sleep(0.05)
+    assert nxt.in_process
+
+
 @pytest.mark.parametrize("backend", ["native", "sumo"])
 def test_a_run_stepped_in_this_process_is_the_run_stepped_in_a_worker(tmp_path, backend):
     # Commands that depend on what was observed, so that a difference in any row of any step
