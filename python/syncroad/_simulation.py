@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import threading
+import time
 import weakref
 from multiprocessing.connection import Listener
 from types import SimpleNamespace
@@ -67,6 +68,7 @@ class Simulation:
         self._listener: Any = None
         self._handoff: Any = None
         self._obs: Optional[SimpleNamespace] = None
+        self._pending = False
         # This process steps the run (its libsumo, if no other run of it holds it) unless a
         # time limit is asked for, which only a worker process can be held to.
         # (``run`` steps SUMO unless asked for the native simulator.)
@@ -133,18 +135,27 @@ class Simulation:
         return self._state.done
 
     def _start_here(self) -> None:
-        """Waits for the run's first observation in this process, or its end."""
+        """Waits for the run's first observation in this process, or its end. Whatever stops
+        the wait (Ctrl-C, the time limit) closes the run, which would otherwise wait for its
+        caller forever."""
         h = self._handoff
-        waited = 0.0
-        got = 0
-        while waited < START_TIMEOUT_S:
-            got = h.wait(0.05)
-            if got or self.done:
-                break
-            waited += 0.05
-        if got == 1:
-            # The run has its controller: the registry's entry is no longer needed.
+        try:
+            got = 0
+            deadline = time.monotonic() + START_TIMEOUT_S
+            while time.monotonic() < deadline:
+                got = h.wait(0.05)
+                if got or self.done:
+                    break
+            if not self.done and got == 0:
+                raise RunError(f"the run did not start stepping within {START_TIMEOUT_S:.0f} s")
+        except BaseException:
+            self._state.closing = True
+            h.close("the caller stopped waiting for the run's start")
             LOCAL.pop(self._token or "", None)
+            raise
+        # The run has its controller (or has ended): the registry's entry is no longer needed.
+        LOCAL.pop(self._token or "", None)
+        if got == 1:
             first = h.first()
             obs = SimpleNamespace(**first)
             obs.ids = tuple(obs.ids)
@@ -155,9 +166,6 @@ class Simulation:
             self._obs = obs
             self._unpack(h.take())
             return
-        if not self.done and got != 2:
-            h.close("the caller stopped waiting for the run's start")
-            raise RunError(f"the run did not start stepping within {START_TIMEOUT_S:.0f} s")
         self._finish()
         raise self.error if self.error is not None else RunError("the run ended before its first step")
 
@@ -220,6 +228,7 @@ class Simulation:
             self._unpack(self._handoff.take())
         else:
             self._finish()
+        self._pending = False
 
     def _finish(self) -> None:
         self._thread.join()
@@ -234,8 +243,28 @@ class Simulation:
             error, self._state.error = self._state.error, None
             raise error
 
+    def _settle(self) -> None:
+        """Receives the observation of a step whose commands went out but whose wait was
+        interrupted (Ctrl-C): the run has stepped, so this is the current observation."""
+        if self._pending and not self.done:
+            if self._handoff is not None:
+                self._receive_here()
+            else:
+                self._receive()
+        self._pending = False
+
+    def _refuse_after_interrupt(self) -> None:
+        """Commands computed before an interrupted step would drive the step after it."""
+        if self._pending:
+            self._settle()
+            raise RunError(
+                "the previous step was interrupted after its commands went out, and the run "
+                "has stepped since: observe() gives its observation, then step() again"
+            )
+
     def observe(self) -> SimpleNamespace:
         """The observation at the current step (read-only arrays, indexed like ``obs.ids``)."""
+        self._settle()
         if self._obs is None:
             raise RunError("the simulation has no observation")
         return self._obs
@@ -251,6 +280,7 @@ class Simulation:
         the run reached its horizon (``done``; the record is then in ``run``)."""
         if self.done:
             raise RunError("the simulation has ended; its record is in sim.run")
+        self._refuse_after_interrupt()
         obs = self.observe()
         v = np.array(obs.speed_mps if speeds is None else speeds, dtype=np.float64)
         if v.shape != (len(obs.ids),):
@@ -263,11 +293,15 @@ class Simulation:
         """``step`` with ``v`` checked: float64, one value per vehicle."""
         if self.done:
             raise RunError("the simulation has ended; its record is in sim.run")
+        self._refuse_after_interrupt()
+        # Until the next observation is in: an interrupted wait leaves the run a step ahead.
+        self._pending = True
         if self._handoff is not None:
             self._receive_here(self._handoff.step(v.tobytes()))
         else:
             self._conn.send_bytes(v.tobytes())
             self._receive()
+            self._pending = False
         return None if self.done else self._obs
 
     def close(self) -> Optional[Run]:

@@ -138,10 +138,10 @@ class RingEnv(gymnasium.Env):
         # beside SUMO's, and a numpy call costs a microsecond whatever its size (the guide's
         # performance page measures both).
         sp, gap, lead = obs.speed_mps.item, obs.gap_m.item, obs.leader_speed_mps.item
-        c, vs, gs = self._cl, 1.0 / self.speed_scale_mps, 1.0 / self.gap_scale_m
+        c, vs, gs = self._cl, self.speed_scale_mps, self.gap_scale_m
         # Nobody ahead: the gap is the scale (inf → 1 after scaling) and the speed ahead 0
         # (nan → 0); each value clipped to [0, 1].
-        x = [sp(i) * vs for i in c] + [gap(i) * gs for i in c] + [lead(i) * vs for i in c]
+        x = [sp(i) / vs for i in c] + [gap(i) / gs for i in c] + [lead(i) / vs for i in c]
         return np.array([(1.0 if v > 1.0 else v) if v > 0.0 else 0.0 for v in x], dtype=np.float32)
 
     def _reward(self, obs: Any) -> float:
@@ -162,9 +162,15 @@ class RingEnv(gymnasium.Env):
         assert self._sim is not None, "call reset() first"
         obs = self._sim.observe()
         # x clipped to [-1, 1]; a = x · accel above 0, x · decel below; v' = max(v + a Δt, 0).
+        xs = np.asarray(action, dtype=np.float64).reshape(-1).tolist()
+        if len(xs) != len(self._cl) or not all(math.isfinite(x) for x in xs):
+            raise ValueError(
+                f"action = {action!r}: {len(self._cl)} finite value(s) in [-1, 1] are needed, "
+                "one per controlled vehicle"
+            )
         speeds = obs.speed_mps.copy()
         dt, up, down = obs.dt_s, self._accel, self._decel
-        for i, x in zip(self._cl, np.asarray(action, dtype=np.float64).reshape(-1).tolist()):
+        for i, x in zip(self._cl, xs):
             x = (1.0 if x > 1.0 else x) if x > -1.0 else -1.0
             v = speeds.item(i) + x * (up if x >= 0.0 else down) * dt
             speeds[i] = v if v > 0.0 else 0.0

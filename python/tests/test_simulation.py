@@ -122,6 +122,48 @@ def test_a_simulation_dropped_without_close_closes_its_run(tmp_path, in_process)
     assert nxt.in_process
 
 
+@pytest.mark.parametrize("in_process", [True, False])
+def test_a_step_whose_wait_was_interrupted_is_received_before_the_next(tmp_path, in_process):
+    # Ctrl-C can end the wait for the next observation after the commands went out: the run
+    # has stepped. The next step() refuses commands computed before it, observe() then gives
+    # the observation the run reached, and stepping goes on from there.
+    with syncroad.Simulation(ring(), out=tmp_path, in_process=in_process) as sim:
+        obs = sim.observe()
+        assert obs.step == 0
+        commands = obs.speed_mps.tobytes()
+        # What an interrupted step leaves: the commands sent, their observation not taken.
+        sim._pending = True
+        if in_process:
+            assert sim._handoff.step(commands) == 1
+        else:
+            sim._conn.send_bytes(commands)
+        with pytest.raises(syncroad.RunError, match="interrupted after its commands went out"):
+            sim.step()
+        assert sim.observe().step == 1
+        assert sim.step().step == 2
+    assert len(sim.run.trajectories) == 22 * 3
+
+
+def test_a_start_given_up_closes_the_run_and_frees_libsumo(tmp_path, monkeypatch):
+    import time
+
+    from syncroad import _simulation
+
+    monkeypatch.setattr(_simulation, "START_TIMEOUT_S", 0.0)
+    with pytest.raises(syncroad.RunError, match="did not start stepping within 0 s"):
+        syncroad.Simulation(ring(), out=tmp_path / "given-up")
+    monkeypatch.undo()
+    # The abandoned run ends by itself (it would otherwise wait for its caller forever) and
+    # gives this process's libsumo back.
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        with syncroad.Simulation(ring(10), out=tmp_path / "next") as nxt:
+            if nxt.in_process:
+                break
+        time.sleep(0.05)
+    assert nxt.in_process
+
+
 @pytest.mark.parametrize("backend", ["native", "sumo"])
 def test_a_run_stepped_in_this_process_is_the_run_stepped_in_a_worker(tmp_path, backend):
     # Commands that depend on what was observed, so that a difference in any row of any step
@@ -263,6 +305,23 @@ def test_the_environment_passes_gymnasiums_checker_and_repeats_under_a_seed():
     finally:
         env.close()
     assert not env._out.exists()
+
+
+def test_the_environment_refuses_an_action_of_the_wrong_size_or_not_finite():
+    from syncroad.gym import RingEnv
+
+    env = RingEnv()
+    try:
+        env.reset(seed=1)
+        for bad in (np.array([0.1, 0.2]), np.array([]), np.array([np.nan]), np.array([np.inf])):
+            with pytest.raises(ValueError, match=r"1 finite value\(s\) in \[-1, 1\] are needed"):
+                env.step(bad)
+        # Nothing was sent: the episode goes on from where it was.
+        assert env._sim.observe().step == 0
+        env.step(np.array([0.1]))
+        assert env._sim.observe().step == 1
+    finally:
+        env.close()
 
 
 def test_the_environment_keeps_its_episodes_records_when_given_a_folder(tmp_path):
