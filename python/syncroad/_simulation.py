@@ -45,7 +45,8 @@ class Simulation:
     step, and a SUMO that crashes takes only its worker down. ``observe()`` gives the controller's observation (numpy arrays:
     ``speed_mps``, ``gap_m``, ``leader_speed_mps``, ``ids``, ``controlled``, ...; see the
     guide's "Your own controller"); ``step(speeds)`` sends one target speed per vehicle and
-    advances one step. A step without speeds keeps every vehicle's speed.
+    advances one step, as ``command(speeds)`` then ``step()`` does. A step without speeds or
+    a command keeps every vehicle's speed.
     """
 
     def __init__(
@@ -69,6 +70,7 @@ class Simulation:
         self._handoff: Any = None
         self._obs: Optional[SimpleNamespace] = None
         self._pending = False
+        self._commanded: "Optional[np.ndarray[Any, Any]]" = None
         # This process steps the run (its libsumo, if no other run of it holds it) unless a
         # time limit is asked for, which only a worker process can be held to.
         # (``run`` steps SUMO unless asked for the native simulator.)
@@ -274,20 +276,37 @@ class Simulation:
         """Simulated time of the current observation [s]."""
         return float(self.observe().time_s)
 
+    def command(self, speeds: "Union[Sequence[float], np.ndarray[Any, Any]]") -> None:
+        """Sets the target speeds (one per vehicle of ``obs.ids``) the next ``step()`` without
+        speeds sends; a later ``command`` replaces them."""
+        self._commanded = self._checked(speeds)
+
     def step(self, speeds: "Union[Sequence[float], np.ndarray[Any, Any], None]" = None) -> Optional[SimpleNamespace]:
-        """Commands ``speeds`` (one target speed per vehicle of ``obs.ids``; ``None`` keeps the
-        current speeds) and advances one step; returns the new observation, or ``None`` when
-        the run reached its horizon (``done``; the record is then in ``run``)."""
+        """Commands ``speeds`` (one target speed per vehicle of ``obs.ids``; ``None``: those of
+        the last ``command()``, else the current speeds) and advances one step; returns the new
+        observation, or ``None`` when the run reached its horizon (``done``; the record is then
+        in ``run``)."""
         if self.done:
             raise RunError("the simulation has ended; its record is in sim.run")
         self._refuse_after_interrupt()
+        if speeds is not None:
+            v = self._checked(speeds)
+        elif self._commanded is not None:
+            v = self._commanded
+        else:
+            v = self.observe().speed_mps.copy()
+        self._commanded = None
+        return self._advance(v)
+
+    def _checked(self, speeds: "Union[Sequence[float], np.ndarray[Any, Any]]") -> "np.ndarray[Any, Any]":
+        """``speeds`` as float64, one per vehicle of the observation."""
         obs = self.observe()
-        v = np.array(obs.speed_mps if speeds is None else speeds, dtype=np.float64)
+        v = np.array(speeds, dtype=np.float64)
         if v.shape != (len(obs.ids),):
             raise ScenarioError(
                 f"speeds: {v.size} value(s) of shape {v.shape}; {len(obs.ids)} are needed, one per vehicle of obs.ids"
             )
-        return self._advance(v)
+        return v
 
     def _advance(self, v: "np.ndarray[Any, Any]") -> Optional[SimpleNamespace]:
         """``step`` with ``v`` checked: float64, one value per vehicle."""

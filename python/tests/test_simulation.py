@@ -48,6 +48,29 @@ def test_a_loop_of_steps_drives_as_the_same_controller_does(tmp_path, backend):
     assert sim.run.metrics.controller["label"] == "python:SimulationController"
 
 
+def test_command_then_step_is_step_with_the_speeds(tmp_path):
+    def drive(out, split):
+        with syncroad.Simulation(ring(10), out=out) as sim:
+            while not sim.done:
+                obs = sim.observe()
+                v = np.clip(obs.speed_mps + 0.1 * np.tanh(obs.gap_m - 8.0), 0.0, 9.0)
+                if split:
+                    sim.command(np.zeros_like(v))  # replaced by the next command
+                    sim.command(v)
+                    sim.step()
+                else:
+                    sim.step(v)
+        return speeds(sim.run)
+
+    a, b = drive(tmp_path / "a", False), drive(tmp_path / "b", True)
+    assert len(a) == 22 * 101 and np.array_equal(a, b)
+    with syncroad.Simulation(ring(10), out=tmp_path / "c") as sim:
+        with pytest.raises(syncroad.ScenarioError, match="22 are needed"):
+            sim.command([1.0])
+        # A step without speeds after a refused command keeps the speeds.
+        assert sim.step().step == 1
+
+
 def test_closing_early_keeps_the_rows_with_an_incomplete_record(tmp_path, capfd):
     sim = syncroad.Simulation(ring(), backend="sumo", out=tmp_path)
     for _ in range(30):
