@@ -153,10 +153,10 @@ class Simulation:
         except BaseException:
             self._state.closing = True
             h.close("the caller stopped waiting for the run's start")
-            LOCAL.pop(self._token or "", None)
             raise
-        # The run has its controller (or has ended): the registry's entry is no longer needed.
-        LOCAL.pop(self._token or "", None)
+        finally:
+            # The run has its controller, has ended or is closed: the entry is not needed.
+            LOCAL.pop(self._token or "", None)
         if got == 1:
             first = h.first()
             obs = SimpleNamespace(**first)
@@ -235,8 +235,6 @@ class Simulation:
     def _finish(self) -> None:
         self._thread.join()
         self._state.done = True
-        if self._token is not None:
-            LOCAL.pop(self._token, None)
         if self._conn is not None:
             self._conn.close()
         if self._listener is not None:

@@ -20,6 +20,7 @@ use std::time::{Duration, Instant};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
+use syncroad_control::LawContext;
 
 /// How long a side looks for the other's turn before it blocks.
 pub const SPIN: Duration = Duration::from_micros(200);
@@ -41,26 +42,10 @@ const CLOSED: u32 = 3;
 /// The run ended: no observation follows.
 const ENDED: u32 = 4;
 
-/// What the caller is told once, with the first observation.
-#[derive(Debug, Clone, Default)]
-pub struct First {
-    /// Step length [s].
-    pub dt_s: f64,
-    /// The vehicles' ids, in the order of every row.
-    pub ids: Vec<String>,
-    /// Where the caller's command is applied.
-    pub controlled: Vec<bool>,
-    /// Vehicle lengths [m].
-    pub length_m: Vec<f64>,
-    /// A ring's circumference [m].
-    pub ring_length_m: Option<f64>,
-    /// The road's speed limit [m/s] (infinite where it has none).
-    pub speed_limit_mps: f64,
-}
-
 #[derive(Debug, Default)]
 struct Data {
-    first: Option<First>,
+    /// The run's context, which the caller is told once, with the first observation.
+    first: Option<LawContext>,
     /// (time, step) and the rows of one observation, as the caller unpacks them.
     obs: Vec<f64>,
     /// One command per vehicle.
@@ -168,7 +153,7 @@ impl Shared {
     /// one), waits for the caller's commands and copies them into `out`.
     pub fn exchange(
         &self,
-        first: Option<First>,
+        first: Option<LawContext>,
         fill: impl FnOnce(&mut Vec<f64>),
         out: &mut [f64],
     ) -> Result<(), Stop> {
@@ -314,12 +299,15 @@ impl Handoff {
             return Ok(None);
         };
         let d = PyDict::new(py);
-        d.set_item("dt_s", f.dt_s)?;
+        d.set_item("dt_s", f.step_s)?;
         d.set_item("ids", f.ids)?;
         d.set_item("controlled", f.controlled)?;
         d.set_item("length_m", f.length_m)?;
         d.set_item("ring_length_m", f.ring_length_m)?;
-        d.set_item("speed_limit_mps", f.speed_limit_mps)?;
+        d.set_item(
+            "speed_limit_mps",
+            f.speed_limit_mps.unwrap_or(f64::INFINITY),
+        )?;
         Ok(Some(d))
     }
 
@@ -404,9 +392,18 @@ mod tests {
                 let mut got = Vec::new();
                 for k in 0..500 {
                     let mut out = [0.0];
-                    let first = (k == 0).then(|| First {
+                    let first = (k == 0).then(|| LawContext {
+                        step_s: 0.1,
                         ids: vec!["a".into()],
-                        ..First::default()
+                        length_m: vec![5.0],
+                        ring_length_m: None,
+                        controlled: vec![true],
+                        accel_mps2: 2.6,
+                        decel_mps2: 4.5,
+                        speed_limit_mps: None,
+                        signals: false,
+                        seed: 0,
+                        protocol: None,
                     });
                     let obs = [k as f64, 10.0 * k as f64];
                     s.exchange(first, |o| *o = obs.to_vec(), &mut out)

@@ -23,7 +23,7 @@ use syncroad_control::{ControllerEnd, LawHost, SpeedController};
 
 use std::sync::Arc;
 
-use crate::handoff::{First, Handoff, Shared, Stop};
+use crate::handoff::{Handoff, Shared, Stop};
 use crate::python::{add_packages, py_error};
 
 /// The Python half of the adapter.
@@ -75,16 +75,21 @@ pub struct PythonController {
     handoff: Option<Caller>,
 }
 
+/// The observation's rows the adapter computes: speeds, accelerations over the last step,
+/// odometers, gaps and the speeds ahead (the caller's observation adds the lights' two).
+const ROWS: usize = 5;
+
 /// A caller in this process, met through a [`Handoff`].
 struct Caller {
     shared: Arc<Shared>,
-    /// What the caller is told with the first observation.
-    first: First,
+    /// The run's context, which the caller is told with the first observation.
+    context: LawContext,
     /// The Stepper's reading of the traffic lights ahead and its two arrays (n float64 each),
     /// on a network with traffic lights.
     signals: Option<(Py<PyAny>, usize, usize)>,
-    /// The observation's rows before the lights' (time and step first).
-    rows: usize,
+    /// The observation handed over (time, step, then the rows), swapped with the meeting
+    /// point's each step: no allocation per step.
+    obs: Vec<f64>,
 }
 
 impl Drop for PythonController {
@@ -158,14 +163,7 @@ impl PythonController {
         let handoff = match obj_handoff(&stepper) {
             Some(shared) => Some(Caller {
                 shared,
-                first: First {
-                    dt_s: setup.step_s,
-                    ids: setup.ids.clone(),
-                    controlled: setup.controlled.clone(),
-                    length_m: setup.length_m.clone(),
-                    ring_length_m: setup.ring_length_m,
-                    speed_limit_mps: setup.speed_limit_mps.unwrap_or(f64::INFINITY),
-                },
+                context: setup.clone(),
                 signals: if setup.signals {
                     let read = stepper
                         .getattr("read_signals")
@@ -178,7 +176,7 @@ impl PythonController {
                 } else {
                     None
                 },
-                rows: 5,
+                obs: Vec::new(),
             }),
             None => None,
         };
@@ -206,6 +204,29 @@ impl PythonController {
         })
     }
 
+    /// This step's [`ROWS`] rows of n values into `rows`: speeds, accelerations over the last
+    /// step, odometers, gaps and the speeds of the vehicles ahead.
+    fn observe(&mut self, speeds: &[f64], positions: &[f64], rows: &mut [f64]) {
+        let n = speeds.len();
+        if self.steps == 0 {
+            self.start_m = positions.to_vec();
+            self.last_mps = speeds.to_vec();
+        }
+        self.view.observe(speeds, positions);
+        let (v, rest) = rows.split_at_mut(n);
+        let (a, rest) = rest.split_at_mut(n);
+        let (odo, rest) = rest.split_at_mut(n);
+        let (gap, lead) = rest.split_at_mut(n);
+        v.copy_from_slice(speeds);
+        for i in 0..n {
+            a[i] = (speeds[i] - self.last_mps[i]) / self.dt_s;
+            odo[i] = positions[i] - self.start_m[i];
+        }
+        gap.copy_from_slice(&self.view.gaps_m);
+        lead.copy_from_slice(&self.view.leader_speeds_mps);
+        self.last_mps.copy_from_slice(speeds);
+    }
+
     /// [`Self::call`] for a caller in this process: the same observation (and the lights'
     /// rows, which the Stepper reads from libsumo on a network with lights) handed over with
     /// the interpreter released while the caller decides.
@@ -217,14 +238,16 @@ impl PythonController {
         out: &mut [f64],
     ) -> Result<(), ControllerEnd> {
         let n = speeds.len();
-        if self.steps == 0 {
-            self.start_m = positions.to_vec();
-            self.last_mps = speeds.to_vec();
-        }
-        self.view.observe(speeds, positions);
-        let caller = self.handoff.as_ref().expect("a caller in this process");
-        let lights = match &caller.signals {
-            Some((read, distance, stop)) => {
+        let mut obs = std::mem::take(&mut self.handoff.as_mut().expect("a caller here").obs);
+        obs.resize(2 + (ROWS + 2) * n, 0.0);
+        obs[0] = time_s;
+        obs[1] = self.steps as f64;
+        let (rows, lights) = obs[2..].split_at_mut(ROWS * n);
+        self.observe(speeds, positions, rows);
+        let caller = self.handoff.as_mut().expect("a caller here");
+        let (distance, stop) = lights.split_at_mut(n);
+        match &caller.signals {
+            Some((read, d, s)) => {
                 Python::attach(|py| {
                     read.bind(py).call0().map(|_| ()).map_err(|e| {
                         ControllerEnd::Failed(
@@ -236,40 +259,21 @@ impl PythonController {
                 // attributes while this controller holds it), written by `read_signals` just
                 // now; nothing else writes them while the loop steps.
                 unsafe {
-                    Some((
-                        std::slice::from_raw_parts(*distance as *const f64, n),
-                        std::slice::from_raw_parts(*stop as *const f64, n),
-                    ))
+                    distance.copy_from_slice(std::slice::from_raw_parts(*d as *const f64, n));
+                    stop.copy_from_slice(std::slice::from_raw_parts(*s as *const f64, n));
                 }
             }
-            None => None,
-        };
-        let (dt, last, start, view) = (self.dt_s, &self.last_mps, &self.start_m, &self.view);
-        let step = self.steps;
-        let fill = |obs: &mut Vec<f64>| {
-            obs.clear();
-            obs.reserve(2 + (caller.rows + 2) * n);
-            obs.extend([time_s, step as f64]);
-            obs.extend_from_slice(speeds);
-            obs.extend((0..n).map(|i| (speeds[i] - last[i]) / dt));
-            obs.extend((0..n).map(|i| positions[i] - start[i]));
-            obs.extend_from_slice(&view.gaps_m);
-            obs.extend_from_slice(&view.leader_speeds_mps);
-            match lights {
-                Some((distance, stop)) => {
-                    obs.extend_from_slice(distance);
-                    obs.extend_from_slice(stop);
-                }
-                None => {
-                    obs.extend(std::iter::repeat_n(f64::INFINITY, n));
-                    obs.extend(std::iter::repeat_n(0.0, n));
-                }
+            None => {
+                distance.fill(f64::INFINITY);
+                stop.fill(0.0);
             }
-        };
-        let first = (step == 0).then(|| caller.first.clone());
-        let shared = caller.shared.clone();
-        let result = Python::attach(|py| py.detach(|| shared.exchange(first, fill, out)));
-        self.last_mps.copy_from_slice(speeds);
+        }
+        let first = (self.steps == 0).then(|| caller.context.clone());
+        let shared = &caller.shared;
+        let result = Python::attach(|py| {
+            py.detach(|| shared.exchange(first, |o| std::mem::swap(o, &mut obs), out))
+        });
+        caller.obs = obs;
         result.map_err(|s| match s {
             Stop::Closed(why) => ControllerEnd::Stopped(why),
             Stop::Failed(why) => ControllerEnd::Failed(why),
@@ -287,28 +291,12 @@ impl PythonController {
         out: &mut [f64],
     ) -> Result<(), ControllerEnd> {
         let n = speeds.len();
-        if self.steps == 0 {
-            self.start_m = positions.to_vec();
-            self.last_mps = speeds.to_vec();
-        }
-        self.view.observe(speeds, positions);
         // SAFETY: `rows` and `out` are the data of the C-contiguous float64 arrays of 5 × n and
         // n values the Stepper made for these n vehicles (`step` checks the count) and keeps as
         // attributes while this controller holds it (`stepper` is its bound method); the GIL
         // is held, so no Python code runs while they are written or read.
-        let rows = unsafe { std::slice::from_raw_parts_mut(self.rows as *mut f64, 5 * n) };
-        let (v, rest) = rows.split_at_mut(n);
-        let (a, rest) = rest.split_at_mut(n);
-        let (odo, rest) = rest.split_at_mut(n);
-        let (gap, lead) = rest.split_at_mut(n);
-        v.copy_from_slice(speeds);
-        for i in 0..n {
-            a[i] = (speeds[i] - self.last_mps[i]) / self.dt_s;
-            odo[i] = positions[i] - self.start_m[i];
-        }
-        gap.copy_from_slice(&self.view.gaps_m);
-        lead.copy_from_slice(&self.view.leader_speeds_mps);
-        self.last_mps.copy_from_slice(speeds);
+        let rows = unsafe { std::slice::from_raw_parts_mut(self.rows as *mut f64, ROWS * n) };
+        self.observe(speeds, positions, rows);
         self.stepper
             .bind(py)
             .call1((time_s, self.steps))

@@ -464,15 +464,9 @@ pub fn plot(
     let png = dir.join("map.png");
     let svg = dir.join("map.svg");
     write_result_via_path(&png, |tmp: &Path| {
-        let size = (1000, 800);
-        let mut rgb = vec![0u8; 3 * 1000 * 800];
-        {
-            let area = BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area();
-            area.fill(&WHITE).map_err(err)?;
-            draw_map!(&area, title, xa, ya, pts, bounds)?;
-            area.present().map_err(err)?;
-        }
-        crate::plots::write_png(tmp, &rgb, size)
+        crate::plots::draw_png(tmp, (1000, 800), |area| {
+            draw_map!(area, title, xa, ya, pts, bounds)
+        })
     })?;
     write_result_via_path(&svg, |tmp: &Path| {
         let area = SVGBackend::new(tmp, (1000, 800)).into_drawing_area();

@@ -41,16 +41,27 @@ pub(crate) fn speed_colour(v: f64, vmin: f64, vmax: f64) -> RGBColor {
     ViridisRGB::get_color(x)
 }
 
-/// Writes `rgb` (8-bit RGB rows of `size` pixels, as plotters' bitmap backend draws them) to
-/// `path` as a PNG.
-pub(crate) fn write_png(path: &Path, rgb: &[u8], (w, h): (u32, u32)) -> anyhow::Result<()> {
+/// Draws a white picture of `size` pixels with `draw` on plotters' bitmap backend and writes
+/// it to `path` as an 8-bit RGB PNG.
+pub(crate) fn draw_png(
+    path: &Path,
+    size: (u32, u32),
+    draw: impl FnOnce(&DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
+    let mut rgb = vec![0u8; 3 * size.0 as usize * size.1 as usize];
+    {
+        let area = BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area();
+        area.fill(&WHITE).map_err(err)?;
+        draw(&area)?;
+        area.present().map_err(err)?;
+    }
     let file = std::fs::File::create(path)
         .map_err(|e| anyhow!("cannot create {}: {e}", path.display()))?;
-    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w, h);
+    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), size.0, size.1);
     enc.set_color(png::ColorType::Rgb);
     enc.set_depth(png::BitDepth::Eight);
     let mut w = enc.write_header().map_err(err)?;
-    w.write_image_data(rgb).map_err(err)?;
+    w.write_image_data(&rgb).map_err(err)?;
     w.finish().map_err(err)
 }
 
@@ -67,16 +78,7 @@ macro_rules! render_both {
         let png = $dir.join(format!("{}.png", $stem));
         let svg = $dir.join(format!("{}.svg", $stem));
         $crate::output::write_result_via_path(&png, |tmp: &std::path::Path| {
-            let size: (u32, u32) = $size;
-            let mut rgb = vec![0u8; 3 * size.0 as usize * size.1 as usize];
-            {
-                let area = BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area();
-                area.fill(&WHITE).map_err(err)?;
-                let $root = &area;
-                (|| -> anyhow::Result<()> { $body })()?;
-                area.present().map_err(err)?;
-            }
-            $crate::plots::write_png(tmp, &rgb, size)
+            $crate::plots::draw_png(tmp, $size, |$root| $body)
         })?;
         $crate::output::write_result_via_path(&svg, |tmp: &std::path::Path| {
             let area = SVGBackend::new(tmp, $size).into_drawing_area();
