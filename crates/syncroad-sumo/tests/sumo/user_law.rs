@@ -167,6 +167,21 @@ class Negative:
         if obs.step == 12:
             v[3] = -0.5
         return v
+
+class NotANumber:
+    def step(self, obs):
+        v = np.array(obs.speed_mps)
+        if obs.step == 12:
+            v[5] = float("nan")
+        return v
+
+class WrongLength:
+    def step(self, obs):
+        return obs.speed_mps[:-1] if obs.step == 12 else obs.speed_mps
+
+class WrongType:
+    def step(self, obs):
+        return {"speeds": 1} if obs.step == 12 else obs.speed_mps
 "#;
 
 #[test]
@@ -218,6 +233,47 @@ fn negative_speeds_name_the_step_and_the_vehicle() {
         error,
         "at step 12 (t = 1.200 s) the controller's target speed for vehicle v3 (obs.ids[3]) is -0.5; target speeds must be finite and ≥ 0 m/s"
     );
+}
+
+/// What a controller returned that is no speed per vehicle stops the run at that step with a
+/// message naming what was wrong (and, for a value, the vehicle), the rows before it kept.
+#[test]
+fn a_nan_a_wrong_length_or_a_wrong_type_names_what_was_wrong() {
+    let dir = work("py-wrong-commands");
+    let file = controller_file(&dir, MISBEHAVING);
+    for (class, want) in [
+        (
+            "NotANumber",
+            &["at step 12 (t = 1.200 s) the controller's target speed for vehicle v5 (obs.ids[5]) is NaN; target speeds must be finite and ≥ 0 m/s"][..],
+        ),
+        (
+            "WrongLength",
+            &["ValueError: step returned 21 value(s) of shape (21,); 22 are needed, one per vehicle of obs.ids"],
+        ),
+        (
+            // numpy's own words in the parentheses vary with its version.
+            "WrongType",
+            &[
+                "TypeError: step returned dict (",
+                "); return a numpy array or a sequence of 22 numbers, one per vehicle of obs.ids",
+            ],
+        ),
+    ] {
+        let sc = ring(
+            5.0,
+            Some(serde_json::json!({"python": format!("{file}:{class}")})),
+        );
+        let run = run_scenario(&sc, &opts(&format!("py-wrong-{class}"))).unwrap();
+        let StopReason::ControllerFailed { error, step, .. } = run.stop() else {
+            panic!("{class}: expected a controller failure, got {:?}", run.stop());
+        };
+        assert_eq!(step, 12, "{class}");
+        for w in want {
+            assert!(error.contains(w), "{class}: {error}");
+        }
+        // The rows of steps 0 … 12 (the initial state and twelve steps) are kept.
+        assert_eq!(run.trajectory(&sc).len(), 13, "{class}");
+    }
 }
 
 #[test]
