@@ -221,6 +221,15 @@ impl NetworkMatrix {
         self.perm.len()
     }
 
+    /// Multiply–adds of one factorization in the form this network chose (the sparse form's
+    /// as its factorization at `s = 1 + i` found them).
+    pub(crate) fn operations(&self) -> usize {
+        match &self.sparse {
+            Some(f) => f.symbolic.as_ref().map_or(usize::MAX, Symbolic::operations),
+            None => self.len() * self.kl * (self.kl + self.ku),
+        }
+    }
+
     /// Vehicle at each position.
     pub(crate) fn permutation(&self) -> &[usize] {
         &self.perm

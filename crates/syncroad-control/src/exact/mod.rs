@@ -39,6 +39,7 @@ pub(crate) mod banded;
 pub mod boundaries;
 pub mod cacc_modes;
 pub mod collocation;
+mod count_reference;
 pub mod critical;
 pub(crate) mod dual;
 pub mod gaps;
