@@ -14,10 +14,12 @@
 # and loop in turn, PAIRS times; medians and the ratio of each pair; then the bound and the
 # sweep's ratio to it):
 #   bash scripts/bench-sweep.sh vs loop 2      (or: vs loop2 2)
+# SYNCROAD_BIN picks another build (default target/release/syncroad), for instance the profiling
+# profile's under `perf record -a`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 repo="$(pwd)"
-bin="$repo/target/release/syncroad"
+bin="${SYNCROAD_BIN:-$repo/target/release/syncroad}"
 d="${TMPDIR:-/tmp}/syncroad-bench-sweep"
 mode="${1:?usage: bench-sweep.sh sweep|loop|loop2|bound|vs loop|loop2 [PAIRS]}"
 cores="$(nproc)"
