@@ -259,20 +259,21 @@ pub(super) fn continuation(
 }
 
 /// The first crossing inside a counted bracket `(lo, hi)` (`lo` stable, a root right of the
-/// axis at `hi`), from the roots `roots_hi` at `hi`: the bracket is narrowed to `1e-6` by the
-/// counts `unstable(c)`, every root right of the axis at its top is followed down to its
-/// bottom, and the first to change side is solved by regula falsi.
+/// axis at `hi`), from the roots `roots_hi` at `hi`: the bracket is narrowed to a relative
+/// width `width` by the counts `unstable(c)`, every root right of the axis at its top is
+/// followed down to its bottom, and the first to change side is solved by regula falsi.
 pub(super) fn counted_crossing(
     l: &DMatrix<f64>,
     delays_s: &[f64],
     bracket: (f64, f64),
     roots_hi: &[(Complex64, usize)],
     unstable: impl Fn(f64) -> Option<bool>,
+    width: f64,
 ) -> Option<Crossing> {
     let band = NetworkMatrix::new(l, delays_s);
     let (mut lo, hi0) = bracket;
     let mut hi = hi0;
-    while hi / lo > 1.0 + 1e-6 {
+    while hi / lo > 1.0 + width {
         let mid = (lo * hi).sqrt();
         if unstable(mid)? {
             hi = mid;
