@@ -488,23 +488,6 @@ mod tests {
         }
     }
 
-    /// Every root of the uniform ring with modes `0..n` on branches `|b| ≤ 8` right of `σ`
-    /// (closed form, Lambert W).
-    fn ring_oracle(ring: &UniformRing, n: usize, sigma: f64) -> usize {
-        let mut expected = 0;
-        for k in 0..n {
-            for b in -8i64..=8 {
-                if k == 0 && b != 0 {
-                    continue;
-                }
-                if ring.mode_root(k, b).unwrap().re > sigma {
-                    expected += 1;
-                }
-            }
-        }
-        expected
-    }
-
     #[test]
     fn the_denominator_following_the_roots_counts_what_lambert_w_counts_even_beside_a_root() {
         // With one delay for every driver the reference's roots are the network's own roots
@@ -529,7 +512,7 @@ mod tests {
                 lines.extend([r.re + 1e-7, r.re - 1e-7]);
             }
             for sigma in lines {
-                let expected = ring_oracle(&ring, n, sigma);
+                let expected = lambert_count(&ring, sigma);
                 let c = count_dividing_by(&l, &delays, sigma, Denominator::FollowingRoots).unwrap();
                 assert_eq!(c.count, expected, "N={n} σ={sigma}");
             }
