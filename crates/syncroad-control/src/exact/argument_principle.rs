@@ -520,6 +520,55 @@ mod tests {
     }
 
     #[test]
+    fn a_root_and_a_reference_root_on_either_side_of_the_line_are_both_counted() {
+        // A ring whose delays differ from their mean by under 0.1 %: each root lies within
+        // about 1e-4 of the reference's root (the mean-delay ring, Lambert W), and a line
+        // between the two would leave a pole of f a hair from a zero across the line, a full
+        // turn within a stretch no step from afar sees (this lost a pair on a ring of 400
+        // when the poles stayed where they were). The lines pass between the collocation's
+        // rightmost roots and the reference's nearest ones; the power denominator, which has
+        // no pole near the line, is the second method.
+        let (n, kf, kb, alpha) = (24usize, 1.0, 0.3, 0.7);
+        let ring = UniformRing::new(n, kf, kb, alpha).unwrap();
+        let a = ring.adjacency();
+        let delays: Vec<f64> = (0..n)
+            .map(|i| alpha * (1.0 + 8e-4 * (i as f64 * 1.7).sin()))
+            .collect();
+        let mean = delays.iter().sum::<f64>() / n as f64;
+        let reference = UniformRing::new(n, kf, kb, mean).unwrap();
+        let reference_roots: Vec<Complex64> = (1..n)
+            .flat_map(|k| (-1i64..=1).map(move |b| (k, b)))
+            .map(|(k, b)| reference.mode_root(k, b).unwrap())
+            .collect();
+        let l = laplacian(&a);
+        let r = rightmost_roots(&a, &delays, &CollocationOptions::default()).unwrap();
+        let mut between = 0;
+        for root in r.roots.iter().take(6) {
+            let s = Complex64::from(root.root);
+            let nearest = reference_roots
+                .iter()
+                .min_by(|x, y| (**x - s).norm().total_cmp(&(**y - s).norm()))
+                .unwrap();
+            if (nearest - s).norm() > 1e-3 || (nearest.re - s.re).abs() < 1e-9 {
+                continue;
+            }
+            between += 1;
+            let sigma = 0.5 * (nearest.re + s.re);
+            let power = count_dividing_by(&l, &delays, sigma, Denominator::Power).unwrap();
+            let following =
+                count_dividing_by(&l, &delays, sigma, Denominator::FollowingRoots).unwrap();
+            assert_eq!(
+                following.count, power.count,
+                "σ={sigma} between {s} and {nearest}"
+            );
+        }
+        assert!(
+            between >= 2,
+            "only {between} lines between a root and its reference"
+        );
+    }
+
+    #[test]
     fn both_denominators_count_alike_on_random_networks_with_mixed_delays() {
         // A second method for the same count: the power denominator walks every root's phase,
         // the reference divides most of it out. Lines right beside the collocation's rightmost
