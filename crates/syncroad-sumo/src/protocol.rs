@@ -78,6 +78,17 @@ impl<'a> JobRef<'a> {
             JobRef::Run(r) | JobRef::Bench { request: r, .. } => r,
         }
     }
+
+    /// The job itself, owned (for a run on a thread of this process).
+    pub fn to_job(self) -> Job {
+        match self {
+            JobRef::Run(r) => Job::Run(Box::new(r.clone())),
+            JobRef::Bench { request, probe } => Job::Bench {
+                request: Box::new(request.clone()),
+                probe,
+            },
+        }
+    }
 }
 
 /// What the worker is asked to do.

@@ -16,9 +16,7 @@ use std::time::{Duration, Instant};
 use syncroad_control::Trajectory;
 
 use crate::frozen::FrozenWatch;
-use crate::protocol::{
-    read_frame, Event, Finish, Frame, Job, JobRef, Request, StartInfo, WorkerMsg,
-};
+use crate::protocol::{read_frame, Event, Finish, Frame, JobRef, Request, StartInfo, WorkerMsg};
 use crate::worker::WORKER_ARG;
 
 /// Lines of worker stderr kept for error messages.
@@ -662,13 +660,7 @@ fn run_here(job: JobRef<'_>, limits: &Supervision) -> WorkerRun {
         Err(SupervisorError::Wait("not started".into())),
         std::process::id(),
     );
-    let owned = match job {
-        JobRef::Run(r) => Job::Run(Box::new(r.clone())),
-        JobRef::Bench { request, probe } => Job::Bench {
-            request: Box::new(request.clone()),
-            probe,
-        },
-    };
+    let owned = job.to_job();
     let (reader, writer) = match std::io::pipe() {
         Ok(p) => p,
         Err(e) => {

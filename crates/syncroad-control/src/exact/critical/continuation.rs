@@ -260,8 +260,8 @@ pub(super) fn continuation(
 
 /// The first crossing inside a counted bracket `(lo, hi)` (`lo` stable, a root right of the
 /// axis at `hi`), from the roots `roots_hi` at `hi`: the bracket is narrowed to a relative
-/// width `width` by the counts `unstable(c)`, every root right of the axis at its top is
-/// followed down to its bottom, and the first to change side is solved by regula falsi.
+/// width `width` by the counts `unstable(c)` (not at all for `∞`), every root right of the
+/// axis at its top is followed down to its bottom, and the first to change side is solved by regula falsi.
 pub(super) fn counted_crossing(
     l: &DMatrix<f64>,
     delays_s: &[f64],
