@@ -41,7 +41,7 @@
 //! is the same (tested against the power denominator and Lambert W's closed form) in about a
 //! third of the steps at the given gains.
 
-use super::banded::NetworkMatrix;
+use super::banded::{NetworkMatrix, RecentPivots};
 use super::collocation::{laplacian, validate_network, CollocationError};
 use super::count_reference::CountReference;
 use nalgebra::DMatrix;
@@ -148,13 +148,15 @@ impl Divisor {
 }
 
 /// `f(s)/|f(s)|` and the logarithmic derivative `g(s) = f'(s)/f(s)` for `f = det M / q`
-/// (module documentation), from one LU of `M(s)` carrying its derivative ([`super::banded`]).
+/// (module documentation), from one LU of `M(s)` carrying its derivative ([`super::banded`]),
+/// with the pivots of the stretch of contour `recent` follows.
 fn phase_and_log_derivative(
     band: &NetworkMatrix,
     q: &Divisor,
     s: Complex64,
+    recent: &mut RecentPivots,
 ) -> Option<(Complex64, Complex64)> {
-    let lu = band.factor(1.0, s);
+    let lu = band.factor_near(1.0, s, Some(recent));
     let (q_phase, q_g) = q.phase_and_log_derivative(s, band.len());
     let phase = lu.phase()? * q_phase.conj();
     let g = lu.log_det_derivative()? - q_g;
@@ -164,8 +166,14 @@ fn phase_and_log_derivative(
 
 /// `d/ds log det M(s) = tr(M(s)⁻¹M'(s))` for `M(s) = sI + c·diag(e^{−sα_i})L`, or `None` at a
 /// root. Newton's step `s − m/g(s)` converges quadratically to a root of multiplicity `m`.
-pub(crate) fn log_det_derivative(band: &NetworkMatrix, c: f64, s: Complex64) -> Option<Complex64> {
-    band.factor(c, s).log_det_derivative()
+/// `recent`: the pivots of the sequence of nearby points `s` belongs to (Newton's iterates).
+pub(crate) fn log_det_derivative(
+    band: &NetworkMatrix,
+    c: f64,
+    s: Complex64,
+    recent: &mut RecentPivots,
+) -> Option<Complex64> {
+    band.factor_near(c, s, Some(recent)).log_det_derivative()
 }
 
 /// [`count_roots_right_of`] for a validated Laplacian.
@@ -230,7 +238,6 @@ pub(crate) fn count_dividing_by(
         .then(|| CountReference::new(l, delays_s, sigma, gap, (right, r)))
         .flatten()
         .map_or(Divisor::Power(rho), Divisor::Reference);
-    let eval = |s: Complex64| phase_and_log_derivative(&band, &divisor, s).ok_or(on_contour(s));
     let line_cap = match divisor {
         Divisor::Power(_) => r / 8.0,
         Divisor::Reference(_) => (r / 8.0).min(gap),
@@ -246,9 +253,16 @@ pub(crate) fn count_dividing_by(
         let at = |k: usize| corners[2] + (corners[3] - corners[2]) * (k as f64 / pieces as f64);
         (at(k), at(k + 1), line_cap)
     }));
+    // Each piece factors with the pivots of its own last fresh factorization.
     let walks: Vec<Result<Walk, ArgumentPrincipleError>> = segments
         .par_iter()
-        .map(|&(a, b, cap)| walk(&eval, a, b, cap, scale))
+        .map(|&(a, b, cap)| {
+            let mut recent = RecentPivots::default();
+            let eval = |s: Complex64| {
+                phase_and_log_derivative(&band, &divisor, s, &mut recent).ok_or(on_contour(s))
+            };
+            walk(eval, a, b, cap, scale)
+        })
         .collect();
     let (mut total_angle, mut evaluations, mut rejected_steps) = (0.0, 0, 0);
     for w in walks {
@@ -284,7 +298,7 @@ struct Walk {
 /// Walks from `a` to `b` under the step control of the module documentation, steps at most
 /// `cap` long.
 fn walk(
-    eval: &(impl Fn(Complex64) -> Result<(Complex64, Complex64), ArgumentPrincipleError> + Sync),
+    mut eval: impl FnMut(Complex64) -> Result<(Complex64, Complex64), ArgumentPrincipleError>,
     a: Complex64,
     b: Complex64,
     cap: f64,

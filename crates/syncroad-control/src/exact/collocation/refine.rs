@@ -4,7 +4,7 @@
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 
-use super::super::banded::NetworkMatrix;
+use super::super::banded::{NetworkMatrix, RecentPivots};
 use super::network::laplacian;
 use super::{CollocationOptions, RefinedRoot};
 
@@ -116,13 +116,23 @@ fn relative_residual(l: &DMatrix<f64>, delays_s: &[f64], s: Complex64) -> f64 {
 
 /// Number of zeros of `det M(s)` (gains scaled by `c`) inside the circle `|z − s| = r`, by the
 /// trapezoid rule on 8 points for `(1/2πi)∮ g(z) dz = mean_k (z_k − s) g(z_k)`; `None` if a
-/// point hits a root or the mean is not close to a whole number.
-pub(crate) fn zeros_in_circle(band: &NetworkMatrix, c: f64, s: Complex64, r: f64) -> Option<usize> {
+/// point hits a root or the mean is not close to a whole number. `recent`: the pivots of the
+/// Newton iteration the circle belongs to.
+pub(crate) fn zeros_in_circle(
+    band: &NetworkMatrix,
+    c: f64,
+    s: Complex64,
+    r: f64,
+    recent: &mut RecentPivots,
+) -> Option<usize> {
     const K: usize = 8;
     let mut sum = Complex64::new(0.0, 0.0);
     for k in 0..K {
         let dz = Complex64::from_polar(r, (k as f64 + 0.5) * std::f64::consts::TAU / K as f64);
-        sum += dz * band.factor(c, s + dz).log_det_derivative()?;
+        sum += dz
+            * band
+                .factor_near(c, s + dz, Some(recent))
+                .log_det_derivative()?;
     }
     let mean = sum / K as f64;
     let count = mean.re.round();
@@ -142,9 +152,15 @@ pub(super) fn newton_on_band(
     let mut step_norm = f64::INFINITY;
     let mut steps = 0;
     let max_steps = options.max_newton_steps.max(20) * 2;
+    // The iterates and the circles around them factor with the pivots of the last fresh
+    // factorization among them.
+    let mut recent = RecentPivots::default();
     while steps < max_steps {
         steps += 1;
-        let Some(g) = band.factor(1.0, s).log_det_derivative() else {
+        let Some(g) = band
+            .factor_near(1.0, s, Some(&mut recent))
+            .log_det_derivative()
+        else {
             step_norm = 0.0; // s is a root to working precision
             break;
         };
@@ -159,7 +175,7 @@ pub(super) fn newton_on_band(
         }
         if steps == 3 || steps % 10 == 0 {
             let r = (20.0 * step_norm).max(1e-9 * (1.0 + s.norm()));
-            if let Some(k) = zeros_in_circle(band, 1.0, s, r) {
+            if let Some(k) = zeros_in_circle(band, 1.0, s, r, &mut recent) {
                 m = k.max(1);
             }
         }
@@ -168,7 +184,7 @@ pub(super) fn newton_on_band(
     if step_norm > 1e-10 * (1.0 + s.norm()) {
         return None;
     }
-    let multiplicity = zeros_in_circle(band, 1.0, s, 1e-6 * (1.0 + s.norm()))
+    let multiplicity = zeros_in_circle(band, 1.0, s, 1e-6 * (1.0 + s.norm()), &mut recent)
         .unwrap_or(m)
         .max(1);
     Some((s, multiplicity, steps, converged))

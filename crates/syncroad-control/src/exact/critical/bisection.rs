@@ -6,7 +6,7 @@
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 
-use super::super::banded::NetworkMatrix;
+use super::super::banded::{NetworkMatrix, RecentPivots};
 use super::super::collocation::DENSE_SOLVE_LIMIT;
 use super::super::collocation::{
     laplacian, rightmost_roots, rightmost_roots_shift_invert, validate_network, CollocationError,
@@ -109,7 +109,8 @@ impl Bracket {
 fn secant(l: &DMatrix<f64>, delays_s: &[f64], b: &Bracket) -> Option<(f64, Complex64)> {
     // The root near `s0` with gains scaled by `c`: Newton on `det M(s)` from its LU.
     let network = NetworkMatrix::new(l, delays_s);
-    let track_root = |c: f64, s0: Complex64| newton_track(&network, c, s0, 1);
+    let mut recent = RecentPivots::default();
+    let mut track_root = |c: f64, s0: Complex64| newton_track(&network, c, s0, 1, &mut recent);
     let s_hi: Complex64 = b.hi_report.roots[0].root.into();
     let s_lo = track_root(b.lo, s_hi)?;
     let (mut c0, mut g0) = (b.lo, s_lo.re);

@@ -7,7 +7,7 @@ use num_complex::Complex64;
 use rayon::prelude::*;
 
 use super::super::argument_principle::{count_with_laplacian, log_det_derivative};
-use super::super::banded::NetworkMatrix;
+use super::super::banded::{NetworkMatrix, RecentPivots};
 use super::CrossingCertificate;
 
 /// A root crossing the imaginary axis at gain scale `scale`.
@@ -21,17 +21,19 @@ pub(super) struct Crossing {
     others: Vec<Complex64>,
 }
 
-/// Newton's step `s − m/(log det M)'(s)` for gains scaled by `c`, from `s0`.
+/// Newton's step `s − m/(log det M)'(s)` for gains scaled by `c`, from `s0`, factoring with
+/// the pivots `recent` of the root's track.
 pub(crate) fn newton_track(
     band: &NetworkMatrix,
     c: f64,
     s0: Complex64,
     m: usize,
+    recent: &mut RecentPivots,
 ) -> Option<Complex64> {
     let mut s = s0;
     let mut last = f64::INFINITY;
     for _ in 0..40 {
-        let g = log_det_derivative(band, c, s)?;
+        let g = log_det_derivative(band, c, s, recent)?;
         let step = m as f64 / g;
         if !(step.re.is_finite() && step.im.is_finite()) {
             return None;
@@ -56,9 +58,10 @@ fn follow(
     c1: f64,
     m: usize,
     depth: usize,
+    recent: &mut RecentPivots,
 ) -> Option<Complex64> {
     let (c0, s0) = from;
-    if let Some(s) = newton_track(band, c1, s0, m) {
+    if let Some(s) = newton_track(band, c1, s0, m, recent) {
         if (s - s0).norm() <= 0.05 * (1.0 + s0.norm()) {
             return Some(s);
         }
@@ -67,14 +70,14 @@ fn follow(
         return None;
     }
     let mid = (c0 * c1).sqrt();
-    let s_mid = follow(band, from, mid, m, depth - 1)?;
-    follow(band, (mid, s_mid), c1, m, depth - 1)
+    let s_mid = follow(band, from, mid, m, depth - 1, recent)?;
+    follow(band, (mid, s_mid), c1, m, depth - 1, recent)
 }
 
 /// One continuation step of root `j` from `c` to `c_next`: a secant predictor in `log c`
 /// from the step before (`prev`), Newton's corrector, and a restart off the real axis where two
 /// real roots met. None when the corrector fails or lands far from its predictor (it may have
-/// jumped to another root).
+/// jumped to another root). `recent`: the pivots of root `j`'s track.
 fn correct_root(
     band: &NetworkMatrix,
     (c, c_next): (f64, f64),
@@ -82,13 +85,14 @@ fn correct_root(
     prev: Option<(f64, Complex64)>,
     m: usize,
     dlog: f64,
+    recent: &mut RecentPivots,
 ) -> Option<Complex64> {
     let pred = match prev {
         Some((cp, sp)) => cur + (cur - sp) * ((c_next / c).ln() / (c / cp).ln()),
         None => cur,
     };
     let close = |s: Complex64| (s - pred).norm() <= 0.05 * (1.0 + cur.norm());
-    if let Some(s) = newton_track(band, c_next, pred, m) {
+    if let Some(s) = newton_track(band, c_next, pred, m, recent) {
         if close(s) {
             return Some(s);
         }
@@ -96,20 +100,21 @@ fn correct_root(
     // Two real roots that meet leave the axis as a conjugate pair: restart off the axis.
     if cur.im.abs() <= 1e-9 * (1.0 + cur.norm()) {
         let kick = Complex64::new(pred.re, 0.1 * dlog * (1.0 + cur.norm()));
-        let s = newton_track(band, c_next, kick, m)?;
+        let s = newton_track(band, c_next, kick, m, recent)?;
         return close(s).then_some(s);
     }
     None
 }
 
 /// Roots that met (a real pair turned complex) are one root from now on: the duplicates are
-/// dropped from `next`, `cur` and `mult` alike. Two complex roots landing on one point are not
+/// dropped from `next`, `cur`, `mult` and `pivots` alike. Two complex roots landing on one point are not
 /// a meeting but a corrector that jumped from one root of a cluster to its neighbour: then
 /// nothing is dropped and the answer is false (retry the step shorter).
 fn merge_met_roots(
     next: &mut Vec<Complex64>,
     cur: &mut Vec<Complex64>,
     mult: &mut Vec<usize>,
+    pivots: &mut Vec<RecentPivots>,
 ) -> bool {
     let mut keep = vec![true; next.len()];
     let real = |s: Complex64| s.im.abs() <= 1e-9 * (1.0 + s.norm());
@@ -129,17 +134,21 @@ fn merge_met_roots(
     cur.retain(|_| k.next().unwrap_or(true));
     let mut k = keep.iter().copied();
     mult.retain(|_| k.next().unwrap_or(true));
+    let mut k = keep.iter().copied();
+    pivots.retain(|_| k.next().unwrap_or(true));
     true
 }
 
 /// Every root that changed side between `c` (`cur`) and `c_next` (`next`) crosses inside; the
-/// first in `c` wins, with the other roots followed to its scale.
+/// first in `c` wins, with the other roots followed to its scale (each with the pivots of its
+/// own track, `pivots`).
 fn first_crossing(
     band: &NetworkMatrix,
     (c, c_next): (f64, f64),
     cur: &[Complex64],
     next: &[Complex64],
     mult: &[usize],
+    pivots: &mut [RecentPivots],
 ) -> Option<Crossing> {
     let mut best: Option<Crossing> = None;
     for j in 0..next.len() {
@@ -148,7 +157,7 @@ fn first_crossing(
         }
         let m = mult[j];
         let (c_star, s_star, bracket, bracket_re) =
-            solve_crossing(band, m, (c, cur[j]), (c_next, next[j]))?;
+            solve_crossing(band, m, (c, cur[j]), (c_next, next[j]), &mut pivots[j])?;
         if best.as_ref().is_none_or(|b| c_star < b.scale) {
             // The other roots at c*, followed from the bracket end nearer in log c; one that
             // cannot be followed there only loosens the margin (the certificate still counts).
@@ -160,7 +169,7 @@ fn first_crossing(
                     } else {
                         (c_next, next[i])
                     };
-                    follow(band, (from_c, from), c_star, mult[i], 6)
+                    follow(band, (from_c, from), c_star, mult[i], 6, &mut pivots[i])
                 })
                 .collect();
             best = Some(Crossing {
@@ -203,6 +212,8 @@ pub(super) fn continuation(
     let mut prev: Option<(f64, Vec<Complex64>)> = None;
     let mut dlog = 0.05f64;
     let mut receding = 0;
+    // Each root's Newton steps factor with the pivots of its own track.
+    let mut pivots = vec![RecentPivots::default(); cur.len()];
     // A budget of steps: tracked roots that wander without crossing (on long random digraphs
     // the first root to cross need not be among them) cost more to follow than the root
     // counts that bracket the crossing instead (the caller's fallback).
@@ -211,16 +222,16 @@ pub(super) fn continuation(
             return None;
         }
         let c_next = c * (sign * dlog).exp();
-        let step = |j: usize| {
+        let step = |(j, recent): (usize, &mut RecentPivots)| {
             let before = match &prev {
                 Some((cp, sp)) if sp.len() == cur.len() => Some((*cp, sp[j])),
                 _ => None,
             };
-            correct_root(&band, (c, c_next), cur[j], before, mult[j], dlog)
+            correct_root(&band, (c, c_next), cur[j], before, mult[j], dlog, recent)
         };
         // The roots are corrected in parallel, each on its own (the order of the results is
         // kept, so the outcome does not depend on the threads).
-        let corrected: Option<Vec<_>> = (0..cur.len()).into_par_iter().map(step).collect();
+        let corrected: Option<Vec<_>> = pivots.par_iter_mut().enumerate().map(step).collect();
         let Some(mut next) = corrected else {
             dlog /= 2.0;
             if dlog < 1e-9 {
@@ -228,7 +239,7 @@ pub(super) fn continuation(
             }
             continue;
         };
-        if !merge_met_roots(&mut next, &mut cur, &mut mult) {
+        if !merge_met_roots(&mut next, &mut cur, &mut mult, &mut pivots) {
             dlog /= 2.0;
             if dlog < 1e-9 {
                 return None;
@@ -241,7 +252,7 @@ pub(super) fn continuation(
             next.iter().all(|s| s.re < 0.0)
         };
         if event {
-            return first_crossing(&band, (c, c_next), &cur, &next, &mult);
+            return first_crossing(&band, (c, c_next), &cur, &next, &mult, &mut pivots);
         }
         if increasing && next.iter().zip(&cur).all(|(n, c)| n.re < c.re) {
             receding += 1;
@@ -281,31 +292,38 @@ pub(super) fn counted_crossing(
             lo = mid;
         }
     }
-    let at_hi: Vec<(Complex64, usize)> = roots_hi
+    // Each root with the pivots of its own track.
+    let mut at_hi: Vec<(Complex64, usize, RecentPivots)> = roots_hi
         .iter()
-        .filter_map(|&(s, m)| follow(&band, (hi0, s), hi, m, 8).map(|s| (s, m)))
+        .filter_map(|&(s, m)| {
+            let mut recent = RecentPivots::default();
+            follow(&band, (hi0, s), hi, m, 8, &mut recent).map(|s| (s, m, recent))
+        })
         .collect();
     let mut best: Option<Crossing> = None;
-    for (j, &(s_hi, m)) in at_hi.iter().enumerate() {
+    for j in 0..at_hi.len() {
+        let (s_hi, m) = (at_hi[j].0, at_hi[j].1);
         if s_hi.re < 0.0 {
             continue;
         }
-        let Some(s_lo) = follow(&band, (hi, s_hi), lo, m, 8) else {
+        let recent = &mut at_hi[j].2;
+        let Some(s_lo) = follow(&band, (hi, s_hi), lo, m, 8, recent) else {
             continue;
         };
         if s_lo.re >= 0.0 {
             continue;
         }
-        let Some((c_star, root, br, br_re)) = solve_crossing(&band, m, (lo, s_lo), (hi, s_hi))
+        let Some((c_star, root, br, br_re)) =
+            solve_crossing(&band, m, (lo, s_lo), (hi, s_hi), recent)
         else {
             continue;
         };
         if best.as_ref().is_none_or(|b| c_star < b.scale) {
             let others = at_hi
-                .iter()
+                .iter_mut()
                 .enumerate()
-                .filter(|&(i, _)| i != j)
-                .filter_map(|(_, &(s, mi))| follow(&band, (hi, s), c_star, mi, 8))
+                .filter(|(i, _)| *i != j)
+                .filter_map(|(_, (s, mi, recent))| follow(&band, (hi, *s), c_star, *mi, 8, recent))
                 .collect();
             best = Some(Crossing {
                 scale: c_star,
@@ -327,6 +345,7 @@ fn solve_crossing(
     m: usize,
     a: (f64, Complex64),
     b: (f64, Complex64),
+    recent: &mut RecentPivots,
 ) -> Option<(f64, Complex64, [f64; 2], [f64; 2])> {
     let (mut ca, mut sa) = a;
     let (mut cb, mut sb) = b;
@@ -347,7 +366,7 @@ fn solve_crossing(
         } else {
             sb
         };
-        let s = newton_track(band, c, start, m)?;
+        let s = newton_track(band, c, start, m, recent)?;
         if s.re == 0.0 {
             return Some((c, s, [c, c], [0.0, 0.0]));
         }
@@ -455,6 +474,93 @@ mod tests {
     use approx::assert_relative_eq;
     use nalgebra::DMatrix;
     use std::f64::consts::PI;
+
+    #[test]
+    fn newton_near_a_root_factors_afresh_once_not_at_every_iterate() {
+        // A random digraph of the stability families (a ring and three random arcs per
+        // driver, delays 0.2–0.8 s), factored by the sparse LU. Near a root M(s) is nearly
+        // singular, and the pivots the network chose at s = 1 + i are refused there: each such
+        // point used to be factored afresh. Newton's iterates now reuse the pivots of the first
+        // fresh factorization among them, and reach the same root.
+        let n = 120;
+        let mut rng = Lcg(2024);
+        let mut a = DMatrix::zeros(n, n);
+        for i in 0..n {
+            a[(i, (i + n - 1) % n)] = 0.3 + 0.4 * rng.next();
+            for _ in 0..3 {
+                let j = (rng.next() * n as f64) as usize % n;
+                if j != i && a[(i, j)] == 0.0 {
+                    a[(i, j)] = 0.3 + 0.4 * rng.next();
+                }
+            }
+        }
+        let delays: Vec<f64> = (0..n).map(|_| 0.2 + 0.6 * rng.next()).collect();
+        let l = laplacian(&a);
+        let band = NetworkMatrix::new(&l, &delays);
+        let roots = super::super::super::collocation::rightmost_roots_shift_invert(
+            &a,
+            &delays,
+            &CollocationOptions::default(),
+        )
+        .unwrap();
+        let root: Complex64 = roots.roots[0].root.into();
+        let mut recent = RecentPivots::default();
+        let found = newton_track(
+            &band,
+            1.0,
+            root + Complex64::new(1e-3, 1e-3),
+            1,
+            &mut recent,
+        )
+        .expect("Newton converges from nearby");
+        assert!(
+            (found - root).norm() <= 1e-10 * (1.0 + root.norm()),
+            "{found} against {root}"
+        );
+        assert!(
+            recent.fresh() <= 2,
+            "{} fresh factorizations",
+            recent.fresh()
+        );
+        // The points Newton visits, each factored on its own as before: refused every time.
+        let near: Vec<Complex64> = (3..=9)
+            .map(|k| {
+                let d = 10f64.powi(-k);
+                root + Complex64::new(d, d)
+            })
+            .collect();
+        let alone: Vec<RecentPivots> = near
+            .iter()
+            .map(|&s| {
+                let mut r = RecentPivots::default();
+                assert!(log_det_derivative(&band, 1.0, s, &mut r).is_some());
+                r
+            })
+            .collect();
+        assert!(
+            alone.iter().all(|r| r.fresh() == 1),
+            "the network's own pivots were taken"
+        );
+        // One sequence over the same points: two fresh factorizations, the same derivatives
+        // (to the rounding of a matrix this close to singular: 1e-9 from the root, pivots in
+        // another order differ in the eighth digit).
+        let mut along = RecentPivots::default();
+        for (&s, _) in near.iter().zip(&alone) {
+            let g = log_det_derivative(&band, 1.0, s, &mut along).unwrap();
+            let reference =
+                log_det_derivative(&band, 1.0, s, &mut RecentPivots::default()).unwrap();
+            assert!(
+                (g - reference).norm() <= 1e-6 * reference.norm(),
+                "{g} against {reference}"
+            );
+        }
+        assert!(
+            along.fresh() <= 2,
+            "{} of {} afresh",
+            along.fresh(),
+            near.len()
+        );
+    }
 
     #[test]
     fn continuation_equals_the_bisection_answer() {
