@@ -70,12 +70,29 @@ pub struct RootsCertificate {
     pub certified: bool,
 }
 
+impl RootsCertificate {
+    /// The verdict the two counts prove on their own, whatever roots the solve missed:
+    /// `Some(true)` when the count right of `a + δ < 0` finds the consensus root alone (every
+    /// other root lies left of it), `Some(false)` when the count right of `a − δ > 0` finds a
+    /// root, `None` when neither decides.
+    pub fn verdict_by_counts(&self) -> Option<bool> {
+        if self.right.sigma < 0.0 && self.right.includes_consensus && self.right.count == 1 {
+            Some(true)
+        } else if self.left.sigma > 0.0 && self.left.count > 0 {
+            Some(false)
+        } else {
+            None
+        }
+    }
+}
+
 impl NetworkStabilityReport {
     /// `Some(true)` synchronizes, `Some(false)` does not, `None` when the certificate was
-    /// requested and failed (roots may have been missed).
+    /// requested and failed (roots may have been missed) and its counts do not decide the
+    /// verdict on their own ([`RootsCertificate::verdict_by_counts`]).
     pub fn certified_stability(&self) -> Option<bool> {
         match &self.certificate {
-            Some(c) if !c.certified => None,
+            Some(c) if !c.certified => c.verdict_by_counts(),
             _ => Some(self.roots.is_stable()),
         }
     }
@@ -289,10 +306,11 @@ impl fmt::Display for NetworkStabilityReport {
                 c.right.count,
                 c.right.sigma,
                 c.expected_right,
-                if c.certified {
-                    "certified"
-                } else {
-                    "NOT CERTIFIED: roots may have been missed"
+                match (c.certified, c.verdict_by_counts()) {
+                    (true, _) => "certified",
+                    (false, None) => "NOT CERTIFIED: roots may have been missed",
+                    (false, Some(true)) => "roots were missed near the abscissa (the list above is not complete), but nothing other than consensus lies right of the second line: synchronizes, certified by that count",
+                    (false, Some(false)) => "roots were missed (the list above is not complete), but the count right of the first line finds a root in the right half-plane: does not synchronize, certified by that count",
                 }
             )?;
         }
@@ -527,6 +545,50 @@ mod tests {
             .find(|l| l.starts_with("critical delay scale"))
             .unwrap();
         assert!(line.contains("crossing 4.000000 rad/s"), "{line}");
+    }
+
+    #[test]
+    fn counts_that_decide_on_their_own_certify_the_verdict_despite_a_missed_root() {
+        // A solve that misses a root near the abscissa (a random digraph of 400 did: four
+        // roots right of a − δ where three were reported) leaves the list of roots incomplete,
+        // but the count right of a + δ < 0 alone proves that nothing other than consensus lies
+        // right of it, and the count right of a − δ > 0 alone proves an unstable root. The
+        // oracle: the rings' Lambert W roots, every mode on branches |b| ≤ 8.
+        for &(kf, kb, alpha, stable) in &[(1.0, 0.3, 0.5, true), (1.0, 0.0, 2.5, false)] {
+            let ring = UniformRing::new(7, kf, kb, alpha).unwrap();
+            let (a, d) = (ring.adjacency(), ring.delays());
+            let abscissa = (1..7)
+                .flat_map(|k| (-8i64..=8).map(move |b| (k, b)))
+                .map(|(k, b)| ring.mode_root(k, b).unwrap().re)
+                .fold(f64::NEG_INFINITY, f64::max);
+            assert_eq!(abscissa < 0.0, stable, "the closed form's verdict");
+            let margin = 0.25 * abscissa.abs();
+            let left = count_roots_right_of(&a, &d, abscissa - margin).unwrap();
+            let right = count_roots_right_of(&a, &d, abscissa + margin).unwrap();
+            let certificate = RootsCertificate {
+                margin,
+                left,
+                right,
+                // As if the solve had reported one pair fewer than there are.
+                expected_left: left.count - 2,
+                expected_right: usize::from(stable),
+                certified: false,
+            };
+            assert_eq!(
+                certificate.verdict_by_counts(),
+                Some(stable),
+                "{kf} {kb} {alpha}"
+            );
+            let mut roots = rightmost_roots(&a, &d, &CollocationOptions::default()).unwrap();
+            roots.roots.remove(0);
+            let report = NetworkStabilityReport {
+                roots,
+                critical: None,
+                certificate: Some(certificate),
+            };
+            assert_eq!(report.certified_stability(), Some(stable));
+            assert!(report.to_string().contains("roots were missed"));
+        }
     }
 
     #[test]
