@@ -346,7 +346,7 @@ fn walk(
 
 #[cfg(test)]
 mod tests {
-    use super::super::collocation::tests::{random_network, Lcg};
+    use super::super::collocation::tests::{family_random_digraph, random_network, Lcg};
     use super::super::collocation::{rightmost_roots, CollocationOptions};
     use super::super::ring_modes::UniformRing;
     use super::*;
@@ -633,18 +633,7 @@ mod tests {
         // as the power denominator at the given gains and past the first crossing, in under
         // half the determinants at the given gains.
         let n = 200;
-        let mut rng = Lcg(77);
-        let mut a = DMatrix::zeros(n, n);
-        for i in 0..n {
-            a[(i, (i + n - 1) % n)] = 0.2 + 0.3 * rng.next();
-            for _ in 0..3 {
-                let j = (rng.next() * n as f64) as usize % n;
-                if j != i && a[(i, j)] == 0.0 {
-                    a[(i, j)] = 0.2 + 0.3 * rng.next();
-                }
-            }
-        }
-        let delays: Vec<f64> = (0..n).map(|_| 0.2 + 0.6 * rng.next()).collect();
+        let (a, delays) = family_random_digraph(n, &mut Lcg(77), (0.2, 0.3));
         let l = laplacian(&a);
         assert!(CountReference::pays(
             n,

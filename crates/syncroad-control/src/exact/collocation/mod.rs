@@ -395,6 +395,27 @@ pub(crate) mod tests {
         (a, delays)
     }
 
+    /// A random digraph of the stability families (`scripts/stability-families.py`): a ring
+    /// and three random arcs per driver, gains `gain.0 + gain.1·U(0, 1)`, delays 0.2–0.8 s.
+    pub(crate) fn family_random_digraph(
+        n: usize,
+        rng: &mut Lcg,
+        gain: (f64, f64),
+    ) -> (DMatrix<f64>, Vec<f64>) {
+        let mut a = DMatrix::zeros(n, n);
+        for i in 0..n {
+            a[(i, (i + n - 1) % n)] = gain.0 + gain.1 * rng.next();
+            for _ in 0..3 {
+                let j = (rng.next() * n as f64) as usize % n;
+                if j != i && a[(i, j)] == 0.0 {
+                    a[(i, j)] = gain.0 + gain.1 * rng.next();
+                }
+            }
+        }
+        let delays = (0..n).map(|_| 0.2 + 0.6 * rng.next()).collect();
+        (a, delays)
+    }
+
     #[test]
     fn scalar_chandler_follower_crosses_at_alpha_k_pi_over_two() {
         // Leader-follower straight road reduced to one mode: two vehicles where only vehicle 1

@@ -466,7 +466,7 @@ pub(super) fn certify_at(
 #[cfg(test)]
 mod tests {
     use super::super::super::collocation::laplacian;
-    use super::super::super::collocation::tests::{random_network, Lcg};
+    use super::super::super::collocation::tests::{family_random_digraph, random_network, Lcg};
     use super::super::super::collocation::CollocationOptions;
     use super::super::super::ring_modes::UniformRing;
     use super::super::{bisection_search, critical_scale, CriticalMethod};
@@ -482,19 +482,7 @@ mod tests {
         // singular, and the pivots the network chose at s = 1 + i are refused there: each such
         // point used to be factored afresh. Newton's iterates now reuse the pivots of the first
         // fresh factorization among them, and reach the same root.
-        let n = 120;
-        let mut rng = Lcg(2024);
-        let mut a = DMatrix::zeros(n, n);
-        for i in 0..n {
-            a[(i, (i + n - 1) % n)] = 0.3 + 0.4 * rng.next();
-            for _ in 0..3 {
-                let j = (rng.next() * n as f64) as usize % n;
-                if j != i && a[(i, j)] == 0.0 {
-                    a[(i, j)] = 0.3 + 0.4 * rng.next();
-                }
-            }
-        }
-        let delays: Vec<f64> = (0..n).map(|_| 0.2 + 0.6 * rng.next()).collect();
+        let (a, delays) = family_random_digraph(120, &mut Lcg(2024), (0.3, 0.4));
         let l = laplacian(&a);
         let band = NetworkMatrix::new(&l, &delays);
         let roots = super::super::super::collocation::rightmost_roots_shift_invert(
