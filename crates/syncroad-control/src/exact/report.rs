@@ -309,8 +309,8 @@ impl fmt::Display for NetworkStabilityReport {
                 match (c.certified, c.verdict_by_counts()) {
                     (true, _) => "certified",
                     (false, None) => "NOT CERTIFIED: roots may have been missed",
-                    (false, Some(true)) => "roots were missed near the abscissa (the list above is not complete), but nothing other than consensus lies right of the second line: synchronizes, certified by that count",
-                    (false, Some(false)) => "roots were missed (the list above is not complete), but the count right of the first line finds a root in the right half-plane: does not synchronize, certified by that count",
+                    (false, Some(true)) => "the roots listed do not match the counts (roots missed, or a multiplicity wrong), but nothing other than consensus lies right of the second line: synchronizes, certified by that count",
+                    (false, Some(false)) => "the roots listed do not match the counts (roots missed, or a multiplicity wrong), but the count right of the first line finds a root in the right half-plane: does not synchronize, certified by that count",
                 }
             )?;
         }
@@ -587,7 +587,7 @@ mod tests {
                 certificate: Some(certificate),
             };
             assert_eq!(report.certified_stability(), Some(stable));
-            assert!(report.to_string().contains("roots were missed"));
+            assert!(report.to_string().contains("do not match the counts"));
         }
     }
 
