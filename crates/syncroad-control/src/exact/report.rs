@@ -76,7 +76,7 @@ impl RootsCertificate {
     /// other root lies left of it), `Some(false)` when the count right of `a − δ > 0` finds a
     /// root, `None` when neither decides.
     pub fn verdict_by_counts(&self) -> Option<bool> {
-        if self.right.sigma < 0.0 && self.right.includes_consensus && self.right.count == 1 {
+        if self.right.sigma < 0.0 && self.right.count == 1 {
             Some(true)
         } else if self.left.sigma > 0.0 && self.left.count > 0 {
             Some(false)
