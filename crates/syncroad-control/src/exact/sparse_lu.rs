@@ -24,7 +24,7 @@ use std::sync::Arc;
 
 use num_complex::Complex64;
 
-use super::dual::Dual;
+use super::dual::{sub_mul_each, Dual};
 
 /// A candidate pivot other than the diagonal is taken only when the diagonal is smaller than
 /// this fraction of it (`1` is classical partial pivoting; smaller keeps the fill-reducing
@@ -164,10 +164,8 @@ impl SparseLu {
                     continue;
                 }
                 // The unit diagonal of column `step` of L is stored first.
-                for p in st.l_starts[step] + 1..st.l_starts[step + 1] {
-                    let i = st.l_rows[p];
-                    x[i] = x[i].sub_mul(l_vals[p], xj);
-                }
+                let below = st.l_starts[step] + 1..st.l_starts[step + 1];
+                sub_mul_each(&mut x, &st.l_rows[below.clone()], &l_vals[below], xj);
             }
             let mut best = NONE;
             let mut largest = -1.0;
@@ -349,9 +347,7 @@ impl Symbolic {
             for &j in &st.u_rows[u_col.start..last] {
                 let xj = x[j];
                 let below = st.l_starts[j] + 1..st.l_starts[j + 1];
-                for (&i, lv) in st.l_rows[below.clone()].iter().zip(&l_vals[below]) {
-                    x[i] = x[i].sub_mul(*lv, xj);
-                }
+                sub_mul_each(&mut x, &st.l_rows[below.clone()], &l_vals[below], xj);
             }
             let pivot = x[k];
             let below = &st.l_rows[l_col.start + 1..l_col.end];
