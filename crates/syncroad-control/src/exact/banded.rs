@@ -5,7 +5,7 @@
 //! Cuthill–McKee ordering `L` is a band matrix of small bandwidth (2 for any ring, one-way or
 //! both ways). A band LU with partial pivoting then costs `O(N·k_l(k_l + k_u))` instead of
 //! `O(N³)`. Graphs without a small bandwidth (random digraphs, long arcs, chords) are factored
-//! by the sparse LU of [`super::sparse_lu`] in approximate minimum degree order, whichever of
+//! by the sparse LU of [`super::sparse_lu`] in Markowitz's order, whichever of
 //! the two costs fewer operations on a trial factorization; rows of drivers that observe every
 //! other vehicle with one gain are taken out as a rank-one correction (`SparseForm`).
 //!
@@ -23,11 +23,11 @@ use nalgebra::DMatrix;
 use num_complex::Complex64;
 
 pub(crate) use super::dual::Dual;
-use super::sparse_lu::{minimum_degree_order, ColumnPattern, SparseLu, Symbolic};
+use super::sparse_lu::{markowitz_order, ColumnPattern, SparseLu, Symbolic};
 
 /// The Laplacian of a network with its delays, ordered for cheap factorizations of
 /// `M(s) = sI + c·diag(e^{−sα_i})L`: a band (reverse Cuthill–McKee order) when the graph has
-/// a small bandwidth, else a sparse LU in approximate minimum degree order
+/// a small bandwidth, else a sparse LU in Markowitz's order
 /// ([`super::sparse_lu`]), whichever costs fewer operations.
 #[derive(Debug, Clone)]
 pub(crate) struct NetworkMatrix {
@@ -187,10 +187,10 @@ impl NetworkMatrix {
         }
     }
 
-    /// The sparse form of `L = l_s − c·1ᵀ` (`c` by vehicle, empty for none), in approximate
-    /// minimum degree order.
+    /// The sparse form of `L = l_s − c·1ᵀ` (`c` by vehicle, empty for none), in Markowitz's
+    /// order.
     fn sparse(l_s: &DMatrix<f64>, delays_s: &[f64], c: Vec<f64>) -> Self {
-        let mut form = Self::in_order(l_s, delays_s, minimum_degree_order(&rows_of(l_s)));
+        let mut form = Self::in_order(l_s, delays_s, markowitz_order(&rows_of(l_s)));
         let pattern = ColumnPattern::of_rows(&form.rows);
         let mut entries = vec![(0, 0.0); pattern.rows.len()];
         let mut next = pattern.starts.clone();

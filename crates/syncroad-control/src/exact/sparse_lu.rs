@@ -3,8 +3,8 @@
 //!
 //! A band LU costs `O(N·k_l(k_l + k_u))`: on a random digraph of 200 drivers the reverse
 //! Cuthill–McKee bandwidth is about 110, and the band holds far more zeros than the factors
-//! need. Here the rows and columns are ordered once by approximate minimum degree on the
-//! symmetrized pattern (the `amd` crate), and each factorization is the left-looking algorithm
+//! need. Here the rows and columns are ordered once by Markowitz's criterion on the directed
+//! pattern ([`markowitz_order`]), and each factorization is the left-looking algorithm
 //! of Gilbert & Peierls: column by column, a depth-first search over the columns of `L`
 //! already computed finds the pattern of the next column, a sparse triangular solve fills it,
 //! and the pivot is the diagonal entry unless another candidate is larger by more than
@@ -453,32 +453,97 @@ impl Reach {
     }
 }
 
-/// Approximate minimum degree order of the symmetrized pattern of the rows
-/// `rows[r] = [(column, …)]`: `order[p]` is the row placed at position `p`.
-pub(crate) fn minimum_degree_order<T>(rows: &[Vec<(usize, T)>]) -> Vec<usize> {
+/// Markowitz's order for an LU whose pivots are the diagonal: `order[p]` is the row (and
+/// column) eliminated at step `p`, each step taking the row `k` left whose elimination costs the
+/// fewest multiply–adds now, `(r_k − 1)(c_k − 1)` with `r_k` and `c_k` the entries left in its
+/// row and column (fill included), ties to the lowest index.
+///
+/// The graphs here are directed: a random digraph's arcs are rarely reciprocated, so the
+/// pattern of `L + Lᵀ`, which a symmetric minimum-degree order (AMD) sees, has about twice the
+/// entries, and its eliminations predict fill that the LU of `L` never makes. Counting rows and
+/// columns apart, as Markowitz's criterion does, halves to thirds the operations of a
+/// factorization on random digraphs of 200 and 400 against AMD on `L + Lᵀ`
+/// (`markowitz_beats_the_symmetrized_minimum_degree_on_random_digraphs`). The maintained
+/// unsymmetric orderings do not fit: COLAMD orders columns for row pivoting, not the diagonal
+/// this LU prefers (and its Rust port stops on these patterns).
+///
+/// The patterns are kept as bit sets (`n²/64` words each for rows and columns, a sixty-fourth of
+/// the dense Laplacian the caller holds), so each step costs a scan of the `n` candidates and
+/// the fill of its column's rows.
+///
+/// # Reference
+/// H. M. Markowitz, "The elimination form of the inverse and its application to linear
+/// programming", Management Science 3 (1957) 255–269; I. S. Duff, A. M. Erisman, J. K. Reid,
+/// *Direct Methods for Sparse Matrices*, 2nd ed., OUP 2017, ch. 7 (local pivoting strategies).
+pub(crate) fn markowitz_order<T>(rows: &[Vec<(usize, T)>]) -> Vec<usize> {
     let n = rows.len();
-    let mut adj: Vec<Vec<usize>> = vec![Vec::new(); n];
+    let w = n.div_ceil(64);
+    let bit = |c: usize| (c / 64, 1u64 << (c % 64));
+    // Entries by row and by column, over the rows and columns not yet eliminated.
+    let mut by_row = vec![0u64; n * w];
+    let mut by_col = vec![0u64; n * w];
     for (r, row) in rows.iter().enumerate() {
-        for &(c, _) in row {
-            if c != r {
-                adj[r].push(c);
-                adj[c].push(r);
-            }
+        for c in row.iter().map(|e| e.0).chain(std::iter::once(r)) {
+            let (word, mask) = bit(c);
+            by_row[r * w + word] |= mask;
+            let (word, mask) = bit(r);
+            by_col[c * w + word] |= mask;
         }
     }
-    let mut starts = vec![0i32];
-    let mut indices: Vec<i32> = Vec::new();
-    for (r, a) in adj.iter_mut().enumerate() {
-        a.push(r);
-        a.sort_unstable();
-        a.dedup();
-        indices.extend(a.iter().map(|&c| c as i32));
-        starts.push(indices.len() as i32);
+    let count = |bits: &[u64]| bits.iter().map(|b| b.count_ones() as usize).sum::<usize>();
+    let mut in_row: Vec<usize> = (0..n).map(|r| count(&by_row[r * w..(r + 1) * w])).collect();
+    let mut in_col: Vec<usize> = (0..n).map(|c| count(&by_col[c * w..(c + 1) * w])).collect();
+    let mut left = vec![true; n];
+    let mut order = Vec::with_capacity(n);
+    let (mut pivot_row, mut pivot_col) = (vec![0u64; w], vec![0u64; w]);
+    for _ in 0..n {
+        let Some(k) = (0..n)
+            .filter(|&k| left[k])
+            .min_by_key(|&k| (in_row[k] - 1) * (in_col[k] - 1))
+        else {
+            break;
+        };
+        order.push(k);
+        left[k] = false;
+        let (kw, kmask) = bit(k);
+        pivot_row.copy_from_slice(&by_row[k * w..(k + 1) * w]);
+        pivot_row[kw] &= !kmask;
+        pivot_col.copy_from_slice(&by_col[k * w..(k + 1) * w]);
+        pivot_col[kw] &= !kmask;
+        // Row k leaves the columns it touches.
+        for_each_bit(&pivot_row, |j| {
+            by_col[j * w + kw] &= !kmask;
+            in_col[j] -= 1;
+        });
+        // Every row of column k loses that column and gains row k's pattern (the fill).
+        for_each_bit(&pivot_col, |i| {
+            let row = &mut by_row[i * w..(i + 1) * w];
+            row[kw] &= !kmask;
+            in_row[i] -= 1;
+            let (iw, imask) = bit(i);
+            for q in 0..w {
+                let fill = pivot_row[q] & !row[q];
+                row[q] |= fill;
+                in_row[i] += fill.count_ones() as usize;
+                for_each_bit(&[fill], |b| {
+                    let j = q * 64 + b;
+                    by_col[j * w + iw] |= imask;
+                    in_col[j] += 1;
+                });
+            }
+        });
     }
-    match amd::order::<i32>(n as i32, &starts, &indices, &amd::Control::default()) {
-        Ok((p, _, _)) => p.into_iter().map(|v| v as usize).collect(),
-        // The pattern is valid by construction; keep the natural order if the crate refuses.
-        Err(_) => (0..n).collect(),
+    order
+}
+
+/// Calls `f` with the index of every set bit of `words`, in increasing order.
+fn for_each_bit(words: &[u64], mut f: impl FnMut(usize)) {
+    for (q, &word) in words.iter().enumerate() {
+        let mut rest = word;
+        while rest != 0 {
+            f(q * 64 + rest.trailing_zeros() as usize);
+            rest &= rest - 1;
+        }
     }
 }
 
@@ -635,8 +700,168 @@ mod tests {
     #[test]
     fn the_order_is_a_permutation() {
         let rows = random_rows(60, 9);
-        let mut order = minimum_degree_order(&rows);
+        let mut order = markowitz_order(&rows);
         order.sort_unstable();
         assert_eq!(order, (0..60).collect::<Vec<_>>());
+    }
+
+    /// Multiply–adds of eliminating the pattern `rows` (diagonal included) in `order` with
+    /// diagonal pivots, by plain sets: each step costs (entries left below the pivot) × (entries
+    /// left right of it), and adds the pivot row's pattern to every row of its column.
+    fn eliminated_in_order(rows: &[Vec<(usize, ())>], order: &[usize]) -> usize {
+        use std::collections::BTreeSet;
+        let mut pattern: Vec<BTreeSet<usize>> = rows
+            .iter()
+            .enumerate()
+            .map(|(r, row)| row.iter().map(|e| e.0).chain([r]).collect())
+            .collect();
+        let mut done = BTreeSet::new();
+        let mut ops = 0;
+        for &k in order {
+            done.insert(k);
+            let right: BTreeSet<usize> = pattern[k].difference(&done).copied().collect();
+            let below: Vec<usize> = (0..rows.len())
+                .filter(|i| !done.contains(i) && pattern[*i].contains(&k))
+                .collect();
+            ops += right.len() * below.len();
+            for i in below {
+                pattern[i].extend(&right);
+            }
+        }
+        ops
+    }
+
+    fn structure_of(n: usize, arcs: &[(usize, usize)]) -> Vec<Vec<(usize, ())>> {
+        let mut rows = vec![Vec::new(); n];
+        for &(i, j) in arcs {
+            rows[i].push((j, ()));
+        }
+        rows
+    }
+
+    #[test]
+    fn markowitz_takes_the_leaves_of_an_arrow_before_its_hub() {
+        // Oracle, by hand: a hub coupled both ways to n − 1 leaves. Eliminating a leaf first
+        // costs one multiply–add (its hub entry below times its hub entry right) and fills
+        // nothing, so leaves first costs n − 1; the hub first costs (n − 1)² and fills the
+        // rest, a dense matrix of n − 1 whose elimination costs Σ m², m = 1 … n − 2.
+        let n = 30;
+        let hub = 7;
+        let arcs: Vec<(usize, usize)> = (0..n)
+            .filter(|&i| i != hub)
+            .flat_map(|i| [(i, hub), (hub, i)])
+            .collect();
+        let rows = structure_of(n, &arcs);
+        let order = markowitz_order(&rows);
+        assert_eq!(order[n - 2..].iter().filter(|&&k| k == hub).count(), 1);
+        assert_eq!(eliminated_in_order(&rows, &order), n - 1);
+        let mut hub_first = vec![hub];
+        hub_first.extend((0..n).filter(|&i| i != hub));
+        let dense: usize = (1..n - 1).map(|m| m * m).sum();
+        assert_eq!(
+            eliminated_in_order(&rows, &hub_first),
+            (n - 1) * (n - 1) + dense
+        );
+    }
+
+    #[test]
+    fn the_factorization_costs_what_the_order_predicts() {
+        // The operations the sparse LU counts on its own pivots equal those of eliminating the
+        // pattern in Markowitz's order by plain sets, when the diagonal pivots are kept (a
+        // dominant diagonal).
+        for seed in [3, 4, 5] {
+            let n = 80;
+            let mut state: u64 = seed;
+            let mut arcs = Vec::new();
+            for i in 0..n {
+                arcs.push((i, (i + 1) % n));
+                for _ in 0..2 {
+                    state = state
+                        .wrapping_mul(6_364_136_223_846_793_005)
+                        .wrapping_add(1_442_695_040_888_963_407);
+                    let j = (state >> 33) as usize % n;
+                    if j != i {
+                        arcs.push((i, j));
+                    }
+                }
+            }
+            arcs.sort_unstable();
+            arcs.dedup();
+            let structure = structure_of(n, &arcs);
+            let order = markowitz_order(&structure);
+            let mut pos = vec![0; n];
+            for (p, &v) in order.iter().enumerate() {
+                pos[v] = p;
+            }
+            let rows: Vec<Vec<(usize, Complex64)>> = order
+                .iter()
+                .map(|&v| {
+                    let mut row: Vec<(usize, Complex64)> = structure[v]
+                        .iter()
+                        .map(|&(j, ())| (pos[j], Complex64::new(-0.3, 0.1)))
+                        .collect();
+                    row.push((pos[v], Complex64::new(4.0, 1.0)));
+                    row.sort_by_key(|e| e.0);
+                    row
+                })
+                .collect();
+            let lu = factor(&rows);
+            assert!(lu.is_regular());
+            let symbolic = Symbolic::of(&lu).unwrap();
+            assert_eq!(
+                symbolic.operations(),
+                eliminated_in_order(&structure, &order),
+                "seed {seed}"
+            );
+        }
+    }
+
+    #[test]
+    fn markowitz_beats_the_symmetrized_minimum_degree_on_random_digraphs() {
+        // Against AMD on L + Lᵀ (the `amd` crate, the order used before): the stability
+        // families' random digraphs (a ring and three random arcs per driver), both orders'
+        // eliminations counted by plain sets. Measured: AMD about 2.2 to 2.7 times Markowitz.
+        use crate::exact::collocation::tests::{family_random_digraph, Lcg};
+        for &(n, seed) in &[(200usize, 7u64), (400, 11)] {
+            let (a, _) = family_random_digraph(n, &mut Lcg(seed), (0.3, 0.5));
+            let rows: Vec<Vec<(usize, ())>> = (0..n)
+                .map(|i| {
+                    (0..n)
+                        .filter(|&j| j != i && a[(i, j)] != 0.0)
+                        .map(|j| (j, ()))
+                        .collect()
+                })
+                .collect();
+            let markowitz = eliminated_in_order(&rows, &markowitz_order(&rows));
+            let amd = eliminated_in_order(&rows, &symmetrized_minimum_degree(&rows));
+            assert!(
+                2 * markowitz < amd,
+                "N = {n}: Markowitz {markowitz}, AMD {amd}"
+            );
+        }
+    }
+
+    /// Approximate minimum degree order of the pattern of `L + Lᵀ` (the `amd` crate).
+    fn symmetrized_minimum_degree(rows: &[Vec<(usize, ())>]) -> Vec<usize> {
+        let n = rows.len();
+        let mut adj: Vec<Vec<usize>> = vec![Vec::new(); n];
+        for (r, row) in rows.iter().enumerate() {
+            for &(c, ()) in row {
+                adj[r].push(c);
+                adj[c].push(r);
+            }
+        }
+        let mut starts = vec![0i32];
+        let mut indices: Vec<i32> = Vec::new();
+        for (r, a) in adj.iter_mut().enumerate() {
+            a.push(r);
+            a.sort_unstable();
+            a.dedup();
+            indices.extend(a.iter().map(|&c| c as i32));
+            starts.push(indices.len() as i32);
+        }
+        let (p, _, _) = amd::order::<i32>(n as i32, &starts, &indices, &amd::Control::default())
+            .expect("a valid pattern");
+        p.into_iter().map(|v| v as usize).collect()
     }
 }
