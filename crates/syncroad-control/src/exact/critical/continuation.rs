@@ -423,7 +423,11 @@ pub(super) fn axis_line(lc: &DMatrix<f64>) -> f64 {
 /// but consensus — no root has crossed yet — and right of `Re s = −δ` consensus and the
 /// crossing root `(s, m)` with its conjugate. `δ` is a quarter of the distance from the axis
 /// to the nearest other known root `others`; when the strip holds more roots than expected,
-/// the left line moves 8× closer to the axis (twice) before the certificate is refused.
+/// the left line moves 8× closer to the axis (up to four times, to 1/4096 of where it started)
+/// before the certificate is refused: a crossing found from a counted bracket knows only the
+/// roots it followed, and a slow mode it never followed can sit a few 10⁻⁴ left of the axis
+/// (a leader with cycles of 400, draw 2 of the stability families: certified at the fourth
+/// line, where three lines refused it and sent the search to a bisection of 17 full solves).
 /// (The right line once sat at `+δ` as well, which let a pair that had crossed by less than
 /// `δ` pass for the one on the axis.)
 pub(super) fn certify_at(
@@ -446,7 +450,7 @@ pub(super) fn certify_at(
     let expected_left = 1 + multiplicity * if real { 1 } else { 2 };
     let right = count_with_laplacian(&lc, delays_s, axis_line(&lc)).ok()?;
     let mut last = None;
-    for _ in 0..3 {
+    for _ in 0..5 {
         if let Ok(left) = count_with_laplacian(&lc, delays_s, -margin) {
             let certificate = CrossingCertificate {
                 margin,
@@ -594,6 +598,31 @@ mod tests {
             .collect();
         roots.sort_by(|a, b| b.re.total_cmp(&a.re));
         roots
+    }
+
+    #[test]
+    fn a_slow_mode_near_the_axis_that_was_never_followed_does_not_refuse_the_crossing() {
+        // Oracle: a leader (row of zeros, the consensus root), a driver following it with gain
+        // ε and one following that driver with gain 1, every delay α = 1: L is triangular, so
+        // det M(s) = s (s + cε e^{−s}) (s + c e^{−s}). The last factor crosses at c* = π/2 with
+        // s = iπ/2 (Lambert W); the middle one leaves a slow real root at about −c*ε, here
+        // 10⁻⁴, that a crossing found from a counted bracket has not followed (`others` is
+        // empty). The strip right of −δ holds it until δ is below 10⁻⁴: the fifth line,
+        // 1/4096 of where the first one starts (0.05·(1 + π/2)).
+        let c_star = std::f64::consts::FRAC_PI_2;
+        let eps = 1e-4 / c_star;
+        let l = DMatrix::from_row_slice(3, 3, &[0.0, 0.0, 0.0, -eps, eps, 0.0, 0.0, -1.0, 1.0]);
+        let delays = [1.0; 3];
+        let root = Complex64::new(0.0, c_star);
+        let c = certify_at(&l, &delays, c_star, (root, 1), &[]).unwrap();
+        assert!(c.certified, "{c:?}");
+        assert_eq!((c.left.count, c.right.count), (3, 0));
+        let first = 0.05 * (1.0 + root.norm());
+        assert!(
+            c.margin < 1e-4 && c.margin > first / 8f64.powi(5),
+            "δ = {}",
+            c.margin
+        );
     }
 
     #[test]
