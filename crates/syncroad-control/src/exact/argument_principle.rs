@@ -115,7 +115,7 @@ pub fn count_roots_right_of(
     sigma: f64,
 ) -> Result<RootCount, ArgumentPrincipleError> {
     validate_network(adjacency, delays_s)?;
-    count_with_laplacian(&laplacian(adjacency), delays_s, sigma)
+    count_with_laplacian(&laplacian(adjacency), 1.0, delays_s, sigma)
 }
 
 /// The denominator `q` of the count's `f = det M / q` (module documentation).
@@ -176,13 +176,16 @@ pub(crate) fn log_det_derivative(
     band.factor_near(c, s, Some(recent)).log_det_derivative()
 }
 
-/// [`count_roots_right_of`] for a validated Laplacian.
+/// [`count_roots_right_of`] for a validated Laplacian `l` with every gain scaled by `c` (the
+/// searches for the critical scale count at many `c` on one `l`, whose eigenvalues the
+/// denominator then computes once).
 pub(crate) fn count_with_laplacian(
     l: &DMatrix<f64>,
+    c: f64,
     delays_s: &[f64],
     sigma: f64,
 ) -> Result<RootCount, ArgumentPrincipleError> {
-    count_dividing_by(l, delays_s, sigma, Denominator::WherePays)
+    count_dividing_by(l, c, delays_s, sigma, Denominator::WherePays)
 }
 
 /// The denominator `q` of the count's `f = det M / q`.
@@ -200,7 +203,8 @@ pub(crate) enum Denominator {
 
 /// [`count_with_laplacian`] with the denominator chosen.
 pub(crate) fn count_dividing_by(
-    l: &DMatrix<f64>,
+    unscaled: &DMatrix<f64>,
+    c: f64,
     delays_s: &[f64],
     sigma: f64,
     denominator: Denominator,
@@ -208,6 +212,13 @@ pub(crate) fn count_dividing_by(
     if !sigma.is_finite() {
         return Err(ArgumentPrincipleError::NonFiniteLine { sigma });
     }
+    let scaled;
+    let l = if c == 1.0 {
+        unscaled
+    } else {
+        scaled = unscaled * c;
+        &scaled
+    };
     let n = l.nrows();
     let bound = (0..n)
         .map(|i| 2.0 * l[(i, i)] * (-sigma * delays_s[i]).exp())
@@ -235,7 +246,7 @@ pub(crate) fn count_dividing_by(
         Denominator::WherePays => CountReference::pays(n, band.operations()),
     };
     let divisor = wanted
-        .then(|| CountReference::new(l, delays_s, sigma, gap, (right, r)))
+        .then(|| CountReference::new(unscaled, c, delays_s, sigma, gap, (right, r)))
         .flatten()
         .map_or(Divisor::Power(rho), Divisor::Reference);
     let line_cap = match divisor {
@@ -539,7 +550,8 @@ mod tests {
             }
             for sigma in lines {
                 let expected = lambert_count(&ring, sigma);
-                let c = count_dividing_by(&l, &delays, sigma, Denominator::FollowingRoots).unwrap();
+                let c = count_dividing_by(&l, 1.0, &delays, sigma, Denominator::FollowingRoots)
+                    .unwrap();
                 assert_eq!(c.count, expected, "N={n} σ={sigma}");
             }
         }
@@ -580,9 +592,9 @@ mod tests {
             }
             between += 1;
             let sigma = 0.5 * (nearest.re + s.re);
-            let power = count_dividing_by(&l, &delays, sigma, Denominator::Power).unwrap();
+            let power = count_dividing_by(&l, 1.0, &delays, sigma, Denominator::Power).unwrap();
             let following =
-                count_dividing_by(&l, &delays, sigma, Denominator::FollowingRoots).unwrap();
+                count_dividing_by(&l, 1.0, &delays, sigma, Denominator::FollowingRoots).unwrap();
             assert_eq!(
                 following.count, power.count,
                 "σ={sigma} between {s} and {nearest}"
@@ -615,9 +627,10 @@ mod tests {
                 lines.extend([root.root.re + m, root.root.re - m]);
             }
             for sigma in lines {
-                let power = count_dividing_by(&l, &delays, sigma, Denominator::Power).unwrap();
+                let power = count_dividing_by(&l, 1.0, &delays, sigma, Denominator::Power).unwrap();
                 let following =
-                    count_dividing_by(&l, &delays, sigma, Denominator::FollowingRoots).unwrap();
+                    count_dividing_by(&l, 1.0, &delays, sigma, Denominator::FollowingRoots)
+                        .unwrap();
                 assert_eq!(
                     following.count, power.count,
                     "trial {trial} N={n} σ={sigma}"
@@ -643,9 +656,11 @@ mod tests {
         // poles and only those within the gap of the line move: fewer steps, if fewer saved.
         for (scale, sigma, saving) in [(1.0, 1e-9, 2.0), (1.0, -0.05, 2.0), (2.5, 1e-9, 1.3)] {
             let ls = &l * scale;
-            let power = count_dividing_by(&ls, &delays, sigma, Denominator::Power).unwrap();
+            let power = count_dividing_by(&ls, 1.0, &delays, sigma, Denominator::Power).unwrap();
+            // The reference as the searches make it: the unscaled Laplacian's eigenvalues,
+            // computed once, times the scale.
             let following =
-                count_dividing_by(&ls, &delays, sigma, Denominator::FollowingRoots).unwrap();
+                count_dividing_by(&l, scale, &delays, sigma, Denominator::FollowingRoots).unwrap();
             assert_eq!(following.count, power.count, "scale {scale} σ={sigma}");
             assert!(
                 saving * following.evaluations as f64 <= power.evaluations as f64,

@@ -27,6 +27,8 @@
 //! determinant is expensive (wide graphs in the sparse LU), not on rings, whose band LU costs
 //! less than the Schur form saves.
 
+use std::sync::{Arc, Mutex};
+
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 
@@ -64,11 +66,12 @@ impl CountReference {
     }
 
     /// The reference for the count right of `σ` inside the rectangle `[σ, right] × [−r, r]`
-    /// on the network with Laplacian `l`, every pole at least `gap > 0` from the line; `None`
-    /// when the eigenvalues or a Lambert W value cannot be computed or a factor's roots cannot
-    /// be kept clear of the contour (the count then divides by `(s + ρ)^N`).
+    /// on the network with Laplacian `c·l`, every pole at least `gap > 0` from the line;
+    /// `None` when the eigenvalues or a Lambert W value cannot be computed or a factor's roots
+    /// cannot be kept clear of the contour (the count then divides by `(s + ρ)^N`).
     pub(crate) fn new(
         l: &DMatrix<f64>,
+        c: f64,
         delays_s: &[f64],
         sigma: f64,
         gap: f64,
@@ -84,12 +87,7 @@ impl CountReference {
         } else {
             observing.iter().sum::<f64>() / observing.len() as f64
         };
-        let schur = nalgebra::linalg::Schur::try_new(
-            l.clone(),
-            f64::EPSILON,
-            SCHUR_ITERATIONS_PER_VEHICLE * n.max(1),
-        )?;
-        let eigenvalues = schur.complex_eigenvalues();
+        let eigenvalues: Vec<Complex64> = eigenvalues_of(l)?.iter().map(|z| z * c).collect();
         // Conjugate pairs from the upper half (the Schur form gives them as exact pairs), so
         // that `q(s̄) = conj q(s)` holds exactly.
         let real = eigenvalues.iter().filter(|z| z.im == 0.0).count();
@@ -137,6 +135,47 @@ impl CountReference {
         }
         (phase / phase.norm(), g)
     }
+}
+
+/// The eigenvalues of the Laplacians whose Schur forms were computed last, most recent first,
+/// by a hash of their entries: the search for the critical scale counts at many gain scales of
+/// one Laplacian, each count needs them, and each Schur form is an `O(N³)` step that no thread
+/// shares (a tenth of a second at N = 400). A hash, not the matrix, so that nothing of size
+/// `N²` stays behind; were two Laplacians to share one, a count would still be right, since
+/// `q` need not equal anything (module documentation).
+static SPECTRA: Mutex<Vec<(u64, Arc<[Complex64]>)>> = Mutex::new(Vec::new());
+
+/// Spectra [`SPECTRA`] keeps.
+const SPECTRA_KEPT: usize = 4;
+
+/// The eigenvalues of `l` from its real Schur form (conjugate pairs exact), or `None` when the
+/// iteration does not converge; the same values whether they were kept or computed.
+fn eigenvalues_of(l: &DMatrix<f64>) -> Option<Arc<[Complex64]>> {
+    use std::hash::{Hash, Hasher};
+    let mut hasher = std::collections::hash_map::DefaultHasher::new();
+    l.shape().hash(&mut hasher);
+    l.iter().for_each(|v| v.to_bits().hash(&mut hasher));
+    let key = hasher.finish();
+    let kept = SPECTRA
+        .lock()
+        .unwrap_or_else(|p| p.into_inner())
+        .iter()
+        .find(|(k, _)| *k == key)
+        .map(|(_, e)| Arc::clone(e));
+    if kept.is_some() {
+        return kept;
+    }
+    let n = l.nrows();
+    let schur = nalgebra::linalg::Schur::try_new(
+        l.clone(),
+        f64::EPSILON,
+        SCHUR_ITERATIONS_PER_VEHICLE * n.max(1),
+    )?;
+    let eigenvalues: Arc<[Complex64]> = schur.complex_eigenvalues().iter().copied().collect();
+    let mut spectra = SPECTRA.lock().unwrap_or_else(|p| p.into_inner());
+    spectra.insert(0, (key, Arc::clone(&eigenvalues)));
+    spectra.truncate(SPECTRA_KEPT);
+    Some(eigenvalues)
 }
 
 /// Where one factor `(s + κ) + λe^{−(s + κ)ᾱ}` puts its roots.

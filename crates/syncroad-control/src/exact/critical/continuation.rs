@@ -448,10 +448,10 @@ pub(super) fn certify_at(
     let lc = l * c_star;
     let real = root.im.abs() <= 1e-12 * scale;
     let expected_left = 1 + multiplicity * if real { 1 } else { 2 };
-    let right = count_with_laplacian(&lc, delays_s, axis_line(&lc)).ok()?;
+    let right = count_with_laplacian(l, c_star, delays_s, axis_line(&lc)).ok()?;
     let mut last = None;
     for _ in 0..5 {
-        if let Ok(left) = count_with_laplacian(&lc, delays_s, -margin) {
+        if let Ok(left) = count_with_laplacian(l, c_star, delays_s, -margin) {
             let certificate = CrossingCertificate {
                 margin,
                 left,

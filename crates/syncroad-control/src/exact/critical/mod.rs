@@ -504,7 +504,7 @@ fn roots_at(
 fn unstable_at(l: &DMatrix<f64>, delays_s: &[f64], c: f64) -> Option<usize> {
     let lc = l * c;
     let delta = axis_line(&lc);
-    count_with_laplacian(&lc, delays_s, delta)
+    count_with_laplacian(l, c, delays_s, delta)
         .ok()
         .map(|r| r.count)
 }
