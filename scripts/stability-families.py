@@ -81,6 +81,23 @@ def scenario(kind, n, draw=0):
             "road": road, "model": model}
 
 
+def critical_gain_scale(report):
+    """The first `critical_gain_scale` of a `stability --json` report (ring or network)."""
+    if isinstance(report, dict):
+        if isinstance(report.get("critical_gain_scale"), (int, float)):
+            return report["critical_gain_scale"]
+        items = report.values()
+    elif isinstance(report, list):
+        items = report
+    else:
+        return None
+    for v in items:
+        found = critical_gain_scale(v)
+        if found is not None:
+            return found
+    return None
+
+
 def run(binary, path, timeout):
     start = time.monotonic()
     try:
@@ -93,6 +110,11 @@ def run(binary, path, timeout):
         r = json.loads(p.stdout)
         status = r.get("critical_scale_status", "")
         verdict = f'{r["verdict"]}, critical {status}'
+        # The critical scale to nine digits, so that two builds' rows agree only when their
+        # answers do (they may differ in the last digits, other pivots rounding otherwise).
+        scale = critical_gain_scale(r)
+        if scale is not None:
+            verdict += f", c* {scale:.9g}"
     except (json.JSONDecodeError, KeyError):
         verdict = (p.stderr.strip().splitlines() or ["failed"])[-1][:60]
     return f"{wall:.2f} s", verdict
