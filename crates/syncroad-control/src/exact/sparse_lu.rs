@@ -769,17 +769,15 @@ mod tests {
         // The operations the sparse LU counts on its own pivots equal those of eliminating the
         // pattern in Markowitz's order by plain sets, when the diagonal pivots are kept (a
         // dominant diagonal).
+        use crate::exact::collocation::tests::Lcg;
         for seed in [3, 4, 5] {
             let n = 80;
-            let mut state: u64 = seed;
+            let mut rng = Lcg(seed);
             let mut arcs = Vec::new();
             for i in 0..n {
                 arcs.push((i, (i + 1) % n));
                 for _ in 0..2 {
-                    state = state
-                        .wrapping_mul(6_364_136_223_846_793_005)
-                        .wrapping_add(1_442_695_040_888_963_407);
-                    let j = (state >> 33) as usize % n;
+                    let j = (rng.next() * n as f64) as usize % n;
                     if j != i {
                         arcs.push((i, j));
                     }

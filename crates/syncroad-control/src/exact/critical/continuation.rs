@@ -412,11 +412,13 @@ pub(super) fn certify_crossing(
     certify_at(l, delays_s, x.scale, (x.root, x.multiplicity), &x.others)
 }
 
-/// The line just right of the imaginary axis that the counts look right of, for gains `lc`:
-/// `ε = 10⁻⁹ (1 + max_i d_i^+)`, far above the error of a root solved onto the axis (`10⁻¹⁵`
-/// relative) and far below any distance the walks cannot resolve.
-pub(super) fn axis_line(lc: &DMatrix<f64>) -> f64 {
-    1e-9 * (1.0 + lc.diagonal().max())
+/// The line just right of the imaginary axis that the counts look right of, for the gains of
+/// `l` scaled by `c`: `ε = 10⁻⁹ (1 + c·max_i d_i^+)`, far above the error of a root solved onto
+/// the axis (`10⁻¹⁵` relative) and far below any distance the walks cannot resolve.
+pub(super) fn axis_line(l: &DMatrix<f64>, c: f64) -> f64 {
+    // `c·max d_i` is `max c·d_i` exactly for `c > 0` (rounding is monotone), without forming
+    // `c·L`, which the count forms itself.
+    1e-9 * (1.0 + c * l.diagonal().max())
 }
 
 /// Root counts at gain scale `c_star`: right of the line `Re s = +ε` ([`axis_line`]) nothing
@@ -445,10 +447,9 @@ pub(super) fn certify_at(
     } else {
         1e-3 * scale
     };
-    let lc = l * c_star;
     let real = root.im.abs() <= 1e-12 * scale;
     let expected_left = 1 + multiplicity * if real { 1 } else { 2 };
-    let right = count_with_laplacian(l, c_star, delays_s, axis_line(&lc)).ok()?;
+    let right = count_with_laplacian(l, c_star, delays_s, axis_line(l, c_star)).ok()?;
     let mut last = None;
     for _ in 0..5 {
         if let Ok(left) = count_with_laplacian(l, c_star, delays_s, -margin) {

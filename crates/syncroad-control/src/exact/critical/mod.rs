@@ -516,9 +516,7 @@ fn roots_at(
 /// argument-principle count right of the line `Re s = δ`, `δ = 10⁻⁹(1 + max_i d_i^+)`, close
 /// enough to the axis for a bracket of the crossing (the continuation refines it).
 fn unstable_at(l: &DMatrix<f64>, delays_s: &[f64], c: f64) -> Option<usize> {
-    let lc = l * c;
-    let delta = axis_line(&lc);
-    count_with_laplacian(l, c, delays_s, delta)
+    count_with_laplacian(l, c, delays_s, axis_line(l, c))
         .ok()
         .map(|r| r.count)
 }
