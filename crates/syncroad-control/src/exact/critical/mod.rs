@@ -60,8 +60,8 @@ use serde::Serialize;
 use super::argument_principle::{count_with_laplacian, RootCount};
 use super::collocation::DENSE_SOLVE_LIMIT;
 use super::collocation::{
-    laplacian, rightmost_roots, rightmost_roots_shift_invert, validate_network, CollocationError,
-    CollocationOptions, RootsReport,
+    laplacian, rightmost_roots, rightmost_roots_shift_invert_unchecked, validate_network,
+    CollocationError, CollocationOptions, RootsReport,
 };
 
 mod bisection;
@@ -493,7 +493,8 @@ impl CriticalReport {
 /// Rightmost roots with all gains scaled by `c` (at least 8, the roots that crossed at the
 /// top of a counted bracket among them when there are few): shift-invert first, the dense
 /// collocation if that fails, up to [`DENSE_SOLVE_LIMIT`] vehicles (the crossing certificate
-/// checks the outcome either way).
+/// checks the outcome either way). The shift-invert roots come without their residuals: the
+/// search only follows them.
 fn roots_at(
     adjacency: &DMatrix<f64>,
     delays_s: &[f64],
@@ -505,7 +506,7 @@ fn roots_at(
         roots: options.roots.max(8),
         ..*options
     };
-    match rightmost_roots_shift_invert(&scaled, delays_s, &wide) {
+    match rightmost_roots_shift_invert_unchecked(&scaled, delays_s, &wide) {
         Ok(r) => Ok(r),
         Err(e) if adjacency.nrows() > DENSE_SOLVE_LIMIT => Err(e),
         Err(_) => rightmost_roots(&scaled, delays_s, options),
