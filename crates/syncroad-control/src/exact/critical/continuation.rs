@@ -449,10 +449,19 @@ pub(super) fn certify_at(
     };
     let real = root.im.abs() <= 1e-12 * scale;
     let expected_left = 1 + multiplicity * if real { 1 } else { 2 };
-    let right = count_with_laplacian(l, c_star, delays_s, axis_line(l, c_star)).ok()?;
+    // The count right of the axis and the first left of it side by side: each walks its
+    // contour's pieces in parallel, but the pieces' lengths differ.
+    let (right, mut left) = rayon::join(
+        || count_with_laplacian(l, c_star, delays_s, axis_line(l, c_star)),
+        || count_with_laplacian(l, c_star, delays_s, -margin),
+    );
+    let right = right.ok()?;
     let mut last = None;
-    for _ in 0..5 {
-        if let Ok(left) = count_with_laplacian(l, c_star, delays_s, -margin) {
+    for attempt in 0..5 {
+        if attempt > 0 {
+            left = count_with_laplacian(l, c_star, delays_s, -margin);
+        }
+        if let Ok(left) = left {
             let certificate = CrossingCertificate {
                 margin,
                 left,
