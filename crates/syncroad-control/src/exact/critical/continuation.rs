@@ -449,19 +449,10 @@ pub(super) fn certify_at(
     };
     let real = root.im.abs() <= 1e-12 * scale;
     let expected_left = 1 + multiplicity * if real { 1 } else { 2 };
-    // The count right of the axis and the first left of it side by side: each walks its
-    // contour's pieces in parallel, but the pieces' lengths differ.
-    let (right, mut left) = rayon::join(
-        || count_with_laplacian(l, c_star, delays_s, axis_line(l, c_star)),
-        || count_with_laplacian(l, c_star, delays_s, -margin),
-    );
-    let right = right.ok()?;
+    let right = count_with_laplacian(l, c_star, delays_s, axis_line(l, c_star)).ok()?;
     let mut last = None;
-    for attempt in 0..5 {
-        if attempt > 0 {
-            left = count_with_laplacian(l, c_star, delays_s, -margin);
-        }
-        if let Ok(left) = left {
+    for _ in 0..5 {
+        if let Ok(left) = count_with_laplacian(l, c_star, delays_s, -margin) {
             let certificate = CrossingCertificate {
                 margin,
                 left,
