@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """`syncroad stability` over graph families (rings, chains, random digraphs, leaders with
-cycles, rings with chords, all-to-all) at N = 50, 200, 400, heterogeneous gains and delays.
+cycles, rings with chords, all-to-all, denser random digraphs) at N = 50, 200, 400,
+heterogeneous gains and delays.
 
 Writes the scenarios into OUT (deterministic: the same files on every machine) and, given one
 or more binaries, times each scenario with each binary in turn (alternating, so that load
@@ -21,7 +22,10 @@ import random
 import subprocess
 import time
 
-FAMILIES = ["ring", "bidir", "chain", "random", "leader", "chords", "all"]
+# New families go at the end: a family's place seeds its draws.
+FAMILIES = ["ring", "bidir", "chain", "random", "leader", "chords", "all", "random5", "random8"]
+# Random arcs per driver of the random digraphs, besides the ring that keeps them connected.
+RANDOM_ARCS = {"random": 3, "random5": 5, "random8": 8}
 TITLES = {
     "ring": "one-way ring",
     "bidir": "bidirectional ring",
@@ -30,6 +34,8 @@ TITLES = {
     "leader": "leader with cycles (chain + back arcs + long arcs)",
     "chords": "bidirectional ring + chords to the opposite side",
     "all": "all-to-all",
+    "random5": "denser random digraph (ring + 5 random arcs per driver)",
+    "random8": "denser random digraph (ring + 8 random arcs per driver)",
 }
 
 
@@ -53,9 +59,9 @@ def scenario(kind, n, draw=0):
     else:
         arcs = {}
         for i in range(n):
-            if kind == "random":
+            if kind in RANDOM_ARCS:
                 arcs[((i - 1) % n, i)] = round(0.2 + 0.3 * rng.random(), 3)
-                for _ in range(3):
+                for _ in range(RANDOM_ARCS[kind]):
                     j = rng.randrange(n)
                     if j != i and (j, i) not in arcs:
                         arcs[(j, i)] = round(0.05 + 0.2 * rng.random(), 3)
