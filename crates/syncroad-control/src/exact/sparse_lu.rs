@@ -368,48 +368,111 @@ impl Symbolic {
     /// another candidate of its column, or zero): then factor afresh with [`SparseLu::new`].
     pub(crate) fn refactor(&self, pattern: &ColumnPattern, values: &[Dual]) -> Option<SparseLu> {
         let st = &self.0;
-        let (n, dense) = (st.n, st.dense_from);
-        let m = n - dense;
-        let mut x = vec![Dual::default(); n];
-        let mut l_vals: Vec<Dual> = Vec::with_capacity(st.l_rows.len());
-        let mut u_vals = Vec::with_capacity(st.u_rows.len());
-        // The dense tail: rows `dense..n` of the current column, and the columns of `L` made
-        // so far below their diagonals, one after another.
-        for k in 0..dense {
+        let mut r = Refactoring {
+            st,
+            pattern,
+            values,
+            x: vec![Dual::default(); st.n],
+            l_vals: Vec::with_capacity(st.l_rows.len()),
+            u_vals: Vec::with_capacity(st.u_rows.len()),
+        };
+        r.sparse_columns()?;
+        r.dense_tail()?;
+        Some(SparseLu {
+            structure: Arc::clone(st),
+            l_vals: r.l_vals,
+            u_vals: r.u_vals,
+            singular: false,
+        })
+    }
+
+    /// This structure with every column factored as a sparse one (the oracle of the dense tail).
+    #[cfg(test)]
+    fn without_dense_tail(&self) -> Self {
+        let mut st = Structure::clone(&self.0);
+        st.dense_from = st.n;
+        Symbolic(Arc::new(st))
+    }
+
+    /// Multiply–subtract operations of one factorization with these pivots (the cost model of
+    /// the choice between band and sparse LU).
+    pub(crate) fn operations(&self) -> usize {
+        let st = &self.0;
+        (0..st.n)
+            .flat_map(|k| &st.u_rows[st.u_starts[k]..st.u_starts[k + 1] - 1])
+            .map(|&j| st.l_starts[j + 1] - st.l_starts[j] - 1)
+            .sum()
+    }
+}
+
+/// One [`Symbolic::refactor`] in progress: the factors made so far and the column being made
+/// (`x`, indexed by pivot step).
+struct Refactoring<'a> {
+    st: &'a Structure,
+    pattern: &'a ColumnPattern,
+    values: &'a [Dual],
+    x: Vec<Dual>,
+    l_vals: Vec<Dual>,
+    u_vals: Vec<Dual>,
+}
+
+impl Refactoring<'_> {
+    /// Column `k` of the matrix scattered into `x` (whose entries `stale` are cleared first),
+    /// then `x −= L(:, j)·x[j]` for the columns `j` of `L` in `sparse`, in order (the
+    /// left-looking update by sparse columns).
+    fn load_column(&mut self, k: usize, stale: impl Iterator<Item = usize>, sparse: &[usize]) {
+        let (st, x) = (self.st, &mut self.x);
+        for i in stale {
+            x[i] = Dual::default();
+        }
+        for p in self.pattern.starts[k]..self.pattern.starts[k + 1] {
+            x[st.pinv[self.pattern.rows[p]]] = self.values[p];
+        }
+        for &j in sparse {
+            let xj = x[j];
+            let below = st.l_starts[j] + 1..st.l_starts[j + 1];
+            sub_mul_each(x, &st.l_rows[below.clone()], &self.l_vals[below], xj);
+        }
+    }
+
+    /// The columns before the dense tail, one at a time, each with the pivot of the structure
+    /// (`None` when it is no longer acceptable).
+    fn sparse_columns(&mut self) -> Option<()> {
+        let st = self.st;
+        for k in 0..st.dense_from {
             let (l_col, u_col) = (
                 st.l_starts[k]..st.l_starts[k + 1],
                 st.u_starts[k]..st.u_starts[k + 1],
             );
-            for &i in st.u_rows[u_col.clone()]
+            let stale = st.u_rows[u_col.clone()]
                 .iter()
-                .chain(&st.l_rows[l_col.clone()])
-            {
-                x[i] = Dual::default();
-            }
-            for p in pattern.starts[k]..pattern.starts[k + 1] {
-                x[st.pinv[pattern.rows[p]]] = values[p];
-            }
-            for &j in &st.u_rows[u_col.start..u_col.end - 1] {
-                let xj = x[j];
-                let below = st.l_starts[j] + 1..st.l_starts[j + 1];
-                sub_mul_each(&mut x, &st.l_rows[below.clone()], &l_vals[below], xj);
-            }
+                .chain(&st.l_rows[l_col.clone()]);
+            self.load_column(k, stale.copied(), &st.u_rows[u_col.start..u_col.end - 1]);
+            let x = &self.x;
             let pivot = x[k];
             let below = &st.l_rows[l_col.start + 1..l_col.end];
             let largest = below.iter().map(|&i| x[i].v.norm_sqr()).fold(0.0, f64::max);
             if !acceptable(pivot, largest) {
                 return None;
             }
-            u_vals.extend(st.u_rows[u_col].iter().map(|&i| x[i]));
-            l_vals.push(Dual::ONE);
-            l_vals.extend(below.iter().map(|&i| x[i].div(pivot)));
+            self.u_vals.extend(st.u_rows[u_col].iter().map(|&i| x[i]));
+            self.l_vals.push(Dual::ONE);
+            self.l_vals.extend(below.iter().map(|&i| x[i].div(pivot)));
         }
-        // The dense tail, [`TAIL_BLOCK`] columns at a time: each column of `L` made before the
-        // block updates every column of the block while it is in the first-level cache, which
-        // it would otherwise be read into once per column. Each column still takes its updates
-        // in increasing order, as above.
-        // Row `t` of the tail (row `dense + t`) is number `t % 4` of block `t / 4`; column `t` of
-        // `L` in the tail is kept from the block of its diagonal on, zero above its diagonal.
+        Some(())
+    }
+
+    /// The dense tail ([`Symbolic`]), [`TAIL_BLOCK`] columns at a time: each column of `L`
+    /// made before the block updates every column of the block while it is in the first-level
+    /// cache, which it would otherwise be read into once per column. Each column still takes
+    /// its updates in increasing order, as in [`Self::sparse_columns`].
+    ///
+    /// Row `t` of the tail (row `dense_from + t`) is number `t % 4` of block `t / 4`; column `t`
+    /// of `L` in the tail is kept from the block of its diagonal on, zero above its diagonal.
+    fn dense_tail(&mut self) -> Option<()> {
+        let st = self.st;
+        let (n, dense) = (st.n, st.dense_from);
+        let m = n - dense;
         let blocks = m.div_ceil(4);
         let mut tails = vec![vec![[0.0; 16]; blocks]; TAIL_BLOCK.min(m)];
         // Each block column's `U` entries above the tail, and where its `U` rows in the tail
@@ -422,24 +485,14 @@ impl Symbolic {
             let block = first..(first + TAIL_BLOCK).min(n);
             for (c, k) in block.clone().enumerate() {
                 let u_col = st.u_starts[k]..st.u_starts[k + 1] - 1;
-                for &i in &st.u_rows[u_col.clone()] {
-                    x[i] = Dual::default();
-                }
-                x[dense..].fill(Dual::default());
-                for p in pattern.starts[k]..pattern.starts[k + 1] {
-                    x[st.pinv[pattern.rows[p]]] = values[p];
-                }
                 let above = &st.u_rows[u_col.clone()];
                 let sparse_rows = above.partition_point(|&j| j < dense);
-                for &j in &above[..sparse_rows] {
-                    let xj = x[j];
-                    let below = st.l_starts[j] + 1..st.l_starts[j + 1];
-                    sub_mul_each(&mut x, &st.l_rows[below.clone()], &l_vals[below], xj);
-                }
+                let stale = above.iter().copied().chain(dense..n);
+                self.load_column(k, stale, &above[..sparse_rows]);
                 upper[c].clear();
-                upper[c].extend(above[..sparse_rows].iter().map(|&i| x[i]));
+                upper[c].extend(above[..sparse_rows].iter().map(|&i| self.x[i]));
                 next[c] = u_col.start + sparse_rows;
-                for (t, &xi) in x[dense..].iter().enumerate() {
+                for (t, &xi) in self.x[dense..].iter().enumerate() {
                     block_set(&mut tails[c], t, xi);
                 }
             }
@@ -469,9 +522,9 @@ impl Symbolic {
                 if !acceptable(pivot, largest) {
                     return None;
                 }
-                u_vals.extend_from_slice(&upper[c]);
+                self.u_vals.extend_from_slice(&upper[c]);
                 let in_tail = u_col.start + upper[c].len()..u_col.end;
-                u_vals.extend(
+                self.u_vals.extend(
                     st.u_rows[in_tail]
                         .iter()
                         .map(|&i| block_get(tail, i - dense)),
@@ -484,39 +537,16 @@ impl Symbolic {
                     let l = block_get(tail, i).div(pivot);
                     block_set(&mut tail_l[start..], i - t / 4 * 4, l);
                 }
-                l_vals.push(Dual::ONE);
+                self.l_vals.push(Dual::ONE);
                 let below = &st.l_rows[st.l_starts[k] + 1..st.l_starts[k + 1]];
-                l_vals.extend(
+                self.l_vals.extend(
                     below
                         .iter()
                         .map(|&i| block_get(&tail_l[start..], i - dense - t / 4 * 4)),
                 );
             }
         }
-        Some(SparseLu {
-            structure: Arc::clone(st),
-            l_vals,
-            u_vals,
-            singular: false,
-        })
-    }
-
-    /// This structure with every column factored as a sparse one (the oracle of the dense tail).
-    #[cfg(test)]
-    fn without_dense_tail(&self) -> Self {
-        let mut st = Structure::clone(&self.0);
-        st.dense_from = st.n;
-        Symbolic(Arc::new(st))
-    }
-
-    /// Multiply–subtract operations of one factorization with these pivots (the cost model of
-    /// the choice between band and sparse LU).
-    pub(crate) fn operations(&self) -> usize {
-        let st = &self.0;
-        (0..st.n)
-            .flat_map(|k| &st.u_rows[st.u_starts[k]..st.u_starts[k + 1] - 1])
-            .map(|&j| st.l_starts[j + 1] - st.l_starts[j] - 1)
-            .sum()
+        Some(())
     }
 }
 
