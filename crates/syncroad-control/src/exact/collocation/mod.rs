@@ -432,10 +432,20 @@ pub(crate) mod tests {
         rng: &mut Lcg,
         gain: (f64, f64),
     ) -> (DMatrix<f64>, Vec<f64>) {
+        denser_random_digraph(n, 3, rng, gain)
+    }
+
+    /// [`family_random_digraph`] with `arcs` random arcs per driver.
+    pub(crate) fn denser_random_digraph(
+        n: usize,
+        arcs: usize,
+        rng: &mut Lcg,
+        gain: (f64, f64),
+    ) -> (DMatrix<f64>, Vec<f64>) {
         let mut a = DMatrix::zeros(n, n);
         for i in 0..n {
             a[(i, (i + n - 1) % n)] = gain.0 + gain.1 * rng.next();
-            for _ in 0..3 {
+            for _ in 0..arcs {
                 let j = (rng.next() * n as f64) as usize % n;
                 if j != i && a[(i, j)] == 0.0 {
                     a[(i, j)] = gain.0 + gain.1 * rng.next();

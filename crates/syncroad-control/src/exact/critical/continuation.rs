@@ -158,8 +158,14 @@ fn first_crossing(
             continue;
         }
         let m = mult[j];
-        let (c_star, s_star, bracket, bracket_re) =
-            solve_crossing(band, m, (c, cur[j]), (c_next, next[j]), &mut pivots[j])?;
+        // A root whose crossing cannot be solved is left out: were it the first to cross, it
+        // would be right of the axis at the crossing reported, and the certificate's count
+        // there would refuse it.
+        let Some((c_star, s_star, bracket, bracket_re)) =
+            solve_crossing(band, m, (c, cur[j]), (c_next, next[j]), &mut pivots[j])
+        else {
+            continue;
+        };
         if best.as_ref().is_none_or(|b| c_star < b.scale) {
             // The other roots at c*, followed from the bracket end nearer in log c; one that
             // cannot be followed there only loosens the margin (the certificate still counts).
@@ -363,12 +369,19 @@ fn solve_crossing(
         } else {
             0.5 * (ca + cb)
         };
-        let start = if (c - ca).abs() < (c - cb).abs() {
+        // Newton from the root interpolated along the chord between the two ends: among the
+        // hundreds of roots a dense graph has near the axis, Newton converges only from much
+        // closer than the root at the nearer end (within about the inverse of the other
+        // roots' pull, `1/|Σ 1/(s − r)|`, which was 2·10⁻³ on a random digraph of 400 whose
+        // nearer end lay 10⁻² away); the nearer end is the fallback.
+        let chord = sa + (sb - sa) * ((c - ca) / (cb - ca));
+        let nearer = if (c - ca).abs() < (c - cb).abs() {
             sa
         } else {
             sb
         };
-        let s = newton_track(band, c, start, m, recent)?;
+        let s = newton_track(band, c, chord, m, recent)
+            .or_else(|| newton_track(band, c, nearer, m, recent))?;
         if s.re == 0.0 {
             return Some((c, s, [c, c], [0.0, 0.0]));
         }
@@ -473,7 +486,9 @@ pub(super) fn certify_at(
 #[cfg(test)]
 mod tests {
     use super::super::super::collocation::laplacian;
-    use super::super::super::collocation::tests::{family_random_digraph, random_network, Lcg};
+    use super::super::super::collocation::tests::{
+        denser_random_digraph, family_random_digraph, random_network, Lcg,
+    };
     use super::super::super::collocation::CollocationOptions;
     use super::super::super::ring_modes::UniformRing;
     use super::super::{bisection_search, critical_scale, CriticalMethod};
@@ -624,6 +639,57 @@ mod tests {
             "δ = {}",
             c.margin
         );
+    }
+
+    #[test]
+    fn regula_falsi_starts_newton_on_the_chord_where_the_roots_are_dense() {
+        // A random digraph of 150 drivers with eight random arcs each: near its crossing the
+        // roots lie so close together that Newton on det M converges only from within about
+        // 10⁻³ of one. Regula falsi across a bracket 5 % below and 2 % above the crossing
+        // started Newton at its first point from the root at the nearer end, and Newton did not
+        // converge there; from the root interpolated along the chord it does.
+        let (a, delays) = denser_random_digraph(150, 8, &mut Lcg(8), (0.3, 0.5));
+        let l = laplacian(&a);
+        let band = NetworkMatrix::new(&l, &delays);
+        let options = CollocationOptions::default();
+        let roots =
+            super::super::super::collocation::rightmost_roots_shift_invert(&a, &delays, &options)
+                .unwrap();
+        let report = super::super::critical_scale_from(&a, &delays, &roots, &options).unwrap();
+        let c_star = report.critical_gain_scale;
+        // The oracle: argument-principle counts just below and just above c*.
+        let crossed = |c: f64| {
+            count_with_laplacian(&l, c, &delays, axis_line(&l, c))
+                .unwrap()
+                .non_consensus()
+        };
+        assert_eq!(crossed(c_star * (1.0 - 1e-6)), 0);
+        assert!(crossed(c_star * (1.0 + 1e-6)) >= 2);
+        let on_axis = Complex64::new(0.0, report.crossing_frequency_rad_s);
+        let mut recent = RecentPivots::default();
+        let (lo, hi) = (0.95 * c_star, 1.02 * c_star);
+        let s_lo = follow(&band, (c_star, on_axis), lo, 1, 8, &mut recent).unwrap();
+        let s_hi = follow(&band, (c_star, on_axis), hi, 1, 8, &mut recent).unwrap();
+        assert!(
+            s_lo.re < 0.0 && s_hi.re > 0.0,
+            "{s_lo} at {lo}, {s_hi} at {hi}"
+        );
+        let first = (lo * s_hi.re - hi * s_lo.re) / (s_hi.re - s_lo.re);
+        let nearer = if first - lo < hi - first { s_lo } else { s_hi };
+        assert!(
+            newton_track(&band, first, nearer, 1, &mut RecentPivots::default()).is_none(),
+            "Newton now converges from the nearer end: this network no longer shows the chord's use"
+        );
+        let (c, root, _, _) = solve_crossing(
+            &band,
+            1,
+            (lo, s_lo),
+            (hi, s_hi),
+            &mut RecentPivots::default(),
+        )
+        .expect("the crossing is solved");
+        assert_relative_eq!(c, c_star, max_relative = 1e-9);
+        assert!(root.re.abs() <= 1e-12, "{root}");
     }
 
     #[test]
