@@ -318,6 +318,29 @@ impl NetworkMatrix {
         NetworkLu::Band(BandLu::new(self.len(), self.kl, self.ku, entries))
     }
 
+    /// `M'(s)·x = x − c·diag(α_i e^{−sα_i})·L·x` (positions in this form's order).
+    pub(crate) fn derivative_times(&self, c: f64, s: Complex64, x: &[Complex64]) -> Vec<Complex64> {
+        // The all-to-all rows are stored as `L_s` with `L = L_s − c_p·1ᵀ`.
+        let dense = self.sparse.as_ref().map_or(&[][..], |f| &f.dense_rows[..]);
+        let total: Complex64 = if dense.is_empty() {
+            Complex64::new(0.0, 0.0)
+        } else {
+            x.iter().sum()
+        };
+        self.rows
+            .iter()
+            .enumerate()
+            .map(|(p, row)| {
+                let mut lx: Complex64 = row.iter().map(|&(q, lv)| x[q] * lv).sum();
+                if let Some(&cp) = dense.get(p) {
+                    lx -= total * cp;
+                }
+                let alpha = self.delays[p];
+                x[p] - (-s * alpha).exp() * (c * alpha) * lx
+            })
+            .collect()
+    }
+
     /// LU of `diag(r_i)·L − σI` (positions in this form's order), without derivative.
     pub(crate) fn factor_scaled(&self, row_scale: &[Complex64], sigma: Complex64) -> NetworkLu {
         let entry = |p: usize, q: usize, lv: f64| {
@@ -672,6 +695,26 @@ mod tests {
             assert!(lu.solve(&mut y));
             for (k, &v) in p.iter().enumerate() {
                 assert!((y[k] - x[v]).norm() < 1e-9 * (1.0 + x[v].norm()), "{case}");
+            }
+            // `M'(s)·x` against the dense derivative's product.
+            let dm = DMatrix::from_fn(n, n, |i, j| {
+                -1.3 * l[(i, j)] * d[i] * (-s * d[i]).exp()
+                    + if i == j {
+                        Complex64::new(1.0, 0.0)
+                    } else {
+                        Complex64::new(0.0, 0.0)
+                    }
+            });
+            let want = &dm * &x;
+            let x_pos: Vec<Complex64> = p.iter().map(|&v| x[v]).collect();
+            let got = form.derivative_times(1.3, s, &x_pos);
+            for (k, &v) in p.iter().enumerate() {
+                assert!(
+                    (got[k] - want[v]).norm() < 1e-12 * (1.0 + want[v].norm()),
+                    "{case}: M'x {} against {}",
+                    got[k],
+                    want[v]
+                );
             }
         }
     }
