@@ -299,6 +299,10 @@ pub(crate) fn rightmost_roots_shift_invert_unchecked(
     shift_invert(adjacency, delays_s, options, false)
 }
 
+/// A Ritz value whose error bound is below this (relative to `1 + |λ|`) is converged: Newton
+/// refines it to the root it stands for.
+const RITZ_CONVERGED: f64 = 1e-4;
+
 fn shift_invert(
     adjacency: &DMatrix<f64>,
     delays_s: &[f64],
@@ -316,11 +320,18 @@ fn shift_invert(
     let band = NetworkMatrix::new(&l, delays_s);
     let reach = 1.2 * l.diagonal().iter().fold(0.0f64, |a, &d| a.max(2.0 * d));
     let mut eig = arnoldi::eigenvalues_near_axis(&l, delays_s, m, &band, reach);
-    eig.retain(|z| z.im >= -1e-9 * (1.0 + z.norm()));
-    eig.sort_by(|a, b| b.re.total_cmp(&a.re));
+    eig.retain(|(z, _)| z.im >= -1e-9 * (1.0 + z.norm()));
+    // The converged Ritz values first, each class from the right: the unconverged ones crowd
+    // around the rightmost root on dense graphs and would take every candidate's place.
+    let converged = |&(z, error): &(Complex64, f64)| error <= RITZ_CONVERGED * (1.0 + z.norm());
+    eig.sort_by(|a, b| {
+        converged(b)
+            .cmp(&converged(a))
+            .then(b.0.re.total_cmp(&a.0.re))
+    });
     // Neighbouring shifts find the same eigenvalues.
     let mut candidates: Vec<Complex64> = Vec::new();
-    for z in eig {
+    for (z, _) in eig {
         if candidates
             .iter()
             .all(|q| (q - z).norm() > 1e-7 * (1.0 + z.norm()))

@@ -508,13 +508,38 @@ mod tests {
         let (a, delays) = family_random_digraph(120, &mut Lcg(2000), (0.3, 0.4));
         let l = laplacian(&a);
         let band = NetworkMatrix::new(&l, &delays);
-        let roots = super::super::super::collocation::rightmost_roots_shift_invert(
-            &a,
-            &delays,
-            &CollocationOptions::default(),
-        )
-        .unwrap();
-        let root: Complex64 = roots.roots[3].root.into();
+        let eight = CollocationOptions {
+            roots: 8,
+            ..CollocationOptions::default()
+        };
+        let roots =
+            super::super::super::collocation::rightmost_roots_shift_invert(&a, &delays, &eight)
+                .unwrap();
+        // The points Newton visits near a root, each factored on its own as before.
+        let near = |root: Complex64| -> Vec<Complex64> {
+            (3..=9)
+                .map(|k| {
+                    let d = 10f64.powi(-k);
+                    root + Complex64::new(d, d)
+                })
+                .collect()
+        };
+        let alone = |near: &[Complex64]| -> Vec<(Complex64, RecentPivots)> {
+            near.iter()
+                .map(|&s| {
+                    let mut r = RecentPivots::default();
+                    (log_det_derivative(&band, 1.0, s, &mut r).unwrap(), r)
+                })
+                .collect()
+        };
+        // A root near which the network's own pivots are refused every time (the rightmost
+        // such root).
+        let root: Complex64 = roots
+            .roots
+            .iter()
+            .map(|r| Complex64::from(r.root))
+            .find(|&root| alone(&near(root)).iter().all(|(_, r)| r.fresh() == 1))
+            .expect("a root near which the network's pivots are refused");
         let mut recent = RecentPivots::default();
         let found = newton_track(
             &band,
@@ -533,24 +558,8 @@ mod tests {
             "{} fresh factorizations",
             recent.fresh()
         );
-        // The points Newton visits, each factored on its own as before: refused every time.
-        let near: Vec<Complex64> = (3..=9)
-            .map(|k| {
-                let d = 10f64.powi(-k);
-                root + Complex64::new(d, d)
-            })
-            .collect();
-        let alone: Vec<(Complex64, RecentPivots)> = near
-            .iter()
-            .map(|&s| {
-                let mut r = RecentPivots::default();
-                (log_det_derivative(&band, 1.0, s, &mut r).unwrap(), r)
-            })
-            .collect();
-        assert!(
-            alone.iter().all(|(_, r)| r.fresh() == 1),
-            "the network's own pivots were taken"
-        );
+        let near = near(root);
+        let alone = alone(&near);
         // One sequence over the same points: two fresh factorizations, the same derivatives
         // (to the rounding of a matrix this close to singular: 1e-9 from the root, pivots in
         // another order differ in the eighth digit).
