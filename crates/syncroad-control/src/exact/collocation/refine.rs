@@ -187,12 +187,15 @@ pub(super) fn newton_on_band(
 ) -> Option<(Complex64, usize, usize, bool)> {
     let mut m = 1usize;
     let mut step_norm = f64::INFINITY;
-    let mut steps = 0;
     let max_steps = options.max_newton_steps.max(20) * 2;
     // The iterates and the circles around them factor with the pivots of the last fresh
     // factorization among them.
     let mut recent = RecentPivots::default();
-    let mut s = nearest_root_estimate(band, s0, &mut recent).unwrap_or(s0);
+    // The step along the null vector counts as one of Newton's.
+    let (mut s, mut steps) = match nearest_root_estimate(band, s0, &mut recent) {
+        Some(s) => (s, 1),
+        None => (s0, 0),
+    };
     while steps < max_steps {
         steps += 1;
         let Some(g) = band
