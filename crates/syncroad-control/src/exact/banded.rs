@@ -322,11 +322,7 @@ impl NetworkMatrix {
     pub(crate) fn derivative_times(&self, c: f64, s: Complex64, x: &[Complex64]) -> Vec<Complex64> {
         // The all-to-all rows are stored as `L_s` with `L = L_s − c_p·1ᵀ`.
         let dense = self.sparse.as_ref().map_or(&[][..], |f| &f.dense_rows[..]);
-        let total: Complex64 = if dense.is_empty() {
-            Complex64::new(0.0, 0.0)
-        } else {
-            x.iter().sum()
-        };
+        let total: Complex64 = x.iter().sum();
         self.rows
             .iter()
             .enumerate()

@@ -796,6 +796,12 @@ mod tests {
         SparseLu::new(&pattern, &values)
     }
 
+    /// `det` of the factored matrix: the product of `U`'s pivots, signed by the interchanges.
+    fn determinant(lu: &SparseLu) -> Complex64 {
+        let sign = if lu.odd_permutation() { -1.0 } else { 1.0 };
+        lu.pivots().map(|p| p.v).product::<Complex64>() * sign
+    }
+
     #[test]
     fn determinant_and_solution_match_the_dense_lu() {
         for (n, seed) in [(7usize, 3u64), (40, 11), (120, 5)] {
@@ -808,8 +814,7 @@ mod tests {
             });
             let lu = factor(&rows);
             assert!(lu.is_regular());
-            let sign = if lu.odd_permutation() { -1.0 } else { 1.0 };
-            let det: Complex64 = lu.pivots().map(|p| p.v).product::<Complex64>() * sign;
+            let det = determinant(&lu);
             let reference = dense.clone().lu().determinant();
             assert!(
                 (det - reference).norm() <= 1e-10 * reference.norm(),
@@ -859,8 +864,7 @@ mod tests {
             });
             let fresh = SparseLu::new(&pattern, &values);
             let lu = symbolic.refactor(&pattern, &values).unwrap_or(fresh);
-            let sign = if lu.odd_permutation() { -1.0 } else { 1.0 };
-            let det: Complex64 = lu.pivots().map(|p| p.v).product::<Complex64>() * sign;
+            let det = determinant(&lu);
             let expected = dense.lu().determinant();
             assert!(
                 (det - expected).norm() <= 1e-10 * expected.norm(),
@@ -1051,8 +1055,7 @@ mod tests {
                 })
             };
             let (m, dm) = (matrix(|d| d.v), matrix(|d| d.d));
-            let sign = if dense.odd_permutation() { -1.0 } else { 1.0 };
-            let det: Complex64 = dense.pivots().map(|p| p.v).product::<Complex64>() * sign;
+            let det = determinant(&dense);
             let reference = m.clone().lu().determinant();
             assert!(
                 (det - reference).norm() <= 1e-10 * reference.norm(),

@@ -4,7 +4,7 @@
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 
-use super::super::banded::{NetworkMatrix, RecentPivots};
+use super::super::banded::{NetworkLu, NetworkMatrix, RecentPivots};
 use super::network::laplacian;
 use super::{CollocationOptions, RefinedRoot};
 
@@ -139,6 +139,30 @@ pub(crate) fn zeros_in_circle(
     ((mean - count).norm() < 0.05 && count >= 0.0).then_some(count as usize)
 }
 
+/// The start of inverse iteration: a fixed vector with no special direction.
+fn inverse_iteration_start(n: usize) -> Vec<Complex64> {
+    (0..n)
+        .map(|i| Complex64::new(1.0, 0.1 * i as f64))
+        .collect()
+}
+
+/// `steps` inverse iterations `x ← M⁻¹x/|M⁻¹x|` with the factors `lu` (positions in the
+/// network's order): `x` tends to the null vector of the root nearest the factored point.
+/// `false`, with `x` as the last iteration left it, when a solve fails or is not finite.
+fn inverse_iterations(lu: &NetworkLu, x: &mut [Complex64], steps: usize) -> bool {
+    for _ in 0..steps {
+        if !lu.solve(x) {
+            return false;
+        }
+        let norm = x.iter().map(|z| z.norm_sqr()).sum::<f64>().sqrt();
+        if !(norm.is_finite() && norm > 0.0) {
+            return false;
+        }
+        x.iter_mut().for_each(|z| *z /= norm);
+    }
+    true
+}
+
 /// A point in the basin of Newton on `det M` of the root nearest `s0`, or `None`. That Newton
 /// step is `1/Σ_r 1/(s − r)` over every root `r`: where hundreds of roots lie near the axis
 /// (random digraphs with several arcs per driver), the roots other than the nearest pull it
@@ -154,18 +178,9 @@ fn nearest_root_estimate(
     recent: &mut RecentPivots,
 ) -> Option<Complex64> {
     let lu = band.factor_near(1.0, s0, Some(recent));
-    let mut x: Vec<Complex64> = (0..band.len())
-        .map(|i| Complex64::new(1.0, 0.1 * i as f64))
-        .collect();
-    for _ in 0..3 {
-        if !lu.solve(&mut x) {
-            return None;
-        }
-        let norm = x.iter().map(|z| z.norm_sqr()).sum::<f64>().sqrt();
-        if !(norm.is_finite() && norm > 0.0) {
-            return None;
-        }
-        x.iter_mut().for_each(|z| *z /= norm);
+    let mut x = inverse_iteration_start(band.len());
+    if !inverse_iterations(&lu, &mut x, 3) {
+        return None;
     }
     let mut u = band.derivative_times(1.0, s0, &x);
     if !lu.solve(&mut u) {
@@ -243,20 +258,9 @@ pub(super) fn root_residuals(
     let m = char_matrix_from_laplacian(l, delays_s, s);
     let lu = band.factor(1.0, s);
     let perm = band.permutation();
-    let mut x: Vec<Complex64> = (0..n)
-        .map(|i| Complex64::new(1.0, 0.1 * i as f64))
-        .collect();
+    let mut x = inverse_iteration_start(n);
     let mut null_vector_residual = 0.0;
-    for _ in 0..2 {
-        if !lu.solve(&mut x) {
-            break;
-        }
-        let norm = x.iter().map(|z| z.norm_sqr()).sum::<f64>().sqrt();
-        if !(norm.is_finite() && norm > 0.0) {
-            break;
-        }
-        x.iter_mut().for_each(|z| *z /= norm);
-    }
+    inverse_iterations(&lu, &mut x, 2);
     let mut xv = DVector::zeros(n);
     for (p, &v) in perm.iter().enumerate() {
         xv[v] = x[p];
