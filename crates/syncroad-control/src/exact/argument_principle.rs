@@ -587,7 +587,7 @@ mod tests {
                         let centre =
                             Complex64::new(0.1 * w * (2.0 * rng.next() - 1.0), len * rng.next());
                         let m = 2 + (3.0 * rng.next()) as usize;
-                        roots.extend(std::iter::repeat(centre).take(m));
+                        roots.extend(std::iter::repeat_n(centre, m));
                     }
                 }
                 _ => {
