@@ -532,6 +532,21 @@ mod tests {
     use nalgebra::DMatrix;
     use std::f64::consts::PI;
 
+    /// The network matrix of `(a, delays)` and its eight rightmost roots (shift-invert).
+    fn band_and_eight_rightmost(
+        a: &DMatrix<f64>,
+        delays: &[f64],
+    ) -> (NetworkMatrix, super::super::super::collocation::RootsReport) {
+        let eight = CollocationOptions {
+            roots: 8,
+            ..CollocationOptions::default()
+        };
+        let roots =
+            super::super::super::collocation::rightmost_roots_shift_invert(a, delays, &eight)
+                .unwrap();
+        (NetworkMatrix::new(&laplacian(a), delays), roots)
+    }
+
     #[test]
     fn newton_near_a_root_factors_afresh_once_not_at_every_iterate() {
         // A random digraph of the stability families (a ring and three random arcs per
@@ -541,15 +556,7 @@ mod tests {
         // iterates now reuse the pivots of the last fresh factorization among them, and reach
         // the same root.
         let (a, delays) = family_random_digraph(120, &mut Lcg(2000), (0.3, 0.4));
-        let l = laplacian(&a);
-        let band = NetworkMatrix::new(&l, &delays);
-        let eight = CollocationOptions {
-            roots: 8,
-            ..CollocationOptions::default()
-        };
-        let roots =
-            super::super::super::collocation::rightmost_roots_shift_invert(&a, &delays, &eight)
-                .unwrap();
+        let (band, roots) = band_and_eight_rightmost(&a, &delays);
         // The points Newton visits near a root, each factored on its own as before.
         let near = |root: Complex64| -> Vec<Complex64> {
             (3..=9)
@@ -694,15 +701,7 @@ mod tests {
         // reach the same roots from the latter (to 10⁻¹⁰), and the stopped one spends well under
         // half the factorizations.
         let (a, delays) = denser_random_digraph(150, 8, &mut Lcg(8), (0.3, 0.5));
-        let l = laplacian(&a);
-        let band = NetworkMatrix::new(&l, &delays);
-        let eight = CollocationOptions {
-            roots: 8,
-            ..CollocationOptions::default()
-        };
-        let roots =
-            super::super::super::collocation::rightmost_roots_shift_invert(&a, &delays, &eight)
-                .unwrap();
+        let (band, roots) = band_and_eight_rightmost(&a, &delays);
         let grid = (0..24)
             .map(|k| Complex64::new(-0.02 - 0.02 * (k % 4) as f64, 1.7 + 0.1 * (k / 4) as f64));
         let near = roots
