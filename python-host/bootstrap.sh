@@ -30,8 +30,15 @@ if [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$want" ] && [ -x "$venv/bin/python"
     echo "bootstrap: $venv is up to date"
 else
     echo "bootstrap: creating $venv with $("$python" -c 'import sys; print(sys.executable)') (Python $pyver)"
-    "$python" -m venv "$venv"
-    "$venv/bin/python" -m pip install --disable-pip-version-check --quiet -r "$req"
+    # uv (pinned, installed on first use: scripts/uv.sh) where it can be had, else pip.
+    if uv="$(PYTHON="$python" bash "$repo/scripts/uv.sh")"; then
+        "$uv" venv --quiet --seed --allow-existing --python "$python" "$venv"
+        "$uv" pip install --quiet --python "$venv/bin/python" --compile-bytecode -r "$req"
+    else
+        echo "bootstrap: uv unavailable, installing with pip" >&2
+        "$python" -m venv "$venv"
+        "$venv/bin/python" -m pip install --disable-pip-version-check --quiet -r "$req"
+    fi
     echo "$want" > "$stamp"
 fi
 
