@@ -211,6 +211,32 @@ def test_a_run_stepped_in_this_process_is_the_run_stepped_in_a_worker(tmp_path, 
     assert np.array_equal(v_a, v_b) and verdict_a == verdict_b
 
 
+def test_sumo_in_this_process_loads_without_tracis_wrappers_and_libsumo_sees_the_same_run(tmp_path):
+    # A fresh interpreter: another test may have imported the libsumo package already.
+    code = f"""
+import sys
+sys.path.insert(0, {str(REPO / "python/tests")!r})
+from test_simulation import ring
+import syncroad
+with syncroad.Simulation(ring(), backend="sumo", out={str(tmp_path / "run")!r}, in_process=True) as sim:
+    for _ in range(5):
+        sim.step(sim.observe().speed_mps)
+    # SUMO was loaded without the package's TraCI wrappers (traci and sumolib).
+    assert "traci" not in sys.modules and "sumolib" not in sys.modules, sorted(sys.modules)
+    # A later import of the package wraps the same compiled module: the same simulation,
+    # which the next step advances by one step.
+    import libsumo
+    assert libsumo.simulation.isLoaded()
+    assert sorted(libsumo.vehicle.getIDList()) == sorted(sim.observe().ids)
+    before = libsumo.simulation.getTime()
+    sim.step(sim.observe().speed_mps)
+    assert abs(libsumo.simulation.getTime() - before - 0.1) < 1e-9, (before, libsumo.simulation.getTime())
+print("ok")
+"""
+    p = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True)
+    assert p.returncode == 0 and p.stdout.strip() == "ok", p.stderr
+
+
 def signalled_loop(folder):
     """A one-lane loop of eight 78 m edges (15 m/s) through a traffic light at node n2, built
     by the project's netconvert."""

@@ -111,12 +111,7 @@ fn claim_libsumo(py: Python<'_>) -> PyResult<bool> {
         return Ok(false);
     }
     // The caller's own libsumo simulation (libsumo runs one per process).
-    let loaded = py
-        .import("libsumo")
-        .and_then(|m| m.getattr("simulation"))
-        .and_then(|s| s.call_method0("isLoaded"))
-        .and_then(|l| l.is_truthy());
-    match loaded {
+    match syncroad_sumo::libsumo_is_loaded(py) {
         Ok(false) => Ok(true),
         // A libsumo that cannot be imported here is the worker's to report.
         Ok(true) | Err(_) => {

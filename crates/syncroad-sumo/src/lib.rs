@@ -70,7 +70,7 @@ pub use prepare::{
 };
 pub use probe::{PhaseTimes, Probe, ProbeMode, ProbeTimes};
 pub use protocol::{Event, Finish, Job, ReadMode, Request, StartInfo, Totals};
-pub use python::{use_packages, SumoPackages};
+pub use python::{libsumo_is_loaded, use_packages, SumoPackages};
 pub use replay::{
     ReplayError, RoadTrace, TraceLane, FCD_FILE, REPLAY_CONFIG, REPLAY_TYPES, ROAD_FILE,
 };

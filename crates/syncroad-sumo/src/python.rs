@@ -130,14 +130,28 @@ pub fn add_packages(py: Python<'_>) -> Result<std::path::PathBuf, PythonError> {
     }
 }
 
-/// Adds the virtualenv's site-packages to the embedded interpreter and imports libsumo.
+/// How the worker loads SUMO (`libsumo_loader.py`: libsumo's compiled module without the
+/// package's TraCI wrappers).
+const LOADER: &std::ffi::CStr = pyo3::ffi::c_str!(include_str!("libsumo_loader.py"));
+
+/// Adds the virtualenv's site-packages to the embedded interpreter and loads libsumo's compiled
+/// module (`libsumo._libsumo`, whose functions the loop calls), returned with where it came
+/// from.
 pub fn load_libsumo(py: Python<'_>) -> Result<(Bound<'_, PyModule>, PythonInfo), PythonError> {
     let sys = py
         .import("sys")
         .map_err(|e| py_error(py, "import sys", e))?;
     let sp = add_packages(py)?;
-    let import = |module: &str| -> Result<Bound<'_, PyModule>, PythonError> {
-        py.import(module).map_err(|e| {
+    let loader = PyModule::from_code(
+        py,
+        LOADER,
+        c"syncroad_libsumo_loader.py",
+        c"syncroad_libsumo_loader",
+    )
+    .map_err(|e| py_error(py, "syncroad's libsumo loader", e))?;
+    // A package that is not installed is named with what installs it.
+    let load = |module: &str, function: &str| -> Result<Bound<'_, PyAny>, PythonError> {
+        loader.call_method0(function).map_err(|e| {
             if e.is_instance_of::<pyo3::exceptions::PyImportError>(py) {
                 PythonError::MissingPackage {
                     module: module.to_string(),
@@ -149,32 +163,46 @@ pub fn load_libsumo(py: Python<'_>) -> Result<(Bound<'_, PyModule>, PythonInfo),
                     },
                 }
             } else {
-                py_error(py, format!("import {module}"), e)
+                py_error(py, format!("loading {module}"), e)
             }
         })
     };
-    let sumo = import("sumo")?;
-    let libsumo = import("libsumo")?;
+    let sumo_home: String = load("sumo", "sumo_home")?
+        .extract()
+        .map_err(|e| py_error(py, "SUMO_HOME", e))?;
+    let (native, libsumo_file): (Bound<'_, PyModule>, String) = load("libsumo", "libsumo")?
+        .extract()
+        .map_err(|e| py_error(py, "libsumo._libsumo", e))?;
     let get_str = |obj: &Bound<'_, PyAny>, attr: &str| -> Result<String, PythonError> {
         obj.getattr(attr)
             .and_then(|x| x.str())
             .map(|s| s.to_string())
             .map_err(|e| py_error(py, attr.to_string(), e))
     };
-    let version = libsumo
-        .call_method0("getVersion")
+    let version = native
+        .call_method0("simulation_getVersion")
         .and_then(|v| v.get_item(1))
         .and_then(|v| v.extract::<String>())
-        .map_err(|e| py_error(py, "libsumo.getVersion()", e))?;
+        .map_err(|e| py_error(py, "libsumo.simulation.getVersion()", e))?;
     let info = PythonInfo {
         python_version: get_str(sys.as_any(), "version")?,
         sys_prefix: get_str(sys.as_any(), "prefix")?,
         site_packages: sp.display().to_string(),
-        libsumo_file: get_str(libsumo.as_any(), "__file__")?,
+        libsumo_file,
         sumo_version: version,
-        sumo_home: get_str(sumo.as_any(), "SUMO_HOME")?,
+        sumo_home,
     };
-    Ok((libsumo, info))
+    Ok((native, info))
+}
+
+/// Whether this process's libsumo already runs a simulation (the caller's own, in a Python
+/// process), loaded as the worker loads it ([`load_libsumo`]).
+pub fn libsumo_is_loaded(py: Python<'_>) -> Result<bool, PythonError> {
+    let (native, _) = load_libsumo(py)?;
+    native
+        .call_method0("simulation_isLoaded")
+        .and_then(|l| l.is_truthy())
+        .map_err(|e| py_error(py, "libsumo.simulation.isLoaded()", e))
 }
 
 /// Adds the project virtualenv's site-packages to the interpreter's path and returns it.

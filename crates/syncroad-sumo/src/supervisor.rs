@@ -357,8 +357,9 @@ impl Worker {
         if cmd.embeds_build_python {
             pin_build_python(&mut command);
         }
-        // libsumo imports numpy, whose OpenBLAS starts a thread per core that the worker never
-        // uses; in a sweep those threads took cycles from the other workers' SUMO steps.
+        // numpy (which a user's Python controller or the full libsumo package imports) starts an
+        // OpenBLAS thread per core that the worker never uses; in a sweep those threads took
+        // cycles from the other workers' SUMO steps.
         if std::env::var_os("OPENBLAS_NUM_THREADS").is_none() {
             command.env("OPENBLAS_NUM_THREADS", "1");
         }

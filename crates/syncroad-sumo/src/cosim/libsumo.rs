@@ -24,7 +24,7 @@ pub(crate) fn tail(path: &Path, lines: usize) -> String {
 /// skip one Python wrapper layer per call).
 pub(crate) struct Libsumo<'py> {
     pub(crate) py: Python<'py>,
-    pub(crate) module: Bound<'py, PyModule>,
+    /// libsumo's compiled module (`libsumo._libsumo`).
     pub(crate) native: Bound<'py, PyModule>,
     pub(crate) step: Bound<'py, PyAny>,
     pub(crate) set_speed: Bound<'py, PyAny>,
@@ -34,11 +34,7 @@ pub(crate) struct Libsumo<'py> {
 }
 
 impl<'py> Libsumo<'py> {
-    pub(crate) fn new(py: Python<'py>, module: Bound<'py, PyModule>) -> Result<Self, PythonError> {
-        let native = module
-            .getattr("_libsumo")
-            .and_then(|m| m.cast_into::<PyModule>().map_err(PyErr::from))
-            .map_err(|e| py_error(py, "libsumo._libsumo", e))?;
+    pub(crate) fn new(py: Python<'py>, native: Bound<'py, PyModule>) -> Result<Self, PythonError> {
         let f = |name: &str| {
             native
                 .getattr(name)
@@ -51,7 +47,6 @@ impl<'py> Libsumo<'py> {
             colliding: f("simulation_getCollidingVehiclesNumber")?,
             teleports: f("simulation_getStartingTeleportNumber")?,
             py,
-            module,
             native,
         })
     }

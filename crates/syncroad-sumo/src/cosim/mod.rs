@@ -133,7 +133,7 @@ pub fn run(py: Python<'_>, job: &Job, out: &mut impl Write) -> Result<(), CosimE
     }
     let ls = Libsumo::new(py, module)?;
     let args = sumo_args(req);
-    if let Err(e) = ls.module.call_method1("start", (args.clone(),)) {
+    if let Err(e) = ls.native.call_method1("simulation_start", (args.clone(),)) {
         // SUMO's own words (libsumo's exception and its log), not the Python traceback of
         // the binding, which says nothing about the user's files.
         return Err(CosimError::StartFailed {
@@ -146,7 +146,7 @@ pub fn run(py: Python<'_>, job: &Job, out: &mut impl Write) -> Result<(), CosimE
     // Close SUMO whatever happened, and before the end is reported: closing flushes SUMO's
     // log, whose emergency-braking warnings the parent counts when the end arrives (a pooled
     // worker goes on to its next run, so nothing else would make the log complete in time).
-    let _ = ls.module.call_method0("close");
+    let _ = ls.native.call_method0("simulation_close");
     let finish = result?;
     write_msg(out, &WorkerMsg::Finished(Box::new(finish)))
         .map_err(|e| CosimError::Pipe(e.to_string()))?;
