@@ -19,6 +19,10 @@ import os
 import sys
 
 
+# What was found once (a worker runs many jobs; every job asks again).
+_found = {}
+
+
 def _package(name):
     """The spec and folder of the installed package `name`, without importing it."""
     spec = importlib.util.find_spec(name)
@@ -29,7 +33,10 @@ def _package(name):
 
 def sumo_home():
     """The eclipse-sumo wheel's SUMO_HOME, put into the environment where unset."""
+    if "sumo_home" in _found:
+        return _found["sumo_home"]
     _, home = _package("sumo")
+    _found["sumo_home"] = home
     if "SUMO_HOME" not in os.environ:
         os.environ["SUMO_HOME"] = home
     if not os.environ.get("PROJ_LIB") and not os.environ.get("PROJ_DATA"):
@@ -39,8 +46,11 @@ def sumo_home():
 
 def libsumo():
     """libsumo's compiled module (the one loaded already, if any) and the package's file."""
-    spec, folder = _package("libsumo")
     loaded = sys.modules.get("libsumo._libsumo")
+    if loaded is not None and "origin" in _found:
+        return loaded, _found["origin"]
+    spec, folder = _package("libsumo")
+    _found["origin"] = spec.origin
     if loaded is not None:
         return loaded, spec.origin
     for suffix in importlib.machinery.EXTENSION_SUFFIXES:

@@ -142,13 +142,18 @@ pub fn load_libsumo(py: Python<'_>) -> Result<(Bound<'_, PyModule>, PythonInfo),
         .import("sys")
         .map_err(|e| py_error(py, "import sys", e))?;
     let sp = add_packages(py)?;
-    let loader = PyModule::from_code(
-        py,
-        LOADER,
-        c"syncroad_libsumo_loader.py",
-        c"syncroad_libsumo_loader",
-    )
-    .map_err(|e| py_error(py, "syncroad's libsumo loader", e))?;
+    // Compiled once per process (executing it registers it as a module); every later job
+    // finds it.
+    let loader = match py.import("syncroad_libsumo_loader") {
+        Ok(m) => m,
+        Err(_) => PyModule::from_code(
+            py,
+            LOADER,
+            c"syncroad_libsumo_loader.py",
+            c"syncroad_libsumo_loader",
+        )
+        .map_err(|e| py_error(py, "syncroad's libsumo loader", e))?,
+    };
     // A package that is not installed is named with what installs it.
     let load = |module: &str, function: &str| -> Result<Bound<'_, PyAny>, PythonError> {
         loader.call_method0(function).map_err(|e| {
