@@ -30,15 +30,8 @@ if [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$want" ] && [ -x "$venv/bin/python"
     echo "bootstrap: $venv is up to date"
 else
     echo "bootstrap: creating $venv with $("$python" -c 'import sys; print(sys.executable)') (Python $pyver)"
-    # uv (pinned, installed on first use: scripts/uv.sh) where it can be had, else pip.
-    if uv="$(PYTHON="$python" bash "$repo/scripts/uv.sh")"; then
-        "$uv" venv --quiet --seed --allow-existing --python "$python" "$venv"
-        "$uv" pip install --quiet --python "$venv/bin/python" --compile-bytecode -r "$req"
-    else
-        echo "bootstrap: uv unavailable, installing with pip" >&2
-        "$python" -m venv "$venv"
-        "$venv/bin/python" -m pip install --disable-pip-version-check --quiet -r "$req"
-    fi
+    # uv (pinned, installed on first use) where it can be had, else pip.
+    bash "$repo/scripts/make-venv.sh" "$venv" "$python" "$req"
     echo "$want" > "$stamp"
 fi
 

@@ -19,15 +19,8 @@ stamp="$venv/.syncroad-py.stamp"
 want="$(cat "$req" "$deps" | sha256sum | cut -d' ' -f1)"
 if [ ! -x "$venv/bin/python" ] || [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
   echo "python-test: creating $venv"
-  # uv (pinned, installed on first use: scripts/uv.sh) where it can be had, else pip.
-  if uv="$(PYTHON="$python" bash scripts/uv.sh)"; then
-    "$uv" venv --quiet --seed --allow-existing --python "$python" "$venv"
-    "$uv" pip install --quiet --python "$venv/bin/python" --compile-bytecode -r "$req" -r "$deps"
-  else
-    echo "python-test: uv unavailable, installing with pip" >&2
-    "$python" -m venv "$venv"
-    "$venv/bin/python" -m pip install --disable-pip-version-check -q -r "$req" -r "$deps"
-  fi
+  # uv (pinned, installed on first use) where it can be had, else pip.
+  bash scripts/make-venv.sh "$venv" "$python" "$req" "$deps"
   echo "$want" > "$stamp"
 fi
 if [ "${1:-}" = "--setup" ]; then

@@ -3,11 +3,7 @@
 # first when absent: a `uv` of the pinned version on PATH, else the one installed before into
 # ${XDG_CACHE_HOME:-~/.cache}/syncroad/uv-VERSION, else pip installs it into that folder (a
 # virtualenv of the interpreter given as PYTHON, default python3; a few seconds, once).
-# Exits non-zero, saying why on stderr, when it cannot (the callers then fall back to pip).
-#
-# uv installs the two environments (SUMO's .venv, the Python tests' .venv-py) in about a third
-# of pip's CPU time: it unpacks each wheel once into its cache, links the files into every
-# environment that needs them and byte-compiles them in parallel.
+# Exits non-zero, saying why on stderr, when it cannot (scripts/make-venv.sh then uses pip).
 set -euo pipefail
 version=0.13.9
 if command -v uv >/dev/null 2>&1 && [ "$(uv --version 2>/dev/null | cut -d' ' -f2)" = "$version" ]; then
