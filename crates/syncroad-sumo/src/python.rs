@@ -142,9 +142,13 @@ pub fn load_libsumo(py: Python<'_>) -> Result<(Bound<'_, PyModule>, PythonInfo),
         .import("sys")
         .map_err(|e| py_error(py, "import sys", e))?;
     let sp = add_packages(py)?;
-    // Compiled once per process (executing it registers it as a module); every later job
-    // finds it.
-    let loader = match py.import("syncroad_libsumo_loader") {
+    // Compiled once per process (executing it registers it in `sys.modules`); every later
+    // job finds it there.
+    let registered = sys
+        .getattr("modules")
+        .and_then(|m| m.get_item("syncroad_libsumo_loader"))
+        .and_then(|m| m.cast_into::<PyModule>().map_err(PyErr::from));
+    let loader = match registered {
         Ok(m) => m,
         Err(_) => PyModule::from_code(
             py,
