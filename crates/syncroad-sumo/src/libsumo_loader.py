@@ -4,7 +4,7 @@ The worker needs libsumo's compiled module only: it starts, steps and closes SUM
 commands the vehicles through that module's functions (and calls the C++ functions it exports
 directly). `import libsumo` would also run the package's `__init__`, which builds TraCI's
 Python wrappers (it imports traci, sumolib and numpy) and reads installed versions from the
-package metadata: about two thirds of the time a fresh worker takes to load SUMO. So the
+package metadata: half of the 0.34 s that `import libsumo` takes (`python -X importtime`). So the
 compiled module is loaded on its own, under the name the package gives it
 (`libsumo._libsumo`): a later `import libsumo` (a user's controller reading traffic lights)
 finds it loaded and the package wraps this very module, so both see one simulation.
