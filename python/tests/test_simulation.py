@@ -215,10 +215,10 @@ def test_sumo_in_this_process_loads_without_tracis_wrappers_and_libsumo_sees_the
     # A fresh interpreter: another test may have imported the libsumo package already.
     code = f"""
 import sys
-sys.path.insert(0, {str(REPO / "python/tests")!r})
-from test_simulation import ring
 import syncroad
-with syncroad.Simulation(ring(), backend="sumo", out={str(tmp_path / "run")!r}, in_process=True) as sim:
+sc = syncroad.Scenario.load("scenarios/sugiyama-ring.json")
+sc = syncroad.Scenario.from_dict(dict(sc.data, horizon_s=20), base_dir="scenarios")
+with syncroad.Simulation(sc, backend="sumo", out={str(tmp_path / "run")!r}, in_process=True) as sim:
     for _ in range(5):
         sim.step(sim.observe().speed_mps)
     # SUMO was loaded without the package's TraCI wrappers (traci and sumolib).
