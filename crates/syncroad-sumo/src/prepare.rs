@@ -86,6 +86,9 @@ pub struct RunOptions {
     /// Also write SUMO's floating-car data and the files that replay it (`--fcd`; the
     /// scenario's `sumo.fcd` asks for it too).
     pub fcd: bool,
+    /// SUMO writes its floating-car data every this many steps (`--fcd-every`; 0 and 1:
+    /// every step), and the replay steps at that interval.
+    pub fcd_every: usize,
 }
 
 /// What to measure in SUMO during a run.
@@ -118,6 +121,7 @@ impl RunOptions {
             warmup_s: 0.0,
             damper: None,
             fcd: false,
+            fcd_every: 1,
         }
     }
 }
@@ -297,6 +301,7 @@ fn prepare_with(
     let guests = crate::inflows::guests(scenario, &guest)?;
     let other_traffic = scenario.sumo().other_traffic();
     let fcd = opts.fcd || scenario.sumo().fcd();
+    let fcd_every = opts.fcd_every.max(1);
     if write {
         let sources = [
             std::slice::from_ref(&routes_file),
@@ -304,7 +309,8 @@ fn prepare_with(
             extra_additional.as_slice(),
         ]
         .concat();
-        write_watch_files(scenario, &layout, &opts.work_dir, fcd, &sources)
+        let replay = fcd.then_some(fcd_every);
+        write_watch_files(scenario, &layout, &opts.work_dir, replay, &sources)
             .map_err(|e| io(&opts.work_dir, e))?;
     }
     Ok(Request {
@@ -331,6 +337,7 @@ fn prepare_with(
         summary_file: other_traffic.then(|| opts.work_dir.join("summary.xml")),
         warmup_s: warmup_steps(opts, scenario) as f64 * scenario.step_s(),
         fcd_file: fcd.then(|| opts.work_dir.join(crate::replay::FCD_FILE)),
+        fcd_every,
         extra_routes,
         extra_additional,
         adopt: adopt.cloned(),
@@ -435,26 +442,27 @@ fn user_traffic(
 }
 
 /// The files for watching the run again, in its work folder: where its road lies, and with
-/// `fcd` the replay of SUMO's floating-car data (vehicle types read from `type_sources`). An
+/// `fcd` (its interval in steps) the replay of SUMO's floating-car data (vehicle types read
+/// from `type_sources`). An
 /// earlier run's that this one does not write are removed (the folder is ours).
 fn write_watch_files(
     scenario: &Scenario,
     layout: &Layout,
     work_dir: &Path,
-    fcd: bool,
+    fcd: Option<usize>,
     type_sources: &[PathBuf],
 ) -> std::io::Result<()> {
     let adopt = scenario.sumo().controlled();
-    crate::replay::remove_stale(work_dir, fcd, adopt.is_none())?;
+    crate::replay::remove_stale(work_dir, fcd.is_some(), adopt.is_none())?;
     if adopt.is_none() {
         crate::replay::write_road_trace(work_dir, layout)?;
     }
-    if fcd {
+    if let Some(every) = fcd {
         crate::replay::write_replay_files(
             work_dir,
             &layout.road.path,
             type_sources,
-            scenario.step_s(),
+            (scenario.step_s(), every),
             scenario.horizon_s(),
         )?;
     }

@@ -150,9 +150,12 @@ pub struct Request {
     /// surrogate safety measures) measure from it.
     #[serde(default)]
     pub warmup_s: f64,
-    /// SUMO's floating-car data of every vehicle, every step (`--fcd`), for replay.
+    /// SUMO's floating-car data of every vehicle (`--fcd`), for replay.
     #[serde(default)]
     pub fcd_file: Option<PathBuf>,
+    /// The floating-car data is written every this many steps (0 and 1: every step).
+    #[serde(default)]
+    pub fcd_every: usize,
     /// The law drives these of the user's own vehicles (`sumo.controlled`), bound after
     /// insertion in their order along the road; syncroad inserts no vehicle, and
     /// `layout.vehicles` holds placeholders until the worker has bound them.

@@ -1,5 +1,5 @@
 //! Watching a run again. A SUMO run can write SUMO's own floating-car data (`fcd.xml`, every
-//! step) beside the files sumo-gui needs to play it back through SUMO's fcd-replay device
+//! step, or every k-th with `--fcd-every`) beside the files sumo-gui needs to play it back through SUMO's fcd-replay device
 //! (`replay.sumocfg`, `replay.types.xml`); every SUMO run writes where its road lies on the
 //! network (`road.json`), so an animation can draw syncroad's own trajectories on the road's
 //! real geometry.
@@ -246,15 +246,20 @@ fn replay_types(sources: &[PathBuf], step_s: f64) -> std::io::Result<String> {
 
 /// Writes the replay's configuration and vehicle types into `work_dir`: SUMO (or sumo-gui)
 /// started with `-c work_dir/replay.sumocfg` plays `fcd.xml` back on `net` from 0 to
-/// `end_s` at the run's step.
+/// `end_s`, one step per time step of the data, `every` steps of the run's `step_s` (SUMO's
+/// fcd-replay device moves each vehicle to its next recorded place every step). The types keep
+/// the run's step as their reaction time, which lets SUMO insert each vehicle at its recorded
+/// gap; with `every` > 1 SUMO warns that it is below the replay's step, which does not matter
+/// to vehicles that only follow the record.
 pub(crate) fn write_replay_files(
     work_dir: &Path,
     net: &Path,
     type_sources: &[PathBuf],
-    step_s: f64,
+    (step_s, every): (f64, usize),
     end_s: f64,
 ) -> std::io::Result<()> {
     let types = replay_types(type_sources, step_s)?;
+    let step_s = step_s * every.max(1) as f64;
     std::fs::write(work_dir.join(REPLAY_TYPES), types)?;
     let net = std::path::absolute(net)?;
     let esc = |s: &str| quick_xml::escape::escape(s).into_owned();

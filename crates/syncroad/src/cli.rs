@@ -281,6 +281,10 @@ pub struct SumoArgs {
     /// `syncroad replay`.
     #[arg(long)]
     pub fcd: bool,
+    /// With --fcd, SUMO writes its floating-car data every k-th step only (a tenth of the file
+    /// at k = 10); the replay then steps k steps at a time.
+    #[arg(long, value_name = "K", requires = "fcd")]
+    pub fcd_every: Option<usize>,
 }
 
 /// Options of `syncroad compare`.
@@ -345,6 +349,10 @@ pub struct CompareArgs {
     /// replay`.
     #[arg(long)]
     pub fcd: bool,
+    /// With --fcd, SUMO writes its floating-car data every k-th step only; the replay then
+    /// steps k steps at a time.
+    #[arg(long, value_name = "K", requires = "fcd")]
+    pub fcd_every: Option<usize>,
     /// Progress on stderr: `auto` a bar of finished runs with the time left on a terminal
     /// (nothing in a log or a pipe); `lines` a line per finished run wherever stderr goes;
     /// `never`.
@@ -423,6 +431,10 @@ pub struct SweepArgs {
     /// `syncroad replay`.
     #[arg(long, requires = "keep_runs")]
     pub fcd: bool,
+    /// With --fcd, SUMO writes its floating-car data every k-th step only; the replay then
+    /// steps k steps at a time.
+    #[arg(long, value_name = "K", requires = "fcd")]
+    pub fcd_every: Option<usize>,
     /// Write a Slurm job array (one task per shard) and a collect job into this folder
     /// instead of running; OUT is where the cluster writes the results.
     #[arg(long, value_name = "DIR")]

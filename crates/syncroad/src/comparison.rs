@@ -79,6 +79,8 @@ pub struct Request {
     pub plots: bool,
     /// Every run also writes SUMO's floating-car data for `syncroad replay`.
     pub fcd: bool,
+    /// That floating-car data every this many steps (`None`: every step).
+    pub fcd_every: Option<usize>,
     /// How finished runs are reported (`None`: a bar on a terminal, a line each elsewhere).
     pub progress: Option<crate::progress::ProgressMode>,
 }
@@ -100,6 +102,7 @@ impl Request {
             timeout_s: None,
             plots: false,
             fcd: false,
+            fcd_every: None,
             progress: None,
         }
     }
@@ -245,6 +248,7 @@ pub fn plan(sc: &Scenario, a: &Request) -> anyhow::Result<Plan> {
         }
     }
     let record_every = config::record_every(a.record_every, sc)?;
+    let fcd_every = config::fcd_every(a.fcd_every)?;
     let timeout = config::timeout(a.timeout_s)?;
     let mut eval = EvalOptions::of(sc);
     eval.warmup_s = warmup_s;
@@ -260,6 +264,7 @@ pub fn plan(sc: &Scenario, a: &Request) -> anyhow::Result<Plan> {
             run.timeout = timeout;
             run.measure = Some(measure);
             run.fcd = a.fcd;
+            run.fcd_every = fcd_every;
             run
         })
         .collect();

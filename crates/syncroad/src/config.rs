@@ -139,6 +139,17 @@ pub fn warmup_s_as(field: &str, flag: Option<f64>, sc: &Scenario) -> anyhow::Res
 /// each: about 1.6 GB in memory, several GB of CSV).
 pub const MAX_RECORDED_VALUES: usize = 50_000_000;
 
+/// `--fcd-every`: at least 1; every step when not given.
+pub fn fcd_every(flag: Option<usize>) -> anyhow::Result<usize> {
+    match flag {
+        Some(0) => Err(InputError::new(
+            "--fcd-every = 0: must be ≥ 1 (SUMO writes its floating-car data every k-th step; 1 is every step)",
+        )
+        .into()),
+        k => Ok(k.unwrap_or(1)),
+    }
+}
+
 /// `--record-every`: at least 1, and few enough samples to stay within
 /// [`MAX_RECORDED_VALUES`]; default about 2000 samples. (The metrics use every step whatever
 /// the stride.)

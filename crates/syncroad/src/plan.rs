@@ -73,6 +73,8 @@ pub struct RunPlan {
     pub read: ReadMode,
     /// Also write SUMO's floating-car data for `syncroad replay` (`--fcd`).
     pub fcd: bool,
+    /// The floating-car data every this many steps (`--fcd-every`; 1: every step).
+    pub fcd_every: usize,
 }
 
 impl RunPlan {
@@ -88,6 +90,7 @@ impl RunPlan {
             ballistic: true,
             read: ReadMode::Direct,
             fcd: false,
+            fcd_every: 1,
         }
     }
 
@@ -118,6 +121,7 @@ impl RunPlan {
         o.drivers = self.drive.drivers.clone();
         o.damper = self.drive.damper.clone();
         o.fcd = self.fcd;
+        o.fcd_every = self.fcd_every;
         o.warmup_s = self.eval.warmup_s;
         o.measure = self.measure.map(|m| MeasureOptions {
             emission_every: m.emission_every,
@@ -146,13 +150,17 @@ mod tests {
         plan.timeout = Some(Duration::from_secs(9));
         plan.ballistic = false;
         plan.fcd = true;
+        plan.fcd_every = 10;
         plan.measure = Some(Measurements {
             emission_every: 3,
             tripinfo: true,
             ssm: false,
         });
         let o = plan.sumo_options("w".into(), WorkerCommand::binary("syncroad"), None);
-        assert_eq!((o.record_every, o.ballistic, o.fcd), (5, false, true));
+        assert_eq!(
+            (o.record_every, o.ballistic, o.fcd, o.fcd_every),
+            (5, false, true, 10)
+        );
         // SUMO measures, and every vehicle's metrics (SUMO's summary) skip, the warm-up the
         // evaluation skips.
         assert_eq!(o.warmup_s, 40.0);

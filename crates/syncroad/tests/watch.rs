@@ -95,6 +95,33 @@ fn along(points: &[[f64; 3]], length: f64, s: f64) -> (f64, f64) {
     (a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2]))
 }
 
+/// SUMO itself, from the run's replay configuration in `work` and with its own FCD output (into
+/// `file`), puts every vehicle of the floating-car data `recorded` where it was recorded (to
+/// FCD's 0.01 m), at the recorded times, up to the end of the replay (whose last step, the
+/// horizon's, is not written).
+fn replays_where_recorded(
+    work: &Path,
+    file: &Path,
+    recorded: &BTreeMap<(i64, String), (f64, f64, f64, String)>,
+) {
+    let p = std::process::Command::new(sumo_bin())
+        .arg("-c")
+        .arg(work.join("replay.sumocfg"))
+        .arg("--fcd-output")
+        .arg(file)
+        .output()
+        .unwrap();
+    assert!(p.status.success(), "{}", String::from_utf8_lossy(&p.stderr));
+    let replayed = fcd(file);
+    assert!(replayed.len() >= recorded.len() - 22, "{}", replayed.len());
+    let mut worst: f64 = 0.0;
+    for (k, (x, y, _, _)) in &replayed {
+        let (rx, ry, _, _) = &recorded[k];
+        worst = worst.max((x - rx).abs()).max((y - ry).abs());
+    }
+    assert!(worst <= 0.01 + 1e-9, "replayed positions off by {worst} m");
+}
+
 /// A run made with `--fcd` holds SUMO's own floating-car data of that very run (its speeds are
 /// the trajectories' speeds to FCD's two decimals), SUMO replays it headlessly from the run's
 /// replay configuration with every vehicle where it was recorded (to FCD's 0.01 m), and the
@@ -121,25 +148,7 @@ fn a_run_with_fcd_replays_in_sumo_where_it_was_recorded() {
             "t = {t} ms, v{i}: {fv} vs {v}"
         );
     }
-    // SUMO itself, from the run's replay configuration, with its own FCD output.
-    let replayed_file = dir.join("replayed.xml");
-    let p = std::process::Command::new(sumo_bin())
-        .arg("-c")
-        .arg(work.join("replay.sumocfg"))
-        .arg("--fcd-output")
-        .arg(&replayed_file)
-        .output()
-        .unwrap();
-    assert!(p.status.success(), "{}", String::from_utf8_lossy(&p.stderr));
-    let replayed = fcd(&replayed_file);
-    // Every step up to the end of the replay (its last step is the horizon's, not written).
-    assert!(replayed.len() >= recorded.len() - 22, "{}", replayed.len());
-    let mut worst: f64 = 0.0;
-    for (k, (x, y, _, _)) in &replayed {
-        let (rx, ry, _, _) = &recorded[k];
-        worst = worst.max((x - rx).abs()).max((y - ry).abs());
-    }
-    assert!(worst <= 0.01 + 1e-9, "replayed positions off by {worst} m");
+    replays_where_recorded(&work, &dir.join("replayed.xml"), &recorded);
     // The road trace: a vehicle's trajectory position (rear bumper) plus its length (5 m) is its
     // front bumper, which is where FCD puts a vehicle.
     let trace = syncroad_sumo::RoadTrace::read(&work.join("road.json")).unwrap();
@@ -167,6 +176,73 @@ fn a_run_with_fcd_replays_in_sumo_where_it_was_recorded() {
         "{stdout}"
     );
     assert!(stdout.contains("no display here"), "{stdout}");
+}
+
+/// `--fcd-every 10` has SUMO write its floating-car data every tenth step: at the 41 whole
+/// seconds of a 40-s run at Δt = 0.1 s, each vehicle's entry that of the same run's every-step
+/// trajectory at that time, and the replay steps a second at a time, so that SUMO replays
+/// every vehicle where and when it was recorded. The flag needs `--fcd` and a k ≥ 1, and the
+/// native simulator, which has no floating-car data, refuses `--fcd`.
+#[test]
+fn fcd_every_k_steps_is_written_at_that_interval_and_replays_at_it() {
+    let dir = tmpdir("fcd-every");
+    let out = sugiyama_run(
+        &dir,
+        "run",
+        40.0,
+        &["run", "--fcd", "--fcd-every", "10", "--record-every", "1"],
+    );
+    let work = out.join("sumo");
+    let recorded = fcd(&work.join("fcd.xml"));
+    let times: std::collections::BTreeSet<i64> = recorded.keys().map(|(t, _)| *t).collect();
+    assert_eq!(
+        times.iter().copied().collect::<Vec<_>>(),
+        (0..=40).map(|s| s * 1000).collect::<Vec<_>>(),
+        "one FCD time step a second, from 0 to the horizon"
+    );
+    let traj = rows(&out);
+    assert_eq!(
+        recorded.len(),
+        41 * 22,
+        "22 vehicles at each of the 41 times"
+    );
+    for ((t, id), (_, _, v, _)) in &recorded {
+        let i: usize = id.trim_start_matches('v').parse().unwrap();
+        let (tv, _) = traj[&(*t, i)];
+        assert!(
+            (v - tv).abs() <= 0.005 + 1e-9,
+            "t = {t} ms, {id}: {v} vs {tv}"
+        );
+    }
+    let cfg = std::fs::read_to_string(work.join("replay.sumocfg")).unwrap();
+    assert!(cfg.contains(r#"<step-length value="1"/>"#), "{cfg}");
+    replays_where_recorded(&work, &dir.join("replayed.xml"), &recorded);
+
+    let sc = repo().join("scenarios/sugiyama-ring.json");
+    let (code, _, stderr) = run(bin()
+        .args(["run", "--fcd", "--fcd-every", "0", "--out"])
+        .arg(dir.join("zero"))
+        .arg(&sc));
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("--fcd-every = 0: must be ≥ 1"), "{stderr}");
+    let (code, _, stderr) = run(bin()
+        .args(["run", "--fcd-every", "10", "--out"])
+        .arg(dir.join("alone"))
+        .arg(&sc));
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("--fcd"), "{stderr}");
+    let (code, _, stderr) = run(bin()
+        .args(["run", "--fcd", "--out"])
+        .arg(dir.join("native"))
+        .arg(repo().join("scenarios/ring-theorem1.json")));
+    assert_eq!(code, 2, "{stderr}");
+    assert!(
+        stderr.contains("--fcd: a SUMO option") && stderr.contains("\"native\""),
+        "{stderr}"
+    );
+    for d in ["zero", "alone", "native"] {
+        assert!(!dir.join(d).exists(), "{d}: refused before writing");
+    }
 }
 
 /// sumo-gui itself replays a run under a virtual display (Xvfb) and takes its own snapshot:

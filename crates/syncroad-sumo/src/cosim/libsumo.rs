@@ -349,6 +349,10 @@ pub fn sumo_args(req: &Request) -> Vec<String> {
     if let Some(f) = &req.fcd_file {
         a.push("--fcd-output".into());
         a.push(f.display().to_string());
+        if req.fcd_every > 1 {
+            a.push("--device.fcd.period".into());
+            a.push(format!("{}", req.step_s * req.fcd_every as f64));
+        }
     }
     if let Some(f) = &req.summary_file {
         a.extend(crate::summary::summary_args(

@@ -69,6 +69,7 @@ fn refuse_sumo_flags(a: &SumoArgs) -> anyhow::Result<()> {
         (a.euler, "--euler"),
         (a.subscriptions, "--subscriptions"),
         (a.timeout_s.is_some(), "--timeout-s"),
+        (a.fcd, "--fcd"),
     ];
     match given.iter().find(|(on, _)| *on) {
         Some((_, flag)) => Err(InputError::new(format!(
@@ -284,6 +285,7 @@ fn run_sumo(
 ) -> anyhow::Result<Status> {
     let cfg = RunConfig::new(sc, out)?;
     let timeout = config::timeout(args.timeout_s)?;
+    let fcd_every = config::fcd_every(args.fcd_every)?;
     let drivers = match args.krauss_sigma {
         None => Vec::new(),
         Some(sigma) => {
@@ -307,6 +309,7 @@ fn run_sumo(
     let mut plan = RunPlan::new(drive, cfg.record_every, cfg.eval);
     plan.ballistic = !args.euler;
     plan.fcd = args.fcd;
+    plan.fcd_every = fcd_every;
     plan.timeout = timeout;
     if args.subscriptions {
         plan.read = ReadMode::Subscriptions;

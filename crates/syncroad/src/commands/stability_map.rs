@@ -206,6 +206,7 @@ fn simulate_grid(
         run_plots: false,
         retry_failed: false,
         fcd: false,
+        fcd_every: 1,
     };
     let summary = exec::run(&sweep, &dir, &opts, interrupt_flag()?)?;
     if summary.interrupted > 0 {

@@ -53,6 +53,7 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<Status> {
         run_plots: a.run_plots,
         retry_failed: a.retry_failed,
         fcd: a.fcd,
+        fcd_every: config::fcd_every(a.fcd_every)?,
     };
     let _lock = exec::open_out(&sweep, out, shard)?;
     let interrupt = interrupt_flag()?;

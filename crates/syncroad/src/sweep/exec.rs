@@ -46,6 +46,8 @@ pub struct ExecOptions {
     pub retry_failed: bool,
     /// Kept SUMO runs also write SUMO's floating-car data for `syncroad replay`.
     pub fcd: bool,
+    /// That floating-car data every this many steps (1: every step).
+    pub fcd_every: usize,
 }
 
 /// What a call to [`run`] did.
@@ -267,6 +269,7 @@ impl Shared<'_> {
         let sc = sweep.scenario(p)?;
         let mut plan = sweep.plan_point(p, &sc)?;
         plan.fcd = self.opts.fcd;
+        plan.fcd_every = self.opts.fcd_every;
         let run_dir = self.out.join("runs").join(format!("{:07}", p.id));
         let work = if self.opts.keep_runs {
             run_dir.join("sumo")

@@ -35,6 +35,7 @@ impl From<&CompareArgs> for Request {
             timeout_s: a.timeout_s,
             plots: !a.no_plots,
             fcd: a.fcd,
+            fcd_every: a.fcd_every,
             progress: Some(if a.quiet {
                 crate::progress::ProgressMode::Never
             } else {
