@@ -523,3 +523,74 @@ fn native_and_sumo_sweeps_of_a_networked_ring_run_on_the_same_ring() {
         "{stderr}"
     );
 }
+
+/// The run folders of a sweep's points, by number (`OUT/runs/NNNNNNN`).
+fn kept_runs(out: &Path) -> Vec<usize> {
+    let Ok(dir) = std::fs::read_dir(out.join("runs")) else {
+        return Vec::new();
+    };
+    let mut ids: Vec<usize> = dir
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.join("metrics.json").is_file())
+        .map(|p| p.file_name().unwrap().to_str().unwrap().parse().unwrap())
+        .collect();
+    ids.sort();
+    ids
+}
+
+/// A Slurm job array emitted with `--keep-runs` keeps its points' run folders as the same
+/// sweep run here would: each array task, run by bash as Slurm runs it, keeps the folders of
+/// its own shard's points (points 0 and 2 of three in shard 0 of 2, point 1 in shard 1), and
+/// one emitted without it keeps none.
+#[test]
+fn an_emitted_slurm_array_passes_the_sweeps_options_to_each_task() {
+    let dir = tmpdir("sweep-slurm-flags");
+    let sc = uniform_ring(&dir, 0.3);
+    let spec = write_spec(
+        &dir,
+        &format!(
+            r#"{{"name": "kept", "base": "{}", "seeds": [1, 2, 3]}}"#,
+            sc.display()
+        ),
+    );
+    let emit_and_run = |name: &str, flags: &[&str]| -> PathBuf {
+        let (out, jobs) = (dir.join(format!("{name}-out")), dir.join(name));
+        let (code, o, e) = run(bin()
+            .arg("sweep")
+            .arg(&spec)
+            .arg("--out")
+            .arg(&out)
+            .arg("--emit-slurm")
+            .arg(&jobs)
+            .args(["--shards", "2"])
+            .args(flags));
+        assert_eq!(code, 0, "{o}{e}");
+        for task in ["0", "1"] {
+            let p = std::process::Command::new("bash")
+                .arg(jobs.join("sweep.sbatch"))
+                .env("SLURM_ARRAY_TASK_ID", task)
+                .env("SLURM_CPUS_PER_TASK", "1")
+                .output()
+                .unwrap();
+            assert!(p.status.success(), "task {task}: {p:?}");
+        }
+        out
+    };
+    let kept = emit_and_run("keep", &["--keep-runs"]);
+    assert_eq!(kept_runs(&kept.join("shard-0")), [0, 2]);
+    assert_eq!(kept_runs(&kept.join("shard-1")), [1]);
+    let plain = emit_and_run("plain", &[]);
+    assert_eq!(kept_runs(&plain.join("shard-0")), Vec::<usize>::new());
+    assert!(plain.join("shard-1/results.csv").is_file());
+    let (code, _, e) = run(bin()
+        .arg("sweep")
+        .arg(&spec)
+        .arg("--out")
+        .arg(dir.join("zero-out"))
+        .arg("--emit-slurm")
+        .arg(dir.join("zero"))
+        .args(["--keep-runs", "--fcd", "--fcd-every", "0"]));
+    assert_eq!(code, 2, "{e}");
+    assert!(e.contains("--fcd-every = 0: must be ≥ 1"), "{e}");
+    assert!(!dir.join("zero").exists());
+}

@@ -157,6 +157,26 @@ fn write_tables(
     Ok(())
 }
 
+/// The options of `a` that each array task of an emitted Slurm job passes on to its own
+/// `syncroad sweep` of one shard.
+fn task_flags(a: &SweepArgs) -> anyhow::Result<Vec<String>> {
+    let mut f: Vec<String> = [
+        (a.keep_runs, "--keep-runs"),
+        (a.run_plots, "--run-plots"),
+        (a.fcd, "--fcd"),
+        (a.retry_failed, "--retry-failed"),
+    ]
+    .into_iter()
+    .filter(|(on, _)| *on)
+    .map(|(_, flag)| flag.to_string())
+    .collect();
+    if a.fcd_every.is_some() {
+        f.push("--fcd-every".into());
+        f.push(config::fcd_every(a.fcd_every)?.to_string());
+    }
+    Ok(f)
+}
+
 fn emit(
     sweep: &Sweep,
     spec: &Path,
@@ -172,6 +192,7 @@ fn emit(
         account: a.account.clone(),
         time: a.time.clone(),
         extra: a.sbatch_option.clone(),
+        task_flags: task_flags(a)?,
     };
     let e = slurm::emit(&sweep.name, spec, out, dir, &opts)?;
     outln!(

@@ -26,6 +26,9 @@ pub struct SlurmOptions {
     pub time: Option<String>,
     /// Other sbatch options, verbatim.
     pub extra: Vec<String>,
+    /// Options of the sweep every array task runs with (`--keep-runs`, `--fcd`, …), one word
+    /// each.
+    pub task_flags: Vec<String>,
 }
 
 /// The files written.
@@ -196,8 +199,13 @@ pub fn emit(
     a.push(String::new());
     a.push("# One shard per array task; a resubmitted array resumes each shard's folder.".into());
     a.push("set -euo pipefail".into());
+    let flags = opts
+        .task_flags
+        .iter()
+        .map(|f| sh(f).map(|w| format!(" {w}")))
+        .collect::<anyhow::Result<String>>()?;
     a.push(format!(
-        "exec {} sweep {} --out {}/shard-\"$SLURM_ARRAY_TASK_ID\" --shard \"$SLURM_ARRAY_TASK_ID\"/{} --jobs \"${{SLURM_CPUS_PER_TASK:-1}}\" --no-plots",
+        "exec {} sweep {} --out {}/shard-\"$SLURM_ARRAY_TASK_ID\" --shard \"$SLURM_ARRAY_TASK_ID\"/{} --jobs \"${{SLURM_CPUS_PER_TASK:-1}}\" --no-plots{flags}",
         s(&exe)?,
         s(&spec)?,
         s(&out)?,
