@@ -541,7 +541,8 @@ fn kept_runs(out: &Path) -> Vec<usize> {
 /// A Slurm job array emitted with `--keep-runs` keeps its points' run folders as the same
 /// sweep run here would: each array task, run by bash as Slurm runs it, keeps the folders of
 /// its own shard's points (points 0 and 2 of three in shard 0 of 2, point 1 in shard 1), and
-/// one emitted without it keeps none.
+/// one emitted without it keeps none. `--shard` and `--jobs`, which the array sets itself, are
+/// refused.
 #[test]
 fn an_emitted_slurm_array_passes_the_sweeps_options_to_each_task() {
     let dir = tmpdir("sweep-slurm-flags");
@@ -593,4 +594,28 @@ fn an_emitted_slurm_array_passes_the_sweeps_options_to_each_task() {
     assert_eq!(code, 2, "{e}");
     assert!(e.contains("--fcd-every = 0: must be ≥ 1"), "{e}");
     assert!(!dir.join("zero").exists());
+    // What the array decides itself is refused, not dropped.
+    for (flag, value, says) in [
+        (
+            "--shard",
+            "0/2",
+            "each array task runs one shard of --shards (here 2)",
+        ),
+        ("--jobs", "3", "drop --jobs, or set --cpus-per-task 3"),
+    ] {
+        let (code, _, e) = run(bin()
+            .arg("sweep")
+            .arg(&spec)
+            .arg("--out")
+            .arg(dir.join("refused-out"))
+            .arg("--emit-slurm")
+            .arg(dir.join("refused"))
+            .args(["--shards", "2", flag, value]));
+        assert_eq!(code, 2, "{flag}: {e}");
+        assert!(
+            e.contains(&format!("{flag} {value}: ")) && e.contains(says),
+            "{e}"
+        );
+        assert!(!dir.join("refused").exists());
+    }
 }
