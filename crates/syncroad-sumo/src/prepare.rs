@@ -443,8 +443,8 @@ fn user_traffic(
 
 /// The files for watching the run again, in its work folder: where its road lies, and with
 /// `fcd` (its interval in steps) the replay of SUMO's floating-car data (vehicle types read
-/// from `type_sources`). An
-/// earlier run's that this one does not write are removed (the folder is ours).
+/// from `type_sources`). An earlier run's that this one does not write are removed (the folder
+/// is ours).
 fn write_watch_files(
     scenario: &Scenario,
     layout: &Layout,
@@ -462,7 +462,8 @@ fn write_watch_files(
             work_dir,
             &layout.road.path,
             type_sources,
-            (scenario.step_s(), every),
+            scenario.step_s(),
+            every,
             scenario.horizon_s(),
         )?;
     }

@@ -1,6 +1,7 @@
 //! Watching a run again. A SUMO run can write SUMO's own floating-car data (`fcd.xml`, every
-//! step, or every k-th with `--fcd-every`) beside the files sumo-gui needs to play it back through SUMO's fcd-replay device
-//! (`replay.sumocfg`, `replay.types.xml`); every SUMO run writes where its road lies on the
+//! step, or every k-th with `--fcd-every`) beside the files sumo-gui needs to play it back
+//! through SUMO's fcd-replay device (`replay.sumocfg`, `replay.types.xml`); every SUMO run
+//! writes where its road lies on the
 //! network (`road.json`), so an animation can draw syncroad's own trajectories on the road's
 //! real geometry.
 //!
@@ -255,12 +256,15 @@ pub(crate) fn write_replay_files(
     work_dir: &Path,
     net: &Path,
     type_sources: &[PathBuf],
-    (step_s, every): (f64, usize),
+    step_s: f64,
+    every: usize,
     end_s: f64,
 ) -> std::io::Result<()> {
-    let types = replay_types(type_sources, step_s)?;
+    std::fs::write(
+        work_dir.join(REPLAY_TYPES),
+        replay_types(type_sources, step_s)?,
+    )?;
     let step_s = step_s * every.max(1) as f64;
-    std::fs::write(work_dir.join(REPLAY_TYPES), types)?;
     let net = std::path::absolute(net)?;
     let esc = |s: &str| quick_xml::escape::escape(s).into_owned();
     let cfg = format!(

@@ -554,18 +554,22 @@ fn an_emitted_slurm_array_passes_the_sweeps_options_to_each_task() {
             sc.display()
         ),
     );
-    let emit_and_run = |name: &str, flags: &[&str]| -> PathBuf {
-        let (out, jobs) = (dir.join(format!("{name}-out")), dir.join(name));
-        let (code, o, e) = run(bin()
+    // `sweep --emit-slurm DIR/NAME --out DIR/NAME-out --shards 2 FLAGS`.
+    let emit = |name: &str, flags: &[&str]| {
+        run(bin()
             .arg("sweep")
             .arg(&spec)
             .arg("--out")
-            .arg(&out)
+            .arg(dir.join(format!("{name}-out")))
             .arg("--emit-slurm")
-            .arg(&jobs)
+            .arg(dir.join(name))
             .args(["--shards", "2"])
-            .args(flags));
+            .args(flags))
+    };
+    let emit_and_run = |name: &str, flags: &[&str]| -> PathBuf {
+        let (code, o, e) = emit(name, flags);
         assert_eq!(code, 0, "{o}{e}");
+        let jobs = dir.join(name);
         for task in ["0", "1"] {
             let p = std::process::Command::new("bash")
                 .arg(jobs.join("sweep.sbatch"))
@@ -575,7 +579,7 @@ fn an_emitted_slurm_array_passes_the_sweeps_options_to_each_task() {
                 .unwrap();
             assert!(p.status.success(), "task {task}: {p:?}");
         }
-        out
+        dir.join(format!("{name}-out"))
     };
     let kept = emit_and_run("keep", &["--keep-runs"]);
     assert_eq!(kept_runs(&kept.join("shard-0")), [0, 2]);
@@ -583,14 +587,7 @@ fn an_emitted_slurm_array_passes_the_sweeps_options_to_each_task() {
     let plain = emit_and_run("plain", &[]);
     assert_eq!(kept_runs(&plain.join("shard-0")), Vec::<usize>::new());
     assert!(plain.join("shard-1/results.csv").is_file());
-    let (code, _, e) = run(bin()
-        .arg("sweep")
-        .arg(&spec)
-        .arg("--out")
-        .arg(dir.join("zero-out"))
-        .arg("--emit-slurm")
-        .arg(dir.join("zero"))
-        .args(["--keep-runs", "--fcd", "--fcd-every", "0"]));
+    let (code, _, e) = emit("zero", &["--keep-runs", "--fcd", "--fcd-every", "0"]);
     assert_eq!(code, 2, "{e}");
     assert!(e.contains("--fcd-every = 0: must be ≥ 1"), "{e}");
     assert!(!dir.join("zero").exists());
@@ -603,14 +600,7 @@ fn an_emitted_slurm_array_passes_the_sweeps_options_to_each_task() {
         ),
         ("--jobs", "3", "drop --jobs, or set --cpus-per-task 3"),
     ] {
-        let (code, _, e) = run(bin()
-            .arg("sweep")
-            .arg(&spec)
-            .arg("--out")
-            .arg(dir.join("refused-out"))
-            .arg("--emit-slurm")
-            .arg(dir.join("refused"))
-            .args(["--shards", "2", flag, value]));
+        let (code, _, e) = emit("refused", &[flag, value]);
         assert_eq!(code, 2, "{flag}: {e}");
         assert!(
             e.contains(&format!("{flag} {value}: ")) && e.contains(says),

@@ -160,20 +160,6 @@ fn write_tables(
 /// The options of `a` that each array task of an emitted Slurm job passes on to its own
 /// `syncroad sweep` of one shard.
 fn task_flags(a: &SweepArgs) -> anyhow::Result<Vec<String>> {
-    if let Some(s) = &a.shard {
-        return Err(InputError::new(format!(
-            "--shard {s}: with --emit-slurm each array task runs one shard of --shards (here {}); drop --shard",
-            a.shards
-        ))
-        .into());
-    }
-    if let Some(j) = a.jobs {
-        return Err(InputError::new(format!(
-            "--jobs {j}: with --emit-slurm each array task runs --cpus-per-task points at once (here {}); drop --jobs, or set --cpus-per-task {j}",
-            a.cpus_per_task
-        ))
-        .into());
-    }
     let mut f: Vec<String> = [
         (a.keep_runs, "--keep-runs"),
         (a.run_plots, "--run-plots"),
@@ -198,6 +184,21 @@ fn emit(
     dir: &Path,
     a: &SweepArgs,
 ) -> anyhow::Result<Status> {
+    // What the array sets itself is refused, not dropped.
+    if let Some(s) = &a.shard {
+        return Err(InputError::new(format!(
+            "--shard {s}: with --emit-slurm each array task runs one shard of --shards (here {}); drop --shard",
+            a.shards
+        ))
+        .into());
+    }
+    if let Some(j) = a.jobs {
+        return Err(InputError::new(format!(
+            "--jobs {j}: with --emit-slurm each array task runs --cpus-per-task points at once (here {}); drop --jobs, or set --cpus-per-task {j}",
+            a.cpus_per_task
+        ))
+        .into());
+    }
     let opts = SlurmOptions {
         shards: a.shards,
         max_running: a.max_running,
