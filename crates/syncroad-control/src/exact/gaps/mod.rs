@@ -353,14 +353,7 @@ impl<'a> Integrator<'a> {
 
     /// `u = −L'v` for every column.
     fn inputs(&self, v: &[f64], out: &mut [f64]) {
-        let c = self.cols;
-        out.iter_mut().for_each(|x| *x = 0.0);
-        for &(i, j, lij) in &self.entries {
-            let (o, x) = (&mut out[i * c..(i + 1) * c], &v[j * c..(j + 1) * c]);
-            for p in 0..c {
-                o[p] -= lij * x[p];
-            }
-        }
+        inputs_into(&self.entries, self.cols, v, out);
     }
 
     /// The inputs `u^k` of every vehicle and column, seen as the right end of an interval when
@@ -383,25 +376,26 @@ impl<'a> Integrator<'a> {
         let s = self.step as isize;
         let h = self.h;
         let mut next = std::mem::take(&mut self.next);
-        let mut u = std::mem::take(&mut self.scratch);
         for i in 0..n {
             let m = self.k[i] as isize;
             let a = &self.row(s - m, false)[i * c..(i + 1) * c];
             let v = &self.v[i * c..(i + 1) * c];
             let out = &mut next[i * c..(i + 1) * c];
+            // Zipped slices of one length: no bounds checks, and the loops vectorize.
             if m >= 1 {
                 let b = &self.row(s + 1 - m, true)[i * c..(i + 1) * c];
-                for p in 0..c {
-                    out[p] = v[p] + 0.5 * h * (a[p] + b[p]);
+                for (((o, &v), &a), &b) in out.iter_mut().zip(v).zip(a).zip(b) {
+                    *o = v + 0.5 * h * (a + b);
                 }
             } else {
                 // Undelayed drivers: Heun's predictor (the corrector follows below).
-                for p in 0..c {
-                    out[p] = v[p] + h * a[p];
+                for ((o, &v), &a) in out.iter_mut().zip(v).zip(a) {
+                    *o = v + h * a;
                 }
             }
         }
         if self.k.contains(&0) {
+            let mut u = std::mem::take(&mut self.scratch);
             self.inputs(&next, &mut u);
             for i in (0..n).filter(|&i| self.k[i] == 0) {
                 for p in 0..c {
@@ -409,6 +403,7 @@ impl<'a> Integrator<'a> {
                     next[i * c + p] = self.v[i * c + p] + 0.5 * h * (a + u[i * c + p]);
                 }
             }
+            self.scratch = u;
         }
         for i in 0..n {
             let g = &mut self.gaps[i * c..(i + 1) * c];
@@ -416,24 +411,39 @@ impl<'a> Integrator<'a> {
             match self.net.ahead[i] {
                 Some(q) => {
                     let (vq, wq) = (&self.v[q * c..(q + 1) * c], &next[q * c..(q + 1) * c]);
-                    for p in 0..c {
-                        g[p] += 0.5 * h * ((vq[p] - v[p]) + (wq[p] - w[p]));
+                    for ((((g, &vq), &v), &wq), &w) in g.iter_mut().zip(vq).zip(v).zip(wq).zip(w) {
+                        *g += 0.5 * h * ((vq - v) + (wq - w));
                     }
                 }
                 None => {
-                    for p in 0..c {
-                        g[p] -= 0.5 * h * (v[p] + w[p]);
+                    for ((g, &v), &w) in g.iter_mut().zip(v).zip(w) {
+                        *g -= 0.5 * h * (v + w);
                     }
                 }
             }
         }
-        self.inputs(&next, &mut u);
+        // The new inputs straight into their slot of the history.
         let nc = n * c;
         let r = ((s + 1) as usize) % self.slots;
-        self.history[r * nc..(r + 1) * nc].copy_from_slice(&u);
-        self.scratch = u;
+        inputs_into(
+            &self.entries,
+            c,
+            &next,
+            &mut self.history[r * nc..(r + 1) * nc],
+        );
         self.next = std::mem::replace(&mut self.v, next);
         self.step += 1;
+    }
+}
+
+/// `u = −L'v` for every column of `v` (row-major `N × cols`), from the nonzero entries of `L'`.
+fn inputs_into(entries: &[(usize, usize, f64)], c: usize, v: &[f64], out: &mut [f64]) {
+    out.iter_mut().for_each(|x| *x = 0.0);
+    for &(i, j, lij) in entries {
+        let (o, x) = (&mut out[i * c..(i + 1) * c], &v[j * c..(j + 1) * c]);
+        for (o, &x) in o.iter_mut().zip(x) {
+            *o -= lij * x;
+        }
     }
 }
 
@@ -577,11 +587,12 @@ fn response_sup(
     let mut error = 0.0f64;
     let mut quiet_since: Option<f64> = None;
     let mut e = vec![0.0; n * c];
+    let (mut row_abs, mut row_err) = (vec![0.0; n], vec![0.0; n]);
     let mut tick = 0usize;
     let (settled, horizon_s) = loop {
         let t = tick as f64 * h2;
-        for (k, x) in e.iter_mut().enumerate() {
-            *x = (4.0 * fine.gaps[k] - coarse.gaps[k]) / 3.0;
+        for ((x, &f), &g) in e.iter_mut().zip(&fine.gaps).zip(&coarse.gaps) {
+            *x = (4.0 * f - g) / 3.0;
         }
         // A circulant ring: gap i's row is the column of vehicle 0, shifted.
         let ring_sum: f64 = if circulant {
@@ -592,14 +603,24 @@ fn response_sup(
         let diff = |k: usize| (fine.gaps[k] - coarse.gaps[k]).abs() / 3.0;
         if circulant {
             error = error.max((0..n).map(|q| diff(q * c)).sum());
+        } else {
+            row_sums(
+                &e,
+                &fine.gaps,
+                &coarse.gaps,
+                c,
+                units,
+                &mut row_abs,
+                &mut row_err,
+            );
         }
         for i in 0..n {
             let row = &e[i * c..i * c + units];
             let sum: f64 = if circulant {
                 ring_sum
             } else {
-                error = error.max((0..units).map(|p| diff(i * c + p)).sum());
-                row.iter().map(|x| x.abs()).sum()
+                error = error.max(row_err[i]);
+                row_abs[i]
             };
             if sum > shrinkage[i] {
                 shrinkage[i] = sum;
@@ -669,6 +690,40 @@ fn response_sup(
         h: 0.5 * h2,
         error,
     })
+}
+
+/// Rows of vehicles taken together by [`row_sums`].
+const ROWS_AT_ONCE: usize = 4;
+
+/// For every gap `i`: `Σ_j |e_ij|` into `abs` and the integration error `Σ_j |g_h − g_2h|/3`
+/// into `err`, over the unit columns `j < units` of the row-major `N × c` tables (each sum
+/// from the left, as a plain loop would add). Several rows are added at once: each sum is one
+/// chain of dependent additions, and one row at a time left the processor waiting on it.
+fn row_sums(
+    e: &[f64],
+    fine: &[f64],
+    coarse: &[f64],
+    c: usize,
+    units: usize,
+    abs: &mut [f64],
+    err: &mut [f64],
+) {
+    let n = abs.len();
+    let mut i0 = 0;
+    while i0 < n {
+        let rows = ROWS_AT_ONCE.min(n - i0);
+        let (mut a, mut d) = ([0.0f64; ROWS_AT_ONCE], [0.0f64; ROWS_AT_ONCE]);
+        for p in 0..units {
+            for r in 0..rows {
+                let k = (i0 + r) * c + p;
+                a[r] += e[k].abs();
+                d[r] += (fine[k] - coarse[k]).abs() / 3.0;
+            }
+        }
+        abs[i0..i0 + rows].copy_from_slice(&a[..rows]);
+        err[i0..i0 + rows].copy_from_slice(&d[..rows]);
+        i0 += rows;
+    }
 }
 
 #[cfg(test)]
