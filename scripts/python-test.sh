@@ -5,10 +5,7 @@
 # pytest. The wheel's build reuses what cargo built for the CLI (one set of features and one
 # pyo3 configuration for both: crates/syncroad-hack, .cargo/config.toml), so it only links.
 # Needs the cargo-built CLI (target/release/syncroad) the tests compare with.
-# `--setup` only makes .venv-py (scripts/test.sh does that while cargo builds); `--wheel` also
-# builds and installs the wheel, and `--installed` runs the tests on the wheel installed before
-# (scripts/test.sh builds the wheel, then runs the tests beside the cargo tests: maturin takes
-# cargo's build lock, pytest does not).
+# `--setup` only makes .venv-py (scripts/test.sh does that while cargo builds).
 # Env: PYTHON (default python3), SYNCROAD_PY_VENV (default .venv-py).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -26,36 +23,21 @@ if [ ! -x "$venv/bin/python" ] || [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; 
   bash scripts/make-venv.sh "$venv" "$python" "$req" "$deps"
   echo "$want" > "$stamp"
 fi
-mode="${1:-}"
-case "$mode" in
-  --setup|--wheel|--installed) shift ;;
-  *) mode="" ;;
-esac
-if [ "$mode" = --setup ]; then
+if [ "${1:-}" = "--setup" ]; then
   exit 0
 fi
-if [ "$mode" != --installed ]; then
-  rm -f target/wheels/syncroad-*.whl
-  # The interpreter the CLI was built against (scripts/test.sh exports it): maturin passes it
-  # to pyo3 as PYO3_PYTHON, so the two builds share what they have in common.
-  interp=()
-  if [ -n "${PYO3_PYTHON:-}" ]; then
-    interp=(-i "$PYO3_PYTHON")
-  fi
-  nice -n 5 "$venv/bin/maturin" build --release --quiet "${interp[@]}" -o target/wheels
-  wheel="$(ls target/wheels/syncroad-*.whl)"
-  # Dependencies once; the freshly built package every time (its version does not change).
-  "$venv/bin/python" -m pip install --disable-pip-version-check -q "$wheel"
-  "$venv/bin/python" -m pip install --disable-pip-version-check -q --force-reinstall --no-deps "$wheel"
+rm -f target/wheels/syncroad-*.whl
+# The interpreter the CLI was built against (scripts/test.sh exports it): maturin passes it to
+# pyo3 as PYO3_PYTHON, so the two builds share what they have in common.
+interp=()
+if [ -n "${PYO3_PYTHON:-}" ]; then
+  interp=(-i "$PYO3_PYTHON")
 fi
-if [ "$mode" = --wheel ]; then
-  exit 0
-fi
-wheel="$(ls target/wheels/syncroad-*.whl 2>/dev/null || true)"
-if [ -z "$wheel" ]; then
-  echo "python-test: --installed needs the wheel built before (bash scripts/python-test.sh --wheel)" >&2
-  exit 2
-fi
+nice -n 5 "$venv/bin/maturin" build --release --quiet "${interp[@]}" -o target/wheels
+wheel="$(ls target/wheels/syncroad-*.whl)"
+# Dependencies once; the freshly built package every time (its version does not change).
+"$venv/bin/python" -m pip install --disable-pip-version-check -q "$wheel"
+"$venv/bin/python" -m pip install --disable-pip-version-check -q --force-reinstall --no-deps "$wheel"
 # Side by side on every core (pytest-xdist; each test has its own folders), at most four.
 SYNCROAD_WHEEL="$PWD/$wheel" "$venv/bin/python" -m pytest -q -p no:cacheprovider \
   --numprocesses=auto --maxprocesses=4 python/tests "$@"

@@ -48,20 +48,7 @@ if [ -n "${boot:-}" ]; then
   joined "$boot" "$logs/bootstrap" "python-host/bootstrap.sh"
 fi
 joined "$venv_py" "$logs/venv-py" "the Python tests' environment (scripts/python-test.sh --setup)"
-# The Python package's wheel, built once and installed into .venv-py (it only links what cargo
-# built; maturin takes cargo's build lock, so it goes before the cargo tests).
-bash scripts/python-test.sh --wheel
 phase build+environments
-# The Python tests (pytest on python/tests) and a sweep sharded over a private single-node Slurm
-# cluster (skipped, and said so, without Slurm) run beside the cargo tests, at a lower priority:
-# they fill the cores the cargo tests leave idle while their last tests wait on workers' time
-# limits and stopped processes, instead of starting after them.
-nice -n 5 bash scripts/python-test.sh --installed > "$logs/python" 2>&1 &
-python_pid=$!
-side+=("$python_pid")
-nice -n 5 bash scripts/slurm-test.sh > "$logs/slurm" 2>&1 &
-slurm_pid=$!
-side+=("$slurm_pid")
 # Includes the guide's test (crates/syncroad/tests/guide.rs): every command example of
 # docs/src and README.md runs as printed. cargo-nextest, where installed, runs the test binaries
 # side by side (each test its own process) and the doc tests follow; else cargo's own runner.
@@ -79,8 +66,14 @@ for b in tests/baselines/*.json; do
   ./target/release/syncroad regress "$b"
 done
 phase baselines
-joined "$python_pid" "$logs/python" "the Python tests (scripts/python-test.sh)"
-phase python-after-cargo
+# A sweep sharded over a private single-node Slurm cluster (skipped, and said so, without
+# Slurm). Mostly waiting on its daemons and scheduler, it runs beside the Python tests.
+bash scripts/slurm-test.sh > "$logs/slurm" 2>&1 &
+slurm_pid=$!
+side+=("$slurm_pid")
+# The Python package: the wheel built once, installed into .venv-py, python/tests run by pytest.
+bash scripts/python-test.sh
+phase python
 joined "$slurm_pid" "$logs/slurm" "the Slurm test (scripts/slurm-test.sh)"
 phase slurm-after-python
 echo
