@@ -578,96 +578,21 @@ fn response_sup(
     let mut coarse = Integrator::new(net, &v0, c, h2, coarse_per_step);
     let mut fine = Integrator::new(net, &v0, c, 0.5 * h2, 2 * coarse_per_step);
     let alpha_max = net.delays_s.iter().cloned().fold(0.0, f64::max);
-    let window_s = (10.0f64).max(10.0 * alpha_max);
-    let own_scale = own.iter().map(|x| x.abs()).fold(0.0, f64::max).max(1e-300);
-    let mut shrinkage = vec![0.0; n];
-    let mut best = (0.0f64, 0usize, 0.0f64);
-    let mut pattern = vec![0.0; n];
-    let mut own_min = (f64::INFINITY, 0usize, 0.0f64);
-    let mut error = 0.0f64;
-    let mut quiet_since: Option<f64> = None;
-    let mut e = vec![0.0; n * c];
-    let (mut row_abs, mut row_err) = (vec![0.0; n], vec![0.0; n]);
+    let mut settling = Settling {
+        finals,
+        final_speed,
+        own_scale: own.iter().map(|x| x.abs()).fold(0.0, f64::max).max(1e-300),
+        window_s: (10.0f64).max(10.0 * alpha_max),
+        quiet_since: None,
+    };
+    let mut sup = Sup::new(n, units, circulant, g0);
     let mut tick = 0usize;
     let (settled, horizon_s) = loop {
         let t = tick as f64 * h2;
-        for ((x, &f), &g) in e.iter_mut().zip(&fine.gaps).zip(&coarse.gaps) {
-            *x = (4.0 * f - g) / 3.0;
-        }
-        // A circulant ring: gap i's row is the column of vehicle 0, shifted.
-        let ring_sum: f64 = if circulant {
-            (0..n).map(|q| e[q * c].abs()).sum()
-        } else {
-            0.0
-        };
-        let diff = |k: usize| (fine.gaps[k] - coarse.gaps[k]).abs() / 3.0;
-        if circulant {
-            error = error.max((0..n).map(|q| diff(q * c)).sum());
-        } else {
-            row_sums(
-                &e,
-                &fine.gaps,
-                &coarse.gaps,
-                c,
-                units,
-                &mut row_abs,
-                &mut row_err,
-            );
-        }
-        for i in 0..n {
-            let row = &e[i * c..i * c + units];
-            let sum: f64 = if circulant {
-                ring_sum
-            } else {
-                error = error.max(row_err[i]);
-                row_abs[i]
-            };
-            if sum > shrinkage[i] {
-                shrinkage[i] = sum;
-            }
-            if sum > best.0 {
-                best = (sum, i, t);
-                for (j, x) in pattern.iter_mut().enumerate() {
-                    let hij = if circulant {
-                        e[((i + n - j) % n) * c]
-                    } else {
-                        row[j]
-                    };
-                    *x = -hij.signum() * f64::from(u8::from(hij != 0.0));
-                }
-            }
-            let gap = g0[i] + e[i * c + units];
-            if gap < own_min.0 {
-                own_min = (gap, i, t);
-            }
-        }
+        sup.observe(t, &fine.gaps, &coarse.gaps);
         if tick.is_multiple_of(50) {
-            let scale = |k: usize| if k % c == units { own_scale } else { 1.0 };
-            let speed = (0..n * c)
-                .map(|k| (fine.v[k] - final_speed[k % c]).abs() / scale(k))
-                .fold(0.0, f64::max);
-            if !speed.is_finite() || speed > GROWTH_LIMIT {
-                return Err(GapError::Grows {
-                    growth: GROWTH_LIMIT,
-                    time_s: t,
-                    shrinkage_at_least_m_per_mps: best.0,
-                    safe_at_most_mps: g0[best.1] / best.0,
-                });
-            }
-            let gaps = (0..n * c)
-                .map(|k| (e[k] - finals[k]).abs() / scale(k))
-                .fold(0.0, f64::max);
-            let tol = 1e-4 * best.0.max(1e-3);
-            if gaps <= tol && speed <= 1e-4 {
-                let since = *quiet_since.get_or_insert(t);
-                if t - since >= window_s {
-                    break (true, t);
-                }
-            } else {
-                quiet_since = None;
-            }
-            if t >= GAP_HORIZON_LIMIT_S {
-                break (false, t);
+            if let Some(settled) = settling.check(t, &fine.v, &sup)? {
+                break (settled, t);
             }
         }
         coarse.advance();
@@ -675,21 +600,179 @@ fn response_sup(
         fine.advance();
         tick += 1;
     };
-    if circulant {
-        // Every gap of a circulant ring has the same response, shifted.
-        shrinkage = vec![best.0; n];
+    Ok(sup.into_sweep(horizon_s, settled, 0.5 * h2))
+}
+
+/// The sup over time of the extrapolated gap responses, and the scenario's own lowest gap,
+/// kept as the integration runs ([`response_sup`]).
+struct Sup<'a> {
+    n: usize,
+    units: usize,
+    circulant: bool,
+    g0: &'a [f64],
+    /// Richardson's extrapolation `(4g_h − g_2h)/3` of every gap and column, row-major.
+    e: Vec<f64>,
+    /// Scratch of [`row_sums`].
+    row_abs: Vec<f64>,
+    row_err: Vec<f64>,
+    shrinkage: Vec<f64>,
+    /// The largest row sum so far: (sum, gap, time).
+    best: (f64, usize, f64),
+    pattern: Vec<f64>,
+    /// The scenario's own lowest gap so far: (gap, vehicle, time).
+    own_min: (f64, usize, f64),
+    error: f64,
+}
+
+impl<'a> Sup<'a> {
+    fn new(n: usize, units: usize, circulant: bool, g0: &'a [f64]) -> Self {
+        Sup {
+            n,
+            units,
+            circulant,
+            g0,
+            e: vec![0.0; n * (units + 1)],
+            row_abs: vec![0.0; n],
+            row_err: vec![0.0; n],
+            shrinkage: vec![0.0; n],
+            best: (0.0, 0, 0.0),
+            pattern: vec![0.0; n],
+            own_min: (f64::INFINITY, 0, 0.0),
+            error: 0.0,
+        }
     }
-    Ok(Sweep {
-        shrinkage,
-        worst_gap: best.1,
-        worst_time_s: best.2,
-        pattern,
-        own_min,
-        horizon_s,
-        settled,
-        h: 0.5 * h2,
-        error,
-    })
+
+    /// Takes in the gaps of the fine (`h`) and coarse (`2h`) runs at time `t`.
+    fn observe(&mut self, t: f64, fine: &[f64], coarse: &[f64]) {
+        let (n, units) = (self.n, self.units);
+        let c = units + 1;
+        for ((x, &f), &g) in self.e.iter_mut().zip(fine).zip(coarse) {
+            *x = (4.0 * f - g) / 3.0;
+        }
+        let e = &self.e;
+        // A circulant ring: gap i's row is the column of vehicle 0, shifted.
+        let ring_sum: f64 = if self.circulant {
+            (0..n).map(|q| e[q * c].abs()).sum()
+        } else {
+            0.0
+        };
+        if self.circulant {
+            let diff = |k: usize| (fine[k] - coarse[k]).abs() / 3.0;
+            self.error = self.error.max((0..n).map(|q| diff(q * c)).sum());
+        } else {
+            row_sums(
+                e,
+                fine,
+                coarse,
+                c,
+                units,
+                &mut self.row_abs,
+                &mut self.row_err,
+            );
+        }
+        for i in 0..n {
+            let row = &e[i * c..i * c + units];
+            let sum: f64 = if self.circulant {
+                ring_sum
+            } else {
+                self.error = self.error.max(self.row_err[i]);
+                self.row_abs[i]
+            };
+            if sum > self.shrinkage[i] {
+                self.shrinkage[i] = sum;
+            }
+            if sum > self.best.0 {
+                self.best = (sum, i, t);
+                for (j, x) in self.pattern.iter_mut().enumerate() {
+                    let hij = if self.circulant {
+                        e[((i + n - j) % n) * c]
+                    } else {
+                        row[j]
+                    };
+                    *x = -hij.signum() * f64::from(u8::from(hij != 0.0));
+                }
+            }
+            let gap = self.g0[i] + e[i * c + units];
+            if gap < self.own_min.0 {
+                self.own_min = (gap, i, t);
+            }
+        }
+    }
+
+    fn into_sweep(self, horizon_s: f64, settled: bool, h: f64) -> Sweep {
+        // Every gap of a circulant ring has the same response, shifted.
+        let shrinkage = if self.circulant {
+            vec![self.best.0; self.n]
+        } else {
+            self.shrinkage
+        };
+        Sweep {
+            shrinkage,
+            worst_gap: self.best.1,
+            worst_time_s: self.best.2,
+            pattern: self.pattern,
+            own_min: self.own_min,
+            horizon_s,
+            settled,
+            h,
+            error: self.error,
+        }
+    }
+}
+
+/// When the responses have settled: every speed and extrapolated gap within `1e-4` (relative)
+/// of its final value for a whole window, or the horizon limit reached.
+struct Settling {
+    /// Final gap offsets and speeds of every column ([`columns`]).
+    finals: Vec<f64>,
+    final_speed: Vec<f64>,
+    /// The scenario's own perturbation, the scale of its column.
+    own_scale: f64,
+    window_s: f64,
+    quiet_since: Option<f64>,
+}
+
+impl Settling {
+    /// At time `t` with the fine run's speeds `v`: `Some(settled)` when the integration ends
+    /// here, `None` to go on.
+    ///
+    /// # Errors
+    /// [`GapError::Grows`] when a response grows beyond [`GROWTH_LIMIT`].
+    fn check(&mut self, t: f64, v: &[f64], sup: &Sup) -> Result<Option<bool>, GapError> {
+        let c = sup.units + 1;
+        let scale = |k: usize| {
+            if k % c == sup.units {
+                self.own_scale
+            } else {
+                1.0
+            }
+        };
+        let speed = (0..v.len())
+            .map(|k| (v[k] - self.final_speed[k % c]).abs() / scale(k))
+            .fold(0.0, f64::max);
+        let best = sup.best;
+        if !speed.is_finite() || speed > GROWTH_LIMIT {
+            return Err(GapError::Grows {
+                growth: GROWTH_LIMIT,
+                time_s: t,
+                shrinkage_at_least_m_per_mps: best.0,
+                safe_at_most_mps: sup.g0[best.1] / best.0,
+            });
+        }
+        let gaps = (0..sup.e.len())
+            .map(|k| (sup.e[k] - self.finals[k]).abs() / scale(k))
+            .fold(0.0, f64::max);
+        let tol = 1e-4 * best.0.max(1e-3);
+        if gaps <= tol && speed <= 1e-4 {
+            let since = *self.quiet_since.get_or_insert(t);
+            if t - since >= self.window_s {
+                return Ok(Some(true));
+            }
+        } else {
+            self.quiet_since = None;
+        }
+        Ok((t >= GAP_HORIZON_LIMIT_S).then_some(false))
+    }
 }
 
 /// Rows of vehicles taken together by [`row_sums`].
