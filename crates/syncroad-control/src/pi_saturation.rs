@@ -224,8 +224,12 @@ pub struct PiSaturation {
     n: usize,
     /// Samples per window, `round(window_s / dt_s)`.
     window_len: usize,
-    /// Ring buffer: vehicle i's samples are `history[i*window_len .. (i+1)*window_len]`.
+    /// Ring buffer of the fleet's speeds, one slot of `n` after another: vehicle i's sample in
+    /// slot k is `history[k*n + i]`. Slot-major, the window's sums of all vehicles are one
+    /// vector addition per slot, each vehicle's sum still added in slot order.
     history: Vec<f64>,
+    /// The window's mean speeds of the current step (scratch).
+    means: Vec<f64>,
     /// Samples stored so far (≤ window_len), the same for every vehicle.
     filled: usize,
     /// Slot the next sample goes to.
@@ -261,6 +265,7 @@ impl PiSaturation {
             n: n_vehicles,
             window_len,
             history: vec![0.0; n_vehicles * window_len],
+            means: vec![0.0; n_vehicles],
             filled: 0,
             head: 0,
             command_mps: None,
@@ -290,9 +295,29 @@ impl PiSaturation {
     /// Mean own speed U of vehicle `i` over the samples stored so far \[m/s\] (NaN before the
     /// first step).
     pub fn mean_speed_mps(&self, i: usize) -> f64 {
-        let row = &self.history[i * self.window_len..(i + 1) * self.window_len];
-        // Before the window fills, the stored samples are slots 0..filled.
-        row[..self.filled].iter().sum::<f64>() / self.filled as f64
+        // Before the window fills, the stored samples are slots 0..filled. The sum starts at
+        // -0.0 and adds slot after slot, as `Iterator::sum` does and as `update_means` does
+        // for every vehicle at once.
+        let sum = (0..self.filled).fold(-0.0, |s, k| s + self.history[k * self.n + i]);
+        sum / self.filled as f64
+    }
+
+    /// Every vehicle's [`PiSaturation::mean_speed_mps`] into `means`, the same bits: the
+    /// window's slots are added in order, one vector addition across the fleet per slot (one
+    /// vehicle at a time, each sum was a chain of dependent additions, most of the law's time).
+    fn update_means(&mut self) {
+        self.means.fill(-0.0);
+        if self.n > 0 {
+            for slot in self.history.chunks_exact(self.n).take(self.filled) {
+                for (m, x) in self.means.iter_mut().zip(slot) {
+                    *m += x;
+                }
+            }
+        }
+        let filled = self.filled as f64;
+        for m in &mut self.means {
+            *m /= filled;
+        }
     }
 
     /// The last commands (empty before the first step).
@@ -322,11 +347,11 @@ impl PiSaturation {
                 n: self.n,
             });
         }
-        for i in 0..self.n {
-            self.history[i * self.window_len + self.head] = speeds_mps[i];
-        }
+        let n = self.n;
+        self.history[self.head * n..(self.head + 1) * n].copy_from_slice(speeds_mps);
         self.head = (self.head + 1) % self.window_len;
         self.filled = (self.filled + 1).min(self.window_len);
+        self.update_means();
         // The paper gives no initial command; start from the current speeds.
         let mut commands = self
             .command_mps
@@ -335,7 +360,7 @@ impl PiSaturation {
         for i in 0..self.n {
             commands[i] = pi_saturation_command_mps(
                 &self.params,
-                self.mean_speed_mps(i),
+                self.means[i],
                 speeds_mps[i],
                 gaps_m[i],
                 leader_speeds_mps[i],
@@ -405,6 +430,53 @@ mod tests {
             pi_saturation_command_mps(&p(), 5.0, 4.0, 3.0, 4.0, 6.0),
             4.0
         );
+    }
+
+    #[test]
+    fn a_fleets_window_means_are_each_vehicles_own_sum_bit_for_bit() {
+        // 3 vehicles, a window of 5 samples, 13 steps: the window wraps twice. The reference
+        // keeps each vehicle's own ring of 5 slots and adds it with `Iterator::sum`, slot by
+        // slot (the order the fleet's vector addition keeps); its mean is also the mean of
+        // the last 5 speeds, chronologically.
+        let params = PiSaturationParams {
+            window_s: 5.0,
+            ..p()
+        };
+        let (n, w) = (3, 5);
+        let mut law = PiSaturation::new(params, n, 1.0, AccelLimits::UNBOUNDED).unwrap();
+        let mut rings = vec![vec![0.0f64; w]; n];
+        let mut seen: Vec<Vec<f64>> = vec![Vec::new(); n];
+        let mut last_cmd: Option<Vec<f64>> = None;
+        let mut next = vec![0.0; n];
+        for t in 0..13 {
+            // Speeds with many significant bits, so that the order of additions shows.
+            let speeds: Vec<f64> = (0..n)
+                .map(|i| 10.0 + 0.1 * (t as f64 * 1.7 + i as f64).sin() + 1e-7 * t as f64)
+                .collect();
+            let gaps = [30.0, 12.0, 3.0];
+            let lead = [speeds[1], speeds[2], speeds[0]];
+            law.step(&speeds, &gaps, &lead, &mut next).unwrap();
+            let filled = (t + 1).min(w);
+            let prev = last_cmd.take().unwrap_or_else(|| speeds.clone());
+            let mut cmds = vec![0.0; n];
+            for i in 0..n {
+                rings[i][t % w] = speeds[i];
+                seen[i].push(speeds[i]);
+                let mean = rings[i][..filled].iter().sum::<f64>() / filled as f64;
+                assert_eq!(
+                    law.mean_speed_mps(i).to_bits(),
+                    mean.to_bits(),
+                    "t {t} i {i}"
+                );
+                let recent = &seen[i][seen[i].len() - filled..];
+                let chrono = recent.iter().sum::<f64>() / filled as f64;
+                assert_relative_eq!(mean, chrono, max_relative = 1e-14);
+                cmds[i] =
+                    pi_saturation_command_mps(&p(), mean, speeds[i], gaps[i], lead[i], prev[i]);
+                assert_eq!(law.commands_mps()[i].to_bits(), cmds[i].to_bits());
+            }
+            last_cmd = Some(cmds);
+        }
     }
 
     #[test]
