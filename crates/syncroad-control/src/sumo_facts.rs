@@ -41,6 +41,55 @@ impl Safety {
     }
 }
 
+/// Which emission sums a run reads from SUMO's emission model. Each read runs the model (HBEFA
+/// by default) for every vehicle, every `emission_every` steps: on a small ring, reading all
+/// three costs a quarter of SUMO's own step, so a run that shows none of them (a sweep's
+/// columns) reads none. Unread sums are `None` in [`Measured`] and `null` in the record.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Emissions {
+    /// Fuel after the warm-up ([`Measured::fuel_mg`], the record's `fuel_g_per_km`).
+    pub fuel: bool,
+    /// Fuel over the whole run, warm-up included ([`Measured::fuel_total_mg`]).
+    pub fuel_total: bool,
+    /// CO2 after the warm-up ([`Measured::co2_mg`], the record's `co2_g_per_km`).
+    pub co2: bool,
+}
+
+impl Emissions {
+    /// Every sum (a run's or a comparison's record).
+    pub const ALL: Self = Self {
+        fuel: true,
+        fuel_total: true,
+        co2: true,
+    };
+    /// No sum: the emission model never runs.
+    pub const NONE: Self = Self {
+        fuel: false,
+        fuel_total: false,
+        co2: false,
+    };
+
+    /// The sums a record's columns `paths` (`sumo.fuel_g_per_km`, …) show.
+    pub fn shown_by<'a>(paths: impl IntoIterator<Item = &'a str>) -> Self {
+        let mut e = Self::NONE;
+        for p in paths {
+            match p.strip_prefix("sumo.") {
+                Some("fuel_mg" | "fuel_g_per_km") => e.fuel = true,
+                Some("fuel_total_mg") => e.fuel_total = true,
+                Some("co2_mg" | "co2_g_per_km") => e.co2 = true,
+                _ => {}
+            }
+        }
+        e
+    }
+}
+
+impl Default for Emissions {
+    fn default() -> Self {
+        Self::ALL
+    }
+}
+
 /// What SUMO measured after the warm-up.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct Measured {
@@ -50,12 +99,14 @@ pub struct Measured {
     pub loop_passages: Option<usize>,
     /// Σ over vehicles of `vehicle.getTimeLoss` at the end minus at the end of the warm-up \[s\].
     pub time_loss_s: f64,
-    /// Σ over vehicles and sampled steps of `vehicle.getFuelConsumption` × held time \[mg\].
-    pub fuel_mg: f64,
-    /// The same for `vehicle.getCO2Emission` \[mg\].
-    pub co2_mg: f64,
-    /// Fuel over the whole run, warm-up included \[mg\] (cross-check with trip info).
-    pub fuel_total_mg: f64,
+    /// Σ over vehicles and sampled steps of `vehicle.getFuelConsumption` × held time \[mg\];
+    /// `None` when not read ([`Emissions::fuel`]).
+    pub fuel_mg: Option<f64>,
+    /// The same for `vehicle.getCO2Emission` \[mg\]; `None` when not read.
+    pub co2_mg: Option<f64>,
+    /// Fuel over the whole run, warm-up included \[mg\] (cross-check with trip info); `None`
+    /// when not read.
+    pub fuel_total_mg: Option<f64>,
     /// Vehicle-steps after the warm-up whose deceleration exceeded the vehicle type's `decel`.
     pub hard_braking_steps: usize,
 }

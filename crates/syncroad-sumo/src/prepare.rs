@@ -13,6 +13,7 @@ use syncroad_control::controller::filter_params;
 use syncroad_control::safety::SafetyMode;
 use syncroad_control::scenario::Scenario;
 use syncroad_control::start::{initial_positions, leader_start};
+use syncroad_control::sumo_facts::Emissions;
 use syncroad_control::{LawSpec, NamedLaw};
 
 use crate::layout::{ring_layout, straight_layout, Layout};
@@ -101,6 +102,8 @@ pub struct MeasureOptions {
     /// Also log SUMO's surrogate safety measures (`ssm.xml` in the work folder) and report
     /// time headway, gaps, TTC, DRAC and the safe-speed label in the record.
     pub ssm: bool,
+    /// The emission sums to read ([`Emissions::ALL`] for a full record).
+    pub emissions: Emissions,
 }
 
 impl RunOptions {
@@ -637,6 +640,7 @@ fn measure_of(
         detector_file,
         tripinfo_file: m.tripinfo.then(|| opts.work_dir.join("tripinfo.xml")),
         ssm_file: m.ssm.then(|| opts.work_dir.join("ssm.xml")),
+        emissions: m.emissions,
     })
 }
 

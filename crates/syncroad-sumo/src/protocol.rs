@@ -16,6 +16,7 @@ use std::path::PathBuf;
 use serde::{Deserialize, Serialize};
 
 use syncroad_control::record::Measured;
+use syncroad_control::sumo_facts::Emissions;
 use syncroad_control::{LawSpec, StopReason, Trajectory};
 
 use crate::layout::Layout;
@@ -207,6 +208,9 @@ pub struct Measure {
     /// Log of SUMO's SSM device (TTC and DRAC conflicts of every vehicle), when asked for.
     #[serde(default)]
     pub ssm_file: Option<PathBuf>,
+    /// The emission sums to read (each read runs SUMO's emission model for every vehicle).
+    #[serde(default)]
+    pub emissions: Emissions,
 }
 
 /// How the loop reads vehicle states from libsumo.

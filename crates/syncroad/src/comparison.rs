@@ -256,6 +256,7 @@ pub fn plan(sc: &Scenario, a: &Request) -> anyhow::Result<Plan> {
         emission_every: a.emission_every,
         tripinfo: true,
         ssm: a.ssm,
+        emissions: syncroad_control::sumo_facts::Emissions::ALL,
     };
     let runs: Vec<RunPlan> = runs
         .into_iter()

@@ -9,6 +9,7 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
 
+use syncroad_control::sumo_facts::Emissions;
 use syncroad_control::EvalOptions;
 use syncroad_sumo::{MeasureOptions, ReadMode, RunOptions, WorkerCommand};
 
@@ -52,6 +53,8 @@ pub struct Measurements {
     pub tripinfo: bool,
     /// Log SUMO's surrogate safety measures.
     pub ssm: bool,
+    /// The emission sums to read ([`Emissions::ALL`]: the whole record's).
+    pub emissions: Emissions,
 }
 
 /// One planned run.
@@ -127,6 +130,7 @@ impl RunPlan {
             emission_every: m.emission_every,
             tripinfo: m.tripinfo,
             ssm: m.ssm,
+            emissions: m.emissions,
         });
         o
     }
@@ -155,6 +159,7 @@ mod tests {
             emission_every: 3,
             tripinfo: true,
             ssm: false,
+            emissions: Emissions::ALL,
         });
         let o = plan.sumo_options("w".into(), WorkerCommand::binary("syncroad"), None);
         assert_eq!(

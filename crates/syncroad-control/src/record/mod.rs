@@ -67,19 +67,29 @@ pub struct Traffic {
     #[schemars(title = "time loss / veh")]
     pub time_loss_per_vehicle_s: f64,
     /// Fuel after the warm-up \[mg\].
-    pub fuel_mg: f64,
+    ///
+    /// Null when the run did not read it: a sweep reads only the emission sums its columns show.
+    pub fuel_mg: Option<f64>,
     /// Fuel over the whole run \[mg\].
-    pub fuel_total_mg: f64,
+    ///
+    /// Null when the run did not read it: a sweep reads only the emission sums its columns show.
+    pub fuel_total_mg: Option<f64>,
     /// CO2 after the warm-up \[mg\].
-    pub co2_mg: f64,
+    ///
+    /// Null when the run did not read it: a sweep reads only the emission sums its columns show.
+    pub co2_mg: Option<f64>,
     /// Distance driven after the warm-up, from the recorded positions \[m\].
     pub distance_m: f64,
     /// Fuel per distance \[g/km\].
+    ///
+    /// Null when the run did not read it: a sweep reads only the emission sums its columns show.
     #[schemars(title = "fuel")]
-    pub fuel_g_per_km: f64,
+    pub fuel_g_per_km: Option<f64>,
     /// CO2 per distance \[g/km\].
+    ///
+    /// Null when the run did not read it: a sweep reads only the emission sums its columns show.
     #[schemars(title = "CO2")]
-    pub co2_g_per_km: f64,
+    pub co2_g_per_km: Option<f64>,
     /// Hard-braking vehicle-steps.
     #[schemars(title = "hard braking")]
     pub hard_braking_steps: usize,
@@ -133,8 +143,8 @@ impl Traffic {
             fuel_total_mg: m.fuel_total_mg,
             co2_mg: m.co2_mg,
             distance_m,
-            fuel_g_per_km: per_km(m.fuel_mg),
-            co2_g_per_km: per_km(m.co2_mg),
+            fuel_g_per_km: m.fuel_mg.map(per_km),
+            co2_g_per_km: m.co2_mg.map(per_km),
             hard_braking_steps: m.hard_braking_steps,
         }
     }

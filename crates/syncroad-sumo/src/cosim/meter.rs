@@ -52,6 +52,9 @@ impl<'py> Meter<'py> {
             values: Vec::new(),
             out: Measured {
                 loop_passages: req.detector_file.as_ref().map(|_| 0),
+                fuel_mg: req.emissions.fuel.then_some(0.0),
+                fuel_total_mg: req.emissions.fuel_total.then_some(0.0),
+                co2_mg: req.emissions.co2.then_some(0.0),
                 ..Measured::default()
             },
         })
@@ -139,13 +142,24 @@ impl<'py> Meter<'py> {
         let warm = self.req.warmup_steps;
         let k = self.req.emission_every.max(1);
         let measuring = s > warm;
+        // Only the sums asked for run the emission model (see `Emissions`).
         if s > 0 && s.is_multiple_of(k) {
-            let fuel = self.emission(py, Emission::Fuel, direct, args)?;
-            self.out.fuel_total_mg += fuel * dt * k as f64;
-            if measuring {
-                self.out.fuel_mg += fuel * dt * k as f64;
+            let held = dt * k as f64;
+            let fuel_after = self.out.fuel_mg.is_some() && measuring;
+            if self.out.fuel_total_mg.is_some() || fuel_after {
+                let fuel = self.emission(py, Emission::Fuel, direct, args)?;
+                if let Some(total) = &mut self.out.fuel_total_mg {
+                    *total += fuel * held;
+                }
+                if let Some(after) = self.out.fuel_mg.as_mut().filter(|_| measuring) {
+                    *after += fuel * held;
+                }
+            }
+            if self.out.co2_mg.is_some() && measuring {
                 let co2 = self.emission(py, Emission::Co2, direct, args)?;
-                self.out.co2_mg += co2 * dt * k as f64;
+                if let Some(c) = &mut self.out.co2_mg {
+                    *c += co2 * held;
+                }
             }
         }
         if s == warm {

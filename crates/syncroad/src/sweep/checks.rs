@@ -10,6 +10,7 @@ use std::time::Duration;
 
 use sha2::{Digest, Sha256};
 use syncroad_control::scenario::Backend;
+use syncroad_control::sumo_facts::Emissions;
 use syncroad_control::{EvalOptions, LawSpec, Scenario};
 use syncroad_sumo::{load_road, Road, WorkerCommand};
 
@@ -38,9 +39,10 @@ impl Sweep {
             .timeout_s
             .and_then(|t| Duration::try_from_secs_f64(t).ok());
         // SUMO's own measurements (the record's `sumo` block: flow, time loss, fuel, CO2,
-        // braking) read every vehicle's fuel and CO2 each step, a fifth of a small ring's
-        // sweep: only when a column holds them. The dynamics, and so every other column, are
-        // the same either way.
+        // braking) only when a column holds them, and of the emission sums only those a
+        // column shows: each runs SUMO's emission model for every vehicle and step, a quarter
+        // of a small ring's step each. The dynamics, and so every other column, are the same
+        // either way.
         let measured = self
             .metrics
             .iter()
@@ -50,6 +52,11 @@ impl Sweep {
                 emission_every: 1,
                 tripinfo: false,
                 ssm: false,
+                emissions: if self.metrics.iter().any(|m| m == "emission_every") {
+                    Emissions::ALL
+                } else {
+                    Emissions::shown_by(self.metrics.iter().map(String::as_str))
+                },
             });
         }
         Ok(plan)
@@ -179,6 +186,26 @@ mod tests {
         let fuel = sweep("sumo", &["sync.verdict", "sumo.fuel_g_per_km"]);
         let m = measure(&fuel).expect("a sumo.* column measures");
         assert_eq!((m.emission_every, m.tripinfo, m.ssm), (1, false, false));
+        // Of the emission sums, only the one the column shows: fuel after the warm-up, not
+        // the whole run's fuel nor CO2 (each read runs SUMO's emission model).
+        let only_fuel = Emissions {
+            fuel: true,
+            ..Emissions::NONE
+        };
+        assert_eq!(m.emissions, only_fuel);
+        let co2 = sweep("sumo", &["sumo.co2_g_per_km", "sumo.fuel_total_mg"]);
+        let m = measure(&co2).unwrap();
+        assert_eq!(
+            m.emissions,
+            Emissions {
+                co2: true,
+                fuel_total: true,
+                fuel: false
+            }
+        );
+        // Time loss needs SUMO's measurements and no emission model at all.
+        let m = measure(&sweep("sumo", &["sumo.time_loss_s"])).unwrap();
+        assert_eq!(m.emissions, Emissions::NONE);
         // The native simulator has no SUMO to measure.
         assert!(measure(&sweep("native", &["sync.verdict"])).is_none());
     }

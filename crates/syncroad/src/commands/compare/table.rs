@@ -122,12 +122,12 @@ const ROWS: [Row; 21] = [
     Row {
         path: "sumo.fuel_g_per_km",
         decimals: 2,
-        get: |r| traffic(r, |t| Some(t.fuel_g_per_km)),
+        get: |r| traffic(r, |t| t.fuel_g_per_km),
     },
     Row {
         path: "sumo.co2_g_per_km",
         decimals: 1,
-        get: |r| traffic(r, |t| Some(t.co2_g_per_km)),
+        get: |r| traffic(r, |t| t.co2_g_per_km),
     },
     Row {
         path: "sumo.hard_braking_steps",
