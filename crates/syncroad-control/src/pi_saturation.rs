@@ -306,17 +306,32 @@ impl PiSaturation {
     /// window's slots are added in order, one vector addition across the fleet per slot (one
     /// vehicle at a time, each sum was a chain of dependent additions, most of the law's time).
     fn update_means(&mut self) {
-        self.means.fill(-0.0);
-        if self.n > 0 {
-            for slot in self.history.chunks_exact(self.n).take(self.filled) {
-                for (m, x) in self.means.iter_mut().zip(slot) {
-                    *m += x;
+        /// Vehicles whose sums stay in registers while the slots go by.
+        const BLOCK: usize = 8;
+        let (n, filled) = (self.n, self.filled);
+        let slots = &self.history[..n * filled];
+        for (b, means) in self.means.chunks_mut(BLOCK).enumerate() {
+            let first = b * BLOCK;
+            let mut acc = [-0.0f64; BLOCK];
+            if means.len() == BLOCK {
+                for slot in slots.chunks_exact(n) {
+                    let xs: &[f64; BLOCK] = slot[first..first + BLOCK]
+                        .try_into()
+                        .expect("a whole block");
+                    for (a, x) in acc.iter_mut().zip(xs) {
+                        *a += x;
+                    }
+                }
+            } else {
+                for slot in slots.chunks_exact(n) {
+                    for (a, x) in acc.iter_mut().zip(&slot[first..]) {
+                        *a += x;
+                    }
                 }
             }
-        }
-        let filled = self.filled as f64;
-        for m in &mut self.means {
-            *m /= filled;
+            for (m, a) in means.iter_mut().zip(acc) {
+                *m = a / filled as f64;
+            }
         }
     }
 
@@ -434,7 +449,8 @@ mod tests {
 
     #[test]
     fn a_fleets_window_means_are_each_vehicles_own_sum_bit_for_bit() {
-        // 3 vehicles, a window of 5 samples, 13 steps: the window wraps twice. The reference
+        // 11 vehicles (a block of 8 summed in registers and 3 more), a window of 5 samples,
+        // 13 steps: the window wraps twice. The reference
         // keeps each vehicle's own ring of 5 slots and adds it with `Iterator::sum`, slot by
         // slot (the order the fleet's vector addition keeps); its mean is also the mean of
         // the last 5 speeds, chronologically.
@@ -442,7 +458,7 @@ mod tests {
             window_s: 5.0,
             ..p()
         };
-        let (n, w) = (3, 5);
+        let (n, w) = (11, 5);
         let mut law = PiSaturation::new(params, n, 1.0, AccelLimits::UNBOUNDED).unwrap();
         let mut rings = vec![vec![0.0f64; w]; n];
         let mut seen: Vec<Vec<f64>> = vec![Vec::new(); n];
@@ -453,8 +469,9 @@ mod tests {
             let speeds: Vec<f64> = (0..n)
                 .map(|i| 10.0 + 0.1 * (t as f64 * 1.7 + i as f64).sin() + 1e-7 * t as f64)
                 .collect();
-            let gaps = [30.0, 12.0, 3.0];
-            let lead = [speeds[1], speeds[2], speeds[0]];
+            // Far, in the blend band and saturated, in turn; each follows the next vehicle.
+            let gaps: Vec<f64> = (0..n).map(|i| [30.0, 12.0, 3.0][i % 3]).collect();
+            let lead: Vec<f64> = (0..n).map(|i| speeds[(i + 1) % n]).collect();
             law.step(&speeds, &gaps, &lead, &mut next).unwrap();
             let filled = (t + 1).min(w);
             let prev = last_cmd.take().unwrap_or_else(|| speeds.clone());
