@@ -59,6 +59,16 @@ impl Trajectory {
         }
     }
 
+    /// Room for `samples` more samples of [`Trajectory::push_commanded`]: a run's rows come in
+    /// chunks, and growing to the run's length chunk by chunk copied them over and over.
+    pub fn reserve_commanded(&mut self, samples: usize) {
+        let values = samples.saturating_mul(self.n);
+        self.time_s.reserve(samples);
+        self.speeds_mps.reserve(values);
+        self.positions_m.reserve(values);
+        self.commands_mps.reserve(values);
+    }
+
     /// Appends one sample of speeds, positions and commands, without gaps (the rows a SUMO
     /// worker streams, every vehicle on the road).
     pub fn push_commanded(&mut self, t: f64, speeds: &[f64], positions: &[f64], commands: &[f64]) {

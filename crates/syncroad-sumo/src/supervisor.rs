@@ -259,6 +259,8 @@ pub struct WorkerRun {
     pub result: Result<Finish, SupervisorError>,
     /// Worker pid.
     pub pid: u32,
+    /// The rows and steps a whole run sends (room is made for them at its first rows).
+    expected: (usize, usize),
 }
 
 impl WorkerRun {
@@ -268,6 +270,11 @@ impl WorkerRun {
         match f {
             Frame::Rows(mut c) => {
                 let time_s = c.time_s.last().copied();
+                if self.rows.is_empty() {
+                    let (rows, steps) = self.expected;
+                    self.rows.reserve_commanded(rows);
+                    self.ranges.reserve(steps);
+                }
                 self.rows.append(&mut c);
                 if let (Some(hook), Some(time_s)) = (&limits.on_rows, time_s) {
                     hook(&RowsProgress {
@@ -299,6 +306,11 @@ impl WorkerRun {
             events: Vec::new(),
             result,
             pid,
+            // The state after insertion, then every `record_every`-th step and the last.
+            expected: (
+                request.steps / request.record_every.max(1) + 2,
+                request.steps + 1,
+            ),
         }
     }
 
