@@ -313,6 +313,9 @@ impl PiSaturation {
         for (b, means) in self.means.chunks_mut(BLOCK).enumerate() {
             let first = b * BLOCK;
             let mut acc = [-0.0f64; BLOCK];
+            // A whole block has a length the compiler knows, so its sums stay in registers;
+            // one loop for both cases did not (200 000 steps of 22 vehicles: 0.29 s this way,
+            // 0.58 s with one loop, 0.38 s adding a whole slot across the fleet).
             if means.len() == BLOCK {
                 for slot in slots.chunks_exact(n) {
                     let xs: &[f64; BLOCK] = slot[first..first + BLOCK]

@@ -59,6 +59,12 @@ impl Trajectory {
         }
     }
 
+    /// The most samples a run of `steps` steps records every `every`-th step: the state after
+    /// insertion, every `every`-th step, and the last one.
+    pub fn samples_recorded(steps: usize, every: usize) -> usize {
+        steps / every.max(1) + 2
+    }
+
     /// Room for `samples` more samples of [`Trajectory::push_commanded`]: a run's rows come in
     /// chunks, and growing to the run's length chunk by chunk copied them over and over.
     pub fn reserve_commanded(&mut self, samples: usize) {

@@ -306,14 +306,13 @@ impl WorkerRun {
             events: Vec::new(),
             result,
             pid,
-            // The state after insertion, then every `record_every`-th step and the last; at
-            // most 2^24 values a vector made room for at once (beyond, the vectors grow as the
+            // At most 2^24 values a vector made room for at once (beyond, the vectors grow as the
             // rows come: a run whose horizon would not fit must fail when it gets there, not
             // at its start).
             expected: {
                 const AT_ONCE: usize = 1 << 24;
                 let n = request.layout.vehicles.len().max(1);
-                let rows = request.steps / request.record_every.max(1) + 2;
+                let rows = Trajectory::samples_recorded(request.steps, request.record_every);
                 (rows.min(AT_ONCE / n), (request.steps + 1).min(AT_ONCE / 3))
             },
         }

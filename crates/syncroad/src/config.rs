@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use syncroad_control::metrics::VerdictThresholds;
-use syncroad_control::{EvalOptions, Scenario};
+use syncroad_control::{EvalOptions, Scenario, Trajectory};
 
 use crate::cli::OutputArgs;
 use crate::error::InputError;
@@ -164,7 +164,7 @@ pub fn record_every_as(field: &str, flag: Option<usize>, sc: &Scenario) -> anyho
         Some(k) => k,
         None => default_record_every(sc.steps(), sc.vehicles()),
     };
-    let values = (sc.steps() / k + 2).saturating_mul(sc.vehicles());
+    let values = Trajectory::samples_recorded(sc.steps(), k).saturating_mul(sc.vehicles());
     // Even the first and the last sample alone: no stride helps.
     if sc.vehicles().saturating_mul(3) > MAX_RECORDED_VALUES {
         return Err(InputError::new(format!(

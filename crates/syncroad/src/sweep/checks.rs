@@ -52,11 +52,7 @@ impl Sweep {
                 emission_every: 1,
                 tripinfo: false,
                 ssm: false,
-                emissions: if self.metrics.iter().any(|m| m == "emission_every") {
-                    Emissions::ALL
-                } else {
-                    Emissions::shown_by(self.metrics.iter().map(String::as_str))
-                },
+                emissions: Emissions::shown_by(self.metrics.iter().map(String::as_str)),
             });
         }
         Ok(plan)
