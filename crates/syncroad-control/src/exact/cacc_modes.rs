@@ -17,8 +17,9 @@
 //! `> η_N` (`i = N`). For a single follower (`N = 1`) the same computation of its proof
 //! (eq. `degree1+` with `d_1^+ = 0`, `b_1 = η_1`, IFP index `1/μ_1²`) gives `μ_1²/2 > 2η_1`.
 
+use super::schur_eigenvalues::schur_eigenvalues;
 use super::Root;
-use nalgebra::{DMatrix, Schur};
+use nalgebra::DMatrix;
 use serde::Serialize;
 
 /// Invalid platoon parameters.
@@ -227,12 +228,10 @@ pub fn theorem_conditions(p: &CaccParams) -> Vec<CaccCondition> {
 pub fn cacc_modes(params: &CaccParams) -> Result<CaccModes, CaccError> {
     let a = params.closed_loop_matrix()?;
     let order = a.nrows();
-    let schur = Schur::try_new(a, f64::EPSILON, 10_000 * order)
-        .ok_or(CaccError::EigenvaluesFailed { order })?;
-    let mut eigenvalues: Vec<Root> = schur
-        .complex_eigenvalues()
-        .iter()
-        .map(|&z| Root::from(z))
+    let mut eigenvalues: Vec<Root> = schur_eigenvalues(a, f64::EPSILON, 10_000 * order)
+        .ok_or(CaccError::EigenvaluesFailed { order })?
+        .into_iter()
+        .map(Root::from)
         .collect();
     eigenvalues.sort_by(|a, b| b.re.total_cmp(&a.re));
     let abscissa = eigenvalues[0].re;

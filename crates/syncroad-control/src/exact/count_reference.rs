@@ -166,12 +166,12 @@ fn eigenvalues_of(l: &DMatrix<f64>) -> Option<Arc<[Complex64]>> {
         return kept;
     }
     let n = l.nrows();
-    let schur = nalgebra::linalg::Schur::try_new(
+    let eigenvalues: Arc<[Complex64]> = super::schur_eigenvalues::schur_eigenvalues(
         l.clone(),
         f64::EPSILON,
         SCHUR_ITERATIONS_PER_VEHICLE * n.max(1),
-    )?;
-    let eigenvalues: Arc<[Complex64]> = schur.complex_eigenvalues().iter().copied().collect();
+    )?
+    .into();
     let mut spectra = SPECTRA.lock().unwrap_or_else(|p| p.into_inner());
     spectra.insert(0, (key, Arc::clone(&eigenvalues)));
     spectra.truncate(SPECTRA_KEPT);

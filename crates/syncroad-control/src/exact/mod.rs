@@ -48,6 +48,7 @@ pub mod leader_amplification;
 pub mod platoon_scaling;
 pub mod report;
 pub mod ring_modes;
+mod schur_eigenvalues;
 pub(crate) mod sparse_lu;
 pub mod string_stability;
 

@@ -1,10 +1,11 @@
 //! Step 1 of the method: collocation of the infinitesimal generator on Chebyshev points (see
 //! the parent module) and the eigenvalues of the resulting real matrix.
 
-use nalgebra::{DMatrix, Schur};
+use nalgebra::DMatrix;
 use num_complex::Complex64;
 
 use super::CollocationError;
+use crate::exact::schur_eigenvalues::schur_eigenvalues;
 
 /// Chebyshev points `x_k = cos(kπ/M)` and differentiation matrix (Trefethen, `cheb`).
 pub(super) fn chebyshev(m: usize) -> (Vec<f64>, DMatrix<f64>) {
@@ -87,9 +88,64 @@ pub(crate) fn eigenvalues(a: DMatrix<f64>) -> Result<Vec<Complex64>, Collocation
     // LAPACK's iteration budget (dlahqr: 30 sweeps per eigenvalue).
     let max_iter = 30 * order.max(10);
     for eps in [f64::EPSILON, 1e-14, 1e-13, 1e-12, 1e-11] {
-        if let Some(schur) = Schur::try_new(a.clone(), eps, max_iter) {
-            return Ok(schur.complex_eigenvalues().iter().copied().collect());
+        if let Some(eigenvalues) = schur_eigenvalues(a.clone(), eps, max_iter) {
+            return Ok(eigenvalues);
         }
     }
     Err(CollocationError::EigenvaluesFailed { order })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::network::laplacian;
+    use super::super::tests::{random_network, Lcg};
+    use super::*;
+    use nalgebra::linalg::Schur;
+
+    /// [`eigenvalues`] by nalgebra's full Schur form, through the same ladder of tolerances.
+    fn by_full_schur(a: &DMatrix<f64>) -> Option<Vec<Complex64>> {
+        let max_iter = 30 * a.nrows().max(10);
+        [f64::EPSILON, 1e-14, 1e-13, 1e-12, 1e-11]
+            .iter()
+            .find_map(|&eps| {
+                Schur::try_new(a.clone(), eps, max_iter)
+                    .map(|s| s.complex_eigenvalues().iter().copied().collect())
+            })
+    }
+
+    #[test]
+    fn collocated_generators_have_the_full_schur_forms_eigenvalues_bit_for_bit() {
+        // Random networks with mixed delays, and all-to-all graphs with equal delays, whose
+        // N − 1 repeated roots can stall the iteration at the tightest tolerance (the ladder
+        // of looser ones is then taken, and has to be taken alike).
+        let mut rng = Lcg(0x5eed);
+        let mut cases: Vec<(DMatrix<f64>, Vec<f64>)> = [4, 7, 12]
+            .iter()
+            .map(|&n| random_network(n, &mut rng))
+            .collect();
+        for n in [3, 4, 5, 10] {
+            for k in [0.1, 0.3] {
+                let a = DMatrix::from_fn(n, n, |i, j| if i == j { 0.0 } else { k });
+                cases.push((a, vec![0.5; n]));
+            }
+        }
+        let bits = |v: &Option<Vec<Complex64>>| {
+            v.as_ref().map(|v| {
+                v.iter()
+                    .map(|z| (z.re.to_bits(), z.im.to_bits()))
+                    .collect::<Vec<_>>()
+            })
+        };
+        let mut loosened = 0;
+        for (a, delays) in &cases {
+            let l = laplacian(a);
+            let g = generator_matrix(&l, delays, default_nodes(&l, delays));
+            let ours = eigenvalues(g.clone()).ok();
+            assert!(ours.is_some(), "order {}: no eigenvalues", g.nrows());
+            assert_eq!(bits(&ours), bits(&by_full_schur(&g)), "order {}", g.nrows());
+            let tightest = Schur::try_new(g.clone(), f64::EPSILON, 30 * g.nrows().max(10));
+            loosened += usize::from(tightest.is_none());
+        }
+        assert!(loosened > 0, "no case needed a looser tolerance");
+    }
 }
