@@ -827,6 +827,7 @@ fn benchmark_probe_profiles_the_loop_phase_by_phase() {
         repeats: 1,
         traci: false,
         traci_per_call: false,
+        traci_python: false,
         traci_steps: 0,
     };
     let worker = WorkerCommand::binary(env!("CARGO_BIN_EXE_syncroad-sumo-worker"));
