@@ -225,10 +225,10 @@ pub struct PiSaturation {
     /// Samples per window, `round(window_s / dt_s)`.
     window_len: usize,
     /// Ring buffer of the fleet's speeds, one slot of `n` after another: vehicle i's sample in
-    /// slot k is `history[k*n + i]`. Slot-major, the window's sums of all vehicles are one
-    /// vector addition per slot, each vehicle's sum still added in slot order.
+    /// slot k is `history[k*n + i]`. Slot-major, eight vehicles' sums are added side by side
+    /// as the slots go by ([`PiSaturation::update_means`]), each still in slot order.
     history: Vec<f64>,
-    /// The window's mean speeds of the current step (scratch).
+    /// The window's mean speed of every vehicle after the last step (NaN before the first).
     means: Vec<f64>,
     /// Samples stored so far (≤ window_len), the same for every vehicle.
     filled: usize,
@@ -265,7 +265,7 @@ impl PiSaturation {
             n: n_vehicles,
             window_len,
             history: vec![0.0; n_vehicles * window_len],
-            means: vec![0.0; n_vehicles],
+            means: vec![f64::NAN; n_vehicles],
             filled: 0,
             head: 0,
             command_mps: None,
@@ -295,16 +295,14 @@ impl PiSaturation {
     /// Mean own speed U of vehicle `i` over the samples stored so far \[m/s\] (NaN before the
     /// first step).
     pub fn mean_speed_mps(&self, i: usize) -> f64 {
-        // Before the window fills, the stored samples are slots 0..filled. The sum starts at
-        // -0.0 and adds slot after slot, as `Iterator::sum` does and as `update_means` does
-        // for every vehicle at once.
-        let sum = (0..self.filled).fold(-0.0, |s, k| s + self.history[k * self.n + i]);
-        sum / self.filled as f64
+        self.means[i]
     }
 
-    /// Every vehicle's [`PiSaturation::mean_speed_mps`] into `means`, the same bits: the
-    /// window's slots are added in order, one vector addition across the fleet per slot (one
-    /// vehicle at a time, each sum was a chain of dependent additions, most of the law's time).
+    /// Every vehicle's window mean into `means`. Before the window fills, the stored samples
+    /// are slots 0..filled. Each sum starts at -0.0 and adds slot after slot, as
+    /// `Iterator::sum` over the vehicle's own samples would; eight vehicles' sums are kept in
+    /// registers side by side (one vehicle at a time, each sum was a chain of dependent
+    /// additions, most of the law's time).
     fn update_means(&mut self) {
         /// Vehicles whose sums stay in registers while the slots go by.
         const BLOCK: usize = 8;
