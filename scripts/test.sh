@@ -49,6 +49,23 @@ if [ -n "${boot:-}" ]; then
 fi
 joined "$venv_py" "$logs/venv-py" "the Python tests' environment (scripts/python-test.sh --setup)"
 phase build+environments
+# The wheel, built once by maturin from the same compiled tree (it only links), before anything
+# else runs: no cargo build runs beside it.
+bash scripts/python-test.sh --wheel
+phase wheel
+# The Python package's tests and the Slurm test run beside the cargo tests: they need only what
+# the build made (the CLI and the wheel), and they share no files with them (the Python tests
+# use .venv-py and their own folders; the Slurm test its own cluster in a temporary folder).
+# Run after the cargo tests, the two phases left the cores a fifth idle: the Slurm test mostly
+# waits on its daemons, and the last long tests of each runner ran alone.
+# A sweep sharded over a private single-node Slurm cluster (skipped, and said so, without Slurm).
+bash scripts/slurm-test.sh > "$logs/slurm" 2>&1 &
+slurm_pid=$!
+side+=("$slurm_pid")
+# The Python package: the wheel installed into .venv-py, python/tests run by pytest.
+bash scripts/python-test.sh --built > "$logs/python" 2>&1 &
+python_pid=$!
+side+=("$python_pid")
 # Includes the guide's test (crates/syncroad/tests/guide.rs): every command example of
 # docs/src and README.md runs as printed. cargo-nextest, where installed, runs the test binaries
 # side by side (each test its own process) and the doc tests follow; else cargo's own runner.
@@ -66,14 +83,8 @@ for b in tests/baselines/*.json; do
   ./target/release/syncroad regress "$b"
 done
 phase baselines
-# A sweep sharded over a private single-node Slurm cluster (skipped, and said so, without
-# Slurm). Mostly waiting on its daemons and scheduler, it runs beside the Python tests.
-bash scripts/slurm-test.sh > "$logs/slurm" 2>&1 &
-slurm_pid=$!
-side+=("$slurm_pid")
-# The Python package: the wheel built once, installed into .venv-py, python/tests run by pytest.
-bash scripts/python-test.sh
-phase python
+joined "$python_pid" "$logs/python" "the Python tests (scripts/python-test.sh)"
+phase python-after-cargo
 joined "$slurm_pid" "$logs/slurm" "the Slurm test (scripts/slurm-test.sh)"
 phase slurm-after-python
 echo
