@@ -731,7 +731,7 @@ fn run_here(job: JobRef<'_>, limits: &Supervision) -> WorkerRun {
     run
 }
 
-/// Long-lived workers shared by the threads of a sweep: a run takes an idle worker (or starts
+/// Long-lived workers shared by the threads of a sweep or a comparison: a run takes an idle worker (or starts
 /// one), and a worker that is still usable afterwards goes back for the next run. At most as
 /// many workers exist as runs in flight.
 #[derive(Debug)]
@@ -756,8 +756,12 @@ impl WorkerPool {
         &self.cmd
     }
 
-    /// Runs `request` on a pooled worker.
+    /// Runs `request` on a pooled worker (in this process instead, as [`run_worker`] does,
+    /// inside [`crate::handoff::here`]).
     pub fn run(&self, request: &Request, limits: &Supervision) -> WorkerRun {
+        if crate::handoff::is_here() {
+            return run_here(JobRef::Run(request), limits);
+        }
         let idle = self.idle.lock().map(|mut v| v.pop()).ok().flatten();
         let mut worker = match idle {
             Some(w) => w,

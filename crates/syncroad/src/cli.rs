@@ -47,7 +47,7 @@ pub enum Command {
     },
     /// Run the scenario with its law and with SUMO's own drivers (Krauss σ 0.5 and 0.9, IDM;
     /// ACC and CACC for platoons; mixed rings with --mixed) on the same network, vehicles,
-    /// initial state and seed, each run its own SUMO process; print a side-by-side table of
+    /// initial state and seed, each run a fresh SUMO of its own; print a side-by-side table of
     /// congestion, flow, time loss, fuel, CO2 and safety; write one folder per run and
     /// compare.json to --out.
     Compare(CompareArgs),
@@ -326,7 +326,8 @@ pub struct CompareArgs {
     /// law's vehicles ignore SUMO's safe speed.
     #[arg(long)]
     pub ssm: bool,
-    /// Runs at once, each its own SUMO process (default: the number of cores).
+    /// Runs at once (default: the number of cores): as many SUMO worker processes, each
+    /// running one run after another.
     #[arg(long)]
     pub jobs: Option<usize>,
     /// Warm-up excluded from every congestion and SUMO metric [s] (default: a quarter of the

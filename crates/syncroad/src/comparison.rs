@@ -21,7 +21,9 @@ use syncroad_control::drive::{mixed_controllers, mixed_series, Drive, DEFAULT_MI
 use syncroad_control::record::SHARED_KEYS;
 use syncroad_control::scenario::Model;
 use syncroad_control::{EvalOptions, RunRecord, Scenario, SumoDriver};
-use syncroad_sumo::{check_sumo_numbers, load_road, Road, WorkerCommand, EMISSION_CLASS};
+use syncroad_sumo::{
+    check_sumo_numbers, load_road, Road, WorkerCommand, WorkerPool, EMISSION_CLASS,
+};
 
 use crate::batch::JobEnd;
 use crate::config;
@@ -316,21 +318,21 @@ impl RunResult {
     }
 }
 
-/// One run through the pipeline, written into `dir`.
+/// One run through the pipeline on a worker of `pool`, written into `dir`.
 fn run_one(
     sc: &Scenario,
     run: &RunPlan,
     plan: &Plan,
     dir: &Path,
-    worker: &WorkerCommand,
+    pool: &WorkerPool,
     interrupt: &Arc<AtomicBool>,
 ) -> anyhow::Result<RunResult> {
     let opts = run.sumo_options(
         dir.join(output::SUMO_WORK_DIR),
-        worker.clone(),
+        pool.command().clone(),
         Some(interrupt.clone()),
     );
-    let out = pipeline::sumo(sc, &plan.road, &opts)
+    let out = pipeline::sumo_pooled(sc, &plan.road, &opts, pool)
         .map_err(|e| InputError::caused("before starting SUMO", e))?;
     let f = Finished::new(sc, run.name(), out.output, run.eval);
     let title = plan.plots.then(|| format!("{}: {}", sc.name(), run.name()));
@@ -343,14 +345,19 @@ fn run_one(
 }
 
 /// Runs every run of the plan, `plan.jobs` at a time, with a progress bar on stderr. A run
-/// that fails keeps its place (marked) and never stops the others.
+/// that fails keeps its place (marked) and never stops the others. The runs share `plan.jobs`
+/// long-lived worker processes, as a sweep's points do: each run starts its own SUMO in one,
+/// and a worker that crashed or was stopped is replaced (starting Python and loading libsumo
+/// took more CPU than a short run's SUMO).
 pub fn run_all(
     sc: &Scenario,
     plan: &Plan,
     out: &Path,
     interrupt: Arc<AtomicBool>,
 ) -> anyhow::Result<Vec<RunResult>> {
-    let worker = WorkerCommand::for_process().context("cannot locate the syncroad executable")?;
+    let pool = WorkerPool::new(
+        WorkerCommand::for_process().context("cannot locate the syncroad executable")?,
+    );
     let ends = crate::batch::run(
         ("compare", plan.progress),
         plan.jobs,
@@ -359,12 +366,11 @@ pub fn run_all(
         |run| run.name().to_string(),
         |run| {
             let dir = out.join(run.folder());
-            let r =
-                run_one(sc, run, plan, &dir, &worker, &interrupt).unwrap_or_else(|e| RunResult {
-                    name: run.name().to_string(),
-                    record: Err(crate::error::describe(&e)),
-                    spread: Spread::default(),
-                });
+            let r = run_one(sc, run, plan, &dir, &pool, &interrupt).unwrap_or_else(|e| RunResult {
+                name: run.name().to_string(),
+                record: Err(crate::error::describe(&e)),
+                spread: Spread::default(),
+            });
             let error = r.error().map(str::to_string);
             JobEnd::Done(r, error)
         },

@@ -176,8 +176,9 @@ fn sumo_measurements_agree_with_sumo_totals_and_kinematics() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
-/// Same scenario and seed: byte-identical metrics from separate processes, run one at a
-/// time and in parallel.
+/// Same scenario and seed: byte-identical metrics whether the runs go one after another
+/// through one reused worker process (`--jobs 1`) or each into a fresh worker at once
+/// (`--jobs 3`).
 #[test]
 fn metrics_are_byte_identical_across_processes_and_parallel_runs() {
     let runs = "protocol,krauss-0.9,idm";
