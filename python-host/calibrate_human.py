@@ -82,8 +82,13 @@ def lsq_slope(ts, ys):
 
 
 def run(args, seed):
+    """One seed's run, its routes and SUMO's log in a temporary folder removed afterwards."""
+    with tempfile.TemporaryDirectory(prefix="calib-") as tmp:
+        return run_in(args, seed, tmp)
+
+
+def run_in(args, seed, tmp):
     rng = random.Random(seed)
-    tmp = tempfile.mkdtemp(prefix="calib-")
     rou = os.path.join(tmp, "ring.rou.xml")
     # First start with no vehicles to read the lane lengths.
     ls.start(["sumo", "-n", NET, "--no-step-log", "true", "--no-warnings", "true"])

@@ -169,10 +169,8 @@ mod tests {
         }
     }
 
-    fn file(name: &str, text: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("syncroad-controlled-{}", std::process::id()));
-        std::fs::create_dir_all(&d).unwrap();
-        let p = d.join(name);
+    fn file(d: &tempfile::TempDir, name: &str, text: &str) -> PathBuf {
+        let p = d.path().join(name);
         std::fs::write(&p, text).unwrap();
         p
     }
@@ -187,7 +185,8 @@ mod tests {
 
     #[test]
     fn the_files_count_the_chosen_vehicles_departing_at_the_start() {
-        let p = file("cavs.rou.xml", CAVS);
+        let d = tempfile::tempdir().unwrap();
+        let p = file(&d, "cavs.rou.xml", CAVS);
         let f = scan(&sel("cav"), std::slice::from_ref(&p));
         assert_eq!(f.at_start.len(), 2);
         assert_eq!((f.later, f.uncertain), (1, false));
@@ -219,7 +218,9 @@ mod tests {
 
     #[test]
     fn flows_and_unreadable_files_leave_the_count_to_the_worker() {
+        let d = tempfile::tempdir().unwrap();
         let flows = file(
+            &d,
             "flows.rou.xml",
             r#"<routes><flow id="f" type="cav" begin="0" end="10" number="3" route="r"/></routes>"#,
         );
@@ -227,7 +228,7 @@ mod tests {
         assert!(check(&sel("cav"), std::slice::from_ref(&flows), 5, "5", &[0]).is_ok());
         // A flow of another type cannot bring a chosen vehicle.
         assert!(!scan(&sel("truck"), &[flows]).uncertain);
-        let junk = file("junk.rou.xml", "not xml <");
+        let junk = file(&d, "junk.rou.xml", "not xml <");
         assert!(scan(&sel("cav"), &[junk]).uncertain);
     }
 }

@@ -245,20 +245,14 @@ mod tests {
     use super::*;
     use std::os::unix::fs::symlink;
 
-    fn dir(name: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("syncroad-result-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
-        std::fs::create_dir_all(&d).unwrap();
-        d
-    }
-
     fn put(path: &Path, text: &str) -> Result<(), ResultFileError> {
         write_result(path, |w| w.write_all(text.as_bytes()))
     }
 
     #[test]
     fn a_new_or_regular_file_is_replaced_whole_and_leaves_no_temporary_file() {
-        let d = dir("regular");
+        let t = tempfile::tempdir().unwrap();
+        let d = t.path();
         let p = d.join("r.md");
         put(&p, "one").unwrap();
         put(&p, "two").unwrap();
@@ -280,7 +274,8 @@ mod tests {
 
     #[test]
     fn a_symlink_stays_a_link_and_its_target_gets_the_bytes() {
-        let d = dir("link");
+        let t = tempfile::tempdir().unwrap();
+        let d = t.path();
         std::fs::create_dir_all(d.join("real")).unwrap();
         let target = d.join("real/report.md");
         std::fs::write(&target, "old").unwrap();
@@ -308,7 +303,8 @@ mod tests {
 
     #[test]
     fn a_fifo_is_written_through_and_stays_a_fifo() {
-        let d = dir("fifo");
+        let t = tempfile::tempdir().unwrap();
+        let d = t.path();
         let p = d.join("pipe");
         let c = std::ffi::CString::new(p.to_str().unwrap()).unwrap();
         assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
@@ -336,7 +332,8 @@ mod tests {
 
     #[test]
     fn a_folder_is_refused() {
-        let d = dir("folder");
+        let t = tempfile::tempdir().unwrap();
+        let d = t.path();
         let e = put(&d, "x").unwrap_err().to_string();
         assert!(e.contains("it is a folder"), "{e}");
         assert!(d.is_dir());
@@ -344,7 +341,8 @@ mod tests {
 
     #[test]
     fn a_tool_that_wants_a_file_name_gets_one_with_the_extension() {
-        let d = dir("via-path");
+        let t = tempfile::tempdir().unwrap();
+        let d = t.path();
         let p = d.join("plot.svg");
         std::fs::write(&p, "old").unwrap();
         write_result_via_path(&p, |tmp: &Path| {

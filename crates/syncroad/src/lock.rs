@@ -108,8 +108,8 @@ mod tests {
 
     #[test]
     fn a_second_holder_is_refused_naming_the_first_and_a_dropped_lock_is_free() {
-        let d = std::env::temp_dir().join(format!("syncroad-lock-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
+        let t = tempfile::tempdir().unwrap();
+        let d = t.path().join("out");
         let first = hold("--out", &d).unwrap();
         // flock locks belong to the open file: a second open in the same process conflicts
         // as another process would.

@@ -1065,7 +1065,7 @@ mod shell {
             "{log}"
         );
         for k in 1..=5 {
-            for d in [&dir, &work, &scripts] {
+            for d in [&*dir, &*work, &*scripts] {
                 assert!(
                     !d.join(format!("PWNED{k}")).exists(),
                     "PWNED{k} in {}",

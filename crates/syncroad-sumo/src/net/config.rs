@@ -133,9 +133,8 @@ pub fn read_config(path: &Path) -> Result<ConfigInputs, ConfigError> {
 mod tests {
     use super::*;
 
-    fn write(name: &str, text: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("syncroad-config-{}", std::process::id()));
-        let p = d.join(name);
+    fn write(d: &tempfile::TempDir, name: &str, text: &str) -> PathBuf {
+        let p = d.path().join(name);
         std::fs::create_dir_all(p.parent().unwrap()).unwrap();
         std::fs::write(&p, text).unwrap();
         p
@@ -143,15 +142,17 @@ mod tests {
 
     #[test]
     fn the_input_section_is_taken_relative_to_the_file_and_the_rest_is_listed() {
+        let d = tempfile::tempdir().unwrap();
         for f in [
             "nets/track.net.xml",
             "a.rou.xml",
             "b.rou.xml",
             "det.add.xml",
         ] {
-            write(f, "<x/>");
+            write(&d, f, "<x/>");
         }
         let p = write(
+            &d,
             "a.sumocfg",
             r#"<?xml version="1.0"?>
 <configuration xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance">
@@ -181,7 +182,9 @@ mod tests {
 
     #[test]
     fn files_that_are_no_configuration_are_refused_by_name() {
+        let d = tempfile::tempdir().unwrap();
         let p = write(
+            &d,
             "gone.sumocfg",
             "<configuration><route-files value=\"gone.rou.xml\"/></configuration>",
         );
@@ -198,18 +201,19 @@ mod tests {
             read_config(&missing).unwrap_err().to_string(),
             format!("sumo.config = {}: file not found", missing.display())
         );
-        let p = write("bad.sumocfg", "<configuration><input>");
+        let p = write(&d, "bad.sumocfg", "<configuration><input>");
         assert!(read_config(&p)
             .unwrap_err()
             .to_string()
             .contains(": not XML ("));
-        let p = write("net.sumocfg", "<net version=\"1.20\"/>");
+        let p = write(&d, "net.sumocfg", "<net version=\"1.20\"/>");
         let e = read_config(&p).unwrap_err().to_string();
         assert!(
             e.contains("the root element is <net>; a SUMO configuration is <configuration>"),
             "{e}"
         );
         let p = write(
+            &d,
             "novalue.sumocfg",
             "<configuration><input><net-file v=\"x\"/></input></configuration>",
         );
@@ -221,6 +225,7 @@ mod tests {
             )
         );
         let p = write(
+            &d,
             "emptyvalue.sumocfg",
             "<configuration><input><route-files value=\" , \"/></input></configuration>",
         );

@@ -602,9 +602,8 @@ mod tests {
 
     #[test]
     fn malformed_xml_is_rejected_with_the_parser_position() {
-        let dir = std::env::temp_dir().join(format!("syncroad-net-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let f = dir.join("bad.net.xml");
+        let dir = tempfile::tempdir().unwrap();
+        let f = dir.path().join("bad.net.xml");
         std::fs::write(&f, "<net><edge id='x'>").unwrap();
         let err = read_ring(&f).unwrap_err();
         let msg = err.to_string();

@@ -268,8 +268,8 @@ mod tests {
                 serde_json::from_str(r#"{"x": null, "n": 2}"#).unwrap(),
             ],
         };
-        let dir = std::env::temp_dir().join(format!("syncroad-table-cells-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path();
         t.write_csv(&dir.join("t.csv")).unwrap();
         assert_eq!(
             std::fs::read_to_string(dir.join("t.csv")).unwrap(),
