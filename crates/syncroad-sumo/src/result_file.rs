@@ -265,7 +265,7 @@ mod tests {
         .unwrap_err();
         assert_eq!(format!("{e}"), format!("cannot write {}", p.display()));
         assert_eq!(std::fs::read_to_string(&p).unwrap(), "two");
-        let names: Vec<_> = std::fs::read_dir(&d)
+        let names: Vec<_> = std::fs::read_dir(d)
             .unwrap()
             .map(|e| e.unwrap().file_name())
             .collect();
@@ -334,7 +334,7 @@ mod tests {
     fn a_folder_is_refused() {
         let t = tempfile::tempdir().unwrap();
         let d = t.path();
-        let e = put(&d, "x").unwrap_err().to_string();
+        let e = put(d, "x").unwrap_err().to_string();
         assert!(e.contains("it is a folder"), "{e}");
         assert!(d.is_dir());
     }
@@ -352,6 +352,6 @@ mod tests {
         })
         .unwrap();
         assert_eq!(std::fs::read_to_string(&p).unwrap(), "<svg/>");
-        assert_eq!(std::fs::read_dir(&d).unwrap().count(), 1);
+        assert_eq!(std::fs::read_dir(d).unwrap().count(), 1);
     }
 }

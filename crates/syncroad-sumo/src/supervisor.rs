@@ -731,9 +731,9 @@ fn run_here(job: JobRef<'_>, limits: &Supervision) -> WorkerRun {
     run
 }
 
-/// Long-lived workers shared by the threads of a sweep or a comparison: a run takes an idle worker (or starts
-/// one), and a worker that is still usable afterwards goes back for the next run. At most as
-/// many workers exist as runs in flight.
+/// Long-lived workers shared by the threads of a sweep or a comparison: a run takes an idle
+/// worker (or starts one), and a worker that is still usable afterwards goes back for the next
+/// run. At most as many workers exist as runs in flight.
 #[derive(Debug)]
 pub struct WorkerPool {
     cmd: WorkerCommand,
