@@ -55,11 +55,16 @@ pub fn step_time(paths: &[std::path::PathBuf]) -> anyhow::Result<Status> {
         .into());
     }
     let worker = WorkerCommand::for_process().context("cannot locate the syncroad executable")?;
-    let work = std::env::temp_dir().join(format!("syncroad-sumo-step-time-{}", std::process::id()));
+    // A folder of our own for the runs' SUMO files, removed when dropped.
+    let tmp = tempfile::Builder::new()
+        .prefix("syncroad-sumo-step-time-")
+        .tempdir()
+        .context("a temporary folder for the runs")?;
+    let work = tmp.path().join("runs");
     let mut progress =
         |k: usize, t: f64| eprintln!("{}: inside simulation.step {t:.4} s", paths[k].display());
     let times = syncroad_sumo::bench::step_seconds(&worker, &scenarios, &work, &mut progress);
-    let _ = std::fs::remove_dir_all(&work);
+    drop(tmp);
     let times = times?;
     for (p, t) in paths.iter().zip(&times) {
         outln!("{}\t{t:.6}", p.display());

@@ -66,11 +66,13 @@ pub fn fresh_metrics(base: &Baseline, baseline_path: &Path) -> anyhow::Result<Va
         Kind::Sumo => Some(syncroad_control::PROTOCOL.to_string()),
         _ => base.runs.clone(),
     };
-    let out = std::env::temp_dir().join(format!(
-        "syncroad-regress-{}-{}",
-        std::process::id(),
-        sc.name()
-    ));
+    // A folder of our own (made here, removed when dropped, whatever the run's end): the
+    // comparison writes into a new subfolder of it.
+    let tmp = tempfile::Builder::new()
+        .prefix("syncroad-regress-")
+        .tempdir()
+        .context("a temporary folder for the baseline's comparison")?;
+    let out = tmp.path().join(sc.name());
     let mut request = crate::comparison::Request::runs(runs, base.mixed.clone());
     if let Some(human) = &base.mixed_driver {
         request.mixed_driver = human.clone();
@@ -84,7 +86,7 @@ pub fn fresh_metrics(base: &Baseline, baseline_path: &Path) -> anyhow::Result<Va
     let flag = syncroad_sumo::interrupt_flag()?;
     let result =
         crate::comparison::compare_into(&sc, &plan, &out, &crate::output::Inputs::none(), flag);
-    let _ = std::fs::remove_dir_all(&out);
+    drop(tmp);
     Ok(result?.0)
 }
 
