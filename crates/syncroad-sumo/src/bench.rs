@@ -62,6 +62,9 @@ pub enum BenchError {
     /// The TraCI reference failed.
     #[error("TraCI reference failed: {0}")]
     Traci(String),
+    /// The benchmark's temporary folder could not be made.
+    #[error("a temporary folder for the benchmark's runs: {0}")]
+    TempDir(String),
     /// `--case` names no standard case.
     #[error("--case {case:?}: no benchmark case starts with it; the cases are {valid}")]
     UnknownCase {
@@ -768,13 +771,16 @@ pub fn run_standard(
 ) -> Result<Vec<BenchResult>, BenchError> {
     let repo = crate::venv::repo_dir();
     let cases = select_cases(&repo.join("sumo-nets"), sel)?;
-    let work = std::env::temp_dir().join(format!("syncroad-sumo-bench-{}", std::process::id()));
-    let results = cases
+    // A folder of our own for the runs' SUMO files, removed when dropped.
+    let tmp = tempfile::Builder::new()
+        .prefix("syncroad-sumo-bench-")
+        .tempdir()
+        .map_err(|e| BenchError::TempDir(e.to_string()))?;
+    let work = tmp.path().join("runs");
+    cases
         .iter()
         .map(|case| run_case(case, worker, &work, &repo.join("python-host"), progress))
-        .collect();
-    let _ = std::fs::remove_dir_all(&work);
-    results
+        .collect()
 }
 
 /// libsumo's own calls (law + `setSpeed`, reads) over `simulation.step` in `profile` [%].
