@@ -756,12 +756,8 @@ impl WorkerPool {
         &self.cmd
     }
 
-    /// Runs `request` on a pooled worker (in this process instead, as [`run_worker`] does,
-    /// inside [`crate::handoff::here`]).
+    /// Runs `request` on a pooled worker.
     pub fn run(&self, request: &Request, limits: &Supervision) -> WorkerRun {
-        if crate::handoff::is_here() {
-            return run_here(JobRef::Run(request), limits);
-        }
         let idle = self.idle.lock().map(|mut v| v.pop()).ok().flatten();
         let mut worker = match idle {
             Some(w) => w,
