@@ -15,7 +15,7 @@
 //! some steps on a two-lane loop with nobody else on the road, which would count changes
 //! that never happened.)
 
-use std::collections::{HashMap, HashSet};
+use std::collections::HashMap;
 
 use pyo3::prelude::*;
 use pyo3::types::{PyString, PyTuple};
@@ -31,14 +31,14 @@ use crate::python::{py_error, PythonError};
 enum Who {
     /// One of syncroad's vehicles (its layout index).
     Ours(usize),
-    /// Another vehicle (its id).
-    Other(String),
+    /// Another vehicle (its index among the others met, [`Topology::other_ids`]).
+    Other(usize),
     /// Nobody on the road's lanes.
     Nobody,
 }
 
 /// A place in the road's order: one of syncroad's vehicles (its layout index) or another
-/// (its index in this step's list of others).
+/// (its index among the others met, [`Topology::other_ids`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Slot {
     Ours(usize),
@@ -62,14 +62,25 @@ pub(crate) struct Topology<'py> {
     our_ids: Vec<String>,
     /// Their lengths \[m\].
     our_length_m: Vec<f64>,
-    /// Lengths of the others met so far \[m\].
-    other_length_m: HashMap<String, f64>,
+    /// The others met so far, each given an index the first time it is listed (an open road
+    /// meets thousands; a lookup per listed vehicle and step, no copy of its id after the
+    /// first).
+    other_index: HashMap<String, usize>,
+    /// Their ids by that index.
+    other_ids: Vec<String>,
+    /// The read of the road's order each was last listed in (a vehicle listed on two lanes
+    /// keeps its first place).
+    other_listed: Vec<u64>,
+    /// Reads of the road's order so far.
+    reads: u64,
+    /// Lengths of the others met so far, asked once each \[m\].
+    other_length_m: Vec<Option<f64>>,
     /// The vehicle seen ahead of each of ours at the step before.
     seen_ahead: Vec<Who>,
     /// This step's road order: (who, lane index).
     order: Vec<(Slot, usize)>,
-    /// The others on the road this step (ids).
-    others: Vec<String>,
+    /// The others on the road this step, in road order (their indices).
+    others: Vec<usize>,
     /// Place in `order` of each of ours.
     our_place: Vec<Option<usize>>,
     /// The order was read at the current state (by [`Topology::gaps_ahead`] after a step):
@@ -81,8 +92,8 @@ pub(crate) struct Topology<'py> {
     pub changes: usize,
     /// `sumo.controlled`'s selection, when the law drives the user's own vehicles.
     chosen: Option<SelectorMatch>,
-    /// Others whose vehicle type was looked up for it.
-    typed: HashSet<String>,
+    /// Others whose vehicle type was looked up for it (by index).
+    typed: Vec<bool>,
     /// Vehicles the selection chooses that came onto the road after the start (SUMO drives
     /// them, by their own vehicle type).
     pub chosen_later: usize,
@@ -135,7 +146,11 @@ impl<'py> Topology<'py> {
             our_ids: v.iter().map(|d| d.id.clone()).collect(),
             our_place: vec![None; n],
             our_length_m: v.iter().map(|d| d.length_m).collect(),
-            other_length_m: HashMap::new(),
+            other_index: HashMap::new(),
+            other_ids: Vec::new(),
+            other_listed: Vec::new(),
+            reads: 0,
+            other_length_m: Vec::new(),
             seen_ahead,
             order: Vec::new(),
             others: Vec::new(),
@@ -143,7 +158,7 @@ impl<'py> Topology<'py> {
             changes: 0,
             order_current: false,
             chosen: req.adopt.as_ref().and_then(|s| s.matcher().ok()),
-            typed: HashSet::new(),
+            typed: Vec::new(),
             chosen_later: 0,
         })
     }
@@ -151,12 +166,16 @@ impl<'py> Topology<'py> {
     /// Reads the road's order from SUMO and fills [`Topology::neighbors`]; counts the changes
     /// of the vehicles ahead.
     pub fn sense(&mut self, py: Python<'_>, ls: &Libsumo<'_>) -> Result<(), PythonError> {
+        if self.idle() {
+            return Ok(());
+        }
         if !std::mem::take(&mut self.order_current) {
             self.read_order(py)?;
         }
         if let Some(m) = &self.chosen {
-            for id in &self.others {
-                if self.typed.insert(id.clone()) {
+            for &x in &self.others {
+                if !std::mem::replace(&mut self.typed[x], true) {
+                    let id = &self.other_ids[x];
                     let t: String = ls
                         .call("vehicle_getTypeID", (id.as_str(),))?
                         .extract()
@@ -198,6 +217,9 @@ impl<'py> Topology<'py> {
         ls: &Libsumo<'_>,
         gaps: &mut [f64],
     ) -> Result<(), PythonError> {
+        if self.idle() {
+            return Ok(());
+        }
         self.read_order(py)?;
         self.order_current = true;
         // Each place's front bumper, asked of SUMO once (most are both a follower and ahead).
@@ -229,6 +251,13 @@ impl<'py> Topology<'py> {
         Ok(())
     }
 
+    /// Nothing to read: none of syncroad's own vehicles (an open road of inflows only) and no
+    /// selection of the user's vehicles to count. Reading the road's order each step would
+    /// then only cost a list of every vehicle on every lane, through Python, per step.
+    fn idle(&self) -> bool {
+        self.our_ids.is_empty() && self.chosen.is_none()
+    }
+
     /// The place ahead of (or behind) place `k` in the road order; a closed road wraps.
     fn at(&self, k: usize, ahead: bool) -> Option<usize> {
         let m = self.order.len();
@@ -245,7 +274,7 @@ impl<'py> Topology<'py> {
         match place.map(|p| self.order[p].0) {
             None => Who::Nobody,
             Some(Slot::Ours(j)) => Who::Ours(j),
-            Some(Slot::Other(x)) => Who::Other(self.others[x].clone()),
+            Some(Slot::Other(x)) => Who::Other(x),
         }
     }
 
@@ -253,7 +282,7 @@ impl<'py> Topology<'py> {
     fn id(&self, p: usize) -> &str {
         match self.order[p].0 {
             Slot::Ours(j) => &self.our_ids[j],
-            Slot::Other(x) => &self.others[x],
+            Slot::Other(x) => &self.other_ids[x],
         }
     }
 
@@ -315,27 +344,29 @@ impl<'py> Topology<'py> {
 
     /// The length of the vehicle at place `p` \[m\] (asked once per vehicle).
     fn length(&mut self, py: Python<'_>, ls: &Libsumo<'_>, p: usize) -> Result<f64, PythonError> {
-        if let Slot::Ours(j) = self.order[p].0 {
-            return Ok(self.our_length_m[j]);
-        }
-        let id = self.id(p).to_string();
-        if let Some(&l) = self.other_length_m.get(&id) {
+        let x = match self.order[p].0 {
+            Slot::Ours(j) => return Ok(self.our_length_m[j]),
+            Slot::Other(x) => x,
+        };
+        if let Some(l) = self.other_length_m[x] {
             return Ok(l);
         }
+        let id = self.other_ids[x].as_str();
         let l: f64 = ls
-            .call("vehicle_getLength", (id.as_str(),))?
+            .call("vehicle_getLength", (id,))?
             .extract()
             .map_err(|e| py_error(py, format!("vehicle.getLength({id})"), e))?;
-        self.other_length_m.insert(id.clone(), l);
+        self.other_length_m[x] = Some(l);
         Ok(l)
     }
 
-    /// The vehicles on the road's lanes in driving order (one call per lane; ids compared
-    /// as borrowed text, only the others' copied).
+    /// The vehicles on the road's lanes in driving order (one call per lane; ids looked up as
+    /// borrowed text, an other's copied only the first time it is listed).
     fn read_order(&mut self, py: Python<'_>) -> Result<(), PythonError> {
         self.order.clear();
         self.others.clear();
         self.our_place.fill(None);
+        self.reads += 1;
         for (k, args) in self.lane_args.iter().enumerate() {
             let err = |e| {
                 py_error(
@@ -358,10 +389,24 @@ impl<'py> Topology<'py> {
                         Slot::Ours(j)
                     }
                     Some(_) => continue,
-                    None if self.others.iter().any(|o| o == id) => continue,
                     None => {
-                        self.others.push(id.to_string());
-                        Slot::Other(self.others.len() - 1)
+                        let x = match self.other_index.get(id) {
+                            Some(&x) => x,
+                            None => {
+                                let x = self.other_ids.len();
+                                self.other_index.insert(id.to_string(), x);
+                                self.other_ids.push(id.to_string());
+                                self.other_listed.push(0);
+                                self.other_length_m.push(None);
+                                self.typed.push(false);
+                                x
+                            }
+                        };
+                        if std::mem::replace(&mut self.other_listed[x], self.reads) == self.reads {
+                            continue;
+                        }
+                        self.others.push(x);
+                        Slot::Other(x)
                     }
                 };
                 self.order.push((slot, k));
