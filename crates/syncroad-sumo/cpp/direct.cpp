@@ -10,13 +10,16 @@
 #include <cstring>
 #include <exception>
 #include <stdexcept>
+#include <limits>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace {
 using GetF64 = double (*)(const std::string&);
 using SetF64 = void (*)(const std::string&, double);
 using GetInt = int (*)();
+using GetLeader = std::pair<std::string, double> (*)(const std::string&, double);
 
 void copy_message(const char* what, char* err, std::size_t errlen) {
     if (err == nullptr || errlen == 0) {
@@ -91,6 +94,35 @@ std::size_t sr_set_f64(void* fn, const sr_ids* ids, const double* in, char* err,
     try {
         for (; i < ids->ids.size(); ++i) {
             f(ids->ids[i], in[i]);
+        }
+    } catch (const std::exception& e) {
+        copy_message(e.what(), err, errlen);
+        return i + 1;
+    } catch (...) {
+        copy_message("unknown C++ exception", err, errlen);
+        return i + 1;
+    }
+    return 0;
+}
+
+// For every vehicle, whoever SUMO reports ahead of it within `dist` (getLeader) and, where that
+// is a vehicle (a non-empty id at a gap >= 0), its speed (getSpeed of that id) and the gap; NaN
+// for both where nobody is. Returns 0, or 1 + the index of the vehicle whose call threw.
+std::size_t sr_leaders(void* leader_fn, void* speed_fn, const sr_ids* ids, double dist,
+                       double* speed, double* gap, char* err, std::size_t errlen) {
+    auto leader = reinterpret_cast<GetLeader>(leader_fn);
+    auto get_speed = reinterpret_cast<GetF64>(speed_fn);
+    std::size_t i = 0;
+    try {
+        for (; i < ids->ids.size(); ++i) {
+            const std::pair<std::string, double> l = leader(ids->ids[i], dist);
+            if (!l.first.empty() && l.second >= 0.0) {
+                speed[i] = get_speed(l.first);
+                gap[i] = l.second;
+            } else {
+                speed[i] = std::numeric_limits<double>::quiet_NaN();
+                gap[i] = std::numeric_limits<double>::quiet_NaN();
+            }
         }
     } catch (const std::exception& e) {
         copy_message(e.what(), err, errlen);

@@ -6,7 +6,10 @@
 //! library (`dlopen` with `RTLD_NOLOAD` returns the loaded copy, so the simulation state is the
 //! one Python started) and calls them through a small C++ shim (`cpp/direct.cpp`) once per
 //! step for all vehicles: one `getSpeed` and one `setSpeed` per vehicle without an interpreter
-//! round trip each. Python still starts, steps and closes SUMO.
+//! round trip each. The inflows' controlled vehicles, which come and go, are read and
+//! commanded the same way through ids of their own ([`CppIds`], [`Others`]): their speeds,
+//! `getLeader` with the leader's speed, `getAllowedSpeed`, `setSpeed`. Python still starts,
+//! steps and closes SUMO.
 //!
 //! If the library or a symbol is missing (another libsumo build), [`Direct::load`] returns
 //! `None` and the loop keeps the Python getters.
@@ -25,6 +28,10 @@ const GET_FUEL: &str =
     "_ZN7libsumo7Vehicle18getFuelConsumptionERKNSt7__cxx1112basic_stringIcSt11char_traitsIcESaIcEEE";
 const GET_CO2: &str =
     "_ZN7libsumo7Vehicle14getCO2EmissionERKNSt7__cxx1112basic_stringIcSt11char_traitsIcESaIcEEE";
+const GET_LEADER: &str =
+    "_ZN7libsumo7Vehicle9getLeaderERKNSt7__cxx1112basic_stringIcSt11char_traitsIcESaIcEEEd";
+const GET_ALLOWED_SPEED: &str =
+    "_ZN7libsumo7Vehicle15getAllowedSpeedERKNSt7__cxx1112basic_stringIcSt11char_traitsIcESaIcEEE";
 const COLLIDING: &str = "_ZN7libsumo10Simulation26getCollidingVehiclesNumberEv";
 const TELEPORTS: &str = "_ZN7libsumo10Simulation25getStartingTeleportNumberEv";
 
@@ -57,6 +64,71 @@ extern "C" {
         err: *mut c_char,
         errlen: usize,
     ) -> usize;
+    #[allow(clippy::too_many_arguments)]
+    fn sr_leaders(
+        leader: *mut c_void,
+        speed: *mut c_void,
+        ids: *const SrIds,
+        dist: f64,
+        speed_out: *mut f64,
+        gap_out: *mut f64,
+        err: *mut c_char,
+        errlen: usize,
+    ) -> usize;
+}
+
+/// Vehicle ids as C++ strings, made once for as long as the set of vehicles stays the same.
+pub struct CppIds {
+    ptr: *mut SrIds,
+    n: usize,
+}
+
+impl CppIds {
+    /// The ids `ids`; `None` if the shim could not allocate them.
+    pub fn new<S: AsRef<str>>(ids: &[S]) -> Option<Self> {
+        let ptrs: Vec<*const c_char> = ids.iter().map(|s| s.as_ref().as_ptr().cast()).collect();
+        let lens: Vec<usize> = ids.iter().map(|s| s.as_ref().len()).collect();
+        // SAFETY: `ptrs[i]` points at `lens[i]` bytes of `ids[i]`, alive during the call; the
+        // shim copies them into std::strings.
+        let ptr = unsafe { sr_ids_new(ptrs.as_ptr(), lens.as_ptr(), ids.len()) };
+        (!ptr.is_null()).then_some(Self { ptr, n: ids.len() })
+    }
+
+    /// `out[i] = f(ids[i])`.
+    fn get(&self, f: *mut c_void, out: &mut [f64]) -> Result<(), DirectError> {
+        assert_eq!(out.len(), self.n, "one value per vehicle");
+        let mut err = ErrBuf::new();
+        // SAFETY: `f` is `double(const std::string&)` from the loaded libsumo, `self.ptr` holds
+        // `n` strings and `out` has room for `n` values; the shim catches every exception.
+        let r = unsafe { sr_get_f64(f, self.ptr, out.as_mut_ptr(), err.ptr(), err.len()) };
+        check(r, &err)
+    }
+
+    /// `f(ids[i], input[i])`.
+    fn set(&self, f: *mut c_void, input: &[f64]) -> Result<(), DirectError> {
+        assert_eq!(input.len(), self.n, "one value per vehicle");
+        let mut err = ErrBuf::new();
+        // SAFETY: as in `get`, with `void(const std::string&, double)`.
+        let r = unsafe { sr_set_f64(f, self.ptr, input.as_ptr(), err.ptr(), err.len()) };
+        check(r, &err)
+    }
+}
+
+impl Drop for CppIds {
+    fn drop(&mut self) {
+        // SAFETY: `ptr` came from sr_ids_new and is freed once.
+        unsafe { sr_ids_free(self.ptr) }
+    }
+}
+
+fn check(r: usize, err: &ErrBuf) -> Result<(), DirectError> {
+    if r == 0 {
+        return Ok(());
+    }
+    Err(DirectError {
+        vehicle: r - 1,
+        message: err.message(),
+    })
 }
 
 /// A failed call: the vehicle index and the C++ exception's message.
@@ -106,8 +178,9 @@ pub struct Direct {
     /// `getFuelConsumption`, `getCO2Emission` (the measurements' every-step reads), where the
     /// library exports them.
     emissions: Option<[*mut c_void; 2]>,
-    ids: *mut SrIds,
-    n: usize,
+    /// `getLeader`, `getAllowedSpeed` (the inflows' controlled vehicles).
+    guests: [*mut c_void; 2],
+    ids: CppIds,
 }
 
 impl Direct {
@@ -130,42 +203,19 @@ impl Direct {
         let (get_speed, get_distance, set_speed) =
             (sym(GET_SPEED)?, sym(GET_DISTANCE)?, sym(SET_SPEED)?);
         let (colliding, teleports) = (sym(COLLIDING)?, sym(TELEPORTS)?);
-        let ptrs: Vec<*const c_char> = ids.iter().map(|s| s.as_ptr().cast()).collect();
-        let lens: Vec<usize> = ids.iter().map(String::len).collect();
-        // SAFETY: `ptrs[i]` points at `lens[i]` bytes of `ids[i]`, alive during the call; the
-        // shim copies them into std::strings.
-        let handle_ids = unsafe { sr_ids_new(ptrs.as_ptr(), lens.as_ptr(), ids.len()) };
-        if handle_ids.is_null() {
-            return None;
-        }
         Some(Self {
             get_speed,
             get_distance,
             set_speed,
             counts: [colliding, teleports],
             emissions: sym(GET_FUEL).zip(sym(GET_CO2)).map(|(f, c)| [f, c]),
-            ids: handle_ids,
-            n: ids.len(),
+            guests: [sym(GET_LEADER)?, sym(GET_ALLOWED_SPEED)?],
+            ids: CppIds::new(ids)?,
         })
     }
 
     fn get(&self, f: *mut c_void, out: &mut [f64]) -> Result<(), DirectError> {
-        assert_eq!(out.len(), self.n, "one value per vehicle");
-        let mut err = ErrBuf::new();
-        // SAFETY: `f` is `double(const std::string&)` from the loaded libsumo, `self.ids` holds
-        // `n` strings and `out` has room for `n` values; the shim catches every exception.
-        let r = unsafe { sr_get_f64(f, self.ids, out.as_mut_ptr(), err.ptr(), err.len()) };
-        Self::check(r, &err)
-    }
-
-    fn check(r: usize, err: &ErrBuf) -> Result<(), DirectError> {
-        if r == 0 {
-            return Ok(());
-        }
-        Err(DirectError {
-            vehicle: r - 1,
-            message: err.message(),
-        })
+        self.ids.get(f, out)
     }
 
     /// `vehicle.getSpeed` of every vehicle.
@@ -201,19 +251,74 @@ impl Direct {
 
     /// `vehicle.setSpeed` of every vehicle.
     pub fn set_speeds(&self, speeds: &[f64]) -> Result<(), DirectError> {
-        assert_eq!(speeds.len(), self.n, "one command per vehicle");
+        self.ids.set(self.set_speed, speeds)
+    }
+
+    /// The calls for other vehicles than the fixed set (the inflows' controlled vehicles).
+    pub fn others(&self) -> Others<'_> {
+        let [leader, allowed] = self.guests;
+        Others {
+            direct: self,
+            leader,
+            allowed,
+        }
+    }
+}
+
+/// Batch calls for a set of vehicles of its own ([`CppIds`]): what the inflows' controlled
+/// vehicles read and command each step.
+pub struct Others<'d> {
+    direct: &'d Direct,
+    leader: *mut c_void,
+    allowed: *mut c_void,
+}
+
+impl Others<'_> {
+    /// `vehicle.getSpeed` of each of `ids`.
+    pub fn speeds(&self, ids: &CppIds, out: &mut [f64]) -> Result<(), DirectError> {
+        ids.get(self.direct.get_speed, out)
+    }
+
+    /// `vehicle.getAllowedSpeed` (the lane's speed limit for the vehicle) of each of `ids`.
+    pub fn allowed_speeds(&self, ids: &CppIds, out: &mut [f64]) -> Result<(), DirectError> {
+        ids.get(self.allowed, out)
+    }
+
+    /// `vehicle.getLeader(id, dist)` of each of `ids` and, where it names a vehicle at a gap
+    /// ≥ 0, that vehicle's `getSpeed`: `speed[i]` and `gap[i]`, NaN for both where nobody is
+    /// ahead within `dist`.
+    pub fn leaders(
+        &self,
+        ids: &CppIds,
+        dist: f64,
+        speed: &mut [f64],
+        gap: &mut [f64],
+    ) -> Result<(), DirectError> {
+        assert_eq!(speed.len(), ids.n, "one value per vehicle");
+        assert_eq!(gap.len(), ids.n, "one value per vehicle");
         let mut err = ErrBuf::new();
-        // SAFETY: as in `get`, with `void(const std::string&, double)`.
+        // SAFETY: `leader` is `std::pair<std::string, double>(const std::string&, double)` and
+        // `get_speed` `double(const std::string&)` from the loaded libsumo; `ids` holds `n`
+        // strings, `speed` and `gap` room for `n` values each; the shim catches every
+        // exception.
         let r = unsafe {
-            sr_set_f64(
-                self.set_speed,
-                self.ids,
-                speeds.as_ptr(),
+            sr_leaders(
+                self.leader,
+                self.direct.get_speed,
+                ids.ptr,
+                dist,
+                speed.as_mut_ptr(),
+                gap.as_mut_ptr(),
                 err.ptr(),
                 err.len(),
             )
         };
-        Self::check(r, &err)
+        check(r, &err)
+    }
+
+    /// `vehicle.setSpeed` of each of `ids`.
+    pub fn set_speeds(&self, ids: &CppIds, speeds: &[f64]) -> Result<(), DirectError> {
+        ids.set(self.direct.set_speed, speeds)
     }
 }
 
@@ -236,13 +341,6 @@ fn get_ints(fns: &[*mut c_void], out: &mut [i32]) -> Result<(), (usize, String)>
     match r {
         0 => Ok(()),
         k => Err((k - 1, err.message())),
-    }
-}
-
-impl Drop for Direct {
-    fn drop(&mut self) {
-        // SAFETY: `ids` came from sr_ids_new and is freed once.
-        unsafe { sr_ids_free(self.ids) }
     }
 }
 

@@ -1640,6 +1640,64 @@ mod open_roads {
         );
     }
 
+    /// The inflows' controlled vehicles read and commanded through libsumo's C++ functions in
+    /// one batch per step (the default) and one Python call per vehicle and value
+    /// (`ReadMode::Getters`) drive the same run: the same vehicles at the same speeds every
+    /// step in SUMO's floating-car data, the same record of them (commands, overrides, mean
+    /// speed, travel times), the same platoon. The FollowerStopper reads the vehicle ahead
+    /// and its speed; SUMO holding back some of its commands shows it met leaders. (The
+    /// direct calls need all their functions: `direct_calls` says the inflows' went so too.)
+    #[test]
+    fn an_inflows_vehicles_drive_alike_through_direct_calls_and_through_python() {
+        let dir = work("inflow-direct");
+        on_ramp(&dir);
+        let road =
+            serde_json::json!({"type": "route", "edges": ["h0", "h1", "h2"], "lane": "follow"});
+        let inflows = serde_json::json!([
+            {"from": "ramp", "to": "h1", "vehs_per_hour": 1200,
+             "controlled": {"law": "follower-stopper-25", "share": 0.5}}
+        ]);
+        let mut file = platoon_on(
+            road,
+            serde_json::json!({"net": "out.net.xml", "fcd": true, "inflows": inflows}),
+        );
+        file["horizon_s"] = 40.0.into();
+        let sc = scenario(&dir, &file.to_string()).unwrap();
+        let drive = |mode: syncroad_sumo::ReadMode, run_dir: &str| {
+            let mut o = opts(&dir);
+            o.work_dir = dir.join(run_dir);
+            o.read = mode;
+            let run = run_scenario(&sc, &o).unwrap();
+            let fin = run.outcome().expect("horizon reached");
+            let direct = fin.totals.direct_calls;
+            let guests = run.output(&sc).sumo.unwrap().guests.unwrap();
+            let fcd = std::fs::read_to_string(dir.join(run_dir).join("fcd.xml")).unwrap();
+            let doc = roxmltree::Document::parse(&fcd).unwrap();
+            let speeds: Vec<(String, String, String)> = doc
+                .descendants()
+                .filter(|n| n.has_tag_name("vehicle"))
+                .map(|v| {
+                    let a = |k: &str| v.attribute(k).unwrap().to_string();
+                    (a("id"), a("speed"), a("pos"))
+                })
+                .collect();
+            (direct, guests, speeds, run.worker.rows.speeds_mps.clone())
+        };
+        let (direct, g, fcd, rows) = drive(syncroad_sumo::ReadMode::Direct, "direct");
+        let (python, g_python, fcd_python, rows_python) =
+            drive(syncroad_sumo::ReadMode::Getters, "python");
+        assert!(
+            direct && !python,
+            "the pinned libsumo exports the functions"
+        );
+        eprintln!("inflow vehicles, direct calls: {g:?}");
+        assert!(g.entered >= 3 && g.commands > 500, "{g:?}");
+        assert!(g.overridden_commands > 0, "no leader held one back: {g:?}");
+        assert_eq!(g, g_python);
+        assert_eq!(fcd, fcd_python);
+        assert_eq!(rows, rows_python);
+    }
+
     /// An open road of inflows only (`"vehicles": 0`, no model): SUMO runs the inflow, the
     /// law drives its controlled share, SUMO's summary counts every vehicle, and the verdict
     /// says why there is none; a model beside no vehicles, and no vehicles without an inflow,

@@ -33,6 +33,7 @@ use syncroad_control::{SpeedController, StopReason};
 
 use super::libsumo::Libsumo;
 use super::CosimError;
+use crate::direct::{CppIds, DirectError, Others};
 use crate::protocol::{GuestLaw, Request};
 use crate::python::{py_error, PythonError};
 
@@ -67,6 +68,16 @@ pub(super) struct Guests<'a, 'py> {
     travel_time_sum_s: f64,
     speed_sum: f64,
     speed_samples: usize,
+    /// The ids of [`Guests::on_road`] as C++ strings for the direct calls, made again after a
+    /// step that changed who is on the road.
+    cpp_ids: Option<CppIds>,
+    /// Per vehicle on the road: speed, the leader's speed and gap (NaN: nobody ahead), the
+    /// speed limit, the command (reused from step to step).
+    speeds: Vec<f64>,
+    leader_speeds: Vec<f64>,
+    leader_gaps: Vec<f64>,
+    limits: Vec<f64>,
+    commands: Vec<f64>,
 }
 
 impl<'a, 'py> Guests<'a, 'py> {
@@ -105,13 +116,125 @@ impl<'a, 'py> Guests<'a, 'py> {
             travel_time_sum_s: 0.0,
             speed_sum: 0.0,
             speed_samples: 0,
+            cpp_ids: None,
+            speeds: Vec::new(),
+            leader_speeds: Vec::new(),
+            leader_gaps: Vec::new(),
+            limits: Vec::new(),
+            commands: Vec::new(),
         })
     }
 
     /// Before SUMO's step `step` at time `t_s`: reads every controlled vehicle, steps its law
     /// and sends its command. A non-finite command stops the run before it reaches SUMO, as
     /// the fixed set's do (`Ok(Some(stop))`; the rows so far are kept).
+    ///
+    /// With `direct` (libsumo's C++ functions, as the fixed set reads them) each kind of read
+    /// and the commands go as one batch for all of them; else one Python call per vehicle and
+    /// value. The same calls either way (reads have no effect on SUMO's state before its
+    /// step), so the same run.
     pub fn command(
+        &mut self,
+        ls: &Libsumo<'py>,
+        direct: Option<Others<'_>>,
+        step: usize,
+        t_s: f64,
+    ) -> Result<Option<StopReason>, CosimError> {
+        match direct {
+            Some(d) if !self.on_road.is_empty() => self.command_direct(&d, step, t_s),
+            Some(_) => Ok(None),
+            None => self.command_python(ls, step, t_s),
+        }
+    }
+
+    /// [`Guests::command`] through libsumo's C++ functions.
+    fn command_direct(
+        &mut self,
+        d: &Others<'_>,
+        step: usize,
+        t_s: f64,
+    ) -> Result<Option<StopReason>, CosimError> {
+        let n = self.on_road.len();
+        if self.cpp_ids.is_none() {
+            let names: Vec<&str> = self.on_road.iter().map(|g| g.name.as_str()).collect();
+            self.cpp_ids = Some(CppIds::new(&names).ok_or_else(|| PythonError::Call {
+                call: "the inflows' vehicle ids as C++ strings".into(),
+                traceback: "allocation failed".into(),
+            })?);
+        }
+        let ids = self.cpp_ids.as_ref().expect("made above");
+        for b in [
+            &mut self.speeds,
+            &mut self.leader_speeds,
+            &mut self.leader_gaps,
+            &mut self.limits,
+            &mut self.commands,
+        ] {
+            b.resize(n, 0.0);
+        }
+        let on_road = &self.on_road;
+        d.speeds(ids, &mut self.speeds)
+            .map_err(|e| failed(on_road, "getSpeed", e))?;
+        d.leaders(
+            ids,
+            LOOKAHEAD_M,
+            &mut self.leader_speeds,
+            &mut self.leader_gaps,
+        )
+        .map_err(|e| failed(on_road, "getLeader", e))?;
+        d.allowed_speeds(ids, &mut self.limits)
+            .map_err(|e| failed(on_road, "getAllowedSpeed", e))?;
+        for (i, g) in self.on_road.iter_mut().enumerate() {
+            let v = self.speeds[i];
+            if g.last_command.is_finite() {
+                let off = (v - g.last_command).abs();
+                if off > self.tolerance_mps {
+                    self.report.overridden_commands += 1;
+                    self.report.max_override_mps = self.report.max_override_mps.max(off);
+                }
+            }
+            self.speed_sum += v;
+            self.speed_samples += 1;
+            let limit = self.limits[i];
+            self.neighbors.ahead[0] = if self.leader_gaps[i].is_nan() {
+                // The free road: a leader at the end of sight, at the lane's speed limit.
+                Sensed::Other {
+                    speed_mps: limit,
+                    gap_m: LOOKAHEAD_M,
+                }
+            } else {
+                Sensed::Other {
+                    speed_mps: self.leader_speeds[i],
+                    gap_m: self.leader_gaps[i] + self.laws[g.law].min_gap_m,
+                }
+            };
+            g.controller.sense(&self.neighbors);
+            let mut next = [0.0];
+            g.controller.step(t_s, &[v], &[0.0], &mut next);
+            let mut cmd = next[0];
+            if !cmd.is_finite() {
+                return Ok(Some(StopReason::NonFiniteCommand {
+                    vehicle: g.name.clone(),
+                    step,
+                    value: format!("{cmd}"),
+                }));
+            }
+            if cmd > limit {
+                cmd = limit;
+                self.report.speed_limited_commands += 1;
+            }
+            let cmd = cmd.max(0.0);
+            self.commands[i] = cmd;
+            g.last_command = cmd;
+            self.report.commands += 1;
+        }
+        d.set_speeds(ids, &self.commands)
+            .map_err(|e| failed(&self.on_road, "setSpeed", e))?;
+        Ok(None)
+    }
+
+    /// [`Guests::command`] through Python, one call per vehicle and value.
+    fn command_python(
         &mut self,
         ls: &Libsumo<'py>,
         step: usize,
@@ -196,6 +319,7 @@ impl<'a, 'py> Guests<'a, 'py> {
                 arrived.iter().map(String::as_str).collect();
             let report = &mut self.report;
             let sum = &mut self.travel_time_sum_s;
+            let before = self.on_road.len();
             self.on_road.retain(|g| {
                 let left = gone.contains(g.name.as_str());
                 if left {
@@ -204,6 +328,9 @@ impl<'a, 'py> Guests<'a, 'py> {
                 }
                 !left
             });
+            if self.on_road.len() != before {
+                self.cpp_ids = None;
+            }
         }
         for id in departed {
             let vtype: String = ls
@@ -235,6 +362,7 @@ impl<'a, 'py> Guests<'a, 'py> {
                 entered_s: now,
                 last_command: f64::NAN,
             });
+            self.cpp_ids = None;
             self.report.entered += 1;
         }
         self.report.present_max = self.report.present_max.max(self.on_road.len());
@@ -250,6 +378,18 @@ impl<'a, 'py> Guests<'a, 'py> {
             (self.speed_samples > 0).then(|| self.speed_sum / self.speed_samples as f64);
         r
     }
+}
+
+/// A direct call that threw for one of the vehicles on the road.
+fn failed(on_road: &[Guest<'_>], call: &str, e: DirectError) -> CosimError {
+    PythonError::Call {
+        call: format!(
+            "libsumo::Vehicle::{call}({}) (direct)",
+            on_road[e.vehicle].name
+        ),
+        traceback: format!("C++ exception: {}", e.message),
+    }
+    .into()
 }
 
 fn float(x: Bound<'_, PyAny>, what: &str) -> Result<f64, CosimError> {
