@@ -28,6 +28,24 @@ void copy_message(const char* what, char* err, std::size_t errlen) {
     std::strncpy(err, what, errlen - 1);
     err[errlen - 1] = '\0';
 }
+// call(i) for i = 0 .. n-1; returns 0, or 1 + the index of the call that threw, its message
+// in `err`.
+template <typename F>
+std::size_t each(std::size_t n, char* err, std::size_t errlen, F call) {
+    std::size_t i = 0;
+    try {
+        for (; i < n; ++i) {
+            call(i);
+        }
+    } catch (const std::exception& e) {
+        copy_message(e.what(), err, errlen);
+        return i + 1;
+    } catch (...) {
+        copy_message("unknown C++ exception", err, errlen);
+        return i + 1;
+    }
+    return 0;
+}
 }  // namespace
 
 struct sr_ids {
@@ -54,55 +72,19 @@ void sr_ids_free(sr_ids* ids) { delete ids; }
 // out[i] = fn(ids[i]); returns 0, or 1 + the index of the vehicle whose call threw.
 std::size_t sr_get_f64(void* fn, const sr_ids* ids, double* out, char* err, std::size_t errlen) {
     auto f = reinterpret_cast<GetF64>(fn);
-    std::size_t i = 0;
-    try {
-        for (; i < ids->ids.size(); ++i) {
-            out[i] = f(ids->ids[i]);
-        }
-    } catch (const std::exception& e) {
-        copy_message(e.what(), err, errlen);
-        return i + 1;
-    } catch (...) {
-        copy_message("unknown C++ exception", err, errlen);
-        return i + 1;
-    }
-    return 0;
+    return each(ids->ids.size(), err, errlen, [&](std::size_t i) { out[i] = f(ids->ids[i]); });
 }
 
 // out[k] = fns[k]() for n counts of the simulation; returns 0, or 1 + the index of the call
 // that threw.
 std::size_t sr_get_ints(void* const* fns, int* out, std::size_t n, char* err, std::size_t errlen) {
-    std::size_t k = 0;
-    try {
-        for (; k < n; ++k) {
-            out[k] = reinterpret_cast<GetInt>(fns[k])();
-        }
-    } catch (const std::exception& e) {
-        copy_message(e.what(), err, errlen);
-        return k + 1;
-    } catch (...) {
-        copy_message("unknown C++ exception", err, errlen);
-        return k + 1;
-    }
-    return 0;
+    return each(n, err, errlen, [&](std::size_t k) { out[k] = reinterpret_cast<GetInt>(fns[k])(); });
 }
 
 // fn(ids[i], in[i]) for every vehicle; returns 0, or 1 + the index of the call that threw.
 std::size_t sr_set_f64(void* fn, const sr_ids* ids, const double* in, char* err, std::size_t errlen) {
     auto f = reinterpret_cast<SetF64>(fn);
-    std::size_t i = 0;
-    try {
-        for (; i < ids->ids.size(); ++i) {
-            f(ids->ids[i], in[i]);
-        }
-    } catch (const std::exception& e) {
-        copy_message(e.what(), err, errlen);
-        return i + 1;
-    } catch (...) {
-        copy_message("unknown C++ exception", err, errlen);
-        return i + 1;
-    }
-    return 0;
+    return each(ids->ids.size(), err, errlen, [&](std::size_t i) { f(ids->ids[i], in[i]); });
 }
 
 // For every vehicle, whoever SUMO reports ahead of it within `dist` (getLeader) and, where that
@@ -112,26 +94,16 @@ std::size_t sr_leaders(void* leader_fn, void* speed_fn, const sr_ids* ids, doubl
                        double* speed, double* gap, char* err, std::size_t errlen) {
     auto leader = reinterpret_cast<GetLeader>(leader_fn);
     auto get_speed = reinterpret_cast<GetF64>(speed_fn);
-    std::size_t i = 0;
-    try {
-        for (; i < ids->ids.size(); ++i) {
-            const std::pair<std::string, double> l = leader(ids->ids[i], dist);
-            if (!l.first.empty() && l.second >= 0.0) {
-                speed[i] = get_speed(l.first);
-                gap[i] = l.second;
-            } else {
-                speed[i] = std::numeric_limits<double>::quiet_NaN();
-                gap[i] = std::numeric_limits<double>::quiet_NaN();
-            }
+    return each(ids->ids.size(), err, errlen, [&](std::size_t i) {
+        const std::pair<std::string, double> l = leader(ids->ids[i], dist);
+        if (!l.first.empty() && l.second >= 0.0) {
+            speed[i] = get_speed(l.first);
+            gap[i] = l.second;
+        } else {
+            speed[i] = std::numeric_limits<double>::quiet_NaN();
+            gap[i] = std::numeric_limits<double>::quiet_NaN();
         }
-    } catch (const std::exception& e) {
-        copy_message(e.what(), err, errlen);
-        return i + 1;
-    } catch (...) {
-        copy_message("unknown C++ exception", err, errlen);
-        return i + 1;
-    }
-    return 0;
+    });
 }
 
 // For the shims' own tests: throws as libsumo does for an unknown vehicle.

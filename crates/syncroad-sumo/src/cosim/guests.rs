@@ -62,12 +62,8 @@ pub(super) struct Guests<'a, 'py> {
     types: HashMap<String, usize>,
     on_road: Vec<Guest<'py>>,
     speed_mode: i32,
-    tolerance_mps: f64,
-    neighbors: Neighbors,
-    report: Report,
+    drive: Drive,
     travel_time_sum_s: f64,
-    speed_sum: f64,
-    speed_samples: usize,
     /// The ids of [`Guests::on_road`] as C++ strings for the direct calls, made again after a
     /// step that changed who is on the road.
     cpp_ids: Option<CppIds>,
@@ -99,23 +95,25 @@ impl<'a, 'py> Guests<'a, 'py> {
                 SafetyMode::Off => SafetyMode::Off.speed_mode(),
                 _ => SafetyMode::Sumo.speed_mode(),
             },
-            tolerance_mps: req.override_tolerance_mps,
-            neighbors: Neighbors {
-                ring: false,
-                ahead: vec![Sensed::Nobody],
-                behind: vec![Sensed::Nobody],
-            },
-            report: Report {
-                laws: req
-                    .guests
-                    .iter()
-                    .map(|g| format!("inflow{}: {}", g.inflow, g.law.described()))
-                    .collect(),
-                ..Report::default()
+            drive: Drive {
+                tolerance_mps: req.override_tolerance_mps,
+                neighbors: Neighbors {
+                    ring: false,
+                    ahead: vec![Sensed::Nobody],
+                    behind: vec![Sensed::Nobody],
+                },
+                report: Report {
+                    laws: req
+                        .guests
+                        .iter()
+                        .map(|g| format!("inflow{}: {}", g.inflow, g.law.described()))
+                        .collect(),
+                    ..Report::default()
+                },
+                speed_sum: 0.0,
+                speed_samples: 0,
             },
             travel_time_sum_s: 0.0,
-            speed_sum: 0.0,
-            speed_samples: 0,
             cpp_ids: None,
             speeds: Vec::new(),
             leader_speeds: Vec::new(),
@@ -185,48 +183,21 @@ impl<'a, 'py> Guests<'a, 'py> {
         d.allowed_speeds(ids, &mut self.limits)
             .map_err(|e| failed(on_road, "getAllowedSpeed", e))?;
         for (i, g) in self.on_road.iter_mut().enumerate() {
-            let v = self.speeds[i];
-            if g.last_command.is_finite() {
-                let off = (v - g.last_command).abs();
-                if off > self.tolerance_mps {
-                    self.report.overridden_commands += 1;
-                    self.report.max_override_mps = self.report.max_override_mps.max(off);
-                }
+            let gap = self.leader_gaps[i];
+            let leader = (!gap.is_nan()).then_some((self.leader_speeds[i], gap));
+            let min_gap_m = self.laws[g.law].min_gap_m;
+            match self.drive.step(
+                g,
+                min_gap_m,
+                self.speeds[i],
+                leader,
+                self.limits[i],
+                step,
+                t_s,
+            ) {
+                Ok(cmd) => self.commands[i] = cmd,
+                Err(stop) => return Ok(Some(stop)),
             }
-            self.speed_sum += v;
-            self.speed_samples += 1;
-            let limit = self.limits[i];
-            self.neighbors.ahead[0] = if self.leader_gaps[i].is_nan() {
-                // The free road: a leader at the end of sight, at the lane's speed limit.
-                Sensed::Other {
-                    speed_mps: limit,
-                    gap_m: LOOKAHEAD_M,
-                }
-            } else {
-                Sensed::Other {
-                    speed_mps: self.leader_speeds[i],
-                    gap_m: self.leader_gaps[i] + self.laws[g.law].min_gap_m,
-                }
-            };
-            g.controller.sense(&self.neighbors);
-            let mut next = [0.0];
-            g.controller.step(t_s, &[v], &[0.0], &mut next);
-            let mut cmd = next[0];
-            if !cmd.is_finite() {
-                return Ok(Some(StopReason::NonFiniteCommand {
-                    vehicle: g.name.clone(),
-                    step,
-                    value: format!("{cmd}"),
-                }));
-            }
-            if cmd > limit {
-                cmd = limit;
-                self.report.speed_limited_commands += 1;
-            }
-            let cmd = cmd.max(0.0);
-            self.commands[i] = cmd;
-            g.last_command = cmd;
-            self.report.commands += 1;
         }
         d.set_speeds(ids, &self.commands)
             .map_err(|e| failed(&self.on_road, "setSpeed", e))?;
@@ -243,15 +214,6 @@ impl<'a, 'py> Guests<'a, 'py> {
         let py = ls.py;
         for g in &mut self.on_road {
             let v: f64 = float(ls.call("vehicle_getSpeed", (g.id.clone(),))?, "getSpeed")?;
-            if g.last_command.is_finite() {
-                let off = (v - g.last_command).abs();
-                if off > self.tolerance_mps {
-                    self.report.overridden_commands += 1;
-                    self.report.max_override_mps = self.report.max_override_mps.max(off);
-                }
-            }
-            self.speed_sum += v;
-            self.speed_samples += 1;
             let leader = ls.call("vehicle_getLeader", (g.id.clone(), LOOKAHEAD_M))?;
             let ahead: Option<(String, f64)> = if leader.is_none() {
                 None
@@ -264,36 +226,18 @@ impl<'a, 'py> Guests<'a, 'py> {
                 ls.call("vehicle_getAllowedSpeed", (g.id.clone(),))?,
                 "getAllowedSpeed",
             )?;
-            self.neighbors.ahead[0] = match ahead {
-                Some((id, d)) if !id.is_empty() && d >= 0.0 => Sensed::Other {
-                    speed_mps: float(ls.call("vehicle_getSpeed", (id,))?, "getSpeed")?,
-                    gap_m: d + self.laws[g.law].min_gap_m,
-                },
-                // The free road: a leader at the end of sight, at the lane's speed limit.
-                _ => Sensed::Other {
-                    speed_mps: limit,
-                    gap_m: LOOKAHEAD_M,
-                },
+            let leader = match ahead {
+                Some((id, d)) if !id.is_empty() && d >= 0.0 => {
+                    Some((float(ls.call("vehicle_getSpeed", (id,))?, "getSpeed")?, d))
+                }
+                _ => None,
             };
-            g.controller.sense(&self.neighbors);
-            let mut next = [0.0];
-            g.controller.step(t_s, &[v], &[0.0], &mut next);
-            let mut cmd = next[0];
-            if !cmd.is_finite() {
-                return Ok(Some(StopReason::NonFiniteCommand {
-                    vehicle: g.name.clone(),
-                    step,
-                    value: format!("{cmd}"),
-                }));
-            }
-            if cmd > limit {
-                cmd = limit;
-                self.report.speed_limited_commands += 1;
-            }
-            let cmd = cmd.max(0.0);
+            let min_gap_m = self.laws[g.law].min_gap_m;
+            let cmd = match self.drive.step(g, min_gap_m, v, leader, limit, step, t_s) {
+                Ok(cmd) => cmd,
+                Err(stop) => return Ok(Some(stop)),
+            };
             ls.call("vehicle_setSpeed", (g.id.clone(), cmd))?;
-            g.last_command = cmd;
-            self.report.commands += 1;
         }
         Ok(None)
     }
@@ -317,7 +261,7 @@ impl<'a, 'py> Guests<'a, 'py> {
         if !arrived.is_empty() {
             let gone: std::collections::HashSet<&str> =
                 arrived.iter().map(String::as_str).collect();
-            let report = &mut self.report;
+            let report = &mut self.drive.report;
             let sum = &mut self.travel_time_sum_s;
             let before = self.on_road.len();
             self.on_road.retain(|g| {
@@ -363,20 +307,89 @@ impl<'a, 'py> Guests<'a, 'py> {
                 last_command: f64::NAN,
             });
             self.cpp_ids = None;
-            self.report.entered += 1;
+            self.drive.report.entered += 1;
         }
-        self.report.present_max = self.report.present_max.max(self.on_road.len());
+        self.drive.report.present_max = self.drive.report.present_max.max(self.on_road.len());
         Ok(())
     }
 
     /// What the run's controlled vehicles did, for the record.
     pub fn report(&self) -> Report {
-        let mut r = self.report.clone();
+        let mut r = self.drive.report.clone();
         r.present_at_end = self.on_road.len();
         r.mean_travel_time_s = (r.left > 0).then(|| self.travel_time_sum_s / r.left as f64);
-        r.mean_speed_mps =
-            (self.speed_samples > 0).then(|| self.speed_sum / self.speed_samples as f64);
+        r.mean_speed_mps = (self.drive.speed_samples > 0)
+            .then(|| self.drive.speed_sum / self.drive.speed_samples as f64);
         r
+    }
+}
+
+/// What drives each controlled vehicle a step, whichever way it is read, and what it counts.
+struct Drive {
+    tolerance_mps: f64,
+    /// What the vehicle being stepped senses (one vehicle: its leader).
+    neighbors: Neighbors,
+    report: Report,
+    speed_sum: f64,
+    speed_samples: usize,
+}
+
+impl Drive {
+    /// One vehicle's step: its law given its speed `v`, the vehicle SUMO reports ahead of it
+    /// (`Some((speed, gap))`, the gap as `getLeader` measures it: from its front plus its
+    /// minGap) or nobody within [`LOOKAHEAD_M`], and the lane's speed limit `limit`. The
+    /// command to send (at most the limit, at least 0), or the stop a non-finite command
+    /// makes.
+    #[allow(clippy::too_many_arguments)]
+    fn step(
+        &mut self,
+        g: &mut Guest<'_>,
+        min_gap_m: f64,
+        v: f64,
+        leader: Option<(f64, f64)>,
+        limit: f64,
+        step: usize,
+        t_s: f64,
+    ) -> Result<f64, StopReason> {
+        if g.last_command.is_finite() {
+            let off = (v - g.last_command).abs();
+            if off > self.tolerance_mps {
+                self.report.overridden_commands += 1;
+                self.report.max_override_mps = self.report.max_override_mps.max(off);
+            }
+        }
+        self.speed_sum += v;
+        self.speed_samples += 1;
+        self.neighbors.ahead[0] = match leader {
+            Some((speed_mps, gap_m)) => Sensed::Other {
+                speed_mps,
+                gap_m: gap_m + min_gap_m,
+            },
+            // The free road: a leader at the end of sight, at the lane's speed limit.
+            None => Sensed::Other {
+                speed_mps: limit,
+                gap_m: LOOKAHEAD_M,
+            },
+        };
+        g.controller.sense(&self.neighbors);
+        let mut next = [0.0];
+        g.controller.step(t_s, &[v], &[0.0], &mut next);
+        let mut cmd = next[0];
+        if !cmd.is_finite() {
+            return Err(StopReason::NonFiniteCommand {
+                vehicle: g.name.clone(),
+                step,
+                value: format!("{cmd}"),
+            });
+        }
+        if cmd > limit {
+            cmd = limit;
+            self.report.speed_limited_commands += 1;
+        }
+        let cmd = cmd.max(0.0);
+        g.last_command = cmd;
+        self.report.commands += 1;
+        Ok(cmd)
     }
 }
 
