@@ -7,7 +7,7 @@
 //! one Python started) and calls them through a small C++ shim (`cpp/direct.cpp`) once per
 //! step for all vehicles: one `getSpeed` and one `setSpeed` per vehicle without an interpreter
 //! round trip each. The inflows' controlled vehicles, which come and go, are read and
-//! commanded the same way through ids of their own ([`CppIds`], [`Others`]): their speeds,
+//! commanded the same way through ids of their own ([`CppIds`]): their speeds,
 //! `getLeader` with the leader's speed, `getAllowedSpeed`, `setSpeed`. Python still starts,
 //! steps and closes SUMO.
 //!
@@ -178,8 +178,10 @@ pub struct Direct {
     /// `getFuelConsumption`, `getCO2Emission` (the measurements' every-step reads), where the
     /// library exports them.
     emissions: Option<[*mut c_void; 2]>,
-    /// `getLeader`, `getAllowedSpeed` (the inflows' controlled vehicles).
-    guests: [*mut c_void; 2],
+    /// `getLeader` (the inflows' controlled vehicles).
+    get_leader: *mut c_void,
+    /// `getAllowedSpeed` (the inflows' controlled vehicles).
+    get_allowed_speed: *mut c_void,
     ids: CppIds,
 }
 
@@ -209,7 +211,8 @@ impl Direct {
             set_speed,
             counts: [colliding, teleports],
             emissions: sym(GET_FUEL).zip(sym(GET_CO2)).map(|(f, c)| [f, c]),
-            guests: [sym(GET_LEADER)?, sym(GET_ALLOWED_SPEED)?],
+            get_leader: sym(GET_LEADER)?,
+            get_allowed_speed: sym(GET_ALLOWED_SPEED)?,
             ids: CppIds::new(ids)?,
         })
     }
@@ -254,40 +257,23 @@ impl Direct {
         self.ids.set(self.set_speed, speeds)
     }
 
-    /// The calls for other vehicles than the fixed set (the inflows' controlled vehicles).
-    pub fn others(&self) -> Others<'_> {
-        let [leader, allowed] = self.guests;
-        Others {
-            direct: self,
-            leader,
-            allowed,
-        }
-    }
-}
+    // The calls for a set of vehicles of its own, `ids`: the inflows' controlled vehicles,
+    // which come and go.
 
-/// Batch calls for a set of vehicles of its own ([`CppIds`]): what the inflows' controlled
-/// vehicles read and command each step.
-pub struct Others<'d> {
-    direct: &'d Direct,
-    leader: *mut c_void,
-    allowed: *mut c_void,
-}
-
-impl Others<'_> {
     /// `vehicle.getSpeed` of each of `ids`.
-    pub fn speeds(&self, ids: &CppIds, out: &mut [f64]) -> Result<(), DirectError> {
-        ids.get(self.direct.get_speed, out)
+    pub fn speeds_of(&self, ids: &CppIds, out: &mut [f64]) -> Result<(), DirectError> {
+        ids.get(self.get_speed, out)
     }
 
     /// `vehicle.getAllowedSpeed` (the lane's speed limit for the vehicle) of each of `ids`.
-    pub fn allowed_speeds(&self, ids: &CppIds, out: &mut [f64]) -> Result<(), DirectError> {
-        ids.get(self.allowed, out)
+    pub fn allowed_speeds_of(&self, ids: &CppIds, out: &mut [f64]) -> Result<(), DirectError> {
+        ids.get(self.get_allowed_speed, out)
     }
 
     /// `vehicle.getLeader(id, dist)` of each of `ids` and, where it names a vehicle at a gap
     /// ≥ 0, that vehicle's `getSpeed`: `speed[i]` and `gap[i]`, NaN for both where nobody is
     /// ahead within `dist`.
-    pub fn leaders(
+    pub fn leaders_of(
         &self,
         ids: &CppIds,
         dist: f64,
@@ -297,14 +283,14 @@ impl Others<'_> {
         assert_eq!(speed.len(), ids.n, "one value per vehicle");
         assert_eq!(gap.len(), ids.n, "one value per vehicle");
         let mut err = ErrBuf::new();
-        // SAFETY: `leader` is `std::pair<std::string, double>(const std::string&, double)` and
+        // SAFETY: `get_leader` is `std::pair<std::string, double>(const std::string&, double)` and
         // `get_speed` `double(const std::string&)` from the loaded libsumo; `ids` holds `n`
         // strings, `speed` and `gap` room for `n` values each; the shim catches every
         // exception.
         let r = unsafe {
             sr_leaders(
-                self.leader,
-                self.direct.get_speed,
+                self.get_leader,
+                self.get_speed,
                 ids.ptr,
                 dist,
                 speed.as_mut_ptr(),
@@ -317,8 +303,8 @@ impl Others<'_> {
     }
 
     /// `vehicle.setSpeed` of each of `ids`.
-    pub fn set_speeds(&self, ids: &CppIds, speeds: &[f64]) -> Result<(), DirectError> {
-        ids.set(self.direct.set_speed, speeds)
+    pub fn set_speeds_of(&self, ids: &CppIds, speeds: &[f64]) -> Result<(), DirectError> {
+        ids.set(self.set_speed, speeds)
     }
 }
 

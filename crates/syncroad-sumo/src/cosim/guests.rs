@@ -33,7 +33,7 @@ use syncroad_control::{SpeedController, StopReason};
 
 use super::libsumo::Libsumo;
 use super::CosimError;
-use crate::direct::{CppIds, DirectError, Others};
+use crate::direct::{CppIds, Direct, DirectError};
 use crate::protocol::{GuestLaw, Request};
 use crate::python::{py_error, PythonError};
 
@@ -134,13 +134,12 @@ impl<'a, 'py> Guests<'a, 'py> {
     pub fn command(
         &mut self,
         ls: &Libsumo<'py>,
-        direct: Option<Others<'_>>,
+        direct: Option<&Direct>,
         step: usize,
         t_s: f64,
     ) -> Result<Option<StopReason>, CosimError> {
         match direct {
-            Some(d) if !self.on_road.is_empty() => self.command_direct(&d, step, t_s),
-            Some(_) => Ok(None),
+            Some(d) => self.command_direct(d, step, t_s),
             None => self.command_python(ls, step, t_s),
         }
     }
@@ -148,7 +147,7 @@ impl<'a, 'py> Guests<'a, 'py> {
     /// [`Guests::command`] through libsumo's C++ functions.
     fn command_direct(
         &mut self,
-        d: &Others<'_>,
+        d: &Direct,
         step: usize,
         t_s: f64,
     ) -> Result<Option<StopReason>, CosimError> {
@@ -171,16 +170,16 @@ impl<'a, 'py> Guests<'a, 'py> {
             b.resize(n, 0.0);
         }
         let on_road = &self.on_road;
-        d.speeds(ids, &mut self.speeds)
+        d.speeds_of(ids, &mut self.speeds)
             .map_err(|e| failed(on_road, "getSpeed", e))?;
-        d.leaders(
+        d.leaders_of(
             ids,
             LOOKAHEAD_M,
             &mut self.leader_speeds,
             &mut self.leader_gaps,
         )
         .map_err(|e| failed(on_road, "getLeader", e))?;
-        d.allowed_speeds(ids, &mut self.limits)
+        d.allowed_speeds_of(ids, &mut self.limits)
             .map_err(|e| failed(on_road, "getAllowedSpeed", e))?;
         for (i, g) in self.on_road.iter_mut().enumerate() {
             let gap = self.leader_gaps[i];
@@ -199,7 +198,7 @@ impl<'a, 'py> Guests<'a, 'py> {
                 Err(stop) => return Ok(Some(stop)),
             }
         }
-        d.set_speeds(ids, &self.commands)
+        d.set_speeds_of(ids, &self.commands)
             .map_err(|e| failed(&self.on_road, "setSpeed", e))?;
         Ok(None)
     }

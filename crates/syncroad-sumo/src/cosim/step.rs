@@ -259,7 +259,7 @@ impl<'a, 'py> CoSim<'a, 'py> {
             self.send_commands()?;
         }
         if let Some(g) = self.guests.as_mut() {
-            let direct = self.reader.direct.as_ref().map(|d| d.others());
+            let direct = self.reader.direct.as_ref();
             if let Some(stop) = g.command(self.ls, direct, step, step as f64 * req.step_s)? {
                 return Ok(Some(stop));
             }

@@ -17,6 +17,8 @@
 
 use std::collections::HashMap;
 
+use indexmap::IndexSet;
+
 use pyo3::prelude::*;
 use pyo3::types::{PyString, PyTuple};
 use syncroad_control::scenario::SelectorMatch;
@@ -31,18 +33,30 @@ use crate::python::{py_error, PythonError};
 enum Who {
     /// One of syncroad's vehicles (its layout index).
     Ours(usize),
-    /// Another vehicle (its index among the others met, [`Topology::other_ids`]).
+    /// Another vehicle (its index among the others met, [`Topology::met`]).
     Other(usize),
     /// Nobody on the road's lanes.
     Nobody,
 }
 
 /// A place in the road's order: one of syncroad's vehicles (its layout index) or another
-/// (its index among the others met, [`Topology::other_ids`]).
+/// (its index among the others met, [`Topology::met`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Slot {
     Ours(usize),
     Other(usize),
+}
+
+/// What is known of another vehicle once met.
+#[derive(Debug, Clone, Copy, Default)]
+struct Met {
+    /// The read of the road's order it was last listed in (a vehicle listed on two lanes
+    /// keeps its first place).
+    listed: u64,
+    /// Its length, asked once \[m\].
+    length_m: Option<f64>,
+    /// Its vehicle type was looked up for `sumo.controlled`'s selection.
+    typed: bool,
 }
 
 /// The vehicles along the road, read each step, and the graph they give.
@@ -65,16 +79,11 @@ pub(crate) struct Topology<'py> {
     /// The others met so far, each given an index the first time it is listed (an open road
     /// meets thousands; a lookup per listed vehicle and step, no copy of its id after the
     /// first).
-    other_index: HashMap<String, usize>,
-    /// Their ids by that index.
-    other_ids: Vec<String>,
-    /// The read of the road's order each was last listed in (a vehicle listed on two lanes
-    /// keeps its first place).
-    other_listed: Vec<u64>,
+    met: IndexSet<String>,
+    /// What is known of each, by that index.
+    met_facts: Vec<Met>,
     /// Reads of the road's order so far.
     reads: u64,
-    /// Lengths of the others met so far, asked once each \[m\].
-    other_length_m: Vec<Option<f64>>,
     /// The vehicle seen ahead of each of ours at the step before.
     seen_ahead: Vec<Who>,
     /// This step's road order: (who, lane index).
@@ -92,8 +101,6 @@ pub(crate) struct Topology<'py> {
     pub changes: usize,
     /// `sumo.controlled`'s selection, when the law drives the user's own vehicles.
     chosen: Option<SelectorMatch>,
-    /// Others whose vehicle type was looked up for it (by index).
-    typed: Vec<bool>,
     /// Vehicles the selection chooses that came onto the road after the start (SUMO drives
     /// them, by their own vehicle type).
     pub chosen_later: usize,
@@ -146,11 +153,9 @@ impl<'py> Topology<'py> {
             our_ids: v.iter().map(|d| d.id.clone()).collect(),
             our_place: vec![None; n],
             our_length_m: v.iter().map(|d| d.length_m).collect(),
-            other_index: HashMap::new(),
-            other_ids: Vec::new(),
-            other_listed: Vec::new(),
+            met: IndexSet::new(),
+            met_facts: Vec::new(),
             reads: 0,
-            other_length_m: Vec::new(),
             seen_ahead,
             order: Vec::new(),
             others: Vec::new(),
@@ -158,7 +163,6 @@ impl<'py> Topology<'py> {
             changes: 0,
             order_current: false,
             chosen: req.adopt.as_ref().and_then(|s| s.matcher().ok()),
-            typed: Vec::new(),
             chosen_later: 0,
         })
     }
@@ -174,8 +178,8 @@ impl<'py> Topology<'py> {
         }
         if let Some(m) = &self.chosen {
             for &x in &self.others {
-                if !std::mem::replace(&mut self.typed[x], true) {
-                    let id = &self.other_ids[x];
+                if !std::mem::replace(&mut self.met_facts[x].typed, true) {
+                    let id = &self.met[x];
                     let t: String = ls
                         .call("vehicle_getTypeID", (id.as_str(),))?
                         .extract()
@@ -282,7 +286,7 @@ impl<'py> Topology<'py> {
     fn id(&self, p: usize) -> &str {
         match self.order[p].0 {
             Slot::Ours(j) => &self.our_ids[j],
-            Slot::Other(x) => &self.other_ids[x],
+            Slot::Other(x) => &self.met[x],
         }
     }
 
@@ -348,15 +352,15 @@ impl<'py> Topology<'py> {
             Slot::Ours(j) => return Ok(self.our_length_m[j]),
             Slot::Other(x) => x,
         };
-        if let Some(l) = self.other_length_m[x] {
+        if let Some(l) = self.met_facts[x].length_m {
             return Ok(l);
         }
-        let id = self.other_ids[x].as_str();
+        let id = self.met[x].as_str();
         let l: f64 = ls
             .call("vehicle_getLength", (id,))?
             .extract()
             .map_err(|e| py_error(py, format!("vehicle.getLength({id})"), e))?;
-        self.other_length_m[x] = Some(l);
+        self.met_facts[x].length_m = Some(l);
         Ok(l)
     }
 
@@ -390,19 +394,12 @@ impl<'py> Topology<'py> {
                     }
                     Some(_) => continue,
                     None => {
-                        let x = match self.other_index.get(id) {
-                            Some(&x) => x,
-                            None => {
-                                let x = self.other_ids.len();
-                                self.other_index.insert(id.to_string(), x);
-                                self.other_ids.push(id.to_string());
-                                self.other_listed.push(0);
-                                self.other_length_m.push(None);
-                                self.typed.push(false);
-                                x
-                            }
-                        };
-                        if std::mem::replace(&mut self.other_listed[x], self.reads) == self.reads {
+                        let x = self.met.get_index_of(id).unwrap_or_else(|| {
+                            self.met_facts.push(Met::default());
+                            self.met.insert_full(id.to_string()).0
+                        });
+                        let listed = &mut self.met_facts[x].listed;
+                        if std::mem::replace(listed, self.reads) == self.reads {
                             continue;
                         }
                         self.others.push(x);
