@@ -172,7 +172,7 @@ def test_a_second_thread_on_the_same_folder_is_refused_and_the_first_keeps_its_r
     with pytest.raises(syncroad.ScenarioError, match=r"^out = .*same: another call of this process \(pid \d+\) is writing this folder"):
         syncroad.run("scenarios/ring-theorem1.json", out=out, plots=False)
     release.set()
-    t.join(60)
+    t.join()
     assert isinstance(result["a"], syncroad.Run), result["a"]
     assert result["a"].metrics["sync"]["verdict"] == json.loads((out / "metrics.json").read_text())["sync"]["verdict"]
     # Free again once A is done.

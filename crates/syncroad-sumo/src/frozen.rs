@@ -66,29 +66,41 @@ impl FrozenWatch {
 mod tests {
     use super::*;
 
+    /// Polls `pid`'s state until `want` holds (a signal takes effect when the process next
+    /// runs, which on a loaded machine can be long after `kill` returned); the state last read.
+    fn state_once(pid: u32, want: impl Fn(Option<char>) -> bool) -> Option<char> {
+        let give_up = Instant::now() + Duration::from_secs(120);
+        loop {
+            let s = state_of(pid);
+            if want(s) || Instant::now() >= give_up {
+                return s;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    }
+
     #[test]
     fn a_stopped_process_reads_as_stopped_and_a_running_one_does_not() {
         let mut child = std::process::Command::new("sleep")
-            .arg("30")
+            .arg("300")
             .spawn()
             .unwrap();
         let pid = child.id();
-        std::thread::sleep(Duration::from_millis(100));
-        assert!(
-            matches!(state_of(pid), Some('S' | 'R')),
-            "{:?}",
-            state_of(pid)
-        );
+        let running = |s: Option<char>| matches!(s, Some('S' | 'R'));
+        let s = state_once(pid, running);
+        assert!(running(s), "{s:?}");
         // SAFETY: signalling our own child.
         unsafe { libc::kill(pid as i32, libc::SIGSTOP) };
-        std::thread::sleep(Duration::from_millis(100));
-        assert_eq!(state_of(pid), Some('T'));
+        assert_eq!(state_once(pid, |s| s == Some('T')), Some('T'));
         let mut w = FrozenWatch::new(pid);
         // Seen stopped, but not yet for the limit.
         assert_eq!(w.frozen(), None);
         assert!(w.since.is_some());
         unsafe { libc::kill(pid as i32, libc::SIGCONT) };
-        std::thread::sleep(Duration::from_millis(600));
+        let s = state_once(pid, running);
+        assert!(running(s), "{s:?}");
+        // The next probe (due after PROBE_EVERY) reads it running.
+        std::thread::sleep(PROBE_EVERY + Duration::from_millis(100));
         assert_eq!(w.frozen(), None);
         assert!(w.since.is_none(), "running again resets the clock");
         let _ = child.kill();
