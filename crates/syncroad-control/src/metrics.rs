@@ -234,8 +234,13 @@ pub fn sync_metrics_of(
             .fold(0.0, f64::max)
     });
     let diverged = s.iter().any(|x| !x.is_finite());
-    let verdict = if incomplete || diverged {
+    // A run cut off before its horizon has no verdict of its own but a diverged spread: what
+    // it would have done is not known (the caller says why it stopped, and a stop that is a
+    // finding, such as a divergence or a lost vehicle, makes it "not synchronized").
+    let verdict = if diverged {
         Verdict::NotSynchronized
+    } else if incomplete {
+        Verdict::Inconclusive
     } else if window_max <= thresholds.tolerance_mps {
         Verdict::Synchronized
     } else if rate.is_none_or(|r| r >= -1e-3) {
@@ -258,7 +263,7 @@ pub fn sync_metrics_of(
         verdict: if measured {
             verdict
         } else {
-            Verdict::NotSynchronized
+            Verdict::Inconclusive
         },
         verdict_reason: (!measured).then(|| "the run produced no sample".to_string()),
         thresholds,
@@ -328,14 +333,15 @@ mod tests {
         assert_eq!(m.window_max_spread_mps, None);
         assert_eq!(m.spread_l2, None);
         assert_eq!(m.time_to_tolerance_s, None);
-        assert_eq!(m.verdict, Verdict::NotSynchronized);
+        // Nothing measured, nothing judged.
+        assert_eq!(m.verdict, Verdict::Inconclusive);
         assert_eq!(
             m.verdict_reason.as_deref(),
             Some("the run produced no sample")
         );
         // Even one that claims to be complete.
         let m = sync_metrics(&Trajectory::new(3), TH, None, false);
-        assert_eq!(m.verdict, Verdict::NotSynchronized);
+        assert_eq!(m.verdict, Verdict::Inconclusive);
     }
 
     #[test]
@@ -378,7 +384,7 @@ mod tests {
     }
 
     #[test]
-    fn incomplete_runs_are_never_synchronized() {
+    fn incomplete_runs_are_never_synchronized_and_inconclusive_unless_diverged() {
         let tr = traj_from(|_| 0.0, 10.0, 0.1);
         assert_eq!(
             sync_metrics(&tr, TH, None, false).verdict,
@@ -386,7 +392,20 @@ mod tests {
         );
         assert_eq!(
             sync_metrics(&tr, TH, None, true).verdict,
+            Verdict::Inconclusive
+        );
+        // Cut off with a spread that had already blown up: that much is known.
+        let blown = traj_from(|t| if t > 5.0 { f64::INFINITY } else { 1.0 }, 10.0, 0.1);
+        assert_eq!(
+            sync_metrics(&blown, TH, None, true).verdict,
             Verdict::NotSynchronized
+        );
+        // A run that produced no sample has no verdict either.
+        let none = sync_metrics(&Trajectory::default(), TH, None, true);
+        assert_eq!(none.verdict, Verdict::Inconclusive);
+        assert_eq!(
+            none.verdict_reason.as_deref(),
+            Some("the run produced no sample")
         );
     }
 }

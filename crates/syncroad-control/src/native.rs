@@ -565,6 +565,14 @@ mod tests {
         let out = output(&sc, run);
         let m = evaluate(&sc, &out, EvalOptions::of(&sc)).sync;
         assert!(m.incomplete);
-        assert_eq!(m.verdict, crate::metrics::Verdict::NotSynchronized);
+        // Cut off by a signal: what the run would have done is not known.
+        assert_eq!(m.verdict, crate::metrics::Verdict::Inconclusive);
+        assert!(
+            m.verdict_reason
+                .as_deref()
+                .is_some_and(|r| r.contains("interrupted") && r.contains("not known")),
+            "{:?}",
+            m.verdict_reason
+        );
     }
 }

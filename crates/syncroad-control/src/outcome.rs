@@ -132,7 +132,45 @@ fn judged(
     if let Some(reason) = standstill(&run.trajectory, &sync) {
         sync.overrule(Verdict::NotSynchronized, reason);
     }
+    if let Some(reason) = stopped_early(&run.stop) {
+        sync.overrule(reason.0, reason.1);
+    }
     sync
+}
+
+/// What a run that stopped before its horizon may still be called, and why: a stop that is a
+/// finding ([`StopReason::is_finding`]) makes it "not synchronized"; a run cut off by anything
+/// else is at best "inconclusive", whatever its spread did before the cut.
+fn stopped_early(stop: &StopReason) -> Option<(Verdict, String)> {
+    let finding = stop.is_finding()?;
+    let what = match stop {
+        StopReason::Diverged { time_s, .. } => format!("its speeds diverged at t = {time_s} s"),
+        StopReason::NonFiniteCommand { step, .. } => {
+            format!("the law commanded a non-finite speed at step {step}")
+        }
+        StopReason::VehicleLost { vehicle, step, .. } => {
+            format!("vehicle {vehicle} left the road at step {step}")
+        }
+        StopReason::Interrupted { time_s, .. } => {
+            format!("the run was interrupted at t = {time_s:.3} s, before its horizon")
+        }
+        StopReason::ControllerFailed { time_s, .. } => format!(
+            "the controller failed at t = {time_s:.3} s: the run was cut off before its horizon"
+        ),
+        StopReason::StoppedByController { time_s, .. } => {
+            format!("the controller ended the run at t = {time_s:.3} s, before its horizon")
+        }
+        StopReason::Failed { .. } => "the run failed before its horizon".to_string(),
+        StopReason::Horizon => return None,
+    };
+    Some(if finding {
+        (Verdict::NotSynchronized, what)
+    } else {
+        (
+            Verdict::Inconclusive,
+            format!("{what}; what its spread would have done is not known"),
+        )
+    })
 }
 
 /// The verdict of a run without a fixed set of vehicles (`"vehicles": 0`: only an inflow's

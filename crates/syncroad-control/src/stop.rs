@@ -79,6 +79,24 @@ impl StopReason {
         matches!(self, StopReason::Horizon)
     }
 
+    /// What an early stop says about the run's verdict: `Some(true)` when the stop is itself a
+    /// finding about the law (its speeds diverged, it commanded a non-finite speed, a vehicle
+    /// was lost: the run did not synchronize), `Some(false)` when the run was cut off by
+    /// something else (a failure, a signal, the user's controller raising or ending the run:
+    /// what the law would have done is not known), `None` when it reached its horizon.
+    pub fn is_finding(&self) -> Option<bool> {
+        match self {
+            StopReason::Horizon => None,
+            StopReason::Diverged { .. }
+            | StopReason::NonFiniteCommand { .. }
+            | StopReason::VehicleLost { .. } => Some(true),
+            StopReason::Interrupted { .. }
+            | StopReason::ControllerFailed { .. }
+            | StopReason::StoppedByController { .. }
+            | StopReason::Failed { .. } => Some(false),
+        }
+    }
+
     /// Why the run stopped early, in words; `None` when it reached the horizon.
     pub fn message(&self) -> Option<String> {
         match self {

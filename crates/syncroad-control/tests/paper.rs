@@ -269,8 +269,36 @@ fn unstable_ring_is_not_synchronized() {
         None,
         !matches!(run.stop, syncroad_control::StopReason::Horizon),
     );
-    assert_eq!(m.verdict, Verdict::NotSynchronized);
     assert!(m.decay_rate_per_s.unwrap() > 0.0);
+    // The spread alone, cut off before the horizon, is no verdict; the stop is the finding:
+    // the speeds diverged, so the run did not synchronize.
+    assert!(
+        matches!(run.stop, syncroad_control::StopReason::Diverged { .. }),
+        "{:?}",
+        run.stop
+    );
+    assert_eq!(m.verdict, Verdict::Inconclusive);
+    let out = syncroad_control::RunOutput {
+        trajectory: run.trajectory,
+        stop: run.stop,
+        ring_length_m: sc.ring_length_m(),
+        sumo: None,
+        spread: Some(run.spread),
+        collisions: Some(run.collisions),
+        drivers: None,
+        safety_layer: None,
+    };
+    let judged = syncroad_control::evaluate(&sc, &out, syncroad_control::EvalOptions::of(&sc));
+    assert_eq!(judged.sync.verdict, Verdict::NotSynchronized);
+    assert!(
+        judged
+            .sync
+            .verdict_reason
+            .as_deref()
+            .is_some_and(|r| r.contains("its speeds diverged")),
+        "{:?}",
+        judged.sync.verdict_reason
+    );
 }
 
 /// CACC platoon satisfying Theorem thm.cacc reaches speed v_0 and gaps s_i.

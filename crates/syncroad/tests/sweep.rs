@@ -460,6 +460,93 @@ fn a_sweep_runs_the_users_controller_and_hashes_its_source() {
     );
 }
 
+/// A controller that raises is a failed point, not a result: counted as failed, the sweep
+/// exits 3, its rows say `failed` with the controller's error (and no verdict of the run
+/// that never finished), and `--retry-failed` runs them again once the controller is mended.
+#[test]
+fn a_controller_that_raises_fails_its_points_and_retry_failed_runs_them_again() {
+    let dir = tmpdir("sweep-raising-controller");
+    let flag = dir.join("broken");
+    std::fs::write(&flag, "").unwrap();
+    let law = dir.join("law.py");
+    std::fs::write(
+        &law,
+        format!(
+            "import os\n\nclass Law:\n    def step(self, obs):\n        if obs.step == 25 and os.path.exists({:?}):\n            raise RuntimeError('the law broke')\n        return obs.speed_mps\n",
+            flag.display().to_string()
+        ),
+    )
+    .unwrap();
+    let mut sc: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(repo().join("scenarios/sugiyama-python.json")).unwrap(),
+    )
+    .unwrap();
+    sc["horizon_s"] = 10.into();
+    sc["controller"] = serde_json::json!({"python": format!("{}:Law", law.display())});
+    sc["sumo"]["net"] = repo()
+        .join("sumo-nets/sugiyama-ring.net.xml")
+        .display()
+        .to_string()
+        .into();
+    let base = dir.join("sc.json");
+    std::fs::write(&base, sc.to_string()).unwrap();
+    let spec = write_spec(
+        &dir,
+        &format!(
+            r#"{{"base": "{}", "backend": "sumo", "seeds": [1, 2, 3],
+                "metrics": ["sync.verdict"]}}"#,
+            base.display()
+        ),
+    );
+    let out = dir.join("out");
+    let sweep = |extra: &[&str]| {
+        run(bin()
+            .arg("sweep")
+            .arg(&spec)
+            .arg("--no-plots")
+            .args(extra)
+            .arg("--out")
+            .arg(&out))
+    };
+    let (code, stdout, err) = sweep(&[]);
+    assert_eq!(code, 3, "{stdout}{err}");
+    assert!(stdout.contains("ran 3 (3 failed)"), "{stdout}");
+    // The rows as the sweep streamed them (the table's error cells hold commas).
+    let rows: Vec<serde_json::Value> = (0..3)
+        .map(|k| {
+            serde_json::from_str(
+                &std::fs::read_to_string(out.join(format!("rows/{k:07}.json"))).unwrap(),
+            )
+            .unwrap()
+        })
+        .collect();
+    for row in &rows {
+        assert_eq!(row["status"], "failed", "{row}");
+        assert_eq!(row["stop"], "controller_failed", "{row}");
+        assert!(
+            row["error"]
+                .as_str()
+                .unwrap()
+                .contains("RuntimeError: the law broke"),
+            "{row}"
+        );
+        // A run cut off by its controller has no verdict of its own.
+        assert_eq!(row["sync.verdict"], "inconclusive", "{row}");
+    }
+    // Mended: a plain resume keeps the failed rows; --retry-failed runs them again.
+    std::fs::remove_file(&flag).unwrap();
+    let (code, stdout, _) = sweep(&[]);
+    assert_eq!(code, 3, "{stdout}");
+    assert!(
+        stdout.contains("ran 0 (0 failed), 3 finished before"),
+        "{stdout}"
+    );
+    let (code, stdout, err) = sweep(&["--retry-failed"]);
+    assert_eq!(code, 0, "{stdout}{err}");
+    assert!(stdout.contains("ran 3 (0 failed)"), "{stdout}");
+    assert_eq!(column(&csv(&out), "status"), ["complete"; 3]);
+}
+
 /// A ring that names its network runs on the ring the network measures on both backends: the
 /// shipped noisy-human ring (`road.length_m` 230, SUMO's ring 230.3592 m) gives the same mean
 /// speed natively and in SUMO, seed by seed (the stochastic humans are computed alike on both),

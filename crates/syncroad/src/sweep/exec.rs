@@ -116,7 +116,10 @@ fn row_of(sweep: &Sweep, p: &Point, record: &Value) -> Map<String, Value> {
     let reason = at_path(record, "stop.reason").as_str().unwrap_or("failed");
     let status = if record["complete"].as_bool() == Some(true) {
         "complete"
-    } else if reason == "failed" {
+    } else if matches!(reason, "failed" | "controller_failed") {
+        // The run failed (a worker that died, a time limit) or the user's controller raised or
+        // returned what is not a speed: a bug in the law is no finding about it, so the point
+        // counts as failed and `--retry-failed` runs it again.
         "failed"
     } else {
         // Diverged, a non-finite command, a lost vehicle: a result, not a failure.
