@@ -77,7 +77,7 @@ pub use replay::{
 pub use result_file::{write_result, write_result_via_path, ResultFileError};
 pub use signals::{
     clear_interrupt, host_delivers_interrupts, interrupt, received as interrupt_signal,
-    received_name as interrupt_signal_name,
+    received_name as interrupt_signal_name, survive_file_size_limit,
 };
 pub use supervisor::{
     interrupt_flag, RowsHook, RowsProgress, StartHook, SupervisorError, WorkerCommand, WorkerPool,

@@ -1,6 +1,7 @@
 //! The result of a SUMO run seen from the parent: every row the worker streamed and how the run
 //! ended, turned into a [`RunOutput`] comparable with the native simulator's.
 
+use std::io::Write as _;
 use std::path::Path;
 
 use syncroad_control::metrics::{spread_of_range, SpreadSeries};
@@ -183,7 +184,10 @@ impl SumoRun {
                 Ok(s) => Some(s),
                 Err(e) => {
                     // The run itself is fine; its record says no SSM was measured.
-                    eprintln!("warning: {e}; the record has no safety margins");
+                    let _ = writeln!(
+                        std::io::stderr(),
+                        "warning: {e}; the record has no safety margins"
+                    );
                     None
                 }
             });
@@ -196,7 +200,10 @@ impl SumoRun {
                 |f| match crate::summary::read(f, warmup_s, self.request.step_s) {
                     Ok(a) => Some(a),
                     Err(e) => {
-                        eprintln!("warning: {e}; the record has no metrics of all vehicles");
+                        let _ = writeln!(
+                            std::io::stderr(),
+                            "warning: {e}; the record has no metrics of all vehicles"
+                        );
                         None
                     }
                 },

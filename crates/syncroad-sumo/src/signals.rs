@@ -71,6 +71,24 @@ pub fn interrupt_flag() -> Result<Arc<AtomicBool>, String> {
         .map(|()| flag)
 }
 
+/// Makes a file-size limit (`ulimit -f`, a quota that sends SIGXFSZ) a failed write instead
+/// of a silent death: SIGXFSZ's default action ends the process at once, with no record and
+/// a temporary file left behind. With a handler installed (it only notes the signal, which is
+/// async-signal-safe) the write that passed the limit fails with `EFBIG`, and the run's files
+/// take the path of a full disk: a message naming the file, the record kept under an unsaved
+/// name, no temporary file left. Call once at the start of a process that writes run files
+/// (the CLI and its workers; CPython ignores SIGXFSZ itself).
+pub fn survive_file_size_limit() -> Result<(), String> {
+    static INSTALLED: OnceLock<Result<(), String>> = OnceLock::new();
+    INSTALLED
+        .get_or_init(|| {
+            signal_hook::flag::register(libc::SIGXFSZ, Arc::new(AtomicBool::new(false)))
+                .map(|_| ())
+                .map_err(|e| format!("cannot handle signal SIGXFSZ: {e}"))
+        })
+        .clone()
+}
+
 /// The last handled signal received, if any.
 pub fn received() -> Option<i32> {
     let s = received_cell().load(Ordering::SeqCst);

@@ -30,7 +30,7 @@ pub fn load_scenario(path: &Path) -> anyhow::Result<Scenario> {
 pub fn note_config(sc: &Scenario) {
     let s = sc.sumo();
     if let (Some(c), false) = (s.config(), s.config_ignored().is_empty()) {
-        eprintln!(
+        crate::stdout::errln!(
             "note: sumo.config {}: syncroad takes its net-file, route-files and additional-files; not given to SUMO (the scenario sets time, step and seed, and outputs go to the run folder): {}",
             c.display(),
             s.config_ignored().join(", ")
@@ -44,7 +44,7 @@ pub fn note_fixed_graph(sc: &Scenario) {
     let Some((field, _)) = sc.sumo().other_traffic_source() else {
         return;
     };
-    eprintln!(
+    crate::stdout::errln!(
         "note: {field} adds other traffic; in SUMO the law takes its graph from the road each step (who is ahead of and behind each vehicle on its lane), so where that traffic changes lanes into or out of the controlled lane or merges into it the graph changes (a run counts it as safety.topology_changes and leaves `certified` empty), and the results above hold for the scenario's fixed graph only"
     );
 }
@@ -56,7 +56,7 @@ pub fn note_own_controller(sc: &Scenario) -> bool {
         return false;
     };
     let (field, value) = c.named_by();
-    eprintln!(
+    crate::stdout::errln!(
         "note: {field} = {value}: the scenario's runs are driven by {}; the analysis above is of its model's law (model), not of that controller",
         c.label()
     );
@@ -72,7 +72,7 @@ pub fn note_measured_road(sc: &Scenario) {
         },
     ) = (sc.measured_road(), sc.road())
     {
-        eprintln!(
+        crate::stdout::errln!(
             "road: the shortest cycle through `{t}` on lane {}: {} ({} edges, {:.3} m)",
             m.lanes.first().copied().unwrap_or(0),
             m.edges.join(" "),

@@ -31,7 +31,7 @@ pub fn of(result: &anyhow::Result<Status>) -> u8 {
     let bad_input = matches!(result, Err(e) if e.chain().any(|c| c.is::<InputError>()));
     if syncroad_sumo::interrupt_signal().is_some() && !bad_input {
         if !matches!(result, Ok(Status::Interrupted)) {
-            eprintln!(
+            crate::stdout::errln!(
                 "error: interrupted ({}) after the runs; the files written are complete, the command did not finish",
                 syncroad_sumo::interrupt_signal_name()
             );

@@ -104,7 +104,7 @@ where
     };
     let ended = run_parsed(parsed, false);
     if let Some(err) = &ended.error {
-        eprintln!("error: {err}");
+        crate::stdout::errln!("error: {err}");
     }
     ended.code
 }

@@ -266,7 +266,7 @@ pub fn rescue_record(dir: &Path, record: &RunRecord) -> String {
             return format!("in {}", path.display());
         }
     }
-    eprintln!("{text}");
+    crate::stdout::errln!("{text}");
     "on stderr (above)".to_string()
 }
 

@@ -66,7 +66,7 @@ impl Progress {
                 }
             }
             None if self.quiet => {}
-            None => eprintln!(
+            None => crate::stdout::errln!(
                 "{}: [{d:>2}/{} done, {:6.1} s] {item} {}",
                 self.label,
                 self.total,
@@ -121,7 +121,7 @@ impl Ticker {
                     return;
                 }
                 if now >= next || (state.changed && now >= start + after) {
-                    eprintln!(
+                    crate::stdout::errln!(
                         "{label}: {} ({:.1} s so far)",
                         state.step,
                         start.elapsed().as_secs_f64()
@@ -231,7 +231,7 @@ impl RunProgress {
                     return;
                 }
                 *last = Some(Instant::now());
-                eprintln!("{}: {}", self.label, self.status(time_s, samples, elapsed));
+                crate::stdout::errln!("{}: {}", self.label, self.status(time_s, samples, elapsed));
             }
             Shown::Bar(bar) => {
                 if bar.is_none() && elapsed >= Self::BAR_AFTER_S {

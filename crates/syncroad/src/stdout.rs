@@ -83,4 +83,14 @@ macro_rules! outln {
     };
 }
 
-pub(crate) use {out, outln};
+/// `eprintln!` that never panics: with stderr closed (`syncroad … 2>&1 | head -1`) the
+/// message is dropped and the command goes on to its own exit code. `eprintln!` panics on a
+/// failed write, which would end the command with Rust's 101.
+macro_rules! errln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr().lock(), $($arg)*);
+    }};
+}
+
+pub(crate) use {errln, out, outln};

@@ -59,42 +59,51 @@ fn a_folder_where_a_file_goes_is_refused_before_the_run() {
 #[test]
 fn a_full_disk_loses_no_verdict_and_leaves_no_cut_off_file_nor_an_earlier_record() {
     // A file-size limit of 64 KiB stands in for a full disk (the write fails with EFBIG as it
-    // would with ENOSPC); the CSV of this run is about 2 MB.
-    let dir = tmpdir("full-disk");
-    std::fs::write(dir.join("metrics.json"), r#"{"complete": true}"#).unwrap();
-    let mut cmd = simulate(&dir);
-    unsafe {
-        cmd.pre_exec(|| {
-            libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
-            let lim = libc::rlimit {
-                rlim_cur: 64 * 1024,
-                rlim_max: 64 * 1024,
-            };
-            if libc::setrlimit(libc::RLIMIT_FSIZE, &lim) != 0 {
-                return Err(std::io::Error::last_os_error());
-            }
-            Ok(())
-        });
+    // would with ENOSPC); the CSV of this run is about 2 MB. With SIGXFSZ ignored, and at its
+    // default, where passing the limit used to kill the command with nothing written but a
+    // temporary file (`ulimit -f` in a batch script): both end as a full disk does.
+    for ignored in [true, false] {
+        let dir = tmpdir(&format!("full-disk-{ignored}"));
+        std::fs::write(dir.join("metrics.json"), r#"{"complete": true}"#).unwrap();
+        let mut cmd = simulate(&dir);
+        unsafe {
+            cmd.pre_exec(move || {
+                let action = if ignored {
+                    libc::SIG_IGN
+                } else {
+                    libc::SIG_DFL
+                };
+                libc::signal(libc::SIGXFSZ, action);
+                let lim = libc::rlimit {
+                    rlim_cur: 64 * 1024,
+                    rlim_max: 64 * 1024,
+                };
+                if libc::setrlimit(libc::RLIMIT_FSIZE, &lim) != 0 {
+                    return Err(std::io::Error::last_os_error());
+                }
+                Ok(())
+            });
+        }
+        let (code, out, err) = run(&mut cmd);
+        assert_eq!(code, 3, "SIGXFSZ ignored: {ignored}: {out}{err}");
+        assert!(out.contains("verdict: synchronized"), "{out}");
+        assert!(
+            err.contains("cannot write") && err.contains("trajectories.csv"),
+            "{err}"
+        );
+        // No cut-off CSV, no temporary file, and the earlier run's record is gone; this run's
+        // record is kept whole under a new name that the error gives.
+        let left = listing(&dir);
+        assert_eq!(left.len(), 1, "{left:?}");
+        assert!(
+            left[0].starts_with("metrics.unsaved-") && left[0].ends_with(".json"),
+            "{left:?}"
+        );
+        assert!(err.contains(&left[0]), "{err}");
+        let kept: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join(&left[0])).unwrap()).unwrap();
+        assert_eq!(kept["sync"]["verdict"], "synchronized", "{kept}");
     }
-    let (code, out, err) = run(&mut cmd);
-    assert_eq!(code, 3, "{out}{err}");
-    assert!(out.contains("verdict: synchronized"), "{out}");
-    assert!(
-        err.contains("cannot write") && err.contains("trajectories.csv"),
-        "{err}"
-    );
-    // No cut-off CSV, no temporary file, and the earlier run's record is gone; this run's
-    // record is kept whole under a new name that the error gives.
-    let left = listing(&dir);
-    assert_eq!(left.len(), 1, "{left:?}");
-    assert!(
-        left[0].starts_with("metrics.unsaved-") && left[0].ends_with(".json"),
-        "{left:?}"
-    );
-    assert!(err.contains(&left[0]), "{err}");
-    let kept: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join(&left[0])).unwrap()).unwrap();
-    assert_eq!(kept["sync"]["verdict"], "synchronized", "{kept}");
 }
 
 #[test]
@@ -126,6 +135,49 @@ fn a_closed_stdout_stops_printing_but_not_the_run() {
                 ["metrics.json", "road.json", "trajectories.csv"]
             );
         }
+    }
+}
+
+/// `syncroad … 2>&1 | head -1`: once the reader is gone, stderr meets EPIPE too. Writing an
+/// error, a warning or progress there must not panic (exit 101): the command keeps its own
+/// exit code. Here the reader is gone before the first byte, so every write to either stream
+/// fails, whatever the machine's timing.
+#[test]
+fn a_closed_stderr_never_panics_and_keeps_the_exit_code() {
+    let dir = tmpdir("epipe-stderr");
+    let ring = repo().join("scenarios/ring-theorem1.json");
+    let sugiyama = repo().join("scenarios/sugiyama-ring.json");
+    let missing = dir.join("missing.json");
+    let cases: Vec<(Vec<std::ffi::OsString>, i32)> = vec![
+        (vec!["schema".into()], 0),
+        (vec!["--help".into()], 0),
+        (vec!["check".into(), ring.clone().into()], 0),
+        (vec!["stability".into(), sugiyama.clone().into()], 0),
+        (vec!["check".into(), missing.clone().into()], 2),
+        (vec!["frobnicate".into()], 2),
+        (
+            vec![
+                "simulate".into(),
+                ring.clone().into(),
+                "--out".into(),
+                dir.join("run").into(),
+                "--no-plots".into(),
+                "--progress".into(),
+                "lines".into(),
+            ],
+            0,
+        ),
+    ];
+    for (args, want) in cases {
+        let (reader, writer) = std::io::pipe().unwrap();
+        drop(reader);
+        let o = bin()
+            .args(&args)
+            .stdout(writer.try_clone().unwrap())
+            .stderr(writer)
+            .output()
+            .unwrap();
+        assert_eq!(o.status.code(), Some(want), "{args:?}");
     }
 }
 

@@ -77,7 +77,7 @@ pub fn run(path: &Path, json: bool) -> anyhow::Result<Status> {
         } else {
             0
         };
-        eprintln!(
+        crate::stdout::errln!(
             "note: the scenario's mixed block drives {} of its {n} vehicles otherwise than by the law (humans: {}, automated: {}); the conditions above are for the ring with the law on every vehicle and do not certify this scenario",
             n - law,
             m.human,

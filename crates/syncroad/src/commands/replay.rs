@@ -116,14 +116,14 @@ pub fn run(dir: &Path, snapshot: Option<&Path>, at_s: f64, print: bool) -> anyho
             );
         }
         if !out.status.success() {
-            eprintln!(
+            crate::stdout::errln!(
                 "note: sumo-gui {} while quitting, after it wrote the snapshot",
                 exit_words(&out.status)
             );
         }
         outln!("wrote {} (the replay at t = {at_s} s)", p.display());
     } else if !out.status.success() {
-        eprintln!("note: sumo-gui {}: {said}", exit_words(&out.status));
+        crate::stdout::errln!("note: sumo-gui {}: {said}", exit_words(&out.status));
     }
     Ok(Status::Success)
 }

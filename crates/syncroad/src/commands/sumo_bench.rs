@@ -16,7 +16,7 @@ use crate::stdout::{out, outln};
 /// N = 2000 (or the cases `sel` keeps); prints a table, optionally writes JSON.
 pub fn run(sel: &Selection, json_out: Option<&Path>) -> anyhow::Result<Status> {
     let worker = WorkerCommand::for_process().context("cannot locate the syncroad executable")?;
-    let results = match run_standard(&worker, sel, &mut |l: &str| eprintln!("{l}")) {
+    let results = match run_standard(&worker, sel, &mut |l: &str| crate::stdout::errln!("{l}")) {
         // Refused before any measurement: bad input (exit 2), not a failed run.
         Err(e @ BenchError::UnknownCase { .. }) => {
             return Err(crate::error::InputError::new(format!("sumo-bench {e}")).into())
@@ -61,8 +61,9 @@ pub fn step_time(paths: &[std::path::PathBuf]) -> anyhow::Result<Status> {
         .tempdir()
         .context("a temporary folder for the runs")?;
     let work = tmp.path().join("runs");
-    let mut progress =
-        |k: usize, t: f64| eprintln!("{}: inside simulation.step {t:.4} s", paths[k].display());
+    let mut progress = |k: usize, t: f64| {
+        crate::stdout::errln!("{}: inside simulation.step {t:.4} s", paths[k].display())
+    };
     let times = syncroad_sumo::bench::step_seconds(&worker, &scenarios, &work, &mut progress);
     drop(tmp);
     let times = times?;

@@ -124,14 +124,14 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<Status> {
         out.display()
     );
     if summary.interrupted > 0 {
-        eprintln!(
+        crate::stdout::errln!(
             "error: interrupted; {} points not run. Run the same command again to finish them.",
             summary.interrupted
         );
         return Ok(Status::Interrupted);
     }
     if failed > 0 {
-        eprintln!(
+        crate::stdout::errln!(
             "error: some points failed; their rows hold the error (status = \"failed\"); --retry-failed runs them again"
         );
         return Ok(Status::RunFailed);
@@ -312,7 +312,7 @@ fn collect(
     if !missing.is_empty() {
         ok = false;
         let shown: Vec<String> = missing.iter().take(20).map(usize::to_string).collect();
-        eprintln!(
+        crate::stdout::errln!(
             "error: {} points missing: {}{} (run their shards again; finished points are skipped)",
             missing.len(),
             shown.join(", "),
@@ -321,7 +321,7 @@ fn collect(
     }
     if !duplicated.is_empty() {
         ok = false;
-        eprintln!(
+        crate::stdout::errln!(
             "error: {} points duplicated: {} (the first copy is kept)",
             duplicated.len(),
             duplicated

@@ -104,7 +104,7 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<Status> {
     }
     let failed: Vec<&RunResult> = results.iter().filter(|r| !r.complete()).collect();
     for r in &failed {
-        eprintln!("error: run {} failed: {}", r.name, r.error().unwrap_or("?"));
+        crate::stdout::errln!("error: run {} failed: {}", r.name, r.error().unwrap_or("?"));
     }
     Ok(if failed.is_empty() {
         Status::Success

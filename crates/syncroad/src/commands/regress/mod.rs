@@ -111,7 +111,7 @@ pub fn run(
         None => fresh_metrics(&base, baseline_path)?,
     };
     if syncroad_sumo::interrupt_signal().is_some() {
-        eprintln!(
+        crate::stdout::errln!(
             "regress {}: interrupted; the baseline was neither compared nor updated",
             baseline_path.display()
         );
@@ -145,7 +145,7 @@ pub fn run(
     }
     let stamps_ok = c.stamp_notes.is_empty() || !reports.strict;
     if !stamps_ok {
-        eprintln!(
+        crate::stdout::errln!(
             "regress {}: the baseline was recorded on another version or platform, and --strict is given",
             baseline_path.display()
         );
