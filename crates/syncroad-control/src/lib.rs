@@ -25,7 +25,8 @@
 //! * [`controller`] — the one law object both backends step; [`sensed`] — its graph as SUMO
 //!   sees it each step, when other traffic shares the road; [`user_law`] — the user's own
 //!   law as data (a Python class, built by a [`LawHost`] of a crate that embeds Python, or a
-//!   Rust law of the program's [`registry`]);
+//!   Rust law of the program's [`registry`]); [`user_text`] — the user's text (an
+//!   exception, a worker's output) escaped, set off and cut on its way to a message;
 //! * [`safety`] — the safety layer between every law and the command (`off`, SUMO's checks,
 //!   or syncroad's safe-speed filter);
 //! * [`native`] — the fixed-step simulator; [`stop`] — why a run stopped; [`observer`] — the
@@ -83,6 +84,7 @@ pub mod sumo_facts;
 pub mod theory;
 pub mod trajectory;
 pub mod user_law;
+pub mod user_text;
 
 pub use actuation::{AccelLimits, ActuationError};
 pub use cacc::{CaccLaw, PlatoonView, PowertrainLag};

@@ -97,7 +97,20 @@ impl StopReason {
         }
     }
 
-    /// Why the run stopped early, in words; `None` when it reached the horizon.
+    /// The user's whole text behind an early stop, when [`StopReason::message`] shows only
+    /// part of it (the run's writer puts it in [`crate::user_text::FULL_TEXT_FILE`]).
+    pub fn full_text(&self) -> Option<&str> {
+        match self {
+            StopReason::ControllerFailed { error, .. } | StopReason::Failed { error } => {
+                crate::user_text::is_cut(error).then_some(error.as_str())
+            }
+            _ => None,
+        }
+    }
+
+    /// Why the run stopped early, in words; `None` when it reached the horizon. The user's
+    /// text in it (a controller's exception, a worker's last output) is escaped and cut
+    /// ([`crate::user_text`]).
     pub fn message(&self) -> Option<String> {
         match self {
             StopReason::Horizon => None,
@@ -135,12 +148,13 @@ impl StopReason {
                 time_s,
                 error,
             } => Some(format!(
-                "the controller failed at t = {time_s:.3} s (step {step}); the rows before it are written, marked incomplete:\n{error}"
+                "the controller failed at t = {time_s:.3} s (step {step}); the rows before it are written, marked incomplete:\n{}",
+                crate::user_text::shown(error)
             )),
             StopReason::StoppedByController { step, time_s, why } => Some(format!(
                 "the controller ended the run at t = {time_s:.3} s (step {step}): {why}; the rows before it are written, marked incomplete"
             )),
-            StopReason::Failed { error } => Some(error.clone()),
+            StopReason::Failed { error } => Some(crate::user_text::capped(error)),
         }
     }
 }

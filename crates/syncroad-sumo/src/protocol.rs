@@ -256,6 +256,12 @@ pub enum WorkerMsg {
         /// The error, with its Python traceback when there is one.
         message: String,
     },
+    /// The worker refused the run before SUMO started: its law could not be built (the
+    /// user's controller: a missing file or class, parameters its `__init__` refused).
+    Refused {
+        /// Why, with the Python traceback when there is one.
+        message: String,
+    },
 }
 
 /// What the worker found when SUMO started.

@@ -45,21 +45,53 @@ pub fn py_error(py: Python<'_>, call: impl Into<String>, err: PyErr) -> PythonEr
     }
 }
 
-/// `traceback.format_exception(err)` joined, falling back to the exception's `str`.
+/// Formats an exception as `traceback.format_exception` does, without syncroad's own frames
+/// (its adapter and loader, compiled from `syncroad_*.py`) and importlib's (`<frozen
+/// importlib._bootstrap>`), in the exception and in those it was raised from: what is left is
+/// the user's code. The chained exceptions are cleaned alike.
+const FORMAT: &std::ffi::CStr = pyo3::ffi::c_str!(
+    r#"
+import traceback
+
+HIDDEN = ("syncroad_user_law.py", "syncroad_libsumo_loader.py")
+
+
+def _hidden(filename):
+    return filename in HIDDEN or filename.startswith("<frozen importlib")
+
+
+def format_exception(kind, value, tb):
+    te = traceback.TracebackException(kind, value, tb)
+    seen = set()
+    todo = [te]
+    while todo:
+        e = todo.pop()
+        if e is None or id(e) in seen:
+            continue
+        seen.add(id(e))
+        e.stack = traceback.StackSummary.from_list([f for f in e.stack if not _hidden(f.filename)])
+        todo += [e.__cause__, e.__context__]
+    return "".join(te.format())
+"#
+);
+
+/// The exception formatted without syncroad's frames ([`FORMAT`]) and cut to
+/// [`syncroad_control::user_text::KEPT_BYTES`], falling back to the exception's `str`.
 fn format_exception(py: Python<'_>, err: &PyErr) -> String {
     let formatted = (|| -> PyResult<String> {
-        let tb = py.import("traceback")?;
-        let lines = tb.call_method1(
-            "format_exception",
-            (err.get_type(py), err.value(py), err.traceback(py)),
-        )?;
-        let text: Vec<String> = lines.extract()?;
-        Ok(text.concat())
+        let module = PyModule::from_code(py, FORMAT, c"syncroad_format.py", c"syncroad_format")?;
+        module
+            .call_method1(
+                "format_exception",
+                (err.get_type(py), err.value(py), err.traceback(py)),
+            )?
+            .extract()
     })();
-    match formatted {
+    let text = match formatted {
         Ok(s) => s.trim_end().to_string(),
         Err(_) => err.to_string(),
-    }
+    };
+    syncroad_control::user_text::kept(text)
 }
 
 /// Where a worker imports the SUMO packages (eclipse-sumo, libsumo) from.

@@ -228,6 +228,10 @@ pub enum SupervisorError {
     /// The worker reported a clean failure.
     #[error("{0}")]
     Worker(String),
+    /// The worker refused the run before SUMO started: its law could not be built (the
+    /// user's controller: its file, class or parameters). Bad input, not a failed run.
+    #[error("{0}")]
+    Refused(String),
     /// The stream from the worker was corrupted.
     #[error("protocol error talking to the SUMO worker: {0}")]
     Protocol(#[from] crate::protocol::ProtocolError),
@@ -266,7 +270,12 @@ pub struct WorkerRun {
 impl WorkerRun {
     /// Keeps what one frame of the worker brings (rows, ranges, events; the end in `end`) and
     /// calls the hooks of `limits` for it.
-    fn take(&mut self, f: Frame, limits: &Supervision, end: &mut Option<Result<Finish, String>>) {
+    fn take(
+        &mut self,
+        f: Frame,
+        limits: &Supervision,
+        end: &mut Option<Result<Finish, SupervisorError>>,
+    ) {
         match f {
             Frame::Rows(mut c) => {
                 let time_s = c.time_s.last().copied();
@@ -293,7 +302,12 @@ impl WorkerRun {
             }
             Frame::Msg(WorkerMsg::Event(e)) => self.events.push(e),
             Frame::Msg(WorkerMsg::Finished(f)) => *end = Some(Ok(*f)),
-            Frame::Msg(WorkerMsg::Failed { message }) => *end = Some(Err(message)),
+            Frame::Msg(WorkerMsg::Failed { message }) => {
+                *end = Some(Err(SupervisorError::Worker(message)))
+            }
+            Frame::Msg(WorkerMsg::Refused { message }) => {
+                *end = Some(Err(SupervisorError::Refused(message)))
+            }
         }
     }
 
@@ -399,13 +413,13 @@ impl Worker {
             std::thread::spawn(move || {
                 for line in BufReader::new(err).lines().map_while(Result::ok) {
                     if verbose {
-                        eprintln!("[sumo worker] {line}");
+                        let _ = writeln!(std::io::stderr().lock(), "[sumo worker] {line}");
                     }
                     let mut t = tail.lock().expect("stderr tail lock");
                     if t.len() == STDERR_LINES {
                         t.pop_front();
                     }
-                    t.push_back(line);
+                    t.push_back(tail_line(line));
                     count.fetch_add(1, Ordering::SeqCst);
                 }
             })
@@ -476,7 +490,13 @@ impl Worker {
     fn tail_text(&self) -> String {
         self.stderr_tail
             .lock()
-            .map(|t| t.iter().cloned().collect::<Vec<_>>().join("\n"))
+            .map(|t| {
+                // The worker's output holds the user's prints: each line set off, escaped.
+                t.iter()
+                    .map(|l| format!("  | {}", syncroad_control::user_text::escaped(l)))
+                    .collect::<Vec<_>>()
+                    .join("\n")
+            })
             .unwrap_or_default()
     }
 
@@ -510,13 +530,14 @@ impl Worker {
         };
         let started = Instant::now();
         let mut watch = FrozenWatch::new(run.pid);
-        let mut end: Option<Result<Finish, String>> = None;
+        let mut end: Option<Result<Finish, SupervisorError>> = None;
         let mut protocol: Option<crate::protocol::ProtocolError> = None;
         let mut stopped: Option<SupervisorError> = None;
         let mut eof = sent.is_err();
-        let handle = |f: Frame, run: &mut WorkerRun, end: &mut Option<Result<Finish, String>>| {
-            run.take(f, limits, end)
-        };
+        let handle =
+            |f: Frame, run: &mut WorkerRun, end: &mut Option<Result<Finish, SupervisorError>>| {
+                run.take(f, limits, end)
+            };
         while !eof {
             match self.frames.recv_timeout(Duration::from_millis(50)) {
                 Ok(Ok(Some(frame))) => {
@@ -569,7 +590,12 @@ impl Worker {
                 other => other,
             })
         } else if let Some(e) = end {
-            e.map_err(|m| SupervisorError::Worker(self.with_sumo_errors(m, lines_before)))
+            e.map_err(|e| match e {
+                SupervisorError::Worker(m) => {
+                    SupervisorError::Worker(self.with_sumo_errors(m, lines_before))
+                }
+                other => other,
+            })
         } else {
             match status.expect("reaped above") {
                 Ok(st) => match st.signal() {
@@ -595,9 +621,12 @@ impl Worker {
         run
     }
 
-    /// Waits for the process and joins the reader threads.
+    /// Waits for the process, ends whatever it left running in its process group (a user's
+    /// controller may start helpers or fork: they hold the worker's pipes open, and the reader
+    /// threads would wait for them forever), and joins the reader threads.
     fn reap(&mut self) -> std::io::Result<std::process::ExitStatus> {
         self.stdin = None;
+        end_group_after_exit(self.child.id());
         let status = self.child.wait();
         if let Some(r) = self.reader.take() {
             let _ = r.join();
@@ -616,6 +645,48 @@ impl Drop for Worker {
             self.alive = false;
             let _ = self.reap();
         }
+    }
+}
+
+/// Longest line of a worker's output kept in its tail \[bytes\]: the tail is quoted in errors.
+const TAIL_LINE_BYTES: usize = 2000;
+
+/// `line` cut to [`TAIL_LINE_BYTES`] (at a character boundary), saying how much was left out.
+fn tail_line(mut line: String) -> String {
+    if line.len() <= TAIL_LINE_BYTES {
+        return line;
+    }
+    let total = line.len();
+    let mut end = TAIL_LINE_BYTES;
+    while !line.is_char_boundary(end) {
+        end -= 1;
+    }
+    line.truncate(end);
+    line.push_str(&format!(" [… {} more bytes]", total - end));
+    line
+}
+
+/// Waits until the worker `pid` (a process-group leader: [`Worker::spawn`]) has exited, without
+/// reaping it, then kills every process left in its group. Its exit status stays to be
+/// collected by `wait`; until then the pid, and so the group id, cannot be taken by another
+/// process, so the kill reaches only what the worker left behind.
+fn end_group_after_exit(pid: u32) {
+    let id: libc::id_t = pid;
+    // SAFETY: waitid on our own child with WNOWAIT leaves it to be reaped by `Child::wait`;
+    // killpg signals the group this supervisor created for it.
+    unsafe {
+        let mut info: libc::siginfo_t = std::mem::zeroed();
+        loop {
+            let r = libc::waitid(libc::P_PID, id, &mut info, libc::WEXITED | libc::WNOWAIT);
+            if r == 0 {
+                break;
+            }
+            if std::io::Error::last_os_error().kind() != std::io::ErrorKind::Interrupted {
+                // Already reaped (ECHILD): its group id may be free again, so nothing is sent.
+                return;
+            }
+        }
+        libc::killpg(pid as libc::pid_t, libc::SIGKILL);
     }
 }
 
@@ -688,17 +759,16 @@ fn run_here(job: JobRef<'_>, limits: &Supervision) -> WorkerRun {
             return run;
         }
     };
-    let mut end: Option<Result<Finish, String>> = None;
+    let mut end: Option<Result<Finish, SupervisorError>> = None;
     let mut protocol = None;
     let stepped = std::thread::scope(|s| {
         let stepper = s.spawn(move || {
             let mut out = std::io::BufWriter::with_capacity(64 * 1024, writer);
             let result = crate::handoff::here(|| {
                 pyo3::Python::attach(|py| crate::cosim::run(py, &owned, &mut out))
-            })
-            .map_err(|e| e.to_string());
-            if let Err(message) = result {
-                let _ = crate::protocol::write_msg(&mut out, &WorkerMsg::Failed { message });
+            });
+            if let Err(e) = result {
+                let _ = crate::protocol::write_msg(&mut out, &crate::cosim::failure_msg(e));
             }
             let _ = out.flush();
         });
@@ -719,7 +789,7 @@ fn run_here(job: JobRef<'_>, limits: &Supervision) -> WorkerRun {
     });
     run.result = match (end, protocol, stepped) {
         (Some(Ok(f)), _, _) => Ok(f),
-        (Some(Err(m)), _, _) => Err(SupervisorError::Worker(m)),
+        (Some(Err(e)), _, _) => Err(e),
         (None, Some(p), _) => Err(SupervisorError::Protocol(p)),
         (None, None, Err(_)) => Err(SupervisorError::Worker(
             "the run in this process panicked".into(),

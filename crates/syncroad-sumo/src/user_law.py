@@ -75,9 +75,11 @@ def _load_module(kind, where):
         return importlib.import_module(where)
     path = os.path.abspath(where)
     folder = os.path.dirname(path)
-    # The file may import modules beside it, as it would when run as a script.
+    # The file may import modules beside it, as it would when run as a script; but its
+    # folder comes last, so that a file there never stands in for an installed module (a
+    # libsumo.py, a numpy.py, syncroad's own): those are found where they are installed.
     if folder not in sys.path:
-        sys.path.insert(0, folder)
+        sys.path.append(folder)
     stem = os.path.splitext(os.path.basename(path))[0]
     name = "syncroad_user_" + "".join(c if c.isalnum() else "_" for c in stem)
     spec = importlib.util.spec_from_file_location(name, path)
@@ -208,12 +210,26 @@ class Stepper:
             self.read_signals()
         out = self.step_fn(obs)
         try:
-            a = np.asarray(out, dtype=np.float64)
+            a = np.asarray(out)
         except (TypeError, ValueError) as e:
             raise TypeError(
                 f"step returned {type(out).__name__} ({e}); return a numpy array or a sequence "
                 f"of {self.n} numbers, one per vehicle of obs.ids"
             ) from None
+        # Real numbers only: numpy would read "5" as 5.0, True as 1.0 and drop the imaginary
+        # part of a complex number, and a controller's mistake would drive as a speed.
+        if a.dtype.kind not in "iuf":
+            kind = {"b": "booleans", "c": "complex numbers", "U": "strings", "S": "bytes"}.get(
+                a.dtype.kind, f"values of type {a.dtype}"
+            )
+            if a.dtype.kind == "O":
+                odd = next((x for x in a.ravel() if not isinstance(x, (int, float, np.integer, np.floating)) or isinstance(x, bool)), None)
+                kind = f"a {type(odd).__name__} ({odd!r:.40})" if odd is not None else kind
+            raise TypeError(
+                f"step returned {kind} where speeds go; return {self.n} real numbers (int or "
+                "float), one per vehicle of obs.ids"
+            )
+        a = a.astype(np.float64, copy=False)
         if a.shape != (self.n,):
             raise ValueError(
                 f"step returned {a.size} value(s) of shape {a.shape}; {self.n} are needed, one "

@@ -79,6 +79,13 @@ pub fn worker_main_with(packages: SumoPackages) -> u8 {
     };
     // Small messages are gathered into one write; a frame at least this long (a full chunk of
     // rows, about 256 KiB) skips the buffer and goes to the pipe from its own bytes.
+    // Descendants orphaned by their parent (a helper's helper) are handed to this worker
+    // rather than to init, so that `end_descendants` finds them all.
+    #[cfg(target_os = "linux")]
+    // SAFETY: prctl with an integer argument on this process.
+    unsafe {
+        libc::prctl(libc::PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0);
+    }
     let mut out = BufWriter::with_capacity(OUT_BUFFER_BYTES, proto);
     let mut input = std::io::stdin().lock();
     let mut line = String::new();
@@ -102,13 +109,19 @@ pub fn worker_main_with(packages: SumoPackages) -> u8 {
         }
         let result = match serde_json::from_str::<Job>(&line) {
             Ok(job) => pyo3::Python::attach(|py| crate::cosim::run(py, &job, &mut out))
-                .map_err(|e| e.to_string()),
-            Err(e) => Err(format!("malformed request: {e}")),
+                .map_err(crate::cosim::failure_msg),
+            Err(e) => Err(WorkerMsg::Failed {
+                message: format!("malformed request: {e}"),
+            }),
         };
+        // Whatever the run's controller started (a helper process, a fork) ends with the run:
+        // the next run on this worker starts clean, and nothing the user's code left holds
+        // the worker's pipes.
+        end_descendants();
         code = match result {
             Ok(()) => 0,
             Err(message) => {
-                if write_msg(&mut out, &WorkerMsg::Failed { message }).is_err() {
+                if write_msg(&mut out, &message).is_err() {
                     return EXIT_FAILED;
                 }
                 EXIT_FAILED
@@ -117,6 +130,45 @@ pub fn worker_main_with(packages: SumoPackages) -> u8 {
         if out.flush().is_err() {
             // The parent is gone.
             return EXIT_FAILED;
+        }
+    }
+}
+
+/// The children of this process, from `/proc/self/task/*/children` (every thread's).
+#[cfg(target_os = "linux")]
+fn children() -> Vec<libc::pid_t> {
+    let mut pids = Vec::new();
+    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else {
+        return pids;
+    };
+    for task in tasks.flatten() {
+        if let Ok(text) = std::fs::read_to_string(task.path().join("children")) {
+            pids.extend(
+                text.split_whitespace()
+                    .filter_map(|p| p.parse::<libc::pid_t>().ok()),
+            );
+        }
+    }
+    pids
+}
+
+/// Kills and reaps every process this worker started during a run, and those they started
+/// (handed to this worker when orphaned: it is their subreaper). libsumo starts none, so
+/// anything found is the user's controller's.
+fn end_descendants() {
+    #[cfg(target_os = "linux")]
+    for _ in 0..64 {
+        let pids = children();
+        if pids.is_empty() {
+            return;
+        }
+        for pid in pids {
+            // SAFETY: signals and reaps a child of this process; it is ours until reaped, so
+            // the pid cannot name another process.
+            unsafe {
+                libc::kill(pid, libc::SIGKILL);
+                libc::waitpid(pid, std::ptr::null_mut(), 0);
+            }
         }
     }
 }

@@ -462,7 +462,11 @@ pub fn compare_into(
         &["compare.json"],
         inputs,
     )?];
-    let mut files = vec![output::METRICS_FILE, output::TRAJECTORY_FILE];
+    let mut files = vec![
+        output::METRICS_FILE,
+        output::TRAJECTORY_FILE,
+        syncroad_control::user_text::FULL_TEXT_FILE,
+    ];
     files.extend(crate::plots::RUN_PLOT_FILES);
     for run in &plan.runs {
         locks.push(output::prepare_dir(

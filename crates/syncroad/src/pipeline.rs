@@ -83,6 +83,9 @@ pub struct SumoOutput {
     pub interrupted: bool,
     /// Seconds inside SUMO's step, when the worker reported its end (a timing: not recorded).
     pub step_s: Option<f64>,
+    /// Why the worker refused the run before SUMO started, if it did: its law could not be
+    /// built (the user's controller). Bad input, not a failed run.
+    pub refused: Option<String>,
 }
 
 /// Runs a scenario in one supervised SUMO worker on a road read once. Errors are the checks
@@ -106,6 +109,10 @@ fn sumo_output(sc: &Scenario, run: SumoRun) -> SumoOutput {
         output: run.output(sc),
         interrupted: matches!(run.failure(), Some(SupervisorError::Interrupted { .. })),
         step_s: run.step_s(),
+        refused: match run.failure() {
+            Some(SupervisorError::Refused(why)) => Some(why.clone()),
+            _ => None,
+        },
     }
 }
 
@@ -147,6 +154,13 @@ impl Finished {
 
     fn write_files(&self, dir: &Path, plots: Option<String>) -> anyhow::Result<usize> {
         output::write_run_rows(dir, &self.output.trajectory)?;
+        // The user's whole text behind the stop, where the record and the messages show part.
+        if let Some(full) = self.output.stop.full_text() {
+            output::write_text(
+                &dir.join(syncroad_control::user_text::FULL_TEXT_FILE),
+                &(syncroad_control::user_text::escaped(full) + "\n"),
+            )?;
+        }
         if self.output.sumo.is_none() {
             // Where a native run's road lies, for its animation (a SUMO run's is in sumo/).
             let road = crate::animate::NativeRoad {

@@ -103,6 +103,20 @@ pub enum CosimError {
     Pipe(String),
 }
 
+/// The message a worker sends for a run that ended in `e`: a law that could not be built
+/// refused the run before SUMO started ([`WorkerMsg::Refused`]: bad input); anything else
+/// failed it ([`WorkerMsg::Failed`]).
+pub fn failure_msg(e: CosimError) -> WorkerMsg {
+    match e {
+        CosimError::Controller(c) => WorkerMsg::Refused {
+            message: c.to_string(),
+        },
+        other => WorkerMsg::Failed {
+            message: other.to_string(),
+        },
+    }
+}
+
 /// Runs the job; every message goes to `out`. The returned error is also what the worker
 /// reports as [`WorkerMsg::Failed`].
 pub fn run(py: Python<'_>, job: &Job, out: &mut impl Write) -> Result<(), CosimError> {

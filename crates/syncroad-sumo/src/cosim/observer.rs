@@ -152,10 +152,27 @@ pub(super) struct Recorder {
     last_flush: Instant,
 }
 
+/// Whether the run steps the user's Python code in this worker: code that can end the process
+/// at any step (`os._exit`, a crash in an extension, memory the kernel takes back with
+/// SIGKILL), so that every record is sent, and the pipe flushed, before the next step calls it.
+fn runs_user_code(req: &crate::protocol::Request) -> bool {
+    matches!(
+        &req.control,
+        crate::protocol::Control::Law { law }
+            if matches!(law.user, Some(syncroad_control::user_law::UserLaw::Python(_)))
+    )
+}
+
 impl Recorder {
     pub fn new(sim: &CoSim<'_, '_>) -> Self {
         let req = sim.req;
-        let chunk = req.chunk_records.max(1);
+        // One record a chunk under user code: a worker that dies at any step leaves every
+        // whole sample before it with the parent.
+        let chunk = if runs_user_code(req) {
+            1
+        } else {
+            req.chunk_records.max(1)
+        };
         Self {
             rows: RowChunk::new(sim.v.len(), chunk),
             gaps: vec![f64::NAN; sim.v.len()],
@@ -194,10 +211,11 @@ impl Recorder {
         Ok(())
     }
 
-    /// Sends what is held.
+    /// Sends what is held, through to the pipe.
     pub fn flush(&mut self, out: &mut impl Write) -> Result<(), CosimError> {
         self.ranges.write(out).map_err(pipe)?;
         self.rows.write(out).map_err(pipe)?;
+        out.flush().map_err(pipe)?;
         self.last_flush = Instant::now();
         Ok(())
     }

@@ -182,6 +182,18 @@ class WrongLength:
 class WrongType:
     def step(self, obs):
         return {"speeds": 1} if obs.step == 12 else obs.speed_mps
+
+class Strings:
+    def step(self, obs):
+        return ["5.0"] * len(obs.ids) if obs.step == 12 else obs.speed_mps
+
+class Booleans:
+    def step(self, obs):
+        return [True] * len(obs.ids) if obs.step == 12 else obs.speed_mps
+
+class Complex:
+    def step(self, obs):
+        return obs.speed_mps + 1j if obs.step == 12 else obs.speed_mps
 "#;
 
 #[test]
@@ -251,12 +263,20 @@ fn a_nan_a_wrong_length_or_a_wrong_type_names_what_was_wrong() {
             &["ValueError: step returned 21 value(s) of shape (21,); 22 are needed, one per vehicle of obs.ids"],
         ),
         (
-            // numpy's own words in the parentheses vary with its version.
             "WrongType",
-            &[
-                "TypeError: step returned dict (",
-                "); return a numpy array or a sequence of 22 numbers, one per vehicle of obs.ids",
-            ],
+            &["TypeError: step returned a dict ({'speeds': 1}) where speeds go; return 22 real numbers (int or float), one per vehicle of obs.ids"],
+        ),
+        (
+            "Strings",
+            &["TypeError: step returned strings where speeds go; return 22 real numbers (int or float), one per vehicle of obs.ids"],
+        ),
+        (
+            "Booleans",
+            &["TypeError: step returned booleans where speeds go"],
+        ),
+        (
+            "Complex",
+            &["TypeError: step returned complex numbers where speeds go"],
         ),
     ] {
         let sc = ring(
@@ -363,4 +383,75 @@ fn the_observation_carries_the_roads_speed_limit() {
     assert_eq!(run.stop(), StopReason::Horizon, "{:?}", run.stop());
     let sc = law("inf");
     assert_eq!(native(&sc, &LawSpec::of(&sc)).stop, StopReason::Horizon);
+}
+
+/// Whether process `pid` still runs (a zombie, dead but not yet reaped by init, does not).
+fn alive(pid: i32) -> bool {
+    std::fs::read_to_string(format!("/proc/{pid}/stat"))
+        .ok()
+        .and_then(|s| {
+            s.rsplit_once(')')
+                .map(|(_, r)| !r.trim_start().starts_with('Z'))
+        })
+        .unwrap_or(false)
+}
+
+/// A controller that starts helpers: a `subprocess.Popen` that inherits the worker's stdio
+/// (it held the worker's pipes open, and the run never returned), one with its stdio closed
+/// (it outlived the run), and a fork whose own child is orphaned. Every one of them ends with
+/// the run, and the run returns with its rows; the pids the controller wrote are checked.
+#[test]
+fn helpers_a_controller_starts_end_with_its_run() {
+    let dir = work("py-helpers");
+    let pids = dir.join("pids.txt");
+    let source = format!(
+        r#"
+import os, subprocess
+
+class Helpers:
+    def __init__(self):
+        inherited = subprocess.Popen(["sleep", "600"])
+        quiet = subprocess.Popen(["sleep", "600"], stdin=subprocess.DEVNULL,
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        r, w = os.pipe()
+        forked = os.fork()
+        if forked == 0:
+            grandchild = os.fork()
+            if grandchild == 0:
+                os.close(r)
+                os.write(w, b"%d\n" % os.getpid())
+                os.close(w)
+                import time
+                time.sleep(600)
+                os._exit(0)
+            # The fork's child is orphaned: its parent exits at once.
+            os._exit(0)
+        os.close(w)
+        grandchild = int(os.read(r, 64))
+        os.close(r)
+        with open({pids:?}, "w") as f:
+            f.write("%d %d %d\n" % (inherited.pid, quiet.pid, grandchild))
+
+    def step(self, obs):
+        return obs.speed_mps
+"#,
+        pids = pids.display().to_string()
+    );
+    let file = controller_file(&dir, &source);
+    let sc = ring(
+        5.0,
+        Some(serde_json::json!({"python": format!("{file}:Helpers")})),
+    );
+    let run = run_scenario(&sc, &opts("py-helpers-run")).unwrap();
+    assert_eq!(run.stop(), StopReason::Horizon, "{:?}", run.failure());
+    assert_eq!(run.trajectory(&sc).len(), 51);
+    let started: Vec<i32> = std::fs::read_to_string(&pids)
+        .unwrap()
+        .split_whitespace()
+        .map(|p| p.parse().unwrap())
+        .collect();
+    assert_eq!(started.len(), 3);
+    for pid in started {
+        assert!(!alive(pid), "helper {pid} outlived the run");
+    }
 }

@@ -53,6 +53,7 @@ fn prepare_out(dir: &Path, path: &Path, sc: &Scenario) -> anyhow::Result<FolderL
     let mut files = vec![
         output::METRICS_FILE,
         output::TRAJECTORY_FILE,
+        syncroad_control::user_text::FULL_TEXT_FILE,
         crate::animate::NATIVE_ROAD_FILE,
         crate::commands::animate::ANIMATION_FILE,
     ];
@@ -109,7 +110,7 @@ fn native_drive(sc: &Scenario) -> anyhow::Result<(Drive, LawSpec)> {
 /// 3, with a note rather than an error, which `--quiet` leaves out.
 fn ended_by_controller(f: &Finished, out: &OutputArgs) -> Status {
     if out.progress_mode() != crate::progress::ProgressMode::Never {
-        eprintln!("note: {}", f.output.stop.message().unwrap_or_default());
+        crate::stdout::errln!("note: {}", f.output.stop.message().unwrap_or_default());
     }
     Status::RunFailed
 }
@@ -249,8 +250,9 @@ fn run_native(sc: &Scenario, path: &Path, out: &OutputArgs) -> anyhow::Result<St
     };
     let output = pipeline::native_law(sc, &law, drive.labels(sc.vehicles()), opts);
     progress.finish();
-    // The law could not be built (the user's controller): no run to judge, no record.
-    let output = output.context("nothing was run")?;
+    // The law could not be built (the user's controller): bad input, no run to judge, no
+    // record.
+    let output = output.map_err(|e| InputError::new(format!("{e}; nothing was run")))?;
     let f = Finished::new(sc, &drive.name, output, cfg.eval);
     let complete = f.output.stop.is_complete();
     // The summary is printed even when a file cannot be written (a full disk).
@@ -264,11 +266,11 @@ fn run_native(sc: &Scenario, path: &Path, out: &OutputArgs) -> anyhow::Result<St
         crate::commands::animate::after_run(&cfg.out)?;
     }
     if matches!(f.output.stop, StopReason::Interrupted { .. }) {
-        eprintln!("error: {}", f.output.stop.message().unwrap_or_default());
+        crate::stdout::errln!("error: {}", f.output.stop.message().unwrap_or_default());
         return Ok(Status::Interrupted);
     }
     if matches!(f.output.stop, StopReason::ControllerFailed { .. }) {
-        eprintln!("error: {}", f.output.stop.message().unwrap_or_default());
+        crate::stdout::errln!("error: {}", f.output.stop.message().unwrap_or_default());
         return Ok(Status::RunFailed);
     }
     if matches!(f.output.stop, StopReason::StoppedByController { .. }) {
@@ -333,6 +335,11 @@ fn run_sumo(
     let run = pipeline::sumo(sc, &road, &opts);
     progress.finish();
     let run = run.map_err(|e| InputError::caused("before starting SUMO", e))?;
+    if let Some(why) = &run.refused {
+        // The worker could not build the law (the user's controller): bad input, found
+        // before SUMO started; nothing was run.
+        return Err(InputError::new(format!("{why}; nothing was run")).into());
+    }
     if run.output.trajectory.is_empty() && !run.interrupted {
         // SUMO never ran (no Python, no libsumo, a network SUMO refuses): there is no run to
         // judge, so no verdict and no record, only the reason (exit 3).
@@ -360,14 +367,14 @@ fn run_sumo(
         crate::commands::animate::after_run(&cfg.out)?;
     }
     if run.interrupted {
-        eprintln!("error: {}", f.output.stop.message().unwrap_or_default());
+        crate::stdout::errln!("error: {}", f.output.stop.message().unwrap_or_default());
         return Ok(Status::Interrupted);
     }
     if matches!(f.output.stop, StopReason::StoppedByController { .. }) {
         return Ok(ended_by_controller(&f, out));
     }
     if let Some(why) = f.output.stop.message() {
-        eprintln!("error: {why}");
+        crate::stdout::errln!("error: {why}");
         return Ok(Status::RunFailed);
     }
     Ok(verdict_status(&f))
