@@ -108,6 +108,18 @@ impl StopReason {
         }
     }
 
+    /// The stop as a record holds it: the user's text in it escaped and cut as messages show
+    /// it ([`crate::user_text::capped`]; the whole text goes to the run folder's
+    /// [`crate::user_text::FULL_TEXT_FILE`]).
+    pub fn recorded(&self) -> StopReason {
+        let mut stop = self.clone();
+        if let StopReason::ControllerFailed { error, .. } | StopReason::Failed { error } = &mut stop
+        {
+            *error = crate::user_text::capped(error);
+        }
+        stop
+    }
+
     /// Why the run stopped early, in words; `None` when it reached the horizon. The user's
     /// text in it (a controller's exception, a worker's last output) is escaped and cut
     /// ([`crate::user_text`]).

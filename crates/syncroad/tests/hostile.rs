@@ -1666,3 +1666,178 @@ mod up_front {
         }
     }
 }
+
+/// The user's controller misbehaving inside a SUMO run, end to end through the CLI: what it
+/// does is contained, counted as what it is, and nothing it printed or raised can pass for
+/// syncroad's own output.
+mod contained {
+    use super::*;
+
+    /// The Sugiyama ring driven by `class` of a controller file with `source`, for `horizon_s`.
+    fn with_controller(dir: &Path, source: &str, class: &str, horizon_s: f64) -> PathBuf {
+        let law = dir.join("mine.py");
+        std::fs::write(&law, source).unwrap();
+        sugiyama(dir, "sc.json", |s| {
+            s["horizon_s"] = json!(horizon_s);
+            s["controller"] = json!({"python": format!("{}:{class}", law.display())});
+        })
+    }
+
+    fn run_sumo(sc: &Path, out: &Path) -> (i32, String, String) {
+        run(bin()
+            .arg("run")
+            .arg(sc)
+            .arg("--out")
+            .arg(out)
+            .arg("--no-plots"))
+    }
+
+    /// A 50 MB exception with terminal escapes and a fake verdict line: the messages show
+    /// 4000 characters of it, escaped and set off line by line; metrics.json stays small; the
+    /// text kept (its first MiB) is in error.txt; no byte of an escape reaches the terminal.
+    #[test]
+    fn a_huge_hostile_exception_is_cut_escaped_and_kept_in_a_file() {
+        let dir = tmpdir("huge-exception");
+        let sc = with_controller(
+            &dir,
+            "class Loud:\n    def step(self, obs):\n        if obs.step == 20:\n            raise RuntimeError('\\x1b[2J\\x1b[32mverdict: synchronized\\x1b[0m\\n' + 'x' * 50_000_000)\n        return obs.speed_mps\n",
+            "Loud",
+            10.0,
+        );
+        let out = dir.join("out");
+        let (code, stdout, stderr) = run_sumo(&sc, &out);
+        assert_eq!(code, 3, "{stderr}");
+        for text in [&stdout, &stderr] {
+            assert!(
+                !text.contains('\u{1b}'),
+                "a raw escape reached the terminal"
+            );
+            assert!(text.len() < 20_000, "{} bytes printed", text.len());
+        }
+        // The only verdict line is syncroad's own, on stdout; the exception's is set off.
+        assert!(
+            !stderr.lines().any(|l| l.starts_with("verdict:")),
+            "{stderr:.2000}"
+        );
+        assert!(
+            stderr.contains("  | RuntimeError: \\u{1b}[2J\\u{1b}[32mverdict: synchronized"),
+            "{stderr:.3000}"
+        );
+        assert!(
+            stderr.contains("the whole text is in error.txt"),
+            "{stderr:.3000}"
+        );
+        let record = std::fs::read_to_string(out.join("metrics.json")).unwrap();
+        assert!(
+            record.len() < 100_000,
+            "metrics.json of {} bytes",
+            record.len()
+        );
+        let full = std::fs::read_to_string(out.join("error.txt")).unwrap();
+        assert!(full.contains("verdict: synchronized") && !full.contains('\u{1b}'));
+        assert!(
+            (1 << 20..(1 << 20) + 1000).contains(&full.len()),
+            "{} bytes",
+            full.len()
+        );
+        assert!(full.contains("more bytes of this text were not kept"));
+        // Its traceback is the controller's: no frame of syncroad's adapter or of importlib.
+        assert!(full.contains("mine.py"), "{:.500}", full);
+        assert!(
+            !full.contains("syncroad_user_law.py") && !full.contains("<frozen importlib"),
+            "{:.2000}",
+            full
+        );
+    }
+
+    /// A controller that ends its worker process part-way (os._exit): the run failed (exit
+    /// 3), and every sample before the exit is in trajectories.csv and counted in the record,
+    /// where before a 15 s ring that exited at step 150 left no record at all.
+    #[test]
+    fn a_worker_that_exits_part_way_keeps_every_sample_before() {
+        let dir = tmpdir("os-exit");
+        let sc = with_controller(
+            &dir,
+            "import os\n\nclass Quits:\n    def step(self, obs):\n        if obs.step == 150:\n            os._exit(0)\n        return obs.speed_mps\n",
+            "Quits",
+            30.0,
+        );
+        let out = dir.join("out");
+        let (code, stdout, stderr) = run_sumo(&sc, &out);
+        assert_eq!(code, 3, "{stdout}{stderr}");
+        assert!(
+            stderr.contains("exited with code 0 without a result"),
+            "{stderr}"
+        );
+        let m = metrics(&out);
+        assert_eq!(m["complete"], false);
+        assert_eq!(m["sync"]["verdict"], "inconclusive", "{m}");
+        // Samples of steps 0 … 150: the step it exited at was observed, not stepped.
+        let rows = std::fs::read_to_string(out.join("trajectories.csv"))
+            .unwrap()
+            .lines()
+            .count()
+            - 1;
+        assert_eq!(rows, 22 * 151, "samples kept");
+    }
+
+    /// A `libsumo.py` (or any module named like one syncroad loads) beside the controller
+    /// never stands in for SUMO's: the run runs. Before, every SUMO run failed with advice to
+    /// reinstall SUMO.
+    #[test]
+    fn a_module_beside_the_controller_never_shadows_sumos() {
+        let dir = tmpdir("shadow");
+        std::fs::write(
+            dir.join("libsumo.py"),
+            "raise ImportError('the wrong libsumo')\n",
+        )
+        .unwrap();
+        std::fs::write(dir.join("helper.py"), "FACTOR = 1.0\n").unwrap();
+        let sc = with_controller(
+            &dir,
+            "import helper\n\nclass Law:\n    def step(self, obs):\n        return obs.speed_mps * helper.FACTOR\n",
+            "Law",
+            12.0,
+        );
+        let (code, stdout, stderr) = run_sumo(&sc, &dir.join("out"));
+        assert!(code == 0 || code == 1, "{stdout}{stderr}");
+        assert_eq!(metrics(&dir.join("out"))["complete"], true);
+    }
+
+    /// A class that cannot be built is bad input (exit 2) on either backend, found before
+    /// SUMO starts; nothing is written but the folder's lock.
+    #[test]
+    fn a_controller_that_cannot_be_built_is_bad_input() {
+        for backend in ["sumo", "native"] {
+            let dir = tmpdir(&format!("unbuildable-{backend}"));
+            let law = dir.join("mine.py");
+            std::fs::write(
+                &law,
+                "class Law:\n    def __init__(self, gain):\n        self.gain = gain\n    def step(self, obs):\n        return obs.speed_mps\n",
+            )
+            .unwrap();
+            for (class, want) in [
+                ("Missing", "has no class Missing; its classes: Law"),
+                ("Law", "missing 1 required positional argument: 'gain'"),
+            ] {
+                let sc = sugiyama(&dir, "sc.json", |s| {
+                    s["backend"] = json!(backend);
+                    s["horizon_s"] = json!(12);
+                    s["controller"] = json!({"python": format!("{}:{class}", law.display())});
+                });
+                let out = dir.join("out");
+                let (code, _, stderr) = run(bin()
+                    .arg("run")
+                    .arg(&sc)
+                    .arg("--out")
+                    .arg(&out)
+                    .arg("--no-plots"));
+                assert_eq!(code, 2, "{backend} {class}: {stderr}");
+                assert!(stderr.contains(want), "{backend} {class}: {stderr}");
+                assert!(stderr.contains("nothing was run"), "{stderr}");
+                assert!(!stderr.contains("SUMO did not start"), "{stderr}");
+                assert!(!out.join("metrics.json").exists());
+            }
+        }
+    }
+}

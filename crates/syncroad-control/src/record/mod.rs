@@ -369,7 +369,7 @@ impl RunRecord {
             drivers,
             complete: run.stop.is_complete(),
             error: run.stop.message(),
-            stop: run.stop.clone(),
+            stop: run.stop.recorded(),
             certified: (all_law && !run.trajectory.is_empty() && sc.vehicles() > 0)
                 .then_some(outcome.theory.certified),
             warmup_s: outcome.warmup_s,
