@@ -242,6 +242,16 @@ impl ControllerSpec {
         let source = if where_.ends_with(".py") || where_.contains('/') {
             let path = base_dir.join(where_);
             hashed.extend(read_file(field, python, &path)?);
+            // What the file can import from its folder is as much the controller as the file.
+            // Named relative to the folder, so a moved folder keeps its hash.
+            let folder = path.parent().unwrap_or(Path::new(""));
+            for other in folder_sources(&path) {
+                if other != path {
+                    let name = other.strip_prefix(folder).unwrap_or(&other);
+                    hashed.extend(name.display().to_string().as_bytes());
+                    hashed.extend(read_file(field, python, &other)?);
+                }
+            }
             PythonSource::File { path }
         } else if !where_.is_empty() && where_.split('.').all(identifier) {
             PythonSource::Module {
@@ -282,6 +292,57 @@ impl ControllerSpec {
             source_hash,
         })
     }
+}
+
+/// Most Python files of a controller's folder that [`folder_sources`] lists.
+pub const MAX_FOLDER_SOURCES: usize = 2000;
+
+/// The Python files a controller file can import from its own folder, which syncroad puts on
+/// the interpreter's path: the folder's modules (`*.py`) and its packages (subfolders with an
+/// `__init__.py`, and the packages in them), the file itself among them; sorted, hidden
+/// folders and `__pycache__` skipped, at most [`MAX_FOLDER_SOURCES`]. A sweep's hash covers
+/// them, so a resume never mixes two versions of a module the controller imports.
+pub fn folder_sources(file: &Path) -> Vec<PathBuf> {
+    fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
+        let Ok(entries) = std::fs::read_dir(dir) else {
+            return;
+        };
+        let mut entries: Vec<_> = entries.flatten().map(|e| e.path()).collect();
+        entries.sort();
+        for path in entries {
+            if out.len() >= MAX_FOLDER_SOURCES {
+                return;
+            }
+            let name = path.file_name().map(|n| n.to_string_lossy().into_owned());
+            let Some(name) = name else { continue };
+            if name.starts_with('.') || name == "__pycache__" {
+                continue;
+            }
+            if path.is_dir() {
+                if path.join("__init__.py").is_file() {
+                    walk(&path, out);
+                }
+            } else if name.ends_with(".py") && path.is_file() {
+                out.push(path);
+            }
+        }
+    }
+    let mut out = Vec::new();
+    if let Some(dir) = file.parent() {
+        let dir = if dir.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            dir
+        };
+        walk(dir, &mut out);
+        // The folder as named in the scenario: the file's own path is among them as given.
+        out.iter_mut().for_each(|p| {
+            if p.file_name() == file.file_name() && p.parent() == Some(dir) {
+                *p = file.to_path_buf();
+            }
+        });
+    }
+    out
 }
 
 /// Reads a regular file of at most [`MAX_SOURCE_BYTES`].

@@ -386,6 +386,7 @@ const PAGES: &[&str] = &[
     "docs/src/published.md",
     "docs/src/backends.md",
     "docs/src/performance.md",
+    "docs/src/reliability.md",
     "docs/src/architecture.md",
 ];
 
@@ -446,6 +447,7 @@ pages! {
     published => "docs/src/published.md",
     backends => "docs/src/backends.md",
     performance => "docs/src/performance.md",
+    reliability => "docs/src/reliability.md",
     architecture => "docs/src/architecture.md",
 }
 

@@ -460,6 +460,62 @@ fn a_sweep_runs_the_users_controller_and_hashes_its_source() {
     );
 }
 
+/// A module the controller imports from its folder is part of the experiment too: editing
+/// it makes another sweep, which the first one's folder refuses to resume, naming the file.
+/// Before, only the controller's own file was hashed and the resumed sweep mixed two versions.
+#[test]
+fn a_resume_refuses_an_edited_module_beside_the_controller_and_names_it() {
+    let dir = tmpdir("sweep-controller-module");
+    let gains = dir.join("gains.py");
+    std::fs::write(&gains, "FACTOR = 1.0\n").unwrap();
+    let law = dir.join("law.py");
+    std::fs::write(
+        &law,
+        "import gains\n\nclass Law:\n    def step(self, obs):\n        return obs.speed_mps * gains.FACTOR\n",
+    )
+    .unwrap();
+    let mut sc: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(repo().join("scenarios/sugiyama-python.json")).unwrap(),
+    )
+    .unwrap();
+    sc["horizon_s"] = 12.into();
+    sc["controller"] = serde_json::json!({"python": format!("{}:Law", law.display())});
+    sc["sumo"]["net"] = repo()
+        .join("sumo-nets/sugiyama-ring.net.xml")
+        .display()
+        .to_string()
+        .into();
+    let base = dir.join("sc.json");
+    std::fs::write(&base, sc.to_string()).unwrap();
+    let spec = write_spec(
+        &dir,
+        &format!(
+            r#"{{"base": "{}", "backend": "sumo", "seeds": [1], "metrics": ["sync.verdict"]}}"#,
+            base.display()
+        ),
+    );
+    let out = dir.join("out");
+    let sweep = || {
+        run(bin()
+            .arg("sweep")
+            .arg(&spec)
+            .arg("--no-plots")
+            .arg("--out")
+            .arg(&out))
+    };
+    let (code, stdout, err) = sweep();
+    assert!(code == 0 || code == 1, "{stdout}{err}");
+    assert_eq!(sweep().0, code, "the same sweep resumes");
+    std::fs::write(&gains, "FACTOR = 1.01\n").unwrap();
+    let (code, _, err) = sweep();
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains(&format!("; changed: {}", gains.display())),
+        "{err}"
+    );
+    assert!(!err.contains(&law.display().to_string()), "{err}");
+}
+
 /// A controller that raises is a failed point, not a result: counted as failed, the sweep
 /// exits 3, its rows say `failed` with the controller's error (and no verdict of the run
 /// that never finished), and `--retry-failed` runs them again once the controller is mended.

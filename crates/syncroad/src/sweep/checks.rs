@@ -91,6 +91,8 @@ impl Sweep {
             if let Some(syncroad_control::UserLaw::Python(c)) = sc.controller() {
                 if let syncroad_control::user_law::PythonSource::File { path } = &c.source {
                     inputs.insert(path.clone());
+                    // And every module it can import from its folder.
+                    inputs.extend(syncroad_control::user_law::folder_sources(path));
                 }
                 inputs.extend(c.state.clone());
             }

@@ -156,6 +156,48 @@ fn failed_row(sweep: &Sweep, p: &Point, error: &str) -> Map<String, Value> {
     r
 }
 
+/// Which of a sweep's input files differ from those of the sweep in a folder (`old`, as its
+/// `sweep.json` lists them), for the refusal's message: `; changed: a.py; new: b.py`, or
+/// nothing when the files are alike (the spec or the base scenario changed) or the folder's
+/// sweep listed none.
+fn changed_inputs(old: &Value, now: &BTreeMap<String, String>) -> String {
+    let Some(old) = old.as_object() else {
+        return String::new();
+    };
+    let mut said = String::new();
+    let mut say = |what: &str, names: Vec<&str>| {
+        if !names.is_empty() {
+            said.push_str(&format!("; {what}: {}", names.join(", ")));
+        }
+    };
+    say(
+        "changed",
+        now.iter()
+            .filter(|(k, v)| old.get(*k).is_some_and(|o| o.as_str() != Some(v.as_str())))
+            .map(|(k, _)| k.as_str())
+            .collect(),
+    );
+    say(
+        "new",
+        now.keys()
+            .filter(|k| !old.contains_key(*k))
+            .map(String::as_str)
+            .collect(),
+    );
+    say(
+        "gone",
+        old.keys()
+            .filter(|k| !now.contains_key(*k))
+            .map(String::as_str)
+            .collect(),
+    );
+    if said.is_empty() {
+        "; the files it reads are alike, so the spec or the base scenario changed".into()
+    } else {
+        said
+    }
+}
+
 /// Locks `out` ([`lock::hold`]: one writer at a time), checks it and writes `sweep.json`: a
 /// new folder, or one this spec (and shard) made before, whose finished points are skipped.
 /// Keep the returned lock while writing into `out`.
@@ -164,6 +206,7 @@ pub fn open_out(sweep: &Sweep, out: &Path, shard: Shard) -> anyhow::Result<Folde
     let doc = json!({
         "name": sweep.name,
         "spec_hash": sweep.hash,
+        "inputs": sweep.inputs,
         "points": sweep.len(),
         "shard": {"index": shard.index, "count": shard.count},
         "spec": sweep.file,
@@ -182,10 +225,11 @@ pub fn open_out(sweep: &Sweep, out: &Path, shard: Shard) -> anyhow::Result<Folde
             .with_context(|| format!("{} is not valid JSON", meta.display()))?;
         if old["spec_hash"] != doc["spec_hash"] {
             return Err(InputError::new(format!(
-                "--out = {}: holds a sweep of another spec, base scenario or input file (network, route, additional or configuration file; hash {} here, {} now); give a new folder, or remove it to start over",
+                "--out = {}: holds a sweep of another spec, base scenario or input file (network, route, additional or configuration file, the controller or a module beside it; hash {} here, {} now{}); give a new folder, or remove it to start over",
                 out.display(),
                 old["spec_hash"].as_str().unwrap_or("?"),
-                sweep.hash
+                sweep.hash,
+                changed_inputs(&old["inputs"], &sweep.inputs)
             ))
             .into());
         }

@@ -29,7 +29,7 @@
 //! among `mixed_driver` humans. Points are the product axes × runs × seeds, numbered in
 //! that order (seeds fastest); the numbering is what shards and resumption rely on.
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
@@ -158,9 +158,12 @@ pub struct Sweep {
     pub metrics: Vec<String>,
     /// Number of points.
     count: usize,
-    /// SHA-256 of the spec, the base scenario as written and (SUMO) the network files the
-    /// points read: what resumption checks.
+    /// SHA-256 of the spec, the base scenario as written and the files the points read
+    /// (networks, route, additional and configuration files, the user's controller and the
+    /// modules beside it): what resumption checks.
     pub hash: String,
+    /// SHA-256 of each of those files, by path: what a refused resume names as changed.
+    pub inputs: BTreeMap<String, String>,
 }
 
 fn bad(m: impl Into<String>) -> InputError {
@@ -252,6 +255,7 @@ impl Sweep {
             metrics,
             count,
             hash: String::new(),
+            inputs: BTreeMap::new(),
         };
         // Every point is checked as it will run before anything runs; every file they read
         // (networks, route, additional and configuration files: their contents, so a moved folder
@@ -262,6 +266,11 @@ impl Sweep {
                 .map_err(|e| bad(format!("cannot read {}: {e}", file.display())))?;
             h.update([0]);
             h.update(&bytes);
+            let each: String = Sha256::digest(&bytes)
+                .iter()
+                .map(|b| format!("{b:02x}"))
+                .collect();
+            sweep.inputs.insert(file.display().to_string(), each);
         }
         sweep.hash = h.finalize().iter().map(|b| format!("{b:02x}")).collect();
         Ok(sweep)
