@@ -179,15 +179,20 @@ def run(
         timeout_s=timeout_s,
         krauss_sigma=krauss_sigma,
     )
-    if backend == "native" and (timeout_s is not None or krauss_sigma is not None):
-        given = "timeout_s" if timeout_s is not None else "krauss_sigma"
-        raise ScenarioError(f'{given} applies to SUMO runs only; backend = "native" runs syncroad\'s own simulator')
+    if backend == "native" and krauss_sigma is not None:
+        raise ScenarioError('krauss_sigma applies to SUMO runs only; backend = "native" runs syncroad\'s own simulator')
     folder = _out_dir(out, "run")
     if backend == "sumo":
         sc = sc.with_backend("sumo")
     if controller is not None:
         # Last: the scenario it makes owns the pickled state's temporary folder.
         sc = sc.with_controller(controller)
+    # `run` runs the scenario's backend; `simulate` the native simulator whatever the
+    # scenario says, which takes no time limit: a native run with one is a `run` of the
+    # scenario made native.
+    if backend == "native" and timeout_s is not None:
+        sc = sc.with_backend("native")
+        backend = None
     command = "simulate" if backend == "native" else "run"
     sumo_flags = _flags(timeout_s=timeout_s, krauss_sigma=krauss_sigma)
     argv = [command, str(sc.path), "--out", str(folder), *sumo_flags]

@@ -84,9 +84,12 @@ def test_options_are_checked_as_the_cli_checks_its_flags():
         syncroad.run("scenarios/ring-theorem1.json", backend="carla")
     with pytest.raises(syncroad.ScenarioError, match="--warmup-s"):
         syncroad.run("scenarios/ring-theorem1.json", warmup_s=1e6)
-    with pytest.raises(syncroad.ScenarioError, match="--timeout-s"):
+    with pytest.raises(syncroad.ScenarioError, match="--krauss-sigma"):
         # A SUMO option on a native scenario is refused, as by `syncroad run`.
-        syncroad.run("scenarios/ring-theorem1.json", timeout_s=5)
+        syncroad.run("scenarios/ring-theorem1.json", krauss_sigma=0.5)
+    # A time limit holds a native run too (its Python controller steps in a process of its own).
+    assert syncroad.run("scenarios/ring-theorem1.json", timeout_s=600, plots=False).complete
+    assert syncroad.run("scenarios/ring-theorem1.json", backend="native", timeout_s=600, plots=False).complete
 
 
 def test_wrong_types_and_values_are_scenario_errors_in_python_terms(tmp_path):
@@ -100,8 +103,8 @@ def test_wrong_types_and_values_are_scenario_errors_in_python_terms(tmp_path):
         (lambda: syncroad.compare("scenarios/ring-theorem1.json", jobs=0), r"^jobs = 0: must be an integer ≥ 1"),
         (lambda: syncroad.sweep({"base": "x.json"}, tmp_path / "sw", jobs=True), r"^jobs = True: must be an integer"),
         (
-            lambda: syncroad.run("scenarios/ring-theorem1.json", backend="native", timeout_s=5),
-            r"^timeout_s applies to SUMO runs only",
+            lambda: syncroad.run("scenarios/ring-theorem1.json", backend="native", krauss_sigma=0.5),
+            r"^krauss_sigma applies to SUMO runs only",
         ),
         (lambda: syncroad.Scenario.from_dict("x"), r"^Scenario\.from_dict takes the scenario as a dict"),
         (lambda: syncroad.Scenario.from_dict({"name": object()}), r"JSON values only"),

@@ -42,6 +42,10 @@ pub struct NativeOptions<'a> {
     /// Builds the user's Python controller when the scenario names one
     /// ([`crate::user_law`]); without it such a scenario's law is refused.
     pub host: Option<&'a dyn LawHost>,
+    /// Wall-clock limit of the loop: past it the run stops with a failed stop naming the
+    /// limit, and keeps what it recorded (a host that steps the law in another process holds
+    /// a blocked step to the same limit).
+    pub timeout: Option<std::time::Duration>,
 }
 
 /// Steps between two calls of [`NativeOptions::progress`].
@@ -53,6 +57,7 @@ impl Default for NativeOptions<'_> {
             record_every: 1,
             cancel: None,
             progress: None,
+            timeout: None,
             host: None,
         }
     }
@@ -65,6 +70,7 @@ impl std::fmt::Debug for NativeOptions<'_> {
             .field("cancel", &self.cancel)
             .field("progress", &self.progress.is_some())
             .field("host", &self.host.is_some())
+            .field("timeout", &self.timeout)
             .finish()
     }
 }
@@ -167,7 +173,25 @@ pub fn simulate_controller(
     let Ok(()) = rec.start(&mut NativeState::after(0, steps, dt, &q, &v));
     let Ok(()) = watch.start(&mut NativeState::after(0, steps, dt, &q, &v));
     let mut stop = StopReason::Horizon;
+    let started = std::time::Instant::now();
     for step in 0..steps {
+        // The clock every 64 steps only: a step of a small ring costs about a microsecond.
+        if let Some(limit) = opts
+            .timeout
+            .filter(|t| step % 64 == 0 && started.elapsed() > *t)
+        {
+            if rec.traj.time_s.last() != watch.spread.time_s.last() {
+                rec.record(&NativeState::after(step, steps, dt, &q, &v));
+            }
+            stop = StopReason::Failed {
+                error: format!(
+                    "the run exceeded its time limit of {} s at t = {:.3} s (step {step}) and was stopped; the rows so far are written, marked incomplete (raise --timeout-s)",
+                    limit.as_secs_f64(),
+                    step as f64 * dt
+                ),
+            };
+            break;
+        }
         if opts.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
             // The last step computed is recorded, so the files end where the run stopped.
             if rec.traj.time_s.last() != watch.spread.time_s.last() {
@@ -186,6 +210,18 @@ pub fn simulate_controller(
             p(step, steps);
         }
         law.step(step as f64 * dt, &v, &q, &mut next);
+        // A signal that came while the law computed (a controller in another process that
+        // was waited for) stops the run where it is: this step's commands are not applied.
+        if opts.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+            if rec.traj.time_s.last() != watch.spread.time_s.last() {
+                rec.record(&NativeState::after(step, steps, dt, &q, &v));
+            }
+            stop = StopReason::Interrupted {
+                step,
+                time_s: step as f64 * dt,
+            };
+            break;
+        }
         if let Some(end) = law.ended() {
             stop = end.at(step, step as f64 * dt);
             break;
@@ -541,14 +577,15 @@ mod tests {
         let run = simulate(
             &sc,
             NativeOptions {
-                record_every: 1000,
+                record_every: 3000,
                 cancel: Some(&flag),
                 progress: Some(&raise),
-                host: None,
+                ..NativeOptions::default()
             },
         );
-        // The flag is seen at the next step's check.
-        let step = 2 * PROGRESS_EVERY + 1;
+        // Set before the law's step, the flag is seen right after it: that step's commands
+        // are not applied (a signal that came while a law in another process was waited for).
+        let step = 2 * PROGRESS_EVERY;
         assert_eq!(
             run.stop,
             StopReason::Interrupted {
@@ -559,8 +596,8 @@ mod tests {
         assert_eq!(calls.get(), 2);
         // Every step up to the stop is in the spread; the samples end at the stop.
         assert_eq!(run.spread.len(), step + 1);
-        // Samples every 1000 steps from 0, and the step it stopped at.
-        assert_eq!(run.trajectory.len(), step / 1000 + 2);
+        // Samples every 3000 steps from 0, and the step it stopped at.
+        assert_eq!(run.trajectory.len(), step / 3000 + 2);
         assert!((run.trajectory.time_s.last().unwrap() - step as f64 * sc.step_s()).abs() < 1e-9);
         let out = output(&sc, run);
         let m = evaluate(&sc, &out, EvalOptions::of(&sc)).sync;

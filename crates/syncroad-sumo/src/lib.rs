@@ -33,6 +33,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod bench;
+mod contained;
 mod controlled;
 mod cosim;
 mod direct;
@@ -60,6 +61,7 @@ mod user_law;
 mod venv;
 mod worker;
 
+pub use contained::{ContainedController, ContainedHost};
 pub use frozen::FROZEN_LIMIT;
 pub use handoff::{claim_libsumo, here, release_libsumo, Handoff};
 pub use layout::EMISSION_CLASS;

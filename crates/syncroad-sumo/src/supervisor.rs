@@ -82,6 +82,23 @@ impl WorkerCommand {
         }
     }
 
+    /// The process to start, with its arguments and environment (the libpython it was built
+    /// against, one OpenBLAS thread), its standard streams left to the caller.
+    pub(crate) fn command(&self) -> Command {
+        let mut command = Command::new(&self.program);
+        if self.embeds_build_python {
+            pin_build_python(&mut command);
+        }
+        // numpy (which a user's Python controller or the full libsumo package imports) starts an
+        // OpenBLAS thread per core that the worker never uses; in a sweep those threads took
+        // cycles from the other workers' SUMO steps.
+        if std::env::var_os("OPENBLAS_NUM_THREADS").is_none() {
+            command.env("OPENBLAS_NUM_THREADS", "1");
+        }
+        command.args(&self.args);
+        command
+    }
+
     /// Sets the worker of every run this process starts through [`WorkerCommand::for_process`]
     /// (once; a second call returns `false` and changes nothing).
     pub fn set_for_process(cmd: WorkerCommand) -> bool {
@@ -383,18 +400,8 @@ impl Worker {
     /// Starts a worker process (in its own process group, so a terminal Ctrl-C reaches only
     /// the parent).
     pub fn spawn(cmd: &WorkerCommand) -> Result<Self, SupervisorError> {
-        let mut command = Command::new(&cmd.program);
-        if cmd.embeds_build_python {
-            pin_build_python(&mut command);
-        }
-        // numpy (which a user's Python controller or the full libsumo package imports) starts an
-        // OpenBLAS thread per core that the worker never uses; in a sweep those threads took
-        // cycles from the other workers' SUMO steps.
-        if std::env::var_os("OPENBLAS_NUM_THREADS").is_none() {
-            command.env("OPENBLAS_NUM_THREADS", "1");
-        }
-        let mut child = command
-            .args(&cmd.args)
+        let mut child = cmd
+            .command()
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())

@@ -1,6 +1,7 @@
 //! The user's Python controller as a [`SpeedController`]: built once from its class and
 //! parameters, stepped every step with numpy arrays, inside the SUMO worker's interpreter or,
-//! for the native simulator, in the process that runs it ([`PythonHost`]).
+//! for the native simulator, in a controller process of its own ([`crate::contained`]); the
+//! [`PythonHost`] builds it in the interpreter of the process it runs in.
 //!
 //! Each step the adapter writes five rows of float64 (speeds, accelerations over the last step,
 //! odometers, gaps and the speeds of the vehicles ahead) straight into the numpy block the

@@ -88,6 +88,10 @@ pub fn worker_main_with(packages: SumoPackages) -> u8 {
     }
     let mut out = BufWriter::with_capacity(OUT_BUFFER_BYTES, proto);
     let mut input = std::io::stdin().lock();
+    // A controller for the native simulator of the parent, in a process of its own.
+    if std::env::var_os(crate::contained::SERVE_ENV).is_some() {
+        return crate::contained::serve(&mut input, &mut out);
+    }
     let mut line = String::new();
     let mut code = 0;
     // One request per line until the parent closes stdin; SUMO starts and closes per run.

@@ -263,7 +263,8 @@ impl OutputArgs {
 /// Options of the SUMO backend.
 #[derive(Debug, Clone, clap::Args)]
 pub struct SumoArgs {
-    /// Wall-clock limit of the SUMO run [s] (default: the scenario's sumo.timeout_s).
+    /// Wall-clock limit of the run [s] (SUMO: default the scenario's sumo.timeout_s; native:
+    /// none). A run past it stops, keeps its rows and exits 3.
     #[arg(long)]
     pub timeout_s: Option<f64>,
     /// Baseline: let SUMO's own car-following model (Krauss with this σ, e.g. 0.5) drive

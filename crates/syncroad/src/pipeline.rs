@@ -16,7 +16,8 @@ use syncroad_control::{
     Scenario,
 };
 use syncroad_sumo::{
-    PrepareError, Prepared, PythonHost, Road, RunOptions, SumoRun, SupervisorError, WorkerPool,
+    ContainedHost, PrepareError, Prepared, Road, RunOptions, SumoRun, SupervisorError,
+    WorkerCommand, WorkerPool,
 };
 
 use crate::output;
@@ -56,7 +57,12 @@ fn native_run(
     drivers: Option<Vec<String>>,
     opts: NativeOptions<'_>,
 ) -> Result<RunOutput, ControllerError> {
-    let run = simulate_with(sc, law, hosted(opts))?;
+    // The user's Python controller steps in a supervised process of its own, never in this
+    // one (a caller that gives its own host keeps it).
+    let contained = ContainedHost::new(WorkerCommand::for_process(), opts.timeout);
+    let mut opts = opts;
+    opts.host = opts.host.or(Some(&contained));
+    let run = simulate_with(sc, law, opts)?;
     Ok(RunOutput {
         trajectory: run.trajectory,
         stop: run.stop,
@@ -67,12 +73,6 @@ fn native_run(
         drivers,
         safety_layer: Some(SafetyLayer::of(run.filter, SafetyMode::Off)),
     })
-}
-
-/// `opts` with this process's Python building the user's controllers, when none was given.
-fn hosted(mut opts: NativeOptions<'_>) -> NativeOptions<'_> {
-    opts.host = opts.host.or(Some(&PythonHost));
-    opts
 }
 
 /// A SUMO run's output, and whether the user interrupted it.

@@ -1840,4 +1840,136 @@ mod contained {
             }
         }
     }
+
+    /// The controllers a native run steps, each in a process of its own: the simulator and
+    /// its rows stay in the CLI. Each exits, crashes or blocks at step 100 of a ring.
+    const NATIVE_HOSTILE: &str = "import ctypes, os, signal, subprocess, time\n\
+class Exits:\n    def step(self, obs):\n        if obs.step == 100:\n            os._exit(0)\n        return obs.speed_mps\n\
+class Crashes:\n    def step(self, obs):\n        if obs.step == 100:\n            ctypes.string_at(0)\n        return obs.speed_mps\n\
+class Blocks:\n    def step(self, obs):\n        if obs.step == 100:\n            time.sleep(3600)\n        return obs.speed_mps\n\
+class Deaf:\n    def __init__(self):\n        signal.signal(signal.SIGTERM, signal.SIG_IGN)\n        signal.signal(signal.SIGINT, signal.SIG_IGN)\n    def step(self, obs):\n        return obs.speed_mps\n\
+class Helper:\n    def __init__(self, pids):\n        p = subprocess.Popen(['sleep', '600'])\n        open(pids, 'w').write(str(p.pid))\n    def step(self, obs):\n        return obs.speed_mps\n";
+
+    /// The native ring of `ring-theorem1.json` driven by `class` of [`NATIVE_HOSTILE`].
+    fn native_with(dir: &Path, class: &str, horizon_s: f64, params: Value) -> PathBuf {
+        let law = dir.join("hostile.py");
+        std::fs::write(&law, NATIVE_HOSTILE).unwrap();
+        let mut s: Value = serde_json::from_str(
+            &std::fs::read_to_string(repo().join("scenarios/ring-theorem1.json")).unwrap(),
+        )
+        .unwrap();
+        s["horizon_s"] = json!(horizon_s);
+        s["controller"] = json!({"python": format!("{}:{class}", law.display()), "params": params});
+        write_json(&dir.join(format!("{class}.json")), &s)
+    }
+
+    /// A controller that exits its process or crashes it on the native backend no longer
+    /// takes the CLI with it (before: exit 0 with nothing written, or 139): the run failed at
+    /// that step (exit 3), its 101 samples and its record are written.
+    #[test]
+    fn a_native_controller_that_exits_or_crashes_fails_its_run_not_the_cli() {
+        for (class, said) in [
+            ("Exits", "exited with code 0 during its step"),
+            ("Crashes", "was killed by signal 11 during its step"),
+        ] {
+            let dir = tmpdir(&format!("native-{class}"));
+            let sc = native_with(&dir, class, 60.0, json!({}));
+            let out = dir.join("out");
+            let (code, stdout, stderr) = run(bin()
+                .arg("run")
+                .arg(&sc)
+                .arg("--out")
+                .arg(&out)
+                .arg("--no-plots"));
+            assert_eq!(code, 3, "{class}: {stdout}{stderr}");
+            assert!(stderr.contains(said), "{class}: {stderr}");
+            let m = metrics(&out);
+            assert_eq!(m["complete"], false);
+            assert_eq!(m["stop"]["reason"], "controller_failed");
+            assert_eq!(m["stop"]["step"], 100);
+            assert_ne!(m["sync"]["verdict"], "synchronized");
+            let rows = std::fs::read_to_string(out.join("trajectories.csv"))
+                .unwrap()
+                .lines()
+                .count()
+                - 1;
+            let n = m["vehicles"].as_u64().unwrap_or(0) as usize;
+            assert!(n > 0, "{m}");
+            assert_eq!(rows, n * 101, "{class}: samples of steps 0 … 100");
+        }
+    }
+
+    /// A native step that blocks is stopped by `--timeout-s`, which native runs now take:
+    /// the run failed (exit 3), naming the limit. Whatever the machine's load, the 3600 s
+    /// sleep outlasts the limit, so the limit is what ends the run.
+    #[test]
+    fn a_native_step_that_blocks_is_stopped_by_the_time_limit() {
+        let dir = tmpdir("native-blocks");
+        let sc = native_with(&dir, "Blocks", 60.0, json!({}));
+        let out = dir.join("out");
+        let (code, stdout, stderr) = run(bin()
+            .arg("run")
+            .arg(&sc)
+            .args(["--timeout-s", "2", "--no-plots", "--out"])
+            .arg(&out));
+        assert_eq!(code, 3, "{stdout}{stderr}");
+        assert!(stderr.contains("time limit"), "{stderr}");
+        assert_eq!(metrics(&out)["complete"], false);
+    }
+
+    /// A controller that ignores SIGTERM and SIGINT (in its own process) no longer takes over
+    /// the CLI's: SIGTERM stops the run (143) with its rows, once it has recorded some.
+    #[test]
+    fn a_native_controller_that_ignores_signals_does_not_keep_the_cli_running() {
+        let dir = tmpdir("native-deaf");
+        let sc = native_with(&dir, "Deaf", 1e5, json!({}));
+        let out = dir.join("out");
+        let mut child = bin()
+            .arg("run")
+            .arg(&sc)
+            .args([
+                "--no-plots",
+                "--progress",
+                "lines",
+                "--record-every",
+                "1000",
+                "--out",
+            ])
+            .arg(&out)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let mut lines = common::StderrLines::of(&mut child);
+        lines.wait_for_samples(2);
+        // SAFETY: signals the child this test started.
+        unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
+        let status = child.wait().unwrap();
+        let stderr = lines.rest();
+        assert_eq!(status.code(), Some(143), "{stderr}");
+        let m = metrics(&out);
+        assert_eq!(m["stop"]["reason"], "interrupted", "{m}");
+    }
+
+    /// A helper a native controller starts (inheriting its pipes) ends with the run, which
+    /// returns (before: the controller ran in the CLI, whose helper outlived it).
+    #[test]
+    fn a_native_controllers_helper_ends_with_the_run() {
+        let dir = tmpdir("native-helper");
+        let pids = dir.join("pids");
+        let sc = native_with(&dir, "Helper", 30.0, json!({"pids": pids}));
+        let (code, stdout, stderr) = run(bin()
+            .arg("run")
+            .arg(&sc)
+            .arg("--no-plots")
+            .arg("--out")
+            .arg(dir.join("out")));
+        assert!(code == 0 || code == 1, "{stdout}{stderr}");
+        let pid: i32 = std::fs::read_to_string(&pids)
+            .unwrap()
+            .trim()
+            .parse()
+            .unwrap();
+        assert!(!common::running(pid), "helper {pid} outlived the run");
+    }
 }

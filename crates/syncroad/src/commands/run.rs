@@ -32,7 +32,7 @@ pub fn run(path: &Path, out: &OutputArgs, sumo: &SumoArgs) -> anyhow::Result<Sta
         Backend::Sumo => run_sumo(&sc, path, out, sumo),
         Backend::Native => {
             refuse_sumo_flags(sumo)?;
-            run_native(&sc, path, out)
+            run_native(&sc, path, out, config::timeout(sumo.timeout_s)?)
         }
     }
 }
@@ -42,7 +42,7 @@ const RUN_PLOTS: usize = crate::plots::RUN_PLOT_FILES.len();
 
 /// `syncroad simulate`: the native simulator whatever the scenario's backend.
 pub fn simulate(path: &Path, out: &OutputArgs) -> anyhow::Result<Status> {
-    run_native(&load_scenario(path)?, path, out)
+    run_native(&load_scenario(path)?, path, out, None)
 }
 
 /// Checks and locks `--out` and clears the record and rows an earlier run left there; none of
@@ -69,7 +69,6 @@ fn refuse_sumo_flags(a: &SumoArgs) -> anyhow::Result<()> {
         (a.krauss_sigma.is_some(), "--krauss-sigma"),
         (a.euler, "--euler"),
         (a.subscriptions, "--subscriptions"),
-        (a.timeout_s.is_some(), "--timeout-s"),
         (a.fcd, "--fcd"),
     ];
     match given.iter().find(|(on, _)| *on) {
@@ -229,7 +228,12 @@ fn verdict_status(f: &Finished) -> Status {
     Status::verdict(f.outcome.sync.verdict == Verdict::Synchronized)
 }
 
-fn run_native(sc: &Scenario, path: &Path, out: &OutputArgs) -> anyhow::Result<Status> {
+fn run_native(
+    sc: &Scenario,
+    path: &Path,
+    out: &OutputArgs,
+    timeout: Option<std::time::Duration>,
+) -> anyhow::Result<Status> {
     let (drive, law) = native_drive(sc)?;
     let cfg = RunConfig::new(sc, out)?;
     let _lock = prepare_out(&cfg.out, path, sc)?;
@@ -247,6 +251,7 @@ fn run_native(sc: &Scenario, path: &Path, out: &OutputArgs) -> anyhow::Result<St
         cancel: Some(&stop),
         progress: Some(&report),
         host: None,
+        timeout,
     };
     let output = pipeline::native_law(sc, &law, drive.labels(sc.vehicles()), opts);
     progress.finish();
@@ -269,7 +274,10 @@ fn run_native(sc: &Scenario, path: &Path, out: &OutputArgs) -> anyhow::Result<St
         crate::stdout::errln!("error: {}", f.output.stop.message().unwrap_or_default());
         return Ok(Status::Interrupted);
     }
-    if matches!(f.output.stop, StopReason::ControllerFailed { .. }) {
+    if matches!(
+        f.output.stop,
+        StopReason::ControllerFailed { .. } | StopReason::Failed { .. }
+    ) {
         crate::stdout::errln!("error: {}", f.output.stop.message().unwrap_or_default());
         return Ok(Status::RunFailed);
     }
