@@ -56,6 +56,15 @@ pub enum ControllerError {
         /// What went wrong.
         reason: String,
     },
+    /// The user's Python controller was still being built when the run's time limit passed
+    /// (its `__init__` blocked): the run failed, the input may be fine.
+    #[error("controller.python = {python}: {reason}")]
+    TimedOut {
+        /// As written.
+        python: String,
+        /// What happened.
+        reason: String,
+    },
     /// The user's Python controller could not be built (missing file, class or method; its
     /// `__init__` raised).
     #[error("controller.python = {python}: {reason}")]

@@ -79,8 +79,23 @@ impl LawHost for ContainedHost {
         let worker = self.worker.as_ref().map_err(|e| fail(e.clone()))?;
         ContainedController::start(worker, law, context, self.deadline, self.cancel.clone())
             .map(|c| Box::new(c) as Box<dyn SpeedController>)
-            .map_err(fail)
+            .map_err(|e| match e {
+                Start::Refused(why) => fail(why),
+                // A time limit or Ctrl-C while `__init__` ran: the run failed, not its input.
+                Start::Stopped(why) => ControllerError::TimedOut {
+                    python: law.python.clone(),
+                    reason: why,
+                },
+            })
     }
+}
+
+/// Why a controller's process did not start serving.
+enum Start {
+    /// It could not build the controller (bad input), or could not be started at all.
+    Refused(String),
+    /// The run's time limit passed, or Ctrl-C came, while it built the controller.
+    Stopped(String),
 }
 
 /// What the child said.
@@ -151,7 +166,7 @@ impl ContainedController {
         context: &LawContext,
         deadline: Option<Instant>,
         cancel: Option<Arc<AtomicBool>>,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, Start> {
         let mut child = worker
             .command()
             .env(SERVE_ENV, "1")
@@ -161,10 +176,10 @@ impl ContainedController {
             .process_group(0)
             .spawn()
             .map_err(|e| {
-                format!(
+                Start::Refused(format!(
                     "cannot start the controller's process {}: {e}",
                     worker.program.display()
-                )
+                ))
             })?;
         let tail = Arc::new(Mutex::new(VecDeque::new()));
         let mut threads = Vec::new();
@@ -207,16 +222,20 @@ impl ContainedController {
             law: law.clone(),
             context: context.clone(),
         })
-        .map_err(|e| e.to_string())?;
+        .map_err(|e| Start::Refused(e.to_string()))?;
         let sent = c.send(|w| writeln!(w, "{setup}"));
-        match c.wait_reply() {
+        match c.wait_reply("while the controller was built (its __init__ ran)") {
             Ok(Reply::Built) if sent.is_ok() => Ok(c),
-            Ok(Reply::Refused(why)) => Err(why),
-            Ok(Reply::Built) => Err("the controller's process stopped reading".into()),
-            Ok(Reply::Failed(why)) => Err(why),
-            Ok(Reply::Commands(_)) => Err("the controller's process answered out of turn".into()),
-            Ok(Reply::Gone) => Err(c.gone("while its controller was built")),
-            Err(why) => Err(why),
+            Ok(Reply::Refused(why)) => Err(Start::Refused(why)),
+            Ok(Reply::Built) => Err(Start::Refused(
+                "the controller's process stopped reading".into(),
+            )),
+            Ok(Reply::Failed(why)) => Err(Start::Refused(why)),
+            Ok(Reply::Commands(_)) => Err(Start::Refused(
+                "the controller's process answered out of turn".into(),
+            )),
+            Ok(Reply::Gone) => Err(Start::Refused(c.gone("while its controller was built"))),
+            Err(why) => Err(Start::Stopped(why)),
         }
     }
 
@@ -233,7 +252,7 @@ impl ContainedController {
 
     /// The next reply, waiting no longer than the run's time limit and giving up on Ctrl-C
     /// (`Err` says which).
-    fn wait_reply(&mut self) -> Result<Reply, String> {
+    fn wait_reply(&mut self, during: &str) -> Result<Reply, String> {
         loop {
             let tick = Duration::from_millis(50);
             match self.replies.recv_timeout(tick) {
@@ -248,14 +267,13 @@ impl ContainedController {
             }
             if self.deadline.is_some_and(|d| Instant::now() >= d) {
                 self.kill();
-                return Err(
-                    "the run exceeded its time limit while the controller's step ran (it blocked, or is slower than the limit allows); the controller's process was stopped (raise --timeout-s)"
-                        .into(),
-                );
+                return Err(format!(
+                    "the run exceeded its time limit {during} (it blocked, or is slower than the limit allows); the controller's process was stopped (raise --timeout-s)"
+                ));
             }
             if self.cancelled() {
                 self.kill();
-                return Err("interrupted while the controller's step ran".into());
+                return Err(format!("interrupted {during}"));
             }
         }
     }
@@ -319,7 +337,7 @@ impl SpeedController for ContainedController {
         let sent = self.send(|w| w.write_all(&frame));
         self.frame = frame;
         let reply = match sent {
-            Ok(()) => self.wait_reply(),
+            Ok(()) => self.wait_reply("while the controller's step ran"),
             Err(_) => Ok(Reply::Gone),
         };
         self.ended = match reply {

@@ -257,7 +257,13 @@ fn run_native(
     progress.finish();
     // The law could not be built (the user's controller): bad input, no run to judge, no
     // record.
-    let output = output.map_err(|e| InputError::new(format!("{e}; nothing was run")))?;
+    let output = output.map_err(|e| match e {
+        // Stopped by the time limit or a signal while the controller was built: a failed run.
+        syncroad_control::controller::ControllerError::TimedOut { .. } => {
+            anyhow::anyhow!("{e}; nothing was run")
+        }
+        e => InputError::new(format!("{e}; nothing was run")).into(),
+    })?;
     let f = Finished::new(sc, &drive.name, output, cfg.eval);
     let complete = f.output.stop.is_complete();
     // The summary is printed even when a file cannot be written (a full disk).
