@@ -95,3 +95,27 @@ def test_a_class_without_a_file_is_refused_before_anything_runs(tmp_path):
         syncroad.run(ring(), out=tmp_path, controller=object())
     with pytest.raises(syncroad.ScenarioError, match=r"controller.python = \S*/nowhere.py:X: cannot read"):
         syncroad.run(ring(), out=tmp_path, controller={"python": "nowhere.py:X"})
+
+
+class Exits:
+    """A controller that ends its process at step 7 (defined here: loaded from this file)."""
+
+    def step(self, obs):
+        if obs.step == 7:
+            import os
+
+            os._exit(0)
+        return obs.speed_mps
+
+
+def test_a_native_controller_that_exits_its_process_leaves_this_interpreter_running(tmp_path):
+    # The native simulator steps in this interpreter, but the controller in a process of its
+    # own: its os._exit fails the run (the rows before it kept) instead of ending the caller,
+    # as it ended a notebook's kernel before.
+    with pytest.raises(syncroad.RunError, match="exited with code 0 during its step") as e:
+        syncroad.run(ring(), backend="native", controller=Exits(), out=tmp_path / "out", plots=False)
+    assert e.value.run is not None and not e.value.run.complete
+    assert len(e.value.run.trajectories) == 22 * 8
+    # And this interpreter goes on.
+    assert syncroad.run(ring(), backend="native", controller=FollowerStopper(4.3), out=tmp_path / "next",
+                        plots=False).complete

@@ -76,6 +76,9 @@ impl LawHost for ContainedHost {
             python: law.python.clone(),
             reason,
         };
+        if is_simulation_stand_in(law) {
+            return PythonHost.python(law, context);
+        }
         let worker = self.worker.as_ref().map_err(|e| fail(e.clone()))?;
         ContainedController::start(worker, law, context, self.deadline, self.cancel.clone())
             .map(|c| Box::new(c) as Box<dyn SpeedController>)
@@ -88,6 +91,18 @@ impl LawHost for ContainedHost {
                 },
             })
     }
+}
+
+/// Whether `law` is the stand-in a `syncroad.Simulation` puts into its run
+/// (`SimulationController` of the package's `_remote.py`): the caller's own stepping loop, met
+/// in memory in the caller's process, so it is built there, not in a process of its own.
+fn is_simulation_stand_in(law: &PythonLaw) -> bool {
+    law.class == "SimulationController"
+        && matches!(
+            &law.source,
+            syncroad_control::user_law::PythonSource::File { path }
+                if path.ends_with("syncroad/_remote.py")
+        )
 }
 
 /// Why a controller's process did not start serving.
