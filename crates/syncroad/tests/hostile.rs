@@ -1233,6 +1233,40 @@ mod up_front {
             e.starts_with("error: --mixed-controller = bogus: unknown controller"),
             "{e}"
         );
+        // A sweep's mixed_driver and runs, and run's --krauss-sigma, said their field twice
+        // (`mixed_driver: mixed_driver = bogus: …`).
+        let spec = write_json(
+            &dir.join("spec.json"),
+            &json!({"base": repo().join("scenarios/ring-theorem1.json"), "penetrations": [0.5], "mixed_driver": "bogus"}),
+        );
+        let (code, _, e) = run(bin()
+            .arg("sweep")
+            .arg(&spec)
+            .arg("--out")
+            .arg(dir.join("s")));
+        assert_eq!(code, 2, "{e}");
+        assert!(
+            e.starts_with("error: mixed_driver = bogus: unknown driver"),
+            "{e}"
+        );
+        let spec = write_json(
+            &dir.join("spec-runs.json"),
+            &json!({"base": repo().join("scenarios/ring-theorem1.json"), "runs": ["bogus"]}),
+        );
+        let (code, _, e) = run(bin()
+            .arg("sweep")
+            .arg(&spec)
+            .arg("--out")
+            .arg(dir.join("r")));
+        assert_eq!(code, 2, "{e}");
+        assert!(e.starts_with("error: runs = bogus: "), "{e}");
+        let (code, _, e) = run(bin()
+            .arg("run")
+            .arg(&sc)
+            .args(["--krauss-sigma", "2", "--out"])
+            .arg(dir.join("k")));
+        assert_eq!(code, 2, "{e}");
+        assert!(e.starts_with("error: --krauss-sigma = 2"), "{e}");
         let link = dir.join("dangling");
         symlink(dir.join("no-such-folder/x"), &link).unwrap();
         let (code, _, e) = run(bin().arg("run").arg(&sc).arg("--out").arg(&link));

@@ -306,7 +306,7 @@ fn run_sumo(
         None => Vec::new(),
         Some(sigma) => {
             let d = SumoDriver::krauss("--krauss-sigma", &sigma.to_string(), sigma)
-                .map_err(|e| InputError::caused("--krauss-sigma", e))?;
+                .map_err(|e| InputError::about("--krauss-sigma", e))?;
             vec![Some(d); sc.vehicles()]
         }
     };

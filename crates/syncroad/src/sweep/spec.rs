@@ -373,7 +373,7 @@ fn runs_of(file: &SpecFile, base: &Scenario, backend: Backend) -> anyhow::Result
         .into());
     }
     for name in &names {
-        let spec = Drive::parse("runs", name, n).map_err(|e| InputError::caused("runs", e))?;
+        let spec = Drive::parse("runs", name, n).map_err(|e| InputError::about("runs", e))?;
         if let Some(r) = runs
             .iter()
             .find(|r: &&RunChoice| r.spec.name == spec.name || r.spec.same_run(&spec))
@@ -399,7 +399,7 @@ fn runs_of(file: &SpecFile, base: &Scenario, backend: Backend) -> anyhow::Result
             .as_deref()
             .unwrap_or(syncroad_control::drive::DEFAULT_HUMAN);
         let human = SumoDriver::parse("mixed_driver", human_name)
-            .map_err(|e| InputError::caused("mixed_driver", e))?;
+            .map_err(|e| InputError::about("mixed_driver", e))?;
         let names = match &file.mixed_controller {
             None => vec![syncroad_control::PROTOCOL.to_string()],
             Some(OneOrMany::One(c)) => vec![c.clone()],
