@@ -90,6 +90,32 @@ pub struct NativeRun {
     pub filter: Option<crate::speed_controller::FilterReport>,
 }
 
+/// The stop of a run whose stop flag is set at `step` (a signal: [`NativeOptions::cancel`]).
+fn interrupted(opts: &NativeOptions, step: usize, time_s: f64) -> Option<StopReason> {
+    opts.cancel
+        .is_some_and(|c| c.load(Ordering::Relaxed))
+        .then_some(StopReason::Interrupted { step, time_s })
+}
+
+/// The stop of a run past its time limit at `step` ([`NativeOptions::timeout`]); the clock is
+/// read every 64 steps only: a step of a small ring costs about a microsecond.
+fn timed_out(
+    opts: &NativeOptions,
+    started: std::time::Instant,
+    step: usize,
+    time_s: f64,
+) -> Option<StopReason> {
+    let limit = opts
+        .timeout
+        .filter(|t| step % 64 == 0 && started.elapsed() > *t)?;
+    Some(StopReason::Failed {
+        error: format!(
+            "the run exceeded its time limit of {} s at t = {time_s:.3} s (step {step}) and was stopped; the rows so far are written, marked incomplete (raise --timeout-s)",
+            limit.as_secs_f64()
+        ),
+    })
+}
+
 fn check(v: &[f64], step: usize, dt: f64) -> Option<StopReason> {
     v.iter()
         .position(|x| !x.is_finite() || x.abs() >= DIVERGENCE_MPS)
@@ -175,51 +201,26 @@ pub fn simulate_controller(
     let mut stop = StopReason::Horizon;
     let started = std::time::Instant::now();
     for step in 0..steps {
-        // The clock every 64 steps only: a step of a small ring costs about a microsecond.
-        if let Some(limit) = opts
-            .timeout
-            .filter(|t| step % 64 == 0 && started.elapsed() > *t)
-        {
-            if rec.traj.time_s.last() != watch.spread.time_s.last() {
-                rec.record(&NativeState::after(step, steps, dt, &q, &v));
+        let time_s = step as f64 * dt;
+        let mut cut = timed_out(&opts, started, step, time_s).or(interrupted(&opts, step, time_s));
+        if cut.is_none() {
+            if let Some(p) = opts
+                .progress
+                .filter(|_| step % PROGRESS_EVERY == 0 && step > 0)
+            {
+                p(step, steps);
             }
-            stop = StopReason::Failed {
-                error: format!(
-                    "the run exceeded its time limit of {} s at t = {:.3} s (step {step}) and was stopped; the rows so far are written, marked incomplete (raise --timeout-s)",
-                    limit.as_secs_f64(),
-                    step as f64 * dt
-                ),
-            };
-            break;
+            law.step(time_s, &v, &q, &mut next);
+            // A signal that came while the law computed (a controller in another process that
+            // was waited for) stops the run where it is: this step's commands are not applied.
+            cut = interrupted(&opts, step, time_s);
         }
-        if opts.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+        if let Some(s) = cut {
             // The last step computed is recorded, so the files end where the run stopped.
             if rec.traj.time_s.last() != watch.spread.time_s.last() {
                 rec.record(&NativeState::after(step, steps, dt, &q, &v));
             }
-            stop = StopReason::Interrupted {
-                step,
-                time_s: step as f64 * dt,
-            };
-            break;
-        }
-        if let Some(p) = opts
-            .progress
-            .filter(|_| step % PROGRESS_EVERY == 0 && step > 0)
-        {
-            p(step, steps);
-        }
-        law.step(step as f64 * dt, &v, &q, &mut next);
-        // A signal that came while the law computed (a controller in another process that
-        // was waited for) stops the run where it is: this step's commands are not applied.
-        if opts.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
-            if rec.traj.time_s.last() != watch.spread.time_s.last() {
-                rec.record(&NativeState::after(step, steps, dt, &q, &v));
-            }
-            stop = StopReason::Interrupted {
-                step,
-                time_s: step as f64 * dt,
-            };
+            stop = s;
             break;
         }
         if let Some(end) = law.ended() {
@@ -516,16 +517,7 @@ mod tests {
     }
 
     fn output(sc: &Scenario, run: NativeRun) -> RunOutput {
-        RunOutput {
-            trajectory: run.trajectory,
-            stop: run.stop,
-            ring_length_m: sc.ring_length_m(),
-            sumo: None,
-            spread: Some(run.spread),
-            collisions: Some(run.collisions),
-            drivers: None,
-            safety_layer: None,
-        }
+        RunOutput::native(sc, run, None)
     }
 
     #[test]

@@ -43,6 +43,32 @@ pub struct RunOutput {
     pub safety_layer: Option<crate::safety::SafetyLayer>,
 }
 
+impl RunOutput {
+    /// The output of a native run of `scenario`: its samples, stop, spread at every step and
+    /// collisions, `drivers` when not the scenario's law drove, and the safety layer its
+    /// filter (if any) makes (no layer otherwise: the native simulator has no checks of its
+    /// own).
+    pub fn native(
+        scenario: &Scenario,
+        run: crate::native::NativeRun,
+        drivers: Option<Vec<String>>,
+    ) -> Self {
+        Self {
+            trajectory: run.trajectory,
+            stop: run.stop,
+            ring_length_m: scenario.ring_length_m(),
+            sumo: None,
+            spread: Some(run.spread),
+            collisions: Some(run.collisions),
+            drivers,
+            safety_layer: Some(crate::safety::SafetyLayer::of(
+                run.filter,
+                crate::safety::SafetyMode::Off,
+            )),
+        }
+    }
+}
+
 /// How to judge a run.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EvalOptions {

@@ -278,16 +278,7 @@ fn unstable_ring_is_not_synchronized() {
         run.stop
     );
     assert_eq!(m.verdict, Verdict::Inconclusive);
-    let out = syncroad_control::RunOutput {
-        trajectory: run.trajectory,
-        stop: run.stop,
-        ring_length_m: sc.ring_length_m(),
-        sumo: None,
-        spread: Some(run.spread),
-        collisions: Some(run.collisions),
-        drivers: None,
-        safety_layer: None,
-    };
+    let out = syncroad_control::RunOutput::native(&sc, run, None);
     let judged = syncroad_control::evaluate(&sc, &out, syncroad_control::EvalOptions::of(&sc));
     assert_eq!(judged.sync.verdict, Verdict::NotSynchronized);
     assert!(

@@ -10,7 +10,6 @@
 use std::path::Path;
 
 use syncroad_control::controller::ControllerError;
-use syncroad_control::safety::{SafetyLayer, SafetyMode};
 use syncroad_control::{
     evaluate, simulate_with, EvalOptions, LawSpec, NativeOptions, Outcome, RunOutput, RunRecord,
     Scenario,
@@ -62,17 +61,11 @@ fn native_run(
     let contained = ContainedHost::new(WorkerCommand::for_process(), opts.timeout);
     let mut opts = opts;
     opts.host = opts.host.or(Some(&contained));
-    let run = simulate_with(sc, law, opts)?;
-    Ok(RunOutput {
-        trajectory: run.trajectory,
-        stop: run.stop,
-        ring_length_m: sc.ring_length_m(),
-        sumo: None,
-        spread: Some(run.spread),
-        collisions: Some(run.collisions),
+    Ok(RunOutput::native(
+        sc,
+        simulate_with(sc, law, opts)?,
         drivers,
-        safety_layer: Some(SafetyLayer::of(run.filter, SafetyMode::Off)),
-    })
+    ))
 }
 
 /// A SUMO run's output, and whether the user interrupted it.

@@ -460,6 +460,25 @@ fn a_sweep_runs_the_users_controller_and_hashes_its_source() {
     );
 }
 
+/// The shipped ring of a Python controller (`sugiyama-python.json`) for `horizon_s`, driven by
+/// `controller` (`FILE.py:Class`), its network path made absolute, written to `dir/sc.json`.
+fn python_ring(dir: &Path, controller: &str, horizon_s: u64) -> PathBuf {
+    let mut sc: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(repo().join("scenarios/sugiyama-python.json")).unwrap(),
+    )
+    .unwrap();
+    sc["horizon_s"] = horizon_s.into();
+    sc["controller"] = serde_json::json!({"python": controller});
+    sc["sumo"]["net"] = repo()
+        .join("sumo-nets/sugiyama-ring.net.xml")
+        .display()
+        .to_string()
+        .into();
+    let base = dir.join("sc.json");
+    std::fs::write(&base, sc.to_string()).unwrap();
+    base
+}
+
 /// A module the controller imports from its folder is part of the experiment too: editing
 /// it makes another sweep, which the first one's folder refuses to resume, naming the file.
 /// Before, only the controller's own file was hashed and the resumed sweep mixed two versions.
@@ -474,19 +493,7 @@ fn a_resume_refuses_an_edited_module_beside_the_controller_and_names_it() {
         "import gains\n\nclass Law:\n    def step(self, obs):\n        return obs.speed_mps * gains.FACTOR\n",
     )
     .unwrap();
-    let mut sc: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(repo().join("scenarios/sugiyama-python.json")).unwrap(),
-    )
-    .unwrap();
-    sc["horizon_s"] = 12.into();
-    sc["controller"] = serde_json::json!({"python": format!("{}:Law", law.display())});
-    sc["sumo"]["net"] = repo()
-        .join("sumo-nets/sugiyama-ring.net.xml")
-        .display()
-        .to_string()
-        .into();
-    let base = dir.join("sc.json");
-    std::fs::write(&base, sc.to_string()).unwrap();
+    let base = python_ring(&dir, &format!("{}:Law", law.display()), 12);
     let spec = write_spec(
         &dir,
         &format!(
@@ -533,19 +540,7 @@ fn a_controller_that_raises_fails_its_points_and_retry_failed_runs_them_again() 
         ),
     )
     .unwrap();
-    let mut sc: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(repo().join("scenarios/sugiyama-python.json")).unwrap(),
-    )
-    .unwrap();
-    sc["horizon_s"] = 10.into();
-    sc["controller"] = serde_json::json!({"python": format!("{}:Law", law.display())});
-    sc["sumo"]["net"] = repo()
-        .join("sumo-nets/sugiyama-ring.net.xml")
-        .display()
-        .to_string()
-        .into();
-    let base = dir.join("sc.json");
-    std::fs::write(&base, sc.to_string()).unwrap();
+    let base = python_ring(&dir, &format!("{}:Law", law.display()), 10);
     let spec = write_spec(
         &dir,
         &format!(
