@@ -107,7 +107,7 @@ fn timed_out(
 ) -> Option<StopReason> {
     let limit = opts
         .timeout
-        .filter(|t| step % 64 == 0 && started.elapsed() > *t)?;
+        .filter(|t| step.is_multiple_of(64) && started.elapsed() > *t)?;
     Some(StopReason::Failed {
         error: format!(
             "the run exceeded its time limit of {} s at t = {time_s:.3} s (step {step}) and was stopped; the rows so far are written, marked incomplete (raise --timeout-s)",
