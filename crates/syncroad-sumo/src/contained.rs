@@ -49,8 +49,9 @@ pub struct ContainedHost {
     worker: Result<WorkerCommand, String>,
     /// When the run must have ended (its time limit), if it has one.
     deadline: Option<Instant>,
-    /// The process's stop flag (Ctrl-C, SIGTERM, SIGHUP: [`crate::interrupt_flag`]): a step
-    /// waiting for the child gives up when it is set, and the run's loop stops on it.
+    /// The process's stop flag (Ctrl-C, SIGTERM, SIGHUP, once the caller installed the
+    /// handlers with [`crate::interrupt_flag`]): a step waiting for the child gives up when it
+    /// is set, and the run's loop stops on it.
     cancel: Option<Arc<AtomicBool>>,
 }
 
@@ -61,7 +62,8 @@ impl ContainedHost {
         Self {
             worker: worker.map_err(|e| format!("cannot locate the worker program: {e}")),
             deadline: timeout.map(|t| Instant::now() + t),
-            cancel: crate::signals::interrupt_flag().ok(),
+            // Read, never installed here: a library caller keeps its own signal handling.
+            cancel: Some(crate::signals::stop_flag()),
         }
     }
 }

@@ -48,6 +48,13 @@ pub fn clear_interrupt() {
     received_cell().store(0, Ordering::SeqCst);
 }
 
+/// The process-wide stop flag as it is, without installing any handler: set once a handler
+/// installed by [`interrupt_flag`] ran, or a host delivered an interrupt; never set otherwise.
+/// For code that must notice a stop without taking the process's signals (a library call).
+pub(crate) fn stop_flag() -> Arc<AtomicBool> {
+    flag_cell()
+}
+
 /// The process-wide stop flag; installs the handlers for [`HANDLED`] on first use (unless a
 /// host delivers the interrupts: [`host_delivers_interrupts`]).
 pub fn interrupt_flag() -> Result<Arc<AtomicBool>, String> {
