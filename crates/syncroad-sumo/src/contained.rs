@@ -5,7 +5,7 @@
 //! it starts end with the child; a `step` that blocks is stopped by the run's time limit or by
 //! Ctrl-C. The run then stops at that step with the reason, every row before it kept.
 //!
-//! The child is this crate's worker program started with [`SERVE_ENV`] set: it reads the law
+//! The child is this crate's worker program started with [`SERVE_ENV`] set ([`crate::serve`]): it reads the law
 //! and its context as one JSON line, builds the controller with [`PythonHost`] and answers one
 //! request per step. The exchange after the JSON line, little-endian:
 //! * child → parent once: `B` (built) or `R`, a `u32` length and the reason (refused);
@@ -21,27 +21,17 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{mpsc, Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use serde::{Deserialize, Serialize};
 use syncroad_control::controller::ControllerError;
 use syncroad_control::user_law::{LawContext, PythonLaw};
 use syncroad_control::{ControllerEnd, LawHost, SpeedController};
 
+use crate::serve::{Setup, SERVE_ENV};
 use crate::supervisor::WorkerCommand;
 use crate::user_law::PythonHost;
-
-/// Set in a worker's environment, it serves one controller instead of SUMO runs.
-pub const SERVE_ENV: &str = "SYNCROAD_SERVE_CONTROLLER";
 
 /// Lines of the child's output (the controller's prints, Python's last words) kept for
 /// messages.
 const TAIL_LINES: usize = 20;
-
-/// What the child is told first.
-#[derive(Debug, Serialize, Deserialize)]
-struct Setup {
-    law: PythonLaw,
-    context: LawContext,
-}
 
 /// Builds the user's Python controllers in a supervised child process each ([`ContainedController`]).
 #[derive(Debug, Clone)]
@@ -384,78 +374,6 @@ impl Drop for ContainedController {
         let _ = self.child.wait();
         for t in self.threads.drain(..) {
             let _ = t.join();
-        }
-    }
-}
-
-/// The child's side: serves one controller, from the setup line to the end of its input.
-/// Returns the process's exit code.
-pub(crate) fn serve(input: &mut impl BufRead, out: &mut impl Write) -> u8 {
-    let mut line = String::new();
-    if input.read_line(&mut line).is_err() {
-        return 3;
-    }
-    let text = |out: &mut dyn Write, tag: u8, s: &str| {
-        let b = s.as_bytes();
-        let _ = out.write_all(&[tag]);
-        let _ = out.write_all(&(b.len() as u32).to_le_bytes());
-        let _ = out.write_all(b);
-        let _ = out.flush();
-    };
-    let setup: Setup = match serde_json::from_str(&line) {
-        Ok(s) => s,
-        Err(e) => {
-            text(out, b'R', &format!("malformed controller setup: {e}"));
-            return 3;
-        }
-    };
-    let built = PythonHost.python(&setup.law, &setup.context);
-    let mut law = match built {
-        Ok(l) => l,
-        Err(e) => {
-            // Only the reason: the parent names the controller.
-            let why = match e {
-                ControllerError::Python { reason, .. } => reason,
-                other => other.to_string(),
-            };
-            text(out, b'R', &why);
-            return 2;
-        }
-    };
-    if out.write_all(b"B").and_then(|()| out.flush()).is_err() {
-        return 3;
-    }
-    let mut head = [0u8; 13];
-    let (mut state, mut next) = (Vec::new(), Vec::new());
-    loop {
-        match input.read_exact(&mut head) {
-            Ok(()) if head[0] == b'S' => {}
-            _ => return 0,
-        }
-        let time_s = f64::from_le_bytes(head[1..9].try_into().expect("8 bytes"));
-        let n = u32::from_le_bytes(head[9..13].try_into().expect("4 bytes")) as usize;
-        state.resize(16 * n, 0u8);
-        if input.read_exact(&mut state).is_err() {
-            return 0;
-        }
-        let values: Vec<f64> = state
-            .chunks_exact(8)
-            .map(|b| f64::from_le_bytes(b.try_into().expect("8 bytes")))
-            .collect();
-        next.resize(n, 0.0);
-        law.step(time_s, &values[..n], &values[n..], &mut next);
-        if let Some(ControllerEnd::Failed(why) | ControllerEnd::Stopped(why)) = law.ended() {
-            text(out, b'F', &why);
-            return 3;
-        }
-        let mut reply = Vec::with_capacity(5 + 8 * n);
-        reply.push(b'C');
-        reply.extend((n as u32).to_le_bytes());
-        for x in &next {
-            reply.extend(x.to_le_bytes());
-        }
-        if out.write_all(&reply).and_then(|()| out.flush()).is_err() {
-            return 3;
         }
     }
 }

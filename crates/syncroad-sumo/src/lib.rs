@@ -52,6 +52,7 @@ mod protocol;
 mod python;
 mod replay;
 mod result_file;
+mod serve;
 mod signals;
 mod ssm;
 mod summary;

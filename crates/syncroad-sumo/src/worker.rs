@@ -89,8 +89,8 @@ pub fn worker_main_with(packages: SumoPackages) -> u8 {
     let mut out = BufWriter::with_capacity(OUT_BUFFER_BYTES, proto);
     let mut input = std::io::stdin().lock();
     // A controller for the native simulator of the parent, in a process of its own.
-    if std::env::var_os(crate::contained::SERVE_ENV).is_some() {
-        return crate::contained::serve(&mut input, &mut out);
+    if std::env::var_os(crate::serve::SERVE_ENV).is_some() {
+        return crate::serve::serve(&mut input, &mut out);
     }
     let mut line = String::new();
     let mut code = 0;

@@ -677,6 +677,8 @@ mod pool {
         o.on_start = Some(Arc::new(|s: &syncroad_sumo::StartInfo| {
             let pid = s.pid as i32;
             std::thread::spawn(move || {
+                // Any moment of the 100 000 s run will do: the kill lands mid-run however
+                // slow the machine, and the test checks the crash, not when it came.
                 std::thread::sleep(Duration::from_millis(500));
                 // SAFETY: signals our own child worker.
                 unsafe { libc::kill(pid, libc::SIGKILL) };
@@ -784,6 +786,8 @@ fn worker_killed_at_random_moments_never_yields_a_confident_verdict() {
         o.on_start = Some(Arc::new(move |s: &syncroad_sumo::StartInfo| {
             let pid = s.pid as i32;
             std::thread::spawn(move || {
+                // A random moment of a 100 000 s run, counted from SUMO's start: mid-run on
+                // any machine; what is checked (a crash, rows kept) holds at every moment.
                 std::thread::sleep(delay);
                 // SAFETY: signals our own child worker.
                 unsafe { libc::kill(pid, signal) };

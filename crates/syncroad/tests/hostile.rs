@@ -413,6 +413,7 @@ mod sweeps {
             .unwrap();
         // Killed while it holds the lock.
         let t0 = std::time::Instant::now();
+        // Waits for the lock file (an observable state); the 120 s only bound a hang.
         while !dir.join("killed/.syncroad.lock").exists() && t0.elapsed().as_secs() < 120 {
             std::thread::sleep(std::time::Duration::from_millis(10));
         }

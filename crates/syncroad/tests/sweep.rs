@@ -241,6 +241,7 @@ fn an_interrupted_sumo_sweep_resumes_to_the_same_table() {
         .spawn()
         .unwrap();
     let t0 = Instant::now();
+    // Waits for rows written (an observable state); the 120 s only bounds a hang.
     while rows_in(&resumed) < 4 && t0.elapsed() < Duration::from_secs(120) {
         std::thread::sleep(Duration::from_millis(20));
     }

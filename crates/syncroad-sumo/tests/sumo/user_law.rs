@@ -158,6 +158,7 @@ class Raises:
 class Blocks:
     def step(self, obs):
         if obs.step == 25:
+            # A step that never returns (the hour outlasts any test): only a limit ends it.
             time.sleep(3600)
         return obs.speed_mps
 
@@ -305,6 +306,8 @@ fn a_controller_that_blocks_is_stopped_by_the_runs_timeout() {
         Some(serde_json::json!({"python": format!("{file}:Blocks")})),
     );
     let mut o = opts("py-blocks-run");
+    // The step at 25 never returns, so this limit is what ends the run on any machine; the
+    // checks hold whether it passes before step 25 (a slow start) or after (no row past 25).
     o.timeout = Some(Duration::from_secs(3));
     let run = run_scenario(&sc, &o).unwrap();
     assert!(
@@ -422,6 +425,7 @@ class Helpers:
                 os.write(w, b"%d\n" % os.getpid())
                 os.close(w)
                 import time
+                # Outlives the run by far: only being killed with it ends it early.
                 time.sleep(600)
                 os._exit(0)
             # The fork's child is orphaned: its parent exits at once.
