@@ -104,7 +104,11 @@ fn main() {
                 let start = Instant::now();
                 let r = analyse(&sc).expect("the report");
                 let t = start.elapsed().as_secs_f64();
-                let c = r.network.as_ref().and_then(|x| x.critical.as_ref());
+                let c = r
+                    .network
+                    .as_ref()
+                    .and_then(|x| x.delayed())
+                    .and_then(|x| x.critical.as_ref());
                 let (method, solves) = c.map_or(("-".to_string(), 0), |c| {
                     (format!("{:?}", c.method).to_lowercase(), c.full_solves)
                 });

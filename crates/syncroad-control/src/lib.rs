@@ -41,6 +41,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod actuation;
+pub mod agents;
 pub mod bcm;
 pub mod cacc;
 pub mod collisions;

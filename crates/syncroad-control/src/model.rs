@@ -6,6 +6,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::agents::{LinearAgent, Transfer};
 use crate::delayed_driver::HistorySpec;
 use crate::graph::Graph;
 
@@ -162,13 +163,61 @@ pub struct CaccModel {
     pub leader: LeaderProfile,
 }
 
-/// The validated model.
+/// The validated linear network: a graph plus the user's linear agent per driver
+/// ([`crate::agents::linear`]), `u_i = Σ_j a_ij (y_j − y_i) + b_i (y_0 − y_i)` of eqs.
+/// `proto-lin`, `proto-lin+`, each agent's output its vehicle's speed.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LinearModel {
+    /// Interaction graph `A`.
+    pub graph: Graph,
+    /// One agent per driver.
+    pub agents: Vec<LinearAgent>,
+    /// Each agent's input delay in steps.
+    pub delay_steps: Vec<usize>,
+    /// Leader speed y_0 and pinning gains b_i, if any.
+    pub leader: Option<(f64, Vec<f64>)>,
+    /// How the graph was given.
+    pub shape: GraphShape,
+}
+
+/// The validated model: a graph plus an agent per driver, of one kind.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub enum Model {
     /// Delayed drivers (eq. `chandler+`).
     DelayedDriver(DelayedDriverModel),
     /// Bidirectional CACC platoon.
     Cacc(CaccModel),
+    /// The user's linear agents on a graph.
+    Linear(LinearModel),
+}
+
+impl Model {
+    /// Each driver's agent as the theory sees it ([`crate::agents`]).
+    pub fn transfers(&self) -> Vec<Transfer> {
+        match self {
+            Model::DelayedDriver(m) => m
+                .delay_s
+                .iter()
+                .map(|&d| Transfer::delayed_integrator(d))
+                .collect(),
+            Model::Cacc(m) => {
+                m.mu.iter()
+                    .zip(&m.tau_s)
+                    .map(|(&mu, &tau)| Transfer::cacc_vehicle(mu, tau))
+                    .collect()
+            }
+            Model::Linear(m) => m.agents.iter().map(|a| a.transfer.clone()).collect(),
+        }
+    }
+
+    /// The leader's speed and the pinning gains, for the kinds whose graph is given with them.
+    pub fn pinning(&self) -> Option<&(f64, Vec<f64>)> {
+        match self {
+            Model::DelayedDriver(m) => m.leader.as_ref(),
+            Model::Linear(m) => m.leader.as_ref(),
+            Model::Cacc(_) => None,
+        }
+    }
 }
 
 /// How the interaction graph was given, with its gain where one number holds for every driver

@@ -139,7 +139,7 @@ fn judged(
 ) -> SyncMetrics {
     let desired = match scenario.model() {
         Model::Cacc(c) => Some(c.desired_gap_m.as_slice()),
-        Model::DelayedDriver(_) => None,
+        Model::DelayedDriver(_) | Model::Linear(_) => None,
     };
     let mut sync = match &run.spread {
         Some(spread) => sync_metrics_of(spread, &run.trajectory, thresholds, desired, incomplete),

@@ -2,10 +2,12 @@
 //! eq. `chandler+` (pinned by `b_i (v_0 − v_i)` of eq. `proto-lin+` when the scenario has a
 //! leader), second order on the step grid ([`DelayedDriverController`]), or the bidirectional
 //! CACC of eqs. `veh-proto1/2` ([`CaccController`]: `a_des` from the measured state, held over
-//! the step, through the powertrain lag `τ_i a' + a = a_des` integrated exactly over it). It
+//! the step, through the powertrain lag `τ_i a' + a = a_des` integrated exactly over it), or
+//! the user's linear agents on a graph ([`LinearController`]). It
 //! takes no parameters of its own: the run's context carries the scenario's model
 //! ([`ProtocolInput`]).
 
+use crate::agents::stepper::LinearNetworkLaw;
 use crate::cacc::{CaccLaw, PlatoonView, PowertrainLag};
 use crate::delayed_driver::DelayedDriverLaw;
 use crate::model::{LeaderProfile, Model, ProtocolInput};
@@ -20,7 +22,7 @@ pub const PROTOCOL: &str = "protocol";
 /// The registry's entry of the scenario's own law.
 pub const ENTRY: LawEntry = LawEntry {
     name: PROTOCOL,
-    summary: "the scenario's own law, from its model block: the delayed drivers of eq. chandler+ on its graph, or the bidirectional CACC of eqs. veh-proto1/2 behind its leader",
+    summary: "the scenario's own law, from its model block: the delayed drivers of eq. chandler+ on its graph, the bidirectional CACC of eqs. veh-proto1/2 behind its leader, or the user's linear agents on a graph",
     road: Road::Any,
     looks_behind: true,
     shorthand: None,
@@ -64,6 +66,12 @@ fn controller(p: &ProtocolInput, step_s: f64) -> Result<Box<dyn SpeedController>
                 next: vec![0.0; n],
             }))
         }
+        Model::Linear(m) => Ok(Box::new(LinearController {
+            law: LinearNetworkLaw::new(m, step_s, &p.initial_speed_mps),
+            v0: m.leader.as_ref().map(|(v0, _)| *v0),
+            leader_vehicle: p.leader_vehicle,
+            next: vec![0.0; n],
+        })),
         Model::Cacc(m) => {
             if !p.leader_vehicle {
                 return Err(CACC_NEEDS_LEADER.into());
@@ -106,6 +114,27 @@ impl SpeedController for DelayedDriverController {
 
     fn sense(&mut self, neighbors: &Neighbors) {
         self.law.sense(neighbors, usize::from(self.leader_vehicle));
+    }
+}
+
+/// The user's linear agents ([`crate::agents::stepper`]). With a leader vehicle, index 0 is
+/// the leader driven at `y_0`.
+pub struct LinearController {
+    law: LinearNetworkLaw,
+    v0: Option<f64>,
+    leader_vehicle: bool,
+    next: Vec<f64>,
+}
+
+impl SpeedController for LinearController {
+    fn step(&mut self, _t: f64, speeds: &[f64], _positions: &[f64], out: &mut [f64]) {
+        let k = usize::from(self.leader_vehicle);
+        self.law
+            .step(&speeds[k..], self.v0.unwrap_or(0.0), &mut self.next);
+        out[k..].copy_from_slice(&self.next);
+        if self.leader_vehicle {
+            out[0] = self.v0.unwrap_or(speeds[0]);
+        }
     }
 }
 

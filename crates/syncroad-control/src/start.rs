@@ -28,9 +28,9 @@ pub fn initial_positions(scenario: &Scenario, leader_position_m: Option<f64>) ->
 /// leader one gap ahead of vehicle 0 at `v_0`, a CACC leader at 0 on its profile.
 pub fn leader_start(scenario: &Scenario) -> Option<(f64, f64)> {
     match scenario.model() {
-        Model::DelayedDriver(m) => m
-            .leader
-            .as_ref()
+        Model::DelayedDriver(_) | Model::Linear(_) => scenario
+            .model()
+            .pinning()
             .map(|(v0, _)| (scenario.length_m()[0] + scenario.initial_gap_m()[0], *v0)),
         Model::Cacc(m) => Some((0.0, m.leader.initial_speed())),
     }

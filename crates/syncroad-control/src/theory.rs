@@ -5,12 +5,17 @@
 //! * Theorem `thm.1+`: additionally pinning gains, `α_j (d_j^+ + 2 b_j) < 1/2`, `Σ b_j > 0`.
 //! * Theorem `thm.cacc`: `μ_i τ_i < 1/2` and the constants of eq. `constants-vehi`.
 //! * Chandler's straight-road condition `2αK < 1` for uniform predecessor following.
+//! * For the user's linear agents, Theorem `thm.1` / `thm.1+` with each agent's IFP index
+//!   ([`crate::agents::index`]) in place of the delay: the same inequalities.
+//!
+//! Every report lists the agents with their indices ([`AgentReport`]).
 
 use serde::Serialize;
 
+use crate::agents::{self, Transfer};
 use crate::graph::{Graph, GraphSummary};
 use crate::ifp::cacc_agent_index;
-use crate::scenario::{CaccModel, DelayedDriverModel, GraphShape, Model, Scenario};
+use crate::scenario::{CaccModel, DelayedDriverModel, GraphShape, LinearModel, Model, Scenario};
 
 /// The vehicle closest to violating a per-vehicle inequality `value < bound`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -61,10 +66,10 @@ pub struct Theorem1 {
     pub left_null_vector: Option<Vec<f64>>,
 }
 
-/// Evaluates Theorem `thm.1`.
-pub fn theorem1(graph: &Graph, delay_s: &[f64]) -> Theorem1 {
+/// Evaluates Theorem `thm.1` for IFP indices `alpha` (the delays, for delayed drivers).
+pub fn theorem1(graph: &Graph, alpha: &[f64]) -> Theorem1 {
     let d = graph.in_degrees();
-    let products: Vec<f64> = d.iter().zip(delay_s).map(|(d, a)| d * a).collect();
+    let products: Vec<f64> = d.iter().zip(alpha).map(|(d, a)| d * a).collect();
     let bounds = vec![0.5; products.len()];
     let b = binding(&products, &bounds);
     let strongly_connected = graph.is_strongly_connected();
@@ -278,8 +283,108 @@ pub struct TheoryReport {
     pub cacc: Option<CaccTheorem>,
     /// Chandler's `2αK < 1`.
     pub chandler: Option<Chandler>,
+    /// Each driver's agent: its transfer and IFP index ([`crate::agents`]), the numbers
+    /// Theorem 1 / 1+ weigh against the graph.
+    pub agents: Vec<AgentReport>,
+    /// Why the paper's theorems do not apply to this network, when an agent fails Lemma
+    /// `lem.linear-pass`'s hypotheses (the agent and the hypothesis named).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub not_applicable: Option<String>,
     /// The sufficient conditions certify synchronization.
     pub certified: bool,
+}
+
+/// One driver's agent in the certificate.
+#[derive(Debug, Clone, Serialize)]
+pub struct AgentReport {
+    /// `W = η/(sρ) · e^{−sτ}`.
+    #[serde(flatten)]
+    pub transfer: Transfer,
+    /// The IFP index α_i the certificate uses (`None` when the agent fails the lemma).
+    pub ifp_index: Option<f64>,
+    /// The index is exact; otherwise a rigorous upper bound.
+    pub exact: Option<bool>,
+    /// A lower bound of the true index.
+    pub lower_bound: Option<f64>,
+    /// What the index rests on.
+    pub rests_on: Option<&'static str>,
+    /// The hypothesis the agent fails, when it has no index.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hypothesis_failed: Option<String>,
+}
+
+/// The agents of a model with their indices; identical agents are computed once.
+pub fn agent_reports(model: &Model) -> Vec<AgentReport> {
+    let mut seen: Vec<(Transfer, AgentReport)> = Vec::new();
+    model
+        .transfers()
+        .into_iter()
+        .map(|t| {
+            if let Some((_, r)) = seen.iter().rev().find(|(u, _)| *u == t) {
+                return r.clone();
+            }
+            let r = match agents::index(&t) {
+                Ok(i) => AgentReport {
+                    transfer: t.clone(),
+                    ifp_index: Some(i.ifp_index),
+                    exact: Some(i.exact),
+                    lower_bound: Some(i.lower_bound),
+                    rests_on: Some(i.method.rests_on()),
+                    hypothesis_failed: None,
+                },
+                Err(e) => AgentReport {
+                    transfer: t.clone(),
+                    ifp_index: None,
+                    exact: None,
+                    lower_bound: None,
+                    rests_on: None,
+                    hypothesis_failed: Some(e.to_string()),
+                },
+            };
+            if seen.len() > 64 {
+                seen.remove(0);
+            }
+            seen.push((t, r.clone()));
+            r
+        })
+        .collect()
+}
+
+/// Theorem 1 / 1+ for the user's linear agents: their indices on the graph.
+fn linear_report(scenario: &Scenario, m: &LinearModel) -> TheoryReport {
+    let agents = agent_reports(scenario.model());
+    let failed = agents
+        .iter()
+        .enumerate()
+        .find_map(|(i, a)| a.hypothesis_failed.as_ref().map(|h| (i, h)));
+    let not_applicable = failed.map(|(i, h)| {
+        format!("agent {i} (model.agents[{i}]) is not IFP by Lemma lem.linear-pass: {h}; Theorems 1 and 1+ need every agent IFP. `syncroad stability` still gives the exact answer")
+    });
+    let alpha: Vec<f64> = agents
+        .iter()
+        .map(|a| a.ifp_index.unwrap_or(f64::NAN))
+        .collect();
+    let (t1, t1p) = if not_applicable.is_some() {
+        (None, None)
+    } else {
+        match &m.leader {
+            None => (Some(theorem1(&m.graph, &alpha)), None),
+            Some((_, b)) => (None, Some(theorem1_plus(&m.graph, &alpha, b))),
+        }
+    };
+    let certified = t1.as_ref().is_some_and(|t| t.holds) || t1p.as_ref().is_some_and(|t| t.holds);
+    TheoryReport {
+        scenario: scenario.name().to_string(),
+        vehicles: scenario.vehicles(),
+        graph: GraphSummary::from(&m.graph),
+        theorem1: t1,
+        theorem1_plus: t1p,
+        cacc: None,
+        chandler: None,
+        agents,
+        not_applicable,
+        certified,
+    }
 }
 
 /// Evaluates every condition that applies to the scenario.
@@ -299,6 +404,8 @@ pub fn report(scenario: &Scenario) -> TheoryReport {
             theorem1_plus: None,
             cacc: None,
             chandler: None,
+            agents: Vec::new(),
+            not_applicable: None,
             certified: false,
         };
     }
@@ -322,6 +429,8 @@ pub fn report(scenario: &Scenario) -> TheoryReport {
                 theorem1_plus: t1p,
                 cacc: None,
                 chandler: ch,
+                agents: agent_reports(scenario.model()),
+                not_applicable: None,
                 certified,
             }
         }
@@ -336,8 +445,11 @@ pub fn report(scenario: &Scenario) -> TheoryReport {
                 certified: t.holds,
                 cacc: Some(t),
                 chandler: None,
+                agents: agent_reports(scenario.model()),
+                not_applicable: None,
             }
         }
+        Model::Linear(m) => linear_report(scenario, m),
     }
 }
 

@@ -95,12 +95,15 @@ pub fn table(r: &StabilityReport) -> String {
             }
         );
     }
-    if let Some(n) = &r.network {
+    if let Some(n) = r.network.as_ref().and_then(|n| n.delayed()) {
         let _ = writeln!(
             s,
             "\nfull solve (Chebyshev collocation, shift-invert or dense, + Newton):"
         );
         let _ = write!(s, "{n}");
+    }
+    if let Some(n) = r.network.as_ref().and_then(|n| n.linear()) {
+        linear_table(&mut s, n);
     }
     if let Some(g) = &r.no_spanning_tree {
         let _ = writeln!(
@@ -135,6 +138,82 @@ pub fn table(r: &StabilityReport) -> String {
         let _ = writeln!(s, "WARNING: the sufficient conditions certify a network the exact analysis finds unstable; please report this scenario.");
     }
     s
+}
+
+/// The linear agents' roots and stable scales.
+fn linear_table(s: &mut String, n: &syncroad_control::exact::linear::LinearNetworkReport) {
+    let r = &n.roots;
+    let _ = writeln!(
+        s,
+        "\nlinear agents: closed loop of order {}, rightmost roots of det(diag(sρ_i) + c·diag(η_i)·H) at c = 1 (consensus removed):",
+        r.dimension
+    );
+    let _ = writeln!(s, "{:>14} {:>14}", "Re s [1/s]", "Im s [rad/s]");
+    for z in &r.roots {
+        let _ = writeln!(s, "{:>14.6e} {:>14.6e}", z.re, z.im);
+    }
+    let _ = writeln!(
+        s,
+        "spectral abscissa {:.6e} 1/s; roots right of the axis: {} by the eigenvalues, {} by the argument principle{}",
+        r.abscissa,
+        r.unstable_roots,
+        r.counted_unstable_roots
+            .map_or("— (count did not close)".to_string(), |c| c.to_string()),
+        if r.certified { " (certified)" } else { " (UNCERTIFIED)" }
+    );
+    if let Some(c) = &n.critical {
+        let intervals: Vec<String> = c
+            .stable_scales
+            .iter()
+            .map(|iv| {
+                if iv[1] >= c.searched_up_to {
+                    format!("({:.6}, ≥{:.0e})", iv[0], iv[1])
+                } else {
+                    format!("({:.6}, {:.10})", iv[0], iv[1])
+                }
+            })
+            .collect();
+        let _ = writeln!(
+            s,
+            "stable gain scales c: {}",
+            if intervals.is_empty() {
+                format!("none up to {:.0e}", c.searched_up_to)
+            } else {
+                intervals.join(" ∪ ")
+            }
+        );
+        if let Some(f) = c.stable_from {
+            let _ = writeln!(
+                s,
+                "  unstable for small c: the network synchronizes only from c = {f:.10}"
+            );
+        }
+        match (c.critical_gain_scale, c.crossing_frequency_rad_s) {
+            (Some(cs), Some(w)) => {
+                let _ = writeln!(
+                    s,
+                    "critical gain scale c* {cs:.10}, crossing at ω* = {w:.10} rad/s{}",
+                    c.conservatism_ratio.map_or(String::new(), |q| format!(
+                        "  ratio {q:.6} to the paper's c_cert = {:.10}",
+                        c.reference_gain_scale.unwrap_or(f64::NAN)
+                    ))
+                );
+                let _ = writeln!(
+                    s,
+                    "  generalized Nyquist check: −1/c* is an eigenvalue of H·diag(W(iω*)) to {:.1e}{}",
+                    c.nyquist_residual.unwrap_or(f64::NAN),
+                    if c.certified { "" } else { " (UNCERTIFIED)" }
+                );
+            }
+            _ => {
+                let _ = writeln!(
+                    s,
+                    "critical gain scale: none found up to c = {:.0e} (searched, not proven)",
+                    c.searched_up_to
+                );
+            }
+        }
+    }
 }
 
 /// The table printed by `syncroad stability --platoon-scaling`.

@@ -44,6 +44,65 @@ fn per_vehicle(out: &mut String, label: &str, values: &[f64], p: Option<&[f64]>)
     }
 }
 
+/// The agents and their IFP indices: every distinct agent, at most 12 rows.
+fn agents_table(s: &mut String, r: &TheoryReport) {
+    if r.agents.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        s,
+        "\nagents W_i = η_i/(s ρ_i) · e^(−s τ_i) and their IFP index α_i:"
+    );
+    let mut shown = 0;
+    let mut last: Option<usize> = None;
+    for (i, a) in r.agents.iter().enumerate() {
+        if last.is_some_and(|j| r.agents[j].transfer == a.transfer) {
+            continue;
+        }
+        let same = r.agents[i..]
+            .iter()
+            .take_while(|b| b.transfer == a.transfer)
+            .count();
+        last = Some(i);
+        shown += 1;
+        if shown > 12 {
+            let _ = writeln!(
+                s,
+                "  ... more agents (syncroad check --json lists every one)"
+            );
+            break;
+        }
+        let who = if same > 1 {
+            format!("{i}..{}", i + same - 1)
+        } else {
+            i.to_string()
+        };
+        let index = match (a.ifp_index, &a.hypothesis_failed) {
+            (Some(x), _) => format!(
+                "α = {x:.10}{}",
+                if a.exact == Some(true) {
+                    " (exact)".to_string()
+                } else {
+                    format!(
+                        " (upper bound; ≥ {:.10})",
+                        a.lower_bound.unwrap_or(f64::NAN)
+                    )
+                }
+            ),
+            (None, Some(h)) => format!("not IFP: {h}"),
+            (None, None) => "—".to_string(),
+        };
+        let _ = writeln!(
+            s,
+            "  {who:>9}  η {:?}  ρ {:?}  τ {} s  {index}",
+            a.transfer.eta, a.transfer.rho, a.transfer.delay_s
+        );
+    }
+    if let Some(n) = &r.not_applicable {
+        let _ = writeln!(s, "\nTheorems 1 and 1+ do not apply: {n}");
+    }
+}
+
 /// The `syncroad check` table.
 pub fn theory_table(r: &TheoryReport) -> String {
     let mut s = String::new();
@@ -57,6 +116,7 @@ pub fn theory_table(r: &TheoryReport) -> String {
         g.spanning_tree_root
             .map_or("none".to_string(), |x| x.to_string())
     );
+    agents_table(&mut s, r);
     if let Some(t) = &r.theorem1 {
         let _ = writeln!(
             s,

@@ -30,7 +30,7 @@ use super::report::{
 use super::ring_modes::{RingError, RingModes, UniformRing};
 use super::string_stability::{chandler_string_peak, StringStabilityOptions};
 use crate::scenario::Scenario;
-use crate::scenario::{CaccModel, DelayedDriverModel, GraphShape, Model};
+use crate::scenario::{CaccModel, DelayedDriverModel, GraphShape, LinearModel, Model};
 use crate::theory::{self, TheoryReport};
 
 /// Largest network (vehicles, leader included) for the dense collocation solve
@@ -87,6 +87,9 @@ pub enum AnalysisError {
         /// Vehicles, the leader included.
         vehicles: usize,
     },
+    /// The linear agents' analysis failed or does not apply.
+    #[error("linear agents (model.agents)")]
+    Linear(#[source] super::linear::LinearAnalysisError),
     /// Platoon scaling was asked for a model that is not a CACC platoon.
     #[error("platoon scaling needs a CACC platoon (model.type = \"cacc\")")]
     PlatoonScalingNeedsCacc,
@@ -198,6 +201,35 @@ pub struct NoSpanningTree {
     pub consensus_multiplicity: usize,
 }
 
+/// The full solve of a network, by kind of agent; both give `roots.abscissa` and
+/// `critical.critical_gain_scale`.
+#[derive(Debug, Clone, Serialize)]
+#[serde(untagged)]
+pub enum NetworkReport {
+    /// Delayed drivers: collocation, Newton, root counts, continuation.
+    Delayed(NetworkStabilityReport),
+    /// Delay-free rational agents: closed-loop eigenvalues and root counts.
+    Linear(super::linear::LinearNetworkReport),
+}
+
+impl NetworkReport {
+    /// The delayed drivers' report.
+    pub fn delayed(&self) -> Option<&NetworkStabilityReport> {
+        match self {
+            NetworkReport::Delayed(n) => Some(n),
+            NetworkReport::Linear(_) => None,
+        }
+    }
+
+    /// The linear agents' report.
+    pub fn linear(&self) -> Option<&super::linear::LinearNetworkReport> {
+        match self {
+            NetworkReport::Linear(n) => Some(n),
+            NetworkReport::Delayed(_) => None,
+        }
+    }
+}
+
 /// Everything `syncroad stability` reports.
 #[derive(Debug, Clone, Serialize)]
 pub struct StabilityReport {
@@ -215,8 +247,9 @@ pub struct StabilityReport {
     /// with cycles such as bidirectional platoons): the peak gain from the leader's speed to
     /// each follower's, and the worst along the platoon.
     pub leader_amplification: Option<LeaderAmplification>,
-    /// Full solve of the network, when small enough and not acyclic.
-    pub network: Option<NetworkStabilityReport>,
+    /// Full solve of the network, when small enough and not acyclic: the delayed drivers'
+    /// roots and critical scale, or the linear agents' ([`super::linear`]).
+    pub network: Option<NetworkReport>,
     /// CACC platoon analysis.
     pub cacc: Option<CaccReport>,
     /// The exact verdict.
@@ -346,92 +379,8 @@ pub fn analyse_reporting(
 ) -> Result<StabilityReport, AnalysisError> {
     let paper = theory::report(sc);
     match sc.model() {
-        Model::DelayedDriver(m) => {
-            let gain_delay = max_gain_delay(m);
-            if below_resolution(m) {
-                return Err(AnalysisError::BelowResolution { gain_delay });
-            }
-            if gain_delay > MAX_GAIN_DELAY {
-                return Err(AnalysisError::AboveResolution { gain_delay });
-            }
-            let vehicles = m.graph.len() + usize::from(m.leader.is_some());
-            if vehicles < 2 {
-                return Err(AnalysisError::TooFewVehicles { vehicles });
-            }
-            let ring = match uniform_ring(sc, m) {
-                Some(r) => Some(r.modes().map_err(AnalysisError::Ring)?),
-                None => None,
-            };
-            let size = m.graph.len() + usize::from(m.leader.is_some());
-            let (a, d) = network_matrices(m);
-            // Consensus needs the root s = 0 to be simple: checked before any path, since
-            // each (the acyclic factors above all) reads its roots off zero only.
-            if let Some(gap) = no_spanning_tree(&a) {
-                return Ok(StabilityReport::unsynchronizable(sc, paper, gap));
-            }
-            let acyclic = acyclic_roots(&a, &d).ok();
-            let network = if acyclic.is_some() {
-                None
-            } else if size <= NETWORK_SOLVE_LIMIT {
-                Some(
-                    analyse_network_reporting(&a, &d, &CollocationOptions::default(), on_step)
-                        .map_err(AnalysisError::Network)?,
-                )
-            } else if ring.is_none() {
-                return Err(AnalysisError::TooLargeForFullSolve {
-                    vehicles: size,
-                    limit: NETWORK_SOLVE_LIMIT,
-                });
-            } else {
-                None
-            };
-            let stable = |s: bool| {
-                if s {
-                    ExactVerdict::Synchronizes
-                } else {
-                    ExactVerdict::DoesNotSynchronize
-                }
-            };
-            let verdict = match (&acyclic, &network, &ring) {
-                (Some(x), _, _) => stable(x.abscissa < 0.0),
-                (None, Some(n), _) => match n.certified_stability() {
-                    Some(s) => stable(s),
-                    None => ExactVerdict::Uncertified,
-                },
-                (None, None, Some(r)) => stable(r.abscissa < 0.0),
-                (None, None, None) => unreachable!("one of the three is computed"),
-            };
-            let chain_string_stability = acyclic
-                .as_ref()
-                .and_then(|_| chain_string_stability(&a, &d));
-            let leader_amplification = match (&m.leader, verdict) {
-                (Some(_), ExactVerdict::Synchronizes) => {
-                    let frequencies: Vec<f64> = match (&acyclic, &network) {
-                        (Some(x), _) => x.drivers.iter().map(|r| r.im.abs()).collect(),
-                        (None, Some(n)) => n.roots.roots.iter().map(|r| r.root.im.abs()).collect(),
-                        _ => Vec::new(),
-                    };
-                    leader_amplification(&a, &d, a.nrows() - 1, &frequencies)
-                }
-                _ => None,
-            };
-            let critical_scale_status = critical_status(&ring, &acyclic, &network);
-            Ok(StabilityReport {
-                scenario: sc.name().to_string(),
-                certified: paper.certified,
-                critical_scale_status,
-                paper,
-                ring,
-                acyclic,
-                chain_string_stability,
-                leader_amplification,
-                network,
-                cacc: None,
-                exactly_stable: verdict == ExactVerdict::Synchronizes,
-                verdict,
-                no_spanning_tree: None,
-            })
-        }
+        Model::DelayedDriver(m) => analyse_delayed(sc, m, paper, on_step),
+        Model::Linear(m) => analyse_linear_scenario(sc, m, paper, on_step),
         Model::Cacc(c) => {
             let params = cacc_params(c);
             let r = analyse_cacc(&params, &StringStabilityOptions::default())
@@ -457,6 +406,219 @@ pub fn analyse_reporting(
                 no_spanning_tree: None,
             })
         }
+    }
+}
+
+/// The delayed-driver network `m` (the scenario's, or its linear agents when they are all
+/// delayed integrators) against the conditions `paper`.
+fn analyse_delayed(
+    sc: &Scenario,
+    m: &DelayedDriverModel,
+    paper: TheoryReport,
+    on_step: &(dyn Fn(&'static str) + Sync),
+) -> Result<StabilityReport, AnalysisError> {
+    let gain_delay = max_gain_delay(m);
+    if below_resolution(m) {
+        return Err(AnalysisError::BelowResolution { gain_delay });
+    }
+    if gain_delay > MAX_GAIN_DELAY {
+        return Err(AnalysisError::AboveResolution { gain_delay });
+    }
+    let vehicles = m.graph.len() + usize::from(m.leader.is_some());
+    if vehicles < 2 {
+        return Err(AnalysisError::TooFewVehicles { vehicles });
+    }
+    let ring = match uniform_ring(sc, m) {
+        Some(r) => Some(r.modes().map_err(AnalysisError::Ring)?),
+        None => None,
+    };
+    let size = m.graph.len() + usize::from(m.leader.is_some());
+    let (a, d) = network_matrices(m);
+    // Consensus needs the root s = 0 to be simple: checked before any path, since
+    // each (the acyclic factors above all) reads its roots off zero only.
+    if let Some(gap) = no_spanning_tree(&a) {
+        return Ok(StabilityReport::unsynchronizable(sc, paper, gap));
+    }
+    let acyclic = acyclic_roots(&a, &d).ok();
+    let network = if acyclic.is_some() {
+        None
+    } else if size <= NETWORK_SOLVE_LIMIT {
+        Some(
+            analyse_network_reporting(&a, &d, &CollocationOptions::default(), on_step)
+                .map_err(AnalysisError::Network)?,
+        )
+    } else if ring.is_none() {
+        return Err(AnalysisError::TooLargeForFullSolve {
+            vehicles: size,
+            limit: NETWORK_SOLVE_LIMIT,
+        });
+    } else {
+        None
+    };
+    let stable = |s: bool| {
+        if s {
+            ExactVerdict::Synchronizes
+        } else {
+            ExactVerdict::DoesNotSynchronize
+        }
+    };
+    let verdict = match (&acyclic, &network, &ring) {
+        (Some(x), _, _) => stable(x.abscissa < 0.0),
+        (None, Some(n), _) => match n.certified_stability() {
+            Some(s) => stable(s),
+            None => ExactVerdict::Uncertified,
+        },
+        (None, None, Some(r)) => stable(r.abscissa < 0.0),
+        (None, None, None) => unreachable!("one of the three is computed"),
+    };
+    let chain_string_stability = acyclic
+        .as_ref()
+        .and_then(|_| chain_string_stability(&a, &d));
+    let leader_amplification = match (&m.leader, verdict) {
+        (Some(_), ExactVerdict::Synchronizes) => {
+            let frequencies: Vec<f64> = match (&acyclic, &network) {
+                (Some(x), _) => x.drivers.iter().map(|r| r.im.abs()).collect(),
+                (None, Some(n)) => n.roots.roots.iter().map(|r| r.root.im.abs()).collect(),
+                _ => Vec::new(),
+            };
+            leader_amplification(&a, &d, a.nrows() - 1, &frequencies)
+        }
+        _ => None,
+    };
+    let critical_scale_status = critical_status(&ring, &acyclic, &network);
+    Ok(StabilityReport {
+        scenario: sc.name().to_string(),
+        certified: paper.certified,
+        critical_scale_status,
+        paper,
+        ring,
+        acyclic,
+        chain_string_stability,
+        leader_amplification,
+        network: network.map(NetworkReport::Delayed),
+        cacc: None,
+        exactly_stable: verdict == ExactVerdict::Synchronizes,
+        verdict,
+        no_spanning_tree: None,
+    })
+}
+
+/// The user's linear agents: delayed integrators `k_i e^{−sτ_i}/s` are the delayed drivers of
+/// the graph `k_i a_ij` (pinning `k_i b_i`) and take their analysis; delay-free rational
+/// agents take the closed-loop analysis of [`super::linear`].
+fn analyse_linear_scenario(
+    sc: &Scenario,
+    m: &LinearModel,
+    paper: TheoryReport,
+    on_step: &(dyn Fn(&'static str) + Sync),
+) -> Result<StabilityReport, AnalysisError> {
+    let vehicles = m.graph.len() + usize::from(m.leader.is_some());
+    if vehicles < 2 {
+        return Err(AnalysisError::TooFewVehicles { vehicles });
+    }
+    let integrators = m.agents.iter().all(|a| a.transfer.is_integrator());
+    if integrators && m.agents.iter().any(|a| a.transfer.delay_s > 0.0) {
+        return analyse_delayed(sc, &as_delayed_drivers(m), paper, on_step);
+    }
+    let a = {
+        let n = m.graph.len();
+        let mut a = DMatrix::zeros(
+            n + usize::from(m.leader.is_some()),
+            n + usize::from(m.leader.is_some()),
+        );
+        a.view_mut((0, 0), (n, n))
+            .copy_from(&m.graph.adjacency_dense());
+        if let Some((_, b)) = &m.leader {
+            for (i, bi) in b.iter().enumerate() {
+                a[(i, n)] = *bi;
+            }
+        }
+        a
+    };
+    if let Some(gap) = no_spanning_tree(&a) {
+        return Ok(StabilityReport::unsynchronizable(sc, paper, gap));
+    }
+    on_step("closed-loop roots, their count by the argument principle, and the stable gain scales");
+    let reference = paper
+        .theorem1
+        .as_ref()
+        .map(|t| t.max_gain_scale)
+        .or(paper.theorem1_plus.as_ref().map(|t| t.max_gain_scale))
+        .filter(|c| c.is_finite());
+    let r = super::linear::analyse_linear(m, reference).map_err(AnalysisError::Linear)?;
+    let verdict = match (r.roots.certified, r.roots.abscissa < 0.0) {
+        (false, _) => ExactVerdict::Uncertified,
+        (true, true) => ExactVerdict::Synchronizes,
+        (true, false) => ExactVerdict::DoesNotSynchronize,
+    };
+    let critical_scale_status = match r.critical.as_ref() {
+        Some(c) if c.critical_gain_scale.is_some() && c.certified => CriticalScaleStatus::Certified,
+        Some(c) if c.critical_gain_scale.is_some() => CriticalScaleStatus::Uncertified,
+        _ => CriticalScaleStatus::None,
+    };
+    Ok(StabilityReport {
+        scenario: sc.name().to_string(),
+        certified: paper.certified,
+        paper,
+        ring: None,
+        acyclic: None,
+        chain_string_stability: None,
+        leader_amplification: None,
+        network: Some(NetworkReport::Linear(r)),
+        cacc: None,
+        exactly_stable: verdict == ExactVerdict::Synchronizes,
+        critical_scale_status,
+        verdict,
+        no_spanning_tree: None,
+    })
+}
+
+/// Linear agents that are all delayed integrators `k_i e^{−sτ_i}/s`, as the delayed drivers
+/// of the graph with rows scaled by `k_i`.
+fn as_delayed_drivers(m: &LinearModel) -> DelayedDriverModel {
+    let k: Vec<f64> = m
+        .agents
+        .iter()
+        .map(|a| a.transfer.eta[0] / a.transfer.rho[0])
+        .collect();
+    let arcs: Vec<crate::graph::Arc> = m
+        .graph
+        .arcs()
+        .into_iter()
+        .map(|arc| crate::graph::Arc {
+            weight: arc.weight * k[arc.to],
+            ..arc
+        })
+        .collect();
+    let uniform = k.iter().all(|&x| x == k[0]);
+    let scale = |g: Option<f64>| g.filter(|_| uniform).map(|g| g * k[0]);
+    let shape = match m.shape {
+        GraphShape::UnidirectionalRing { gain } => {
+            GraphShape::UnidirectionalRing { gain: scale(gain) }
+        }
+        GraphShape::BidirectionalRing {
+            gain_pred,
+            gain_follow,
+        } => GraphShape::BidirectionalRing {
+            gain_pred: scale(gain_pred),
+            gain_follow: scale(gain_follow),
+        },
+        GraphShape::Chain { follower_gain } => GraphShape::Chain {
+            follower_gain: scale(follower_gain),
+        },
+        GraphShape::Other => GraphShape::Other,
+    };
+    DelayedDriverModel {
+        graph: crate::graph::Graph::from_arcs(m.graph.len(), &arcs)
+            .expect("scaling gains by positive k keeps a valid graph"),
+        delay_s: m.agents.iter().map(|a| a.transfer.delay_s).collect(),
+        delay_steps: m.delay_steps.clone(),
+        leader: m
+            .leader
+            .as_ref()
+            .map(|(v0, b)| (*v0, b.iter().zip(&k).map(|(b, k)| b * k).collect())),
+        history: crate::delayed_driver::HistorySpec::default(),
+        shape,
     }
 }
 
@@ -669,7 +831,14 @@ mod tests {
         for (sc, expected) in cases {
             let r = analyse(&sc).unwrap();
             let check = r.paper.theorem1_plus.as_ref().unwrap().max_gain_scale;
-            let c = r.network.as_ref().unwrap().critical.as_ref().unwrap();
+            let c = r
+                .network
+                .as_ref()
+                .and_then(|n| n.delayed())
+                .unwrap()
+                .critical
+                .as_ref()
+                .unwrap();
             assert_eq!(c.reference, super::super::ReferenceTheorem::Theorem1Plus);
             assert_relative_eq!(c.reference_gain_scale, check, max_relative = 1e-14);
             assert_relative_eq!(c.reference_gain_scale, expected, max_relative = 1e-14);
@@ -683,6 +852,7 @@ mod tests {
             assert!(r
                 .network
                 .as_ref()
+                .and_then(|n| n.delayed())
                 .unwrap()
                 .to_string()
                 .contains("Theorem 1+"));

@@ -45,6 +45,7 @@ pub(crate) mod dual;
 pub mod gaps;
 pub mod lambert_w;
 pub mod leader_amplification;
+pub mod linear;
 pub mod platoon_scaling;
 pub mod report;
 pub mod ring_modes;

@@ -374,6 +374,27 @@ pub enum ModelSpec {
     },
     /// Bidirectional CACC of eqs. `veh-proto1`/`veh-proto2` behind a leader.
     Cacc(CaccSpec),
+    /// The user's linear agents on a graph: `W_i = η_i/(s ρ_i) · e^{−s τ_i}` (or a state space)
+    /// from `u_i = Σ_j a_ij (y_j − y_i) + b_i (y_0 − y_i)` to the speed `y_i`.
+    Linear {
+        /// Interaction graph with its gains `a_ij`, in any form the delayed driver takes.
+        graph: GraphSpec,
+        /// One agent for every driver, or one per driver.
+        agents: AgentsSpec,
+        /// Optional reference: a leader at speed `y_0` seen by pinned agents (`b_i > 0`).
+        #[serde(default)]
+        leader: Option<DriverLeaderSpec>,
+    },
+}
+
+/// The linear agents: one for every driver, or a list of one per driver.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum AgentsSpec {
+    /// The same agent for every driver.
+    One(crate::agents::LinearAgentSpec),
+    /// One agent per driver.
+    List(Vec<crate::agents::LinearAgentSpec>),
 }
 
 /// Reference for the delayed-driver model (Theorem `thm.1+`).

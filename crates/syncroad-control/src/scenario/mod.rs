@@ -29,7 +29,9 @@ mod select;
 mod sumo;
 mod validate;
 
-pub use crate::model::{CaccModel, DelayedDriverModel, GraphShape, LeaderProfile, Model};
+pub use crate::model::{
+    CaccModel, DelayedDriverModel, GraphShape, LeaderProfile, LinearModel, Model,
+};
 pub use file::*;
 pub use mixed::MixedSpec;
 pub use network_road::{ConfigInputs, MeasuredRoad, RoadReader};
@@ -374,7 +376,7 @@ impl Scenario {
     /// The leader's speed at `t`, if the model has a leader.
     pub fn leader_speed_at(&self, t: f64) -> Option<f64> {
         match &self.model {
-            Model::DelayedDriver(m) => m.leader.as_ref().map(|(v0, _)| *v0),
+            Model::DelayedDriver(_) | Model::Linear(_) => self.model.pinning().map(|(v0, _)| *v0),
             Model::Cacc(c) => Some(c.leader.speed_at(t)),
         }
     }

@@ -122,7 +122,7 @@ impl ScenarioFile {
 
         let length_m = match &model {
             Model::Cacc(c) => c.length_m.clone(),
-            Model::DelayedDriver(_) => vec![self.sumo.length_m; n],
+            Model::DelayedDriver(_) | Model::Linear(_) => vec![self.sumo.length_m; n],
         };
         let mut rng = SplitMix64::new(self.seed);
         let pert = &self.initial.perturbation;
@@ -318,7 +318,7 @@ impl ScenarioFile {
             (None, _) => Err(invalid(
                 "model",
                 "missing",
-                "give the law of the scenario's vehicles: {\"type\": \"delayed_driver\", ...} or {\"type\": \"cacc\", ...}",
+                "give the law of the scenario's vehicles: {\"type\": \"delayed_driver\", ...}, {\"type\": \"cacc\", ...} or {\"type\": \"linear\", ...}",
             )),
             (Some(ModelSpec::DelayedDriver {
                 graph,
@@ -358,6 +358,42 @@ impl ScenarioFile {
                     delay_steps,
                     leader,
                     history: *history,
+                }))
+            }
+            (Some(ModelSpec::Linear {
+                graph,
+                agents,
+                leader,
+            }), _) => {
+                let shape = graph_shape(graph);
+                let graph = build_graph(graph, n)?;
+                let agents = resolve_agents(agents, n)?;
+                let delay_s: Vec<f64> = agents.iter().map(|a| a.transfer.delay_s).collect();
+                let delay_steps = self.delay_steps(&delay_s).map_err(|e| match e {
+                    ScenarioError::DelayNotMultipleOfStep { vehicle, delay_s, nearest, .. } => invalid(
+                        format!("model.agents[{vehicle}].delay_s"),
+                        delay_s,
+                        format!("must be a whole number of steps (step_s = {}); the nearest is {nearest}", self.step_s),
+                    ),
+                    other => other,
+                })?;
+                let leader = match leader {
+                    None => None,
+                    Some(l) => Some(resolve_leader(l, n)?),
+                };
+                if closed && leader.is_some() {
+                    return Err(invalid(
+                        "model.leader",
+                        "given",
+                        "a leader needs a straight road (road.type = \"straight\")",
+                    ));
+                }
+                Ok(Model::Linear(LinearModel {
+                    graph,
+                    agents,
+                    delay_steps,
+                    leader,
+                    shape,
                 }))
             }
             (Some(ModelSpec::Cacc(c)), _) => {
@@ -572,18 +608,33 @@ impl Scenario {
                     ));
                 }
             }
+            (Model::Linear(_), Model::Linear(m)) => {
+                per_vehicle("model.graph", m.graph.len())?;
+                per_vehicle("model.agents", m.agents.len())?;
+                per_vehicle("model.agents (delay steps)", m.delay_steps.len())?;
+                if let Some((_, b)) = &m.leader {
+                    per_vehicle("model.leader.pinning", b.len())?;
+                }
+            }
+            (_, Model::Linear(_)) => {
+                return Err(invalid(
+                    "model.type",
+                    "linear",
+                    "a replacement model keeps the scenario's model type",
+                ))
+            }
             (_, Model::DelayedDriver(_)) => {
                 return Err(invalid(
                     "model.type",
                     "delayed_driver",
-                    "a replacement model keeps the scenario's model type (cacc)",
+                    "a replacement model keeps the scenario's model type",
                 ))
             }
             (_, Model::Cacc(_)) => {
                 return Err(invalid(
                     "model.type",
                     "cacc",
-                    "a replacement model keeps the scenario's model type (delayed_driver)",
+                    "a replacement model keeps the scenario's model type",
                 ))
             }
         }
@@ -688,4 +739,36 @@ pub(super) fn check_delay_buffer(
         });
     }
     Ok(())
+}
+
+/// The linear agents, one per driver: a single agent is every driver's; a list has one entry
+/// per driver. Each is validated, its errors named below `model.agents`.
+fn resolve_agents(
+    spec: &super::file::AgentsSpec,
+    n: usize,
+) -> Result<Vec<crate::agents::LinearAgent>, ScenarioError> {
+    use super::file::AgentsSpec;
+    let name = |i: Option<usize>, e: crate::agents::LinearAgentError| {
+        let at = i.map_or(String::new(), |i| format!("[{i}]"));
+        invalid(format!("model.agents{at}.{}", e.field), e.value, e.expected)
+    };
+    match spec {
+        AgentsSpec::One(a) => {
+            let agent = a.validate().map_err(|e| name(None, e))?;
+            Ok(vec![agent; n])
+        }
+        AgentsSpec::List(list) => {
+            if list.len() != n {
+                return Err(ScenarioError::LengthMismatch {
+                    field: "model.agents".to_string(),
+                    len: list.len(),
+                    vehicles: n,
+                });
+            }
+            list.iter()
+                .enumerate()
+                .map(|(i, a)| a.validate().map_err(|e| name(Some(i), e)))
+                .collect()
+        }
+    }
 }

@@ -456,6 +456,7 @@ pub fn gap_certificate(sc: &Scenario) -> Result<Option<GapCertificate>, GapError
     let m = match sc.model() {
         Model::DelayedDriver(m) => m,
         Model::Cacc(c) => return cacc::cacc_gap_certificate(sc, c).map(Some),
+        Model::Linear(_) => return Ok(None),
     };
     let n = sc.vehicles();
     if n == 0 {
