@@ -246,6 +246,29 @@ pub enum GraphShape {
     Other,
 }
 
+impl GraphShape {
+    /// The shape of the graph with every gain times `c`.
+    pub fn scaled(self, c: f64) -> Self {
+        let k = |g: Option<f64>| g.map(|g| g * c);
+        match self {
+            GraphShape::UnidirectionalRing { gain } => {
+                GraphShape::UnidirectionalRing { gain: k(gain) }
+            }
+            GraphShape::BidirectionalRing {
+                gain_pred,
+                gain_follow,
+            } => GraphShape::BidirectionalRing {
+                gain_pred: k(gain_pred),
+                gain_follow: k(gain_follow),
+            },
+            GraphShape::Chain { follower_gain } => GraphShape::Chain {
+                follower_gain: k(follower_gain),
+            },
+            GraphShape::Other => GraphShape::Other,
+        }
+    }
+}
+
 /// The scenario's own law as a run builds it: its model, the initial speeds (the delay
 /// buffers' pre-history) and whether the leader vehicle is the first on the road. The
 /// registry's `protocol` entry builds its law from this, carried by the run's

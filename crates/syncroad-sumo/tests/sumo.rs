@@ -372,6 +372,53 @@ mod ring {
         }
     }
 
+    /// The user's linear agents (a lag behind an integrator, and a delayed one) drive SUMO's
+    /// vehicles as they drive the native simulator's: no safety layer acts, and the two runs
+    /// agree speed for speed.
+    #[test]
+    fn linear_agents_drive_sumo_as_they_drive_the_native_simulator() {
+        let json = format!(
+            r#"{{
+            "name": "sumo-linear", "backend": "sumo", "seed": 5, "step_s": 0.1,
+            "horizon_s": 40, "vehicles": 12,
+            "road": {{"type": "ring", "length_m": 230}},
+            "model": {{"type": "linear",
+                       "graph": {{"type": "bidirectional_ring", "gain_pred": 0.5, "gain_follow": 0.1}},
+                       "agents": [{{"eta": [1], "rho": [1, 0.5]}}, {{"eta": [1], "rho": [1], "delay_s": 0.3}},
+                                  {{"eta": [1], "rho": [1, 0.5]}}, {{"eta": [1], "rho": [1], "delay_s": 0.3}},
+                                  {{"eta": [1], "rho": [1, 0.5]}}, {{"eta": [1], "rho": [1], "delay_s": 0.3}},
+                                  {{"eta": [1], "rho": [1, 0.5]}}, {{"eta": [1], "rho": [1], "delay_s": 0.3}},
+                                  {{"eta": [1], "rho": [1, 0.5]}}, {{"eta": [1], "rho": [1], "delay_s": 0.3}},
+                                  {{"a": [[0, 1], [0, -2]], "b": [0, 2], "c": [1, 0]}}, {{"eta": [1], "rho": [1]}}]}},
+            "initial": {{"speed_mps": 8.0, "perturbation": {{"speed_mps": 1.0}}}},
+            "sumo": {{"net": "{}", "max_speed_mps": 30}}
+        }}"#,
+            nets().join("sugiyama-ring.net.xml").display()
+        );
+        let sc = Scenario::from_json(&json).expect("valid scenario");
+        let run = run_scenario(&sc, &opts("linear-agents")).unwrap();
+        let fin = run.outcome().expect("horizon reached");
+        assert_eq!(fin.totals.overrides, 0);
+        assert_eq!(fin.totals.collision_steps, 0);
+        let native = simulate(&sc, NativeOptions::default()).trajectory;
+        let sumo = run.trajectory(&sc);
+        assert_eq!(native.len(), sumo.len());
+        let worst = native
+            .speeds_mps
+            .iter()
+            .zip(&sumo.speeds_mps)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(worst < 1e-6, "largest speed difference {worst} m/s");
+        // And the agents moved: the initial spread of about 2 m/s has shrunk.
+        let n = native.n;
+        let spread = |k: usize| {
+            let v = &native.speeds_mps[k * n..(k + 1) * n];
+            v.iter().copied().fold(f64::MIN, f64::max) - v.iter().copied().fold(f64::MAX, f64::min)
+        };
+        assert!(spread(native.len() - 1) < 0.5 * spread(0));
+    }
+
     /// What SUMO does with commands in speed mode 32, measured: everything is realised, even
     /// above the vehicle type's maxSpeed (9 m/s here) and the lane limit, so the override
     /// counter stays at 0; negative commands (which SUMO would read as "release control") are

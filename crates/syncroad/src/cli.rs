@@ -197,6 +197,10 @@ pub enum Command {
             required = true
         )]
         rho: Vec<f64>,
+        /// Input delay τ [s]: W(λ) = η(λ)/(λ ρ(λ)) · e^{−λτ}. A delayed integrator's index is
+        /// exact (kτ); any other delayed agent gets a rigorous upper bound with a lower bound.
+        #[arg(long, default_value_t = 0.0)]
+        delay_s: f64,
         /// Print JSON.
         #[arg(long)]
         json: bool,

@@ -18,21 +18,26 @@ impl Scenario {
     /// grid, since the simulation delays by whole steps). Only delayed-driver models have
     /// these gains and delays; the field names in errors are `scale.gain` and `scale.delay`.
     pub fn scaled(&self, gain: f64, delay: f64) -> Result<Scaled, ScenarioError> {
-        let Model::DelayedDriver(m) = &self.model else {
-            return Err(invalid(
-                "scale",
-                "a CACC model",
-                "gain and delay scaling apply to delayed-driver models (model.type = \"delayed_driver\")",
-            ));
-        };
         if !(gain.is_finite() && gain > 0.0) {
             return Err(invalid("scale.gain", gain, "a finite number > 0"));
         }
         if !(delay.is_finite() && delay >= 0.0) {
             return Err(invalid("scale.delay", delay, "a finite number ≥ 0"));
         }
+        let m = match &self.model {
+            Model::DelayedDriver(m) => m,
+            Model::Linear(l) => return Ok(self.scaled_linear(l, gain, delay)),
+            Model::Cacc(_) => {
+                return Err(invalid(
+                    "scale",
+                    "a CACC model",
+                    "gain and delay scaling apply to delayed-driver and linear models (model.type = \"delayed_driver\" or \"linear\")",
+                ))
+            }
+        };
         let mut s = m.clone();
         s.graph = m.graph.scaled(gain);
+        s.shape = m.shape.scaled(gain);
         if let Some((_, b)) = s.leader.as_mut() {
             b.iter_mut().for_each(|x| *x *= gain);
         }
@@ -75,6 +80,33 @@ impl Scenario {
             scenario,
             delay_rounding_s: worst,
         })
+    }
+
+    /// The linear agents with every `a_ij`, `b_i` times `gain` and every delay times `delay`
+    /// (rounded to the step grid, as the delayed drivers').
+    fn scaled_linear(&self, m: &crate::model::LinearModel, gain: f64, delay: f64) -> Scaled {
+        let mut s = m.clone();
+        s.graph = m.graph.scaled(gain);
+        s.shape = m.shape.scaled(gain);
+        if let Some((_, b)) = s.leader.as_mut() {
+            b.iter_mut().for_each(|x| *x *= gain);
+        }
+        let mut worst: f64 = 0.0;
+        for (i, a) in s.agents.iter_mut().enumerate() {
+            let exact = a.transfer.delay_s * delay;
+            let steps = (exact / self.step_s).round();
+            if steps as usize != m.delay_steps[i] {
+                a.transfer.delay_s = steps * self.step_s;
+            }
+            s.delay_steps[i] = steps as usize;
+            worst = worst.max((steps * self.step_s - exact).abs());
+        }
+        let mut scenario = self.clone();
+        scenario.model = Model::Linear(s);
+        Scaled {
+            scenario,
+            delay_rounding_s: worst,
+        }
     }
 }
 

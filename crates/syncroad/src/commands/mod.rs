@@ -44,7 +44,12 @@ pub fn run(cli: Cli) -> anyhow::Result<Status> {
         }
         Command::SumoBench { step_time, .. } => sumo_bench::step_time(&step_time),
         Command::Bench { horizon_s, sizes } => bench::run(horizon_s, &sizes),
-        Command::Ifp { eta, rho, json } => ifp::run(&eta, &rho, json),
+        Command::Ifp {
+            eta,
+            rho,
+            delay_s,
+            json,
+        } => ifp::run(&eta, &rho, delay_s, json),
         Command::Schema => {
             crate::stdout::out!(
                 "{}",
