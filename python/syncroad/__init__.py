@@ -17,7 +17,7 @@ for speed, unless asked not to. Ctrl-C stops a command as in the CLI, keeps the 
 computed, and raises :class:`Interrupted`.
 """
 
-from syncroad._api import check, compare, run, stability, sweep
+from syncroad._api import check, compare, ifp, run, stability, sweep
 from syncroad._errors import Interrupted, RecordError, RunError, ScenarioError, SyncroadError
 from syncroad._run import Record, Run
 from syncroad._scenario import Scenario
@@ -37,6 +37,7 @@ __all__ = [
     "__version__",
     "check",
     "compare",
+    "ifp",
     "run",
     "stability",
     "sweep",

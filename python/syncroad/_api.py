@@ -237,6 +237,17 @@ def stability(scenario: ScenarioLike, platoon_scaling: bool = False) -> Record:
     return Record(json.loads(text))
 
 
+def ifp(eta: Sequence[float], rho: Sequence[float], delay_s: float = 0.0) -> Record:
+    """The IFP index of one agent ``W(s) = η(s)/(s ρ(s)) · e^{−s·delay_s}`` (``syncroad ifp
+    --json``; coefficients lowest degree first): ``alpha``, exact for a rational agent and
+    for a delayed integrator, otherwise a rigorous upper bound with ``lower_bound`` beside it.
+    Raises :class:`ScenarioError` naming the hypothesis of Lemma lem.linear-pass that fails."""
+    _, error, text = _execute(["ifp", *_flags(eta=list(eta), rho=list(rho), delay_s=float(delay_s)), "--json"])
+    if error is not None:
+        raise RunError(error)
+    return Record(json.loads(text))
+
+
 def _run_folders(out: Path) -> Dict[str, Path]:
     """Each run folder under ``out`` by the run name its record gives."""
     folders = {}

@@ -215,3 +215,31 @@ def test_an_open_road_of_inflows_runs_from_python(tmp_path):
     assert g["entered"] == len(ids) > 0
     assert m["all_vehicles"]["collisions"] == 0
     assert run.trajectories.to_pandas().empty
+
+
+def test_a_linear_law_written_in_python_is_certified_analysed_and_run(tmp_path):
+    # Three identical agents y''' + y'' + 2y' = u all-to-all with gain 0.5: each mode is
+    # s³ + s² + 2s + 1.5c, so Routh gives c* = 2/1.5 at ω* = √2; no file of the user's.
+    law = {
+        "name": "py-linear", "backend": "native", "seed": 1, "step_s": 0.01, "horizon_s": 60,
+        "vehicles": 3, "road": {"type": "ring", "length_m": 300},
+        "model": {"type": "linear", "graph": {"type": "all_to_all", "gain": 0.5},
+                  "agents": {"eta": [1], "rho": [2, 1, 1]}},
+        "initial": {"speed_mps": 10.0, "perturbation": {"speed_mps": 0.5}},
+    }
+    sc = syncroad.Scenario.from_dict(law)
+    rep = syncroad.check(sc)
+    # Re W(iω) = −1/((2 − ω²)² + ω²): smallest denominator 7/4 at ω² = 3/2, so α = 4/7.
+    assert abs(rep.agents[0].ifp_index - 4 / 7) < 1e-12
+    assert rep.theorem1.holds == (0.5 * 2 * 4 / 7 < 0.5)
+    st = syncroad.stability(sc)
+    assert abs(st.network.critical.critical_gain_scale - 2 / 1.5) < 1e-9
+    assert abs(st.network.critical.crossing_frequency_rad_s - 2 ** 0.5) < 1e-9
+    assert st.verdict == "synchronizes"
+    r = syncroad.run(sc, out=tmp_path / "run")
+    assert r.verdict == "synchronized"
+    # The agent's index on its own, and a delayed integrator's: α = kτ.
+    assert abs(syncroad.ifp([1], [2, 1, 1]).alpha - 4 / 7) < 1e-12
+    assert syncroad.ifp([2], [4], delay_s=0.6).alpha == pytest.approx(0.3, rel=1e-15)
+    with pytest.raises(syncroad.SyncroadError, match="Hurwitz"):
+        syncroad.ifp([1], [1, -1, 1])

@@ -98,10 +98,13 @@ pub fn index(t: &Transfer) -> Result<AgentIndex, IfpError> {
     let g_sup = sup_abs_on_axis(&q, &rho);
     let upper = k * t.delay_s + g_sup;
     let (lower, omega) = sampled_infimum(t, q.coeffs[0] / rho.coeffs[0] - k * t.delay_s);
+    // Where a value of Re W(iω) meets the bound (the lag's infimum as ω → 0, say), the bound
+    // is the index.
+    let exact = upper - lower <= 1e-12 * upper.abs().max(1.0);
     Ok(AgentIndex {
         ifp_index: upper,
-        exact: false,
-        lower_bound: lower.min(upper),
+        exact,
+        lower_bound: if exact { upper } else { lower.min(upper) },
         omega_at_inf: omega,
         method: IndexMethod::DelayedRationalBound,
     })
@@ -228,7 +231,7 @@ mod tests {
     }
 
     #[test]
-    fn a_delayed_first_order_lag_is_bracketed_by_its_two_bounds() {
+    fn a_delayed_first_order_lag_has_its_bound_attained_at_zero_frequency() {
         // W = e^{−sτ}/(s(1 + Ts)): k = 1, G = −T/(1 + Ts), ‖G‖_∞ = T, so α ≤ τ + T; a dense
         // sweep of Re W(iω) (computed here independently) lies inside the bracket.
         let (tau, t_lag) = (0.3, 0.5);
@@ -238,8 +241,9 @@ mod tests {
             delay_s: tau,
         };
         let r = index(&tr).unwrap();
-        assert!(!r.exact);
         assert_relative_eq!(r.ifp_index, tau + t_lag, max_relative = 1e-12);
+        // Re W(iω) → −(τ + T) as ω → 0: the bound is attained, so it is the index.
+        assert!(r.exact);
         let sweep = (1..400_000)
             .map(|k| {
                 let w = k as f64 * 1e-4;
