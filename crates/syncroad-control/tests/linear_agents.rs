@@ -345,3 +345,45 @@ fn bad_agents_are_refused_before_anything_runs_naming_the_agent_and_the_field() 
     let e = error(ring, r#"{"a": [[0, 1], [0, -1]], "b": [0, 1], "c": [1]}"#);
     assert!(e.contains("model.agents.c") && e.contains("SISO"), "{e}");
 }
+
+#[test]
+fn a_heterogeneous_ring_of_fourth_order_agents_is_certified_both_ways() {
+    // Fifty agents, each an integrator behind three lags with a zero, their time constants
+    // spread deterministically: dense clusters of slow modes near the axis, where a coarse
+    // root count once lost 48 of them. The eigenvalues and the argument principle must agree,
+    // and −1/c* must be an eigenvalue of H·diag(W(iω*)).
+    let agents: Vec<String> = (0..50)
+        .map(|i| {
+            let t = |k: usize| 0.1 + 0.5 * (((i * 7 + k * 13) % 17) as f64 / 17.0);
+            let (a, b, c) = (t(0), t(1), t(2));
+            // (1 + a s)(1 + b s)(1 + c s), ascending.
+            let rho = [1.0, a + b + c, a * b + b * c + a * c, a * b * c];
+            format!(
+                r#"{{"eta": [1, {}], "rho": [{}, {}, {}, {}]}}"#,
+                0.01 * (i % 5) as f64,
+                rho[0],
+                rho[1],
+                rho[2],
+                rho[3]
+            )
+        })
+        .collect();
+    let sc = scenario(
+        50,
+        0.05,
+        10.0,
+        r#"{"type": "bidirectional_ring", "gain_pred": 0.3, "gain_follow": 0.05}"#,
+        &format!("[{}]", agents.join(", ")),
+    );
+    let r = analyse(&sc).unwrap();
+    let net = r.network.as_ref().and_then(|n| n.linear()).unwrap();
+    assert_eq!(net.roots.dimension, 200);
+    assert_eq!(
+        net.roots.counted_unstable_roots,
+        Some(net.roots.unstable_roots)
+    );
+    assert!(net.roots.certified, "{:?}", net.roots);
+    let c = net.critical.as_ref().unwrap();
+    assert!(c.certified && c.nyquist_residual.unwrap() < 1e-9, "{c:?}");
+    assert_eq!(r.verdict, ExactVerdict::Synchronizes);
+}
