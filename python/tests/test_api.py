@@ -230,7 +230,7 @@ def test_a_linear_law_written_in_python_is_certified_analysed_and_run(tmp_path):
     sc = syncroad.Scenario.from_dict(law)
     rep = syncroad.check(sc)
     # Re W(iω) = −1/((2 − ω²)² + ω²): smallest denominator 7/4 at ω² = 3/2, so α = 4/7.
-    assert abs(rep.agents[0].ifp_index - 4 / 7) < 1e-12
+    assert abs(rep.agents[0]["ifp_index"] - 4 / 7) < 1e-12
     assert rep.theorem1.holds == (0.5 * 2 * 4 / 7 < 0.5)
     st = syncroad.stability(sc)
     assert abs(st.network.critical.critical_gain_scale - 2 / 1.5) < 1e-9
