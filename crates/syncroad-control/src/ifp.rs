@@ -49,7 +49,8 @@ pub struct IfpIndex {
     pub omega_at_inf: Option<f64>,
 }
 
-fn split_at_imag_axis(p: &Poly) -> (Poly, Poly) {
+/// `p(iω)` split into its real and imaginary parts, each a polynomial in ω.
+pub(crate) fn split_at_imag_axis(p: &Poly) -> (Poly, Poly) {
     // p(iω) = Σ c_k i^k ω^k: real part takes k ≡ 0 (+), 2 (−); imaginary k ≡ 1 (+), 3 (−).
     let n = p.coeffs.len();
     let mut re = vec![0.0; n];
@@ -63,6 +64,40 @@ fn split_at_imag_axis(p: &Poly) -> (Poly, Poly) {
         }
     }
     (Poly::new(&re), Poly::new(&im))
+}
+
+/// The stationary points `x > 0` of `a(x)/b(x)`: the positive real roots of `a'b − ab'`,
+/// each polished by Newton steps. With the values at `x = 0` and as `x → ∞` they are every
+/// candidate for the extremes of the rational function on `[0, ∞)`.
+pub(crate) fn stationary_points(a: &Poly, b: &Poly) -> Vec<f64> {
+    let crit = a.derivative().mul(b).sub(&a.mul(&b.derivative()));
+    let scale = crit.coeffs.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+    if scale == 0.0 || crit.degree() == 0 {
+        return Vec::new();
+    }
+    let dcrit = crit.derivative();
+    let mut out = Vec::new();
+    for z in crit.roots() {
+        if z.im.abs() > 1e-6 * (1.0 + z.re.abs()) || z.re <= 0.0 {
+            continue;
+        }
+        let mut x = z.re;
+        for _ in 0..8 {
+            let d = dcrit.eval(x);
+            if d == 0.0 {
+                break;
+            }
+            let step = crit.eval(x) / d;
+            x -= step;
+            if step.abs() <= 1e-15 * x.abs() {
+                break;
+            }
+        }
+        if x > 0.0 {
+            out.push(x);
+        }
+    }
+    out
 }
 
 /// Even polynomial in ω → polynomial in x = ω².
@@ -116,30 +151,9 @@ pub fn ifp_index(eta: &[f64], rho: &[f64]) -> Result<IfpIndex, IfpError> {
     let f = |x: f64| a.eval(x) / b.eval(x);
     // Candidates: x = 0, stationary points in (0, ∞), and the limit x → ∞.
     let mut best = (f(0.0), Some(0.0));
-    let crit = a.derivative().mul(&b).sub(&a.mul(&b.derivative()));
-    let scale = crit.coeffs.iter().fold(0.0f64, |m, c| m.max(c.abs()));
-    if scale > 0.0 && crit.degree() > 0 {
-        let dcrit = crit.derivative();
-        for z in crit.roots() {
-            if z.im.abs() > 1e-6 * (1.0 + z.re.abs()) || z.re <= 0.0 {
-                continue;
-            }
-            // Polish the real root with a few Newton steps.
-            let mut x = z.re;
-            for _ in 0..8 {
-                let d = dcrit.eval(x);
-                if d == 0.0 {
-                    break;
-                }
-                let step = crit.eval(x) / d;
-                x -= step;
-                if step.abs() <= 1e-15 * x.abs() {
-                    break;
-                }
-            }
-            if x > 0.0 && f(x) < best.0 {
-                best = (f(x), Some(x.sqrt()));
-            }
+    for x in stationary_points(&a, &b) {
+        if f(x) < best.0 {
+            best = (f(x), Some(x.sqrt()));
         }
     }
     let limit = if a.degree() == b.degree() {

@@ -1,9 +1,9 @@
 //! The scenario's own law as an entry of the registry, `protocol`: the delayed drivers of
 //! eq. `chandler+` (pinned by `b_i (v_0 − v_i)` of eq. `proto-lin+` when the scenario has a
-//! leader), second order on the step grid ([`DelayedDriverController`]), or the bidirectional
+//! leader), second order on the step grid, or the bidirectional
 //! CACC of eqs. `veh-proto1/2` ([`CaccController`]: `a_des` from the measured state, held over
 //! the step, through the powertrain lag `τ_i a' + a = a_des` integrated exactly over it), or
-//! the user's linear agents on a graph ([`LinearController`]). It
+//! the user's linear agents on a graph (both as one network controller). It
 //! takes no parameters of its own: the run's context carries the scenario's model
 //! ([`ProtocolInput`]).
 
@@ -57,7 +57,7 @@ fn controller(p: &ProtocolInput, step_s: f64) -> Result<Box<dyn SpeedController>
     match &p.model {
         Model::DelayedDriver(m) => {
             let v0 = m.leader.as_ref().map(|(v0, _)| *v0);
-            Ok(Box::new(DelayedDriverController {
+            Ok(Box::new(NetworkController {
                 law: m
                     .law(step_s, &p.initial_speed_mps)
                     .map_err(|e| format!("delayed-driver law: {e}"))?,
@@ -66,7 +66,7 @@ fn controller(p: &ProtocolInput, step_s: f64) -> Result<Box<dyn SpeedController>
                 next: vec![0.0; n],
             }))
         }
-        Model::Linear(m) => Ok(Box::new(LinearController {
+        Model::Linear(m) => Ok(Box::new(NetworkController {
             law: LinearNetworkLaw::new(m, step_s, &p.initial_speed_mps),
             v0: m.leader.as_ref().map(|(v0, _)| *v0),
             leader_vehicle: p.leader_vehicle,
@@ -93,15 +93,40 @@ fn controller(p: &ProtocolInput, step_s: f64) -> Result<Box<dyn SpeedController>
 pub const CACC_NEEDS_LEADER: &str =
     "the CACC model needs a leader vehicle: run it on a straight road (road.type = \"straight\")";
 
-/// Delayed drivers. With a leader vehicle, index 0 is the leader driven at `v_0`.
-pub struct DelayedDriverController {
-    law: DelayedDriverLaw,
+/// Drivers on a graph stepped from the measured speeds: the delayed drivers of eq.
+/// `chandler+` or the user's linear agents.
+trait DriverNetwork: Send {
+    /// From the drivers' speeds (and the leader's `v_0`) the next speeds into `next`.
+    fn step(&mut self, speeds_mps: &[f64], leader_speed_mps: f64, next_mps: &mut [f64]);
+    /// The graph as the simulator sees it this step (`k0`: the leader vehicle's offset).
+    fn sense(&mut self, _neighbors: &Neighbors, _k0: usize) {}
+}
+
+impl DriverNetwork for DelayedDriverLaw {
+    fn step(&mut self, speeds_mps: &[f64], leader_speed_mps: f64, next_mps: &mut [f64]) {
+        DelayedDriverLaw::step(self, speeds_mps, leader_speed_mps, next_mps);
+    }
+
+    fn sense(&mut self, neighbors: &Neighbors, k0: usize) {
+        DelayedDriverLaw::sense(self, neighbors, k0);
+    }
+}
+
+impl DriverNetwork for LinearNetworkLaw {
+    fn step(&mut self, speeds_mps: &[f64], leader_speed_mps: f64, next_mps: &mut [f64]) {
+        LinearNetworkLaw::step(self, speeds_mps, leader_speed_mps, next_mps);
+    }
+}
+
+/// A network of drivers. With a leader vehicle, index 0 is the leader driven at `v_0`.
+struct NetworkController<L> {
+    law: L,
     v0: Option<f64>,
     leader_vehicle: bool,
     next: Vec<f64>,
 }
 
-impl SpeedController for DelayedDriverController {
+impl<L: DriverNetwork> SpeedController for NetworkController<L> {
     fn step(&mut self, _t: f64, speeds: &[f64], _positions: &[f64], out: &mut [f64]) {
         let k = usize::from(self.leader_vehicle);
         self.law
@@ -114,27 +139,6 @@ impl SpeedController for DelayedDriverController {
 
     fn sense(&mut self, neighbors: &Neighbors) {
         self.law.sense(neighbors, usize::from(self.leader_vehicle));
-    }
-}
-
-/// The user's linear agents ([`crate::agents::stepper`]). With a leader vehicle, index 0 is
-/// the leader driven at `y_0`.
-pub struct LinearController {
-    law: LinearNetworkLaw,
-    v0: Option<f64>,
-    leader_vehicle: bool,
-    next: Vec<f64>,
-}
-
-impl SpeedController for LinearController {
-    fn step(&mut self, _t: f64, speeds: &[f64], _positions: &[f64], out: &mut [f64]) {
-        let k = usize::from(self.leader_vehicle);
-        self.law
-            .step(&speeds[k..], self.v0.unwrap_or(0.0), &mut self.next);
-        out[k..].copy_from_slice(&self.next);
-        if self.leader_vehicle {
-            out[0] = self.v0.unwrap_or(speeds[0]);
-        }
     }
 }
 

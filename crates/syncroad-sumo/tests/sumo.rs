@@ -838,6 +838,8 @@ fn worker_killed_at_random_moments_never_yields_a_confident_verdict() {
                 std::thread::sleep(delay);
                 // SAFETY: signals our own child worker.
                 unsafe { libc::kill(pid, signal) };
+                // Any gap between the two signals will do: if the first has already ended the
+                // worker, the second finds no process and the checks are the same.
                 std::thread::sleep(Duration::from_millis(50));
                 // SAFETY: as above; a second SIGSEGV meets the default action.
                 unsafe { libc::kill(pid, signal) };

@@ -25,40 +25,7 @@ pub fn table(r: &StabilityReport) -> String {
         let _ = write!(s, "{ring}");
     }
     if let Some(x) = &r.acyclic {
-        let _ = writeln!(
-            s,
-            "\nacyclic network: det = Π_i (s + d_i e^(−sα_i)), exact roots by Lambert W:"
-        );
-        let _ = writeln!(
-            s,
-            "{:>7} {:>10} {:>10} {:>14} {:>14}",
-            "driver", "d_i [1/s]", "α_i [s]", "Re s [1/s]", "Im s [rad/s]"
-        );
-        for d in x.drivers.iter().take(30) {
-            let _ = writeln!(
-                s,
-                "{:>7} {:>10.4} {:>10.4} {:>14.6e} {:>14.6e}",
-                d.driver, d.gain, d.delay_s, d.re, d.im
-            );
-        }
-        if x.drivers.len() > 30 {
-            let _ = writeln!(s, "    ... {} more drivers", x.drivers.len() - 30);
-        }
-        let _ = writeln!(
-            s,
-            "spectral abscissa {:.6e} 1/s (driver {})",
-            x.abscissa, x.dominant_driver
-        );
-        let t1 = r.paper.theorem1_plus.as_ref().map(|t| t.max_gain_scale);
-        let _ = writeln!(
-            s,
-            "critical gain scale {:.10} (min_i π/(2 α_i d_i)){}",
-            x.critical_gain_scale,
-            t1.map_or(String::new(), |t| format!(
-                "  ratio {:.6} to Theorem 1+ ({t:.10}, α_j(d_j^+ + 2b_j) < 1/2)",
-                x.critical_gain_scale / t
-            ))
-        );
+        acyclic_table(&mut s, x, r);
     }
     if let Some(c) = &r.chain_string_stability {
         let _ = writeln!(
@@ -75,25 +42,7 @@ pub fn table(r: &StabilityReport) -> String {
         );
     }
     if let Some(x) = &r.leader_amplification {
-        let shown: Vec<String> = x.peaks.iter().take(12).map(|p| format!("{p:.4}")).collect();
-        let _ = writeln!(
-            s,
-            "leader-to-follower amplification sup_ω|T_i(iω)|: worst {:.6} (vehicle {}, ω = {:.4} rad/s) -> {}\n  per follower: {}{}",
-            x.worst_peak,
-            x.worst_vehicle,
-            x.worst_frequency_rad_s,
-            if x.no_amplification {
-                "no follower's speed overshoots the leader's"
-            } else {
-                "changes of the leader's speed are amplified along the platoon"
-            },
-            shown.join(" "),
-            if x.peaks.len() > 12 {
-                format!(" ... ({} followers)", x.peaks.len())
-            } else {
-                String::new()
-            }
-        );
+        amplification_line(&mut s, x);
     }
     if let Some(n) = r.network.as_ref().and_then(|n| n.delayed()) {
         let _ = writeln!(
@@ -138,6 +87,70 @@ pub fn table(r: &StabilityReport) -> String {
         let _ = writeln!(s, "WARNING: the sufficient conditions certify a network the exact analysis finds unstable; please report this scenario.");
     }
     s
+}
+
+/// The acyclic network's per-driver roots and its critical scale against Theorem 1+.
+fn acyclic_table(s: &mut String, x: &syncroad_control::exact::AcyclicReport, r: &StabilityReport) {
+    let _ = writeln!(
+        s,
+        "\nacyclic network: det = Π_i (s + d_i e^(−sα_i)), exact roots by Lambert W:"
+    );
+    let _ = writeln!(
+        s,
+        "{:>7} {:>10} {:>10} {:>14} {:>14}",
+        "driver", "d_i [1/s]", "α_i [s]", "Re s [1/s]", "Im s [rad/s]"
+    );
+    for d in x.drivers.iter().take(30) {
+        let _ = writeln!(
+            s,
+            "{:>7} {:>10.4} {:>10.4} {:>14.6e} {:>14.6e}",
+            d.driver, d.gain, d.delay_s, d.re, d.im
+        );
+    }
+    if x.drivers.len() > 30 {
+        let _ = writeln!(s, "    ... {} more drivers", x.drivers.len() - 30);
+    }
+    let _ = writeln!(
+        s,
+        "spectral abscissa {:.6e} 1/s (driver {})",
+        x.abscissa, x.dominant_driver
+    );
+    let t1 = r.paper.theorem1_plus.as_ref().map(|t| t.max_gain_scale);
+    let _ = writeln!(
+        s,
+        "critical gain scale {:.10} (min_i π/(2 α_i d_i)){}",
+        x.critical_gain_scale,
+        t1.map_or(String::new(), |t| format!(
+            "  ratio {:.6} to Theorem 1+ ({t:.10}, α_j(d_j^+ + 2b_j) < 1/2)",
+            x.critical_gain_scale / t
+        ))
+    );
+}
+
+/// The worst amplification from the leader's speed to a follower's.
+fn amplification_line(
+    s: &mut String,
+    x: &syncroad_control::exact::leader_amplification::LeaderAmplification,
+) {
+    let shown: Vec<String> = x.peaks.iter().take(12).map(|p| format!("{p:.4}")).collect();
+    let _ = writeln!(
+        s,
+        "leader-to-follower amplification sup_ω|T_i(iω)|: worst {:.6} (vehicle {}, ω = {:.4} rad/s) -> {}\n  per follower: {}{}",
+        x.worst_peak,
+        x.worst_vehicle,
+        x.worst_frequency_rad_s,
+        if x.no_amplification {
+            "no follower's speed overshoots the leader's"
+        } else {
+            "changes of the leader's speed are amplified along the platoon"
+        },
+        shown.join(" "),
+        if x.peaks.len() > 12 {
+            format!(" ... ({} followers)", x.peaks.len())
+        } else {
+            String::new()
+        }
+    );
 }
 
 /// The linear agents' roots and stable scales.

@@ -19,7 +19,7 @@ use num_complex::Complex64;
 use serde::Serialize;
 
 use super::Transfer;
-use crate::ifp::{ifp_index, IfpError};
+use crate::ifp::{ifp_index, split_at_imag_axis, stationary_points, IfpError};
 use crate::poly::Poly;
 
 /// How an index was found.
@@ -110,21 +110,6 @@ pub fn index(t: &Transfer) -> Result<AgentIndex, IfpError> {
     })
 }
 
-/// `p(iω)` split into its real and imaginary parts, each a polynomial in ω.
-pub(crate) fn split_at_imag_axis(p: &Poly) -> (Poly, Poly) {
-    let n = p.coeffs.len();
-    let (mut re, mut im) = (vec![0.0; n], vec![0.0; n]);
-    for (k, &c) in p.coeffs.iter().enumerate() {
-        match k % 4 {
-            0 => re[k] = c,
-            1 => im[k] = c,
-            2 => re[k] = -c,
-            _ => im[k] = -c,
-        }
-    }
-    (Poly::new(&re), Poly::new(&im))
-}
-
 /// `|p(iω)|²` as a polynomial in `x = ω²`.
 pub(crate) fn abs2_in_x(p: &Poly) -> Poly {
     let (r, i) = split_at_imag_axis(p);
@@ -137,31 +122,10 @@ pub(crate) fn abs2_in_x(p: &Poly) -> Poly {
 pub(crate) fn sup_abs_on_axis(q: &Poly, rho: &Poly) -> f64 {
     let (a, b) = (abs2_in_x(q), abs2_in_x(rho));
     let f = |x: f64| a.eval(x) / b.eval(x);
-    let mut best = f(0.0);
-    let crit = a.derivative().mul(&b).sub(&a.mul(&b.derivative()));
-    if crit.degree() > 0 {
-        let dcrit = crit.derivative();
-        for z in crit.roots() {
-            if z.im.abs() > 1e-6 * (1.0 + z.re.abs()) || z.re <= 0.0 {
-                continue;
-            }
-            let mut x = z.re;
-            for _ in 0..8 {
-                let d = dcrit.eval(x);
-                if d == 0.0 {
-                    break;
-                }
-                let step = crit.eval(x) / d;
-                x -= step;
-                if step.abs() <= 1e-15 * x.abs() {
-                    break;
-                }
-            }
-            if x > 0.0 {
-                best = best.max(f(x));
-            }
-        }
-    }
+    let best = stationary_points(&a, &b)
+        .into_iter()
+        .map(f)
+        .fold(f(0.0), f64::max);
     let limit = match a.degree().cmp(&b.degree()) {
         std::cmp::Ordering::Less => 0.0,
         std::cmp::Ordering::Equal => a.coeffs[a.degree()] / b.coeffs[b.degree()],

@@ -59,14 +59,21 @@ impl Transfer {
 
     /// `W(s)`.
     pub fn eval(&self, s: Complex64) -> Complex64 {
-        let (eta, rho) = (Poly::new(&self.eta), Poly::new(&self.rho));
-        eta.eval_c(s) / (s * rho.eval_c(s)) * (-s * self.delay_s).exp()
+        let (num, den) = self.eval_parts(s);
+        num / den
     }
 
-    /// The rational part with its delay factor apart: `η(s)` and `s ρ(s)`, each at `s`.
+    /// `η(s) e^{−sτ}` and `s ρ(s)`: `W`'s numerator and denominator at `s`.
     pub fn eval_parts(&self, s: Complex64) -> (Complex64, Complex64) {
-        let (eta, rho) = (Poly::new(&self.eta), Poly::new(&self.rho));
-        (eta.eval_c(s) * (-s * self.delay_s).exp(), s * rho.eval_c(s))
+        let horner = |c: &[f64]| {
+            c.iter()
+                .rev()
+                .fold(Complex64::new(0.0, 0.0), |acc, &x| acc * s + x)
+        };
+        (
+            horner(&self.eta) * (-s * self.delay_s).exp(),
+            s * horner(&self.rho),
+        )
     }
 
     /// Whether the agent is a delayed integrator `k e^{−sτ}/s` (constant η and ρ).

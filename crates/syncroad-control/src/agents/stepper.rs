@@ -22,6 +22,8 @@ use crate::model::LinearModel;
 pub struct LinearNetworkLaw {
     agents: Vec<Discrete>,
     states: Vec<DVector<f64>>,
+    /// One state's room per agent for the next state (no allocation in the step).
+    scratch: Vec<DVector<f64>>,
     /// Output each agent last commanded.
     last: Vec<f64>,
     /// Input histories, `slots_i = m_i + 2` entries each, the newest at `heads[i]`.
@@ -36,6 +38,7 @@ impl LinearNetworkLaw {
     /// The agents of `m` at step `dt_s`, each in the equilibrium of its initial speed.
     pub fn new(m: &LinearModel, dt_s: f64, initial_speeds_mps: &[f64]) -> Self {
         let agents: Vec<Discrete> = m.agents.iter().map(|a| a.discretize(dt_s)).collect();
+        let scratch = agents.iter().map(|d| DVector::zeros(d.c.len())).collect();
         let states = agents
             .iter()
             .zip(initial_speeds_mps)
@@ -43,6 +46,7 @@ impl LinearNetworkLaw {
             .collect();
         Self {
             states,
+            scratch,
             last: initial_speeds_mps.to_vec(),
             inputs: m.delay_steps.iter().map(|&k| vec![0.0; k + 2]).collect(),
             steps: 0,
@@ -91,8 +95,11 @@ impl LinearNetworkLaw {
                 (buf[(head + 2) % slots], buf[(head + 3) % slots])
             };
             let delayed = start;
-            let next = &ag.phi * &*x + &ag.gamma * start + &ag.gamma_ramp * (end - start);
-            *x = next;
+            let next = &mut self.scratch[i];
+            next.gemv(1.0, &ag.phi, x, 0.0);
+            next.axpy(start, &ag.gamma, 1.0);
+            next.axpy(end - start, &ag.gamma_ramp, 1.0);
+            std::mem::swap(x, next);
             let y = ag.c.dot(x) + ag.d * delayed;
             self.last[i] = y;
             next_mps[i] = y;

@@ -285,21 +285,27 @@ pub fn uniform_ring(sc: &Scenario, m: &DelayedDriverModel) -> Option<UniformRing
 
 /// Adjacency and delays of the network, the leader appended as an undelayed vertex.
 pub fn network_matrices(m: &DelayedDriverModel) -> (DMatrix<f64>, Vec<f64>) {
-    let n = m.graph.len();
-    match &m.leader {
-        None => (m.graph.adjacency_dense(), m.delay_s.clone()),
-        Some((_, b)) => {
-            let mut a = DMatrix::zeros(n + 1, n + 1);
-            a.view_mut((0, 0), (n, n))
-                .copy_from(&m.graph.adjacency_dense());
-            for (i, bi) in b.iter().enumerate() {
-                a[(i, n)] = *bi;
-            }
-            let mut d = m.delay_s.clone();
-            d.push(0.0);
-            (a, d)
-        }
+    let mut d = m.delay_s.clone();
+    if m.leader.is_some() {
+        d.push(0.0);
     }
+    (with_leader(&m.graph, m.leader.as_ref()), d)
+}
+
+/// The adjacency of `graph`, with the leader appended as vertex N when there is one (column N
+/// holds the pinning gains `b_i`).
+fn with_leader(graph: &crate::graph::Graph, leader: Option<&(f64, Vec<f64>)>) -> DMatrix<f64> {
+    let n = graph.len();
+    let Some((_, b)) = leader else {
+        return graph.adjacency_dense();
+    };
+    let mut a = DMatrix::zeros(n + 1, n + 1);
+    a.view_mut((0, 0), (n, n))
+        .copy_from(&graph.adjacency_dense());
+    for (i, bi) in b.iter().enumerate() {
+        a[(i, n)] = *bi;
+    }
+    a
 }
 
 /// Peaks of the predecessor-to-follower transfers of an acyclic network: for each driver that
@@ -520,21 +526,7 @@ fn analyse_linear_scenario(
     if integrators && m.agents.iter().any(|a| a.transfer.delay_s > 0.0) {
         return analyse_delayed(sc, &as_delayed_drivers(m), paper, on_step);
     }
-    let a = {
-        let n = m.graph.len();
-        let mut a = DMatrix::zeros(
-            n + usize::from(m.leader.is_some()),
-            n + usize::from(m.leader.is_some()),
-        );
-        a.view_mut((0, 0), (n, n))
-            .copy_from(&m.graph.adjacency_dense());
-        if let Some((_, b)) = &m.leader {
-            for (i, bi) in b.iter().enumerate() {
-                a[(i, n)] = *bi;
-            }
-        }
-        a
-    };
+    let a = with_leader(&m.graph, m.leader.as_ref());
     if let Some(gap) = no_spanning_tree(&a) {
         return Ok(StabilityReport::unsynchronizable(sc, paper, gap));
     }
@@ -590,23 +582,11 @@ fn as_delayed_drivers(m: &LinearModel) -> DelayedDriverModel {
             ..arc
         })
         .collect();
-    let uniform = k.iter().all(|&x| x == k[0]);
-    let scale = |g: Option<f64>| g.filter(|_| uniform).map(|g| g * k[0]);
-    let shape = match m.shape {
-        GraphShape::UnidirectionalRing { gain } => {
-            GraphShape::UnidirectionalRing { gain: scale(gain) }
-        }
-        GraphShape::BidirectionalRing {
-            gain_pred,
-            gain_follow,
-        } => GraphShape::BidirectionalRing {
-            gain_pred: scale(gain_pred),
-            gain_follow: scale(gain_follow),
-        },
-        GraphShape::Chain { follower_gain } => GraphShape::Chain {
-            follower_gain: scale(follower_gain),
-        },
-        GraphShape::Other => GraphShape::Other,
+    // The shape's gains stand for every driver only when every k_i is the same.
+    let shape = if k.iter().all(|&x| x == k[0]) {
+        m.shape.scaled(k[0])
+    } else {
+        GraphShape::Other
     };
     DelayedDriverModel {
         graph: crate::graph::Graph::from_arcs(m.graph.len(), &arcs)

@@ -41,20 +41,8 @@ impl Scenario {
         if let Some((_, b)) = s.leader.as_mut() {
             b.iter_mut().for_each(|x| *x *= gain);
         }
-        let mut worst: f64 = 0.0;
-        for (i, a) in m.delay_s.iter().enumerate() {
-            let exact = a * delay;
-            let steps = (exact / self.step_s).round();
-            s.delay_steps[i] = steps as usize;
-            // A delay that lands on its own grid point keeps its value (6·0.1 is not 0.6):
-            // scales that round to the scenario's delays give the scenario itself.
-            s.delay_s[i] = if s.delay_steps[i] == m.delay_steps[i] {
-                m.delay_s[i]
-            } else {
-                steps * self.step_s
-            };
-            worst = worst.max((steps * self.step_s - exact).abs());
-        }
+        let (delay_s, delay_steps, worst) = self.scaled_delays(&m.delay_s, &m.delay_steps, delay);
+        (s.delay_s, s.delay_steps) = (delay_s, delay_steps);
         // The scaled delays get their buffers like the scenario's own: the same limit.
         if let Err(ScenarioError::DelayBufferTooLarge {
             vehicle,
@@ -82,6 +70,32 @@ impl Scenario {
         })
     }
 
+    /// Delays times `delay` on the step grid: the new delays, their steps, and the largest
+    /// distance a delay moved to land on the grid. A delay that lands on its own grid point
+    /// keeps its value (6·0.1 is not 0.6): scales that round to the scenario's delays give the
+    /// scenario itself.
+    fn scaled_delays(
+        &self,
+        delay_s: &[f64],
+        delay_steps: &[usize],
+        delay: f64,
+    ) -> (Vec<f64>, Vec<usize>, f64) {
+        let mut worst: f64 = 0.0;
+        let (mut out_s, mut out_steps) = (Vec::new(), Vec::new());
+        for (&a, &k) in delay_s.iter().zip(delay_steps) {
+            let exact = a * delay;
+            let steps = (exact / self.step_s).round();
+            out_steps.push(steps as usize);
+            out_s.push(if steps as usize == k {
+                a
+            } else {
+                steps * self.step_s
+            });
+            worst = worst.max((steps * self.step_s - exact).abs());
+        }
+        (out_s, out_steps, worst)
+    }
+
     /// The linear agents with every `a_ij`, `b_i` times `gain` and every delay times `delay`
     /// (rounded to the step grid, as the delayed drivers').
     fn scaled_linear(&self, m: &crate::model::LinearModel, gain: f64, delay: f64) -> Scaled {
@@ -91,16 +105,12 @@ impl Scenario {
         if let Some((_, b)) = s.leader.as_mut() {
             b.iter_mut().for_each(|x| *x *= gain);
         }
-        let mut worst: f64 = 0.0;
-        for (i, a) in s.agents.iter_mut().enumerate() {
-            let exact = a.transfer.delay_s * delay;
-            let steps = (exact / self.step_s).round();
-            if steps as usize != m.delay_steps[i] {
-                a.transfer.delay_s = steps * self.step_s;
-            }
-            s.delay_steps[i] = steps as usize;
-            worst = worst.max((steps * self.step_s - exact).abs());
+        let delays: Vec<f64> = m.agents.iter().map(|a| a.transfer.delay_s).collect();
+        let (delay_s, delay_steps, worst) = self.scaled_delays(&delays, &m.delay_steps, delay);
+        for (a, d) in s.agents.iter_mut().zip(delay_s) {
+            a.transfer.delay_s = d;
         }
+        s.delay_steps = delay_steps;
         let mut scenario = self.clone();
         scenario.model = Model::Linear(s);
         Scaled {

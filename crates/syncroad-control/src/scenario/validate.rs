@@ -340,17 +340,7 @@ impl ScenarioFile {
                 })?
                 .resolve_nonneg("model.delay_s", n)?;
                 let delay_steps = self.delay_steps(&delay_s)?;
-                let leader = match leader {
-                    None => None,
-                    Some(l) => Some(resolve_leader(l, n)?),
-                };
-                if closed && leader.is_some() {
-                    return Err(invalid(
-                        "model.leader",
-                        "given",
-                        "a leader needs a straight road (road.type = \"straight\")",
-                    ));
-                }
+                let leader = resolve_pinning(leader.as_ref(), n, closed)?;
                 Ok(Model::DelayedDriver(DelayedDriverModel {
                     shape,
                     graph,
@@ -377,17 +367,7 @@ impl ScenarioFile {
                     ),
                     other => other,
                 })?;
-                let leader = match leader {
-                    None => None,
-                    Some(l) => Some(resolve_leader(l, n)?),
-                };
-                if closed && leader.is_some() {
-                    return Err(invalid(
-                        "model.leader",
-                        "given",
-                        "a leader needs a straight road (road.type = \"straight\")",
-                    ));
-                }
+                let leader = resolve_pinning(leader.as_ref(), n, closed)?;
                 Ok(Model::Linear(LinearModel {
                     graph,
                     agents,
@@ -771,4 +751,23 @@ fn resolve_agents(
                 .collect()
         }
     }
+}
+
+/// The leader and pinning gains of a model, which need a straight road.
+fn resolve_pinning(
+    leader: Option<&super::file::DriverLeaderSpec>,
+    n: usize,
+    closed: bool,
+) -> Result<Option<(f64, Vec<f64>)>, ScenarioError> {
+    let Some(l) = leader else {
+        return Ok(None);
+    };
+    if closed {
+        return Err(invalid(
+            "model.leader",
+            "given",
+            "a leader needs a straight road (road.type = \"straight\")",
+        ));
+    }
+    resolve_leader(l, n).map(Some)
 }
