@@ -9,10 +9,13 @@ use crate::progress::ProgressMode;
 /// Velocity-synchronization experiments on ring roads and platoons (Proskurnikov & Mazo's
 /// delayed-driver and bidirectional CACC protocols), natively and in SUMO.
 ///
-/// Exit codes: 0 synchronized / certified, 1 not synchronized / inconclusive / not certified
-/// (for `stability`: also when the root count cannot certify the computed roots or the
-/// critical scale),
-/// 2 bad input, 3 run failed (partial results written), 130 interrupted.
+/// Exit codes, the same for every command: 0 the command did its job and what it checks held
+/// (synchronized, certified, stable, no regression; a comparison or sweep whose runs all ran;
+/// a run of an open road with no vehicles of its own, which checks nothing); 1 what it checks
+/// did not hold (not synchronized or inconclusive, not certified for the scenario as it runs,
+/// not proven stable, a regression, a run matching `--fail-on`); 2 bad input, refused before
+/// any work; 3 a run itself failed (partial results written); 128 + n signal n (130 Ctrl-C,
+/// 143 SIGTERM, 129 SIGHUP).
 #[derive(Debug, Parser)]
 #[command(name = "syncroad", version, about, long_about)]
 pub struct Cli {
@@ -367,6 +370,11 @@ pub struct CompareArgs {
     /// No progress on stderr (the same as `--progress never`).
     #[arg(long, short, conflicts_with = "progress")]
     pub quiet: bool,
+    /// Exit 1 when a run is unsafe, not synchronized or inconclusive (comma-separated; each
+    /// matching run is named on stderr). Without it a comparison whose runs all ran exits 0
+    /// whatever they found.
+    #[arg(long, value_enum, value_delimiter = ',', value_name = "FINDING")]
+    pub fail_on: Vec<crate::gate::FailOn>,
 }
 
 /// Options of `syncroad animate`.
@@ -433,6 +441,11 @@ pub struct SweepArgs {
     /// Run again the points that failed before.
     #[arg(long)]
     pub retry_failed: bool,
+    /// Exit 1 when a point's run is unsafe, not synchronized or inconclusive
+    /// (comma-separated; the matching points are named on stderr). Without it a sweep whose
+    /// points all ran exits 0 whatever they found.
+    #[arg(long, value_enum, value_delimiter = ',', value_name = "FINDING")]
+    pub fail_on: Vec<crate::gate::FailOn>,
     /// With --keep-runs on SUMO, each run also writes SUMO's floating-car data for
     /// `syncroad replay`.
     #[arg(long, requires = "keep_runs")]
@@ -484,5 +497,8 @@ pub enum SweepAction {
         /// Skip the plots.
         #[arg(long)]
         no_plots: bool,
+        /// Exit 1 when a merged point's run is unsafe, not synchronized or inconclusive.
+        #[arg(long, value_enum, value_delimiter = ',', value_name = "FINDING")]
+        fail_on: Vec<crate::gate::FailOn>,
     },
 }

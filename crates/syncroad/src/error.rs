@@ -45,9 +45,12 @@ impl InputError {
 /// How a command ended, when it did not fail.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Status {
-    /// Synchronized, certified, every run completed, the regression check passed.
+    /// The command did its job and what it checks held: synchronized, certified, every run
+    /// completed (and none matched `--fail-on`), the regression check passed; or it checks
+    /// nothing (an open road without vehicles of its own ran to its end).
     Success,
-    /// Not synchronized or inconclusive; not certified; a regression.
+    /// What the command checks did not hold: not synchronized or inconclusive; not
+    /// certified; a run matched `--fail-on`; a regression.
     NotSynchronized,
     /// A run failed part-way (its partial results are written).
     RunFailed,

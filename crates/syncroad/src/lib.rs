@@ -15,7 +15,7 @@
 //! * [`output`], [`plots`], [`tables`], [`stability`] — files, figures and text tables;
 //!   [`animate`] — animations of finished runs on their road's geometry;
 //! * [`error`], [`exit_codes`] — the one error funnel; only [`host::execute`] picks the exit
-//!   code;
+//!   code; [`gate`] — `--fail-on`, what makes a comparison or a sweep exit 1;
 //! * [`host`] — a command line in, an exit code out: the whole CLI as a function.
 
 mod animate;
@@ -28,6 +28,7 @@ mod error;
 mod exit_codes;
 pub mod experiment;
 mod gaps;
+mod gate;
 pub mod host;
 mod lock;
 mod output;

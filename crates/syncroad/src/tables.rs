@@ -104,7 +104,10 @@ fn agents_table(s: &mut String, r: &TheoryReport) {
 }
 
 /// The `syncroad check` table.
-pub fn theory_table(r: &TheoryReport) -> String {
+/// The paper's conditions for the scenario's model, and the verdict; `otherwise`: what drives
+/// the scenario's runs instead of the model's law on every vehicle (then the scenario is not
+/// certified, whatever the conditions say of the model's law).
+pub fn theory_table(r: &TheoryReport, otherwise: Option<&str>) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "scenario {}: {} vehicles", r.scenario, r.vehicles);
     let g = &r.graph;
@@ -204,15 +207,30 @@ pub fn theory_table(r: &TheoryReport) -> String {
             if c.holds { "holds" } else { "does not hold" }
         );
     }
-    let _ = writeln!(
-        s,
-        "\nverdict: synchronization {}",
-        if r.certified {
-            "CERTIFIED by the paper's sufficient conditions"
-        } else {
-            "NOT certified (the conditions are sufficient, not necessary)"
+    match otherwise {
+        None => {
+            let _ = writeln!(
+                s,
+                "\nverdict: synchronization {}",
+                if r.certified {
+                    "CERTIFIED by the paper's sufficient conditions"
+                } else {
+                    "NOT certified (the conditions are sufficient, not necessary)"
+                }
+            );
         }
-    );
+        Some(why) => {
+            let _ = writeln!(
+                s,
+                "\nverdict: this scenario is NOT certified: {why}; the conditions above are of the model's law on every vehicle, which they {}",
+                if r.certified {
+                    "certify"
+                } else {
+                    "do not certify"
+                }
+            );
+        }
+    }
     s
 }
 
@@ -348,7 +366,12 @@ pub fn metrics_table(
     } else {
         ""
     };
-    let _ = writeln!(s, "verdict: {}{mark}", m.verdict);
+    if m.checks_nothing() {
+        // Nothing to synchronize, and the run did all it was asked: not a finding (exit 0).
+        let _ = writeln!(s, "verdict: none to give, the run completed{mark}");
+    } else {
+        let _ = writeln!(s, "verdict: {}{mark}", m.verdict);
+    }
     if let Some(why) = &m.verdict_reason {
         // A synchronized verdict keeps its reasons as notes (nothing lowered it).
         let lead = if m.verdict == syncroad_control::Verdict::Synchronized {

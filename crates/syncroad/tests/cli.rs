@@ -17,6 +17,39 @@ fn check_certifies_the_example_ring_and_names_the_binding_vehicle() {
     assert!(out.contains("vehicle     2: 0.490000 < 0.500000"), "{out}");
 }
 
+/// The conditions certify the model's law on every vehicle; a scenario whose runs the user's
+/// own controller drives is not what they certify: the verdict line says so and the command
+/// exits 1 (no `CERTIFIED` with exit 1), while the model's own ring stays certified (exit 0).
+#[test]
+fn check_of_a_scenario_driven_by_an_own_controller_says_not_certified_and_exits_1() {
+    let (code, out, _) = run(bin()
+        .arg("check")
+        .arg(repo().join("scenarios/sugiyama-python.json")));
+    assert_eq!(code, 1, "{out}");
+    assert!(
+        out.contains("verdict: this scenario is NOT certified: its runs are driven by python:FollowerStopper (controller.python = "),
+        "{out}"
+    );
+    assert!(out.contains("which they certify"), "{out}");
+    assert!(!out.contains("verdict: synchronization CERTIFIED"), "{out}");
+    let (code, out, _) = run(bin()
+        .args(["check", "--json"])
+        .arg(repo().join("scenarios/sugiyama-python.json")));
+    assert_eq!(code, 1);
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(
+        (v["certified"].as_bool(), v["scenario_certified"].as_bool()),
+        (Some(true), Some(false))
+    );
+    let (code, out, _) = run(bin()
+        .args(["check", "--json"])
+        .arg(repo().join("scenarios/sugiyama-ring.json")));
+    assert_eq!(code, 0, "{out}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["scenario_certified"], true);
+    assert!(v.get("not_certified_because").is_none());
+}
+
 #[test]
 fn check_json_is_machine_readable_and_unstable_ring_exits_1() {
     let (code, out, _) = run(bin()
@@ -472,9 +505,23 @@ fn what_a_native_run_cannot_do_is_refused_up_front() {
         "{err}"
     );
     assert!(!d.join("o1/metrics.json").exists());
-    let (code, _, err) = run(bin().arg("check").arg(&mixed));
-    assert_eq!(code, 1, "a mixed ring is not certified: {err}");
-    assert!(err.contains("do not certify this scenario"), "{err}");
+    // What is printed and the exit code agree: the conditions may certify the law on every
+    // vehicle, but not this mixed ring, and the verdict line says so.
+    let (code, out, err) = run(bin().arg("check").arg(&mixed));
+    assert_eq!(code, 1, "a mixed ring is not certified: {out}{err}");
+    assert!(
+        out.contains("verdict: this scenario is NOT certified: its mixed block drives"),
+        "{out}"
+    );
+    assert!(!out.contains("verdict: synchronization CERTIFIED"), "{out}");
+    let (code, out, _) = run(bin().args(["check", "--json"]).arg(&mixed));
+    assert_eq!(code, 1);
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["scenario_certified"], false, "{out}");
+    assert!(v["not_certified_because"]
+        .as_str()
+        .unwrap()
+        .starts_with("its mixed block drives"));
     let plain = native_variant(&d, "plain.json", |v| v["horizon_s"] = 20.into());
     let (code, _, err) = run(bin()
         .arg("run")

@@ -184,14 +184,48 @@ fn metrics_are_byte_identical_across_processes_and_parallel_runs() {
     let runs = "protocol,krauss-0.9,idm";
     let a = tmpdir("det-a");
     let b = tmpdir("det-b");
-    for (dir, jobs) in [(&a, "1"), (&b, "3")] {
-        let (code, out, err) = run(bin()
-            .arg("compare")
-            .arg(sugiyama())
-            .args(["--baselines", runs, "--no-plots", "--jobs", jobs, "--out"])
-            .arg(dir));
-        assert_eq!(code, 0, "{out}\n{err}");
+    // The second asks to fail on runs that do not synchronize (for CI): the files are the
+    // same, the exit code is 1 exactly when a run's own record says `not_synchronized`, and
+    // stderr names those runs.
+    let mut gate_err = String::new();
+    for (dir, jobs, gate) in [(&a, "1", None), (&b, "3", Some("not-synchronized"))] {
+        let mut cmd = bin();
+        cmd.arg("compare").arg(sugiyama()).args([
+            "--baselines",
+            runs,
+            "--no-plots",
+            "--jobs",
+            jobs,
+        ]);
+        if let Some(g) = gate {
+            cmd.args(["--fail-on", g]);
+        }
+        let (code, out, err) = run(cmd.arg("--out").arg(dir));
+        let not_sync: Vec<&str> = runs
+            .split(',')
+            .filter(|n| {
+                json(&dir.join(n).join("metrics.json"))["sync"]["verdict"] == "not_synchronized"
+            })
+            .collect();
+        let expected = i32::from(gate.is_some() && !not_sync.is_empty());
+        assert_eq!(code, expected, "{not_sync:?}\n{out}\n{err}");
+        if gate.is_some() {
+            assert!(!not_sync.is_empty(), "SUMO's drivers jam the Sugiyama ring");
+            assert!(
+                err.contains(&format!(
+                    "fail-on not synchronized: {} of 3 runs: {}",
+                    not_sync.len(),
+                    not_sync.join(", ")
+                )),
+                "{err}"
+            );
+            gate_err = err;
+        }
     }
+    assert!(
+        !gate_err.contains("protocol"),
+        "the law synchronizes: {gate_err}"
+    );
     for name in runs.split(',') {
         let x = std::fs::read(a.join(name).join("metrics.json")).unwrap();
         let y = std::fs::read(b.join(name).join("metrics.json")).unwrap();

@@ -169,6 +169,64 @@ fn native_verdicts_follow_the_closed_form_boundary_whatever_the_jobs_and_shards(
         out.contains("ran 0 (0 failed), 81 finished before"),
         "{out}"
     );
+
+    // For CI: the same finished sweep exits 1 on the findings it is told to fail on, naming
+    // as many points as the table holds, and 0 on those it does not hold.
+    let not_sync = verdict.iter().filter(|v| **v == "not_synchronized").count();
+    let unsafe_points = column(&table, "safe")
+        .iter()
+        .filter(|s| **s == "false")
+        .count();
+    let gated = |on: &str, out_dir: &Path| {
+        run(bin()
+            .arg("sweep")
+            .arg(&spec)
+            .arg("--out")
+            .arg(out_dir)
+            .args(["--no-plots", "--fail-on", on]))
+    };
+    let (code, _, err) = gated("not-synchronized", &one);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains(&format!(
+            "fail-on not synchronized: {not_sync} of 81 runs: "
+        )),
+        "{err}"
+    );
+    let (code, _, err) = gated("unsafe", &one);
+    assert_eq!(
+        code,
+        i32::from(unsafe_points > 0),
+        "{unsafe_points} unsafe: {err}"
+    );
+    let (code, _, err) = run(bin()
+        .args(["sweep", "collect"])
+        .arg(&spec)
+        .arg("--out")
+        .arg(dir.join("merged-gated"))
+        .args(&shards)
+        .args(["--no-plots", "--fail-on", "unsafe,not-synchronized"]));
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("fail-on not synchronized"), "{err}");
+    let no_verdict = write_spec(
+        &dir,
+        &format!(
+            r#"{{"base": "{}", "seeds": [1], "metrics": ["sync.final_spread_mps"]}}"#,
+            sc.display()
+        ),
+    );
+    let (code, _, err) = run(bin()
+        .arg("sweep")
+        .arg(&no_verdict)
+        .arg("--out")
+        .arg(dir.join("no-verdict"))
+        .args(["--fail-on", "inconclusive"]));
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("--fail-on inconclusive: the sweep's metrics leave out sync.verdict"),
+        "{err}"
+    );
+    assert!(!dir.join("no-verdict/rows").exists());
     let other = write_spec(
         &dir,
         &format!(r#"{{"base": "{}", "seeds": [1, 2]}}"#, sc.display()),

@@ -12,7 +12,9 @@ use crate::error::{InputError, Status};
 use crate::stdout::{out, outln};
 use crate::tables;
 
-/// Prints the theory report and the gap certificate (table or JSON); success when certified.
+/// Prints the theory report and the gap certificate (table or JSON); success when the
+/// scenario, as it runs, is certified (its model's law drives every vehicle and the conditions
+/// hold).
 pub fn run(path: &Path, json: bool) -> anyhow::Result<Status> {
     let sc = load_scenario(path)?;
     if sc.vehicles() == 0 {
@@ -45,8 +47,16 @@ pub fn run(path: &Path, json: bool) -> anyhow::Result<Status> {
             ))
         });
     let gaps = gap_certificate(&sc);
+    let otherwise = driven_otherwise(&sc);
+    let holds = rep.certified && otherwise.is_none();
     if json {
         let mut v = serde_json::to_value(&rep)?;
+        // `certified` is the model's law on every vehicle; `scenario_certified` is this
+        // scenario as it runs, which the exit code follows.
+        v["scenario_certified"] = serde_json::json!(holds);
+        if let Some(why) = &otherwise {
+            v["not_certified_because"] = serde_json::json!(why);
+        }
         v["gap_certificate"] = match (&not_described, &gaps) {
             (Some(why), _) => serde_json::json!({ "not_applicable": why }),
             (None, Ok(g)) => serde_json::to_value(g)?,
@@ -54,7 +64,7 @@ pub fn run(path: &Path, json: bool) -> anyhow::Result<Status> {
         };
         outln!("{}", serde_json::to_string_pretty(&v)?);
     } else {
-        out!("{}", tables::theory_table(&rep));
+        out!("{}", tables::theory_table(&rep, otherwise.as_deref()));
         match &not_described {
             Some(why) => out!(
                 "\ngap certificate (linear model; the law couples speeds, not gaps):\n  does not apply: {why}\n"
@@ -63,27 +73,32 @@ pub fn run(path: &Path, json: bool) -> anyhow::Result<Status> {
         }
     }
     crate::config::note_fixed_graph(&sc);
-    if crate::config::note_own_controller(&sc) {
-        // The conditions certify the model's law, which does not drive this scenario's runs.
-        return Ok(Status::verdict(false));
+    Ok(Status::verdict(holds))
+}
+
+/// What drives the scenario's runs instead of its model's law on every vehicle, which is all
+/// the paper's conditions speak of: the user's own controller, or a mixed block's humans and
+/// dampers. `None` when the model's law drives every vehicle.
+fn driven_otherwise(sc: &syncroad_control::scenario::Scenario) -> Option<String> {
+    if let Some(c) = sc.controller() {
+        let (field, value) = c.named_by();
+        return Some(format!(
+            "its runs are driven by {} ({field} = {value}), not by the model's law",
+            c.label()
+        ));
     }
-    if let Some(m) = sc.mixed() {
-        // The theorems speak of the law on every vehicle: a mixed ring is not certified by
-        // them, whatever they say of its all-law version.
-        let n = sc.vehicles();
-        let automated = m.automated(n, sc.seed()).len();
-        let law = if m.damper().ok().flatten().is_none() {
-            automated
-        } else {
-            0
-        };
-        crate::stdout::errln!(
-            "note: the scenario's mixed block drives {} of its {n} vehicles otherwise than by the law (humans: {}, automated: {}); the conditions above are for the ring with the law on every vehicle and do not certify this scenario",
-            n - law,
-            m.human,
-            m.controller
-        );
-        return Ok(Status::verdict(false));
-    }
-    Ok(Status::verdict(rep.certified))
+    let m = sc.mixed()?;
+    let n = sc.vehicles();
+    let automated = m.automated(n, sc.seed()).len();
+    let law = if m.damper().ok().flatten().is_none() {
+        automated
+    } else {
+        0
+    };
+    Some(format!(
+        "its mixed block drives {} of its {n} vehicles otherwise than by the law (humans: {}, automated: {})",
+        n - law,
+        m.human,
+        m.controller
+    ))
 }

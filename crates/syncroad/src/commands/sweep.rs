@@ -2,9 +2,10 @@
 //! results table and its plots; `syncroad sweep collect` merges shard folders;
 //! `--emit-slurm` writes the job array that runs the shards on a cluster.
 //!
-//! Exit codes: 0 every point of the shard has a row and none failed, 2 bad input (nothing
-//! ran), 3 some point failed or (collect) is missing or duplicated, 130 interrupted (the rows
-//! of finished points are kept; run the same command again to resume).
+//! Exit codes: 0 every point of the shard has a row and none failed (whatever the runs found),
+//! 1 a point matched `--fail-on`, 2 bad input (nothing ran), 3 some point failed or (collect)
+//! is missing or duplicated, 130 interrupted (the rows of finished points are kept; run the
+//! same command again to resume).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -17,6 +18,7 @@ use syncroad_sumo::interrupt_flag;
 use crate::cli::{SweepAction, SweepArgs};
 use crate::config;
 use crate::error::{InputError, Status};
+use crate::gate::{FailOn, Judged};
 use crate::output::write_text;
 use crate::stdout::outln;
 use crate::sweep::exec;
@@ -31,14 +33,16 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<Status> {
         out,
         shards,
         no_plots,
+        fail_on,
     }) = &a.action
     {
-        return collect(spec, out, shards, !no_plots);
+        return collect(spec, out, shards, !no_plots, fail_on);
     }
     let (Some(spec), Some(out)) = (&a.spec, &a.out) else {
         return Err(InputError::new("sweep needs a SPEC file and --out DIR").into());
     };
     let sweep = Sweep::load(spec)?;
+    check_gate(&sweep, &a.fail_on)?;
     if let Some(dir) = &a.emit_slurm {
         return emit(&sweep, spec, out, dir, a);
     }
@@ -68,6 +72,7 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<Status> {
         .filter(|r| r.get("status").and_then(Value::as_str) == Some("failed"))
         .count();
     let unsafe_line = unsafe_line(&rows);
+    let gated = gate(&rows, &a.fail_on);
     write_tables(&sweep, out, rows, !a.no_plots)?;
     let shard_text = if shard.count > 1 {
         format!(" (shard {}/{})", shard.index, shard.count)
@@ -136,7 +141,38 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<Status> {
         );
         return Ok(Status::RunFailed);
     }
-    Ok(Status::Success)
+    Ok(gated)
+}
+
+/// `--fail-on` a finding the sweep's table has no column for is refused before any point runs.
+fn check_gate(sweep: &Sweep, fail_on: &[FailOn]) -> Result<(), InputError> {
+    let verdicts = fail_on
+        .iter()
+        .find(|f| matches!(f, FailOn::NotSynchronized | FailOn::Inconclusive));
+    match verdicts {
+        Some(f) if !sweep.metrics.iter().any(|m| m == "sync.verdict") => {
+            Err(InputError::new(format!(
+                "--fail-on {}: the sweep's metrics leave out sync.verdict, so no row says whether its run synchronized; add \"sync.verdict\" to the spec's \"metrics\" or gate on unsafe only",
+                clap::ValueEnum::to_possible_value(f).map_or_else(String::new, |v| v.get_name().to_string())
+            )))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// What `--fail-on` makes of the rows (a point is named by its number and run).
+fn gate(rows: &BTreeMap<usize, Map<String, Value>>, fail_on: &[FailOn]) -> Status {
+    crate::gate::judge(
+        fail_on,
+        rows.iter().map(|(id, r)| Judged {
+            name: format!(
+                "{id} ({})",
+                r.get("run").and_then(Value::as_str).unwrap_or("?")
+            ),
+            verdict: r.get("sync.verdict").and_then(Value::as_str),
+            safe: r.get("safe").and_then(Value::as_bool),
+        }),
+    )
 }
 
 fn write_tables(
@@ -254,8 +290,10 @@ fn collect(
     out: &Path,
     shards: &[std::path::PathBuf],
     plots: bool,
+    fail_on: &[FailOn],
 ) -> anyhow::Result<Status> {
     let sweep = Sweep::load(spec)?;
+    check_gate(&sweep, fail_on)?;
     let mut merged: BTreeMap<usize, Map<String, Value>> = BTreeMap::new();
     let mut from: BTreeMap<usize, &Path> = BTreeMap::new();
     let mut duplicated = Vec::new();
@@ -300,6 +338,7 @@ fn collect(
     }
     let rows = merged.len();
     let unsafe_line = unsafe_line(&merged);
+    let gated = gate(&merged, fail_on);
     write_tables(&sweep, out, merged, plots)?;
     outln!(
         "collected {rows} of {} points from {} shard folders into {}/results.parquet and results.csv",
@@ -332,9 +371,5 @@ fn collect(
                 .join(", ")
         );
     }
-    Ok(if ok {
-        Status::Success
-    } else {
-        Status::RunFailed
-    })
+    Ok(if ok { gated } else { Status::RunFailed })
 }

@@ -2,8 +2,9 @@
 //! (plan, runs, the combined `compare.json`) is [`crate::comparison`]; this module turns the
 //! flags into its [`Request`] and prints the table.
 //!
-//! Exit codes: 0 every run completed, 2 bad input (nothing ran), 3 some run failed (the others'
-//! results are written), 130 interrupted.
+//! Exit codes: 0 every run completed (whatever the runs found), 1 a run matched `--fail-on`,
+//! 2 bad input (nothing ran), 3 some run failed (the others' results are written), 130
+//! interrupted.
 
 use std::sync::atomic::Ordering;
 
@@ -106,9 +107,27 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<Status> {
     for r in &failed {
         crate::stdout::errln!("error: run {} failed: {}", r.name, r.error().unwrap_or("?"));
     }
-    Ok(if failed.is_empty() {
-        Status::Success
-    } else {
-        Status::RunFailed
-    })
+    if !failed.is_empty() {
+        return Ok(Status::RunFailed);
+    }
+    Ok(crate::gate::judge(
+        &a.fail_on,
+        results.iter().filter_map(|r| {
+            let rec = r.record.as_ref().ok()?;
+            Some(crate::gate::Judged {
+                name: r.name.clone(),
+                verdict: Some(verdict_name(rec.sync.verdict)),
+                safe: rec.safe,
+            })
+        }),
+    ))
+}
+
+/// The verdict as the record and the sweep table write it.
+fn verdict_name(v: syncroad_control::Verdict) -> &'static str {
+    match v {
+        syncroad_control::Verdict::Synchronized => "synchronized",
+        syncroad_control::Verdict::NotSynchronized => "not_synchronized",
+        syncroad_control::Verdict::Inconclusive => "inconclusive",
+    }
 }
