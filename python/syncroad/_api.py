@@ -74,6 +74,17 @@ def _check_numbers(**options: Any) -> None:
             raise ScenarioError(f"{name} = {value!r}: must be {kind} {bound} (or None for the default)")
 
 
+def _safety(layer: Optional[str]) -> Optional[str]:
+    """Checks ``safety=`` before anything runs: the CLI's ``--safety`` values."""
+    if layer is None or layer in ("off", "sumo", "filter"):
+        return layer
+    raise ScenarioError(
+        f"safety = {layer!r}: use \"off\" (the law's commands as they are), \"sumo\" (SUMO's safe "
+        "speed, right of way and red lights) or \"filter\" (syncroad's Gipps safe-speed filter, "
+        "on both backends)"
+    )
+
+
 def _listed(values: Any) -> Any:
     """A list for an iterable of values; a string (already comma-separated) or None as is."""
     if values is None or isinstance(values, str):
@@ -146,13 +157,15 @@ def run(
     krauss_sigma: Optional[float] = None,
     progress: Optional[str] = None,
     controller: Any = None,
+    safety: Optional[str] = None,
     _here: bool = False,
 ) -> Run:
     """Runs a scenario as ``syncroad run`` (``backend="native"``: ``syncroad simulate``)
     and returns its :class:`Run`. ``out`` is the run's folder (default: a new temporary one);
     the files are the CLI's. SUMO runs go to a supervised worker process. ``progress`` is the
     CLI's ``--progress``: ``"auto"`` (the default: a line redrawn on a terminal's stderr),
-    ``"lines"`` (plain lines on stderr, for logs) or ``"never"``.
+    ``"lines"`` (plain lines on stderr, for logs) or ``"never"``. ``safety`` is the CLI's
+    ``--safety``: ``"off"``, ``"sumo"`` or ``"filter"`` in place of the scenario's layer.
 
     Raises :class:`ScenarioError` for bad input, :class:`RunError` when the run failed part-way
     (``err.run`` keeps the rows received), :class:`Interrupted` on Ctrl-C (rows kept).
@@ -203,6 +216,7 @@ def run(
         warmup_s=warmup_s,
         no_plots=not plots,
         progress=progress,
+        safety=_safety(safety),
     )
     with _writing(folder):
         code, error, summary = _execute(argv, folder, here=_here)
@@ -270,12 +284,16 @@ def compare(
     record_every: Optional[int] = None,
     timeout_s: Optional[float] = None,
     plots: bool = True,
+    safety: Optional[str] = None,
+    fail_on: Optional[Union[str, Iterable[str]]] = None,
 ) -> "pandas.DataFrame":
     """Runs ``syncroad compare`` (the scenario's law beside SUMO's drivers, the wave dampers
     and mixed rings, each in its own SUMO worker) and returns one row per run, indexed by run
     name: the flattened record (``congestion.speed_std_mps``, ``sumo.fuel_g_per_km``, …),
     ``error`` for a run that failed, and ``out``, the run's folder (``syncroad.Run(row.out)``).
-    ``df.attrs["compare"]`` is the whole ``compare.json``."""
+    ``df.attrs["compare"]`` is the whole ``compare.json``. ``safety`` and ``fail_on`` are the
+    CLI's ``--safety`` and ``--fail-on`` (``"unsafe"``, ``"not-synchronized"``,
+    ``"inconclusive"``): ``df.attrs["exit_code"]`` is 1 when a run matched."""
     import pandas as pd
 
     sc = as_scenario(scenario)
@@ -293,6 +311,8 @@ def compare(
         record_every=record_every,
         timeout_s=timeout_s,
         no_plots=not plots,
+        safety=_safety(safety),
+        fail_on=_listed(fail_on),
     )
     with _writing(folder):
         code, error, _ = _execute(argv, folder)
@@ -323,13 +343,16 @@ def sweep(
     retry_failed: bool = False,
     keep_runs: bool = False,
     plots: bool = True,
+    safety: Optional[str] = None,
+    fail_on: Optional[Union[str, Iterable[str]]] = None,
 ) -> "pandas.DataFrame":
     """Runs a sweep spec (a file, or a dict whose relative ``base`` resolves against
     ``base_dir``) as ``syncroad sweep SPEC --out OUT`` and returns ``results.parquet`` as a
     DataFrame, one row per point. Resumable as the CLI's: after Ctrl-C (:class:`Interrupted`)
     or a failed point, the same call runs only the points without a row (``retry_failed``:
     the failed ones too). ``df.attrs["exit_code"]`` is 3 when some point failed (its row says
-    ``status == "failed"``)."""
+    ``status == "failed"``), 1 when a point matched ``fail_on`` (the CLI's ``--fail-on``).
+    ``safety`` is the CLI's ``--safety``."""
     import pandas as pd
 
     _check_numbers(jobs=jobs)
@@ -337,7 +360,15 @@ def sweep(
     with _writing(folder), tempfile.TemporaryDirectory(prefix="syncroad-spec-") as tmp:
         path = write_spec(tmp, spec, base_dir) if isinstance(spec, Mapping) else Path(spec)
         argv = ["sweep", str(path), "--out", str(folder)]
-        argv += _flags(jobs=jobs, shard=shard, retry_failed=retry_failed, keep_runs=keep_runs, no_plots=not plots)
+        argv += _flags(
+            jobs=jobs,
+            shard=shard,
+            retry_failed=retry_failed,
+            keep_runs=keep_runs,
+            no_plots=not plots,
+            safety=_safety(safety),
+            fail_on=_listed(fail_on),
+        )
         code, error, _ = _execute(argv, folder)
         table = folder / "results.parquet"
         if not table.is_file():

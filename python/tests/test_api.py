@@ -140,6 +140,26 @@ def test_sweep_equals_the_clis_table_and_resumes(tmp_path):
     assert by[(2.0, 8.0)] != "synchronized"
 
 
+def test_safety_and_fail_on_are_the_clis_flags(tmp_path):
+    import pandas as pd
+
+    # safety= is --safety: the same record as the CLI's run with the flag.
+    r = syncroad.run("scenarios/ring-theorem1.json", out=tmp_path / "api", safety="filter", plots=False)
+    cli("simulate", "scenarios/ring-theorem1.json", "--safety", "filter", "--no-plots", "--out", tmp_path / "cli", check_code=0)
+    assert r.metrics == read_json(tmp_path / "cli/metrics.json")
+    assert r.metrics.safety_layer.mode == "filter"
+    with pytest.raises(syncroad.ScenarioError, match="safety = 'gipps': use"):
+        syncroad.run("scenarios/ring-theorem1.json", out=tmp_path / "bad", safety="gipps")
+    # fail_on= is --fail-on: exit code 1 exactly when a row is not synchronized, the table
+    # the same as without it.
+    spec = small_sweep(str(REPO / "scenarios/ring-theorem1.json"))
+    df = syncroad.sweep(spec, out=tmp_path / "sweep", fail_on="not-synchronized", plots=False)
+    assert df.attrs["exit_code"] == (1 if (df["sync.verdict"] == "not_synchronized").any() else 0)
+    plain_df = syncroad.sweep(spec, out=tmp_path / "sweep", plots=False)
+    assert plain_df.attrs["exit_code"] == 0
+    pd.testing.assert_frame_equal(df, plain_df)
+
+
 def test_a_copied_run_folder_opens_as_a_run(tmp_path):
     r = syncroad.run("scenarios/ring-theorem1.json", out=tmp_path / "a", plots=False)
     shutil.copytree(tmp_path / "a", tmp_path / "b")

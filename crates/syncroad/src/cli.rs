@@ -254,6 +254,11 @@ pub struct OutputArgs {
     /// Also animate the run into OUT/animation.gif (as `syncroad animate OUT` does).
     #[arg(long)]
     pub animate: bool,
+    /// The safety layer under the law, in place of the scenario's `safety`: `off` (the law's
+    /// commands as they are), `sumo` (SUMO's safe speed, right of way and red lights; SUMO
+    /// only) or `filter` (syncroad's Gipps safe-speed filter, the same on both backends).
+    #[arg(long, value_parser = crate::config::parse_safety, value_name = "LAYER")]
+    pub safety: Option<syncroad_control::scenario::SafetyMode>,
 }
 
 impl OutputArgs {
@@ -370,6 +375,11 @@ pub struct CompareArgs {
     /// No progress on stderr (the same as `--progress never`).
     #[arg(long, short, conflicts_with = "progress")]
     pub quiet: bool,
+    /// The safety layer under the law in every run that has one, in place of the scenario's
+    /// `safety`: `off` (the law's commands as they are), `sumo` (SUMO's safe speed, right of way and red lights; SUMO
+    /// only) or `filter` (syncroad's Gipps safe-speed filter, the same on both backends).
+    #[arg(long, value_parser = crate::config::parse_safety, value_name = "LAYER")]
+    pub safety: Option<syncroad_control::scenario::SafetyMode>,
     /// Exit 1 when a run is unsafe, not synchronized or inconclusive (comma-separated; each
     /// matching run is named on stderr). Without it a comparison whose runs all ran exits 0
     /// whatever they found.
@@ -441,6 +451,12 @@ pub struct SweepArgs {
     /// Run again the points that failed before.
     #[arg(long)]
     pub retry_failed: bool,
+    /// The safety layer under the law at every point, in place of the base scenario's
+    /// `safety` (part of the sweep's hash: a resumed sweep keeps its layer): `off` (the law's
+    /// commands as they are), `sumo` (SUMO's safe speed, right of way and red lights; SUMO
+    /// only) or `filter` (syncroad's Gipps safe-speed filter, the same on both backends).
+    #[arg(long, value_parser = crate::config::parse_safety, value_name = "LAYER")]
+    pub safety: Option<syncroad_control::scenario::SafetyMode>,
     /// Exit 1 when a point's run is unsafe, not synchronized or inconclusive
     /// (comma-separated; the matching points are named on stderr). Without it a sweep whose
     /// points all ran exits 0 whatever they found.
@@ -500,5 +516,8 @@ pub enum SweepAction {
         /// Exit 1 when a merged point's run is unsafe, not synchronized or inconclusive.
         #[arg(long, value_enum, value_delimiter = ',', value_name = "FINDING")]
         fail_on: Vec<crate::gate::FailOn>,
+        /// The `--safety` the shards ran with (the spec's hash covers it).
+        #[arg(long, value_parser = crate::config::parse_safety, value_name = "LAYER")]
+        safety: Option<syncroad_control::scenario::SafetyMode>,
     },
 }

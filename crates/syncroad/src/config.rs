@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use syncroad_control::metrics::VerdictThresholds;
+use syncroad_control::scenario::SafetyMode;
 use syncroad_control::{EvalOptions, Scenario, Trajectory};
 
 use crate::cli::OutputArgs;
@@ -15,7 +16,18 @@ use crate::error::InputError;
 /// A loop or route through a network is checked and measured on `sumo.net`; the cycle found
 /// for `road.through` is printed to stderr.
 pub fn load_scenario(path: &Path) -> anyhow::Result<Scenario> {
-    let sc = Scenario::load_with(path, &syncroad_sumo::NetReader).map_err(|e| {
+    load_scenario_with(path, None)
+}
+
+/// [`load_scenario`] with the safety layer `--safety` chose in place of the file's `safety`
+/// (`None`: the file's): validated as the file's own value, and part of the scenario's hash.
+pub fn load_scenario_with(path: &Path, safety: Option<SafetyMode>) -> anyhow::Result<Scenario> {
+    let edit = |f: &mut syncroad_control::scenario::ScenarioFile| {
+        if safety.is_some() {
+            f.safety = safety;
+        }
+    };
+    let sc = Scenario::load_edited(path, Some(&syncroad_sumo::NetReader), edit).map_err(|e| {
         anyhow::Error::from(InputError::new(format!(
             "{e}\n  (scenario {}; fix the field named above — `syncroad --help` and the guide's docs/src/scenarios.md describe the format)",
             path.display()
@@ -24,6 +36,13 @@ pub fn load_scenario(path: &Path) -> anyhow::Result<Scenario> {
     note_measured_road(&sc);
     note_config(&sc);
     Ok(sc)
+}
+
+/// `--safety off|sumo|filter`: the names of the scenario's `safety` key.
+pub fn parse_safety(text: &str) -> Result<SafetyMode, String> {
+    serde_json::from_value(serde_json::Value::String(text.to_string())).map_err(|_| {
+        format!("{text}: use off (the law's commands as they are), sumo (SUMO's safe speed, right of way and red lights) or filter (syncroad's Gipps safe-speed filter, on both backends)")
+    })
 }
 
 /// Tells which options of `sumo.config` syncroad did not give SUMO.

@@ -1035,3 +1035,54 @@ fn stability_refuses_what_it_cannot_analyse_as_bad_input() {
         }
     }
 }
+
+/// `--safety` is the scenario's `safety` key from the command line: a run with the flag is
+/// byte for byte the run of the file that says the same (record, hash and rows), differs from
+/// the file's own layer, and a layer the backend cannot have is refused before the run.
+#[test]
+fn the_safety_flag_is_the_scenarios_key_from_the_command_line() {
+    let dir = tmpdir("safety-flag");
+    let src = repo().join("scenarios/ring-theorem1.json");
+    let mut doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&src).unwrap()).unwrap();
+    assert!(
+        doc.get("safety").is_none(),
+        "the file leaves the layer to its default"
+    );
+    doc["safety"] = "filter".into();
+    let keyed = dir.join("ring-theorem1-filter.json");
+    std::fs::write(&keyed, doc.to_string()).unwrap();
+    let sim = |sc: &std::path::Path, out: &str, extra: &[&str]| {
+        run(bin()
+            .arg("simulate")
+            .arg(sc)
+            .args(["--no-plots", "-q", "--out"])
+            .arg(dir.join(out))
+            .args(extra))
+    };
+    let (code, out, err) = sim(&src, "flag", &["--safety", "filter"]);
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(
+        out.contains("safety layer: filter (Gipps' safe speed;"),
+        "{out}"
+    );
+    assert_eq!(sim(&keyed, "key", &[]).0, 0);
+    assert_eq!(sim(&src, "plain", &[]).0, 0);
+    let read = |run: &str, file: &str| std::fs::read(dir.join(run).join(file)).unwrap();
+    for file in ["metrics.json", "trajectories.csv"] {
+        assert!(read("flag", file) == read("key", file), "{file} differs");
+    }
+    assert!(read("flag", "metrics.json") != read("plain", "metrics.json"));
+    let m: serde_json::Value = serde_json::from_slice(&read("flag", "metrics.json")).unwrap();
+    assert_eq!(m["safety_layer"]["mode"], "filter");
+    let (code, _, err) = sim(&src, "sumo", &["--safety", "sumo"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("safety = sumo: SUMO's own checks need SUMO"),
+        "{err}"
+    );
+    assert!(!dir.join("sumo/metrics.json").exists());
+    let (code, _, err) = sim(&src, "bad", &["--safety", "gipps"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("gipps: use off"), "{err}");
+}

@@ -806,3 +806,105 @@ fn an_emitted_slurm_array_passes_the_sweeps_options_to_each_task() {
         assert!(!dir.join("refused").exists());
     }
 }
+
+/// `--safety` on a sweep is the spec's `safety` key: the same rows as the spec that says so,
+/// a hash of its own (a folder swept without it is not resumed with it), passed on to every
+/// task and to the merge of an emitted Slurm job; an axis over `safety` beside it is refused.
+#[test]
+fn the_safety_flag_of_a_sweep_is_the_specs_key() {
+    let dir = tmpdir("sweep-safety");
+    let sc = uniform_ring(&dir, 0.5);
+    let body = |extra: &str| {
+        format!(
+            r#"{{"name": "safety", "base": "{}", "seeds": [1, 2]{extra},
+                "axes": [{{"field": "scale.gain", "values": [1.0, 3.0]}}],
+                "metrics": ["sync.verdict", "safety_layer.mode"]}}"#,
+            sc.display()
+        )
+    };
+    let flagged = write_spec(&dir, &body(""));
+    let keyed = dir.join("keyed.json");
+    std::fs::write(&keyed, body(r#", "safety": "filter""#)).unwrap();
+    let sweep = |spec: &Path, out: &str, extra: &[&str]| {
+        run(bin()
+            .arg("sweep")
+            .arg(spec)
+            .arg("--out")
+            .arg(dir.join(out))
+            .arg("--no-plots")
+            .args(extra))
+    };
+    let (code, out, err) = sweep(&flagged, "flag", &["--safety", "filter"]);
+    assert_eq!(code, 0, "{out}{err}");
+    assert_eq!(sweep(&keyed, "key", &[]).0, 0);
+    let table = csv(&dir.join("flag"));
+    // Every column but the hash of the spec as written (keys in the order written).
+    let without_spec_hash = |text: &str| -> Vec<String> {
+        let k = text
+            .lines()
+            .next()
+            .unwrap()
+            .split(',')
+            .position(|h| h == "spec_hash")
+            .unwrap();
+        text.lines()
+            .map(|l| {
+                let mut cells: Vec<&str> = l.split(',').collect();
+                cells.remove(k);
+                cells.join(",")
+            })
+            .collect()
+    };
+    assert_eq!(
+        without_spec_hash(&table),
+        without_spec_hash(&csv(&dir.join("key")))
+    );
+    assert_eq!(column(&table, "safety_layer.mode"), vec!["filter"; 4]);
+    assert_eq!(sweep(&flagged, "plain", &[]).0, 0);
+    assert_ne!(
+        column(&csv(&dir.join("plain")), "safety_layer.mode"),
+        vec!["filter"; 4]
+    );
+    let (code, _, err) = sweep(&flagged, "plain", &["--safety", "filter"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("holds a sweep of another spec"), "{err}");
+    let (code, _, err) = sweep(&keyed, "both", &["--safety", "off"]);
+    assert_eq!(code, 0, "the flag replaces the key: {err}");
+    assert_eq!(
+        column(&csv(&dir.join("both")), "safety_layer.mode"),
+        vec!["off"; 4]
+    );
+    let axis = dir.join("axis.json");
+    std::fs::write(
+        &axis,
+        format!(
+            r#"{{"base": "{}", "safety": "filter", "axes": [{{"field": "safety", "values": ["off", "filter"]}}]}}"#,
+            sc.display()
+        ),
+    )
+    .unwrap();
+    let (code, _, err) = sweep(&axis, "axis", &[]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("safety = filter: the spec also sweeps safety on an axis"),
+        "{err}"
+    );
+    let slurm = dir.join("slurm");
+    let (code, _, err) = sweep(
+        &flagged,
+        "cluster",
+        &[
+            "--safety",
+            "filter",
+            "--emit-slurm",
+            slurm.to_str().unwrap(),
+            "--shards",
+            "2",
+        ],
+    );
+    assert_eq!(code, 0, "{err}");
+    for script in ["sweep.sbatch", "collect.sbatch"] {
+        let text = std::fs::read_to_string(slurm.join(script)).unwrap();
+        assert!(text.contains(" --safety filter"), "{script}: {text}");
+    }
+}

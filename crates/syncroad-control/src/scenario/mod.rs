@@ -275,11 +275,23 @@ impl Scenario {
     }
 
     fn load_from(path: &Path, reader: Option<&dyn RoadReader>) -> Result<Self, ScenarioError> {
+        Self::load_edited(path, reader, |_| {})
+    }
+
+    /// Reads a scenario file, lets `edit` change it as written (a command-line option that
+    /// overrides one of its keys, such as `--safety`), and validates the result: the edit is
+    /// checked as the file's own value would be, and the scenario's hash covers it.
+    pub fn load_edited(
+        path: &Path,
+        reader: Option<&dyn RoadReader>,
+        edit: impl FnOnce(&mut ScenarioFile),
+    ) -> Result<Self, ScenarioError> {
         let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Io {
             path: path.to_path_buf(),
             source,
         })?;
-        let file = ScenarioFile::from_json(&text, &path.display().to_string())?;
+        let mut file = ScenarioFile::from_json(&text, &path.display().to_string())?;
+        edit(&mut file);
         // Relative paths inside the scenario resolve against its folder; a scenario read from
         // a pipe or a device (`/dev/stdin`) has no folder of its own: the current one is used.
         let regular = std::fs::metadata(path).is_ok_and(|m| m.is_file());

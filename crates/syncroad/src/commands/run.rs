@@ -16,7 +16,7 @@ use syncroad_control::{LawSpec, NativeOptions, Scenario, StopReason, Verdict};
 use syncroad_sumo::{interrupt_flag, load_road, ReadMode, RowsProgress, WorkerCommand};
 
 use crate::cli::{OutputArgs, SumoArgs};
-use crate::config::{self, load_scenario, RunConfig};
+use crate::config::{self, RunConfig};
 use crate::error::{InputError, Status};
 use crate::lock::FolderLock;
 use crate::pipeline::{self, Finished};
@@ -27,7 +27,7 @@ use crate::{output, tables};
 
 /// `syncroad run`: the scenario's backend.
 pub fn run(path: &Path, out: &OutputArgs, sumo: &SumoArgs) -> anyhow::Result<Status> {
-    let sc = load_scenario(path)?;
+    let sc = config::load_scenario_with(path, out.safety)?;
     match sc.backend() {
         Backend::Sumo => run_sumo(&sc, path, out, sumo),
         Backend::Native => {
@@ -42,7 +42,12 @@ const RUN_PLOTS: usize = crate::plots::RUN_PLOT_FILES.len();
 
 /// `syncroad simulate`: the native simulator whatever the scenario's backend.
 pub fn simulate(path: &Path, out: &OutputArgs) -> anyhow::Result<Status> {
-    run_native(&load_scenario(path)?, path, out, None)
+    run_native(
+        &config::load_scenario_with(path, out.safety)?,
+        path,
+        out,
+        None,
+    )
 }
 
 /// Checks and locks `--out` and clears the record and rows an earlier run left there; none of

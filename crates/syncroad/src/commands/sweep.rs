@@ -25,6 +25,7 @@ use crate::sweep::exec;
 use crate::sweep::rows::read_rows;
 use crate::sweep::slurm::{self, SlurmOptions};
 use crate::sweep::{plots, ExecOptions, Shard, Sweep};
+use syncroad_control::scenario::SafetyMode;
 
 /// Dispatches `sweep` and `sweep collect`.
 pub fn run(a: &SweepArgs) -> anyhow::Result<Status> {
@@ -34,14 +35,15 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<Status> {
         shards,
         no_plots,
         fail_on,
+        safety,
     }) = &a.action
     {
-        return collect(spec, out, shards, !no_plots, fail_on);
+        return collect(spec, out, shards, !no_plots, fail_on, *safety);
     }
     let (Some(spec), Some(out)) = (&a.spec, &a.out) else {
         return Err(InputError::new("sweep needs a SPEC file and --out DIR").into());
     };
-    let sweep = Sweep::load(spec)?;
+    let sweep = Sweep::load_with(spec, a.safety)?;
     check_gate(&sweep, &a.fail_on)?;
     if let Some(dir) = &a.emit_slurm {
         return emit(&sweep, spec, out, dir, a);
@@ -210,7 +212,15 @@ fn task_flags(a: &SweepArgs) -> anyhow::Result<Vec<String>> {
         f.push("--fcd-every".into());
         f.push(config::fcd_every(a.fcd_every)?.to_string());
     }
+    f.extend(safety_flag(a.safety));
     Ok(f)
+}
+
+/// `--safety LAYER` as given, for the commands an emitted job runs (its hash depends on it).
+fn safety_flag(safety: Option<SafetyMode>) -> Vec<String> {
+    safety
+        .map(|m| vec!["--safety".to_string(), m.name().to_string()])
+        .unwrap_or_default()
 }
 
 fn emit(
@@ -244,6 +254,7 @@ fn emit(
         time: a.time.clone(),
         extra: a.sbatch_option.clone(),
         task_flags: task_flags(a)?,
+        collect_flags: safety_flag(a.safety),
     };
     let e = slurm::emit(&sweep.name, spec, out, dir, &opts)?;
     outln!(
@@ -291,8 +302,9 @@ fn collect(
     shards: &[std::path::PathBuf],
     plots: bool,
     fail_on: &[FailOn],
+    safety: Option<SafetyMode>,
 ) -> anyhow::Result<Status> {
-    let sweep = Sweep::load(spec)?;
+    let sweep = Sweep::load_with(spec, safety)?;
     check_gate(&sweep, fail_on)?;
     let mut merged: BTreeMap<usize, Map<String, Value>> = BTreeMap::new();
     let mut from: BTreeMap<usize, &Path> = BTreeMap::new();

@@ -29,6 +29,9 @@ pub struct SlurmOptions {
     /// Options of the sweep every array task runs with (`--keep-runs`, `--fcd`, …), one word
     /// each.
     pub task_flags: Vec<String>,
+    /// Options the merge job passes on to `sweep collect` (`--safety`, which the spec's hash
+    /// covers), one word each.
+    pub collect_flags: Vec<String>,
 }
 
 /// The files written.
@@ -225,8 +228,13 @@ pub fn emit(
     let shards = (0..opts.shards)
         .map(|i| s(&out.join(format!("shard-{i}"))))
         .collect::<anyhow::Result<Vec<String>>>()?;
+    let collect_flags = opts
+        .collect_flags
+        .iter()
+        .map(|f| sh(f).map(|w| format!(" {w}")))
+        .collect::<anyhow::Result<String>>()?;
     c.push(format!(
-        "exec {} sweep collect {} --out {} {}",
+        "exec {} sweep collect {} --out {}{collect_flags} {}",
         s(&exe)?,
         s(&spec)?,
         s(&out.join("merged"))?,

@@ -36,7 +36,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use sha2::{Digest, Sha256};
 use syncroad_control::drive::{mixed_controllers, mixed_series, Drive};
-use syncroad_control::scenario::{Backend, Model, ScenarioFile};
+use syncroad_control::scenario::{Backend, Model, SafetyMode, ScenarioFile};
 use syncroad_control::SumoDriver;
 use syncroad_control::{LawSpec, Scenario};
 
@@ -57,6 +57,10 @@ pub struct SpecFile {
     /// `native` or `sumo` (default: the scenario's).
     #[serde(default)]
     pub backend: Option<Backend>,
+    /// The safety layer of every point, in place of the base scenario's `safety` (`off`,
+    /// `sumo` or `filter`; `--safety` sets it from the command line).
+    #[serde(default)]
+    pub safety: Option<SafetyMode>,
     /// The axes, outermost first.
     #[serde(default)]
     pub axes: Vec<AxisFile>,
@@ -188,6 +192,26 @@ impl Sweep {
         Self::new(raw, &dir, stem)
     }
 
+    /// [`Sweep::load`] with `--safety` in place of the spec's `safety` key: the spec as run,
+    /// which its hash covers (a resumed sweep keeps the layer it started with).
+    pub fn load_with(path: &Path, safety: Option<SafetyMode>) -> anyhow::Result<Self> {
+        let Some(mode) = safety else {
+            return Self::load(path);
+        };
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| bad(format!("cannot read sweep spec {}: {e}", path.display())))?;
+        let mut raw: Value = serde_json::from_str(&text)
+            .map_err(|e| bad(format!("sweep spec {}: {e}", path.display())))?;
+        if let Some(obj) = raw.as_object_mut() {
+            obj.insert("safety".into(), Value::String(mode.name().into()));
+        }
+        let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        let stem = path
+            .file_stem()
+            .map_or("sweep".into(), |s| s.to_string_lossy().into_owned());
+        Self::new(raw, &dir, stem)
+    }
+
     /// Validates a spec (JSON as written) whose relative paths resolve against `dir`;
     /// `default_name` names it when the spec gives no name.
     pub fn new(raw: Value, dir: &Path, default_name: String) -> anyhow::Result<Self> {
@@ -222,6 +246,13 @@ impl Sweep {
         for a in &axes {
             if !seen.insert(a.field.as_str()) {
                 return Err(bad(format!("axes[{}] appears twice", a.field)).into());
+            }
+            if let (Some(m), "safety") = (file.safety, a.field.as_str()) {
+                return Err(bad(format!(
+                    "safety = {}: the spec also sweeps safety on an axis; give one or the other",
+                    m.name()
+                ))
+                .into());
             }
         }
         let seeds = super::points::seeds_of(file.seeds.as_ref(), base.seed())?;
@@ -304,6 +335,9 @@ impl Sweep {
     /// The validated scenario of a point (seed included; scales applied last).
     pub fn scenario(&self, p: &Point) -> anyhow::Result<Scenario> {
         let mut doc = self.base_json.clone();
+        if let Some(m) = self.file.safety {
+            doc["safety"] = Value::String(m.name().into());
+        }
         let mut gain = 1.0;
         let mut delay = 1.0;
         for (a, &k) in self.axes.iter().zip(&p.at) {

@@ -14,7 +14,6 @@ use syncroad_sumo::{interrupt_flag, loop_position, EMISSION_CLASS};
 
 use crate::cli::CompareArgs;
 use crate::comparison::{compare_into, plan, Request, RunResult};
-use crate::config::load_scenario;
 use crate::error::Status;
 use crate::output;
 use crate::stdout::{out, outln};
@@ -48,7 +47,7 @@ impl From<&CompareArgs> for Request {
 
 /// `syncroad compare`.
 pub fn run(a: &CompareArgs) -> anyhow::Result<Status> {
-    let sc = load_scenario(&a.scenario)?;
+    let sc = crate::config::load_scenario_with(&a.scenario, a.safety)?;
     let plan = plan(&sc, &Request::from(a))?;
     let interrupt = interrupt_flag()?;
     let (doc, results) = compare_into(
