@@ -107,6 +107,12 @@ pub struct LawSpec {
 impl LawSpec {
     /// The law of a validated scenario, on the native simulator.
     pub fn of(scenario: &Scenario) -> Self {
+        Self::among(scenario, false)
+    }
+
+    /// [`LawSpec::of`], its law's vehicles among syncroad's stochastic humans when `humans`
+    /// (which sets the default safety layer: [`Scenario::safety_for`]).
+    fn among(scenario: &Scenario, humans: bool) -> Self {
         let leader = crate::start::leader_start(scenario).is_some();
         let mut ids: Vec<String> = leader.then(|| "leader".to_string()).into_iter().collect();
         ids.extend((0..scenario.vehicles()).map(|i| format!("v{i}")));
@@ -140,7 +146,7 @@ impl LawSpec {
             humans: None,
             user: scenario.controller().cloned(),
             safety: filter_params(
-                scenario.safety_for(false),
+                scenario.safety_for(false, humans),
                 vt.min_gap_m,
                 vt.decel_mps2,
                 None,
@@ -159,7 +165,10 @@ impl LawSpec {
         if sumo || (ring_needed && sc.ring_length_m().is_none()) {
             return None;
         }
-        Self::of(sc).driven_by(&drivers, damper, sc.seed()).ok()
+        let humans = drivers.iter().any(Option::is_some);
+        Self::among(sc, humans)
+            .driven_by(&drivers, damper, sc.seed())
+            .ok()
     }
 
     /// This law, built for the run's road and vehicles, with who drives each scenario vehicle

@@ -18,6 +18,13 @@ pub struct Safety {
     /// SUMO's "performs emergency braking" warnings in its log.
     #[schemars(title = "emergency braking warn.")]
     pub emergency_braking_warnings: usize,
+    /// Of those, the warnings within the first [`START_TRANSIENT_S`] of the run (SUMO's
+    /// reaction time τ): a driver's answer to the start every compared driver shares (the
+    /// scenario's gaps and speeds at t = 0), before its own driving could have caused them.
+    /// Reported apart and left out of `safe`; collisions and teleports count from the start.
+    #[serde(default)]
+    #[schemars(title = "emergency braking at the start (t ≤ 1 s)")]
+    pub start_emergency_braking_warnings: usize,
     /// Law commands SUMO did not realise within the override tolerance.
     #[schemars(title = "overridden commands")]
     pub overridden_commands: usize,
@@ -33,7 +40,18 @@ pub struct Safety {
     pub topology_changes: Option<usize>,
 }
 
+/// The start transient \[s\]: emergency braking in SUMO up to this time answers the start
+/// state, not the driver's own driving (SUMO's default reaction time τ, the safety filter's
+/// [`crate::safety::REACTION_S`]).
+pub const START_TRANSIENT_S: f64 = crate::safety::REACTION_S;
+
 impl Safety {
+    /// Emergency braking after the start transient: the driver's own.
+    pub fn own_emergency_braking_warnings(&self) -> usize {
+        self.emergency_braking_warnings
+            .saturating_sub(self.start_emergency_braking_warnings)
+    }
+
     /// The vehicle ahead of one of syncroad's vehicles changed in SUMO at least once: the run
     /// is outside the theory of the scenario's fixed graph.
     pub fn graph_changed(&self) -> bool {

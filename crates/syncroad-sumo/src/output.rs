@@ -7,6 +7,7 @@ use std::path::Path;
 use syncroad_control::metrics::{spread_of_range, SpreadSeries};
 use syncroad_control::record::{Controlled, Safety, SumoFacts};
 use syncroad_control::scenario::Scenario;
+use syncroad_control::sumo_facts::START_TRANSIENT_S;
 use syncroad_control::{RunOutput, StopReason, Trajectory};
 
 use crate::net::loop_position;
@@ -22,11 +23,27 @@ pub struct SumoRun {
     pub worker: WorkerRun,
 }
 
-/// Occurrences of SUMO's emergency-braking warning in its log.
-fn emergency_braking_warnings(log: &Path) -> usize {
-    std::fs::read_to_string(log)
-        .map(|t| t.matches("performs emergency braking").count())
-        .unwrap_or(0)
+/// Occurrences of SUMO's emergency-braking warning in its log: all of them, and those up to
+/// [`START_TRANSIENT_S`] (the warning ends with `time=T.`).
+fn emergency_braking_warnings(log: &Path) -> (usize, usize) {
+    let Ok(text) = std::fs::read_to_string(log) else {
+        return (0, 0);
+    };
+    let mut all = 0;
+    let mut start = 0;
+    for line in text
+        .lines()
+        .filter(|l| l.contains("performs emergency braking"))
+    {
+        all += 1;
+        let t = line
+            .rsplit_once("time=")
+            .and_then(|(_, t)| t.trim_end().trim_end_matches('.').parse::<f64>().ok());
+        if t.is_some_and(|t| t <= START_TRANSIENT_S + 1e-9) {
+            start += 1;
+        }
+    }
+    (all, start)
 }
 
 impl SumoRun {
@@ -72,6 +89,7 @@ impl SumoRun {
     pub fn output(&self, scenario: &Scenario) -> RunOutput {
         let k0 = usize::from(self.request.layout.leader_vehicle);
         let finish = self.worker.result.as_ref().ok();
+        let braking = emergency_braking_warnings(&self.request.log_file);
         let start = self.worker.start.as_ref();
         // Law-commanded vehicles are labelled `protocol`, or with the damper that drives them.
         let damper = match &self.request.control {
@@ -119,7 +137,8 @@ impl SumoRun {
                 collision_steps: f.totals.collision_steps,
                 colliding_vehicles: f.totals.colliding_vehicles,
                 teleports: f.totals.teleports,
-                emergency_braking_warnings: emergency_braking_warnings(&self.request.log_file),
+                emergency_braking_warnings: braking.0,
+                start_emergency_braking_warnings: braking.1,
                 overridden_commands: f.totals.overrides,
                 negative_commands_clamped: f.totals.negative_commands_clamped,
                 topology_changes: f.totals.topology_changes,

@@ -271,7 +271,10 @@ fn prepare_with(
     // The safety layer under the law: the scenario's, or SUMO's checks when other traffic
     // shares the road or the network has traffic lights (syncroad_control::safety).
     let signals = crate::net::has_traffic_lights(&layout.road.path);
-    let safety = scenario.safety_for(sumo_driven > 0 || signals);
+    // syncroad's own stochastic humans, which the bridge computes (their layout vehicles carry
+    // no SUMO driver): the law's vehicles are automated cars among humans.
+    let humans = drivers.iter().flatten().any(|d| d.commanded_by_bridge());
+    let safety = scenario.safety_for(sumo_driven > 0 || signals, humans);
     let speed_mode = safety.speed_mode();
     let measure = match &opts.measure {
         None => None,

@@ -133,7 +133,38 @@ fn sumo_measurements_agree_with_sumo_totals_and_kinematics() {
         let kin = s["flow_from_speed_veh_per_h"].as_f64().unwrap();
         assert!((flow - kin).abs() <= 0.03 * kin, "{name}: {flow} vs {kin}");
         assert_eq!(m["safety"]["collision_steps"], 0, "{name}");
+        // (d) emergency braking, read from SUMO's own log here: every warning, and those of
+        // the first second (the start transient every driver shares, left out of `safe`).
+        let log = std::fs::read_to_string(dir.join("sumo/sumo.log")).unwrap();
+        let times: Vec<f64> = log
+            .lines()
+            .filter(|l| l.contains("performs emergency braking"))
+            .map(|l| {
+                let t = &l[l.find("time=").expect("SUMO stamps its warnings") + 5..];
+                t.trim_end_matches('.').parse::<f64>().unwrap()
+            })
+            .collect();
+        let safety = &m["safety"];
+        assert_eq!(safety["emergency_braking_warnings"], times.len(), "{name}");
+        let start = times.iter().filter(|t| **t <= 1.0).count();
+        assert_eq!(safety["start_emergency_braking_warnings"], start, "{name}");
+        assert_eq!(
+            m["safe"],
+            times.len() == start && safety["teleports"] == 0,
+            "{name}: {:?}",
+            m["unsafe_because"]
+        );
     }
+    // IDM brakes in an emergency at the shared start only (the scenario's 5.5 m gaps at
+    // 8 m/s): counted, and not unsafe.
+    let idm = json(&d.join("idm/metrics.json"));
+    assert!(
+        idm["safety"]["start_emergency_braking_warnings"]
+            .as_u64()
+            .unwrap()
+            > 0
+    );
+    assert_eq!(idm["safe"], true);
     let c = json(&d.join("compare.json"));
     assert_eq!(
         c["runs"]["mixed-0"]["congestion"],

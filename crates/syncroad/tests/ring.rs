@@ -224,3 +224,75 @@ fn the_human_noisy_ring_as_written_runs_the_same_humans_on_both_backends() {
         .fold((f64::MAX, f64::MIN), |(a, b), &x| (a.min(x), b.max(x)));
     assert!(hi - lo > 0.5, "speeds {lo}..{hi}");
 }
+
+/// Among syncroad's own stochastic humans the law's vehicles are automated cars, held to a
+/// safe speed by default: a mixed noisy ring without a `safety` key runs syncroad's filter on
+/// both backends alike (the same commands lowered, the same speeds), and the scenario's own
+/// `"safety": "off"` still lets the law drive unfiltered.
+#[test]
+fn automated_vehicles_among_noisy_humans_keep_a_safe_speed_by_default_on_both_backends() {
+    let d = tmpdir("ring-noisy-default-safety");
+    let mut sc = read(&repo().join("scenarios/sugiyama-human-noisy.json"));
+    assert_eq!(
+        sc["safety"], "off",
+        "the published ring says it drives unfiltered"
+    );
+    sc.as_object_mut().unwrap().remove("safety");
+    sc["horizon_s"] = 60.0.into();
+    sc["mixed"]["penetration"] = 0.1.into();
+    sc["sumo"]["net"] = repo()
+        .join("sumo-nets/sugiyama-ring.net.xml")
+        .display()
+        .to_string()
+        .into();
+    let mut layers = Vec::new();
+    let mut speeds = Vec::new();
+    for (backend, safety) in [("sumo", None), ("native", None), ("native", Some("off"))] {
+        sc["backend"] = backend.into();
+        if let Some(s) = safety {
+            sc["safety"] = s.into();
+        }
+        let name = format!("{backend}-{}", safety.unwrap_or("default"));
+        let p = d.join(format!("{name}.json"));
+        std::fs::write(&p, serde_json::to_string_pretty(&sc).unwrap()).unwrap();
+        let out = d.join(&name);
+        let (code, o, e) = run(bin()
+            .arg("run")
+            .arg(&p)
+            .args(["--no-plots", "-q", "--warmup-s", "10", "--out"])
+            .arg(&out));
+        assert!(code == 0 || code == 1, "{name}: {o}{e}");
+        let m = read(&out.join("metrics.json"));
+        layers.push(m["safety_layer"].clone());
+        let csv = std::fs::read_to_string(out.join("trajectories.csv")).unwrap();
+        speeds.push(
+            csv.lines()
+                .skip(1)
+                .map(|l| l.split(',').nth(2).unwrap().parse::<f64>().unwrap())
+                .collect::<Vec<_>>(),
+        );
+    }
+    assert_eq!(layers[0]["mode"], "filter", "{}", layers[0]);
+    // SUMO and native filter alike (the cut to rounding: SUMO's positions pass through f64
+    // sums of their own).
+    assert_eq!(layers[1]["mode"], "filter");
+    assert_eq!(
+        layers[0]["filter"]["overrides"],
+        layers[1]["filter"]["overrides"]
+    );
+    let cut = |k: usize| layers[k]["filter"]["largest_cut_mps"].as_f64().unwrap();
+    assert!((cut(0) - cut(1)).abs() < 1e-9, "{} vs {}", cut(0), cut(1));
+    assert!(
+        layers[0]["filter"]["overrides"].as_u64().unwrap() > 0,
+        "{}",
+        layers[0]
+    );
+    let worst = speeds[0]
+        .iter()
+        .zip(&speeds[1])
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(worst < 1e-9, "SUMO and native differ by {worst} m/s");
+    assert_eq!(layers[2]["mode"], "off", "{}", layers[2]);
+    assert_ne!(speeds[1], speeds[2], "the filter changed the run");
+}

@@ -16,10 +16,14 @@ pub fn unsafe_reasons(run: &RunOutput, facts: Option<&SumoFacts>) -> Option<Vec<
     let mut why = Vec::new();
     if let Some(f) = facts {
         let s = f.safety.as_ref()?;
+        // Emergency braking at the start answers the shared start, not the driver: apart.
         for (count, what) in [
             (s.collision_steps, "collision steps"),
             (s.teleports, "teleports"),
-            (s.emergency_braking_warnings, "emergency braking warnings"),
+            (
+                s.own_emergency_braking_warnings(),
+                "emergency braking warnings after the start",
+            ),
         ] {
             if count > 0 {
                 why.push(format!("{count} {what} (SUMO)"));
@@ -102,15 +106,23 @@ mod tests {
         assert_eq!(unsafe_reasons(&run(&[5.0]), Some(&f)), None);
         f.safety = Some(Safety {
             collision_steps: 304,
-            emergency_braking_warnings: 2,
+            emergency_braking_warnings: 5,
+            start_emergency_braking_warnings: 3,
             ..Safety::default()
         });
         assert_eq!(
             unsafe_reasons(&run(&[5.0]), Some(&f)),
             Some(vec![
                 "304 collision steps (SUMO)".to_string(),
-                "2 emergency braking warnings (SUMO)".to_string()
+                "2 emergency braking warnings after the start (SUMO)".to_string()
             ])
         );
+        // Emergency braking at the shared start alone is no reason.
+        f.safety = Some(Safety {
+            emergency_braking_warnings: 7,
+            start_emergency_braking_warnings: 7,
+            ..Safety::default()
+        });
+        assert_eq!(unsafe_reasons(&run(&[5.0]), Some(&f)), Some(vec![]));
     }
 }

@@ -232,11 +232,20 @@ impl Scenario {
     /// The safety layer of a run: the scenario's, or by default `sumo` when other traffic
     /// shares the road or signals stand on it (`other_traffic`: SUMO's drivers among the law's
     /// vehicles or the network's traffic lights, as the backend knows them; or the user's
-    /// routes, additional files or configuration) and `off` when the law drives alone.
-    pub fn safety_for(&self, other_traffic: bool) -> SafetyMode {
+    /// routes, additional files or configuration), `filter` among syncroad's own stochastic
+    /// humans (`humans`), and `off` when the law drives alone.
+    ///
+    /// Among humans the law's vehicles are automated cars, which the field holds to a safe
+    /// speed (Flow's automated vehicles keep SUMO's safe speed by default): the filter gives
+    /// them Gipps' safe speed with SUMO's τ on both backends alike, where `off` would let a
+    /// law drive into a human who brakes on a whim. The law alone on its fixed graph, as the
+    /// paper has it, stays unfiltered.
+    pub fn safety_for(&self, other_traffic: bool, humans: bool) -> SafetyMode {
         self.safety
             .unwrap_or(if other_traffic || self.sumo().other_traffic() {
                 SafetyMode::Sumo
+            } else if humans {
+                SafetyMode::Filter
             } else {
                 SafetyMode::Off
             })

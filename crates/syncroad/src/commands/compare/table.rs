@@ -36,7 +36,7 @@ fn safety(r: &RunRecord, f: fn(&syncroad_control::sumo_facts::Safety) -> usize) 
     Cell::Count(r.safety.as_ref().map(f))
 }
 
-const ROWS: [Row; 21] = [
+const ROWS: [Row; 22] = [
     Row {
         path: "sync.verdict",
         decimals: 0,
@@ -138,6 +138,11 @@ const ROWS: [Row; 21] = [
         path: "safety.emergency_braking_warnings",
         decimals: 0,
         get: |r| safety(r, |s| s.emergency_braking_warnings),
+    },
+    Row {
+        path: "safety.start_emergency_braking_warnings",
+        decimals: 0,
+        get: |r| safety(r, |s| s.start_emergency_braking_warnings),
     },
     Row {
         path: "safety.collision_steps",
