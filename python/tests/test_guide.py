@@ -59,3 +59,17 @@ def test_every_python_example_of_the_own_controller_page_runs(tmp_path, monkeypa
     assert ns["fs"].metrics.drivers[0] == "python:FollowerStopper"
     assert (ns["loop"].metrics.complete, ns["loop"].verdict) == (True, "synchronized")
     assert len(ns["rewards"]) == 200 and 0 <= min(ns["rewards"]) <= max(ns["rewards"]) <= 1
+
+
+def test_the_readmes_python_example_runs(tmp_path, monkeypatch):
+    text = (REPO / "README.md").read_text()
+    (code,) = re.findall(r"```python\n(.*?)```", text, flags=re.S)
+    monkeypatch.chdir(tmp_path)
+    for d in ("scenarios", "sumo-nets", "sweeps"):
+        (tmp_path / d).symlink_to(REPO / d)
+    ns = {}
+    exec(compile(code, "README.md python block", "exec"), ns)
+    # What the README says: the ring synchronizes, one row per driver, one per point.
+    assert ns["run"].verdict == "synchronized"
+    assert list(ns["df"].index) == ["protocol", "krauss", "krauss-0.9", "idm"]
+    assert len(ns["table"]) == 256 and not (ns["table"]["status"] == "failed").any()

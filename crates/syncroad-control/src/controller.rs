@@ -165,7 +165,8 @@ impl LawSpec {
         if sumo || (ring_needed && sc.ring_length_m().is_none()) {
             return None;
         }
-        let humans = drivers.iter().any(Option::is_some);
+        // Automated cars among humans: some vehicles of the law, some not.
+        let humans = drivers.iter().any(Option::is_some) && drivers.iter().any(Option::is_none);
         Self::among(sc, humans)
             .driven_by(&drivers, damper, sc.seed())
             .ok()

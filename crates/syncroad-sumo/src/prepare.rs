@@ -272,8 +272,9 @@ fn prepare_with(
     // shares the road or the network has traffic lights (syncroad_control::safety).
     let signals = crate::net::has_traffic_lights(&layout.road.path);
     // syncroad's own stochastic humans, which the bridge computes (their layout vehicles carry
-    // no SUMO driver): the law's vehicles are automated cars among humans.
-    let humans = drivers.iter().flatten().any(|d| d.commanded_by_bridge());
+    // no SUMO driver), beside vehicles of the law: automated cars among humans.
+    let humans = drivers.iter().flatten().any(|d| d.commanded_by_bridge())
+        && drivers.iter().any(Option::is_none);
     let safety = scenario.safety_for(sumo_driven > 0 || signals, humans);
     let speed_mode = safety.speed_mode();
     let measure = match &opts.measure {

@@ -173,6 +173,14 @@ pub enum Command {
         /// (by default that is reported and the metrics are compared with the stated tolerances).
         #[arg(long)]
         strict: bool,
+        /// Make a new baseline at BASELINE for this scenario from a fresh run (the scenario
+        /// named relative to the baseline's folder; an existing file is never replaced).
+        #[arg(long, value_name = "SCENARIO", conflicts_with_all = ["update", "metrics", "junit", "markdown", "strict"])]
+        init: Option<PathBuf>,
+        /// With --init: what the baseline re-runs: `native`, `sumo` (one SUMO run of the law)
+        /// or `compare` (the default comparison); default: the scenario's backend.
+        #[arg(long, value_enum, requires = "init")]
+        kind: Option<crate::commands::regress::Kind>,
     },
     /// Prints the JSON Schema of `metrics.json`, derived from the record's type (the
     /// published `docs/metrics.schema.json` is this output).

@@ -166,13 +166,13 @@ impl Drop for Ticker {
 /// When one run shows its progress on stderr (`--progress` of `run` and `simulate`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum ProgressMode {
-    /// A line redrawn in place once the run has lasted [`RunProgress::BAR_AFTER_S`] when stderr
-    /// is a terminal; nothing when it is not (a log, a pipe, a notebook).
+    /// A line redrawn in place once the run has lasted 2 s when stderr is a terminal; nothing
+    /// when it is not (a log, a pipe, a notebook).
     #[default]
     Auto,
     /// Plain lines, whatever stderr is: one as soon as the first samples are recorded, then
-    /// one every [`RunProgress::LINE_EVERY_S`] (for the logs of batch jobs, and for scripts
-    /// that act once a run is under way).
+    /// one every 5 s (for the logs of batch jobs, and for scripts that act once a run is under
+    /// way).
     Lines,
     /// Nothing.
     Never,
@@ -197,9 +197,9 @@ pub struct RunProgress {
 
 impl RunProgress {
     /// Wall seconds before a terminal's bar appears (short runs show none).
-    pub const BAR_AFTER_S: f64 = 2.0;
+    pub const BAR_AFTER_S: f64 = 2.0; // `ProgressMode::Auto`'s help says 2 s
     /// Wall seconds between two plain lines.
-    pub const LINE_EVERY_S: f64 = 5.0;
+    pub const LINE_EVERY_S: f64 = 5.0; // `ProgressMode::Lines`'s help says 5 s
 
     /// Reports the run `label` (`run`, `simulate`) of `horizon_s` simulated seconds in steps
     /// of `step_s`.

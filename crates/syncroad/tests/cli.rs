@@ -1086,3 +1086,98 @@ fn the_safety_flag_is_the_scenarios_key_from_the_command_line() {
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("gipps: use off"), "{err}");
 }
+
+/// `regress --init` makes a baseline for one's own scenario from a fresh run: it names the
+/// scenario relative to its own folder (the two travel together), holds the metrics a
+/// separate `simulate` of the scenario writes, passes a rerun, fails a planted gain change,
+/// and never replaces an existing file.
+#[test]
+fn regress_init_makes_a_baseline_for_ones_own_scenario() {
+    let dir = tmpdir("regress-init");
+    let own = dir.join("mine");
+    std::fs::create_dir_all(&own).unwrap();
+    let scenario = own.join("ring.json");
+    std::fs::copy(repo().join("scenarios/ring-theorem1.json"), &scenario).unwrap();
+    std::fs::create_dir_all(dir.join("ci")).unwrap();
+    let baseline = dir.join("ci/ring.native.json");
+    let (code, out, err) = run(bin()
+        .args(["regress"])
+        .arg(&baseline)
+        .arg("--init")
+        .arg(&scenario));
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(out.contains("wrote "), "{out}");
+    let b: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&baseline).unwrap()).unwrap();
+    assert_eq!(b["scenario"], "../mine/ring.json");
+    assert!(
+        b.get("kind").is_none(),
+        "a native scenario gives a native baseline: {b}"
+    );
+    // The metrics are those of the scenario's run, made here apart from the baseline.
+    let (code, _, err) = run(bin()
+        .arg("simulate")
+        .arg(&scenario)
+        .args(["--no-plots", "-q", "--out"])
+        .arg(dir.join("sim")));
+    assert_eq!(code, 0, "{err}");
+    let mut sim: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("sim/metrics.json")).unwrap())
+            .unwrap();
+    for stamp in ["syncroad_version", "platform", "sumo_version"] {
+        sim.as_object_mut().unwrap().remove(stamp);
+    }
+    assert_eq!(b["metrics"], sim);
+    let (code, out, err) = run(bin().arg("regress").arg(&baseline));
+    assert_eq!(code, 0, "{out}{err}");
+    // A planted change of the law's gains fails it.
+    let text = std::fs::read_to_string(&scenario).unwrap();
+    let mut doc: serde_json::Value = serde_json::from_str(&text).unwrap();
+    doc["model"]["graph"]["gain_pred"] = serde_json::json!(0.5);
+    let planted = serde_json::to_string(&doc).unwrap();
+    assert_ne!(
+        planted,
+        serde_json::to_string(&serde_json::from_str::<serde_json::Value>(&text).unwrap()).unwrap(),
+        "the gain was planted"
+    );
+    std::fs::write(&scenario, planted).unwrap();
+    let (code, out, _) = run(bin().arg("regress").arg(&baseline));
+    assert_eq!(code, 1, "{out}");
+    std::fs::write(&scenario, &text).unwrap();
+    // An existing file is never replaced.
+    let before = std::fs::read(&baseline).unwrap();
+    let (code, _, err) = run(bin()
+        .arg("regress")
+        .arg(&baseline)
+        .arg("--init")
+        .arg(&scenario));
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("exists; --init writes a new baseline and never replaces a file"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read(&baseline).unwrap(), before);
+}
+
+/// Every command's `--help` is plain text: no rustdoc link syntax leaks from the doc comments
+/// clap reads (`[`RunProgress::BAR_AFTER_S`]` once did).
+#[test]
+fn help_texts_hold_no_rustdoc_links() {
+    let (_, top, _) = run(bin().arg("--help"));
+    let commands: Vec<String> = top
+        .lines()
+        .skip_while(|l| !l.starts_with("Commands:"))
+        .skip(1)
+        .take_while(|l| l.starts_with("  "))
+        // A command's own line; its description wraps onto lines indented further.
+        .filter(|l| !l.starts_with("   "))
+        .filter_map(|l| l.split_whitespace().next().map(str::to_string))
+        .filter(|c| c != "help")
+        .collect();
+    assert!(commands.len() >= 15, "{commands:?}");
+    for c in commands.iter().map(String::as_str).chain(["sweep collect"]) {
+        let (code, out, err) = run(bin().args(c.split(' ')).arg("--help"));
+        assert_eq!(code, 0, "{c}: {err}");
+        assert!(!out.contains("[`"), "syncroad {c} --help: {out}");
+    }
+}

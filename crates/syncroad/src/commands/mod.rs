@@ -9,7 +9,7 @@ mod bench;
 mod check;
 mod compare;
 mod ifp;
-mod regress;
+pub(crate) mod regress;
 mod replay;
 mod run;
 mod stability;
@@ -84,11 +84,18 @@ pub fn run(cli: Cli) -> anyhow::Result<Status> {
         Command::Animate(args) => animate::run(&args),
         Command::Regress {
             baseline,
+            init: Some(scenario),
+            kind,
+            ..
+        } => regress::init(&baseline, &scenario, kind),
+        Command::Regress {
+            baseline,
             update,
             metrics,
             junit,
             markdown,
             strict,
+            ..
         } => regress::run(
             &baseline,
             update,

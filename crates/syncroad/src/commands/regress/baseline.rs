@@ -52,7 +52,7 @@ impl Tolerances {
 }
 
 /// What a baseline re-runs.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "snake_case")]
 pub enum Kind {
     /// The native simulator (`syncroad simulate`); the default, so older baselines stay valid.

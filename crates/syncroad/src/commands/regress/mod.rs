@@ -117,22 +117,12 @@ pub fn run(
         );
         return Ok(Status::Interrupted);
     }
-    let (stamps, results) = split_stamps(fresh);
     if update {
-        let incomplete = incomplete_runs(&results);
-        if !incomplete.is_empty() {
-            anyhow::bail!(
-                "not updating {}: a baseline is recorded only from complete runs, and {} did not complete",
-                baseline_path.display(),
-                incomplete.join("; ")
-            );
-        }
-        base.metrics = results;
-        base.stamp = stamps;
-        save(baseline_path, &base)?;
+        record(&mut base, fresh, baseline_path, "updating")?;
         outln!("updated {}", baseline_path.display());
         return Ok(Status::Success);
     }
+    let (stamps, results) = split_stamps(fresh);
     let c = compare(&base, &stamps, &results);
     out!("{}", render(&c, baseline_path));
     if let Some(p) = &reports.junit {
@@ -151,6 +141,94 @@ pub fn run(
         );
     }
     Ok(Status::verdict(c.failures.is_empty() && stamps_ok))
+}
+
+/// Records `fresh` as the baseline's metrics and stamps and writes it (atomically); refused
+/// when a run did not complete, since a baseline is a reference.
+fn record(
+    base: &mut Baseline,
+    fresh: Value,
+    baseline_path: &Path,
+    doing: &str,
+) -> anyhow::Result<()> {
+    let (stamps, results) = split_stamps(fresh);
+    let incomplete = incomplete_runs(&results);
+    if !incomplete.is_empty() {
+        anyhow::bail!(
+            "not {doing} {}: a baseline is recorded only from complete runs, and {} did not complete",
+            baseline_path.display(),
+            incomplete.join("; ")
+        );
+    }
+    base.metrics = results;
+    base.stamp = stamps;
+    save(baseline_path, base)
+}
+
+/// `syncroad regress BASELINE --init SCENARIO`: a new baseline for the user's own scenario,
+/// recorded from a fresh run as `--update` records one: `kind` as asked (default: a native
+/// run for a native scenario, one SUMO run of its law for a SUMO scenario), the scenario named
+/// relative to the baseline's folder (so the two travel together), the tolerances of the
+/// committed baselines (last-bit differences only; widen them per metric under
+/// `tolerances.keys`). An existing file at BASELINE is never replaced.
+pub fn init(baseline_path: &Path, scenario: &Path, kind: Option<Kind>) -> anyhow::Result<Status> {
+    if std::fs::symlink_metadata(baseline_path).is_ok() {
+        return Err(InputError::new(format!(
+            "--init: {} exists; --init writes a new baseline and never replaces a file (`syncroad regress {} --update` re-records a baseline)",
+            baseline_path.display(),
+            baseline_path.display()
+        ))
+        .into());
+    }
+    crate::output::check_file_target("BASELINE", baseline_path)?;
+    let sc = load_scenario(scenario)?;
+    let kind = kind.unwrap_or(match sc.backend() {
+        syncroad_control::scenario::Backend::Native => Kind::Native,
+        syncroad_control::scenario::Backend::Sumo => Kind::Sumo,
+    });
+    let folder = baseline_path.parent().filter(|p| !p.as_os_str().is_empty());
+    let relative = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
+    let from = relative(folder.unwrap_or(Path::new(".")));
+    let named =
+        pathdiff::diff_paths(relative(scenario), &from).unwrap_or_else(|| relative(scenario));
+    let mut base = Baseline {
+        about: Some(format!(
+            "{} of {}, made by `syncroad regress --init`: same scenario and seed give the same metrics, so the tolerances only absorb last-bit differences between builds; widen a metric's under tolerances.keys",
+            match kind {
+                Kind::Native => "A native run",
+                Kind::Sumo => "One SUMO run of the scenario's law",
+                Kind::Compare => "syncroad compare",
+            },
+            scenario.display()
+        )),
+        kind,
+        runs: None,
+        mixed: None,
+        mixed_driver: None,
+        scenario: named.display().to_string(),
+        tolerances: baseline::Tolerances {
+            default: baseline::Tolerance {
+                abs: 1e-9,
+                rel: 1e-6,
+            },
+            keys: Default::default(),
+        },
+        stamp: Default::default(),
+        metrics: Value::Null,
+    };
+    let fresh = fresh_metrics(&base, baseline_path)?;
+    if syncroad_sumo::interrupt_signal().is_some() {
+        return Ok(Status::Interrupted);
+    }
+    record(&mut base, fresh, baseline_path, "writing")?;
+    outln!(
+        "wrote {} ({:?} baseline of {}); `syncroad regress {}` checks a fresh run against it",
+        baseline_path.display(),
+        kind,
+        base.scenario,
+        baseline_path.display()
+    );
+    Ok(Status::Success)
 }
 
 /// Refuses, before anything runs, a `--junit`/`--markdown` path that would destroy an input
