@@ -29,13 +29,17 @@ pub use crate::speed_controller::LawContext;
 pub const MAX_SOURCE_BYTES: u64 = 16 << 20;
 
 /// The `controller` block as written in the scenario file: `python` or `rust`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ControllerSpec {
     /// `FILE.py:Class` or `package.module:Class`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub python: Option<String>,
-    /// The name of a Rust law the running program registered ([`crate::registry`]).
+    /// A law of the registry by name (`syncroad laws`, or a Rust law the running program
+    /// registered), the one shape a scenario names a law with.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub law: Option<String>,
+    /// The older spelling of `law`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rust: Option<String>,
     /// Keyword arguments of the class (a JSON object).
@@ -174,7 +178,20 @@ impl ControllerSpec {
                 ))
             }
         };
-        match (&self.python, &self.rust) {
+        let named = match (&self.law, &self.rust) {
+            (Some(_), Some(_)) => {
+                return Err(spec_error(
+                    "controller",
+                    "law and rust",
+                    "give one: \"rust\" is the older spelling of \"law\"",
+                ))
+            }
+            (law, rust) => law
+                .as_ref()
+                .map(|l| ("controller.law", l))
+                .or(rust.as_ref().map(|r| ("controller.rust", r))),
+        };
+        match (&self.python, named.map(|(_, n)| n)) {
             (Some(python), None) => self
                 .resolve_python(python, params, base_dir)
                 .map(UserLaw::Python),
@@ -186,13 +203,13 @@ impl ControllerSpec {
                         "a pickled state is for Python controllers; give params",
                     ));
                 }
-                crate::registry::lookup(name)
-                    .map_err(|expected| spec_error("controller.rust", name, expected))?;
+                let field = named.map_or("controller.law", |(f, _)| f);
+                crate::registry::lookup(name).map_err(|expected| spec_error(field, name, expected))?;
                 let law = NamedLaw {
                     name: name.clone(),
                     params,
                 };
-                (law.entry().map_err(|e| spec_error("controller.rust", name, e))?.check)(
+                (law.entry().map_err(|e| spec_error(field, name, e))?.check)(
                     &law.params,
                 )
                 .map_err(|e| spec_error("controller.params", &law.params, e))?;
@@ -200,13 +217,13 @@ impl ControllerSpec {
             }
             (Some(_), Some(_)) => Err(spec_error(
                 "controller",
-                "python and rust",
-                "give one: \"python\": \"FILE.py:Class\" or \"rust\": \"NAME\"",
+                "python and law",
+                "give one: \"python\": \"FILE.py:Class\" or \"law\": \"NAME\"",
             )),
             (None, None) => Err(spec_error(
                 "controller",
                 "{}",
-                "name the law: \"python\": \"FILE.py:Class\" (or \"module:Class\"), or \"rust\": \"NAME\" of a law the program registered",
+                "name the law: \"python\": \"FILE.py:Class\" (or \"module:Class\"), or \"law\": \"NAME\" of `syncroad laws` or a Rust law the program registered",
             )),
         }
     }
@@ -392,10 +409,34 @@ mod tests {
     fn spec(python: &str) -> ControllerSpec {
         ControllerSpec {
             python: Some(python.into()),
-            rust: None,
-            params: None,
-            state: None,
+            ..Default::default()
         }
+    }
+
+    /// `law` is the one shape's key; `rust`, its older spelling, names the same law.
+    #[test]
+    fn a_registry_law_is_named_by_law_as_by_rust() {
+        let params = Some(serde_json::json!({"desired_speed_mps": 4.3}));
+        let by = |law: Option<&str>, rust: Option<&str>| ControllerSpec {
+            law: law.map(str::to_string),
+            rust: rust.map(str::to_string),
+            params: params.clone(),
+            ..Default::default()
+        };
+        let here = Path::new(".");
+        let new = by(Some("follower-stopper"), None).resolve(here).unwrap();
+        assert_eq!(
+            new,
+            by(None, Some("follower-stopper")).resolve(here).unwrap()
+        );
+        assert_eq!(new.label(), "follower-stopper-4.3");
+        let both = by(Some("lacc"), Some("lacc")).resolve(here).unwrap_err();
+        assert_eq!(
+            (both.field.as_str(), both.value.as_str()),
+            ("controller", "law and rust")
+        );
+        let unknown = by(Some("wiedemann"), None).resolve(here).unwrap_err();
+        assert_eq!(unknown.field, "controller.law");
     }
 
     fn python(law: UserLaw) -> PythonLaw {

@@ -562,9 +562,7 @@ fn python_scenario(
 ) -> Result<Scenario, BenchError> {
     let spec = syncroad_control::user_law::ControllerSpec {
         python: Some(bench_controller(python_host)),
-        rust: None,
-        params: None,
-        state: None,
+        ..Default::default()
     };
     let law = spec
         .resolve(python_host)

@@ -104,19 +104,18 @@ pub fn routes_file(
     Ok(Some(file))
 }
 
-/// The laws that drive the inflows' controlled vehicles, each built once here for one
-/// vehicle so that a law that refuses its context does so before SUMO starts.
+/// The laws that drive the inflows' controlled vehicles, each registry law built once here for
+/// one vehicle so that a law that refuses its context does so before SUMO starts.
 pub fn guests(
     scenario: &Scenario,
     guest: &GuestType,
 ) -> Result<Vec<crate::protocol::GuestLaw>, PrepareError> {
     let mut laws = Vec::new();
-    for (k, f) in scenario.sumo().inflows().iter().enumerate() {
-        let Some(c) = &f.controlled else { continue };
-        let field = format!("sumo.inflows[{k}].controlled.law");
-        let law = c
-            .law(k)
-            .map_err(|e| refuse(field.clone(), &c.law, e.to_string()))?;
+    for k in 0..scenario.sumo().inflows().len() {
+        // Resolved and checked with the scenario.
+        let Some(law) = scenario.sumo().inflow_driver(k).cloned() else {
+            continue;
+        };
         let t = &guest.vtype;
         let context = syncroad_control::speed_controller::LawContext {
             step_s: scenario.step_s(),
@@ -132,8 +131,13 @@ pub fn guests(
             seed: scenario.seed(),
             protocol: None,
         };
-        law.build_alone(&context)
-            .map_err(|e| refuse(field.clone(), &law, e))?;
+        // A registry law is built here once, so that one refusing its context does so before
+        // SUMO starts; a Python class is built in the worker, which embeds the interpreter.
+        if let syncroad_control::UserLaw::Rust(named) = &law {
+            named
+                .build_alone(&context)
+                .map_err(|e| refuse(format!("sumo.inflows[{k}].controlled.law"), named, e))?;
+        }
         laws.push(crate::protocol::GuestLaw {
             inflow: k,
             law,
@@ -473,7 +477,8 @@ mod tests {
             begin_s: 5.0,
             end_s: None,
             controlled: Some(syncroad_control::scenario::InflowControl {
-                law: "follower-stopper-20".into(),
+                law: Some("follower-stopper-20".into()),
+                python: None,
                 params: None,
                 share: 0.25,
                 at_s: vec![30.0, 2.0],

@@ -175,8 +175,9 @@ pub struct GuestLaw {
     /// The inflow (`sumo.inflows[k]`); its vehicles the law drives are of the type
     /// [`crate::inflows::guest_type`]`(k)`.
     pub inflow: usize,
-    /// The law, by its registry name and parameters.
-    pub law: syncroad_control::registry::NamedLaw,
+    /// The law: a registry law by its name and parameters, or the user's Python class (one
+    /// instance per vehicle).
+    pub law: syncroad_control::UserLaw,
     /// What it is built with for one vehicle (an open road: nobody ahead but whom SUMO
     /// reports).
     pub context: syncroad_control::speed_controller::LawContext,

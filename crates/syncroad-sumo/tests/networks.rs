@@ -1698,6 +1698,120 @@ mod open_roads {
         assert_eq!(rows, rows_python);
     }
 
+    /// Flow's merge with one's own controller: a highway with an on-ramp and no vehicles of
+    /// syncroad's own, a share of the highway's inflow driven by a Python class (one instance
+    /// per vehicle, from its entry to its exit). The guide's Python FollowerStopper,
+    /// written apart from the built-in law, drives them as `follower-stopper-20` does: the
+    /// same vehicles at the same speeds in SUMO's own floating-car data, to rounding. A class
+    /// that raises ends the run with its rows kept and its traceback; bad input names the
+    /// field before SUMO starts.
+    #[test]
+    fn an_inflows_vehicles_can_be_driven_by_ones_own_python_controller() {
+        let dir = work("inflow-python");
+        on_ramp(&dir);
+        let controllers = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/controllers");
+        let fs = controllers
+            .join("follower_stopper.py")
+            .display()
+            .to_string();
+        let file = |controlled: serde_json::Value| {
+            serde_json::json!({"name": "merge", "backend": "sumo", "seed": 3, "step_s": 0.1,
+                "horizon_s": 60, "vehicles": 0,
+                "road": {"type": "route", "edges": ["h0", "h1", "h2"], "lane": "follow"},
+                "sumo": {"net": "out.net.xml", "fcd": true, "inflows": [
+                    {"from": "h0", "to": "h2", "vehs_per_hour": 1800, "controlled": controlled},
+                    {"from": "ramp", "to": "h2", "vehs_per_hour": 600}]}})
+            .to_string()
+        };
+        let fcd_speeds = |run_dir: &str| {
+            let fcd = std::fs::read_to_string(dir.join(run_dir).join("fcd.xml")).unwrap();
+            let doc = roxmltree::Document::parse(&fcd).unwrap();
+            let mut by: std::collections::BTreeMap<String, Vec<f64>> = Default::default();
+            for v in doc.descendants().filter(|n| n.has_tag_name("vehicle")) {
+                if v.attribute("type") == Some("syncroad_guest0") {
+                    by.entry(v.attribute("id").unwrap().to_string())
+                        .or_default()
+                        .push(v.attribute("speed").unwrap().parse().unwrap());
+                }
+            }
+            by
+        };
+        let run_in = |sc: &Scenario, run_dir: &str| {
+            let mut o = opts(&dir);
+            o.work_dir = dir.join(run_dir);
+            run_scenario(sc, &o).unwrap()
+        };
+        let built_in = scenario(
+            &dir,
+            &file(serde_json::json!({"law": "follower-stopper-20", "share": 0.3})),
+        )
+        .unwrap();
+        let python = scenario(
+            &dir,
+            &file(
+                serde_json::json!({"python": format!("{fs}:FollowerStopper"),
+                                     "params": {"desired_speed_mps": 20}, "share": 0.3}),
+            ),
+        )
+        .unwrap();
+        assert_ne!(built_in.hash_hex(), python.hash_hex());
+        let a = run_in(&built_in, "built-in");
+        a.outcome().expect("horizon reached");
+        let b = run_in(&python, "python");
+        b.outcome().expect("horizon reached");
+        let g = b.output(&python).sumo.unwrap().guests.unwrap();
+        assert_eq!(g.laws, ["inflow0: python:FollowerStopper"]);
+        assert!(g.entered >= 5, "{g:?}");
+        let (x, y) = (fcd_speeds("built-in"), fcd_speeds("python"));
+        assert_eq!(x.keys().collect::<Vec<_>>(), y.keys().collect::<Vec<_>>());
+        assert!(x.len() >= 5, "{x:?}");
+        let worst = x
+            .values()
+            .zip(y.values())
+            .flat_map(|(p, q)| {
+                assert_eq!(p.len(), q.len());
+                p.iter().zip(q).map(|(a, b)| (a - b).abs())
+            })
+            .fold(0.0, f64::max);
+        assert!(
+            worst < 1e-6,
+            "Python and built-in FollowerStopper differ by {worst} m/s"
+        );
+        // A class that raises on its tenth step ends the run there, naming it.
+        std::fs::write(
+            dir.join("raises.py"),
+            "class Raises:\n    def __init__(self):\n        self.n = 0\n    def step(self, obs):\n        self.n += 1\n        if self.n == 10:\n            raise RuntimeError('planted failure')\n        return obs.speed_mps\n",
+        )
+        .unwrap();
+        let raises = scenario(
+            &dir,
+            &file(serde_json::json!({"python": "raises.py:Raises", "share": 1})),
+        )
+        .unwrap();
+        let run = run_in(&raises, "raises");
+        let stop = run.outcome().expect_err("stopped by the controller");
+        let text = format!("{stop:?}");
+        assert!(text.contains("planted failure"), "{text}");
+        // Bad input, before SUMO starts, naming the field.
+        for (controlled, expected) in [
+            (
+                serde_json::json!({"python": "missing.py:X", "share": 0.3}),
+                "sumo.inflows[0].controlled.python = missing.py:X",
+            ),
+            (
+                serde_json::json!({"python": format!("{fs}:FollowerStopper"), "law": "lacc"}),
+                "sumo.inflows[0].controlled = law = lacc, python = ",
+            ),
+            (
+                serde_json::json!({"share": 0.3}),
+                "sumo.inflows[0].controlled = {}: name who drives them",
+            ),
+        ] {
+            let e = scenario(&dir, &file(controlled)).unwrap_err();
+            assert!(e.starts_with(expected), "{e}");
+        }
+    }
+
     /// An open road of inflows only (`"vehicles": 0`, no model): SUMO runs the inflow, the
     /// law drives its controlled share, SUMO's summary counts every vehicle, and the verdict
     /// says why there is none; a model beside no vehicles, and no vehicles without an inflow,

@@ -187,7 +187,7 @@ pub enum Command {
     Schema,
     /// The laws that can drive in place of the scenario's model law, one line each: the wave
     /// dampers and the other built-in laws (as `--baselines`, `mixed.controller` and
-    /// `"controller": {"rust": NAME}` name them), the road each needs, its shorthand.
+    /// `"controller": {"law": NAME}` name them), the road each needs, its shorthand.
     Laws,
     /// The IFP index α = −inf_ω Re W(iω) of an agent W(λ) = η(λ)/(λ ρ(λ)) (Lemma lem.linear-pass),
     /// e.g. the CACC agent τ y''' + y'' + μ y' = u is `--eta 1 --rho MU,1,TAU`.

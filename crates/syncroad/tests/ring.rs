@@ -296,3 +296,90 @@ fn automated_vehicles_among_noisy_humans_keep_a_safe_speed_by_default_on_both_ba
     assert_eq!(layers[2]["mode"], "off", "{}", layers[2]);
     assert_ne!(speeds[1], speeds[2], "the filter changed the run");
 }
+
+/// One shape names a law wherever it goes: the automated vehicle of a mixed noisy ring driven
+/// by `{"law": "follower-stopper", "params": {...}}` is the run of the older
+/// `"follower-stopper-4.3"` to the byte, and `{"python": "…:FollowerStopper", …}` (the guide's
+/// Python class, written apart from the built-in law) drives it at the same speeds to
+/// rounding, labelled by its class; a Python class named in both places is refused.
+#[test]
+fn the_automated_vehicles_of_a_mixed_ring_take_a_law_or_a_python_class_in_one_shape() {
+    let d = tmpdir("ring-mixed-shapes");
+    let mut sc = read(&repo().join("scenarios/sugiyama-human-noisy.json"));
+    sc["backend"] = "native".into();
+    sc["horizon_s"] = 60.0.into();
+    sc["mixed"]["penetration"] = 0.05.into();
+    sc.as_object_mut().unwrap().remove("sumo");
+    let fs = repo().join("examples/controllers/follower_stopper.py");
+    let shapes = [
+        ("old", serde_json::json!("follower-stopper-4.3")),
+        (
+            "law",
+            serde_json::json!({"law": "follower-stopper", "params": {"desired_speed_mps": 4.3}}),
+        ),
+        (
+            "python",
+            serde_json::json!({"python": format!("{}:FollowerStopper", fs.display()),
+                                      "params": {"desired_speed_mps": 4.3}}),
+        ),
+    ];
+    let mut rows = Vec::new();
+    for (name, controller) in &shapes {
+        sc["mixed"]["controller"] = controller.clone();
+        let p = d.join(format!("{name}.json"));
+        std::fs::write(&p, sc.to_string()).unwrap();
+        let out = d.join(name);
+        let (code, o, e) = run(bin()
+            .arg("simulate")
+            .arg(&p)
+            .args(["--no-plots", "-q", "--warmup-s", "10", "--out"])
+            .arg(&out));
+        assert!(code == 0 || code == 1, "{name}: {o}{e}");
+        let m = read(&out.join("metrics.json"));
+        rows.push((
+            m,
+            std::fs::read_to_string(out.join("trajectories.csv")).unwrap(),
+        ));
+    }
+    assert_eq!(rows[0].1, rows[1].1, "the law's object is its older name");
+    assert_eq!(rows[0].0["drivers"], rows[1].0["drivers"]);
+    let drivers = rows[2].0["drivers"].as_array().unwrap();
+    assert_eq!(
+        drivers
+            .iter()
+            .filter(|d| *d == "python:FollowerStopper")
+            .count(),
+        1,
+        "{drivers:?}"
+    );
+    let speeds = |t: &str| -> Vec<f64> {
+        t.lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(2).unwrap().parse().unwrap())
+            .collect()
+    };
+    let (a, b) = (speeds(&rows[0].1), speeds(&rows[2].1));
+    assert_eq!(a.len(), b.len());
+    let worst = a
+        .iter()
+        .zip(&b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        worst < 1e-9,
+        "the Python FollowerStopper differs by {worst} m/s"
+    );
+    // A Python class in both places is refused, naming the field.
+    sc["controller"] = serde_json::json!({"python": format!("{}:FollowerStopper", fs.display())});
+    let p = d.join("both.json");
+    std::fs::write(&p, sc.to_string()).unwrap();
+    let (code, _, err) = run(bin().arg("check").arg(&p));
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("mixed.controller = {\"python\": "), "{err}");
+    sc.as_object_mut().unwrap().remove("controller");
+    sc["mixed"]["controller"] = serde_json::json!({"law": "follower-stopper", "python": "x.py:X"});
+    std::fs::write(&p, sc.to_string()).unwrap();
+    let (code, _, err) = run(bin().arg("check").arg(&p));
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("one of the two"), "{err}");
+}

@@ -642,15 +642,22 @@ pub struct InflowSpec {
 }
 
 /// The vehicles of an inflow a law drives (`sumo.inflows[k].controlled`): each one from the
-/// step it enters to the step it leaves at the end of its route, with the registry law
-/// `law` stepped for it alone on whoever SUMO reports ahead of it.
+/// step it enters to the step it leaves at the end of its route, with the registry law `law`
+/// or the user's Python controller `python` stepped for it alone on whoever SUMO reports
+/// ahead of it (one instance of the class per vehicle).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct InflowControl {
     /// The law, as the registry names it (`follower-stopper-20`, `pi-saturation`, a law
     /// the running program registered); a law that needs a ring is refused.
-    pub law: String,
-    /// Its parameters, added to those the name carries.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub law: Option<String>,
+    /// The user's Python controller in place of `law`: `FILE.py:Class` (relative to the
+    /// scenario's folder) or `package.module:Class`, as the scenario's `controller` names one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub python: Option<String>,
+    /// Its parameters: added to those a law's name carries, or a Python class's keyword
+    /// arguments.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub params: Option<serde_json::Value>,
     /// The share of the inflow's vehicles the law drives, in \[0, 1\]: SUMO draws each

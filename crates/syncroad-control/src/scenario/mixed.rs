@@ -20,15 +20,105 @@ use crate::drive::placement::{automated_count, Placement};
 use crate::drive::sumo_driver::DEFAULT_HUMAN;
 use crate::registry::NamedLaw;
 
+/// What drives the automated vehicles of a mixed ring (`mixed.controller`), in the one shape
+/// a scenario names a law wherever it goes: `{"law": NAME, "params": {...}}` (a law of the
+/// registry, `protocol` the scenario's own) or `{"python": "FILE.py:Class", "params": {...}}`
+/// (the user's class). The older shape, a registry name with its shorthand parameter
+/// (`"follower-stopper-4.3"`), keeps working.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "serde_json::Value", into = "serde_json::Value")]
+pub enum LawChoice {
+    /// A registry name with its shorthand (`"protocol"`, `"follower-stopper-4.3"`).
+    Name(String),
+    /// `{"law": NAME, "params": {...}}`.
+    Law {
+        /// The registry's name.
+        law: String,
+        /// Its parameters (a JSON object), added to those the name carries.
+        params: Option<serde_json::Value>,
+    },
+    /// `{"python": "FILE.py:Class", "params": {...}}`.
+    Python {
+        /// `FILE.py:Class` (relative to the scenario's folder) or `package.module:Class`.
+        python: String,
+        /// Keyword arguments of the class.
+        params: Option<serde_json::Value>,
+    },
+}
+
+impl TryFrom<serde_json::Value> for LawChoice {
+    type Error = String;
+    fn try_from(v: serde_json::Value) -> Result<Self, String> {
+        let usage = "name the law as {\"law\": NAME, \"params\": {...}} (a law of `syncroad laws`, protocol the scenario's own) or {\"python\": \"FILE.py:Class\", \"params\": {...}}";
+        let object = match v {
+            serde_json::Value::String(s) => return Ok(LawChoice::Name(s)),
+            serde_json::Value::Object(o) => o,
+            other => return Err(format!("mixed.controller = {other}: {usage}")),
+        };
+        if let Some(k) = object
+            .keys()
+            .find(|k| !matches!(k.as_str(), "law" | "python" | "params"))
+        {
+            return Err(format!("mixed.controller.{k}: unknown field; {usage}"));
+        }
+        let text = |k: &str| match object.get(k) {
+            None => Ok(None),
+            Some(serde_json::Value::String(s)) => Ok(Some(s.clone())),
+            Some(other) => Err(format!("mixed.controller.{k} = {other}: must be a string")),
+        };
+        let params = object.get("params").cloned();
+        match (text("law")?, text("python")?) {
+            (Some(law), None) => Ok(LawChoice::Law { law, params }),
+            (None, Some(python)) => Ok(LawChoice::Python { python, params }),
+            _ => Err(format!(
+                "mixed.controller = {}: {usage}, one of the two",
+                serde_json::Value::Object(object)
+            )),
+        }
+    }
+}
+
+impl From<LawChoice> for serde_json::Value {
+    fn from(c: LawChoice) -> Self {
+        let with = |key: &str, name: String, params: Option<serde_json::Value>| {
+            let mut o = serde_json::Map::new();
+            o.insert(key.into(), name.into());
+            if let Some(p) = params {
+                o.insert("params".into(), p);
+            }
+            serde_json::Value::Object(o)
+        };
+        match c {
+            LawChoice::Name(s) => s.into(),
+            LawChoice::Law { law, params } => with("law", law, params),
+            LawChoice::Python { python, params } => with("python", python, params),
+        }
+    }
+}
+
+impl std::fmt::Display for LawChoice {
+    /// As tables and messages name it: the registry name, or `python:Class`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            LawChoice::Name(s) | LawChoice::Law { law: s, .. } => f.write_str(s),
+            LawChoice::Python { python, .. } => {
+                let class = python.rsplit_once(':').map_or(python.as_str(), |(_, c)| c);
+                write!(f, "python:{class}")
+            }
+        }
+    }
+}
+
 /// Mixed traffic as written in the scenario file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MixedSpec {
     /// Fraction p of automated vehicles, in \[0, 1\].
     pub penetration: f64,
-    /// What drives the automated vehicles: `protocol`, `follower-stopper-U` or `pi-saturation`.
+    /// What drives the automated vehicles ([`LawChoice`]): the scenario's law (default), a
+    /// wave damper or another law of the registry, or the user's Python class.
     #[serde(default = "default_controller")]
-    pub controller: String,
+    pub controller: LawChoice,
     /// SUMO driver of the other vehicles.
     #[serde(default = "default_human")]
     pub human: String,
@@ -37,8 +127,8 @@ pub struct MixedSpec {
     pub placement: Placement,
 }
 
-fn default_controller() -> String {
-    crate::registry::PROTOCOL.into()
+fn default_controller() -> LawChoice {
+    LawChoice::Name(crate::registry::PROTOCOL.into())
 }
 
 fn default_human() -> String {
@@ -67,11 +157,66 @@ impl MixedSpec {
         Ok(())
     }
 
-    /// The damper of the automated vehicles, `None` for the scenario's law.
+    /// The damper of the automated vehicles, `None` for the scenario's law or the user's
+    /// Python class ([`MixedSpec::python`]).
     pub fn damper(&self) -> Result<Option<NamedLaw>, ScenarioError> {
         let field = "mixed.controller";
-        NamedLaw::parse(field, &self.controller)
-            .map_err(|e| invalid(field, &self.controller, e.why()))
+        let (name, params) = match &self.controller {
+            LawChoice::Name(s) => (s, None),
+            LawChoice::Law { law, params } => (law, params.as_ref()),
+            LawChoice::Python { .. } => return Ok(None),
+        };
+        let to_err = |e: crate::registry::LawNameError| invalid(field, name, e.why());
+        // The law's own name (`follower-stopper` with its `params`), or a name that carries
+        // its shorthand parameter (`follower-stopper-4.3`).
+        let bare = crate::registry::lookup(name)
+            .ok()
+            .filter(|e| e.name != crate::registry::PROTOCOL)
+            .map(|e| NamedLaw {
+                name: e.name.to_string(),
+                params: serde_json::json!({}),
+            });
+        let parsed = match bare {
+            Some(law) => Some(law),
+            None => NamedLaw::parse(field, name).map_err(to_err)?,
+        };
+        let Some(mut law) = parsed else {
+            if let Some(p) = params.filter(|p| p.as_object().is_none_or(|o| !o.is_empty())) {
+                return Err(invalid(
+                    "mixed.controller.params",
+                    p,
+                    "the scenario's own law takes its parameters from the model; give none",
+                ));
+            }
+            return Ok(None);
+        };
+        if let Some(p) = params {
+            let Some(extra) = p.as_object() else {
+                return Err(invalid(
+                    "mixed.controller.params",
+                    p,
+                    "must be a JSON object of the law's parameters",
+                ));
+            };
+            if let Some(own) = law.params.as_object_mut() {
+                own.extend(extra.clone());
+            }
+        }
+        law.check(field).map_err(to_err)?;
+        Ok(Some(law))
+    }
+
+    /// The user's Python class that drives the automated vehicles, as the scenario's
+    /// `controller` block would name it; `None` for a law of the registry.
+    pub fn python(&self) -> Option<crate::user_law::ControllerSpec> {
+        match &self.controller {
+            LawChoice::Python { python, params } => Some(crate::user_law::ControllerSpec {
+                python: Some(python.clone()),
+                params: params.clone(),
+                ..Default::default()
+            }),
+            _ => None,
+        }
     }
 
     /// The automated vehicles among `n`, ascending: `round(p n)` of them, placed by
@@ -90,7 +235,7 @@ mod tests {
     fn the_block_places_round_p_n_vehicles_its_way() {
         let m = |placement| MixedSpec {
             penetration: 0.2,
-            controller: "protocol".into(),
+            controller: LawChoice::Name("protocol".into()),
             human: DEFAULT_HUMAN.into(),
             placement,
         };
@@ -115,7 +260,7 @@ mod tests {
     fn bad_values_are_named() {
         let m = |p: f64, c: &str| MixedSpec {
             penetration: p,
-            controller: c.into(),
+            controller: LawChoice::Name(c.into()),
             human: "human".into(),
             placement: Placement::Seeded,
         };

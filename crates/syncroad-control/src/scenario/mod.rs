@@ -33,7 +33,7 @@ pub use crate::model::{
     CaccModel, DelayedDriverModel, GraphShape, LeaderProfile, LinearModel, Model,
 };
 pub use file::*;
-pub use mixed::MixedSpec;
+pub use mixed::{LawChoice, MixedSpec};
 pub use network_road::{ConfigInputs, MeasuredRoad, RoadReader};
 pub use per_vehicle::PerVehicle;
 pub use scale::Scaled;

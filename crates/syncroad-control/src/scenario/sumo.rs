@@ -12,6 +12,7 @@ use super::{
     VehicleSelector,
 };
 use crate::registry::NamedLaw;
+use crate::user_law::UserLaw;
 
 /// The input section of `sumo.config`, read by `reader` (the SUMO crate's: the maths reads no
 /// XML).
@@ -148,9 +149,25 @@ pub struct SumoSettings {
     controlled: Option<VehicleSelector>,
     fcd: bool,
     inflows: Vec<InflowSpec>,
+    /// Who drives each inflow's controlled vehicles, resolved (`None`: the inflow has none).
+    inflow_drivers: Vec<Option<UserLaw>>,
 }
 
 impl SumoSettings {
+    /// Who drives the controlled vehicles of inflow `k` (`sumo.inflows[k].controlled`): a
+    /// registry law or the user's Python class, resolved and checked; `None` when it has none.
+    pub fn inflow_driver(&self, k: usize) -> Option<&UserLaw> {
+        self.inflow_drivers.get(k).and_then(Option::as_ref)
+    }
+
+    /// The source hashes of the Python classes that drive inflows' vehicles.
+    pub(super) fn inflow_source_hashes(&self) -> impl Iterator<Item = &str> {
+        self.inflow_drivers
+            .iter()
+            .flatten()
+            .filter_map(UserLaw::source_hash)
+    }
+
     /// The network file (`sumo.net`), relative paths resolved against the scenario's folder;
     /// `None` when the scenario names none. Whether the file exists is checked by the SUMO
     /// backend before it starts (a native run needs no network).
@@ -339,11 +356,19 @@ impl SumoSpec {
                 ));
             }
         }
+        let mut inflow_drivers = Vec::with_capacity(self.inflows.len());
         for (k, f) in self.inflows.iter().enumerate() {
             check_inflow(k, f)?;
+            inflow_drivers.push(
+                f.controlled
+                    .as_ref()
+                    .map(|c| c.driver(k, base_dir))
+                    .transpose()?,
+            );
         }
         Ok(SumoSettings {
             inflows: self.inflows.clone(),
+            inflow_drivers,
             controlled: self.controlled.clone(),
             fcd: self.fcd,
             net,
@@ -415,7 +440,6 @@ fn check_inflow(k: usize, f: &InflowSpec) -> Result<(), ScenarioError> {
         }
     }
     if let Some(c) = &f.controlled {
-        c.law(k)?;
         let field = |name: &str| format!("sumo.inflows[{k}].controlled.{name}");
         if !(c.share.is_finite() && (0.0..=1.0).contains(&c.share)) {
             return Err(invalid(
@@ -445,11 +469,47 @@ fn check_inflow(k: usize, f: &InflowSpec) -> Result<(), ScenarioError> {
 }
 
 impl InflowControl {
-    /// The law that drives the controlled vehicles of inflow `k`, its name and parameters
-    /// checked, and refused when it needs a ring (each vehicle is driven on its own, behind
-    /// whoever is ahead of it).
+    /// Who drives the controlled vehicles of inflow `k`: the registry law [`Self::law`] or the
+    /// user's Python class (its file read relative to `base_dir`, as the scenario's
+    /// `controller` is), one of the two.
+    pub fn driver(&self, k: usize, base_dir: &Path) -> Result<UserLaw, ScenarioError> {
+        let at = format!("sumo.inflows[{k}].controlled");
+        match (&self.law, &self.python) {
+            (Some(_), None) => self.law(k).map(UserLaw::Rust),
+            (None, Some(python)) => {
+                let spec = crate::user_law::ControllerSpec {
+                    python: Some(python.clone()),
+                    params: self.params.clone(),
+                    ..Default::default()
+                };
+                spec.resolve(base_dir).map_err(|e| ScenarioError::Invalid {
+                    field: e.field.replacen("controller", &at, 1),
+                    value: e.value,
+                    expected: e.expected,
+                })
+            }
+            (Some(law), Some(python)) => Err(invalid(
+                at,
+                format!("law = {law}, python = {python}"),
+                "give one: \"law\": NAME of the registry or \"python\": \"FILE.py:Class\"",
+            )),
+            (None, None) => Err(invalid(
+                at,
+                "{}",
+                format!(
+                    "name who drives them: \"law\": NAME ({}) or \"python\": \"FILE.py:Class\"",
+                    crate::registry::valid_names_alone()
+                ),
+            )),
+        }
+    }
+
+    /// The registry law that drives the controlled vehicles of inflow `k`, its name and
+    /// parameters checked, and refused when it needs a ring (each vehicle is driven on its
+    /// own, behind whoever is ahead of it).
     pub fn law(&self, k: usize) -> Result<NamedLaw, ScenarioError> {
         let field = format!("sumo.inflows[{k}].controlled.law");
+        let name = self.law.as_deref().unwrap_or_default();
         let to_err = |e: crate::registry::LawNameError| {
             let why = match e {
                 // The laws that drive a vehicle alone (not the protocol, not one that looks behind).
@@ -461,11 +521,11 @@ impl InflowControl {
                 }
                 e => e.why(),
             };
-            invalid(&field, &self.law, why)
+            invalid(&field, name, why)
         };
         // The law's own name with its parameters (`constant-speed` and `params`), or a name
         // that carries its shorthand parameter (`constant-speed-25`).
-        let bare = crate::registry::lookup(&self.law)
+        let bare = crate::registry::lookup(name)
             .ok()
             .filter(|e| e.name != crate::registry::PROTOCOL)
             .map(|e| NamedLaw {
@@ -474,12 +534,12 @@ impl InflowControl {
             });
         let parsed = match bare {
             Some(law) => Some(law),
-            None => NamedLaw::parse(&field, &self.law).map_err(to_err)?,
+            None => NamedLaw::parse(&field, name).map_err(to_err)?,
         };
         let Some(mut law) = parsed else {
             return Err(invalid(
                 &field,
-                &self.law,
+                name,
                 format!(
                     "the scenario's own law drives its fixed set of vehicles; name a law of the registry for vehicles that enter and leave: {}",
                     crate::registry::valid_names_alone()
@@ -504,7 +564,7 @@ impl InflowControl {
         if law.entry().is_ok_and(|e| e.looks_behind) {
             return Err(invalid(
                 &field,
-                &self.law,
+                name,
                 "this law reads the vehicle behind each vehicle too; a vehicle that enters and leaves is driven alone, behind whoever is ahead of it: choose a law that reads only the vehicle ahead (follower-stopper-U, pi-saturation, their flow- versions, lacc, constant-speed-U)",
             ));
         }

@@ -148,7 +148,13 @@ impl ScenarioFile {
         let name = self.name.clone().unwrap_or_else(|| "scenario".to_string());
         Ok(Scenario {
             name,
-            hash_hex: self.hash_hex(controller.as_ref()),
+            hash_hex: self.hash_hex(
+                controller
+                    .as_ref()
+                    .and_then(|c| c.source_hash())
+                    .into_iter()
+                    .chain(sumo.inflow_source_hashes()),
+            ),
             seed: self.seed,
             backend: self.backend,
             n,
@@ -212,20 +218,33 @@ impl ScenarioFile {
     }
 
     /// The user's own controller, its files read relative to `base_dir`.
+    /// The user's own controller, its files read relative to `base_dir`: the scenario's
+    /// `controller`, or the Python class its mixed block names for the automated vehicles
+    /// (`mixed.controller = {"python": …}`), never both.
     fn resolve_controller(
         &self,
         base_dir: &Path,
     ) -> Result<Option<crate::user_law::UserLaw>, ScenarioError> {
-        self.controller
-            .as_ref()
-            .map(|c| {
-                c.resolve(base_dir).map_err(|e| ScenarioError::Invalid {
-                    field: e.field,
-                    value: e.value,
-                    expected: e.expected,
-                })
+        let from_mixed = self.mixed.as_ref().and_then(|m| m.python());
+        let (spec, at) = match (&self.controller, &from_mixed) {
+            (Some(_), Some(m)) => {
+                return Err(invalid(
+                    "mixed.controller",
+                    format!("{{\"python\": {:?}}}", m.python.as_deref().unwrap_or_default()),
+                    "the scenario's controller already drives the automated vehicles; name the controller in one place",
+                ))
+            }
+            (Some(c), None) => (c, "controller"),
+            (None, Some(m)) => (m, "mixed.controller"),
+            (None, None) => return Ok(None),
+        };
+        spec.resolve(base_dir)
+            .map(Some)
+            .map_err(|e| ScenarioError::Invalid {
+                field: e.field.replacen("controller", at, 1),
+                value: e.value,
+                expected: e.expected,
             })
-            .transpose()
     }
 
     /// The vehicle count, step, horizon and verdict thresholds, each within its limits;
@@ -518,11 +537,11 @@ impl ScenarioFile {
         Ok(speeds)
     }
 
-    /// Stable hash of the file as written: FNV-1a over its canonical JSON.
-    /// The hash of the file as written, and of the controller's source and state as read.
-    fn hash_hex(&self, controller: Option<&crate::user_law::UserLaw>) -> String {
+    /// The hash of the file as written (FNV-1a over its canonical JSON), and of the Python
+    /// sources and states it names as read (`sources`: the controller's, the inflows').
+    fn hash_hex<'a>(&self, sources: impl Iterator<Item = &'a str>) -> String {
         let mut text = serde_json::to_string(self).expect("a scenario always serializes");
-        if let Some(h) = controller.and_then(|c| c.source_hash()) {
+        for h in sources {
             text.push_str(h);
         }
         fnv1a_hex(&text)

@@ -29,7 +29,9 @@ use pyo3::types::PyString;
 use syncroad_control::scenario::SafetyMode;
 use syncroad_control::sensed::{Neighbors, Sensed};
 use syncroad_control::sumo_facts::Guests as Report;
-use syncroad_control::{SpeedController, StopReason};
+use syncroad_control::{LawHost as _, SpeedController, StopReason, UserLaw};
+
+use crate::user_law::PythonHost;
 
 use super::libsumo::Libsumo;
 use super::CosimError;
@@ -106,7 +108,7 @@ impl<'a, 'py> Guests<'a, 'py> {
                     laws: req
                         .guests
                         .iter()
-                        .map(|g| format!("inflow{}: {}", g.inflow, g.law.described()))
+                        .map(|g| format!("inflow{}: {}", g.inflow, described(&g.law)))
                         .collect(),
                     ..Report::default()
                 },
@@ -287,13 +289,14 @@ impl<'a, 'py> Guests<'a, 'py> {
             // Built for this vehicle: a law that draws random numbers draws its own stream.
             let mut context = spec.context.clone();
             context.ids = vec![id.clone()];
-            let controller = spec
-                .law
-                .build_alone(&context)
-                .map_err(|e| PythonError::Call {
-                    call: format!("building the law {} for vehicle {id}", spec.law),
-                    traceback: e,
-                })?;
+            let controller = match &spec.law {
+                UserLaw::Rust(named) => named.build_alone(&context),
+                UserLaw::Python(p) => PythonHost.python(p, &context).map_err(|e| e.to_string()),
+            }
+            .map_err(|e| PythonError::Call {
+                call: format!("building the law {} for vehicle {id}", described(&spec.law)),
+                traceback: e,
+            })?;
             let name = id;
             let id = PyString::new(py, &name);
             ls.call("vehicle_setSpeedMode", (id.clone(), self.speed_mode))?;
@@ -373,6 +376,11 @@ impl Drive {
         g.controller.sense(&self.neighbors);
         let mut next = [0.0];
         g.controller.step(t_s, &[v], &[0.0], &mut next);
+        // A Python controller that raised or returned what is not a speed ends the run, its
+        // rows kept, as the fixed set's does.
+        if let Some(end) = g.controller.ended() {
+            return Err(end.at(step, t_s));
+        }
         let mut cmd = next[0];
         if !cmd.is_finite() {
             return Err(StopReason::NonFiniteCommand {
@@ -407,4 +415,13 @@ fn failed(on_road: &[Guest<'_>], call: &str, e: DirectError) -> CosimError {
 fn float(x: Bound<'_, PyAny>, what: &str) -> Result<f64, CosimError> {
     x.extract()
         .map_err(|e| py_error(x.py(), format!("vehicle.{what}"), e).into())
+}
+
+/// The law of an inflow's vehicles as the record's report names it: a registry law with its
+/// parameters, or `python:Class`.
+fn described(law: &UserLaw) -> String {
+    match law {
+        UserLaw::Rust(named) => named.described(),
+        UserLaw::Python(p) => p.label(),
+    }
 }

@@ -58,8 +58,6 @@ impl Sweep {
         Ok(plan)
     }
 
-    /// Builds and checks every point as it will run; returns the network files the points
-    /// read (SUMO only), which the spec hash covers.
     /// Checks every point as it will run, before anything runs; returns every file the points
     /// read (networks, route, additional and configuration files, the user's controller).
     pub(super) fn check_points(&self) -> anyhow::Result<BTreeSet<PathBuf>> {
@@ -86,9 +84,13 @@ impl Sweep {
             }
             let here = |e: anyhow::Error| e.context(self.describe(&p));
             let plan = self.plan_point(&p, &sc).map_err(here)?;
-            // The user's controller is as much the experiment as the scenario, on either
-            // backend: its source and pickled state.
-            if let Some(syncroad_control::UserLaw::Python(c)) = sc.controller() {
+            // The user's controllers are as much the experiment as the scenario, on either
+            // backend: their sources and pickled states (the vehicles' own, and the inflows').
+            let inflows = (0..sc.sumo().inflows().len()).filter_map(|k| sc.sumo().inflow_driver(k));
+            for law in sc.controller().into_iter().chain(inflows) {
+                let syncroad_control::UserLaw::Python(c) = law else {
+                    continue;
+                };
                 if let syncroad_control::user_law::PythonSource::File { path } = &c.source {
                     inputs.insert(path.clone());
                     // And every module it can import from its folder.
