@@ -25,6 +25,9 @@ pub const FCD_FILE: &str = "fcd.xml";
 pub const REPLAY_CONFIG: &str = "replay.sumocfg";
 /// The vehicle types the replay inserts its vehicles with.
 pub const REPLAY_TYPES: &str = "replay.types.xml";
+/// The run's network, copied beside its replay so that the run folder replays wherever it is
+/// copied (every path of [`REPLAY_CONFIG`] is relative to the folder).
+pub const REPLAY_NET: &str = "replay.net.xml";
 /// Where the run's road lies on the network ([`RoadTrace`]).
 pub const ROAD_FILE: &str = "road.json";
 
@@ -245,8 +248,9 @@ fn replay_types(sources: &[PathBuf], step_s: f64) -> std::io::Result<String> {
     Ok(s)
 }
 
-/// Writes the replay's configuration and vehicle types into `work_dir`: SUMO (or sumo-gui)
-/// started with `-c work_dir/replay.sumocfg` plays `fcd.xml` back on `net` from 0 to
+/// Writes the replay's configuration, vehicle types and a copy of the network `net` into
+/// `work_dir`, every path relative to it (so a copied run folder replays where it is): SUMO
+/// (or sumo-gui) started with `-c work_dir/replay.sumocfg` plays `fcd.xml` back on it from 0 to
 /// `end_s`, one step per time step of the data, `every` steps of the run's `step_s` (SUMO's
 /// fcd-replay device moves each vehicle to its next recorded place every step). The types keep
 /// the run's step as their reaction time, which lets SUMO insert each vehicle at its recorded
@@ -265,11 +269,10 @@ pub(crate) fn write_replay_files(
         replay_types(type_sources, step_s)?,
     )?;
     let step_s = step_s * every.max(1) as f64;
-    let net = std::path::absolute(net)?;
-    let esc = |s: &str| quick_xml::escape::escape(s).into_owned();
+    // A copy, not a link: the run keeps the network it ran on, whatever becomes of the file.
+    std::fs::copy(net, work_dir.join(REPLAY_NET))?;
     let cfg = format!(
-        "<configuration>\n    <input>\n        <net-file value=\"{}\"/>\n        <additional-files value=\"{REPLAY_TYPES}\"/>\n    </input>\n    <time>\n        <begin value=\"0\"/>\n        <end value=\"{end_s}\"/>\n        <step-length value=\"{step_s}\"/>\n    </time>\n    <processing>\n        <step-method.ballistic value=\"true\"/>\n    </processing>\n    <report>\n        <no-step-log value=\"true\"/>\n    </report>\n    <fcd-replay>\n        <device.fcd-replay.file value=\"{FCD_FILE}\"/>\n    </fcd-replay>\n</configuration>\n",
-        esc(&net.display().to_string())
+        "<configuration>\n    <input>\n        <net-file value=\"{REPLAY_NET}\"/>\n        <additional-files value=\"{REPLAY_TYPES}\"/>\n    </input>\n    <time>\n        <begin value=\"0\"/>\n        <end value=\"{end_s}\"/>\n        <step-length value=\"{step_s}\"/>\n    </time>\n    <processing>\n        <step-method.ballistic value=\"true\"/>\n    </processing>\n    <report>\n        <no-step-log value=\"true\"/>\n    </report>\n    <fcd-replay>\n        <device.fcd-replay.file value=\"{FCD_FILE}\"/>\n    </fcd-replay>\n</configuration>\n"
     );
     std::fs::write(work_dir.join(REPLAY_CONFIG), cfg)
 }
@@ -277,7 +280,7 @@ pub(crate) fn write_replay_files(
 /// Removes what an earlier run left in `work_dir` that this run will not write: its
 /// floating-car data and replay files unless `fcd`, its road unless `road`.
 pub(crate) fn remove_stale(work_dir: &Path, fcd: bool, road: bool) -> std::io::Result<()> {
-    let stale = [FCD_FILE, REPLAY_CONFIG, REPLAY_TYPES]
+    let stale = [FCD_FILE, REPLAY_CONFIG, REPLAY_TYPES, REPLAY_NET]
         .into_iter()
         .filter(|_| !fcd)
         .chain(std::iter::once(ROAD_FILE).filter(|_| !road));

@@ -131,7 +131,7 @@ fn a_run_with_fcd_replays_in_sumo_where_it_was_recorded() {
     let dir = tmpdir("replay-headless");
     let out = sumo_run_with_fcd(&dir, 40.0);
     let work = out.join("sumo");
-    for f in ["fcd.xml", "replay.sumocfg", "replay.types.xml", "road.json"] {
+    for f in ["fcd.xml", "replay.sumocfg", "replay.types.xml", "replay.net.xml", "road.json"] {
         assert!(work.join(f).is_file(), "{f}");
     }
     let recorded = fcd(&work.join("fcd.xml"));
@@ -149,6 +149,23 @@ fn a_run_with_fcd_replays_in_sumo_where_it_was_recorded() {
         );
     }
     replays_where_recorded(&work, &dir.join("replayed.xml"), &recorded);
+    // The run folder travels: every path of its replay configuration is relative to it (the
+    // network copied beside it), so a copy elsewhere replays the same.
+    let cfg = std::fs::read_to_string(work.join("replay.sumocfg")).unwrap();
+    let doc = roxmltree::Document::parse(&cfg).unwrap();
+    for n in doc.descendants().filter(|n| n.attribute("value").is_some()) {
+        let v = n.attribute("value").unwrap();
+        assert!(!v.starts_with('/'), "{}: {v} is absolute", n.tag_name().name());
+    }
+    let copy = dir.join("elsewhere/run");
+    std::fs::create_dir_all(copy.join("sumo")).unwrap();
+    for f in std::fs::read_dir(&work).unwrap() {
+        let f = f.unwrap().path();
+        if f.is_file() {
+            std::fs::copy(&f, copy.join("sumo").join(f.file_name().unwrap())).unwrap();
+        }
+    }
+    replays_where_recorded(&copy.join("sumo"), &dir.join("replayed-copy.xml"), &recorded);
     // The road trace: a vehicle's trajectory position (rear bumper) plus its length (5 m) is its
     // front bumper, which is where FCD puts a vehicle.
     let trace = syncroad_sumo::RoadTrace::read(&work.join("road.json")).unwrap();
