@@ -158,6 +158,7 @@ def run(
     progress: Optional[str] = None,
     controller: Any = None,
     safety: Optional[str] = None,
+    emissions: bool = False,
     _here: bool = False,
 ) -> Run:
     """Runs a scenario as ``syncroad run`` (``backend="native"``: ``syncroad simulate``)
@@ -165,7 +166,8 @@ def run(
     the files are the CLI's. SUMO runs go to a supervised worker process. ``progress`` is the
     CLI's ``--progress``: ``"auto"`` (the default: a line redrawn on a terminal's stderr),
     ``"lines"`` (plain lines on stderr, for logs) or ``"never"``. ``safety`` is the CLI's
-    ``--safety``: ``"off"``, ``"sumo"`` or ``"filter"`` in place of the scenario's layer.
+    ``--safety``: ``"off"``, ``"sumo"`` or ``"filter"`` in place of the scenario's layer;
+    ``emissions=True`` is ``--emissions`` (SUMO runs: fuel and CO2 in ``metrics.sumo``).
 
     Raises :class:`ScenarioError` for bad input, :class:`RunError` when the run failed part-way
     (``err.run`` keeps the rows received), :class:`Interrupted` on Ctrl-C (rows kept).
@@ -207,7 +209,9 @@ def run(
         sc = sc.with_backend("native")
         backend = None
     command = "simulate" if backend == "native" else "run"
-    sumo_flags = _flags(timeout_s=timeout_s, krauss_sigma=krauss_sigma)
+    if backend == "native" and emissions:
+        raise ScenarioError('emissions applies to SUMO runs only; backend = "native" runs syncroad\'s own simulator')
+    sumo_flags = _flags(timeout_s=timeout_s, krauss_sigma=krauss_sigma, emissions=emissions)
     argv = [command, str(sc.path), "--out", str(folder), *sumo_flags]
     argv += _flags(
         tolerance_mps=tolerance_mps,

@@ -148,6 +148,9 @@ def test_safety_and_fail_on_are_the_clis_flags(tmp_path):
     cli("simulate", "scenarios/ring-theorem1.json", "--safety", "filter", "--no-plots", "--out", tmp_path / "cli", check_code=0)
     assert r.metrics == read_json(tmp_path / "cli/metrics.json")
     assert r.metrics.safety_layer.mode == "filter"
+    e = syncroad.run("scenarios/sugiyama-ring.json", out=tmp_path / "fuel", emissions=True, plots=False)
+    cli("run", "scenarios/sugiyama-ring.json", "--emissions", "--no-plots", "--out", tmp_path / "fuel-cli", check_code=0)
+    assert e.metrics.sumo.fuel_g_per_km == read_json(tmp_path / "fuel-cli/metrics.json")["sumo"]["fuel_g_per_km"] > 0
     with pytest.raises(syncroad.ScenarioError, match="safety = 'gipps': use"):
         syncroad.run("scenarios/ring-theorem1.json", out=tmp_path / "bad", safety="gipps")
     # fail_on= is --fail-on: exit code 1 exactly when a row is not synchronized, the table

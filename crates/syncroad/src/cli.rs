@@ -298,6 +298,11 @@ pub struct SumoArgs {
     /// Read states through libsumo subscriptions instead of per-vehicle getters.
     #[arg(long)]
     pub subscriptions: bool,
+    /// Also measure what `compare` measures of each run: fuel and CO2 (HBEFA, every step),
+    /// the induction loop's flow, time loss and braking, in the record's `sumo` block and the
+    /// summary.
+    #[arg(long)]
+    pub emissions: bool,
     /// Also write SUMO's floating-car data of the run (OUT/sumo/fcd.xml, every step) for
     /// `syncroad replay`.
     #[arg(long)]

@@ -564,3 +564,57 @@ fn compare_reports_progress_only_where_asked() {
         assert_eq!(shown, if lines { 2 } else { 0 }, "{flag:?}: {stderr}");
     }
 }
+
+/// `run --emissions` gives a single run the fuel and CO2 a comparison measures: the same
+/// `sumo` block as the comparison's run of the law, and fuel that SUMO's own trip info sums
+/// to over the whole run (no warm-up here; its values rounded to 0.01 mg per vehicle); a native
+/// scenario refuses the flag.
+#[test]
+fn a_single_run_measures_fuel_and_co2_with_emissions() {
+    let d = tmpdir("run-emissions");
+    let (code, out, err) = run(bin()
+        .arg("run")
+        .arg(sugiyama())
+        .args([
+            "--emissions",
+            "--warmup-s",
+            "0",
+            "--no-plots",
+            "-q",
+            "--out",
+        ])
+        .arg(d.join("run")));
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(
+        out.contains("  SUMO measured (after the warm-up): fuel "),
+        "{out}"
+    );
+    let m = json(&d.join("run/metrics.json"));
+    let (fuel, trips) = tripinfo_sum(&d.join("run/sumo/tripinfo.xml"), "fuel_abs");
+    assert_eq!(trips, 22);
+    let fuel_mg = m["sumo"]["fuel_mg"].as_f64().unwrap();
+    assert!((fuel_mg - fuel).abs() <= 0.01 * 22.0, "{fuel_mg} vs {fuel}");
+    let (code, _, err) = run(bin()
+        .arg("compare")
+        .arg(sugiyama())
+        .args([
+            "--baselines",
+            "protocol",
+            "--warmup-s",
+            "0",
+            "--no-plots",
+            "-q",
+            "--out",
+        ])
+        .arg(d.join("cmp")));
+    assert_eq!(code, 0, "{err}");
+    let c = json(&d.join("cmp/protocol/metrics.json"));
+    assert_eq!(m["sumo"], c["sumo"]);
+    let (code, _, err) = run(bin()
+        .arg("run")
+        .arg(repo().join("scenarios/ring-theorem1.json"))
+        .args(["--emissions", "--out"])
+        .arg(d.join("native")));
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--emissions: a SUMO option"), "{err}");
+}

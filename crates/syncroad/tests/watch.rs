@@ -131,7 +131,13 @@ fn a_run_with_fcd_replays_in_sumo_where_it_was_recorded() {
     let dir = tmpdir("replay-headless");
     let out = sumo_run_with_fcd(&dir, 40.0);
     let work = out.join("sumo");
-    for f in ["fcd.xml", "replay.sumocfg", "replay.types.xml", "replay.net.xml", "road.json"] {
+    for f in [
+        "fcd.xml",
+        "replay.sumocfg",
+        "replay.types.xml",
+        "replay.net.xml",
+        "road.json",
+    ] {
         assert!(work.join(f).is_file(), "{f}");
     }
     let recorded = fcd(&work.join("fcd.xml"));
@@ -155,7 +161,11 @@ fn a_run_with_fcd_replays_in_sumo_where_it_was_recorded() {
     let doc = roxmltree::Document::parse(&cfg).unwrap();
     for n in doc.descendants().filter(|n| n.attribute("value").is_some()) {
         let v = n.attribute("value").unwrap();
-        assert!(!v.starts_with('/'), "{}: {v} is absolute", n.tag_name().name());
+        assert!(
+            !v.starts_with('/'),
+            "{}: {v} is absolute",
+            n.tag_name().name()
+        );
     }
     let copy = dir.join("elsewhere/run");
     std::fs::create_dir_all(copy.join("sumo")).unwrap();
@@ -165,7 +175,11 @@ fn a_run_with_fcd_replays_in_sumo_where_it_was_recorded() {
             std::fs::copy(&f, copy.join("sumo").join(f.file_name().unwrap())).unwrap();
         }
     }
-    replays_where_recorded(&copy.join("sumo"), &dir.join("replayed-copy.xml"), &recorded);
+    replays_where_recorded(
+        &copy.join("sumo"),
+        &dir.join("replayed-copy.xml"),
+        &recorded,
+    );
     // The road trace: a vehicle's trajectory position (rear bumper) plus its length (5 m) is its
     // front bumper, which is where FCD puts a vehicle.
     let trace = syncroad_sumo::RoadTrace::read(&work.join("road.json")).unwrap();

@@ -75,6 +75,7 @@ fn refuse_sumo_flags(a: &SumoArgs) -> anyhow::Result<()> {
         (a.euler, "--euler"),
         (a.subscriptions, "--subscriptions"),
         (a.fcd, "--fcd"),
+        (a.emissions, "--emissions"),
     ];
     match given.iter().find(|(on, _)| *on) {
         Some((_, flag)) => Err(InputError::new(format!(
@@ -179,6 +180,18 @@ fn print_summary(sc: &Scenario, f: &Finished) {
         outln!(
             "  SUMO safety: {} collision steps, {} teleports, {} overridden commands (max {:.3e} m/s), {} negative commands sent as 0",
             t.collision_steps, t.teleports, t.overridden_commands, facts.max_override_mps, t.negative_commands_clamped
+        );
+    }
+    if let Some(t) = &f.record.sumo {
+        // `--emissions`: what a comparison's table shows of the run.
+        let or_dash =
+            |x: Option<f64>, d: usize| x.map_or("—".to_string(), |v| format!("{v:.d$}"));
+        outln!(
+            "  SUMO measured (after the warm-up): fuel {} g/km, CO2 {} g/km, flow at the loop {} veh/h, time loss {:.1} s per vehicle",
+            or_dash(t.fuel_g_per_km, 2),
+            or_dash(t.co2_g_per_km, 1),
+            or_dash(t.flow_veh_per_h, 0),
+            t.time_loss_per_vehicle_s
         );
     }
     if let Some(c) = &facts.controlled {
@@ -337,6 +350,15 @@ fn run_sumo(
     plan.timeout = timeout;
     if args.subscriptions {
         plan.read = ReadMode::Subscriptions;
+    }
+    if args.emissions {
+        // What a comparison measures of each run: fuel and CO2 every step, SUMO's trip info.
+        plan.measure = Some(crate::plan::Measurements {
+            emission_every: 1,
+            tripinfo: true,
+            ssm: false,
+            emissions: syncroad_control::sumo_facts::Emissions::ALL,
+        });
     }
     let worker = WorkerCommand::for_process().context("cannot locate the syncroad executable")?;
     let mut opts = plan.sumo_options(
