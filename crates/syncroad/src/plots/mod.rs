@@ -1,8 +1,9 @@
 //! Plots of a run, each as PNG and SVG: the time-space diagram (position along the road
 //! against time, coloured by speed), speed traces, and the speed spread on a log scale.
 //!
-//! Fonts come embedded (Hack, from `epaint_default_fonts`), so plots render the same on
-//! every machine without system fonts.
+//! The font comes embedded (Ubuntu Light, a proportional face whose numerals and decimal
+//! point set tight, from `epaint_default_fonts`), so plots render the same on every machine
+//! without system fonts.
 
 use std::path::{Path, PathBuf};
 use std::sync::Once;
@@ -25,9 +26,37 @@ pub(crate) fn ensure_font() {
         let _ = plotters::style::register_font(
             "sans-serif",
             FontStyle::Normal,
-            epaint_default_fonts::HACK_REGULAR,
+            epaint_default_fonts::UBUNTU_LIGHT,
         );
     });
+}
+
+/// The Okabe–Ito palette without its yellow: distinguishable under the common colour-vision
+/// deficiencies, and no light colour on the white background (M. Okabe and K. Ito, "Color
+/// Universal Design", 2008).
+pub(crate) const PALETTE: [RGBColor; 7] = [
+    RGBColor(0, 114, 178),   // blue
+    RGBColor(213, 94, 0),    // vermillion
+    RGBColor(0, 158, 115),   // bluish green
+    RGBColor(204, 121, 167), // reddish purple
+    RGBColor(230, 159, 0),   // orange
+    RGBColor(86, 180, 233),  // sky blue
+    RGBColor(0, 0, 0),       // black
+];
+
+/// The `k`-th colour of [`PALETTE`], round again after the last.
+pub(crate) fn pick(k: usize) -> RGBColor {
+    PALETTE[k % PALETTE.len()]
+}
+
+/// A tick label: whole numbers without a decimal point (`100`, not `100.0`), others with the
+/// fewest decimals (at most three) that show them.
+pub(crate) fn tick(v: f64) -> String {
+    if (v - v.round()).abs() <= 1e-9 * v.abs().max(1.0) {
+        return format!("{}", v.round() as i64);
+    }
+    let text = format!("{v:.3}");
+    text.trim_end_matches('0').trim_end_matches('.').to_string()
 }
 
 /// Colour of a speed on plotters' viridis map (dark blue: slow → yellow: fast); the middle of
@@ -107,7 +136,7 @@ impl TimeSpace {
     fn draw(&self, dir: &Path, pts: &[(f64, f64, f64)]) -> anyhow::Result<Vec<PathBuf>> {
         let (vmin, vmax) = self.speeds;
         render_both!(dir, self.stem, (1100, 650), |root| {
-            let (main, bar) = root.split_horizontally(root.dim_in_pixel().0 - 110);
+            let (main, bar) = root.split_horizontally(root.dim_in_pixel().0 - 130);
             let mut chart = ChartBuilder::on(&main)
                 .caption(&self.title, ("sans-serif", 20))
                 .margin(10)
@@ -119,6 +148,8 @@ impl TimeSpace {
                 .configure_mesh()
                 .x_desc("time [s]")
                 .y_desc(self.y_desc)
+                .x_label_formatter(&|v| tick(*v))
+                .y_label_formatter(&|v| tick(*v))
                 .disable_mesh()
                 .label_style(("sans-serif", 13))
                 .axis_desc_style(("sans-serif", 15))
@@ -136,13 +167,14 @@ impl TimeSpace {
                 .margin_top(40)
                 .margin_bottom(50)
                 .margin_right(12)
-                .y_label_area_size(64)
+                .y_label_area_size(84)
                 .build_cartesian_2d(0.0..1.0, vmin..vmax)
                 .map_err(err)?;
             cb.configure_mesh()
                 .disable_x_axis()
                 .disable_mesh()
-                .y_desc("speed [m/s]")
+                // The scale spans where 96 % of the samples lie; the rest take its end colours.
+                .y_desc("speed [m/s], 2nd–98th percentile")
                 .y_labels(8)
                 .y_label_formatter(&|v| format!("{v:.2}"))
                 .y_label_style(("sans-serif", 13))
@@ -293,11 +325,27 @@ impl RunPlots<'_> {
         chart.draw(dir, &pts)
     }
 
-    /// Speed of each vehicle against time (at most 30 vehicles, evenly chosen).
+    /// Speed of each vehicle against time (at most 30 vehicles, evenly chosen), over the full
+    /// range of the speeds.
     pub fn speed_traces(&self, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
         let tr = self.traj;
         let n = tr.n;
-        let (vmin, vmax) = self.speed_range();
+        // The full range of every speed shown, the start's spread included (the time-space
+        // diagram's colour scale leaves out the extremes; this plot shows them).
+        let (vmin, vmax) = tr
+            .speeds_mps
+            .iter()
+            .chain(&tr.leader_speed_mps)
+            .copied()
+            .filter(|v| v.is_finite())
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(v), b.max(v))
+            });
+        let (vmin, vmax) = if vmin <= vmax {
+            (vmin, vmax)
+        } else {
+            self.speed_range()
+        };
         let time = self.time_range();
         let shown: Vec<usize> = if n <= 30 {
             (0..n).collect()
@@ -317,12 +365,13 @@ impl RunPlots<'_> {
                 .configure_mesh()
                 .x_desc("time [s]")
                 .y_desc("speed [m/s]")
+                .x_label_formatter(&|v| tick(*v))
                 .label_style(("sans-serif", 13))
                 .axis_desc_style(("sans-serif", 15))
                 .draw()
                 .map_err(err)?;
             for (c, &i) in shown.iter().enumerate() {
-                let colour = Palette99::pick(c).mix(0.9);
+                let colour = pick(c).mix(0.9);
                 chart
                     .draw_series(LineSeries::new(
                         (0..tr.len())
@@ -381,5 +430,37 @@ mod tests {
             speed_colour(f64::NAN, 0.0, 10.0),
             speed_colour(5.0, 0.0, 10.0)
         );
+    }
+
+    #[test]
+    fn ticks_drop_the_decimal_point_of_whole_numbers_and_trailing_zeros() {
+        assert_eq!(tick(100.0), "100");
+        assert_eq!(tick(0.0), "0");
+        assert_eq!(tick(-50.0), "-50");
+        assert_eq!(tick(7.85), "7.85");
+        assert_eq!(tick(0.5), "0.5");
+        assert_eq!(tick(1e-12), "0");
+    }
+
+    #[test]
+    fn the_palette_has_no_light_colour_on_white() {
+        // Relative luminance (sRGB, ITU-R BT.709 weights, linearised) of each colour: the
+        // contrast ratio with white (1.0) is at least 1.9:1 for each.
+        for c in PALETTE {
+            let lin = |u: u8| {
+                let x = f64::from(u) / 255.0;
+                if x <= 0.04045 {
+                    x / 12.92
+                } else {
+                    ((x + 0.055) / 1.055).powf(2.4)
+                }
+            };
+            let l = 0.2126 * lin(c.0) + 0.7152 * lin(c.1) + 0.0722 * lin(c.2);
+            assert!(
+                1.05 / (l + 0.05) >= 1.9,
+                "{c:?}: contrast {}",
+                1.05 / (l + 0.05)
+            );
+        }
     }
 }

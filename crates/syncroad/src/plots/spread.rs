@@ -90,7 +90,7 @@ pub fn spread_plot(
             let colour = if series.len() == 1 {
                 BLUE.to_rgba()
             } else {
-                Palette99::pick(k).to_rgba()
+                super::pick(k).to_rgba()
             };
             let drawn = chart
                 .draw_series(LineSeries::new(
