@@ -329,7 +329,8 @@ pub struct CompareArgs {
     /// human-noisy:noise=0.1), and the wave dampers of Stern et al. (2018) on every vehicle:
     /// follower-stopper-U (desired speed U in m/s, e.g. follower-stopper-4.3) and
     /// pi-saturation (flow-follower-stopper-U, flow-pi-saturation: Flow's code), and every
-    /// other law of `syncroad laws` (e.g. constant-speed-U). Default:
+    /// other law of `syncroad laws` (e.g. constant-speed-U), and your own Python class as
+    /// python:FILE.py:Class (its keyword arguments after it as :NAME=VALUE). Default:
     /// protocol,krauss,krauss-0.9,idm on rings; protocol,krauss,idm,acc,cacc on straight roads.
     #[arg(long)]
     pub baselines: Option<String>,

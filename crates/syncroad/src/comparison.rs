@@ -332,6 +332,15 @@ fn run_one(
         pool.command().clone(),
         Some(interrupt.clone()),
     );
+    // A run of the user's own controller (`--baselines python:…`) is the scenario with it.
+    let own;
+    let sc = match &run.drive.user {
+        Some(u) => {
+            own = sc.with_controller(u.clone());
+            &own
+        }
+        None => sc,
+    };
     let out = pipeline::sumo_pooled(sc, &plan.road, &opts, pool)
         .map_err(|e| InputError::caused("before starting SUMO", e))?;
     let f = Finished::new(sc, run.name(), out.output, run.eval);

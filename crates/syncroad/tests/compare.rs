@@ -618,3 +618,69 @@ fn a_single_run_measures_fuel_and_co2_with_emissions() {
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("--emissions: a SUMO option"), "{err}");
 }
+
+/// `--baselines` names the user's Python class as it names a law (`python:FILE.py:Class`, its
+/// keyword arguments as `:NAME=VALUE`): the guide's Python FollowerStopper, written apart from
+/// the built-in law, runs beside `follower-stopper-4.3` at its speeds to rounding, under its
+/// class's name; a file that is not there is refused before SUMO starts.
+#[test]
+fn a_comparison_runs_ones_own_python_class_beside_the_laws() {
+    let d = tmpdir("compare-python");
+    let fs = repo().join("examples/controllers/follower_stopper.py");
+    let own = format!(
+        "python:{}:FollowerStopper:desired_speed_mps=4.3",
+        fs.display()
+    );
+    let (code, out, err) = run(bin()
+        .arg("compare")
+        .arg(sugiyama())
+        .args([
+            "--baselines",
+            &format!("follower-stopper-4.3,{own}"),
+            "--no-plots",
+            "-q",
+            "--out",
+        ])
+        .arg(&d));
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(
+        out.contains("| metric | follower-stopper-4.3 | python:FollowerStopper |"),
+        "{out}"
+    );
+    let doc = json(&d.join("compare.json"));
+    let py = &doc["runs"]["python:FollowerStopper"];
+    assert!(
+        py["drivers"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|x| x == "python:FollowerStopper"),
+        "{py}"
+    );
+    let (a, b) = (
+        trajectories(&d.join("follower-stopper-4.3/trajectories.csv")),
+        trajectories(&d.join("python_FollowerStopper/trajectories.csv")),
+    );
+    assert_eq!(a.len(), 22);
+    let mut worst: f64 = 0.0;
+    for (i, rows) in &a {
+        for (x, y) in rows.iter().zip(&b[i]) {
+            worst = worst.max((x.1 - y.1).abs());
+        }
+    }
+    assert!(
+        worst < 1e-9,
+        "the Python FollowerStopper differs by {worst} m/s"
+    );
+    let (code, _, err) = run(bin()
+        .arg("compare")
+        .arg(sugiyama())
+        .args(["--baselines", "python:missing.py:X", "--out"])
+        .arg(d.join("bad")));
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("--baselines") && err.contains("missing.py"),
+        "{err}"
+    );
+    assert!(!d.join("bad/compare.json").exists());
+}

@@ -23,6 +23,9 @@ pub enum DriveError {
     /// A controller named twice in one mixed series.
     #[error("{0} is listed twice")]
     Twice(String),
+    /// A Python controller (`python:FILE.py:Class`) that cannot be loaded.
+    #[error("{0}")]
+    Python(String),
     /// A mixed series without a controller.
     #[error("no controller is named; name at least one (e.g. protocol)")]
     NoController,
@@ -39,6 +42,10 @@ pub struct Drive {
     pub drivers: Vec<Option<SumoDriver>>,
     /// A wave damper in place of the law on the law's vehicles.
     pub damper: Option<NamedLaw>,
+    /// The user's own controller in place of the scenario's law on the law's vehicles
+    /// (`--baselines python:FILE.py:Class`); the run is the scenario with that controller
+    /// ([`crate::Scenario::with_controller`]).
+    pub user: Option<crate::user_law::UserLaw>,
 }
 
 impl Drive {
@@ -46,6 +53,7 @@ impl Drive {
     /// on every vehicle, however the drivers were spelt).
     pub fn same_run(&self, other: &Self) -> bool {
         self.damper == other.damper
+            && self.user == other.user
             && self.drivers.len() == other.drivers.len()
             && self
                 .drivers
@@ -71,19 +79,53 @@ impl Drive {
             name: name.into(),
             drivers: Vec::new(),
             damper: None,
+            user: None,
         }
     }
 
     /// `protocol` (the scenario's law on every vehicle, whatever its `mixed` block says), a
-    /// damper (`follower-stopper-U`, `pi-saturation`) on every vehicle, or a SUMO driver name
-    /// for all `n` vehicles; `field` names where the name was given, for errors.
+    /// damper (`follower-stopper-U`, `pi-saturation`) on every vehicle, the user's Python class
+    /// (`python:FILE.py:Class`, the file relative to the current folder, its keyword arguments
+    /// after it as `:NAME=VALUE`) on every vehicle, or a
+    /// SUMO driver name for all `n` vehicles; `field` names where the name was given, for
+    /// errors.
     pub fn parse(field: &str, name: &str, n: usize) -> Result<Self, DriveError> {
+        if let Some(python) = name.trim().strip_prefix("python:") {
+            // The user's class, its file relative to the current folder, on every vehicle;
+            // its keyword arguments follow as `:NAME=VALUE` (JSON values, else strings).
+            let parts: Vec<&str> = python.split(':').collect();
+            let first = parts
+                .iter()
+                .position(|p| p.contains('='))
+                .unwrap_or(parts.len());
+            let mut params = serde_json::Map::new();
+            for kv in &parts[first..] {
+                let (k, v) = kv.split_once('=').unwrap_or((kv, ""));
+                let value = serde_json::from_str(v).unwrap_or_else(|_| serde_json::json!(v));
+                params.insert(k.to_string(), value);
+            }
+            let spec = crate::user_law::ControllerSpec {
+                python: Some(parts[..first].join(":")),
+                params: Some(serde_json::Value::Object(params)),
+                ..Default::default()
+            };
+            let user = spec
+                .resolve(std::path::Path::new("."))
+                .map_err(|e| DriveError::Python(format!("{name}: {}: {}", e.value, e.expected)))?;
+            return Ok(Self {
+                name: user.label(),
+                drivers: vec![None; n],
+                damper: None,
+                user: Some(user),
+            });
+        }
         let low = name.trim().to_ascii_lowercase();
         if low == PROTOCOL || low == "law" {
             return Ok(Self {
                 name: PROTOCOL.into(),
                 drivers: vec![None; n],
                 damper: None,
+                user: None,
             });
         }
         let driver = SumoDriver::parse(field, name);
@@ -98,6 +140,7 @@ impl Drive {
                         name: d.to_string(),
                         drivers: vec![None; n],
                         damper: Some(d),
+                        user: None,
                     })
                 }
                 Err(e @ LawNameError::Params { .. }) => return Err(e.into()),
@@ -109,6 +152,7 @@ impl Drive {
             name: d.to_string(),
             drivers: vec![Some(d); n],
             damper: None,
+            user: None,
         })
     }
 
@@ -129,6 +173,7 @@ impl Drive {
             name,
             drivers,
             damper: if k > 0 { damper } else { None },
+            user: None,
         }
     }
 

@@ -100,6 +100,7 @@ fn native_drive(sc: &Scenario) -> anyhow::Result<(Drive, LawSpec)> {
         name: Drive::as_written(sc.mixed().is_some(), sc.vehicles()).name,
         drivers,
         damper,
+        user: None,
     };
     match LawSpec::of_drive(sc, &drive) {
         Some(law) => Ok((drive, law)),
@@ -340,6 +341,7 @@ fn run_sumo(
             name: d.to_string(),
             drivers,
             damper: None,
+            user: None,
         },
         _ => Drive::as_written(sc.mixed().is_some(), sc.vehicles()),
     };

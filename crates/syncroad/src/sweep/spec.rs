@@ -360,9 +360,14 @@ impl Sweep {
         };
         let file = ScenarioFile::from_json(&doc.to_string(), "<sweep point>")
             .map_err(|e| InputError::caused(format!("sweep point {} ({})", p.id, at()), e))?;
-        let sc = file
+        let mut sc = file
             .validate_with(&self.base_dir, Some(&syncroad_sumo::NetReader))
             .map_err(|e| InputError::caused(format!("sweep point {} ({})", p.id, at()), e))?;
+        // A run of the user's own class (`"runs": ["python:FILE.py:Class"]`) is the scenario
+        // with it, which the point's hash covers.
+        if let Some(u) = &self.runs[p.run].spec.user {
+            sc = sc.with_controller(u.clone());
+        }
         if gain == 1.0 && delay == 1.0 {
             return Ok(sc);
         }
