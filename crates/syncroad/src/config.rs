@@ -35,7 +35,28 @@ pub fn load_scenario_with(path: &Path, safety: Option<SafetyMode>) -> anyhow::Re
     })?;
     note_measured_road(&sc);
     note_config(&sc);
+    note_older_shapes(&sc);
     Ok(sc)
+}
+
+/// One line naming the one shape a law takes, when the scenario names one in an older shape
+/// (which keeps working).
+pub fn note_older_shapes(sc: &Scenario) {
+    let Some(m) = sc.mixed() else { return };
+    let syncroad_control::scenario::LawChoice::Name(name) = &m.controller else {
+        return;
+    };
+    let shape = match m.damper() {
+        Ok(Some(law)) if law.params.as_object().is_some_and(|o| !o.is_empty()) => {
+            format!("{{\"law\": \"{}\", \"params\": {}}}", law.name, law.params)
+        }
+        Ok(Some(law)) => format!("{{\"law\": \"{}\"}}", law.name),
+        // The scenario's own law, or a name validation refuses anyway.
+        _ => return,
+    };
+    crate::stdout::errln!(
+        "note: mixed.controller = \"{name}\" is the older shape of a law; the one shape is {shape}"
+    );
 }
 
 /// `--safety off|sumo|filter`: the names of the scenario's `safety` key.

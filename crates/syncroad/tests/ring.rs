@@ -299,7 +299,7 @@ fn automated_vehicles_among_noisy_humans_keep_a_safe_speed_by_default_on_both_ba
 
 /// One shape names a law wherever it goes: the automated vehicle of a mixed noisy ring driven
 /// by `{"law": "follower-stopper", "params": {...}}` is the run of the older
-/// `"follower-stopper-4.3"` to the byte, and `{"python": "…:FollowerStopper", …}` (the guide's
+/// `"follower-stopper-4.3"` (which keeps working, with a note) to the byte, and `{"python": "…:FollowerStopper", …}` (the guide's
 /// Python class, written apart from the built-in law) drives it at the same speeds to
 /// rounding, labelled by its class; a Python class named in both places is refused.
 #[test]
@@ -335,6 +335,9 @@ fn the_automated_vehicles_of_a_mixed_ring_take_a_law_or_a_python_class_in_one_sh
             .args(["--no-plots", "-q", "--warmup-s", "10", "--out"])
             .arg(&out));
         assert!(code == 0 || code == 1, "{name}: {o}{e}");
+        // The older shape keeps working, with one line naming the one shape.
+        let note = "note: mixed.controller = \"follower-stopper-4.3\" is the older shape of a law; the one shape is {\"law\": \"follower-stopper\", \"params\": {\"desired_speed_mps\":4.3}}";
+        assert_eq!(e.contains(note), *name == "old", "{name}: {e}");
         let m = read(&out.join("metrics.json"));
         rows.push((
             m,
