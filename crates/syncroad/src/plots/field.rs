@@ -50,6 +50,14 @@ impl RoadCoordinate {
         }
     }
 
+    /// Where each edge of the road starts along it, in driving order (the merge of an on-ramp
+    /// or a lane drop is where an edge ends and the next begins).
+    pub fn edge_starts(&self) -> Vec<(String, f64)> {
+        let mut e: Vec<(String, f64)> = self.edges.iter().map(|(k, v)| (k.clone(), *v)).collect();
+        e.sort_by(|a, b| a.1.total_cmp(&b.1).then_with(|| a.0.cmp(&b.0)));
+        e
+    }
+
     /// The road coordinate of position `pos` \[m\] on lane `lane`, `None` off the road.
     pub fn locate(&self, lane: &str, pos: f64) -> Option<f64> {
         let start = self.lanes.get(lane).or_else(|| {
@@ -69,16 +77,21 @@ impl RoadCoordinate {
 /// Samples of the field: (time \[s\], road coordinate \[m\], speed \[m/s\]).
 pub type Field = Vec<(f64, f64, f64)>;
 
+/// The vehicle type of the vehicles a law drives in an inflow (`syncroad_guestK`).
+const GUEST_TYPE: &str = "syncroad_guest";
+
 /// Every vehicle's sample of the floating-car data read from `fcd`, every `stride`-th time
-/// step, on the road `road`.
-pub fn read_field(
+/// step, on the road `road`; and apart the samples of the vehicles a law drove in an inflow
+/// (those of a `syncroad_guestK` type), which the plot marks.
+pub fn read_fields(
     fcd: impl BufRead,
     road: &RoadCoordinate,
     stride: usize,
-) -> anyhow::Result<Field> {
+) -> anyhow::Result<(Field, Field)> {
     let mut reader = quick_xml::Reader::from_reader(fcd);
     let mut buf = Vec::new();
     let mut out = Vec::new();
+    let mut guests = Vec::new();
     let (mut step, mut time, mut keep) = (0usize, 0.0, false);
     loop {
         match reader.read_event_into(&mut buf).context("fcd.xml")? {
@@ -98,6 +111,9 @@ pub fn read_field(
                     if let (Some(lane), Some(pos), Some(v)) = (lane, pos, speed) {
                         if let Some(s) = road.locate(&lane, pos) {
                             out.push((time, s, v));
+                            if attribute(&e, b"type").is_some_and(|t| t.starts_with(GUEST_TYPE)) {
+                                guests.push((time, s, v));
+                            }
                         }
                     }
                 }
@@ -107,7 +123,7 @@ pub fn read_field(
         }
         buf.clear();
     }
-    Ok(out)
+    Ok((out, guests))
 }
 
 fn attribute(e: &quick_xml::events::BytesStart<'_>, name: &[u8]) -> Option<String> {
@@ -122,16 +138,16 @@ fn attribute(e: &quick_xml::events::BytesStart<'_>, name: &[u8]) -> Option<Strin
 pub fn run_field(
     sumo_dir: &Path,
     stride: usize,
-) -> anyhow::Result<Option<(RoadCoordinate, Field)>> {
+) -> anyhow::Result<Option<(RoadCoordinate, Field, Field)>> {
     let (fcd, road) = (sumo_dir.join(FCD_FILE), sumo_dir.join(ROAD_FILE));
     if !fcd.is_file() || !road.is_file() {
         return Ok(None);
     }
     let coordinate = RoadCoordinate::of(&RoadTrace::read(&road)?);
     let file = std::io::BufReader::new(std::fs::File::open(&fcd)?);
-    let field = read_field(file, &coordinate, stride)
+    let (field, guests) = read_fields(file, &coordinate, stride)
         .with_context(|| format!("reading {}", fcd.display()))?;
-    Ok(Some((coordinate, field)))
+    Ok(Some((coordinate, field, guests)))
 }
 
 #[cfg(test)]
@@ -157,9 +173,9 @@ mod tests {
         let fcd = r#"<fcd-export>
 <timestep time="0.00"><vehicle id="v0" x="0" y="0" angle="90" type="t0" speed="10.00" pos="5.00" lane="h0_0" slope="0"/><vehicle id="f.0" speed="12.00" pos="1.00" lane="ramp_0"/></timestep>
 <timestep time="0.10"><vehicle id="v0" speed="11.00" pos="6.00" lane="h0_0"/></timestep>
-<timestep time="0.20"><vehicle id="v0" speed="12.00" pos="7.00" lane="h0_0"/><vehicle id="f.0" speed="13.00" pos="2.00" lane="h1_0"/></timestep>
+<timestep time="0.20"><vehicle id="v0" speed="12.00" pos="7.00" lane="h0_0"/><vehicle id="f.0" type="syncroad_guest0" speed="13.00" pos="2.00" lane="h1_0"/></timestep>
 </fcd-export>"#;
-        let all = read_field(fcd.as_bytes(), &road, 1).unwrap();
+        let all = read_fields(fcd.as_bytes(), &road, 1).unwrap().0;
         assert_eq!(
             all,
             [
@@ -169,7 +185,14 @@ mod tests {
                 (0.2, 404.5, 13.0)
             ]
         );
-        let every_other = read_field(fcd.as_bytes(), &road, 2).unwrap();
+        // The vehicle a law drove in an inflow, apart; the road's edges where they start.
+        let (_, guests) = read_fields(fcd.as_bytes(), &road, 1).unwrap();
+        assert_eq!(guests, [(0.2, 404.5, 13.0)]);
+        assert_eq!(
+            road.edge_starts(),
+            [("h0".to_string(), 0.0), ("h1".to_string(), 402.5)]
+        );
+        let every_other = read_fields(fcd.as_bytes(), &road, 2).unwrap().0;
         assert_eq!(
             every_other,
             [(0.0, 5.0, 10.0), (0.2, 7.0, 12.0), (0.2, 404.5, 13.0)]

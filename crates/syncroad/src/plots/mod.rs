@@ -130,6 +130,11 @@ struct TimeSpace {
     space: std::ops::Range<f64>,
     y_desc: &'static str,
     speeds: (f64, f64),
+    /// Places along the road to mark (an edge's start: an on-ramp's merge, a lane drop),
+    /// each with its name.
+    marks: Vec<(String, f64)>,
+    /// Samples of the vehicles a law drove among the others, drawn over them in black.
+    automated: Vec<(f64, f64, f64)>,
 }
 
 impl TimeSpace {
@@ -162,6 +167,44 @@ impl TimeSpace {
                     }),
                 )
                 .map_err(err)?;
+            if !self.automated.is_empty() {
+                chart
+                    .draw_series(
+                        self.automated
+                            .iter()
+                            .filter(|p| p.1.is_finite())
+                            .map(|&(t, y, _)| Circle::new((t, y), 1, BLACK.filled())),
+                    )
+                    .map_err(err)?
+                    .label("vehicles a law drove")
+                    .legend(|(x, y)| Circle::new((x + 10, y), 3, BLACK.filled()));
+            }
+            for (name, at) in &self.marks {
+                let (t0, t1) = (self.time.start, self.time.end);
+                chart
+                    .draw_series(DashedLineSeries::new(
+                        [(t0, *at), (t1, *at)],
+                        6,
+                        4,
+                        BLACK.stroke_width(1),
+                    ))
+                    .map_err(err)?;
+                chart
+                    .draw_series(std::iter::once(Text::new(
+                        format!("{name} (edge starts)"),
+                        (t0 + 0.01 * (t1 - t0), *at),
+                        ("sans-serif", 13).into_font().color(&BLACK),
+                    )))
+                    .map_err(err)?;
+            }
+            if !self.automated.is_empty() {
+                chart
+                    .configure_series_labels()
+                    .border_style(BLACK)
+                    .background_style(WHITE.mix(0.85))
+                    .draw()
+                    .map_err(err)?;
+            }
             // Colour bar.
             let mut cb = ChartBuilder::on(&bar)
                 .margin_top(40)
@@ -202,8 +245,9 @@ pub const FIELD_PLOT_FILES: [&str; 2] = ["time_space_all.png", "time_space_all.s
 /// SUMO writes about this many bytes per vehicle and step into its floating-car data.
 const FCD_BYTES_PER_RECORD: u64 = 120;
 
-/// The time-space diagram of every vehicle on the road, syncroad's and everyone else's, from
-/// the floating-car data in the run's SUMO folder `sumo_dir` ([`field`]); no files when the
+/// The time-space diagram of every vehicle on the road, syncroad's and everyone else's (the
+/// vehicles a law drove in an inflow in black, each edge's start — a merge, a lane drop —
+/// dashed and named), from the floating-car data in the run's SUMO folder `sumo_dir` ([`field`]); no files when the
 /// run wrote none. The time steps are thinned to keep about 150k points (judged from the
 /// file's size).
 pub fn field_time_space(dir: &Path, sumo_dir: &Path, title: &str) -> anyhow::Result<Vec<PathBuf>> {
@@ -211,7 +255,7 @@ pub fn field_time_space(dir: &Path, sumo_dir: &Path, title: &str) -> anyhow::Res
     let stride = usize::try_from(bytes / FCD_BYTES_PER_RECORD / 150_000)
         .unwrap_or(usize::MAX)
         .max(1);
-    let Some((road, pts)) = field::run_field(sumo_dir, stride)? else {
+    let Some((road, pts, automated)) = field::run_field(sumo_dir, stride)? else {
         return Ok(Vec::new());
     };
     if pts.is_empty() {
@@ -226,6 +270,14 @@ pub fn field_time_space(dir: &Path, sumo_dir: &Path, title: &str) -> anyhow::Res
         space: 0.0..road.length_m.max(1.0),
         y_desc: "position along the road [m]",
         speeds: (speeds.start, speeds.end),
+        // On an open road each edge after the first starts where the one before ends: a
+        // merge, a lane drop. (A loop's edges are just its arcs.)
+        marks: if road.closed {
+            Vec::new()
+        } else {
+            road.edge_starts().into_iter().skip(1).collect()
+        },
+        automated,
     }
     .draw(dir, &pts)
 }
@@ -321,6 +373,8 @@ impl RunPlots<'_> {
             space: ymin..ymax,
             y_desc,
             speeds: self.speed_range(),
+            marks: Vec::new(),
+            automated: Vec::new(),
         };
         chart.draw(dir, &pts)
     }
@@ -357,6 +411,7 @@ impl RunPlots<'_> {
             let mut chart = ChartBuilder::on(root)
                 .caption(format!("{} — speeds", self.title), ("sans-serif", 20))
                 .margin(10)
+                .margin_right(24)
                 .x_label_area_size(40)
                 .y_label_area_size(60)
                 .build_cartesian_2d(time.clone(), (vmin - pad)..(vmax + pad))

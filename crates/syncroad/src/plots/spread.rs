@@ -73,6 +73,8 @@ pub fn spread_plot(
         let mut chart = ChartBuilder::on(root)
             .caption(&caption, ("sans-serif", 20))
             .margin(10)
+            // Room for the last tick's label past the axis's end.
+            .margin_right(24)
             .x_label_area_size(40)
             .y_label_area_size(70)
             .build_cartesian_2d(t.clone(), y.clone().log_scale())
@@ -81,17 +83,14 @@ pub fn spread_plot(
             .configure_mesh()
             .x_desc("time [s]")
             .y_desc(labels.y_desc)
+            .x_label_formatter(&|v| super::tick(*v))
             .y_label_formatter(&|y| format!("{y:.0e}"))
             .label_style(("sans-serif", 13))
             .axis_desc_style(("sans-serif", 15))
             .draw()
             .map_err(err)?;
         for (k, s) in series.iter().enumerate() {
-            let colour = if series.len() == 1 {
-                BLUE.to_rgba()
-            } else {
-                super::pick(k).to_rgba()
-            };
+            let colour = super::pick(k).to_rgba();
             let drawn = chart
                 .draw_series(LineSeries::new(
                     s.points.iter().filter(shown).copied(),
