@@ -134,6 +134,29 @@ fn title(s: &Scene) -> String {
     format!("{} — {} ({backend})", s.record.scenario, s.record.run)
 }
 
+/// The panel's title `full` within `room` pixels as `width` measures text: the whole title,
+/// else who drove and the backend without the scenario, else that cut short with an ellipsis.
+fn fit_title(full: &str, room: usize, width: impl Fn(&str) -> usize) -> String {
+    if width(full) <= room {
+        return full.to_string();
+    }
+    let short = full
+        .split_once(" — ")
+        .map_or(full.to_string(), |(_, rest)| rest.to_string());
+    if width(&short) <= room {
+        return short;
+    }
+    let mut chars: Vec<char> = short.chars().collect();
+    while !chars.is_empty() {
+        chars.pop();
+        let cut: String = chars.iter().collect::<String>() + "…";
+        if width(&cut) <= room {
+            return cut;
+        }
+    }
+    String::new()
+}
+
 /// The picture every frame starts from: titles, roads, colour bar.
 fn background(
     scenes: &[Scene],
@@ -148,8 +171,13 @@ fn background(
         let root = BitMapBackend::with_buffer(&mut rgb, (w as u32, h as u32)).into_drawing_area();
         for (k, (s, f)) in scenes.iter().zip(frames).enumerate() {
             let left = k * opts.size;
-            let label = title(s);
             let font = ("sans-serif", 14).into_font().color(&BLACK);
+            // The title in its panel's width, so that side-by-side titles never collide.
+            let width = |text: &str| {
+                root.estimate_text_size(text, &font)
+                    .map_or(usize::MAX, |(w, _)| w as usize)
+            };
+            let label = fit_title(&title(s), opts.size.saturating_sub(16), width);
             root.draw_text(&label, &font, ((left + 8) as i32, (CLOCK_H + 3) as i32))
                 .map_err(err)?;
             let lane = (3.2 * f.scale()).clamp(3.0, 14.0) as u32;
@@ -356,4 +384,20 @@ pub fn write(scenes: &[Scene], opts: &Options, path: &Path) -> anyhow::Result<Wr
         size: (w, h),
         duration_s: count as f64 * f64::from(delay) / 100.0,
     })
+}
+
+#[cfg(test)]
+mod title_tests {
+    use super::fit_title;
+
+    #[test]
+    fn a_title_fits_its_panel_by_leaving_out_the_scenario_then_cutting_short() {
+        let width = |t: &str| 7 * t.chars().count();
+        let full = "sugiyama-human-noisy — human-noisy (SUMO)";
+        assert_eq!(fit_title(full, 400, width), full);
+        assert_eq!(fit_title(full, 140, width), "human-noisy (SUMO)");
+        let cut = fit_title(full, 70, width);
+        assert!(cut.ends_with('…') && width(&cut) <= 70, "{cut}");
+        assert_eq!(fit_title(full, 0, width), "");
+    }
 }
