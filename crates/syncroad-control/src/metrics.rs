@@ -283,13 +283,6 @@ impl Verdict {
 }
 
 impl SyncMetrics {
-    /// A complete run with nothing to judge: a road without vehicles of its own (only
-    /// inflows, whose vehicles come and go). Its verdict is "inconclusive", yet the run did
-    /// all it was asked (its results are every vehicle's), so a command exits 0 on it.
-    pub fn checks_nothing(&self) -> bool {
-        !self.incomplete && self.verdict_reason.as_deref() == Some(crate::outcome::NO_FIXED_SET)
-    }
-
     /// Caps the verdict at `at_best` because of `reason`: a verdict already worse stays, and
     /// the reason is recorded either way.
     pub fn overrule(&mut self, at_best: Verdict, reason: String) {

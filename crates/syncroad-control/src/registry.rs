@@ -231,6 +231,34 @@ impl NamedLaw {
         Ok(Some(law))
     }
 
+    /// The law a scenario names by `name` with `params` added (`{"law": NAME, "params": …}`):
+    /// its bare name (`constant-speed`) or one with its shorthand (`constant-speed-25`), the
+    /// parameters checked; `Ok(None)` for [`PROTOCOL`], the scenario's own.
+    pub fn named(
+        field: &str,
+        name: &str,
+        params: Option<&serde_json::Map<String, serde_json::Value>>,
+    ) -> Result<Option<Self>, LawNameError> {
+        let bare = lookup(name)
+            .ok()
+            .filter(|e| e.name != PROTOCOL)
+            .map(|e| NamedLaw {
+                name: e.name.to_string(),
+                params: serde_json::json!({}),
+            });
+        let Some(mut law) = (match bare {
+            Some(law) => Some(law),
+            None => Self::parse(field, name)?,
+        }) else {
+            return Ok(None);
+        };
+        if let (Some(extra), Some(own)) = (params, law.params.as_object_mut()) {
+            own.extend(extra.clone());
+        }
+        law.check(field)?;
+        Ok(Some(law))
+    }
+
     /// The law's entry (built-in, or registered by this program).
     pub fn entry(&self) -> Result<LawEntry, String> {
         lookup(&self.name)

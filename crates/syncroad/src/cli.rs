@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use clap::{Args, Parser, Subcommand};
 
 use crate::progress::ProgressMode;
+use syncroad_control::scenario::SafetyMode;
 
 /// Velocity-synchronization experiments on ring roads and platoons (Proskurnikov & Mazo's
 /// delayed-driver and bidirectional CACC protocols), natively and in SUMO.
@@ -180,7 +181,7 @@ pub enum Command {
         /// With --init: what the baseline re-runs: `native`, `sumo` (one SUMO run of the law)
         /// or `compare` (the default comparison); default: the scenario's backend.
         #[arg(long, value_enum, requires = "init")]
-        kind: Option<crate::commands::regress::Kind>,
+        kind: Option<crate::commands::regress::baseline::Kind>,
     },
     /// Prints the JSON Schema of `metrics.json`, derived from the record's type (the
     /// published `docs/metrics.schema.json` is this output).
@@ -265,8 +266,8 @@ pub struct OutputArgs {
     /// The safety layer under the law, in place of the scenario's `safety`: `off` (the law's
     /// commands as they are), `sumo` (SUMO's safe speed, right of way and red lights; SUMO
     /// only) or `filter` (syncroad's Gipps safe-speed filter, the same on both backends).
-    #[arg(long, value_parser = crate::config::parse_safety, value_name = "LAYER")]
-    pub safety: Option<syncroad_control::scenario::SafetyMode>,
+    #[arg(long, value_parser = parse_safety, value_name = "LAYER")]
+    pub safety: Option<SafetyMode>,
 }
 
 impl OutputArgs {
@@ -392,8 +393,8 @@ pub struct CompareArgs {
     /// The safety layer under the law in every run that has one, in place of the scenario's
     /// `safety`: `off` (the law's commands as they are), `sumo` (SUMO's safe speed, right of way and red lights; SUMO
     /// only) or `filter` (syncroad's Gipps safe-speed filter, the same on both backends).
-    #[arg(long, value_parser = crate::config::parse_safety, value_name = "LAYER")]
-    pub safety: Option<syncroad_control::scenario::SafetyMode>,
+    #[arg(long, value_parser = parse_safety, value_name = "LAYER")]
+    pub safety: Option<SafetyMode>,
     /// Exit 1 when a run is unsafe, not synchronized or inconclusive (comma-separated; each
     /// matching run is named on stderr). Without it a comparison whose runs all ran exits 0
     /// whatever they found.
@@ -421,6 +422,13 @@ pub struct AnimateArgs {
     /// Width and height of each run's panel [px].
     #[arg(long, default_value_t = 360)]
     pub size: usize,
+}
+
+/// `--safety off|sumo|filter`: the names of the scenario's `safety` key.
+fn parse_safety(text: &str) -> Result<SafetyMode, String> {
+    serde_json::from_value(serde_json::Value::String(text.to_string())).map_err(|_| {
+        format!("{text}: use off (the law's commands as they are), sumo (SUMO's safe speed, right of way and red lights) or filter (syncroad's Gipps safe-speed filter, on both backends)")
+    })
 }
 
 #[cfg(test)]
@@ -469,8 +477,8 @@ pub struct SweepArgs {
     /// `safety` (part of the sweep's hash: a resumed sweep keeps its layer): `off` (the law's
     /// commands as they are), `sumo` (SUMO's safe speed, right of way and red lights; SUMO
     /// only) or `filter` (syncroad's Gipps safe-speed filter, the same on both backends).
-    #[arg(long, value_parser = crate::config::parse_safety, value_name = "LAYER")]
-    pub safety: Option<syncroad_control::scenario::SafetyMode>,
+    #[arg(long, value_parser = parse_safety, value_name = "LAYER")]
+    pub safety: Option<SafetyMode>,
     /// Exit 1 when a point's run is unsafe, not synchronized or inconclusive
     /// (comma-separated; the matching points are named on stderr). Without it a sweep whose
     /// points all ran exits 0 whatever they found.
@@ -531,7 +539,7 @@ pub enum SweepAction {
         #[arg(long, value_enum, value_delimiter = ',', value_name = "FINDING")]
         fail_on: Vec<crate::gate::FailOn>,
         /// The `--safety` the shards ran with (the spec's hash covers it).
-        #[arg(long, value_parser = crate::config::parse_safety, value_name = "LAYER")]
-        safety: Option<syncroad_control::scenario::SafetyMode>,
+        #[arg(long, value_parser = parse_safety, value_name = "LAYER")]
+        safety: Option<SafetyMode>,
     },
 }

@@ -59,13 +59,6 @@ pub fn note_older_shapes(sc: &Scenario) {
     );
 }
 
-/// `--safety off|sumo|filter`: the names of the scenario's `safety` key.
-pub fn parse_safety(text: &str) -> Result<SafetyMode, String> {
-    serde_json::from_value(serde_json::Value::String(text.to_string())).map_err(|_| {
-        format!("{text}: use off (the law's commands as they are), sumo (SUMO's safe speed, right of way and red lights) or filter (syncroad's Gipps safe-speed filter, on both backends)")
-    })
-}
-
 /// Tells which options of `sumo.config` syncroad did not give SUMO.
 pub fn note_config(sc: &Scenario) {
     let s = sc.sumo();

@@ -207,6 +207,14 @@ pub fn theory_table(r: &TheoryReport, otherwise: Option<&str>) -> String {
             if c.holds { "holds" } else { "does not hold" }
         );
     }
+    s.push_str(&verdict_line(r, otherwise));
+    s
+}
+
+/// The verdict line of [`theory_table`]: certified or not, and for a scenario another driver
+/// runs (`otherwise`), that it is not certified whatever the conditions say of the model.
+fn verdict_line(r: &TheoryReport, otherwise: Option<&str>) -> String {
+    let mut s = String::new();
     match otherwise {
         None => {
             let _ = writeln!(
@@ -366,7 +374,7 @@ pub fn metrics_table(
     } else {
         ""
     };
-    if m.checks_nothing() {
+    if record.checks_nothing() {
         // Nothing to synchronize, and the run did all it was asked: not a finding (exit 0).
         let _ = writeln!(s, "verdict: none to give, the run completed{mark}");
     } else {

@@ -167,43 +167,25 @@ impl MixedSpec {
             LawChoice::Python { .. } => return Ok(None),
         };
         let to_err = |e: crate::registry::LawNameError| invalid(field, name, e.why());
-        // The law's own name (`follower-stopper` with its `params`), or a name that carries
-        // its shorthand parameter (`follower-stopper-4.3`).
-        let bare = crate::registry::lookup(name)
-            .ok()
-            .filter(|e| e.name != crate::registry::PROTOCOL)
-            .map(|e| NamedLaw {
-                name: e.name.to_string(),
-                params: serde_json::json!({}),
-            });
-        let parsed = match bare {
-            Some(law) => Some(law),
-            None => NamedLaw::parse(field, name).map_err(to_err)?,
-        };
-        let Some(mut law) = parsed else {
-            if let Some(p) = params.filter(|p| p.as_object().is_none_or(|o| !o.is_empty())) {
-                return Err(invalid(
-                    "mixed.controller.params",
-                    p,
-                    "the scenario's own law takes its parameters from the model; give none",
-                ));
-            }
-            return Ok(None);
-        };
-        if let Some(p) = params {
-            let Some(extra) = p.as_object() else {
-                return Err(invalid(
+        let extra = match params {
+            None => None,
+            Some(p) => Some(p.as_object().ok_or_else(|| {
+                invalid(
                     "mixed.controller.params",
                     p,
                     "must be a JSON object of the law's parameters",
-                ));
-            };
-            if let Some(own) = law.params.as_object_mut() {
-                own.extend(extra.clone());
-            }
+                )
+            })?),
+        };
+        let law = NamedLaw::named(field, name, extra).map_err(to_err)?;
+        if let (None, Some(p)) = (&law, extra.filter(|o| !o.is_empty())) {
+            return Err(invalid(
+                "mixed.controller.params",
+                serde_json::Value::Object(p.clone()),
+                "the scenario's own law takes its parameters from the model; give none",
+            ));
         }
-        law.check(field).map_err(to_err)?;
-        Ok(Some(law))
+        Ok(law)
     }
 
     /// The user's Python class that drives the automated vehicles, as the scenario's

@@ -259,13 +259,8 @@ impl SumoSettings {
 }
 
 impl SumoSpec {
-    /// Checks every number of the section; `base_dir` resolves a relative `net`; `reader`
-    /// reads a `config`.
-    pub(super) fn validate(
-        &self,
-        base_dir: &Path,
-        reader: Option<&dyn RoadReader>,
-    ) -> Result<SumoSettings, ScenarioError> {
+    /// The vehicle type's numbers, the time limit and the vehicle class, each checked.
+    fn vehicle_class(&self) -> Result<VehicleClass, ScenarioError> {
         for (name, x) in [
             ("length_m", self.length_m),
             ("accel_mps2", self.accel_mps2),
@@ -296,7 +291,7 @@ impl SumoSpec {
                 format!("must be at most {MAX_TIMEOUT_S:e} s (about 31 years), like --timeout-s"),
             ));
         }
-        let vclass = match &self.vclass {
+        Ok(match &self.vclass {
             None => VehicleClass::PASSENGER,
             Some(name) => VehicleClass::parse(name).ok_or_else(|| {
                 invalid(
@@ -308,7 +303,17 @@ impl SumoSpec {
                     ),
                 )
             })?,
-        };
+        })
+    }
+
+    /// Checks every number of the section; `base_dir` resolves a relative `net`; `reader`
+    /// reads a `config`.
+    pub(super) fn validate(
+        &self,
+        base_dir: &Path,
+        reader: Option<&dyn RoadReader>,
+    ) -> Result<SumoSettings, ScenarioError> {
+        let vclass = self.vehicle_class()?;
         let timeout = Duration::from_secs_f64(self.timeout_s);
         let resolve = |p: &PathBuf| {
             if p.is_absolute() {
@@ -523,20 +528,17 @@ impl InflowControl {
             };
             invalid(&field, name, why)
         };
-        // The law's own name with its parameters (`constant-speed` and `params`), or a name
-        // that carries its shorthand parameter (`constant-speed-25`).
-        let bare = crate::registry::lookup(name)
-            .ok()
-            .filter(|e| e.name != crate::registry::PROTOCOL)
-            .map(|e| NamedLaw {
-                name: e.name.to_string(),
-                params: serde_json::json!({}),
-            });
-        let parsed = match bare {
-            Some(law) => Some(law),
-            None => NamedLaw::parse(&field, name).map_err(to_err)?,
+        let extra = match &self.params {
+            None => None,
+            Some(p) => Some(p.as_object().ok_or_else(|| {
+                invalid(
+                    format!("sumo.inflows[{k}].controlled.params"),
+                    p,
+                    "must be a JSON object of the law's parameters",
+                )
+            })?),
         };
-        let Some(mut law) = parsed else {
+        let Some(law) = NamedLaw::named(&field, name, extra).map_err(to_err)? else {
             return Err(invalid(
                 &field,
                 name,
@@ -546,19 +548,6 @@ impl InflowControl {
                 ),
             ));
         };
-        if let Some(p) = &self.params {
-            let Some(extra) = p.as_object() else {
-                return Err(invalid(
-                    format!("sumo.inflows[{k}].controlled.params"),
-                    p,
-                    "must be a JSON object of the law's parameters",
-                ));
-            };
-            if let Some(own) = law.params.as_object_mut() {
-                own.extend(extra.clone());
-            }
-        }
-        law.check(&field).map_err(to_err)?;
         // Each vehicle is driven alone, behind whoever SUMO reports ahead of it: any law that
         // reads only that (a ring law's predecessor is that vehicle), none that looks behind.
         if law.entry().is_ok_and(|e| e.looks_behind) {

@@ -246,8 +246,7 @@ fn print_summary(sc: &Scenario, f: &Finished) {
 /// Exit 0 when the run synchronized, or when it had nothing to synchronize (an open road of
 /// inflows only, run to its end); else 1.
 fn verdict_status(f: &Finished) -> Status {
-    let sync = &f.outcome.sync;
-    Status::verdict(sync.verdict == Verdict::Synchronized || sync.checks_nothing())
+    Status::verdict(f.outcome.sync.verdict == Verdict::Synchronized || f.record.checks_nothing())
 }
 
 fn run_native(

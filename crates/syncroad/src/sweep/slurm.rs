@@ -129,15 +129,10 @@ fn header(
     Ok(())
 }
 
-/// Writes `sweep.sbatch`, `collect.sbatch` and `submit.sh` into `dir`. Shard `i` writes
-/// `OUT/shard-i`; running the array again resumes every shard where it stopped.
-pub fn emit(
-    name: &str,
-    spec: &Path,
-    out: &Path,
-    dir: &Path,
-    opts: &SlurmOptions,
-) -> anyhow::Result<Emitted> {
+/// Refuses, before anything is written, options no scheduler could run: the shard count, a
+/// job name or an sbatch option that would break a script line, and a file where the script
+/// folder goes.
+fn check_options(name: &str, dir: &Path, opts: &SlurmOptions) -> anyhow::Result<()> {
     if opts.shards == 0 || opts.shards > 100_000 {
         return Err(InputError::new(format!(
             "--shards = {}: must be between 1 and 100000",
@@ -168,6 +163,27 @@ pub fn emit(
         ))
         .into());
     }
+    Ok(())
+}
+
+/// `flags` as shell words, each after a space.
+fn shell_words(flags: &[String]) -> anyhow::Result<String> {
+    flags
+        .iter()
+        .map(|f| sh(f).map(|w| format!(" {w}")))
+        .collect()
+}
+
+/// Writes `sweep.sbatch`, `collect.sbatch` and `submit.sh` into `dir`. Shard `i` writes
+/// `OUT/shard-i`; running the array again resumes every shard where it stopped.
+pub fn emit(
+    name: &str,
+    spec: &Path,
+    out: &Path,
+    dir: &Path,
+    opts: &SlurmOptions,
+) -> anyhow::Result<Emitted> {
+    check_options(name, dir, opts)?;
     refuse_foreign_scripts(dir)?;
     let logs = dir.join("logs");
     let exe = crate::config::program().context("cannot locate the syncroad executable")?;
@@ -202,11 +218,7 @@ pub fn emit(
     a.push(String::new());
     a.push("# One shard per array task; a resubmitted array resumes each shard's folder.".into());
     a.push("set -euo pipefail".into());
-    let flags = opts
-        .task_flags
-        .iter()
-        .map(|f| sh(f).map(|w| format!(" {w}")))
-        .collect::<anyhow::Result<String>>()?;
+    let flags = shell_words(&opts.task_flags)?;
     a.push(format!(
         "exec {} sweep {} --out {}/shard-\"$SLURM_ARRAY_TASK_ID\" --shard \"$SLURM_ARRAY_TASK_ID\"/{} --jobs \"${{SLURM_CPUS_PER_TASK:-1}}\" --no-plots{flags}",
         s(&exe)?,
@@ -228,11 +240,7 @@ pub fn emit(
     let shards = (0..opts.shards)
         .map(|i| s(&out.join(format!("shard-{i}"))))
         .collect::<anyhow::Result<Vec<String>>>()?;
-    let collect_flags = opts
-        .collect_flags
-        .iter()
-        .map(|f| sh(f).map(|w| format!(" {w}")))
-        .collect::<anyhow::Result<String>>()?;
+    let collect_flags = shell_words(&opts.collect_flags)?;
     c.push(format!(
         "exec {} sweep collect {} --out {}{collect_flags} {}",
         s(&exe)?,

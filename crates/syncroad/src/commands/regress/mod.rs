@@ -31,7 +31,7 @@ use crate::output::write_text;
 use crate::pipeline::{self, Finished};
 use crate::stdout::{out, outln};
 
-mod baseline;
+pub(crate) mod baseline;
 mod diff;
 mod reports;
 pub use baseline::{load, save, Baseline, Kind};
