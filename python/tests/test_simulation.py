@@ -358,14 +358,17 @@ def test_the_environment_passes_gymnasiums_checker_and_repeats_under_a_seed():
     assert not env._out.exists()
 
 
-def test_the_environment_refuses_an_action_of_the_wrong_size_or_not_finite():
+def test_the_environment_refuses_an_action_of_the_wrong_size_not_finite_or_out_of_its_space():
     from syncroad.gym import RingEnv
 
     env = RingEnv()
     try:
         env.reset(seed=1)
-        for bad in (np.array([0.1, 0.2]), np.array([]), np.array([np.nan]), np.array([np.inf])):
-            with pytest.raises(ValueError, match=r"1 finite value\(s\) in \[-1, 1\] are needed"):
+        for bad in (np.array([0.1, 0.2]), np.array([])):
+            with pytest.raises(ValueError, match=r"1 value\(s\) in \[-1, 1\] are needed, one per controlled vehicle \(v0\)"):
+                env.step(bad)
+        for bad in (np.array([np.nan]), np.array([np.inf]), np.array([1.01]), np.array([-2.0])):
+            with pytest.raises(ValueError, match=r"action of v0 = .*: must be finite and in \[-1, 1\]"):
                 env.step(bad)
         # Nothing was sent: the episode goes on from where it was.
         assert env._sim.observe().step == 0
