@@ -59,22 +59,38 @@ class View:
         self.agents: Tuple[int, ...] = tuple(int(i) for i in agents)
         self.names: Tuple[str, ...] = tuple(str(obs.ids[i]) for i in self.agents)
         k = len(self.agents)
-        self.accel_mps2 = np.zeros(k)
-        self.commanded_mps = np.array([obs.speed_mps[i] for i in self.agents], dtype=np.float64)
-        self.held_back_mps = np.zeros(k)
-        self.unsafe = np.zeros(k, dtype=bool)
+        # Plain floats, made into arrays only when a function asks: a step should cost little
+        # beside SUMO's, and each numpy call costs about a microsecond whatever its size.
+        self._accel = [0.0] * k
+        self._commanded = [obs.speed_mps.item(i) for i in self.agents]
+        self._held = [0.0] * k
         self.desired_speed_mps = desired_speed_mps
         self.speed_scale_mps = speed_scale_mps
         self.gap_scale_m = gap_scale_m
 
-    def stepped(self, obs: SimpleNamespace, accel: Sequence[float], commanded: Sequence[float]) -> None:
+    @property
+    def accel_mps2(self) -> "np.ndarray[Any, Any]":
+        return np.array(self._accel, dtype=np.float64)
+
+    @property
+    def commanded_mps(self) -> "np.ndarray[Any, Any]":
+        return np.array(self._commanded, dtype=np.float64)
+
+    @property
+    def held_back_mps(self) -> "np.ndarray[Any, Any]":
+        return np.array(self._held, dtype=np.float64)
+
+    @property
+    def unsafe(self) -> "np.ndarray[Any, Any]":
+        return np.array([h > HELD_BACK_TOL_MPS for h in self._held], dtype=bool)
+
+    def stepped(self, obs: SimpleNamespace, accel: List[float], commanded: List[float]) -> None:
         """The view after a step that asked for ``accel`` and commanded ``commanded``."""
         self.obs = obs
-        self.accel_mps2 = np.asarray(accel, dtype=np.float64)
-        self.commanded_mps = np.asarray(commanded, dtype=np.float64)
-        reached = np.array([obs.speed_mps[i] for i in self.agents], dtype=np.float64)
-        self.held_back_mps = np.maximum(self.commanded_mps - reached, 0.0)
-        self.unsafe = self.held_back_mps > HELD_BACK_TOL_MPS
+        self._accel = accel
+        self._commanded = commanded
+        sp = obs.speed_mps.item
+        self._held = [max(c - sp(i), 0.0) for c, i in zip(commanded, self.agents)]
 
 
 # --- observations -------------------------------------------------------------------------
@@ -160,9 +176,9 @@ def _desired_velocity(view: View) -> float:
 def _flow_ring_reward(view: View) -> float:
     # Flow's ring reward (MultiAgentWaveAttenuationPOEnv.compute_reward): 4 · mean(v) / 20,
     # less 4 · mean |a| of the agents' asked accelerations.
-    v = view.obs.speed_mps
-    a = float(np.mean(np.abs(view.accel_mps2))) if len(view.accel_mps2) else 0.0
-    return 4.0 * float(np.mean(v)) / 20.0 - 4.0 * a
+    v = view.obs.speed_mps.tolist()
+    a = math.fsum(abs(x) for x in view._accel) / len(view._accel) if view._accel else 0.0
+    return 4.0 * (math.fsum(v) / len(v)) / 20.0 - 4.0 * a
 
 
 @dataclass(frozen=True)
@@ -211,17 +227,22 @@ def _name(fn: Any) -> str:
 
 def action_value(x: Any, agent: str) -> float:
     """An agent's action as one float in [-1, 1], or a clear error naming the agent."""
-    a = np.asarray(x, dtype=np.float64) if not isinstance(x, (str, bytes)) else None
-    if a is None or a.size != 1:
+    v: Optional[float] = None
+    if type(x) is float:
+        v = x
+    elif isinstance(x, np.ndarray) and x.size == 1 and x.dtype.kind in "fiu":
+        v = float(x.item())
+    elif isinstance(x, (int, np.integer, np.floating)) and not isinstance(x, bool):
+        v = float(x)
+    if v is None:
         raise ScenarioError(f"action of {agent} = {x!r}: one value in [-1, 1] is needed")
-    v = float(a.reshape(-1)[0])
     # float32 actions of a sampler lie exactly on the bounds; a tolerance for the rounding of
-    # a policy's own arithmetic.
-    if not (math.isfinite(v) and -1.0 - 1e-6 <= v <= 1.0 + 1e-6):
+    # a policy's own arithmetic (a NaN fails the comparison too).
+    if not -1.0 - 1e-6 <= v <= 1.0 + 1e-6:
         raise ScenarioError(f"action of {agent} = {v!r}: must be finite and in [-1, 1] (the "
                             "fraction of the vehicle type's deceleration below 0, of its "
                             "acceleration above 0)")
-    return _clip(v, -1.0, 1.0)
+    return (1.0 if v > 1.0 else v) if v > -1.0 else -1.0
 
 
 # --- episodes -----------------------------------------------------------------------------
@@ -273,13 +294,15 @@ class Episodes:
         self.start(int(self._data.get("seed", 0)))
         assert self.view is not None
         self.names: Tuple[str, ...] = self.view.names
+        self._obs_size: Optional[int] = None
         self.obs_space: spaces.Box = self._space()
+        self._obs_size = int(self.obs_space.shape[0]) if self.obs_space.shape else 0
 
     def _space(self) -> spaces.Box:
         if self.observation.space is not None:
             return self.observation.space
         assert self.view is not None
-        n = len(self.observations()[0]) if self.view.agents else 0
+        n = len(self._observe(0)) if self.view.agents else 0
         return spaces.Box(-np.inf, np.inf, shape=(n,), dtype=np.float32)
 
     def folder(self, episode: int) -> Path:
@@ -338,7 +361,8 @@ class Episodes:
         obs = view.obs
         speeds = obs.speed_mps.copy()
         dt, up, down = obs.dt_s, self.accel_mps2, self.decel_mps2
-        accel, commanded = [], []
+        accel: List[float] = []
+        commanded: List[float] = []
         for i, x in zip(view.agents, xs):
             a = x * (up if x >= 0.0 else down)
             v = speeds.item(i) + a * dt
@@ -352,18 +376,33 @@ class Episodes:
         view.stepped(nxt, accel, commanded)
         return False
 
-    def observations(self) -> List[np.ndarray]:
-        """Each agent's observation (float32)."""
+    def _observe(self, k: int) -> Any:
+        """Agent ``k``'s observation as its function gives it, its size checked."""
         assert self.view is not None
-        view, fn = self.view, self.observation.fn
-        out = []
-        for k, name in enumerate(view.names):
-            try:
-                x = np.asarray(fn(view, k), dtype=np.float32).reshape(-1)
-            except Exception as e:  # noqa: BLE001 - the user's function: named, record kept
-                raise self._failed(f"observation {self.observation.name}", f"for {name} raised {type(e).__name__}: {e}") from e
-            out.append(x)
-        return out
+        view, ob = self.view, self.observation
+        try:
+            x = ob.fn(view, k)
+            n = len(x)
+        except Exception as e:  # noqa: BLE001 - the user's function: named, record kept
+            raise self._failed(f"observation {ob.name}",
+                               f"for {view.names[k]} raised {type(e).__name__}: {e}") from e
+        want = self._obs_size
+        if want is not None and n != want:
+            raise self._failed(f"observation {ob.name}",
+                               f"for {view.names[k]} gave {n} value(s); its space has {want}")
+        return x
+
+    def observations(self) -> List["np.ndarray[Any, Any]"]:
+        """Each agent's observation (float32)."""
+        return [np.asarray(self._observe(k), dtype=np.float32).reshape(-1)
+                for k in range(len(self.names))]
+
+    def flat_observation(self) -> "np.ndarray[Any, Any]":
+        """The agents' observations one after the other (float32): one array made."""
+        flat: List[float] = []
+        for k in range(len(self.names)):
+            flat.extend(self._observe(k))
+        return np.array(flat, dtype=np.float32)
 
     def rewards(self) -> List[float]:
         """Each agent's reward: the function's one value, shared, or its value per agent."""
@@ -373,10 +412,17 @@ class Episodes:
             r = self.reward.fn(self.view)
         except Exception as e:  # noqa: BLE001 - the user's function: named, record kept
             raise self._failed(f"reward {self.reward.name}", f"raised {type(e).__name__}: {e}") from e
-        try:
-            values = [float(r)] * k if np.ndim(r) == 0 else [float(x) for x in np.asarray(r).reshape(-1)]
-        except (TypeError, ValueError):
+        if type(r) is float:
+            # The named rewards' case, at once.
+            if math.isfinite(r):
+                return [r] * k
             values = []
+        else:
+            try:
+                values = ([float(r)] * k if np.ndim(r) == 0
+                          else [float(x) for x in np.asarray(r, dtype=np.float64).reshape(-1)])
+            except (TypeError, ValueError):
+                values = []
         if len(values) != k or not all(math.isfinite(x) for x in values):
             raise self._failed(f"reward {self.reward.name}",
                                f"returned {repr(r)[:80]}; one finite number (shared) or {k} "

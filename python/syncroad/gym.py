@@ -114,8 +114,7 @@ class RingEnv(gymnasium.Env):
         return self._ep.episodes
 
     def _observation(self) -> np.ndarray:
-        xs = self._ep.observations()
-        return np.concatenate(xs) if xs else np.zeros(0, dtype=np.float32)
+        return self._ep.flat_observation()
 
     def _reward(self) -> float:
         rs = self._ep.rewards()
@@ -135,16 +134,20 @@ class RingEnv(gymnasium.Env):
 
     def step(self, action: np.ndarray) -> Tuple[np.ndarray, float, bool, bool, Dict[str, Any]]:
         names = self._ep.names
-        a = np.asarray(action, dtype=np.float64) if not isinstance(action, (str, bytes)) else None
-        if a is None or a.size != len(names):
+        try:
+            xs = np.asarray(action, dtype=np.float64).reshape(-1).tolist()
+        except (TypeError, ValueError):
+            xs = None
+        if xs is None or len(xs) != len(names):
             raise ScenarioError(
                 f"action = {action!r}: {len(names)} value(s) in [-1, 1] are needed, one per "
                 f"controlled vehicle ({', '.join(names)})")
-        xs = [action_value(x, n) for x, n in zip(a.reshape(-1).tolist(), names)]
+        # Each value a float now: checked, and clipped onto the bounds.
+        xs = [action_value(x, n) for x, n in zip(xs, names)]
         ended = self._ep.act(xs)
         view = self._ep.view
         assert view is not None
-        info: Dict[str, Any] = {"time_s": float(view.obs.time_s), "unsafe": view.unsafe.copy()}
+        info: Dict[str, Any] = {"time_s": float(view.obs.time_s), "unsafe": view.unsafe}
         if ended:
             info["run"] = self._ep.sim.run if self._ep.sim is not None else None
         return self._observation(), self._reward(), False, ended, info
