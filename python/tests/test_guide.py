@@ -61,6 +61,20 @@ def test_every_python_example_of_the_own_controller_page_runs(tmp_path, monkeypa
     assert len(ns["rewards"]) == 200 and 0 <= min(ns["rewards"]) <= max(ns["rewards"]) <= 1
 
 
+def test_every_python_example_of_the_learning_page_runs(tmp_path, monkeypatch):
+    page = REPO / "docs" / "src" / "learning.md"
+    code = re.findall(r"```python\n(.*?)```", page.read_text(), flags=re.S)
+    assert len(code) == 2
+    monkeypatch.chdir(tmp_path)
+    ns = {}
+    for i, block in enumerate(code):
+        exec(compile(block, f"{page.name} python block {i + 1}", "exec"), ns)
+    # What the comments of the examples say.
+    assert ns["first"]["time_s"] == 75.0 and ns["info"]["time_s"] == 85.0
+    assert ns["env"].agents == [] and ns["held"] != []
+    assert ns["obs"]["v0"].shape == (3,) and set(ns["rewards"]) == {"v0", "v7", "v14"}
+
+
 def test_the_readmes_python_example_runs(tmp_path, monkeypatch):
     text = (REPO / "README.md").read_text()
     (code,) = re.findall(r"```python\n(.*?)```", text, flags=re.S)
