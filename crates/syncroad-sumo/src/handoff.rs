@@ -25,6 +25,12 @@ use syncroad_control::LawContext;
 /// How long a side looks for the other's turn before it blocks.
 pub const SPIN: Duration = Duration::from_micros(200);
 
+/// A look that found nothing (the other side is slower: a policy that computes for long, or
+/// more busy threads than cores, as with several environments side by side) makes that side's
+/// next 2, then 4, … up to this many waits block without looking first; a look that finds the
+/// other's turn starts over. Timing only: the exchanges, and so the run, are the same.
+const SPIN_BACKOFF_MAX: u32 = 1024;
+
 /// How long a blocked side sleeps before it looks again (the wake-up normally comes first).
 const SIGNAL_POLL: Duration = Duration::from_millis(20);
 
@@ -67,10 +73,44 @@ pub enum Stop {
 #[derive(Debug, Default)]
 pub struct Shared {
     state: AtomicU32,
+    /// The run's looks for the caller's commands, and the caller's for the run's observation.
+    run_looks: Looks,
+    caller_looks: Looks,
     data: Mutex<Data>,
     waiters: AtomicUsize,
     lock: Mutex<()>,
     wake: Condvar,
+}
+
+/// One side's record of whether looking before blocking pays (see [`SPIN_BACKOFF_MAX`]);
+/// only that side's thread touches it.
+#[derive(Debug, Default)]
+struct Looks {
+    misses: AtomicU32,
+    skip: AtomicU32,
+}
+
+impl Looks {
+    /// Whether to look this time (a skipped look counts down).
+    fn look(&self) -> bool {
+        let skip = self.skip.load(Ordering::Relaxed);
+        if skip > 0 {
+            self.skip.store(skip - 1, Ordering::Relaxed);
+            return false;
+        }
+        true
+    }
+
+    fn found(&self, found: bool) {
+        if found {
+            self.misses.store(0, Ordering::Relaxed);
+        } else {
+            let m = (self.misses.load(Ordering::Relaxed) + 1).min(10);
+            self.misses.store(m, Ordering::Relaxed);
+            self.skip
+                .store((1u32 << m).min(SPIN_BACKOFF_MAX), Ordering::Relaxed);
+        }
+    }
 }
 
 impl Shared {
@@ -114,18 +154,27 @@ impl Shared {
 
     /// Waits until `done(state)` holds, or `give_up()` says to stop waiting (checked between
     /// blocked waits); returns the state seen.
-    fn wait(&self, done: impl Fn(u32) -> bool, mut give_up: impl FnMut() -> bool) -> u32 {
-        let start = Instant::now();
-        for k in 1u32.. {
-            let s = self.state.load(Ordering::SeqCst);
-            if done(s) {
-                return s;
+    fn wait(
+        &self,
+        looks: &Looks,
+        done: impl Fn(u32) -> bool,
+        mut give_up: impl FnMut() -> bool,
+    ) -> u32 {
+        if looks.look() {
+            let start = Instant::now();
+            for k in 1u32.. {
+                let s = self.state.load(Ordering::SeqCst);
+                if done(s) {
+                    looks.found(true);
+                    return s;
+                }
+                // The clock now and then only: reading it costs more than a look.
+                if k.is_multiple_of(64) && start.elapsed() >= SPIN {
+                    break;
+                }
+                std::hint::spin_loop();
             }
-            // The clock now and then only: reading it costs more than a look.
-            if k.is_multiple_of(64) && start.elapsed() >= SPIN {
-                break;
-            }
-            std::hint::spin_loop();
+            looks.found(false);
         }
         self.waiters.fetch_add(1, Ordering::SeqCst);
         let mut guard = self.lock.lock().unwrap_or_else(|p| p.into_inner());
@@ -167,7 +216,7 @@ impl Shared {
         if self.advance(&[START, CMD], OBS).is_err() {
             return Err(Stop::Closed(self.data().closed.clone()));
         }
-        match self.wait(|s| s == CMD || s == CLOSED, || false) {
+        match self.wait(&self.run_looks, |s| s == CMD || s == CLOSED, || false) {
             CMD => {
                 let d = self.data();
                 if d.cmd.len() != out.len() {
@@ -215,6 +264,7 @@ impl Handoff {
                 // Back to the interpreter every few blocked waits, for its signals.
                 let mut polls = 0u32;
                 let s = shared.wait(
+                    &shared.caller_looks,
                     |s| s == OBS || s == ENDED,
                     || {
                         polls += 1;
@@ -373,7 +423,7 @@ mod tests {
     /// The caller's side of one step, as `Simulation` makes it: the observation's values,
     /// then commands `f(observation)`; None once the run ended.
     fn caller_step(s: &Shared, f: impl Fn(&[f64]) -> Vec<f64>) -> Option<Vec<f64>> {
-        if s.wait(|x| x == OBS || x == ENDED, || false) == ENDED {
+        if s.wait(&s.caller_looks, |x| x == OBS || x == ENDED, || false) == ENDED {
             return None;
         }
         let obs = s.data().obs.clone();
@@ -438,7 +488,7 @@ mod tests {
                 r
             })
         };
-        assert_eq!(s.wait(|x| x == OBS, || false), OBS);
+        assert_eq!(s.wait(&s.caller_looks, |x| x == OBS, || false), OBS);
         s.close("closed by the caller".into());
         assert_eq!(
             run.join().unwrap(),
