@@ -344,9 +344,10 @@ pub struct CompareArgs {
     #[arg(long, default_value = syncroad_control::drive::DEFAULT_HUMAN)]
     pub mixed_driver: String,
     /// What drives the K automated vehicles of --mixed runs, comma-separated: protocol (the
-    /// scenario's law), follower-stopper-U, pi-saturation, any law of `syncroad laws`. One run
-    /// per controller and K > 0, named CONTROLLER-mixed-K (protocol-mixed-2); the all-human
-    /// mixed-0 runs once.
+    /// scenario's law), follower-stopper-U, pi-saturation, any law of `syncroad laws`, your
+    /// own Python class as python:FILE.py:Class (its keyword arguments after it as
+    /// :NAME=VALUE). One run per controller and K > 0, named CONTROLLER-mixed-K
+    /// (protocol-mixed-2, python:MyLaw-mixed-2); the all-human mixed-0 runs once.
     #[arg(long, default_value = syncroad_control::drive::DEFAULT_MIXED_CONTROLLER)]
     pub mixed_controller: String,
     /// Also measure safety margins in every run: time headway (min, mean), minimum gap, SUMO's

@@ -155,14 +155,14 @@ fn mixed_runs(sc: &Scenario, a: &Request) -> anyhow::Result<MixedRuns> {
         let names: Vec<&str> = a.mixed_controller.split(',').collect();
         let controllers = mixed_controllers("--mixed-controller", &names)
             .map_err(|e| InputError::about("--mixed-controller", e))?;
-        let law = controllers.contains(&None);
+        let law = controllers.iter().any(|c| c.is_law());
         if law && (!sc.is_ring() || !matches!(sc.model(), Model::DelayedDriver(_))) {
             return Err(bad(format!(
                 "--mixed = {m}: mixed traffic needs a ring of delayed drivers (scenario {} is not one)",
                 sc.name()
             )));
         }
-        for d in controllers.iter().flatten() {
+        for d in controllers.iter().filter_map(|c| c.damper.as_ref()) {
             d.require_road(sc.is_ring(), &format!("scenario {}", sc.name()))
                 .map_err(|e| InputError::caused(format!("--mixed = {m}"), e))?;
         }

@@ -684,3 +684,65 @@ fn a_comparison_runs_ones_own_python_class_beside_the_laws() {
     );
     assert!(!d.join("bad/compare.json").exists());
 }
+
+/// The automated vehicles of a mixed comparison take one's own Python class as they take a
+/// law: the Python FollowerStopper among the noisy humans drives as the law of the same
+/// equations, the humans (the same noise streams) too.
+#[test]
+fn the_automated_vehicles_of_mixed_runs_take_ones_own_python_class() {
+    let d = tmpdir("compare-mixed-python");
+    let fs = repo().join("examples/controllers/follower_stopper.py");
+    let own = format!(
+        "python:{}:FollowerStopper:desired_speed_mps=4.3",
+        fs.display()
+    );
+    let (code, out, err) = run(bin()
+        .arg("compare")
+        .arg(sugiyama())
+        .args([
+            "--baselines",
+            "protocol",
+            "--mixed",
+            "0,2",
+            "--mixed-driver",
+            "human-noisy",
+            "--mixed-controller",
+            &format!("follower-stopper-4.3,{own}"),
+            "--no-plots",
+            "-q",
+            "--out",
+        ])
+        .arg(&d));
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(
+        out.contains("| follower-stopper-4.3-mixed-2 | python:FollowerStopper-mixed-2 |"),
+        "{out}"
+    );
+    let doc = json(&d.join("compare.json"));
+    let drivers = |run: &str| -> Vec<String> {
+        doc["runs"][run]["drivers"]
+            .as_array()
+            .unwrap_or_else(|| panic!("{run}: {doc}"))
+            .iter()
+            .map(|x| x.as_str().unwrap().to_string())
+            .collect()
+    };
+    // Two of 22 evenly spaced (vehicles 0 and 11) are the class's; the others the humans'.
+    let py = drivers("python:FollowerStopper-mixed-2");
+    let ours: Vec<usize> = (0..22)
+        .filter(|&i| py[i] == "python:FollowerStopper")
+        .collect();
+    assert_eq!(ours, [0, 11], "{py:?}");
+    let (a, b) = (
+        trajectories(&d.join("follower-stopper-4.3-mixed-2/trajectories.csv")),
+        trajectories(&d.join("python_FollowerStopper-mixed-2/trajectories.csv")),
+    );
+    assert_eq!(a.len(), 22);
+    let mut worst: f64 = 0.0;
+    for (i, rows) in &a {
+        for (x, y) in rows.iter().zip(&b[i]) {
+            worst = worst.max((x.1 - y.1).abs());
+        }
+    }
+    assert!(worst < 1e-9, "the mixed runs differ by {worst} m/s");
+}

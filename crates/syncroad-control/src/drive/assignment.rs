@@ -156,24 +156,25 @@ impl Drive {
         })
     }
 
-    /// `k` of `n` vehicles run the law (or `damper`), spread evenly ([`Placement::Even`]);
+    /// `k` of `n` vehicles run the law (or the controller in its place), spread evenly ([`Placement::Even`]);
     /// the others are `human`.
     pub fn mixed(
         name: String,
         n: usize,
         k: usize,
         human: SumoDriver,
-        damper: Option<NamedLaw>,
+        controller: MixedController,
     ) -> Self {
         let mut drivers = vec![Some(human); n];
         for i in Placement::Even.automated(n, k, 0) {
             drivers[i] = None;
         }
+        let MixedController { damper, user } = controller;
         Self {
             name,
             drivers,
             damper: if k > 0 { damper } else { None },
-            user: None,
+            user: if k > 0 { user } else { None },
         }
     }
 
@@ -197,15 +198,53 @@ impl Drive {
     }
 }
 
-/// The controllers of a mixed series by name: `protocol` or a damper ([`NamedLaw::parse`]), each
-/// once, at least one; `field` names where they were given.
+/// What drives the automated vehicles of one mixed series: the scenario's law (neither set),
+/// a law of the registry in its place, or the user's Python class.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MixedController {
+    /// A law of the registry in place of the scenario's law.
+    pub damper: Option<NamedLaw>,
+    /// The user's Python class in place of the scenario's law (`python:FILE.py:Class`).
+    pub user: Option<crate::user_law::UserLaw>,
+}
+
+impl MixedController {
+    /// The scenario's own law drives.
+    pub fn is_law(&self) -> bool {
+        self.damper.is_none() && self.user.is_none()
+    }
+}
+
+impl std::fmt::Display for MixedController {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match (&self.user, &self.damper) {
+            (Some(u), _) => f.write_str(&u.label()),
+            (None, Some(d)) => write!(f, "{d}"),
+            (None, None) => f.write_str(PROTOCOL),
+        }
+    }
+}
+
+/// The controllers of a mixed series by name: `protocol`, a law of the registry
+/// ([`NamedLaw::parse`]) or the user's Python class (`python:FILE.py:Class:NAME=VALUE`, as
+/// [`Drive::parse`] reads it), each once, at least one; `field` names where they were given.
 pub fn mixed_controllers<S: AsRef<str>>(
     field: &str,
     names: &[S],
-) -> Result<Vec<Option<NamedLaw>>, DriveError> {
+) -> Result<Vec<MixedController>, DriveError> {
     let mut out = Vec::new();
     for c in names.iter().map(|c| c.as_ref().trim()) {
-        let d = NamedLaw::parse(field, c)?;
+        let d = if c.starts_with("python:") {
+            MixedController {
+                damper: None,
+                user: Drive::parse(field, c, 0)?.user,
+            }
+        } else {
+            MixedController {
+                damper: NamedLaw::parse(field, c)?,
+                user: None,
+            }
+        };
         if out.contains(&d) {
             return Err(DriveError::Twice(c.to_string()));
         }
@@ -219,13 +258,14 @@ pub fn mixed_controllers<S: AsRef<str>>(
 
 /// The mixed runs with `k` of `n` vehicles automated among `human` drivers, `label` naming
 /// the share (`2` vehicles in `compare`, `0.25` of them in a sweep): one run per controller,
-/// `CONTROLLER-mixed-LABEL` (`protocol-mixed-2`, `pi-saturation-mixed-2`). The all-human ring
-/// (`k = 0`) is the same whatever would control, so it is one run, `mixed-LABEL`.
+/// `CONTROLLER-mixed-LABEL` (`protocol-mixed-2`, `pi-saturation-mixed-2`,
+/// `python:MyLaw-mixed-2`). The all-human ring (`k = 0`) is the same whatever would control,
+/// so it is one run, `mixed-LABEL`.
 pub fn mixed_series(
     n: usize,
     k: usize,
     label: &str,
-    controllers: &[Option<NamedLaw>],
+    controllers: &[MixedController],
     human: &SumoDriver,
 ) -> Vec<Drive> {
     let with = if k == 0 {
@@ -234,13 +274,13 @@ pub fn mixed_series(
         controllers
     };
     with.iter()
-        .map(|d| {
-            let name = match d {
-                _ if k == 0 => format!("mixed-{label}"),
-                Some(d) => format!("{d}-mixed-{label}"),
-                None => format!("{PROTOCOL}-mixed-{label}"),
+        .map(|c| {
+            let name = if k == 0 {
+                format!("mixed-{label}")
+            } else {
+                format!("{c}-mixed-{label}")
             };
-            Drive::mixed(name, n, k, human.clone(), d.clone())
+            Drive::mixed(name, n, k, human.clone(), c.clone())
         })
         .collect()
 }

@@ -12,7 +12,7 @@ pub mod placement;
 pub mod sumo_driver;
 
 pub use assignment::{
-    mixed_controllers, mixed_series, Drive, DriveError, DEFAULT_MIXED_CONTROLLER,
+    mixed_controllers, mixed_series, Drive, DriveError, MixedController, DEFAULT_MIXED_CONTROLLER,
 };
 pub use car_following::{CarFollowing, CarFollowingError, CfModel};
 pub use placement::{automated_count, Placement};
