@@ -36,6 +36,27 @@ WARMUP_IDM = {"accel_mps2": 1.3, "decel_mps2": 1.5, "time_headway_s": 0.8, "min_
               "delta": 4.0, "desired_speed_mps": 30.0}
 
 
+def idm_uniform_flow_mps(length_m: float, vehicles: int, vehicle_length_m: float = 5.0, *,
+                         time_headway_s: float, min_gap_m: float = 2.0, delta: float = 4.0,
+                         desired_speed_mps: float = 30.0) -> float:
+    """The speed of the IDM's uniform flow on a ring: every gap ``length_m / vehicles −
+    vehicle_length_m`` and every speed v with zero acceleration, ``1 − (v/v0)^δ − (s*/s)² =
+    0``, ``s* = s0 + v T`` (bisection to the last bit; the acceleration is decreasing in v)."""
+    gap = length_m / vehicles - vehicle_length_m
+    lo, hi = 0.0, desired_speed_mps
+    for _ in range(200):
+        v = 0.5 * (lo + hi)
+        acc = 1.0 - (v / desired_speed_mps) ** delta - ((min_gap_m + v * time_headway_s) / gap) ** 2
+        lo, hi = (v, hi) if acc > 0.0 else (lo, v)
+    return 0.5 * (lo + hi)
+
+
+#: The reward's desired speed on the registered rings: the uniform flow of the ``human-noisy``
+#: IDM (T = 0.8 s, s0 = 2 m, δ = 4, v0 = 30 m/s) with 22 cars of 5 m on 230 m, about 4.32 m/s
+#: (Flow's own IDM, T = 1 s, gives Flow's 3.45 m/s on the same ring).
+RING_UNIFORM_FLOW_MPS = idm_uniform_flow_mps(230.0, 22, 5.0, time_headway_s=0.8)
+
+
 class View:
     """What an observation or a reward function is given after each step (and after
     ``reset``): the whole run's observation and the agents' part of it.

@@ -17,8 +17,9 @@ automated vehicle): the same actions, observations and rewards, one table of eac
   ``flow-ring``: Flow's) or a callable ``fn(view, k)`` for agent ``k``; the agents'
   observations one after the other, float32.
 * **Reward** (``reward=``): a name of :data:`syncroad._rl.REWARDS` (``desired-velocity``, the
-  default: Flow's ``flow.core.rewards.desired_velocity`` with ``desired_speed_mps`` = 3.45 m/s,
-  the uniform flow of Flow's IDM with 22 cars of 5 m on 230 m; ``flow-ring``: Flow's ring
+  default: Flow's ``flow.core.rewards.desired_velocity`` with ``desired_speed_mps`` = 4.32 m/s,
+  the uniform flow of the ``human-noisy`` IDM with 22 cars of 5 m on 230 m (Flow's 3.45 m/s is
+  its own IDM's, T = 1 s, on the same ring); ``flow-ring``: Flow's ring
   reward) or a callable ``fn(view)`` giving one value or one per agent (their mean here). The
   view shows which commands the safety layer held back (``view.unsafe``).
 * **Episode**: ``warmup_s`` seconds with the controlled vehicles driven by an IDM (not
@@ -54,7 +55,8 @@ import numpy as np
 from gymnasium import spaces
 
 from syncroad._errors import ScenarioError
-from syncroad._rl import SETTINGS, Episodes, action_value, ring_among_noisy_humans
+from syncroad._rl import (RING_UNIFORM_FLOW_MPS, SETTINGS, Episodes, action_value,
+                          ring_among_noisy_humans)
 from syncroad._scenario import PathLike, ScenarioLike
 
 
@@ -76,7 +78,7 @@ class RingEnv(gymnasium.Env):
         reward: Union[str, Callable[..., Any]] = "desired-velocity",
         observation: Union[str, Callable[..., Any]] = "local",
         warmup_s: float = 0.0,
-        desired_speed_mps: float = 3.45,
+        desired_speed_mps: float = RING_UNIFORM_FLOW_MPS,
         speed_scale_mps: float = 30.0,
         gap_scale_m: Optional[float] = None,
         backend: Optional[str] = None,

@@ -33,7 +33,8 @@ from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
 from syncroad._errors import ScenarioError
-from syncroad._rl import SETTINGS, Episodes, action_value, ring_among_noisy_humans, setting
+from syncroad._rl import (RING_UNIFORM_FLOW_MPS, SETTINGS, Episodes, action_value,
+                          ring_among_noisy_humans, setting)
 from syncroad._scenario import PathLike, ScenarioLike
 
 
@@ -49,7 +50,7 @@ class ParallelTrafficEnv(ParallelEnv):  # type: ignore[misc]
         reward: Union[str, Callable[..., Any]] = "desired-velocity",
         observation: Union[str, Callable[..., Any]] = "local",
         warmup_s: float = 0.0,
-        desired_speed_mps: float = 3.45,
+        desired_speed_mps: float = RING_UNIFORM_FLOW_MPS,
         speed_scale_mps: float = 30.0,
         gap_scale_m: Optional[float] = None,
         backend: Optional[str] = None,

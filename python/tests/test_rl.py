@@ -24,6 +24,20 @@ def three(horizon_s=12.0):
     return ring_among_noisy_humans(3, horizon_s)
 
 
+def test_the_rewards_desired_speed_is_the_uniform_flow_of_the_rings_humans():
+    from syncroad._rl import RING_UNIFORM_FLOW_MPS, idm_uniform_flow_mps
+
+    # Flow's IDM (T = 1 s) on 230 and 260 m: the published 3.4541 and 4.8159 m/s (Flow's ring
+    # benchmarks; docs/src/published.md reproduces them in SUMO).
+    assert round(idm_uniform_flow_mps(230, 22, time_headway_s=1.0), 4) == 3.4541
+    assert round(idm_uniform_flow_mps(260, 22, time_headway_s=1.0), 4) == 4.8159
+    # human-noisy's IDM (T = 0.8 s): the IDM's acceleration vanishes at the default.
+    v, gap = RING_UNIFORM_FLOW_MPS, 230 / 22 - 5
+    assert abs(1 - (v / 30) ** 4 - ((2 + 0.8 * v) / gap) ** 2) < 1e-12
+    assert RingEnv.__init__.__kwdefaults__["desired_speed_mps"] == v
+    assert ParallelTrafficEnv.__init__.__kwdefaults__["desired_speed_mps"] == v
+
+
 def test_pettingzoos_api_test_passes_with_one_agent_per_automated_vehicle():
     from pettingzoo.test import parallel_api_test
 
@@ -248,3 +262,34 @@ def test_bad_actions_and_a_closed_environment_are_refused_by_name_and_nothing_is
         env.reset(seed=1)
     with pytest.raises(syncroad.ScenarioError, match=r"warmup_s = 30.0: must be ≥ 0 and below the scenario's horizon_s = 12"):
         ParallelTrafficEnv(three(), warmup_s=30.0)
+
+
+def test_a_trained_policy_drives_a_scenario_as_it_drove_the_environment(tmp_path):
+    import sys
+
+    from conftest import REPO
+
+    sys.path.insert(0, str(REPO / "examples" / "controllers"))
+    from linear_policy import LinearPolicy
+
+    # Accelerates towards the speed ahead: both signs on the perturbed ring.
+    policy = {"weights": [-30.0, 0.0, 30.0], "bias": 0.0}
+    law = LinearPolicy(policy)
+    sc = ring_among_noisy_humans(1, 20.0)
+    env = RingEnv(sc, out=tmp_path / "env")
+    try:
+        obs, _ = env.reset(seed=3)
+        truncated, actions = False, []
+        while not truncated:
+            actions.append(law.act(obs))
+            obs, _, _, truncated, info = env.step(np.array([actions[-1]]))
+    finally:
+        env.close()
+    # The policy acted: braking and accelerating, not one saturated value.
+    assert min(actions) < -0.1 and max(actions) > 0.1, (min(actions), max(actions))
+    by_env = info["run"]
+    by_controller = syncroad.run(dict(sc, seed=3), controller=law, out=tmp_path / "controller",
+                                 plots=False)
+    a = by_env.trajectories.to_pandas().sort_values(["time_s", "vehicle"]).speed_mps.to_numpy()
+    b = by_controller.trajectories.to_pandas().sort_values(["time_s", "vehicle"]).speed_mps.to_numpy()
+    assert len(a) == 22 * 201 and np.array_equal(a, b)

@@ -314,6 +314,8 @@ gymnasium = pytest.importorskip("gymnasium")
 def test_the_environment_passes_gymnasiums_checker_and_repeats_under_a_seed():
     from gymnasium.utils.env_checker import check_env
 
+    from syncroad._rl import RING_UNIFORM_FLOW_MPS
+
     from syncroad.gym import RingEnv
 
     env = RingEnv()
@@ -334,7 +336,7 @@ def test_the_environment_passes_gymnasiums_checker_and_repeats_under_a_seed():
                 # a = x · 2.6 m/s² (accel) or x · 4.5 m/s² (decel) — realised by SUMO within
                 # its checks, so observed at most that fast.
                 full = env._sim.observe()
-                target = np.full(22, 3.45)
+                target = np.full(22, RING_UNIFORM_FLOW_MPS)
                 best = np.linalg.norm(target)
                 want = max(best - np.linalg.norm(full.speed_mps - target), 0.0) / best
                 assert abs(reward - want) < 1e-12
