@@ -486,15 +486,30 @@ class Episodes:
 # --- the registered settings ---------------------------------------------------------------
 
 
-def ring_among_noisy_humans(automated: int = 1, horizon_s: float = 300.0) -> Dict[str, Any]:
+def ring_among_noisy_humans(automated: int = 1, horizon_s: float = 300.0, *,
+                            start: str = "perturbed", safety: str = "sumo") -> Dict[str, Any]:
     """22 vehicles on the 230 m Sugiyama ring, ``automated`` of them controlled (placed evenly,
-    the first one first), the others ``human-noisy``. Every vehicle keeps SUMO's safe speed
-    (``"safety": "sumo"``, speed mode 25: Flow's default ``right_of_way``), so an agent's
-    action can slow its vehicle down but never drive it into the vehicle ahead."""
+    the first one first), the others ``human-noisy``, all at 4 m/s.
+
+    ``start``: ``"perturbed"`` (speeds ± 0.5 m/s and gaps ± 0.1 m drawn from the seed, as
+    Flow perturbs its ring) or ``"uniform"`` (evenly spaced, every speed 4 m/s: Stern et al.'s
+    start, so any jam forms from the humans' own noise). ``safety``: ``"sumo"`` (every vehicle
+    keeps SUMO's safe speed, speed mode 25: Flow's default ``right_of_way``) or ``"filter"``
+    (syncroad's safety filter under the automated vehicles, Gipps' safe speed with τ = 1 s),
+    so an agent's action can slow its vehicle down but never drive it into the vehicle
+    ahead."""
     if not (isinstance(automated, int) and 1 <= automated <= 22):
         raise ScenarioError(f"automated = {automated!r}: 1 to 22 vehicles of the 22 are needed")
+    if start not in ("perturbed", "uniform"):
+        raise ScenarioError(f"start = {start!r}: perturbed or uniform")
+    if safety not in ("sumo", "filter"):
+        raise ScenarioError(f"safety = {safety!r}: sumo or filter")
+    initial: Dict[str, Any] = {"speed_mps": 4.0}
+    if start == "perturbed":
+        initial["perturbation"] = {"speed_mps": 0.5, "gap_m": 0.1}
+    name = "gym-ring" if automated == 1 else f"gym-ring-{automated}av"
     return {
-        "name": "gym-ring" if automated == 1 else f"gym-ring-{automated}av",
+        "name": name if start == "perturbed" else f"{name}-uniform",
         "backend": "sumo",
         "seed": 0,
         "step_s": 0.1,
@@ -504,9 +519,9 @@ def ring_among_noisy_humans(automated: int = 1, horizon_s: float = 300.0) -> Dic
         "model": {"type": "delayed_driver",
                   "graph": {"type": "bidirectional_ring", "gain_pred": 0.6, "gain_follow": 0.1},
                   "delay_s": 0.5},
-        "initial": {"speed_mps": 4.0, "perturbation": {"speed_mps": 0.5, "gap_m": 0.1}},
+        "initial": initial,
         "mixed": {"penetration": automated / 22, "human": "human-noisy", "placement": "even"},
-        "safety": "sumo",
+        "safety": safety,
         "sumo": {"net": str(Path(__file__).resolve().parent / "data" / "sugiyama-ring.net.xml")},
     }
 
@@ -521,11 +536,14 @@ class Setting:
     episode_steps: int
     description: str
     source: str
+    start: str = "perturbed"
+    safety: str = "sumo"
     kwargs: Dict[str, Any] = field(default_factory=dict)
 
     def scenario(self) -> Dict[str, Any]:
         # Δt = 0.1 s: the warm-up and the episode's steps make the horizon.
-        return ring_among_noisy_humans(self.automated, self.warmup_s + self.episode_steps * 0.1)
+        return ring_among_noisy_humans(self.automated, self.warmup_s + self.episode_steps * 0.1,
+                                       start=self.start, safety=self.safety)
 
 
 #: The registered settings (``gymnasium.make(id)`` once :mod:`syncroad.gym` is imported;
@@ -538,6 +556,13 @@ SETTINGS: Dict[str, Setting] = {
                 "Wu et al.'s mixed-autonomy ring as Flow trains it (singleagent_ring: Δt 0.1 s, "
                 "750 warm-up steps, 3000 steps an episode); Flow draws the ring's length in "
                 "220–270 m, here it is Sugiyama's 230 m"),
+        Setting("syncroad/RingStern-v0", 1, 0.0, 3000,
+                "one automated vehicle among 21 human-noisy drivers on the 230 m Sugiyama ring "
+                "from a uniform start, under syncroad's safety filter",
+                "Stern et al.'s experiment as syncroad's Stern sweeps run it (every vehicle at "
+                "4 m/s, evenly spaced; no warm-up, so the automated vehicle acts before a jam "
+                "forms; the sweeps' 600 s, here 300 s an episode)",
+                start="uniform", safety="filter"),
         Setting("syncroad/RingMulti-v0", 3, 75.0, 3000,
                 "three automated vehicles, evenly placed, among 19 human-noisy drivers on the "
                 "230 m Sugiyama ring",

@@ -145,6 +145,17 @@ def test_the_registered_settings_keep_their_warm_up_and_episode_length():
         assert info["run"].metrics.horizon_s == pytest.approx(375.0)
     finally:
         env.close()
+    stern = gymnasium.make("syncroad/RingStern-v0")
+    try:
+        # Stern et al.'s start: no warm-up, every vehicle at 4 m/s evenly spaced, the automated
+        # vehicle under the safety filter.
+        _, info = stern.reset(seed=1)
+        assert info["time_s"] == 0.0
+        o = stern.unwrapped._ep.sim.observe()
+        assert np.all(o.speed_mps == 4.0) and np.ptp(o.gap_m) < 1e-9, (o.speed_mps, o.gap_m)
+        assert stern.unwrapped._ep._data["safety"] == "filter"
+    finally:
+        stern.close()
     one = parallel_env("syncroad/Ring-v0")
     try:
         assert one.possible_agents == ["v0"]
@@ -293,3 +304,33 @@ def test_a_trained_policy_drives_a_scenario_as_it_drove_the_environment(tmp_path
     a = by_env.trajectories.to_pandas().sort_values(["time_s", "vehicle"]).speed_mps.to_numpy()
     b = by_controller.trajectories.to_pandas().sort_values(["time_s", "vehicle"]).speed_mps.to_numpy()
     assert len(a) == 22 * 201 and np.array_equal(a, b)
+
+
+def test_the_training_example_runs_and_writes_a_policy_a_scenario_can_name(tmp_path, monkeypatch):
+    import csv
+    import sys
+
+    from conftest import REPO
+
+    pytest.importorskip("cma")
+    sys.path.insert(0, str(REPO / "examples" / "learning"))
+    import train_ring
+
+    out = tmp_path / "quick"
+    # A few thousand steps: two generations of four candidates, 300 steps each (it must run,
+    # not learn).
+    train_ring.main(["--out", str(out), "--generations", "2", "--population", "4",
+                     "--episode-steps", "300"])
+    rows = list(csv.DictReader(open(out / "learning_curve.csv")))
+    assert [int(r["episodes"]) for r in rows] == [4, 8]
+    assert all(0.0 <= float(r["worst_return"]) <= float(r["best_return"]) <= 1.0 for r in rows)
+    assert (out / "learning_curve.png").is_file()
+    policy = json.loads((out / "policy.json").read_text())
+    assert len(policy["weights"]) == 3 and policy["trained"]["episodes"] == 8
+    # The policy file is a controller's: a scenario names it and runs.
+    monkeypatch.chdir(REPO)
+    sc = dict(ring_among_noisy_humans(1, 10.0),
+              controller={"python": "examples/controllers/linear_policy.py:LinearPolicy",
+                          "params": {"policy": str(out / "policy.json")}})
+    r = syncroad.run(sc, out=tmp_path / "run", plots=False)
+    assert r.metrics.complete and r.metrics.drivers[0] == "python:LinearPolicy"
