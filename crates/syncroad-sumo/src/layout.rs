@@ -371,6 +371,7 @@ impl Layout {
     /// [`Layout::routes_xml`], with syncroad's vehicles or without them (the law then drives
     /// the user's own, `sumo.controlled`: the file keeps the routes their adoption sets).
     pub fn routes_xml_with(&self, vehicles: bool) -> String {
+        use quick_xml::escape::escape as esc;
         let mut s = String::from("<routes>\n");
         let t = &self.vtype;
         // One vType per (length, driver). Law-driven vehicles get σ = 0: SUMO's own model only
@@ -424,19 +425,27 @@ impl Layout {
                 );
                 if !params.is_empty() {
                     for (key, value) in &params {
+                        let (key, value) = (esc(*key), esc(value.as_str()));
                         let _ = writeln!(s, r#"        <param key="{key}" value="{value}"/>"#);
                     }
                     s.push_str("    </vType>\n");
                 }
             }
         }
-        let edges = self.road.normal_edges();
+        // The network's edge ids and the vehicles' ids are the user's: escaped, as every
+        // other writer of SUMO's XML does.
+        let edges: Vec<String> = self
+            .road
+            .normal_edges()
+            .into_iter()
+            .map(|e| esc(e).into_owned())
+            .collect();
         let k = edges.len();
         for start in 0..k {
             let list: Vec<&str> = if self.road.ring {
-                (0..k).map(|j| edges[(start + j) % k]).collect()
+                (0..k).map(|j| edges[(start + j) % k].as_str()).collect()
             } else {
-                edges[start..].to_vec()
+                edges[start..].iter().map(String::as_str).collect()
             };
             if self.road.ring {
                 let _ = writeln!(
@@ -462,7 +471,7 @@ impl Layout {
             let _ = writeln!(
                 s,
                 r#"    <vehicle id="{}" type="t{ty}" route="r{}" depart="0" departLane="{}" departPos="{}" departSpeed="{}" insertionChecks="none"/>"#,
-                v.id,
+                esc(&v.id),
                 v.edge_index,
                 lanes.get(v.edge_index).copied().unwrap_or(0),
                 v.pos_m,
@@ -555,6 +564,40 @@ mod tests {
         assert_eq!(v[1].q0_m, 104.0);
         assert!(lay.routes_xml().contains(r#"<route id="r1" edges="b"/>"#));
         assert!(lay.routes_xml().contains(r#"departLane="1""#));
+    }
+
+    /// A network's edge ids are the user's: characters XML gives a meaning reach SUMO's route
+    /// file escaped, and an XML reader gets the ids back as they were.
+    #[test]
+    fn the_routes_escape_the_networks_edge_ids() {
+        let mut road = two_edge_route();
+        road.segments[0].edge = r#"a&"<1>"#.into();
+        let lay = straight_layout(
+            &road,
+            vt(),
+            &[5.0; 2],
+            &[20.0, 0.0],
+            &[8.0; 2],
+            None,
+            8.0,
+            1.0,
+        )
+        .unwrap();
+        let xml = lay.routes_xml();
+        assert!(xml.contains(r#"edges="a&amp;&quot;&lt;1&gt; b""#), "{xml}");
+        let mut reader = quick_xml::Reader::from_str(&xml);
+        let mut edges = Vec::new();
+        loop {
+            match reader.read_event().expect("well-formed XML") {
+                quick_xml::events::Event::Empty(e) if e.name().as_ref() == b"route" => {
+                    let a = e.try_get_attribute("edges").unwrap().unwrap();
+                    edges.push(a.unescape_value().unwrap().into_owned());
+                }
+                quick_xml::events::Event::Eof => break,
+                _ => {}
+            }
+        }
+        assert_eq!(edges, [r#"a&"<1> b"#, "b"]);
     }
 
     #[test]
