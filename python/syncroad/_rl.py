@@ -283,6 +283,12 @@ class Episodes:
                  desired_speed_mps: float, speed_scale_mps: float, gap_scale_m: Optional[float],
                  warmup_s: float, backend: Optional[str], out: Optional[PathLike],
                  in_process: bool) -> None:
+        # What a copy is made from (see reduce()).
+        self.recipe: Dict[str, Any] = dict(
+            observation=observation, reward=reward, desired_speed_mps=desired_speed_mps,
+            speed_scale_mps=speed_scale_mps, gap_scale_m=gap_scale_m, warmup_s=warmup_s,
+            backend=backend, out=out, in_process=in_process)
+        self._copies = 0
         self.observation = observation_of(observation)
         self.reward = reward_of(reward)
         sc = as_scenario(scenario)
@@ -325,6 +331,17 @@ class Episodes:
         assert self.view is not None
         n = len(self._observe(0)) if self.view.agents else 0
         return spaces.Box(-np.inf, np.inf, shape=(n,), dtype=np.float32)
+
+    def reduce(self, cls: type) -> Tuple[Any, ...]:
+        """How an environment of class ``cls`` over these episodes pickles: as its recipe (the
+        scenario and the arguments it was made with), so that a copy (a vector wrapper's, in
+        another process) starts runs of its own. The k-th copy of an environment that keeps
+        its records keeps them in ``OUT/copy-00k``."""
+        self._copies += 1
+        kwargs = dict(self.recipe)
+        if kwargs["out"] is not None:
+            kwargs["out"] = str(Path(kwargs["out"]) / f"copy-{self._copies:03d}")
+        return (rebuilt, (cls, dict(self._data), str(self._base), kwargs))
 
     def folder(self, episode: int) -> Path:
         return self.out / f"episode-{episode:05d}"
@@ -481,6 +498,11 @@ class Episodes:
         self.closed = True
         if not self._keep and not self._failures:
             shutil.rmtree(self.out, ignore_errors=True)
+
+
+def rebuilt(cls: type, data: Dict[str, Any], base_dir: str, kwargs: Dict[str, Any]) -> Any:
+    """An environment made again from its recipe (:meth:`Episodes.reduce`)."""
+    return cls(Scenario.from_dict(data, base_dir=base_dir), **kwargs)
 
 
 # --- the registered settings ---------------------------------------------------------------

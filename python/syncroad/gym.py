@@ -154,6 +154,10 @@ class RingEnv(gymnasium.Env):
             info["run"] = self._ep.sim.run if self._ep.sim is not None else None
         return self._observation(), self._reward(), False, ended, info
 
+    def __reduce__(self) -> Any:
+        # Pickled as its recipe: a copy starts runs of its own (vector wrappers copy it so).
+        return self._ep.reduce(type(self))
+
     def close(self) -> None:
         self._ep.close()
 

@@ -141,6 +141,10 @@ class ParallelTrafficEnv(ParallelEnv):  # type: ignore[misc]
     def render(self) -> None:
         return None
 
+    def __reduce__(self) -> Any:
+        # Pickled as its recipe: a copy starts runs of its own (vector wrappers copy it so).
+        return self._ep.reduce(type(self))
+
     def close(self) -> None:
         self._ep.close()
         self.agents = []

@@ -334,3 +334,43 @@ def test_the_training_example_runs_and_writes_a_policy_a_scenario_can_name(tmp_p
                           "params": {"policy": str(out / "policy.json")}})
     r = syncroad.run(sc, out=tmp_path / "run", plots=False)
     assert r.metrics.complete and r.metrics.drivers[0] == "python:LinearPolicy"
+
+
+def test_an_environment_pickles_as_its_recipe_and_supersuit_vectorises_it(tmp_path):
+    import pickle
+
+    ss = pytest.importorskip("supersuit")
+    env = ParallelTrafficEnv(three(), warmup_s=1.0, out=tmp_path / "eps")
+    try:
+        env.reset(seed=2)
+        copy = pickle.loads(pickle.dumps(env))
+        try:
+            # A copy starts runs of its own, from the same recipe, its records beside the
+            # original's.
+            assert copy.possible_agents == env.possible_agents and copy._ep.sim is not env._ep.sim
+            assert copy._ep.out == tmp_path / "eps" / "copy-001"
+            a, _ = env.reset(seed=5)
+            b, _ = copy.reset(seed=5)
+            assert all(np.array_equal(a[k], b[k]) for k in a)
+        finally:
+            copy.close()
+    finally:
+        env.close()
+
+    def trace(seed):
+        vec = ss.concat_vec_envs_v1(ss.pettingzoo_env_to_vec_env_v1(ParallelTrafficEnv(three())),
+                                    2, num_cpus=2, base_class="gymnasium")
+        try:
+            obs, _ = vec.reset(seed=seed)
+            rows = [obs]
+            for _ in range(30):
+                obs, reward, *_ = vec.step(np.full((6, 1), 0.2, dtype=np.float32))
+                rows.append(obs)
+            # Two environments of three agents each, each environment its own ring.
+            assert obs.shape == (6, 3) and reward.shape == (6,)
+            assert not np.array_equal(obs[:3], obs[3:])
+            return np.array(rows)
+        finally:
+            vec.close()
+
+    assert np.array_equal(trace(4), trace(4))
