@@ -123,16 +123,23 @@ impl RoadTrace {
         self.lanes.iter().map(|l| l.length_m).sum()
     }
 
-    /// Reads a run's `road.json`.
+    /// Reads a run's `road.json`. The network it names is where the run found it; a run
+    /// folder copied elsewhere (from a cluster to a laptop) finds it beside the file instead,
+    /// as the copy a run with floating-car data keeps ([`REPLAY_NET`]).
     pub fn read(path: &Path) -> Result<Self, ReplayError> {
         let text = std::fs::read_to_string(path).map_err(|e| ReplayError::Unreadable {
             path: path.to_path_buf(),
             reason: e.to_string(),
         })?;
-        serde_json::from_str(&text).map_err(|e| ReplayError::Invalid {
+        let mut trace: Self = serde_json::from_str(&text).map_err(|e| ReplayError::Invalid {
             path: path.to_path_buf(),
             reason: format!("not a road trace of a syncroad run ({e})"),
-        })
+        })?;
+        let here = path.parent().unwrap_or(Path::new(".")).join(REPLAY_NET);
+        if !trace.net.is_file() && here.is_file() {
+            trace.net = here;
+        }
+        Ok(trace)
     }
 
     /// The road's centre line as points `[s, x, y]`, `s` the trajectory position \[m\] (on a

@@ -180,6 +180,17 @@ fn a_run_with_fcd_replays_in_sumo_where_it_was_recorded() {
         &dir.join("replayed-copy.xml"),
         &recorded,
     );
+    // On another machine the network the run named is not there: the copy's road trace finds
+    // the network beside it, and draws the same road.
+    let moved = copy.join("sumo/road.json");
+    let mut doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&moved).unwrap()).unwrap();
+    doc["net"] = serde_json::json!("/nowhere/on/this/machine/ring.net.xml");
+    std::fs::write(&moved, doc.to_string()).unwrap();
+    let there = syncroad_sumo::RoadTrace::read(&moved).unwrap();
+    assert_eq!(there.net, copy.join("sumo/replay.net.xml"));
+    let here = syncroad_sumo::RoadTrace::read(&work.join("road.json")).unwrap();
+    assert_eq!(there.geometry().unwrap(), here.geometry().unwrap());
     // The road trace: a vehicle's trajectory position (rear bumper) plus its length (5 m) is its
     // front bumper, which is where FCD puts a vehicle.
     let trace = syncroad_sumo::RoadTrace::read(&work.join("road.json")).unwrap();
