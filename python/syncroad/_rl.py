@@ -162,25 +162,35 @@ OBSERVATIONS: Dict[str, Observation] = {
 }
 
 
+def _named(field: str, choice: Any, table: Mapping[str, Any], signature: str) -> Any:
+    """The door for a name or a callable, as the law table's for a law: the table's entry of
+    that name, or the callable itself; anything else is refused naming the field."""
+    if isinstance(choice, str):
+        if choice not in table:
+            raise ScenarioError(f"{field} = {choice!r}: not a named {field}; valid: "
+                                f"{', '.join(table)}, or a callable {signature}")
+        return table[choice]
+    if not callable(choice):
+        raise ScenarioError(f"{field} = {choice!r}: a name ({', '.join(table)}) or a callable "
+                            f"{signature} is needed")
+    return choice
+
+
 def observation_of(choice: Union[str, Callable[..., Any], Observation]) -> Observation:
     """A name from :data:`OBSERVATIONS`, or the user's ``fn(view, k)`` (its ``space``
     attribute, a gymnasium ``Box``, is its space; without one the space is unbounded, sized
     by the first observation)."""
     if isinstance(choice, Observation):
         return choice
-    if isinstance(choice, str):
-        if choice not in OBSERVATIONS:
-            raise ScenarioError(f"observation = {choice!r}: not a named observation; valid: "
-                                f"{', '.join(OBSERVATIONS)}, or a callable fn(view, k)")
-        return OBSERVATIONS[choice]
-    if not callable(choice):
-        raise ScenarioError(f"observation = {choice!r}: a name ({', '.join(OBSERVATIONS)}) "
-                            "or a callable fn(view, k) is needed")
-    space = getattr(choice, "space", None)
+    got = _named("observation", choice, OBSERVATIONS, "fn(view, k)")
+    if isinstance(got, Observation):
+        return got
+    fn: Callable[[View, int], Any] = got
+    space = getattr(fn, "space", None)
     if space is not None and not isinstance(space, spaces.Box):
-        raise ScenarioError(f"observation {_name(choice)}: its space is {space!r}; a gymnasium "
+        raise ScenarioError(f"observation {_name(fn)}: its space is {space!r}; a gymnasium "
                             "Box is needed (or no space attribute: unbounded)")
-    return Observation(_name(choice), choice, space, "the caller's")
+    return Observation(_name(fn), fn, space, "the caller's")
 
 
 # --- rewards ------------------------------------------------------------------------------
@@ -228,15 +238,11 @@ def reward_of(choice: Union[str, Callable[..., Any], Reward]) -> Reward:
     """A name from :data:`REWARDS`, or the user's ``fn(view)``."""
     if isinstance(choice, Reward):
         return choice
-    if isinstance(choice, str):
-        if choice not in REWARDS:
-            raise ScenarioError(f"reward = {choice!r}: not a named reward; valid: "
-                                f"{', '.join(REWARDS)}, or a callable fn(view)")
-        return REWARDS[choice]
-    if not callable(choice):
-        raise ScenarioError(f"reward = {choice!r}: a name ({', '.join(REWARDS)}) or a "
-                            "callable fn(view) is needed")
-    return Reward(_name(choice), choice, "the caller's")
+    got = _named("reward", choice, REWARDS, "fn(view)")
+    if isinstance(got, Reward):
+        return got
+    fn: Callable[[View], Any] = got
+    return Reward(_name(fn), fn, "the caller's")
 
 
 def _name(fn: Any) -> str:
