@@ -511,6 +511,44 @@ def rebuilt(cls: type, data: Dict[str, Any], base_dir: str, kwargs: Dict[str, An
     return cls(Scenario.from_dict(data, base_dir=base_dir), **kwargs)
 
 
+class EpisodesEnv:
+    """What both environments are made of: the scenario (by default the Sugiyama ring with
+    ``default_automated`` automated vehicles among noisy humans) and the arguments of its
+    :class:`Episodes`; an environment pickles as this recipe. A subclass sets its spaces or
+    agents in ``_made``."""
+
+    default_automated = 1
+
+    def __init__(
+        self,
+        scenario: Optional[ScenarioLike] = None,
+        *,
+        reward: Union[str, Callable[..., Any]] = "desired-velocity",
+        observation: Union[str, Callable[..., Any]] = "local",
+        warmup_s: float = 0.0,
+        desired_speed_mps: float = RING_UNIFORM_FLOW_MPS,
+        speed_scale_mps: float = 30.0,
+        gap_scale_m: Optional[float] = None,
+        backend: Optional[str] = None,
+        out: Optional[PathLike] = None,
+        in_process: bool = True,
+    ) -> None:
+        if scenario is None:
+            scenario = ring_among_noisy_humans(self.default_automated)
+        self._ep = Episodes(scenario, observation=observation, reward=reward,
+                            desired_speed_mps=desired_speed_mps, speed_scale_mps=speed_scale_mps,
+                            gap_scale_m=gap_scale_m, warmup_s=warmup_s, backend=backend, out=out,
+                            in_process=in_process)
+        self._made()
+
+    def _made(self) -> None:
+        raise NotImplementedError
+
+    def __reduce__(self) -> Any:
+        # Pickled as its recipe: a copy starts runs of its own (vector wrappers copy it so).
+        return self._ep.reduce(type(self))
+
+
 # --- the registered settings ---------------------------------------------------------------
 
 

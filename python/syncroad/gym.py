@@ -55,8 +55,7 @@ import numpy as np
 from gymnasium import spaces
 
 from syncroad._errors import ScenarioError
-from syncroad._rl import (RING_UNIFORM_FLOW_MPS, SETTINGS, Episodes, action_value,
-                          ring_among_noisy_humans)
+from syncroad._rl import SETTINGS, EpisodesEnv, action_value, ring_among_noisy_humans
 from syncroad._scenario import PathLike, ScenarioLike
 
 
@@ -66,30 +65,15 @@ def one_av_among_noisy_humans(horizon_s: float = 300.0) -> Dict[str, Any]:
     return ring_among_noisy_humans(1, horizon_s)
 
 
-class RingEnv(gymnasium.Env):
-    """Controlled vehicles among the others of a syncroad scenario (see the module's text)."""
+class RingEnv(EpisodesEnv, gymnasium.Env):
+    """Controlled vehicles among the others of a syncroad scenario (see the module's text).
+    ``RingEnv(scenario=None, *, reward, observation, warmup_s, desired_speed_mps,
+    speed_scale_mps, gap_scale_m, backend, out, in_process)``: the arguments of
+    :class:`syncroad._rl.EpisodesEnv`."""
 
     metadata = {"render_modes": []}
 
-    def __init__(
-        self,
-        scenario: Optional[ScenarioLike] = None,
-        *,
-        reward: Union[str, Callable[..., Any]] = "desired-velocity",
-        observation: Union[str, Callable[..., Any]] = "local",
-        warmup_s: float = 0.0,
-        desired_speed_mps: float = RING_UNIFORM_FLOW_MPS,
-        speed_scale_mps: float = 30.0,
-        gap_scale_m: Optional[float] = None,
-        backend: Optional[str] = None,
-        out: Optional[PathLike] = None,
-        in_process: bool = True,
-    ) -> None:
-        self._ep = Episodes(scenario if scenario is not None else one_av_among_noisy_humans(),
-                            observation=observation, reward=reward,
-                            desired_speed_mps=desired_speed_mps, speed_scale_mps=speed_scale_mps,
-                            gap_scale_m=gap_scale_m, warmup_s=warmup_s, backend=backend, out=out,
-                            in_process=in_process)
+    def _made(self) -> None:
         self.desired_speed_mps = self._ep.desired_speed_mps
         self.speed_scale_mps = self._ep.speed_scale_mps
         k = len(self._ep.names)
@@ -153,10 +137,6 @@ class RingEnv(gymnasium.Env):
         if ended:
             info["run"] = self._ep.sim.run if self._ep.sim is not None else None
         return self._observation(), self._reward(), False, ended, info
-
-    def __reduce__(self) -> Any:
-        # Pickled as its recipe: a copy starts runs of its own (vector wrappers copy it so).
-        return self._ep.reduce(type(self))
 
     def close(self) -> None:
         self._ep.close()

@@ -33,35 +33,18 @@ from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
 from syncroad._errors import ScenarioError
-from syncroad._rl import (RING_UNIFORM_FLOW_MPS, SETTINGS, Episodes, action_value,
-                          ring_among_noisy_humans, setting)
+from syncroad._rl import SETTINGS, EpisodesEnv, action_value, setting
 from syncroad._scenario import PathLike, ScenarioLike
 
 
-class ParallelTrafficEnv(ParallelEnv):  # type: ignore[misc]
+class ParallelTrafficEnv(EpisodesEnv, ParallelEnv):  # type: ignore[misc]
     """One agent per controlled vehicle of a syncroad scenario (see the module's text)."""
 
     metadata = {"render_modes": [], "name": "syncroad_traffic_v0", "is_parallelizable": True}
 
-    def __init__(
-        self,
-        scenario: Optional[ScenarioLike] = None,
-        *,
-        reward: Union[str, Callable[..., Any]] = "desired-velocity",
-        observation: Union[str, Callable[..., Any]] = "local",
-        warmup_s: float = 0.0,
-        desired_speed_mps: float = RING_UNIFORM_FLOW_MPS,
-        speed_scale_mps: float = 30.0,
-        gap_scale_m: Optional[float] = None,
-        backend: Optional[str] = None,
-        out: Optional[PathLike] = None,
-        in_process: bool = True,
-    ) -> None:
-        self._ep = Episodes(scenario if scenario is not None else ring_among_noisy_humans(3),
-                            observation=observation, reward=reward,
-                            desired_speed_mps=desired_speed_mps, speed_scale_mps=speed_scale_mps,
-                            gap_scale_m=gap_scale_m, warmup_s=warmup_s, backend=backend, out=out,
-                            in_process=in_process)
+    default_automated = 3
+
+    def _made(self) -> None:
         self.possible_agents: List[str] = list(self._ep.names)
         self.agents: List[str] = []
         self.render_mode = None
@@ -140,10 +123,6 @@ class ParallelTrafficEnv(ParallelEnv):  # type: ignore[misc]
 
     def render(self) -> None:
         return None
-
-    def __reduce__(self) -> Any:
-        # Pickled as its recipe: a copy starts runs of its own (vector wrappers copy it so).
-        return self._ep.reduce(type(self))
 
     def close(self) -> None:
         self._ep.close()
