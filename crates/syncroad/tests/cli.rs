@@ -396,6 +396,29 @@ fn stability_of_an_all_to_all_graph_has_the_lambert_w_root_of_multiplicity_four(
     assert_eq!(v["network"]["certificate"]["certified"], true);
 }
 
+/// The CACC platoon's critical gain scale: a homogeneous platoon's root pair crosses where
+/// `τs³ + s² + μs + cλ` meets the axis for a real coupling eigenvalue λ, at `ω = √(μ/τ)`
+/// whatever λ (the real and imaginary parts vanish together), and Theorem `thm.cacc`, a
+/// sufficient condition, never reaches beyond it.
+#[test]
+fn stability_gives_the_cacc_platoons_critical_gain_scale() {
+    let (code, out, err) = run(bin()
+        .args(["stability", "--json"])
+        .arg(repo().join("scenarios/platoon-cacc.json")));
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let c = &v["cacc"]["critical"];
+    let (mu, tau) = (1.2_f64, 0.3_f64); // the scenario's model.mu and model.tau_s
+    let w = c["crossing_frequency_rad_s"].as_f64().unwrap();
+    assert!((w - (mu / tau).sqrt()).abs() < 1e-9, "{c}");
+    let cs = c["critical_gain_scale"].as_f64().unwrap();
+    let t = c["theorem_gain_scale"].as_f64().unwrap();
+    assert!(cs > 1.0 && t <= cs, "{c}");
+    // The theorem's scale: its tightest margin μ²/2 − rhs_i of the table, linear in c
+    // (follower 2..7: rhs = η + ν = 0.6, so 0.72/0.6 = 1.2).
+    assert!((t - 0.5 * mu * mu / 0.6).abs() < 1e-12, "{c}");
+}
+
 #[test]
 fn platoon_scaling_option_fits_the_exponents() {
     let (code, out, err) = run(bin()

@@ -247,6 +247,130 @@ pub fn cacc_modes(params: &CaccParams) -> Result<CaccModes, CaccError> {
     })
 }
 
+/// The platoon's critical gain scale: every coupling gain `η_i`, `ν_i` times `c` (the speed
+/// gains `μ_i` and the lags belong to each vehicle's own agent, `1/(s(τ_i s² + s + μ_i))`, and
+/// stay).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CaccCritical {
+    /// The scale at which the closed loop stops being Hurwitz, searched from the scenario's
+    /// own scale (`None`: no crossing up to [`CaccCritical::searched_up_to`], or the platoon is
+    /// unstable at every scale down to its lower end).
+    pub critical_gain_scale: Option<f64>,
+    /// `|Im s|` of the root pair on the imaginary axis there \[rad/s\].
+    pub crossing_frequency_rad_s: Option<f64>,
+    /// The largest scale at which Theorem `thm.cacc` still holds: `min_i (μ_i²/2)/rhs_i` when
+    /// every `μ_i τ_i < 1/2` and every gain is positive (its margins are linear in `c`), else
+    /// `None`.
+    pub theorem_gain_scale: Option<f64>,
+    /// `critical_gain_scale / theorem_gain_scale`: how far the theorem is from exact.
+    pub conservatism_ratio: Option<f64>,
+    /// The search's range of scales.
+    pub searched_from: f64,
+    /// See [`CaccCritical::searched_from`].
+    pub searched_up_to: f64,
+}
+
+/// The largest coupling scale at which Theorem `thm.cacc` holds (see
+/// [`CaccCritical::theorem_gain_scale`]).
+fn theorem_gain_scale(p: &CaccParams) -> Option<f64> {
+    let conditions = theorem_conditions(p);
+    if !conditions
+        .iter()
+        .all(|c| c.mu_tau < 0.5 && c.gains_positive)
+    {
+        return None;
+    }
+    conditions
+        .iter()
+        .zip(&p.mu)
+        .map(|(c, mu)| {
+            let half = 0.5 * mu * mu;
+            // rhs_i = μ_i²/2 − margin_i scales with c: the margin vanishes at half / rhs.
+            half / (half - c.degree_margin)
+        })
+        .min_by(f64::total_cmp)
+}
+
+/// The platoon with every `η_i` and `ν_i` times `c`.
+pub fn scaled_coupling(p: &CaccParams, c: f64) -> CaccParams {
+    CaccParams {
+        tau_s: p.tau_s.clone(),
+        mu: p.mu.clone(),
+        eta: p.eta.iter().map(|x| x * c).collect(),
+        nu: p.nu.iter().map(|x| x * c).collect(),
+    }
+}
+
+/// The rightmost eigenvalue of the platoon with its coupling scaled by `c`.
+fn rightmost(p: &CaccParams, c: f64) -> Result<Root, CaccError> {
+    let a = scaled_coupling(p, c).closed_loop_matrix()?;
+    let order = a.nrows();
+    schur_eigenvalues(a, f64::EPSILON, 10_000 * order)
+        .ok_or(CaccError::EigenvaluesFailed { order })?
+        .into_iter()
+        .map(Root::from)
+        .max_by(|a, b| a.re.total_cmp(&b.re))
+        .ok_or(CaccError::EigenvaluesFailed { order })
+}
+
+/// [`CaccCritical`] by bisection on the closed loop's spectral abscissa: from the scenario's
+/// scale (1) up by doublings to the first unstable scale (or down by halvings to the first
+/// stable one), then 200 halvings of the bracket, to the last bit. For one follower it is
+/// the closed form `μ/(τη)` at `ω = √(μ/τ)` (Routh–Hurwitz of `τs³ + s² + μs + cη`, tested).
+///
+/// # Errors
+/// [`CaccError`] for invalid parameters or an eigenvalue iteration that fails.
+pub fn cacc_critical(p: &CaccParams) -> Result<CaccCritical, CaccError> {
+    const RANGE: f64 = 1.0e9;
+    let unstable = |c: f64| -> Result<bool, CaccError> { Ok(rightmost(p, c)?.re >= 0.0) };
+    let theorem = theorem_gain_scale(p);
+    let none = |from: f64, to: f64| CaccCritical {
+        critical_gain_scale: None,
+        crossing_frequency_rad_s: None,
+        theorem_gain_scale: theorem,
+        conservatism_ratio: None,
+        searched_from: from,
+        searched_up_to: to,
+    };
+    let (mut lo, mut hi) = (1.0, 1.0);
+    if unstable(1.0)? {
+        while unstable(lo)? {
+            lo /= 2.0;
+            if lo < 1.0 / RANGE {
+                return Ok(none(lo, 1.0));
+            }
+        }
+    } else {
+        while !unstable(hi)? {
+            hi *= 2.0;
+            if hi > RANGE {
+                return Ok(none(1.0, hi));
+            }
+        }
+    }
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if mid <= lo || mid >= hi {
+            break;
+        }
+        if unstable(mid)? {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    let crossing = rightmost(p, hi)?;
+    let critical = 0.5 * (lo + hi);
+    Ok(CaccCritical {
+        critical_gain_scale: Some(critical),
+        crossing_frequency_rad_s: Some(crossing.im.abs()),
+        theorem_gain_scale: theorem,
+        conservatism_ratio: theorem.map(|t| critical / t),
+        searched_from: lo.min(1.0),
+        searched_up_to: hi.max(1.0),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::super::collocation::tests::Lcg;
@@ -275,6 +399,88 @@ mod tests {
             }
         }
         r
+    }
+
+    /// One follower: `τs³ + s² + μs + cη` is Hurwitz iff `c < μ/(τη)`, and at that scale its
+    /// roots on the axis are `±i√(μ/τ)` (Routh–Hurwitz; the real and imaginary parts of the
+    /// polynomial at `iω` vanish together there).
+    #[test]
+    fn the_critical_scale_of_one_follower_is_routh_hurwitz_closed_form() {
+        let mut rng = Lcg(11);
+        for _ in 0..40 {
+            let tau = 0.1 + rng.next();
+            let mu = 0.2 + 2.0 * rng.next();
+            let eta = 0.05 + 3.0 * rng.next();
+            let p = CaccParams::homogeneous(1, tau, mu, eta, 0.0);
+            let c = cacc_critical(&p).unwrap();
+            let want = mu / (tau * eta);
+            assert_relative_eq!(c.critical_gain_scale.unwrap(), want, max_relative = 1e-9);
+            assert_relative_eq!(
+                c.crossing_frequency_rad_s.unwrap(),
+                (mu / tau).sqrt(),
+                max_relative = 1e-6
+            );
+            // The theorem for one follower, μ²/2 > 2cη with μτ < 1/2: c < μ²/(4η).
+            match c.theorem_gain_scale {
+                Some(t) => {
+                    assert!(mu * tau < 0.5);
+                    assert_relative_eq!(t, mu * mu / (4.0 * eta), max_relative = 1e-12);
+                    // A sufficient condition: never beyond the exact scale.
+                    assert!(t <= want * (1.0 + 1e-12), "{t} > {want}");
+                }
+                None => assert!(mu * tau >= 0.5),
+            }
+        }
+    }
+
+    /// A longer platoon: at the critical scale `det(iω* I − A(c*))` vanishes (a complex LU,
+    /// independent of the eigenvalue iteration), and just below it the platoon is stable,
+    /// just above it not.
+    #[test]
+    fn at_the_critical_scale_of_a_platoon_a_root_pair_sits_on_the_axis() {
+        let p = CaccParams::homogeneous(6, 0.4, 0.9, 0.35, 0.1);
+        let c = cacc_critical(&p).unwrap();
+        let (cs, w) = (
+            c.critical_gain_scale.unwrap(),
+            c.crossing_frequency_rad_s.unwrap(),
+        );
+        assert!(
+            cacc_modes(&scaled_coupling(&p, cs * (1.0 - 1e-6)))
+                .unwrap()
+                .exactly_stable
+        );
+        assert!(
+            !cacc_modes(&scaled_coupling(&p, cs * (1.0 + 1e-6)))
+                .unwrap()
+                .exactly_stable
+        );
+        let a = scaled_coupling(&p, cs).closed_loop_matrix().unwrap();
+        let n = a.nrows();
+        let m = nalgebra::DMatrix::<Complex64>::from_fn(n, n, |i, j| {
+            let d = if i == j {
+                Complex64::new(0.0, w)
+            } else {
+                Complex64::new(0.0, 0.0)
+            };
+            d - Complex64::new(a[(i, j)], 0.0)
+        });
+        // Relative to the determinant's size a step off the crossing.
+        let at = m.clone().lu().determinant().norm();
+        let off = nalgebra::DMatrix::<Complex64>::from_fn(n, n, |i, j| {
+            let d = if i == j {
+                Complex64::new(0.0, 1.1 * w)
+            } else {
+                Complex64::new(0.0, 0.0)
+            };
+            d - Complex64::new(a[(i, j)], 0.0)
+        })
+        .lu()
+        .determinant()
+        .norm();
+        assert!(
+            at < 1e-7 * off,
+            "det at the crossing {at:e}, beside it {off:e}"
+        );
     }
 
     #[test]

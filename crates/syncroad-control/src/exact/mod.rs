@@ -57,7 +57,9 @@ pub use acyclic::{acyclic_roots, AcyclicError, AcyclicReport, DriverRoot};
 pub use analysis::{analyse, AnalysisError, ExactVerdict, StabilityReport};
 pub use argument_principle::{count_roots_right_of, ArgumentPrincipleError, RootCount};
 pub use boundaries::{gain_delay_boundaries, Boundaries, Method};
-pub use cacc_modes::{cacc_modes, CaccCondition, CaccError, CaccModes, CaccParams};
+pub use cacc_modes::{
+    cacc_critical, cacc_modes, CaccCondition, CaccCritical, CaccError, CaccModes, CaccParams,
+};
 pub use collocation::{
     characteristic_matrix, rightmost_roots, rightmost_roots_shift_invert, CollocationError,
     CollocationOptions, RefinedRoot, RootsReport,

@@ -153,6 +153,8 @@ pub fn certify_roots(
 pub struct CaccReport {
     /// Eigenvalues with the exact and the Theorem `thm.cacc` verdicts.
     pub modes: CaccModes,
+    /// The critical scale of the coupling gains `η_i`, `ν_i`, beside the theorem's.
+    pub critical: super::CaccCritical,
     /// String-stability numbers (`None` for an unstable platoon).
     pub string_stability: Option<StringStabilityReport>,
 }
@@ -258,6 +260,7 @@ pub fn analyse_cacc(
     };
     Ok(CaccReport {
         modes,
+        critical: super::cacc_critical(params)?,
         string_stability,
     })
 }
@@ -422,6 +425,23 @@ impl fmt::Display for CaccReport {
                 "does not apply"
             }
         )?;
+        let c = &self.critical;
+        match (c.critical_gain_scale, c.crossing_frequency_rad_s) {
+            (Some(cs), Some(w)) => write!(
+                f,
+                "critical gain scale {cs:.10} (η, ν × c; bisection on the eigenvalues)  crossing {w:.6} rad/s"
+            )?,
+            _ => write!(
+                f,
+                "critical gain scale: none found for c in [{:.3e}, {:.3e}]",
+                c.searched_from, c.searched_up_to
+            )?,
+        }
+        match (c.theorem_gain_scale, c.conservatism_ratio) {
+            (Some(t), Some(r)) => writeln!(f, "  Theorem thm.cacc {t:.10}  ratio {r:.6}")?,
+            (Some(t), None) => writeln!(f, "  Theorem thm.cacc {t:.10}")?,
+            _ => writeln!(f, "  Theorem thm.cacc: at no scale")?,
+        }
         writeln!(f, "{:>4} {:>8} {:>14}", "i", "μτ", "μ²/2 − rhs")?;
         for c in &m.theorem_conditions {
             writeln!(
