@@ -591,7 +591,8 @@ mod tests {
             match reader.read_event().expect("well-formed XML") {
                 quick_xml::events::Event::Empty(e) if e.name().as_ref() == b"route" => {
                     let a = e.try_get_attribute("edges").unwrap().unwrap();
-                    edges.push(a.unescape_value().unwrap().into_owned());
+                    let raw = String::from_utf8_lossy(&a.value).into_owned();
+                    edges.push(quick_xml::escape::unescape(&raw).unwrap().into_owned());
                 }
                 quick_xml::events::Event::Eof => break,
                 _ => {}
