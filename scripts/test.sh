@@ -8,9 +8,10 @@ PYO3_PYTHON="${PYO3_PYTHON:-$("${PYTHON:-python3}" -c 'import sys; print(sys.exe
 export PYO3_PYTHON
 # Xvfb and the X and OpenGL libraries sumo-gui links: the replay test starts sumo-gui under a
 # virtual display (it says it is skipped where they cannot be installed).
-if ! command -v xvfb-run >/dev/null 2>&1 && [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
+# Poppler's pdftotext reads the text back out of the plots' PDFs (--pdf).
+if { ! command -v xvfb-run || ! command -v pdftotext; } >/dev/null 2>&1 && [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
   apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq xvfb xauth libgl1 libxrender1 libxext6 libx11-6 >/dev/null
+  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq xvfb xauth libgl1 libxrender1 libxext6 libx11-6 poppler-utils >/dev/null
 fi
 # Where the suite's time goes, phase by phase (printed at the end).
 phases=""

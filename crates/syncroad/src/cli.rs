@@ -23,6 +23,10 @@ pub struct Cli {
     /// What to do.
     #[command(subcommand)]
     pub command: Command,
+    /// Also write every plot as a PDF beside its PNG and SVG: vector, with real text in the
+    /// embedded font, for a paper (a time–space plot takes about a second more).
+    #[arg(long, global = true)]
+    pub pdf: bool,
 }
 
 /// Subcommands.

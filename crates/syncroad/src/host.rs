@@ -56,6 +56,8 @@ where
 
 /// Runs a parsed command line (see [`execute`]).
 fn run_parsed(parsed: cli::Cli, capture: bool) -> Ended {
+    // Per command: the Python API runs many in one process.
+    crate::plots::set_pdf(parsed.pdf);
     let run = || {
         let result = commands::run(parsed);
         let code = exit_codes::of(&result);

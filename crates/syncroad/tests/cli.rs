@@ -569,6 +569,62 @@ fn what_a_native_run_cannot_do_is_refused_up_front() {
     );
 }
 
+/// `--pdf` writes each plot also as a PDF page with real text in the embedded font (poppler's
+/// pdftotext reads the title and the axis labels back), and a later run without it removes
+/// them with the other plots.
+#[test]
+fn pdf_plots_carry_real_text_and_leave_with_their_run() {
+    let d = tmpdir("pdf-plots");
+    let sc = native_variant(&d, "s.json", |_| {});
+    let out = d.join("out");
+    let (code, stdout, err) = run(bin()
+        .arg("simulate")
+        .arg(&sc)
+        .arg("--pdf")
+        .arg("--out")
+        .arg(&out));
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        stdout.contains("wrote 9 plots: time_space, speeds, spread (PNG, SVG and PDF)"),
+        "{stdout}"
+    );
+    for stem in ["time_space", "speeds", "spread"] {
+        let pdf = std::fs::read(out.join(format!("{stem}.pdf"))).unwrap();
+        assert!(pdf.starts_with(b"%PDF-"), "{stem}");
+        let text = String::from_utf8_lossy(&pdf);
+        // A TrueType subset embedded, with the map from glyphs back to Unicode.
+        assert!(
+            text.contains("/FontFile2") && text.contains("/ToUnicode"),
+            "{stem}: no embedded font with a Unicode map"
+        );
+    }
+    match std::process::Command::new("pdftotext")
+        .arg(out.join("speeds.pdf"))
+        .arg("-")
+        .output()
+    {
+        Ok(o) => {
+            let text = String::from_utf8_lossy(&o.stdout);
+            assert!(
+                text.contains("speeds")
+                    && text.contains("speed [m/s]")
+                    && text.contains("time [s]"),
+                "{text}"
+            );
+        }
+        Err(_) => {
+            eprintln!("skipped the text check: pdftotext is not installed (scripts/test.sh installs Debian's poppler-utils)")
+        }
+    }
+    let (code, stdout, err) = run(bin().arg("simulate").arg(&sc).arg("--out").arg(&out));
+    assert_eq!(code, 0, "{err}");
+    assert!(stdout.contains("(PNG and SVG)"), "{stdout}");
+    assert!(
+        !out.join("speeds.pdf").exists(),
+        "the first run's PDF was left behind"
+    );
+}
+
 /// A second run into a folder removes the first run's plots (they would stand beside another
 /// run's record), a folder where a plot goes is refused before the run, and a recording
 /// stride as long as the run leaves the congestion metrics out instead of making them up.

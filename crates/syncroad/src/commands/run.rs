@@ -38,7 +38,8 @@ pub fn run(path: &Path, out: &OutputArgs, sumo: &SumoArgs) -> anyhow::Result<Sta
 }
 
 /// The plots every run with a trajectory writes (three, PNG and SVG each).
-const RUN_PLOTS: usize = crate::plots::RUN_PLOT_FILES.len();
+/// The plots of one run (time-space, speeds, spread).
+const RUN_PLOTS: usize = 3;
 
 /// `syncroad simulate`: the native simulator whatever the scenario's backend.
 pub fn simulate(path: &Path, out: &OutputArgs) -> anyhow::Result<Status> {
@@ -123,7 +124,9 @@ fn ended_by_controller(f: &Finished, out: &OutputArgs) -> Status {
 
 /// After the summary is printed: the files written, or why they could not be.
 fn report_files(dir: &Path, written: anyhow::Result<usize>, complete: bool) -> anyhow::Result<()> {
-    let plots = written?;
+    let files = written?;
+    let per = crate::plots::files_per_plot();
+    let plots = files / per;
     outln!(
         "wrote {} and {}{}",
         dir.join(output::TRAJECTORY_FILE).display(),
@@ -133,15 +136,18 @@ fn report_files(dir: &Path, written: anyhow::Result<usize>, complete: bool) -> a
     if plots > 0 {
         let names = match plots {
             // Only every vehicle's speed field: no fixed set of syncroad's own.
-            p if p == crate::plots::FIELD_PLOT_FILES.len() => {
-                "time_space_all (every vehicle on the road)"
-            }
+            1 => "time_space_all (every vehicle on the road)",
             p if p > RUN_PLOTS => {
                 "time_space, speeds, spread, time_space_all (every vehicle on the road)"
             }
             _ => "time_space, speeds, spread",
         };
-        outln!("wrote {plots} plots: {names} (PNG and SVG)");
+        let kinds = if per == 3 {
+            "PNG, SVG and PDF"
+        } else {
+            "PNG and SVG"
+        };
+        outln!("wrote {files} plots: {names} ({kinds})");
     }
     Ok(())
 }

@@ -31,6 +31,52 @@ pub(crate) fn ensure_font() {
     });
 }
 
+/// Whether the plots are also written as PDF (`--pdf`).
+static PDF: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Sets whether [`render_both`] writes a PDF too (the command's `--pdf`).
+pub(crate) fn set_pdf(on: bool) {
+    PDF.store(on, std::sync::atomic::Ordering::Relaxed);
+}
+
+/// True when the plots are also written as PDF.
+pub(crate) fn pdf() -> bool {
+    PDF.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+/// The plots' SVG as a PDF page with real text: the same drawing, its `sans-serif` text set in
+/// the embedded font (subset into the file, with its Unicode map, so the text can be searched
+/// and copied), at the SVG's size in points (96 px to the inch).
+pub(crate) fn svg_to_pdf(svg: &str) -> anyhow::Result<Vec<u8>> {
+    use svg2pdf::usvg;
+    static FONTS: std::sync::OnceLock<std::sync::Arc<usvg::fontdb::Database>> =
+        std::sync::OnceLock::new();
+    let fontdb = FONTS
+        .get_or_init(|| {
+            let mut db = usvg::fontdb::Database::new();
+            db.load_font_data(epaint_default_fonts::UBUNTU_LIGHT.to_vec());
+            let family = db
+                .faces()
+                .next()
+                .and_then(|f| f.families.first().map(|(name, _)| name.clone()))
+                .unwrap_or_else(|| "Ubuntu".into());
+            db.set_sans_serif_family(family);
+            std::sync::Arc::new(db)
+        })
+        .clone();
+    let options = usvg::Options {
+        fontdb,
+        ..usvg::Options::default()
+    };
+    let tree = usvg::Tree::from_str(svg, &options).map_err(|e| anyhow!("plot SVG: {e}"))?;
+    svg2pdf::to_pdf(
+        &tree,
+        svg2pdf::ConversionOptions::default(),
+        svg2pdf::PageOptions::default(),
+    )
+    .map_err(|e| anyhow!("plot PDF: {e}"))
+}
+
 /// The Okabe–Ito palette without its yellow: distinguishable under the common colour-vision
 /// deficiencies, and no light colour on the white background (M. Okabe and K. Ito, "Color
 /// Universal Design", 2008).
@@ -99,8 +145,10 @@ pub(crate) fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
     anyhow!("plotting failed: {e:?}")
 }
 
-/// Writes `<stem>.png` and `<stem>.svg` (each a result file, replaced atomically) from the same drawing code (a macro, because the
-/// drawing is generic over the backend and closures cannot be).
+/// Writes `<stem>.png` and `<stem>.svg`, with `--pdf` also `<stem>.pdf` (each a result file,
+/// replaced atomically), from the same drawing code (a macro, because the drawing is generic
+/// over the backend and closures cannot be); the PDF is the SVG's vectors and text
+/// ([`svg_to_pdf`]).
 macro_rules! render_both {
     ($dir:expr, $stem:expr, $size:expr, |$root:ident| $body:block) => {{
         $crate::plots::ensure_font();
@@ -116,7 +164,19 @@ macro_rules! render_both {
             (|| -> anyhow::Result<()> { $body })()?;
             area.present().map_err(err)
         })?;
-        Ok(vec![png, svg])
+        let mut files = vec![png, svg.clone()];
+        if $crate::plots::pdf() {
+            let pdf = $dir.join(format!("{}.pdf", $stem));
+            let text = std::fs::read_to_string(&svg)
+                .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", svg.display()))?;
+            let bytes = $crate::plots::svg_to_pdf(&text)?;
+            $crate::output::write_result_via_path(&pdf, |tmp: &std::path::Path| {
+                std::fs::write(tmp, &bytes)
+                    .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", tmp.display()))
+            })?;
+            files.push(pdf);
+        }
+        Ok(files)
     }};
 }
 pub(crate) use render_both;
@@ -240,7 +300,20 @@ impl TimeSpace {
 }
 
 /// The files of the time-space diagram of every vehicle ([`field_time_space`]).
-pub const FIELD_PLOT_FILES: [&str; 2] = ["time_space_all.png", "time_space_all.svg"];
+pub const FIELD_PLOT_FILES: [&str; 3] = [
+    "time_space_all.png",
+    "time_space_all.svg",
+    "time_space_all.pdf",
+];
+
+/// The files written of each plot: PNG and SVG, and PDF with `--pdf`.
+pub(crate) fn files_per_plot() -> usize {
+    if pdf() {
+        3
+    } else {
+        2
+    }
+}
 
 /// SUMO writes about this many bytes per vehicle and step into its floating-car data.
 const FCD_BYTES_PER_RECORD: u64 = 120;
@@ -283,13 +356,16 @@ pub fn field_time_space(dir: &Path, sumo_dir: &Path, title: &str) -> anyhow::Res
 }
 
 /// The files [`RunPlots::write_all`] writes into a run's folder.
-pub const RUN_PLOT_FILES: [&str; 6] = [
+pub const RUN_PLOT_FILES: [&str; 9] = [
     "time_space.png",
     "time_space.svg",
+    "time_space.pdf",
     "speeds.png",
     "speeds.svg",
+    "speeds.pdf",
     "spread.png",
     "spread.svg",
+    "spread.pdf",
 ];
 
 /// The drawings of one run.
