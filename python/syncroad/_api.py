@@ -149,6 +149,7 @@ def run(
     out: Optional[PathLike] = None,
     *,
     plots: bool = True,
+    pdf: bool = False,
     tolerance_mps: Optional[float] = None,
     window_s: Optional[float] = None,
     record_every: Optional[int] = None,
@@ -167,7 +168,8 @@ def run(
     CLI's ``--progress``: ``"auto"`` (the default: a line redrawn on a terminal's stderr),
     ``"lines"`` (plain lines on stderr, for logs) or ``"never"``. ``safety`` is the CLI's
     ``--safety``: ``"off"``, ``"sumo"`` or ``"filter"`` in place of the scenario's layer;
-    ``emissions=True`` is ``--emissions`` (SUMO runs: fuel and CO2 in ``metrics.sumo``).
+    ``emissions=True`` is ``--emissions`` (SUMO runs: fuel and CO2 in ``metrics.sumo``);
+    ``pdf=True`` is ``--pdf`` (every plot also as a PDF with real text, for a paper).
 
     Raises :class:`ScenarioError` for bad input, :class:`RunError` when the run failed part-way
     (``err.run`` keeps the rows received), :class:`Interrupted` on Ctrl-C (rows kept).
@@ -219,6 +221,7 @@ def run(
         record_every=record_every,
         warmup_s=warmup_s,
         no_plots=not plots,
+        pdf=pdf,
         progress=progress,
         safety=_safety(safety),
     )
@@ -288,6 +291,7 @@ def compare(
     record_every: Optional[int] = None,
     timeout_s: Optional[float] = None,
     plots: bool = True,
+    pdf: bool = False,
     safety: Optional[str] = None,
     fail_on: Optional[Union[str, Iterable[str]]] = None,
 ) -> "pandas.DataFrame":
@@ -315,6 +319,7 @@ def compare(
         record_every=record_every,
         timeout_s=timeout_s,
         no_plots=not plots,
+        pdf=pdf,
         safety=_safety(safety),
         fail_on=_listed(fail_on),
     )
@@ -347,6 +352,7 @@ def sweep(
     retry_failed: bool = False,
     keep_runs: bool = False,
     plots: bool = True,
+    pdf: bool = False,
     safety: Optional[str] = None,
     fail_on: Optional[Union[str, Iterable[str]]] = None,
 ) -> "pandas.DataFrame":
@@ -370,6 +376,7 @@ def sweep(
             retry_failed=retry_failed,
             keep_runs=keep_runs,
             no_plots=not plots,
+            pdf=pdf,
             safety=_safety(safety),
             fail_on=_listed(fail_on),
         )

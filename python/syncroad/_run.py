@@ -122,13 +122,14 @@ class Run:
         return None if c is None else [str(v) for v in c["vehicles"]]
 
     def plots(self, out: "Optional[str | Path]" = None) -> Dict[str, Path]:
-        """The run's plots (time-space diagram, speeds, spread; PNG and SVG), drawn by the
-        CLI when the run was written, keyed ``"time_space.png"`` etc.; with ``out``, copied
+        """The run's plots (time-space diagram, speeds, spread; PNG and SVG, and PDF when run
+        with ``pdf=True``), drawn by the CLI when the run was written, keyed
+        ``"time_space.png"`` etc.; with ``out``, copied
         into that folder (created if missing) and the copies returned."""
         found = {
             f"{name}.{ext}": self.out / f"{name}.{ext}"
             for name in PLOT_NAMES
-            for ext in ("png", "svg")
+            for ext in ("png", "svg", "pdf")
             if (self.out / f"{name}.{ext}").is_file()
         }
         if not found:

@@ -77,6 +77,11 @@ def test_plots_are_the_runs_and_copy_into_a_folder(tmp_path):
     bare = syncroad.run("scenarios/ring-theorem1.json", out=tmp_path / "bare", plots=False)
     with pytest.raises(FileNotFoundError):
         bare.plots()
+    # pdf=True is --pdf: each plot also as a PDF.
+    paper = syncroad.run("scenarios/ring-theorem1.json", out=tmp_path / "paper", pdf=True)
+    pdfs = {k: v for k, v in paper.plots().items() if k.endswith(".pdf")}
+    assert set(pdfs) == {"time_space.pdf", "speeds.pdf", "spread.pdf"}
+    assert all(p.read_bytes()[:5] == b"%PDF-" for p in pdfs.values())
 
 
 def test_check_and_stability_are_the_clis_json():
