@@ -37,8 +37,8 @@ pub enum Param {
 impl Param {
     fn label(self) -> &'static str {
         match self {
-            Param::GainScale => "gain scale c (A → cA)",
-            Param::DelayScale => "delay scale (α → sα)",
+            Param::GainScale => "gain scale c (every gain × c)",
+            Param::DelayScale => "delay scale r (every delay × r)",
         }
     }
 }

@@ -552,6 +552,50 @@ impl RunPlots<'_> {
 mod tests {
     use super::*;
 
+    /// Every character the drawing code writes is in the embedded font: a missing glyph
+    /// draws as a box (an arrow did, on the stability map's axes). The string literals of
+    /// every module that draws are read, their non-ASCII characters looked up.
+    #[test]
+    fn every_character_the_plots_write_is_in_the_embedded_font() {
+        use ab_glyph::Font as _;
+        let font = ab_glyph::FontRef::try_from_slice(epaint_default_fonts::UBUNTU_LIGHT).unwrap();
+        let sources = [
+            ("plots/mod.rs", include_str!("mod.rs")),
+            ("plots/axis.rs", include_str!("axis.rs")),
+            ("plots/field.rs", include_str!("field.rs")),
+            ("plots/spread.rs", include_str!("spread.rs")),
+            ("sweep/plots.rs", include_str!("../sweep/plots.rs")),
+            (
+                "commands/stability_map.rs",
+                include_str!("../commands/stability_map.rs"),
+            ),
+            ("animate/mod.rs", include_str!("../animate/mod.rs")),
+            ("animate/scene.rs", include_str!("../animate/scene.rs")),
+        ];
+        let mut missing = Vec::new();
+        for (file, text) in sources {
+            for (n, line) in text.lines().enumerate() {
+                let code = line.trim_start();
+                if code.starts_with("//") {
+                    continue;
+                }
+                // The text between quotes: string literals (a comment after code has none).
+                for (k, part) in code.split('"').enumerate() {
+                    if k % 2 == 1 {
+                        for c in part.chars().filter(|c| !c.is_ascii()) {
+                            if font.glyph_id(c).0 == 0 {
+                                missing.push(format!("{file}:{}: {c:?} in {part:?}", n + 1));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(missing.is_empty(), "not in the embedded font: {missing:#?}");
+        // The check sees a missing glyph: the arrow the map's axes had.
+        assert_eq!(font.glyph_id('→').0, 0);
+    }
+
     #[test]
     fn colour_scale_ends_are_the_viridis_ends() {
         assert_eq!(speed_colour(0.0, 0.0, 10.0), RGBColor(68, 1, 84));
