@@ -48,15 +48,20 @@ side by side, each with SUMO in-process.
 from __future__ import annotations
 
 import math
-from typing import Any, Callable, Dict, Mapping, Optional, Tuple, Union
+from typing import Any, Dict, Mapping, Optional, Tuple
 
-import gymnasium
 import numpy as np
-from gymnasium import spaces
+
+try:
+    import gymnasium
+    from gymnasium import spaces
+except ImportError as e:  # pragma: no cover - the message is the point
+    raise ImportError(
+        "syncroad.gym needs the optional extra: pip install 'syncroad[gym]' (gymnasium 1.x)"
+    ) from e
 
 from syncroad._errors import ScenarioError
 from syncroad._rl import SETTINGS, EpisodesEnv, action_value, ring_among_noisy_humans
-from syncroad._scenario import PathLike, ScenarioLike
 
 
 def one_av_among_noisy_humans(horizon_s: float = 300.0) -> Dict[str, Any]:

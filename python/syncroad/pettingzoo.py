@@ -26,15 +26,21 @@ safety layer held the agent's last command back; the episode's record is in
 from __future__ import annotations
 
 import functools
-from typing import Any, Callable, Dict, List, Mapping, Optional, Tuple, Union
+from typing import Any, Dict, List, Mapping, Optional, Tuple
 
 import numpy as np
-from gymnasium import spaces
-from pettingzoo import ParallelEnv
+
+try:
+    from gymnasium import spaces
+    from pettingzoo import ParallelEnv
+except ImportError as e:  # pragma: no cover - the message is the point
+    raise ImportError(
+        "syncroad.pettingzoo needs the optional extra: pip install 'syncroad[pettingzoo]' "
+        "(pettingzoo and gymnasium 1.x)"
+    ) from e
 
 from syncroad._errors import ScenarioError
 from syncroad._rl import SETTINGS, EpisodesEnv, action_value, setting
-from syncroad._scenario import PathLike, ScenarioLike
 
 
 class ParallelTrafficEnv(EpisodesEnv, ParallelEnv):  # type: ignore[misc]

@@ -374,3 +374,16 @@ def test_an_environment_pickles_as_its_recipe_and_supersuit_vectorises_it(tmp_pa
             vec.close()
 
     assert np.array_equal(trace(4), trace(4))
+
+
+def test_without_the_extra_the_environments_say_how_to_install_it():
+    import subprocess
+    import sys
+
+    for module, extra in (("syncroad.gym", "gym"), ("syncroad.pettingzoo", "pettingzoo")):
+        # A module set to None in sys.modules cannot be imported: as if it were not installed.
+        code = (f"import sys; sys.modules['pettingzoo'] = sys.modules['gymnasium'] = None\n"
+                f"import {module}")
+        p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+        assert p.returncode != 0
+        assert f"pip install 'syncroad[{extra}]'" in p.stderr, p.stderr
