@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Optional
+from typing import Any, Optional
 
-if TYPE_CHECKING:
-    from syncroad._run import Run
+# ``run`` below is a syncroad.Run; typed Any so that this module, which every other imports,
+# imports none of them (no import circle).
+_Run = Any
 
 
 class SyncroadError(Exception):
@@ -38,7 +39,7 @@ class RunError(SyncroadError, RuntimeError):
 
     exit_code = 3
 
-    def __init__(self, message: str, out: Optional[Path] = None, run: "Optional[Run]" = None):
+    def __init__(self, message: str, out: Optional[Path] = None, run: Optional[_Run] = None):
         super().__init__(message)
         self.out = out
         self.run = run
@@ -51,7 +52,7 @@ class Interrupted(KeyboardInterrupt):
 
     exit_code = 130
 
-    def __init__(self, out: Optional[Path], run: "Optional[Run]" = None):
+    def __init__(self, out: Optional[Path], run: Optional[_Run] = None):
         super().__init__(f"interrupted; the rows computed so far are in {out}")
         self.out = out
         self.run = run
