@@ -908,3 +908,43 @@ fn the_safety_flag_of_a_sweep_is_the_specs_key() {
         assert!(text.contains(" --safety filter"), "{script}: {text}");
     }
 }
+
+/// A penetration sweep's lines: one per controller, each starting at the all-human ring, and
+/// no legend entry for the all-human ring alone (it has no line of its own).
+#[test]
+fn a_penetration_plot_has_a_line_per_controller_and_no_empty_legend_entry() {
+    let d = tmpdir("penetration-legend");
+    // The noisy humans' ring, shortened to 30 s.
+    let text = std::fs::read_to_string(repo().join("scenarios/sugiyama-human-noisy.json")).unwrap();
+    let mut sc: serde_json::Value = serde_json::from_str(&text).unwrap();
+    sc["horizon_s"] = serde_json::json!(30);
+    sc["sumo"]["net"] = serde_json::json!(repo().join("sumo-nets/sugiyama-ring.net.xml"));
+    let base = d.join("base.json");
+    std::fs::write(&base, sc.to_string()).unwrap();
+    let spec = write_spec(
+        &d,
+        &format!(
+            r#"{{"name": "legend", "base": {base:?}, "backend": "native",
+                "penetrations": [0.0, 0.1], "mixed_driver": "human-noisy",
+                "mixed_controller": ["protocol", "pi-saturation"], "seeds": [1],
+                "warmup_s": 5, "metrics": ["congestion.speed_std_mps"]}}"#
+        ),
+    );
+    let out = d.join("out");
+    let (code, stdout, err) = run(bin().arg("sweep").arg(&spec).arg("--out").arg(&out));
+    assert_eq!(code, 0, "{stdout}{err}");
+    let svg = std::fs::read_to_string(out.join("plots/congestion_speed_std_mps.svg")).unwrap();
+    let labels: Vec<&str> = svg
+        .split("<text")
+        .skip(1)
+        .filter_map(|t| t.split('>').nth(1))
+        .map(|t| t.split('<').next().unwrap_or("").trim())
+        .collect();
+    for want in ["protocol-mixed", "pi-saturation-mixed"] {
+        assert!(labels.contains(&want), "{labels:?}");
+    }
+    assert!(
+        !labels.iter().any(|l| *l == "mixed" || *l == "law-mixed"),
+        "a legend entry without a line: {labels:?}"
+    );
+}

@@ -160,8 +160,9 @@ fn line_plots(sweep: &Sweep, table: &Table, x: &str, dir: &Path) -> anyhow::Resu
             continue;
         }
         if x == "penetration" {
-            // The all-human ring (penetration 0) ran once; it starts every controller's line,
-            // and the law's mixed line is named for what drives it.
+            // The all-human ring (penetration 0, the run `mixed`) ran once: it starts every
+            // controller's line, and has no line of its own unless nothing else ran (no
+            // legend entry without a line of data).
             if let Some(zero) = series
                 .get("mixed")
                 .and_then(|s| s.iter().find(|(p, _)| *p == 0.0).copied())
@@ -172,8 +173,10 @@ fn line_plots(sweep: &Sweep, table: &Table, x: &str, dir: &Path) -> anyhow::Resu
                     }
                 }
             }
-            if let Some(law) = series.remove("mixed") {
-                series.insert("law-mixed".into(), law);
+            if let Some(humans) = series.remove("mixed") {
+                if series.is_empty() {
+                    series.insert("all humans".into(), humans);
+                }
             }
         }
         for s in series.values_mut() {
