@@ -607,9 +607,10 @@ class Setting:
     kwargs: Dict[str, Any] = field(default_factory=dict)
 
     def scenario(self) -> Dict[str, Any]:
-        # Δt = 0.1 s: the warm-up and the episode's steps make the horizon.
-        return ring_among_noisy_humans(self.automated, self.warmup_s + self.episode_steps * 0.1,
-                                       start=self.start, safety=self.safety)
+        # The warm-up and the episode's steps of the scenario's Δt make the horizon.
+        d = ring_among_noisy_humans(self.automated, start=self.start, safety=self.safety)
+        d["horizon_s"] = self.warmup_s + self.episode_steps * d["step_s"]
+        return d
 
 
 #: The registered settings (``gymnasium.make(id)`` once :mod:`syncroad.gym` is imported;

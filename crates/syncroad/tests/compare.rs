@@ -633,6 +633,16 @@ fn a_single_run_measures_fuel_and_co2_with_emissions() {
     assert!(err.contains("--emissions: a SUMO option"), "{err}");
 }
 
+/// The guide's Python FollowerStopper at U = 4.3 m/s, named as `--baselines` and
+/// `--mixed-controller` name one's own class.
+fn python_follower_stopper() -> String {
+    let fs = repo().join("examples/controllers/follower_stopper.py");
+    format!(
+        "python:{}:FollowerStopper:desired_speed_mps=4.3",
+        fs.display()
+    )
+}
+
 /// `--baselines` names the user's Python class as it names a law (`python:FILE.py:Class`, its
 /// keyword arguments as `:NAME=VALUE`): the guide's Python FollowerStopper, written apart from
 /// the built-in law, runs beside `follower-stopper-4.3` at its speeds to rounding, under its
@@ -640,11 +650,7 @@ fn a_single_run_measures_fuel_and_co2_with_emissions() {
 #[test]
 fn a_comparison_runs_ones_own_python_class_beside_the_laws() {
     let d = tmpdir("compare-python");
-    let fs = repo().join("examples/controllers/follower_stopper.py");
-    let own = format!(
-        "python:{}:FollowerStopper:desired_speed_mps=4.3",
-        fs.display()
-    );
+    let own = python_follower_stopper();
     let (code, out, err) = run(bin()
         .arg("compare")
         .arg(sugiyama())
@@ -698,11 +704,7 @@ fn a_comparison_runs_ones_own_python_class_beside_the_laws() {
 #[test]
 fn the_automated_vehicles_of_mixed_runs_take_ones_own_python_class() {
     let d = tmpdir("compare-mixed-python");
-    let fs = repo().join("examples/controllers/follower_stopper.py");
-    let own = format!(
-        "python:{}:FollowerStopper:desired_speed_mps=4.3",
-        fs.display()
-    );
+    let own = python_follower_stopper();
     let (code, out, err) = run(bin()
         .arg("compare")
         .arg(sugiyama())
